@@ -1,0 +1,136 @@
+//! The command-line verbs. Each takes its parsed arguments and returns a [`Verdict`] or a
+//! [`CommandError`]; `main.rs` turns those into exit codes.
+
+pub mod check;
+pub mod plot;
+pub mod retime;
+pub mod sample;
+
+use crate::json::{InputError, Location};
+use crate::robot::{import_lerobot_calibration, Robot};
+use crate::sequence::Sequence;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Exit code for a failed check or simulation verdict.
+pub const EXIT_VERDICT_FAILED: i32 = 1;
+/// Exit code for bad input: files, arguments.
+pub const EXIT_BAD_INPUT: i32 = 2;
+/// Exit code for a hardware or bus error.
+pub const EXIT_HARDWARE: i32 = 3;
+
+/// What a command concluded, when it ran to the end.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verdict {
+    Pass,
+    Fail,
+}
+
+impl Verdict {
+    pub fn exit_code(self) -> i32 {
+        match self {
+            Verdict::Pass => 0,
+            Verdict::Fail => EXIT_VERDICT_FAILED,
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum CommandError {
+    #[error(transparent)]
+    Input(#[from] InputError),
+    #[error("{0}")]
+    Usage(String),
+    #[error("cannot write {path}: {source}")]
+    Output {
+        path: String,
+        source: std::io::Error,
+    },
+}
+
+impl CommandError {
+    pub fn exit_code(&self) -> i32 {
+        EXIT_BAD_INPUT
+    }
+}
+
+/// The inputs every sequence command takes.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SequenceInput {
+    /// Sequence file (keypose-sequence/1 JSON).
+    pub sequence: PathBuf,
+    /// Robot to use instead of the one the sequence names: a built-in name (so101, koch, omx)
+    /// or a robot file.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub robot: Option<String>,
+    /// LeRobot calibration file to apply to the robot's servo mapping and limits.
+    #[arg(long, value_name = "FILE")]
+    pub calibration: Option<PathBuf>,
+}
+
+impl SequenceInput {
+    /// Loads the sequence and its robot (with any calibration applied).
+    pub fn load(&self) -> Result<(Sequence, Robot), CommandError> {
+        let sequence = Sequence::load(&self.sequence)?;
+        let mut robot = match &self.robot {
+            Some(spec) => Robot::resolve(spec, "--robot")?,
+            None => resolve_sequence_robot(&sequence, &self.sequence)?,
+        };
+        if let Some(path) = &self.calibration {
+            let text = crate::json::read_text(path)?;
+            import_lerobot_calibration(&mut robot, &path.display().to_string(), &text)?;
+        }
+        Ok((sequence, robot))
+    }
+}
+
+/// The robot a sequence names: a built-in name, or a file path relative to the sequence.
+fn resolve_sequence_robot(sequence: &Sequence, sequence_path: &Path) -> Result<Robot, InputError> {
+    let name = sequence.robot.as_str();
+    let beside = sequence_path
+        .parent()
+        .map(|dir| dir.join(name))
+        .filter(|p| p.is_file());
+    if let Some(path) = beside {
+        return Robot::load(&path);
+    }
+    Robot::resolve(name, &sequence.file).map_err(|e| match e.location {
+        Location::File if e.file == sequence.file => {
+            InputError::at_path(&sequence.file, "$.robot", e.message)
+        }
+        _ => e,
+    })
+}
+
+/// Parses a rate in Hz for clap: a finite number above 0 and at most 100 kHz.
+pub fn parse_rate(s: &str) -> Result<f64, String> {
+    let rate: f64 = s
+        .parse()
+        .map_err(|_| format!("expected a rate in Hz, found {s:?}"))?;
+    if rate.is_finite() && rate > 0.0 && rate <= 100_000.0 {
+        Ok(rate)
+    } else {
+        Err(format!("expected a rate above 0 and at most 100000 Hz, found {s}"))
+    }
+}
+
+/// Writes `text` to `path`, or to standard output when there is no path. A closed pipe on
+/// standard output (`keypose sample … | head`) is not an error.
+pub fn write_output(path: Option<&Path>, text: &str) -> Result<(), CommandError> {
+    match path {
+        Some(path) => std::fs::write(path, text).map_err(|source| CommandError::Output {
+            path: path.display().to_string(),
+            source,
+        }),
+        None => {
+            let mut stdout = std::io::stdout().lock();
+            match stdout.write_all(text.as_bytes()).and_then(|_| stdout.flush()) {
+                Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(CommandError::Output {
+                    path: "standard output".into(),
+                    source: e,
+                }),
+                _ => Ok(()),
+            }
+        }
+    }
+}

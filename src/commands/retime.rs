@@ -1,0 +1,59 @@
+//! `keypose retime`: stretch key times until velocity and acceleration limits hold.
+
+use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
+use crate::plan::{retime, LimitKind};
+use std::path::PathBuf;
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct RetimeArgs {
+    #[command(flatten)]
+    pub input: SequenceInput,
+    /// Where to write the retimed sequence [default: standard output].
+    #[arg(short, long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+    /// Rate at which limits are checked [default: the robot's control rate].
+    #[arg(long, value_name = "HZ", value_parser = parse_rate)]
+    pub rate: Option<f64>,
+}
+
+pub fn run(args: &RetimeArgs) -> Result<Verdict, CommandError> {
+    let (sequence, robot) = args.input.load()?;
+    let rate = args.rate.unwrap_or(robot.control_hz);
+    let outcome = retime(&sequence, &robot, rate)?;
+    for (segment, before, after) in &outcome.stretched {
+        eprintln!(
+            "segment {segment} ({} → {}): {before:.3} s → {after:.3} s",
+            sequence.keyframes[*segment].label(*segment),
+            sequence.keyframes[segment + 1].label(segment + 1),
+        );
+    }
+    if outcome.stretched.is_empty() {
+        eprintln!("no segment needed stretching");
+    }
+    let remaining = &outcome.report.violations;
+    if !remaining.is_empty() {
+        eprintln!(
+            "{} violation(s) cannot be fixed by retiming (positions outside limits, or step jumps):",
+            remaining.len()
+        );
+        for v in remaining {
+            let hint = match v.kind {
+                LimitKind::Position => "move the keys inside the limits or use monotone",
+                _ => "use a smooth mode for this segment",
+            };
+            eprintln!(
+                "  {} {} in segment {} ({}) at t = {:.3} s: {:.3} vs limit {:.3} — {hint}",
+                v.joint,
+                v.kind.name(),
+                v.segment,
+                v.segment_label,
+                v.peak_time,
+                v.peak,
+                v.limit
+            );
+        }
+        return Ok(Verdict::Fail);
+    }
+    write_output(args.output.as_deref(), &outcome.sequence.to_json())?;
+    Ok(Verdict::Pass)
+}

@@ -1,0 +1,128 @@
+//! `keypose sample`: the trajectory at a fixed rate, as CSV or JSON.
+
+use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
+use crate::plan::Trajectory;
+use crate::robot::{JointKind, Robot};
+use serde_json::json;
+use std::fmt::Write;
+use std::path::PathBuf;
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct SampleArgs {
+    #[command(flatten)]
+    pub input: SequenceInput,
+    /// Samples per second.
+    #[arg(long, value_name = "HZ", default_value = "100", value_parser = parse_rate)]
+    pub rate: f64,
+    /// Unit of revolute joints (prismatic joints are always in metres, except in ticks).
+    #[arg(long, value_enum, default_value_t = Units::Deg)]
+    pub units: Units,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = SampleFormat::Csv)]
+    pub format: SampleFormat,
+    /// Output file [default: standard output].
+    #[arg(short, long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Units {
+    Deg,
+    Rad,
+    /// Servo ticks through the robot's calibration.
+    Ticks,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SampleFormat {
+    Csv,
+    Json,
+}
+
+pub fn run(args: &SampleArgs) -> Result<Verdict, CommandError> {
+    let (sequence, robot) = args.input.load()?;
+    let trajectory = Trajectory::build(&sequence, &robot)?;
+    let rows = sample_rows(&trajectory, &robot, args.rate, args.units)?;
+    let text = match args.format {
+        SampleFormat::Csv => to_csv(&trajectory.joint_names, &rows),
+        SampleFormat::Json => {
+            let units = match args.units {
+                Units::Deg => "deg",
+                Units::Rad => "rad",
+                Units::Ticks => "ticks",
+            };
+            let mut s = json!({
+                "format": "keypose-samples/1",
+                "robot": robot.name,
+                "rate_hz": args.rate,
+                "units": units,
+                "columns": std::iter::once("time").chain(trajectory.joint_names.iter().map(String::as_str)).collect::<Vec<_>>(),
+                "rows": rows,
+            })
+            .to_string();
+            s.push('\n');
+            s
+        }
+    };
+    write_output(args.output.as_deref(), &text)?;
+    Ok(Verdict::Pass)
+}
+
+/// Rows of [time, joint values…] at t = start + k/rate, from the first to the last played time.
+pub fn sample_rows(
+    trajectory: &Trajectory,
+    robot: &Robot,
+    rate: f64,
+    units: Units,
+) -> Result<Vec<Vec<f64>>, CommandError> {
+    let mut sampler = trajectory.sampler();
+    let mut pose = vec![0.0; robot.joints.len()];
+    let mut rows = Vec::new();
+    for t in trajectory.grid(rate) {
+        sampler.sample_into(t, &mut pose);
+        let mut row = Vec::with_capacity(pose.len() + 1);
+        row.push(t);
+        for (joint, &value) in robot.joints.iter().zip(&pose) {
+            row.push(match (units, joint.kind) {
+                (Units::Ticks, _) => joint.servo.tick(value).map_err(|e| {
+                    CommandError::Usage(format!("joint {}: {e}", joint.name))
+                })? as f64,
+                (Units::Rad, JointKind::Revolute) => value.to_radians(),
+                _ => value,
+            });
+        }
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+fn to_csv(joint_names: &[String], rows: &[Vec<f64>]) -> String {
+    let mut out = String::from("time");
+    for name in joint_names {
+        out.push(',');
+        out.push_str(name);
+    }
+    out.push('\n');
+    for row in rows {
+        for (i, value) in row.iter().enumerate() {
+            if i > 0 {
+                out.push(',');
+            }
+            let _ = write!(out, "{}", trim_number(*value));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// Up to 9 decimals without trailing zeros: enough for nanoradians and microseconds, and
+/// short and stable (no 0.30000000000000004) for times computed as k/rate.
+fn trim_number(x: f64) -> String {
+    let s = format!("{x:.9}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.to_string()
+    }
+}

@@ -1,0 +1,621 @@
+//! Key tracks and their interpolation.
+//!
+//! A [`Track`] holds the keys of one degree of freedom over time. The logic that is the same for
+//! every kind of value — locating the segment, holds, which slope each key gets, monotone slope
+//! limiting, cursors — lives here once; what differs between a scalar, a translation and a
+//! rotation is behind [`Interpolant`].
+//!
+//! Slopes ("rates") are expressed per second. For a rotation the rate is the angular velocity
+//! vector in the parent frame, so a rotation about a fixed axis has a rate along that axis whose
+//! length is the scalar angle's rate: that is what makes the spherical modes reduce exactly to the
+//! scalar ones.
+
+use crate::pose;
+use glam::{DQuat, DVec3};
+use std::fmt;
+
+/// How a segment moves from its first key to the next.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Interp {
+    /// Keeps the value of the first key until the next key.
+    Step,
+    /// Lerp for translations and scalars, slerp for rotations.
+    Linear,
+    /// Key-time Catmull-Rom Hermite; zero slope at the first and last key.
+    Cubic,
+    /// Hermite with Fritsch–Carlson limited slopes: never overshoots between two keys.
+    Monotone,
+}
+
+impl Interp {
+    pub const ALL: [Interp; 4] = [Interp::Step, Interp::Linear, Interp::Cubic, Interp::Monotone];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Interp::Step => "step",
+            Interp::Linear => "linear",
+            Interp::Cubic => "cubic",
+            Interp::Monotone => "monotone",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Interp> {
+        Interp::ALL.into_iter().find(|m| m.name() == s)
+    }
+
+    fn is_smooth(self) -> bool {
+        matches!(self, Interp::Cubic | Interp::Monotone)
+    }
+}
+
+impl fmt::Display for Interp {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// One key of a track. `interp` is the mode of the segment that starts at this key.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackKey<V> {
+    pub time: f64,
+    pub value: V,
+    /// Seconds the value stays at this key before the segment to the next key begins.
+    pub hold: f64,
+    pub interp: Interp,
+}
+
+impl<V> TrackKey<V> {
+    pub fn new(time: f64, value: V, interp: Interp) -> Self {
+        Self {
+            time,
+            value,
+            hold: 0.0,
+            interp,
+        }
+    }
+
+    pub fn with_hold(mut self, hold: f64) -> Self {
+        self.hold = hold;
+        self
+    }
+}
+
+/// Why a list of keys cannot form a track. `index` is the key's position in time order.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CurveError {
+    #[error("a track needs at least one key")]
+    Empty,
+    #[error("key {index}: time must be a finite number of seconds")]
+    NonFiniteTime { index: usize },
+    #[error("key {index}: time {time} s is not after the previous key's {previous} s")]
+    NotIncreasing {
+        index: usize,
+        time: f64,
+        previous: f64,
+    },
+    #[error("key {index}: hold must be finite and at least 0 s, found {hold}")]
+    BadHold { index: usize, hold: f64 },
+    #[error("key {index}: hold {hold} s does not end before the next key, {gap} s later")]
+    HoldOverrun { index: usize, hold: f64, gap: f64 },
+}
+
+/// A value that a track can interpolate.
+pub trait Interpolant: Copy + fmt::Debug {
+    /// Rate of change per second (a slope, or an angular velocity vector).
+    type Rate: Rate;
+    /// Precomputed form of one segment, so that sampling is a locate plus a cheap evaluation.
+    type Segment: Copy + fmt::Debug;
+
+    /// The change from `a` to `b` (a difference, or the rotation vector of `b·a⁻¹`).
+    fn displacement(a: &Self, b: &Self) -> Self::Rate;
+    /// Builds the segment from `a` to `b` of duration `h` seconds with end rates `ra`, `rb`.
+    fn segment(a: &Self, b: &Self, ra: Self::Rate, rb: Self::Rate, h: f64, mode: Interp)
+        -> Self::Segment;
+    /// The value at fraction `f` ∈ [0, 1] of the segment.
+    fn eval(segment: &Self::Segment, f: f64) -> Self;
+}
+
+/// The vector-space operations that slope computation needs.
+pub trait Rate: Copy + fmt::Debug {
+    const ZERO: Self;
+    fn scale(self, s: f64) -> Self;
+    fn add(self, other: Self) -> Self;
+    fn dot(self, other: Self) -> f64;
+}
+
+impl Rate for f64 {
+    const ZERO: Self = 0.0;
+    fn scale(self, s: f64) -> Self {
+        self * s
+    }
+    fn add(self, other: Self) -> Self {
+        self + other
+    }
+    fn dot(self, other: Self) -> f64 {
+        self * other
+    }
+}
+
+impl Rate for DVec3 {
+    const ZERO: Self = DVec3::ZERO;
+    fn scale(self, s: f64) -> Self {
+        self * s
+    }
+    fn add(self, other: Self) -> Self {
+        self + other
+    }
+    fn dot(self, other: Self) -> f64 {
+        DVec3::dot(self, other)
+    }
+}
+
+/// Cubic polynomial coefficients `c0 + c1·f + c2·f² + c3·f³` of a Hermite segment whose end
+/// values are `a`, `b` and whose end derivatives with respect to f are `da`, `db`.
+fn hermite_coefficients<T>(a: T, b: T, da: T, db: T) -> [T; 4]
+where
+    T: Copy + std::ops::Sub<Output = T> + std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>,
+{
+    let delta = b - a;
+    [
+        a,
+        da,
+        delta * 3.0 - da * 2.0 - db,
+        delta * -2.0 + da + db,
+    ]
+}
+
+fn polynomial_segment<T>(a: T, b: T, ra: T, rb: T, h: f64, mode: Interp) -> [T; 4]
+where
+    T: Copy
+        + std::ops::Sub<Output = T>
+        + std::ops::Add<Output = T>
+        + std::ops::Mul<f64, Output = T>,
+{
+    let zero = a * 0.0;
+    match mode {
+        Interp::Step => [a, zero, zero, zero],
+        Interp::Linear => [a, b - a, zero, zero],
+        Interp::Cubic | Interp::Monotone => hermite_coefficients(a, b, ra * h, rb * h),
+    }
+}
+
+impl Interpolant for f64 {
+    type Rate = f64;
+    type Segment = [f64; 4];
+
+    fn displacement(a: &Self, b: &Self) -> f64 {
+        b - a
+    }
+    fn segment(a: &Self, b: &Self, ra: f64, rb: f64, h: f64, mode: Interp) -> [f64; 4] {
+        polynomial_segment(*a, *b, ra, rb, h, mode)
+    }
+    fn eval(c: &[f64; 4], f: f64) -> f64 {
+        c[0] + f * (c[1] + f * (c[2] + f * c[3]))
+    }
+}
+
+impl Interpolant for DVec3 {
+    type Rate = DVec3;
+    type Segment = [DVec3; 4];
+
+    fn displacement(a: &Self, b: &Self) -> DVec3 {
+        *b - *a
+    }
+    fn segment(a: &Self, b: &Self, ra: DVec3, rb: DVec3, h: f64, mode: Interp) -> [DVec3; 4] {
+        polynomial_segment(*a, *b, ra, rb, h, mode)
+    }
+    fn eval(c: &[DVec3; 4], f: f64) -> DVec3 {
+        c[0] + (c[1] + (c[2] + c[3] * f) * f) * f
+    }
+}
+
+/// A rotation segment: a slerp, or a spherical Bézier whose inner control rotations come from
+/// the end rates exactly as a scalar Bézier's come from its slopes (`c1 = a + ra·h/3`).
+#[derive(Debug, Clone, Copy)]
+pub enum RotationSegment {
+    Hold(DQuat),
+    Slerp(DQuat, DQuat),
+    Bezier([DQuat; 4]),
+}
+
+impl Interpolant for DQuat {
+    type Rate = DVec3;
+    type Segment = RotationSegment;
+
+    fn displacement(a: &Self, b: &Self) -> DVec3 {
+        pose::rotation_vector(pose::same_hemisphere(DQuat::IDENTITY, *b * a.conjugate()))
+    }
+    fn segment(a: &Self, b: &Self, ra: DVec3, rb: DVec3, h: f64, mode: Interp) -> RotationSegment {
+        match mode {
+            Interp::Step => RotationSegment::Hold(*a),
+            Interp::Linear => RotationSegment::Slerp(*a, *b),
+            Interp::Cubic | Interp::Monotone => {
+                let c1 = pose::from_rotation_vector(ra * (h / 3.0)) * *a;
+                let c2 = pose::from_rotation_vector(rb * (-h / 3.0)) * *b;
+                RotationSegment::Bezier([*a, c1, c2, *b])
+            }
+        }
+    }
+    fn eval(segment: &RotationSegment, f: f64) -> DQuat {
+        match *segment {
+            RotationSegment::Hold(q) => q,
+            RotationSegment::Slerp(a, b) => pose::slerp(a, b, f),
+            RotationSegment::Bezier([p0, p1, p2, p3]) => {
+                // De Casteljau with slerps in place of lerps.
+                let q01 = pose::slerp(p0, p1, f);
+                let q12 = pose::slerp(p1, p2, f);
+                let q23 = pose::slerp(p2, p3, f);
+                let r0 = pose::slerp(q01, q12, f);
+                let r1 = pose::slerp(q12, q23, f);
+                pose::slerp(r0, r1, f)
+            }
+        }
+    }
+}
+
+/// The keys of one degree of freedom and the segments between them, ready to sample.
+#[derive(Debug, Clone)]
+pub struct Track<V: Interpolant> {
+    times: Vec<f64>,
+    /// Time at which each segment starts moving (key time plus hold).
+    move_start: Vec<f64>,
+    /// 1 / (moving duration) of each segment; 0 for a segment that does not move.
+    inv_duration: Vec<f64>,
+    values: Vec<V>,
+    holds: Vec<f64>,
+    modes: Vec<Interp>,
+    rates: Vec<V::Rate>,
+    segments: Vec<V::Segment>,
+}
+
+/// Where a time falls on a track.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Place {
+    /// Before the first key: the track holds the first value.
+    Before,
+    /// At key `index` or inside its hold.
+    AtKey(usize),
+    /// In segment `index` (from key `index` to key `index + 1`) at fraction `f`.
+    Moving(usize, f64),
+    /// After the last key: the track holds the last value.
+    After,
+}
+
+impl<V: Interpolant> Track<V> {
+    /// Builds a track from keys in strictly increasing time order.
+    pub fn new(keys: &[TrackKey<V>]) -> Result<Self, CurveError> {
+        validate(keys)?;
+        let n = keys.len();
+        let times: Vec<f64> = keys.iter().map(|k| k.time).collect();
+        let values: Vec<V> = keys.iter().map(|k| k.value).collect();
+        let holds: Vec<f64> = keys.iter().map(|k| k.hold).collect();
+        let modes: Vec<Interp> = keys.iter().map(|k| k.interp).collect();
+        let moving: Vec<f64> = (0..n.saturating_sub(1))
+            .map(|i| times[i + 1] - times[i] - holds[i])
+            .collect();
+        let rates = key_rates(&times, &values, &holds, &modes, &moving);
+        let segments = (0..n.saturating_sub(1))
+            .map(|i| {
+                V::segment(
+                    &values[i],
+                    &values[i + 1],
+                    rates[i],
+                    rates[i + 1],
+                    moving[i],
+                    modes[i],
+                )
+            })
+            .collect();
+        Ok(Self {
+            move_start: (0..n).map(|i| times[i] + holds[i]).collect(),
+            inv_duration: moving
+                .iter()
+                .map(|&h| if h > 0.0 { 1.0 / h } else { 0.0 })
+                .collect(),
+            times,
+            values,
+            holds,
+            modes,
+            rates,
+            segments,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.times.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.times.is_empty()
+    }
+
+    pub fn times(&self) -> &[f64] {
+        &self.times
+    }
+
+    pub fn values(&self) -> &[V] {
+        &self.values
+    }
+
+    pub fn holds(&self) -> &[f64] {
+        &self.holds
+    }
+
+    /// Mode of each segment (the last entry belongs to the last key and is unused).
+    pub fn modes(&self) -> &[Interp] {
+        &self.modes
+    }
+
+    /// The rate (slope) each key was given.
+    pub fn rates(&self) -> &[V::Rate] {
+        &self.rates
+    }
+
+    pub fn start_time(&self) -> f64 {
+        self.times[0]
+    }
+
+    /// Time of the last key (its hold, if any, is not included).
+    pub fn end_time(&self) -> f64 {
+        self.times[self.times.len() - 1]
+    }
+
+    /// Index of the last key at or before `t`, by binary search (0 before the first key).
+    pub fn key_index_at(&self, t: f64) -> usize {
+        self.times.partition_point(|&k| k <= t).saturating_sub(1)
+    }
+
+    /// Where `t` falls, given the last key at or before it.
+    fn place_from(&self, key: usize, t: f64) -> Place {
+        if t.is_nan() || t < self.times[0] {
+            return Place::Before;
+        }
+        if key + 1 >= self.times.len() {
+            return Place::After;
+        }
+        if t < self.move_start[key] {
+            return Place::AtKey(key);
+        }
+        let f = ((t - self.move_start[key]) * self.inv_duration[key]).clamp(0.0, 1.0);
+        Place::Moving(key, f)
+    }
+
+    pub fn place(&self, t: f64) -> Place {
+        self.place_from(self.key_index_at(t), t)
+    }
+
+    fn value_at(&self, place: Place) -> V {
+        match place {
+            Place::Before => self.values[0],
+            Place::After => self.values[self.values.len() - 1],
+            Place::AtKey(i) => self.values[i],
+            Place::Moving(i, f) => V::eval(&self.segments[i], f),
+        }
+    }
+
+    /// The value at `t` by random access (binary search).
+    pub fn sample(&self, t: f64) -> V {
+        self.value_at(self.place(t))
+    }
+
+    /// A cursor for sampling at increasing times in O(1) amortised per sample.
+    pub fn cursor(&self) -> Cursor<'_, V> {
+        Cursor {
+            track: self,
+            key: 0,
+        }
+    }
+}
+
+impl Track<f64> {
+    /// Turning points inside moving segments, as (time, value): where a cubic overshoots, its
+    /// peak lies here, usually between any two samples of a fixed grid.
+    pub fn turning_points(&self) -> Vec<(f64, f64)> {
+        let mut points = Vec::new();
+        for (i, c) in self.segments.iter().enumerate() {
+            if self.inv_duration[i] == 0.0 {
+                continue;
+            }
+            // d/df of c0 + c1 f + c2 f² + c3 f³ is c1 + 2 c2 f + 3 c3 f².
+            let (a, b, k) = (3.0 * c[3], 2.0 * c[2], c[1]);
+            let roots: Vec<f64> = if a.abs() < 1e-300 {
+                if b.abs() < 1e-300 {
+                    Vec::new()
+                } else {
+                    vec![-k / b]
+                }
+            } else {
+                let disc = b * b - 4.0 * a * k;
+                if disc < 0.0 {
+                    Vec::new()
+                } else {
+                    let sq = disc.sqrt();
+                    vec![(-b - sq) / (2.0 * a), (-b + sq) / (2.0 * a)]
+                }
+            };
+            for f in roots.into_iter().filter(|f| *f > 0.0 && *f < 1.0) {
+                let t = self.move_start[i] + f / self.inv_duration[i];
+                points.push((t, f64::eval(c, f)));
+            }
+        }
+        points
+    }
+}
+
+/// Sequential sampler: remembers the segment of the previous sample and walks forward from it.
+/// A step back in time falls back to binary search, so any order of times is still correct.
+#[derive(Debug, Clone)]
+pub struct Cursor<'a, V: Interpolant> {
+    track: &'a Track<V>,
+    key: usize,
+}
+
+impl<V: Interpolant> Cursor<'_, V> {
+    pub fn sample(&mut self, t: f64) -> V {
+        let times = &self.track.times;
+        if t >= times[self.key] {
+            while self.key + 1 < times.len() && t >= times[self.key + 1] {
+                self.key += 1;
+            }
+        } else {
+            self.key = self.track.key_index_at(t);
+        }
+        self.track.value_at(self.track.place_from(self.key, t))
+    }
+}
+
+fn validate<V>(keys: &[TrackKey<V>]) -> Result<(), CurveError> {
+    if keys.is_empty() {
+        return Err(CurveError::Empty);
+    }
+    for (index, key) in keys.iter().enumerate() {
+        if !key.time.is_finite() {
+            return Err(CurveError::NonFiniteTime { index });
+        }
+        if !(key.hold.is_finite() && key.hold >= 0.0) {
+            return Err(CurveError::BadHold {
+                index,
+                hold: key.hold,
+            });
+        }
+        if index > 0 {
+            let previous = &keys[index - 1];
+            if key.time <= previous.time {
+                return Err(CurveError::NotIncreasing {
+                    index,
+                    time: key.time,
+                    previous: previous.time,
+                });
+            }
+            let gap = key.time - previous.time;
+            if previous.hold >= gap {
+                return Err(CurveError::HoldOverrun {
+                    index: index - 1,
+                    hold: previous.hold,
+                    gap,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The rate each key gets, following the modes of the segments on either side of it.
+///
+/// - first key, last key, a key with a hold, a key next to a step: zero (the motion is at rest);
+/// - a key between a linear segment and a smooth one: the linear segment's rate, so the join is
+///   continuous in velocity;
+/// - otherwise the key-time central difference `(v[i+1] − v[i−1]) / (t[i+1] − t[i−1])`;
+/// - then Fritsch–Carlson limiting on every monotone segment.
+fn key_rates<V: Interpolant>(
+    times: &[f64],
+    values: &[V],
+    holds: &[f64],
+    modes: &[Interp],
+    moving: &[f64],
+) -> Vec<V::Rate> {
+    let n = times.len();
+    let mut rates = vec![V::Rate::ZERO; n];
+    if n < 2 {
+        return rates;
+    }
+    let displacement: Vec<V::Rate> = (0..n - 1)
+        .map(|i| V::displacement(&values[i], &values[i + 1]))
+        .collect();
+    let secant = |i: usize| displacement[i].scale(1.0 / moving[i]);
+    for i in 1..n - 1 {
+        let (before, after) = (modes[i - 1], modes[i]);
+        if holds[i] > 0.0 || before == Interp::Step || after == Interp::Step {
+            continue;
+        }
+        rates[i] = match (before.is_smooth(), after.is_smooth()) {
+            (false, false) => continue,
+            (false, true) => secant(i - 1),
+            (true, false) => secant(i),
+            (true, true) => displacement[i - 1]
+                .add(displacement[i])
+                .scale(1.0 / (times[i + 1] - times[i - 1])),
+        };
+        // Fritsch–Carlson step 1: at a local extremum the slope must be zero, or the curve
+        // overshoots the extreme key.
+        let touches_monotone = before == Interp::Monotone || after == Interp::Monotone;
+        if touches_monotone && displacement[i - 1].dot(displacement[i]) <= 0.0 {
+            rates[i] = V::Rate::ZERO;
+        }
+    }
+    // Fritsch–Carlson step 2: keep (α, β) inside the circle of radius 3, which is sufficient for a
+    // monotone cubic. Scaling both rates towards zero cannot leave the region for a neighbouring
+    // segment, because that region is closed under shrinking either rate.
+    for i in 0..n - 1 {
+        if modes[i] != Interp::Monotone {
+            continue;
+        }
+        let d = secant(i);
+        let d2 = d.dot(d);
+        if d2 == 0.0 {
+            rates[i] = V::Rate::ZERO;
+            rates[i + 1] = V::Rate::ZERO;
+            continue;
+        }
+        let alpha = rates[i].dot(d) / d2;
+        let beta = rates[i + 1].dot(d) / d2;
+        let radius2 = alpha * alpha + beta * beta;
+        if radius2 > 9.0 {
+            let tau = 3.0 / radius2.sqrt();
+            rates[i] = rates[i].scale(tau);
+            rates[i + 1] = rates[i + 1].scale(tau);
+        }
+    }
+    rates
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scalar(keys: &[(f64, f64)], mode: Interp) -> Track<f64> {
+        let keys: Vec<_> = keys
+            .iter()
+            .map(|&(t, v)| TrackKey::new(t, v, mode))
+            .collect();
+        Track::new(&keys).unwrap()
+    }
+
+    #[test]
+    fn cursor_agrees_with_random_access_in_any_order() {
+        let track = scalar(&[(0.0, 0.0), (1.0, 3.0), (2.5, -1.0), (4.0, 2.0)], Interp::Cubic);
+        let mut cursor = track.cursor();
+        for t in [-1.0, 0.3, 0.9, 1.0, 2.0, 0.5, 3.9, 4.0, 5.0, 1.2] {
+            assert_eq!(cursor.sample(t), track.sample(t), "t = {t}");
+        }
+    }
+
+    #[test]
+    fn hold_keeps_value_then_moves() {
+        let keys = [
+            TrackKey::new(0.0, 0.0, Interp::Linear).with_hold(1.0),
+            TrackKey::new(2.0, 10.0, Interp::Linear),
+        ];
+        let track = Track::new(&keys).unwrap();
+        assert_eq!(track.sample(0.9), 0.0);
+        assert!((track.sample(1.5) - 5.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn invalid_keys_are_rejected() {
+        let k = |t: f64| TrackKey::new(t, 0.0, Interp::Cubic);
+        assert_eq!(Track::<f64>::new(&[]).unwrap_err(), CurveError::Empty);
+        assert!(matches!(
+            Track::new(&[k(1.0), k(1.0)]),
+            Err(CurveError::NotIncreasing { index: 1, .. })
+        ));
+        assert!(matches!(
+            Track::new(&[k(0.0).with_hold(2.0), k(1.0)]),
+            Err(CurveError::HoldOverrun { index: 0, .. })
+        ));
+        assert!(matches!(
+            Track::new(&[k(f64::NAN)]),
+            Err(CurveError::NonFiniteTime { index: 0 })
+        ));
+    }
+}

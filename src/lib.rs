@@ -1,0 +1,15 @@
+//! keypose: teach a robot arm poses key by key and play them back smoothly.
+//!
+//! Data flows one way, from files to bytes: [`sequence`] and [`robot`] files become a
+//! [`plan::Trajectory`] of per-joint [`curve::Track`]s built on the [`pose`] math; [`report`]
+//! turns trajectories and checks into text, JSON and SVG. [`commands`] holds the command-line
+//! verbs so that `main.rs` only parses arguments and maps errors to exit codes.
+
+pub mod commands;
+pub mod curve;
+pub mod json;
+pub mod plan;
+pub mod pose;
+pub mod report;
+pub mod robot;
+pub mod sequence;

@@ -1,0 +1,54 @@
+//! The `keypose` command line: parse arguments, run the verb, map the outcome to an exit code.
+
+use clap::{Parser, Subcommand};
+use keypose::commands::{self, CommandError, Verdict};
+use std::process::ExitCode;
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "keypose",
+    version,
+    about = "Teach a robot arm poses key by key and play them back smoothly",
+    after_help = "Exit codes: 0 success; 1 a check or simulation verdict failed; 2 bad input \
+                  (files, arguments); 3 hardware or bus error; 130 interrupted."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Check the sampled curve against the robot's position, velocity and acceleration limits.
+    ///
+    /// Every violation is reported with its joint, keyframe segment, time and amount; exit code 1
+    /// when there is any.
+    Check(commands::check::CheckArgs),
+    /// Write the trajectory at a fixed rate as CSV (time,<joint>,…) or JSON.
+    ///
+    /// Rows are at t = t0 + k/rate from the first to the last played key time inclusive.
+    Sample(commands::sample::SampleArgs),
+    /// Draw position and velocity per joint against time as an SVG, with keys and limit bands.
+    Plot(commands::plot::PlotArgs),
+    /// Stretch key times, segment by segment, until velocity and acceleration limits hold, and
+    /// write the new sequence.
+    Retime(commands::retime::RetimeArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result: Result<Verdict, CommandError> = match &cli.command {
+        Command::Check(args) => commands::check::run(args),
+        Command::Sample(args) => commands::sample::run(args),
+        Command::Plot(args) => commands::plot::run(args),
+        Command::Retime(args) => commands::retime::run(args),
+    };
+    let code = match result {
+        Ok(verdict) => verdict.exit_code(),
+        Err(error) => {
+            eprintln!("error: {error}");
+            error.exit_code()
+        }
+    };
+    ExitCode::from(code as u8)
+}

@@ -1,0 +1,282 @@
+//! From a sequence and a robot to a timed joint trajectory, and the checks and retiming that
+//! work on it.
+
+mod check;
+mod retime;
+
+use crate::curve::{Cursor, CurveError, Track, TrackKey};
+use crate::json::InputError;
+use crate::pose::{self, RigidTransform};
+use crate::robot::{Joint, JointKind, Robot};
+use crate::sequence::{Ends, KeyValue, Sequence};
+use std::f64::consts::TAU;
+
+pub use check::{check, CheckReport, JointSummary, LimitKind, Sampled, Violation};
+pub use retime::{retime, RetimeOutcome};
+
+/// Largest rotation off the joint axis (swing) accepted in a keyed transform, degrees. Hand-typed
+/// quaternions carry rounding of this order; more than that is a rotation the joint cannot make.
+pub const SWING_TOLERANCE_DEG: f64 = 0.5;
+/// Largest translation a revolute joint's transform may carry, or a prismatic joint's may carry
+/// off its axis, metres.
+pub const OFF_AXIS_TOLERANCE_M: f64 = 1e-4;
+
+/// Per-joint tracks in robot joint order and units, with the played time window.
+#[derive(Debug, Clone)]
+pub struct Trajectory {
+    pub joint_names: Vec<String>,
+    tracks: Vec<Track<f64>>,
+    /// First played time (the first key, or the second with control ends).
+    pub start: f64,
+    /// Last played time, including the last played key's hold.
+    pub end: f64,
+    /// Time of every keyframe, in order.
+    pub key_times: Vec<f64>,
+    /// Name (or "#index") of every keyframe.
+    pub key_labels: Vec<String>,
+}
+
+impl Trajectory {
+    /// Builds the joint tracks, rejecting with a path into the sequence file anything the robot
+    /// cannot do: unknown joints, rotations off the joint axis, keys outside the joint limits.
+    pub fn build(sequence: &Sequence, robot: &Robot) -> Result<Trajectory, InputError> {
+        sequence.validate()?;
+        let file = sequence.file.as_str();
+        let key_times = sequence.key_times();
+        for (index, key) in sequence.keyframes.iter().enumerate() {
+            for (name, value) in &key.values {
+                if robot.joint_index(name).is_none() {
+                    return Err(InputError::at_path(
+                        file,
+                        &value_path(sequence, index, name, value),
+                        format!(
+                            "unknown joint {name:?} for robot {}; expected one of: {}",
+                            robot.name,
+                            robot.joint_names().join(", ")
+                        ),
+                    ));
+                }
+            }
+        }
+
+        let mut tracks = Vec::with_capacity(robot.joints.len());
+        for (joint_index, joint) in robot.joints.iter().enumerate() {
+            let mut keys = Vec::new();
+            let mut previous: Option<f64> = None;
+            for (index, key) in sequence.keyframes.iter().enumerate() {
+                let Some(value) = key.value(&joint.name) else {
+                    continue;
+                };
+                let path = value_path(sequence, index, &joint.name, value);
+                let reference = previous.unwrap_or(robot.home[joint_index]);
+                let v = joint_value(joint, value, reference)
+                    .map_err(|message| InputError::at_path(file, &path, message))?;
+                if !joint.limits.contains(v) {
+                    return Err(InputError::at_path(
+                        file,
+                        &path,
+                        format!(
+                            "{} is outside the limits of {}: expected {} … {} {}",
+                            format_value(v, joint.kind),
+                            joint.name,
+                            joint.limits.min,
+                            joint.limits.max,
+                            joint.kind.unit()
+                        ),
+                    ));
+                }
+                previous = Some(v);
+                let interp = key.interp.unwrap_or(sequence.interpolation);
+                keys.push(TrackKey::new(key_times[index], v, interp).with_hold(key.hold));
+            }
+            if keys.is_empty() {
+                keys.push(TrackKey::new(
+                    key_times[0],
+                    robot.home[joint_index],
+                    sequence.interpolation,
+                ));
+            }
+            let track = Track::new(&keys).map_err(|e| curve_error(sequence, e))?;
+            tracks.push(track);
+        }
+
+        let n = key_times.len();
+        let (first, last) = match sequence.ends {
+            Ends::Played => (0, n - 1),
+            Ends::Control => (1, n - 2),
+        };
+        Ok(Trajectory {
+            joint_names: robot.joints.iter().map(|j| j.name.clone()).collect(),
+            tracks,
+            start: key_times[first],
+            end: key_times[last] + sequence.keyframes[last].hold,
+            key_labels: sequence
+                .keyframes
+                .iter()
+                .enumerate()
+                .map(|(i, k)| k.label(i))
+                .collect(),
+            key_times,
+        })
+    }
+
+    pub fn tracks(&self) -> &[Track<f64>] {
+        &self.tracks
+    }
+
+    pub fn duration(&self) -> f64 {
+        self.end - self.start
+    }
+
+    /// Joint values at `t`, clamped to the played window.
+    pub fn sample_into(&self, t: f64, out: &mut [f64]) {
+        let t = t.clamp(self.start, self.end);
+        for (slot, track) in out.iter_mut().zip(&self.tracks) {
+            *slot = track.sample(t);
+        }
+    }
+
+    pub fn sample(&self, t: f64) -> Vec<f64> {
+        let mut out = vec![0.0; self.tracks.len()];
+        self.sample_into(t, &mut out);
+        out
+    }
+
+    /// A sampler for increasing times, O(1) amortised per joint-sample.
+    pub fn sampler(&self) -> Sampler<'_> {
+        Sampler {
+            trajectory: self,
+            cursors: self.tracks.iter().map(|t| t.cursor()).collect(),
+        }
+    }
+
+    /// Index of the keyframe segment that `t` falls in (segment i runs from key i to key i+1).
+    pub fn segment_at(&self, t: f64) -> usize {
+        let last_segment = self.key_times.len().saturating_sub(2);
+        self.key_times
+            .partition_point(|&k| k <= t)
+            .saturating_sub(1)
+            .min(last_segment)
+    }
+
+    /// "from → to" labels of segment `i`.
+    pub fn segment_label(&self, i: usize) -> String {
+        match self.key_labels.get(i + 1) {
+            Some(next) => format!("{} → {}", self.key_labels[i], next),
+            None => self.key_labels[i].clone(),
+        }
+    }
+
+    /// Times `start + k/rate` from the start to the end inclusive, computed from k so that no
+    /// rounding accumulates.
+    pub fn grid(&self, rate: f64) -> impl Iterator<Item = f64> + '_ {
+        let count = ((self.end - self.start) * rate + 1e-9).floor() as usize;
+        (0..=count).map(move |k| self.start + k as f64 / rate)
+    }
+}
+
+/// Samples all joints at increasing times through one cursor per track.
+pub struct Sampler<'a> {
+    trajectory: &'a Trajectory,
+    cursors: Vec<Cursor<'a, f64>>,
+}
+
+impl Sampler<'_> {
+    pub fn sample_into(&mut self, t: f64, out: &mut [f64]) {
+        let t = t.clamp(self.trajectory.start, self.trajectory.end);
+        for (slot, cursor) in out.iter_mut().zip(&mut self.cursors) {
+            *slot = cursor.sample(t);
+        }
+    }
+}
+
+fn format_value(v: f64, kind: JointKind) -> String {
+    match kind {
+        JointKind::Revolute => format!("{v:.3} deg"),
+        JointKind::Prismatic => format!("{v:.5} m"),
+    }
+}
+
+fn value_path(sequence: &Sequence, index: usize, joint: &str, value: &KeyValue) -> String {
+    let field = match value {
+        KeyValue::Joint(_) => "joints",
+        KeyValue::Transform(_) => "transforms",
+    };
+    let simple = joint
+        .chars()
+        .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        && !joint.is_empty();
+    if simple {
+        format!("{}.{field}.{joint}", sequence.key_path(index))
+    } else {
+        format!("{}.{field}[{joint:?}]", sequence.key_path(index))
+    }
+}
+
+fn curve_error(sequence: &Sequence, error: CurveError) -> InputError {
+    // Sequence validation already enforces these rules on keyframe times; a track is a subset
+    // of those keys, so this is reached only through an inconsistent in-memory sequence.
+    InputError::at_path(&sequence.file, "$.keyframes", error.to_string())
+}
+
+/// A joint value (degrees or metres) from what a key says about the joint. `reference` is the
+/// previous key's value on this joint (or home): a revolute angle is unwrapped to the turn inside
+/// the limits nearest to it.
+fn joint_value(joint: &Joint, value: &KeyValue, reference: f64) -> Result<f64, String> {
+    match *value {
+        KeyValue::Joint(v) => Ok(v),
+        KeyValue::Transform(tf) => match joint.kind {
+            JointKind::Revolute => revolute_angle(joint, &tf, reference),
+            JointKind::Prismatic => prismatic_offset(joint, &tf),
+        },
+    }
+}
+
+fn revolute_angle(joint: &Joint, tf: &RigidTransform, reference: f64) -> Result<f64, String> {
+    if tf.t.length() > OFF_AXIS_TOLERANCE_M {
+        return Err(format!(
+            "a revolute joint's transform cannot translate; expected \"t\" to be zero, found {:.5} m",
+            tf.t.length()
+        ));
+    }
+    let (twist, swing) = pose::twist_swing(tf.r, joint.axis);
+    if swing.to_degrees() > SWING_TOLERANCE_DEG {
+        return Err(format!(
+            "the rotation is {:.2}° off the joint axis {:?}; expected a rotation about that axis \
+             (at most {SWING_TOLERANCE_DEG}° off)",
+            swing.to_degrees(),
+            joint.axis.to_array()
+        ));
+    }
+    let (min, max) = (joint.limits.min.to_radians(), joint.limits.max.to_radians());
+    pose::unwrap_within(twist, reference.to_radians(), min, max, TAU)
+        .map(f64::to_degrees)
+        .ok_or_else(|| {
+            format!(
+                "the rotation ({:.3}°) has no representative inside the limits of {}: expected {} … {} deg",
+                twist.to_degrees(),
+                joint.name,
+                joint.limits.min,
+                joint.limits.max
+            )
+        })
+}
+
+fn prismatic_offset(joint: &Joint, tf: &RigidTransform) -> Result<f64, String> {
+    let along = tf.t.dot(joint.axis);
+    let off = (tf.t - joint.axis * along).length();
+    if off > OFF_AXIS_TOLERANCE_M {
+        return Err(format!(
+            "the translation is {off:.5} m off the joint axis {:?}; expected a translation along it",
+            joint.axis.to_array()
+        ));
+    }
+    let angle = pose::rotation_vector(pose::same_hemisphere(glam::DQuat::IDENTITY, tf.r)).length();
+    if angle.to_degrees() > SWING_TOLERANCE_DEG {
+        return Err(format!(
+            "a prismatic joint cannot rotate; expected \"r\" to be the identity, found a {:.2}° rotation",
+            angle.to_degrees()
+        ));
+    }
+    Ok(along)
+}

@@ -1,0 +1,162 @@
+//! Turning trajectories and checks into what people and programs read: text, JSON, SVG.
+
+pub mod plot;
+
+use crate::plan::{CheckReport, LimitKind, Sampled, Trajectory};
+use crate::robot::Robot;
+use serde_json::{json, Value};
+use std::fmt::Write;
+
+/// The check report as text: one line per violation, then each joint's margins.
+pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{sequence_file}: robot {}, {:.3} s … {:.3} s, sampled at {} Hz",
+        robot.name, report.start, report.end, report.rate
+    );
+    if report.passed() {
+        let _ = writeln!(out, "ok: no limit violations");
+    } else {
+        let _ = writeln!(out, "FAILED: {} limit violation(s)", report.violations.len());
+        for v in &report.violations {
+            let unit = per_unit(v.unit, v.kind);
+            let relation = if v.peak > v.limit { ">" } else { "<" };
+            let bound = match (v.kind, v.peak > v.limit) {
+                (LimitKind::Position, true) => "max",
+                (LimitKind::Position, false) => "min",
+                _ => "limit",
+            };
+            let _ = writeln!(
+                out,
+                "  {:<14} {:<12} segment {} ({}), t = {:.3} s (from {:.3} to {:.3} s): {:.3} {unit} {relation} {bound} {:.3} {unit}, by {:.3} {unit}",
+                v.joint,
+                v.kind.name(),
+                v.segment,
+                v.segment_label,
+                v.peak_time,
+                v.from,
+                v.to,
+                v.peak,
+                v.limit,
+                v.excess
+            );
+        }
+    }
+    let _ = writeln!(
+        out,
+        "  {:<14} {:>22} {:>24} {:>26}",
+        "joint", "range", "peak velocity", "peak acceleration"
+    );
+    for j in &report.joints {
+        let _ = writeln!(
+            out,
+            "  {:<14} {:>9.2} … {:>7.2} {:<3} {:>8.1} {:<6} ({:>4.0} %) {:>9.1} {:<7} ({:>4.0} %)",
+            j.joint,
+            j.min_position,
+            j.max_position,
+            j.unit,
+            j.peak_velocity,
+            per_unit(j.unit, LimitKind::Velocity),
+            100.0 * j.peak_velocity / j.velocity_limit,
+            j.peak_acceleration,
+            per_unit(j.unit, LimitKind::Acceleration),
+            100.0 * j.peak_acceleration / j.acceleration_limit,
+        );
+    }
+    out
+}
+
+fn per_unit(unit: &str, kind: LimitKind) -> String {
+    match kind {
+        LimitKind::Position => unit.to_string(),
+        LimitKind::Velocity => format!("{unit}/s"),
+        LimitKind::Acceleration => format!("{unit}/s²"),
+    }
+}
+
+/// The check report as JSON, for scripts and CI.
+pub fn check_json(report: &CheckReport, sequence_file: &str, robot: &Robot) -> Value {
+    json!({
+        "sequence": sequence_file,
+        "robot": robot.name,
+        "passed": report.passed(),
+        "rate_hz": report.rate,
+        "start": report.start,
+        "end": report.end,
+        "violations": report.violations.iter().map(|v| json!({
+            "joint": v.joint,
+            "kind": v.kind.name(),
+            "unit": per_unit(v.unit, v.kind),
+            "segment": v.segment,
+            "segment_label": v.segment_label,
+            "from": v.from,
+            "to": v.to,
+            "peak_time": v.peak_time,
+            "peak": v.peak,
+            "limit": v.limit,
+            "excess": v.excess,
+        })).collect::<Vec<_>>(),
+        "joints": report.joints.iter().map(|j| json!({
+            "joint": j.joint,
+            "unit": j.unit,
+            "min_position": j.min_position,
+            "max_position": j.max_position,
+            "peak_velocity": j.peak_velocity,
+            "velocity_limit": j.velocity_limit,
+            "peak_acceleration": j.peak_acceleration,
+            "acceleration_limit": j.acceleration_limit,
+        })).collect::<Vec<_>>(),
+    })
+}
+
+/// Everything the SVG plot needs, sampled at `rate` Hz. `measured` holds, per joint, an optional
+/// measured trace to overlay.
+pub fn plot_data(
+    title: &str,
+    trajectory: &Trajectory,
+    robot: &Robot,
+    rate: f64,
+    measured: Vec<Option<Vec<(f64, f64)>>>,
+) -> plot::PlotData {
+    let sampled = Sampled::new(trajectory, rate);
+    let mut measured = measured.into_iter();
+    let joints = robot
+        .joints
+        .iter()
+        .enumerate()
+        .map(|(j, joint)| {
+            let track = &trajectory.tracks()[j];
+            let keys = track
+                .times()
+                .iter()
+                .zip(track.values())
+                .filter(|(t, _)| **t >= trajectory.start && **t <= trajectory.end)
+                .map(|(t, v)| (*t, *v))
+                .collect();
+            plot::PlotJoint {
+                name: joint.name.clone(),
+                unit: joint.kind.unit().to_string(),
+                min: joint.limits.min,
+                max: joint.limits.max,
+                velocity_limit: joint.limits.velocity,
+                positions: sampled.positions[j].clone(),
+                velocities: sampled.velocity_at_samples(j),
+                keys,
+                measured: measured.next().flatten(),
+            }
+        })
+        .collect();
+    plot::PlotData {
+        title: title.to_string(),
+        times: sampled.times,
+        joints,
+        key_marks: trajectory
+            .key_times
+            .iter()
+            .zip(&trajectory.key_labels)
+            .filter(|(t, _)| **t >= trajectory.start && **t <= trajectory.end)
+            .map(|(t, l)| (*t, l.clone()))
+            .collect(),
+    }
+}

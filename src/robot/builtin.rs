@@ -1,0 +1,19 @@
+//! Robots compiled into the binary, so keypose works from any directory.
+
+use super::Robot;
+
+/// (name, file text) of every built-in robot.
+const BUILTIN: [(&str, &str); 3] = [
+    ("so101", include_str!("../../robots/so101.json")),
+    ("koch", include_str!("../../robots/koch.json")),
+    ("omx", include_str!("../../robots/omx.json")),
+];
+
+pub const BUILTIN_NAMES: [&str; 3] = ["so101", "koch", "omx"];
+
+pub fn get(name: &str) -> Option<Robot> {
+    let (_, text) = BUILTIN.iter().find(|(n, _)| *n == name)?;
+    // A built-in that does not parse is a build defect that the tests catch; refuse it rather
+    // than panic in a user's hands.
+    Robot::from_json(&format!("robots/{name}.json (built in)"), text).ok()
+}

@@ -1,0 +1,283 @@
+//! The `keypose-robot/1` file format.
+
+use super::servo::{Servo, ServoModel, DEGREES_PER_TICK};
+use super::{BusSettings, FixedFrame, Joint, JointKind, Limits, Protocol, Robot, ROBOT_FORMAT};
+use crate::json::{self, InputError, Node};
+use crate::pose::{quat_from_rpy, RigidTransform};
+use glam::{DQuat, DVec3};
+
+pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
+    let value = json::parse(file, text)?;
+    let root = Node::root(file, &value);
+    root.object()?;
+    root.check_format(ROBOT_FORMAT)?;
+    root.only_fields(&[
+        "format",
+        "name",
+        "description",
+        "bus",
+        "control_hz",
+        "joints",
+        "tcp",
+        "home",
+    ])?;
+    let name = root.require("name", "the robot's name")?.str("a name")?;
+    let description = match root.get("description") {
+        Some(d) => d.str("a text")?.to_string(),
+        None => String::new(),
+    };
+    let bus = parse_bus(&root.require("bus", "protocol and baud rate")?)?;
+    let hz_node = root.require("control_hz", "the default control rate")?;
+    let control_hz = hz_node.number("Hz")?;
+    if !(control_hz > 0.0 && control_hz <= 2000.0) {
+        return Err(hz_node.expected("a control rate above 0 and at most 2000 Hz"));
+    }
+
+    let joints_node = root.require("joints", "the joint chain")?;
+    let items = joints_node.items()?;
+    if items.is_empty() {
+        return Err(joints_node.expected("at least one joint"));
+    }
+    let mut joints: Vec<Joint> = Vec::with_capacity(items.len());
+    for item in &items {
+        let joint = parse_joint(item, bus.protocol)?;
+        if joints.iter().any(|j| j.name == joint.name) {
+            return Err(item.error(format!("duplicate joint name {:?}", joint.name)));
+        }
+        if let Some(other) = joints.iter().find(|j| j.servo.id == joint.servo.id) {
+            return Err(item.error(format!(
+                "servo id {} is already used by joint {:?}",
+                joint.servo.id, other.name
+            )));
+        }
+        joints.push(joint);
+    }
+
+    let tcp = match root.get("tcp") {
+        Some(node) => Some(parse_tcp(&node, &joints)?),
+        None => None,
+    };
+
+    let mut home: Vec<f64> = vec![0.0; joints.len()];
+    if let Some(home_node) = root.get("home") {
+        for (joint_name, value_node) in home_node.entries()? {
+            let Some(index) = joints.iter().position(|j| j.name == joint_name) else {
+                return Err(value_node.error(format!(
+                    "unknown joint {joint_name:?}; expected one of: {}",
+                    joint_names(&joints)
+                )));
+            };
+            let value = value_node.number(joints[index].kind.unit())?;
+            home[index] = value;
+        }
+    }
+    for (joint, &value) in joints.iter().zip(&home) {
+        if !joint.limits.contains(value) {
+            return Err(json::InputError::at_path(
+                file,
+                &format!("$.home.{}", joint.name),
+                format!(
+                    "home value {value} {} is outside the joint's limits {} … {}",
+                    joint.kind.unit(),
+                    joint.limits.min,
+                    joint.limits.max
+                ),
+            ));
+        }
+    }
+
+    Ok(Robot {
+        name: name.to_string(),
+        description,
+        bus,
+        control_hz,
+        joints,
+        tcp,
+        home,
+    })
+}
+
+fn joint_names(joints: &[Joint]) -> String {
+    joints
+        .iter()
+        .map(|j| j.name.as_str())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn parse_bus(node: &Node) -> Result<BusSettings, InputError> {
+    node.only_fields(&["protocol", "baud"])?;
+    let protocol_node = node.require("protocol", "the bus protocol")?;
+    let names: Vec<&str> = Protocol::ALL.iter().map(|p| p.name()).collect();
+    let protocol_name = protocol_node.str("a protocol name")?;
+    let protocol = Protocol::ALL
+        .into_iter()
+        .find(|p| p.name() == protocol_name)
+        .ok_or_else(|| protocol_node.expected(&format!("one of {}", names.join(", "))))?;
+    let baud = node
+        .require("baud", "the baud rate")?
+        .integer("baud rate", 9600, 10_500_000)? as u32;
+    Ok(BusSettings { protocol, baud })
+}
+
+fn parse_joint(node: &Node, protocol: Protocol) -> Result<Joint, InputError> {
+    node.only_fields(&["name", "kind", "axis", "origin", "limits", "servo"])?;
+    let name = node.require("name", "the joint's name")?.str("a name")?;
+    if name.is_empty() {
+        return Err(node.error("a joint name must not be empty"));
+    }
+    let kind_node = node.require("kind", "revolute or prismatic")?;
+    let kind = match kind_node.str("\"revolute\" or \"prismatic\"")? {
+        "revolute" => JointKind::Revolute,
+        "prismatic" => JointKind::Prismatic,
+        _ => return Err(kind_node.expected("\"revolute\" or \"prismatic\"")),
+    };
+    let axis_node = node.require("axis", "the joint axis in its own frame")?;
+    let axis = DVec3::from_array(axis_node.numbers::<3>("axis component")?);
+    if axis.length() < 1e-9 {
+        return Err(axis_node.expected("a non-zero axis"));
+    }
+    let origin = parse_origin(&node.require("origin", "the joint's pose in its parent")?)?;
+    let limits = parse_limits(&node.require("limits", "position, velocity, acceleration")?)?;
+    let servo = parse_servo(&node.require("servo", "the servo mapping")?, kind, protocol)?;
+    Ok(Joint {
+        name: name.to_string(),
+        kind,
+        axis: axis.normalize(),
+        origin,
+        limits,
+        servo,
+    })
+}
+
+/// `{ "xyz": [..], "rpy": [..] }` as in URDF, or `{ "xyz": [..], "quat": [w, x, y, z] }` as in
+/// MJCF, for origins whose roll-pitch-yaw sits at gimbal lock.
+pub(super) fn parse_origin(node: &Node) -> Result<RigidTransform, InputError> {
+    node.only_fields(&["xyz", "rpy", "quat"])?;
+    let xyz = match node.get("xyz") {
+        Some(n) => DVec3::from_array(n.numbers::<3>("metres")?),
+        None => DVec3::ZERO,
+    };
+    let rotation = match (node.get("rpy"), node.get("quat")) {
+        (Some(_), Some(_)) => return Err(node.error("give either \"rpy\" or \"quat\", not both")),
+        (Some(rpy), None) => {
+            let [r, p, y] = rpy.numbers::<3>("radians")?;
+            quat_from_rpy(r, p, y)
+        }
+        (None, Some(quat)) => {
+            let [w, x, y, z] = quat.numbers::<4>("quaternion component, w first")?;
+            let q = DQuat::from_xyzw(x, y, z, w);
+            if (q.length() - 1.0).abs() > 1e-3 {
+                return Err(quat.expected("a unit quaternion [w, x, y, z]"));
+            }
+            q.normalize()
+        }
+        (None, None) => DQuat::IDENTITY,
+    };
+    Ok(RigidTransform::new(xyz, rotation))
+}
+
+fn parse_limits(node: &Node) -> Result<Limits, InputError> {
+    node.only_fields(&["min", "max", "velocity", "acceleration"])?;
+    let min = node.require("min", "lower position limit")?.number("lower limit")?;
+    let max = node.require("max", "upper position limit")?.number("upper limit")?;
+    if min >= max {
+        return Err(node.error(format!("min ({min}) must be below max ({max})")));
+    }
+    let positive = |field: &'static str| -> Result<f64, InputError> {
+        let n = node.require(field, "a positive limit")?;
+        let x = n.number(field)?;
+        if x > 0.0 {
+            Ok(x)
+        } else {
+            Err(n.expected("a positive limit"))
+        }
+    };
+    Ok(Limits {
+        min,
+        max,
+        velocity: positive("velocity")?,
+        acceleration: positive("acceleration")?,
+    })
+}
+
+fn parse_servo(node: &Node, kind: JointKind, protocol: Protocol) -> Result<Servo, InputError> {
+    node.only_fields(&[
+        "id",
+        "model",
+        "zero_tick",
+        "direction",
+        "metres_per_tick",
+        "homing_offset",
+    ])?;
+    let id = node.require("id", "the servo id")?.integer("servo id", 0, 252)? as u8;
+    let model_node = node.require("model", "the servo model")?;
+    let names: Vec<&str> = ServoModel::ALL.iter().map(|m| m.name()).collect();
+    let model = ServoModel::parse(model_node.str("a servo model")?)
+        .ok_or_else(|| model_node.expected(&format!("one of {}", names.join(", "))))?;
+    if model.is_dynamixel() != (protocol == Protocol::Dynamixel2) {
+        return Err(model_node.error(format!(
+            "servo model {} does not speak the robot's bus protocol {}",
+            model.name(),
+            protocol.name()
+        )));
+    }
+    let zero_tick = node.require("zero_tick", "tick at joint value 0")?.number("ticks")?;
+    let direction_node = node.require("direction", "1 or -1")?;
+    let direction = match direction_node.value.as_i64() {
+        Some(1) => 1.0,
+        Some(-1) => -1.0,
+        _ => return Err(direction_node.expected("1 or -1")),
+    };
+    let units_per_tick = match (kind, node.get("metres_per_tick")) {
+        (JointKind::Revolute, None) => DEGREES_PER_TICK,
+        (JointKind::Revolute, Some(n)) => {
+            return Err(n.error("metres_per_tick is only for prismatic joints"))
+        }
+        (JointKind::Prismatic, None) => {
+            return Err(node.error("missing field \"metres_per_tick\" (a prismatic joint needs it)"))
+        }
+        (JointKind::Prismatic, Some(n)) => {
+            let x = n.number("metres per tick")?;
+            if x <= 0.0 {
+                return Err(n.expected("a positive number of metres per tick"));
+            }
+            x
+        }
+    };
+    let homing_offset = match node.get("homing_offset") {
+        Some(n) => Some(n.integer("homing offset ticks", -1_048_575, 1_048_575)?),
+        None => None,
+    };
+    Ok(Servo {
+        id,
+        model,
+        zero_tick,
+        direction,
+        units_per_tick,
+        homing_offset,
+    })
+}
+
+fn parse_tcp(node: &Node, joints: &[Joint]) -> Result<FixedFrame, InputError> {
+    node.only_fields(&["parent", "xyz", "rpy", "quat"])?;
+    let parent_node = node.require("parent", "the joint that carries the TCP")?;
+    let parent_name = parent_node.str("a joint name")?;
+    let parent = joints
+        .iter()
+        .position(|j| j.name == parent_name)
+        .ok_or_else(|| parent_node.expected(&format!("one of {}", joint_names(joints))))?;
+    // The origin fields sit beside "parent"; parse them from a copy without it.
+    let mut origin_value = node.value.clone();
+    if let Some(map) = origin_value.as_object_mut() {
+        map.remove("parent");
+    }
+    let origin_node = Node::root(node.file(), &origin_value);
+    let origin = parse_origin(&origin_node).map_err(|mut e| {
+        if let json::Location::Path(p) = &mut e.location {
+            *p = p.replacen('$', "$.tcp", 1);
+        }
+        e
+    })?;
+    Ok(FixedFrame { parent, origin })
+}

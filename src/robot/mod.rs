@@ -1,0 +1,209 @@
+//! Robot descriptions: the joint chain, limits, servo mapping and forward kinematics.
+
+mod builtin;
+mod lerobot;
+mod load;
+pub mod servo;
+
+use crate::json::InputError;
+use crate::pose::RigidTransform;
+use glam::{DQuat, DVec3};
+use std::path::Path;
+
+pub use builtin::BUILTIN_NAMES;
+pub use lerobot::{import_lerobot_calibration, CalibrationReport};
+pub use servo::{PositionEncoding, Servo, ServoModel, TickError};
+
+pub const ROBOT_FORMAT: &str = "keypose-robot/1";
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Protocol {
+    Dynamixel2,
+    FeetechSts,
+    FeetechScs,
+}
+
+impl Protocol {
+    pub const ALL: [Protocol; 3] = [
+        Protocol::Dynamixel2,
+        Protocol::FeetechSts,
+        Protocol::FeetechScs,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Protocol::Dynamixel2 => "dynamixel-2",
+            Protocol::FeetechSts => "feetech-sts",
+            Protocol::FeetechScs => "feetech-scs",
+        }
+    }
+
+    /// How this protocol puts a signed position on the wire.
+    pub fn position_encoding(self) -> PositionEncoding {
+        match self {
+            Protocol::Dynamixel2 => PositionEncoding::TwosComplement32,
+            Protocol::FeetechSts => PositionEncoding::SignMagnitude16 { sign_bit: 15 },
+            Protocol::FeetechScs => PositionEncoding::Unsigned16,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum JointKind {
+    /// Values in degrees.
+    Revolute,
+    /// Values in metres.
+    Prismatic,
+}
+
+impl JointKind {
+    pub fn unit(self) -> &'static str {
+        match self {
+            JointKind::Revolute => "deg",
+            JointKind::Prismatic => "m",
+        }
+    }
+}
+
+/// Limits in the joint's unit (degrees or metres) and per second.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Limits {
+    pub min: f64,
+    pub max: f64,
+    pub velocity: f64,
+    pub acceleration: f64,
+}
+
+impl Limits {
+    pub fn contains(&self, value: f64) -> bool {
+        value >= self.min && value <= self.max
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Joint {
+    pub name: String,
+    pub kind: JointKind,
+    /// Unit axis in the joint's own frame.
+    pub axis: DVec3,
+    /// Pose of the joint frame in its parent's frame (the previous joint's moving frame).
+    pub origin: RigidTransform,
+    pub limits: Limits,
+    pub servo: Servo,
+}
+
+impl Joint {
+    /// The joint's motion for a joint value (degrees or metres).
+    pub fn motion(&self, value: f64) -> RigidTransform {
+        match self.kind {
+            JointKind::Revolute => RigidTransform::new(
+                DVec3::ZERO,
+                DQuat::from_axis_angle(self.axis, value.to_radians()),
+            ),
+            JointKind::Prismatic => RigidTransform::new(self.axis * value, DQuat::IDENTITY),
+        }
+    }
+}
+
+/// A fixed frame on the chain, such as the tool centre point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FixedFrame {
+    /// Index of the joint whose moving frame carries this frame.
+    pub parent: usize,
+    pub origin: RigidTransform,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BusSettings {
+    pub protocol: Protocol,
+    pub baud: u32,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Robot {
+    pub name: String,
+    pub description: String,
+    pub bus: BusSettings,
+    /// Default streaming rate of the player, Hz.
+    pub control_hz: f64,
+    /// In chain order: each joint's parent frame is the previous joint's moving frame.
+    pub joints: Vec<Joint>,
+    pub tcp: Option<FixedFrame>,
+    /// Home value of every joint, in joint order.
+    pub home: Vec<f64>,
+}
+
+impl Robot {
+    /// Loads a robot description from a file.
+    pub fn load(path: &Path) -> Result<Robot, InputError> {
+        let text = crate::json::read_text(path)?;
+        load::parse_robot(&path.display().to_string(), &text)
+    }
+
+    /// Parses a robot description; `file` names the source in errors.
+    pub fn from_json(file: &str, text: &str) -> Result<Robot, InputError> {
+        load::parse_robot(file, text)
+    }
+
+    /// A robot compiled into the binary, by name.
+    pub fn builtin(name: &str) -> Option<Robot> {
+        builtin::get(name)
+    }
+
+    /// A robot given as a path to a file or a built-in name: a file on disk wins, so a user's
+    /// edited copy overrides the built-in one.
+    pub fn resolve(spec: &str, context: &str) -> Result<Robot, InputError> {
+        let path = Path::new(spec);
+        if path.is_file() {
+            return Robot::load(path);
+        }
+        Robot::builtin(spec).ok_or_else(|| {
+            InputError::new(
+                context,
+                crate::json::Location::File,
+                format!(
+                    "unknown robot {spec:?}: expected a built-in robot ({}) or a robot file",
+                    BUILTIN_NAMES.join(", ")
+                ),
+            )
+        })
+    }
+
+    pub fn joint_index(&self, name: &str) -> Option<usize> {
+        self.joints.iter().position(|j| j.name == name)
+    }
+
+    pub fn joint_names(&self) -> Vec<&str> {
+        self.joints.iter().map(|j| j.name.as_str()).collect()
+    }
+
+    /// World pose of every joint's moving frame for joint values in joint order.
+    pub fn joint_frames(&self, values: &[f64]) -> Vec<RigidTransform> {
+        let mut frames = Vec::with_capacity(self.joints.len());
+        let mut current = RigidTransform::IDENTITY;
+        for (joint, &value) in self.joints.iter().zip(values) {
+            current = current.compose(&joint.origin).compose(&joint.motion(value));
+            frames.push(current);
+        }
+        frames
+    }
+
+    /// World position of the tool centre point (or of the last joint's frame when the robot
+    /// defines no TCP).
+    pub fn tcp_position(&self, values: &[f64]) -> DVec3 {
+        let frames = self.joint_frames(values);
+        match &self.tcp {
+            Some(tcp) => frames[tcp.parent].compose(&tcp.origin).t,
+            None => frames.last().map_or(DVec3::ZERO, |f| f.t),
+        }
+    }
+
+    /// World position of every joint's anchor (its frame origin) and its world axis.
+    pub fn joint_axes(&self, values: &[f64]) -> Vec<(DVec3, DVec3)> {
+        self.joint_frames(values)
+            .iter()
+            .zip(&self.joints)
+            .map(|(frame, joint)| (frame.t, frame.r * joint.axis))
+            .collect()
+    }
+}

@@ -1,0 +1,211 @@
+//! Editing a keyframe list the way a teach pendant does: there is always a current key, and
+//! every operation acts on it or moves it.
+
+use super::{KeyValue, Keyframe, Sequence};
+use crate::json::InputError;
+use std::path::Path;
+
+/// A sequence being edited, with its current key and whether it has unsaved changes.
+#[derive(Debug, Clone)]
+pub struct KeyframeList {
+    sequence: Sequence,
+    current: usize,
+    dirty: bool,
+}
+
+impl KeyframeList {
+    pub fn new(sequence: Sequence) -> Self {
+        Self {
+            sequence,
+            current: 0,
+            dirty: false,
+        }
+    }
+
+    pub fn load(path: &Path) -> Result<Self, InputError> {
+        Ok(Self::new(Sequence::load(path)?))
+    }
+
+    /// Saves atomically; the list is then clean.
+    pub fn save(&mut self, path: &Path) -> Result<(), InputError> {
+        self.sequence.save(path)?;
+        self.sequence.file = path.display().to_string();
+        self.dirty = false;
+        Ok(())
+    }
+
+    pub fn sequence(&self) -> &Sequence {
+        &self.sequence
+    }
+
+    pub fn len(&self) -> usize {
+        self.sequence.keyframes.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.sequence.keyframes.is_empty()
+    }
+
+    pub fn is_dirty(&self) -> bool {
+        self.dirty
+    }
+
+    /// Index of the current key (0 when the list is empty).
+    pub fn current_index(&self) -> usize {
+        self.current
+    }
+
+    /// The current key.
+    pub fn show(&self) -> Option<&Keyframe> {
+        self.sequence.keyframes.get(self.current)
+    }
+
+    /// Time of the current key.
+    pub fn current_time(&self) -> Option<f64> {
+        (!self.is_empty()).then(|| self.sequence.key_time(self.current))
+    }
+
+    /// Moves to the next key; false (and no move) at the last one.
+    pub fn next_key(&mut self) -> bool {
+        if self.current + 1 < self.len() {
+            self.current += 1;
+            true
+        } else {
+            false
+        }
+    }
+
+    /// Moves to the previous key; false (and no move) at the first one.
+    pub fn previous_key(&mut self) -> bool {
+        if self.current > 0 {
+            self.current -= 1;
+            true
+        } else {
+            false
+        }
+    }
+
+    /// Makes key `index` current; false if there is no such key.
+    pub fn select(&mut self, index: usize) -> bool {
+        if index < self.len() {
+            self.current = index;
+            true
+        } else {
+            false
+        }
+    }
+
+    /// Replaces the current key's pose with `values` (its name, time and hold stay).
+    pub fn update(&mut self, values: Vec<(String, KeyValue)>) -> bool {
+        let Some(key) = self.sequence.keyframes.get_mut(self.current) else {
+            return false;
+        };
+        key.values = values;
+        self.dirty = true;
+        true
+    }
+
+    /// Inserts a key with `values` after the current one and makes it current.
+    ///
+    /// In a uniformly spaced list, later keys simply move one interval on. With absolute times
+    /// the new key goes halfway to the next key, or one interval (the last gap, else the default
+    /// interval) after the last key.
+    pub fn insert_after(&mut self, values: Vec<(String, KeyValue)>) {
+        let mut key = Keyframe::new(values);
+        let at = if self.is_empty() { 0 } else { self.current + 1 };
+        if self.sequence.key_interval.is_none() {
+            let times = self.sequence.key_times();
+            let time = match (at.checked_sub(1).map(|i| times[i]), times.get(at)) {
+                (None, _) => 0.0,
+                (Some(before), Some(&after)) => {
+                    let hold = self.sequence.keyframes[at - 1].hold;
+                    // Halfway through the moving part, so the previous key's hold still fits.
+                    before + hold + (after - before - hold) / 2.0
+                }
+                (Some(before), None) => {
+                    let gap = if at >= 2 {
+                        times[at - 1] - times[at - 2]
+                    } else {
+                        super::DEFAULT_KEY_INTERVAL
+                    };
+                    before + self.sequence.keyframes[at - 1].hold + gap
+                }
+            };
+            key.time = Some(time);
+        }
+        self.sequence.keyframes.insert(at, key);
+        self.current = at;
+        self.dirty = true;
+    }
+
+    /// Deletes the current key; the key before it (or the new first key) becomes current.
+    pub fn delete(&mut self) -> Option<Keyframe> {
+        if self.is_empty() {
+            return None;
+        }
+        let removed = self.sequence.keyframes.remove(self.current);
+        self.current = self.current.saturating_sub(1);
+        self.dirty = true;
+        Some(removed)
+    }
+
+    /// Moves the current key `delta` places earlier (negative) or later (positive) and keeps it
+    /// current. With absolute times the keys trade places but the times stay where they were, so
+    /// the rhythm of the sequence is unchanged. False when the move would leave the list.
+    pub fn move_by(&mut self, delta: isize) -> bool {
+        let Some(target) = self.current.checked_add_signed(delta) else {
+            return false;
+        };
+        if target >= self.len() || delta == 0 {
+            return false;
+        }
+        let keys = &mut self.sequence.keyframes;
+        let times: Vec<Option<f64>> = keys.iter().map(|k| k.time).collect();
+        let key = keys.remove(self.current);
+        keys.insert(target, key);
+        for (k, t) in keys.iter_mut().zip(times) {
+            k.time = t;
+        }
+        self.current = target;
+        self.dirty = true;
+        true
+    }
+
+    pub fn set_name(&mut self, name: Option<String>) -> bool {
+        self.edit_current(|k| k.name = name)
+    }
+
+    /// Sets the current key's hold; refused when it would overrun the next key.
+    pub fn set_hold(&mut self, hold: f64) -> bool {
+        let times = self.sequence.key_times();
+        let gap = times.get(self.current + 1).map(|t| t - times[self.current]);
+        if !(hold.is_finite() && hold >= 0.0) || gap.is_some_and(|g| hold >= g) {
+            return false;
+        }
+        self.edit_current(|k| k.hold = hold)
+    }
+
+    /// Sets the spacing of a uniformly spaced list; refused below 0.1 s or on a timed list.
+    pub fn set_key_interval(&mut self, interval: f64) -> bool {
+        if self.sequence.key_interval.is_none() || !(interval >= 0.1 && interval.is_finite()) {
+            return false;
+        }
+        if self.sequence.keyframes.iter().any(|k| k.hold >= interval) {
+            return false;
+        }
+        self.sequence.key_interval = Some(interval);
+        self.dirty = true;
+        true
+    }
+
+    fn edit_current(&mut self, edit: impl FnOnce(&mut Keyframe)) -> bool {
+        match self.sequence.keyframes.get_mut(self.current) {
+            Some(key) => {
+                edit(key);
+                self.dirty = true;
+                true
+            }
+            None => false,
+        }
+    }
+}

@@ -1,0 +1,243 @@
+//! Reading `keypose-sequence/1` files.
+
+use super::{Ends, KeyValue, Keyframe, Sequence, DEFAULT_KEY_INTERVAL, SEQUENCE_FORMAT};
+use crate::curve::Interp;
+use crate::json::{self, InputError, Node};
+use crate::pose::RigidTransform;
+use glam::{DQuat, DVec3};
+
+/// How far from 1 a quaternion's norm may be: hand-typed values such as 0.7071 are a few 1e-5
+/// off, while anything further is more likely a typo than rounding.
+const UNIT_TOLERANCE: f64 = 1e-3;
+
+pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputError> {
+    let value = json::parse(file, text)?;
+    let root = Node::root(file, &value);
+    root.object()?;
+    root.check_format(SEQUENCE_FORMAT)?;
+    root.only_fields(&[
+        "format",
+        "robot",
+        "description",
+        "interpolation",
+        "ends",
+        "key_interval",
+        "keyframes",
+    ])?;
+    let robot = root.require("robot", "a robot name or file")?;
+    let robot = robot.str("a robot name or file")?.to_string();
+    let description = match root.get("description") {
+        Some(n) => Some(n.str("a text")?.to_string()),
+        None => None,
+    };
+    let interpolation = match root.get("interpolation") {
+        Some(n) => parse_interp(&n)?,
+        None => Interp::Cubic,
+    };
+    let ends = match root.get("ends") {
+        None => Ends::Played,
+        Some(n) => match n.value.as_str() {
+            Some("played") => Ends::Played,
+            Some("control") => Ends::Control,
+            _ => return Err(n.expected("\"played\" or \"control\"")),
+        },
+    };
+    let interval_node = root.get("key_interval");
+    let key_interval = match &interval_node {
+        Some(n) => {
+            let x = n.number("seconds")?;
+            if x <= 0.0 {
+                return Err(n.expected("a key interval above 0 s"));
+            }
+            Some(x)
+        }
+        None => None,
+    };
+
+    let frames_node = root.require("keyframes", "the list of keys")?;
+    let items = frames_node.items()?;
+    if items.is_empty() {
+        return Err(frames_node.expected("at least one keyframe"));
+    }
+    let mut keyframes = Vec::with_capacity(items.len());
+    for (index, item) in items.iter().enumerate() {
+        let mut key = parse_keyframe(item)?;
+        key.source_index = Some(index);
+        keyframes.push(key);
+    }
+
+    let timed = keyframes.iter().filter(|k| k.time.is_some()).count();
+    if timed != 0 && timed != keyframes.len() {
+        let odd = keyframes
+            .iter()
+            .position(|k| k.time.is_none())
+            .unwrap_or_default();
+        return Err(items[odd].error(format!(
+            "this key has no \"time\" but {timed} of {} keys do; give every key a time, or none \
+             (then keys are spaced by key_interval)",
+            keyframes.len()
+        )));
+    }
+    let key_interval = if timed == 0 {
+        Some(key_interval.unwrap_or(DEFAULT_KEY_INTERVAL))
+    } else {
+        if let Some(n) = &interval_node {
+            return Err(n.error(
+                "key_interval spaces untimed keys, but every key here has a time; remove one of them",
+            ));
+        }
+        // Keys may be written in any order; stable, so equal times stay in file order and are
+        // then reported as duplicates.
+        keyframes.sort_by(|a, b| a.time.partial_cmp(&b.time).unwrap_or(std::cmp::Ordering::Equal));
+        None
+    };
+
+    let sequence = Sequence {
+        file: file.to_string(),
+        robot,
+        description,
+        interpolation,
+        ends,
+        key_interval,
+        keyframes,
+    };
+    validate_keys(&sequence)?;
+    Ok(sequence)
+}
+
+/// Rules on key times and holds that hold for any robot.
+pub(super) fn validate_keys(sequence: &Sequence) -> Result<(), InputError> {
+    let file = sequence.file.as_str();
+    let n = sequence.keyframes.len();
+    if n == 0 {
+        return Err(InputError::at_path(
+            file,
+            "$.keyframes",
+            "expected at least one keyframe, found none",
+        ));
+    }
+    if sequence.ends == Ends::Control && n < 4 {
+        return Err(InputError::at_path(
+            file,
+            "$.ends",
+            format!("\"control\" ends need at least 4 keys (2 played between 2 control keys), found {n}"),
+        ));
+    }
+    let times = sequence.key_times();
+    for i in 0..n {
+        let key = &sequence.keyframes[i];
+        let path = sequence.key_path(i);
+        if !(key.hold.is_finite() && key.hold >= 0.0) {
+            return Err(InputError::at_path(
+                file,
+                &format!("{path}.hold"),
+                format!("expected a hold of 0 s or more, found {}", key.hold),
+            ));
+        }
+        if i + 1 < n {
+            let gap = times[i + 1] - times[i];
+            if gap <= 0.0 {
+                return Err(InputError::at_path(
+                    file,
+                    &format!("{}.time", sequence.key_path(i + 1)),
+                    format!(
+                        "duplicate key time {} s (also at {path}); expected each key at its own time",
+                        times[i + 1]
+                    ),
+                ));
+            }
+            if key.hold >= gap {
+                return Err(InputError::at_path(
+                    file,
+                    &format!("{path}.hold"),
+                    format!(
+                        "hold of {} s overruns the next key, {gap} s later; expected less than {gap} s",
+                        key.hold
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn parse_interp(node: &Node) -> Result<Interp, InputError> {
+    node.value
+        .as_str()
+        .and_then(Interp::parse)
+        .ok_or_else(|| node.expected("one of step, linear, cubic, monotone"))
+}
+
+fn parse_keyframe(node: &Node) -> Result<Keyframe, InputError> {
+    node.object()?;
+    node.only_fields(&["name", "time", "hold", "interp", "joints", "transforms"])?;
+    let mut key = Keyframe::new(Vec::new());
+    if let Some(n) = node.get("name") {
+        key.name = Some(n.str("a key name")?.to_string());
+    }
+    if let Some(n) = node.get("time") {
+        key.time = Some(n.number("seconds")?);
+    }
+    if let Some(n) = node.get("hold") {
+        let hold = n.number("seconds")?;
+        if hold < 0.0 {
+            return Err(n.expected("a hold of 0 s or more"));
+        }
+        key.hold = hold;
+    }
+    if let Some(n) = node.get("interp") {
+        key.interp = Some(parse_interp(&n)?);
+    }
+    if let Some(joints) = node.get("joints") {
+        for (name, value) in joints.entries()? {
+            let v = value.number("degrees, or metres for a prismatic joint")?;
+            key.values.push((name.to_string(), KeyValue::Joint(v)));
+        }
+    }
+    if let Some(transforms) = node.get("transforms") {
+        for (name, value) in transforms.entries()? {
+            if key.value(name).is_some() {
+                return Err(value.error(format!(
+                    "joint {name:?} is given both in \"joints\" and in \"transforms\"; expected one"
+                )));
+            }
+            let transform = parse_transform(&value)?;
+            key.values.push((name.to_string(), KeyValue::Transform(transform)));
+        }
+    }
+    if key.values.is_empty() {
+        return Err(node.error(
+            "this key sets no joint; expected \"joints\" or \"transforms\" with at least one joint",
+        ));
+    }
+    Ok(key)
+}
+
+fn parse_transform(node: &Node) -> Result<RigidTransform, InputError> {
+    node.only_fields(&["t", "r"])?;
+    let t = match node.get("t") {
+        Some(n) => DVec3::from_array(n.numbers::<3>("metres")?),
+        None => DVec3::ZERO,
+    };
+    let r = match node.get("r") {
+        Some(n) => {
+            n.only_fields(&["w", "x", "y", "z"])?;
+            let mut c = [0.0; 4];
+            for (slot, name) in c.iter_mut().zip(["w", "x", "y", "z"]) {
+                *slot = n
+                    .require(name, "a quaternion component")?
+                    .number("quaternion component")?;
+            }
+            let q = DQuat::from_xyzw(c[1], c[2], c[3], c[0]);
+            let norm = q.length();
+            if (norm - 1.0).abs() > UNIT_TOLERANCE {
+                return Err(n.error(format!(
+                    "expected a unit quaternion (norm 1 ± {UNIT_TOLERANCE}), found norm {norm:.6}"
+                )));
+            }
+            q.normalize()
+        }
+        None => DQuat::IDENTITY,
+    };
+    Ok(RigidTransform::new(t, r))
+}

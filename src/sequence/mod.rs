@@ -1,0 +1,176 @@
+//! Sequences: keyframe lists in the `keypose-sequence/1` format.
+//!
+//! This module knows the file format and the rules that hold for any robot (times, holds,
+//! quaternions). What depends on a robot — joint names, axes, limits — is checked by `plan`,
+//! which reports through the same [`InputError`] with the key's path in the original file.
+
+mod edit;
+mod load;
+mod save;
+
+use crate::curve::Interp;
+use crate::json::InputError;
+use crate::pose::RigidTransform;
+use std::path::Path;
+
+pub use edit::KeyframeList;
+pub use save::write_atomically;
+
+pub const SEQUENCE_FORMAT: &str = "keypose-sequence/1";
+pub const DEFAULT_KEY_INTERVAL: f64 = 2.0;
+
+/// Whether the first and last keys are played, or only shape the curve.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ends {
+    Played,
+    /// The first and last keys are control points: playback runs from the second key to the
+    /// second-to-last.
+    Control,
+}
+
+/// What a key says about one joint.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum KeyValue {
+    /// Degrees for a revolute joint, metres for a prismatic one.
+    Joint(f64),
+    /// The joint's rigid transform relative to its zero pose.
+    Transform(RigidTransform),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Keyframe {
+    pub name: Option<String>,
+    /// Absolute time in seconds; `None` in a uniformly spaced sequence.
+    pub time: Option<f64>,
+    /// Seconds the pose stays at this key before moving on.
+    pub hold: f64,
+    /// Mode of the segment after this key, overriding the sequence's.
+    pub interp: Option<Interp>,
+    /// (joint name, value) in the order written.
+    pub values: Vec<(String, KeyValue)>,
+    /// Index of this key in the file it was loaded from, for error paths after sorting.
+    pub source_index: Option<usize>,
+}
+
+impl Keyframe {
+    pub fn new(values: Vec<(String, KeyValue)>) -> Self {
+        Self {
+            name: None,
+            time: None,
+            hold: 0.0,
+            interp: None,
+            values,
+            source_index: None,
+        }
+    }
+
+    pub fn value(&self, joint: &str) -> Option<&KeyValue> {
+        self.values
+            .iter()
+            .find(|(name, _)| name == joint)
+            .map(|(_, v)| v)
+    }
+
+    /// Sets a joint's value, replacing any earlier one for the same joint.
+    pub fn set(&mut self, joint: &str, value: KeyValue) {
+        match self.values.iter_mut().find(|(name, _)| name == joint) {
+            Some(slot) => slot.1 = value,
+            None => self.values.push((joint.to_string(), value)),
+        }
+    }
+
+    /// "name" or "#index" for messages.
+    pub fn label(&self, index: usize) -> String {
+        match &self.name {
+            Some(name) => name.clone(),
+            None => format!("#{index}"),
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sequence {
+    /// Where it came from, for messages ("<new>" when built in memory).
+    pub file: String,
+    pub robot: String,
+    pub description: Option<String>,
+    pub interpolation: Interp,
+    pub ends: Ends,
+    /// Spacing of untimed keys; `None` when keys carry absolute times.
+    pub key_interval: Option<f64>,
+    /// In time order.
+    pub keyframes: Vec<Keyframe>,
+}
+
+impl Sequence {
+    /// An empty sequence for `robot` with uniform spacing.
+    pub fn new(robot: &str) -> Self {
+        Self {
+            file: "<new>".into(),
+            robot: robot.into(),
+            description: None,
+            interpolation: Interp::Cubic,
+            ends: Ends::Played,
+            key_interval: Some(DEFAULT_KEY_INTERVAL),
+            keyframes: Vec::new(),
+        }
+    }
+
+    pub fn load(path: &Path) -> Result<Sequence, InputError> {
+        let text = crate::json::read_text(path)?;
+        load::parse_sequence(&path.display().to_string(), &text)
+    }
+
+    /// Parses sequence text; `file` names the source in errors.
+    pub fn from_json(file: &str, text: &str) -> Result<Sequence, InputError> {
+        load::parse_sequence(file, text)
+    }
+
+    pub fn to_json(&self) -> String {
+        save::to_json(self)
+    }
+
+    /// Writes the sequence atomically, so a crash never leaves a half-written file.
+    pub fn save(&self, path: &Path) -> Result<(), InputError> {
+        self.validate()?;
+        write_atomically(path, self.to_json().as_bytes()).map_err(|e| {
+            InputError::new(
+                &path.display().to_string(),
+                crate::json::Location::File,
+                format!("cannot write: {e}"),
+            )
+        })
+    }
+
+    /// Time of keyframe `index`.
+    pub fn key_time(&self, index: usize) -> f64 {
+        match self.key_interval {
+            Some(interval) => index as f64 * interval,
+            None => self.keyframes[index].time.unwrap_or(0.0),
+        }
+    }
+
+    pub fn key_times(&self) -> Vec<f64> {
+        (0..self.keyframes.len()).map(|i| self.key_time(i)).collect()
+    }
+
+    /// Gives every key an absolute time (the uniform spacing made explicit).
+    pub fn make_times_absolute(&mut self) {
+        let times = self.key_times();
+        for (key, time) in self.keyframes.iter_mut().zip(times) {
+            key.time = Some(time);
+        }
+        self.key_interval = None;
+    }
+
+    /// The JSON path of a keyframe (by its index in time order) in the file it came from.
+    pub fn key_path(&self, index: usize) -> String {
+        let source = self.keyframes[index].source_index.unwrap_or(index);
+        format!("$.keyframes[{source}]")
+    }
+
+    /// Checks the robot-independent rules; loading applies the same rules with paths.
+    pub fn validate(&self) -> Result<(), InputError> {
+        load::validate_keys(self)
+    }
+}

@@ -1,0 +1,127 @@
+//! Writing sequences back to `keypose-sequence/1` JSON.
+
+use super::{Ends, KeyValue, Sequence, SEQUENCE_FORMAT};
+use serde_json::{json, Map, Value};
+use std::io::Write;
+use std::path::Path;
+
+pub(super) fn to_json(sequence: &Sequence) -> String {
+    let mut root = Map::new();
+    root.insert("format".into(), json!(SEQUENCE_FORMAT));
+    root.insert("robot".into(), json!(sequence.robot));
+    if let Some(d) = &sequence.description {
+        root.insert("description".into(), json!(d));
+    }
+    root.insert(
+        "interpolation".into(),
+        json!(sequence.interpolation.name()),
+    );
+    if sequence.ends == Ends::Control {
+        root.insert("ends".into(), json!("control"));
+    }
+    if let Some(interval) = sequence.key_interval {
+        root.insert("key_interval".into(), json!(interval));
+    }
+    let keys: Vec<Value> = sequence
+        .keyframes
+        .iter()
+        .map(|key| {
+            let mut k = Map::new();
+            if let Some(name) = &key.name {
+                k.insert("name".into(), json!(name));
+            }
+            if sequence.key_interval.is_none() {
+                k.insert("time".into(), json!(key.time.unwrap_or(0.0)));
+            }
+            if key.hold > 0.0 {
+                k.insert("hold".into(), json!(key.hold));
+            }
+            if let Some(interp) = key.interp {
+                k.insert("interp".into(), json!(interp.name()));
+            }
+            let mut joints = Map::new();
+            let mut transforms = Map::new();
+            for (name, value) in &key.values {
+                match value {
+                    KeyValue::Joint(v) => {
+                        joints.insert(name.clone(), json!(v));
+                    }
+                    KeyValue::Transform(tf) => {
+                        let mut t = Map::new();
+                        if tf.t != glam::DVec3::ZERO {
+                            t.insert("t".into(), json!([tf.t.x, tf.t.y, tf.t.z]));
+                        }
+                        t.insert(
+                            "r".into(),
+                            json!({ "w": tf.r.w, "x": tf.r.x, "y": tf.r.y, "z": tf.r.z }),
+                        );
+                        transforms.insert(name.clone(), Value::Object(t));
+                    }
+                }
+            }
+            if !joints.is_empty() {
+                k.insert("joints".into(), Value::Object(joints));
+            }
+            if !transforms.is_empty() {
+                k.insert("transforms".into(), Value::Object(transforms));
+            }
+            Value::Object(k)
+        })
+        .collect();
+    root.insert("keyframes".into(), Value::Array(keys));
+    let mut text = compact_keys(&Value::Object(root));
+    text.push('\n');
+    text
+}
+
+/// Pretty JSON with one keyframe per line: sequences are read and diffed by people, and a key per
+/// line keeps both short.
+fn compact_keys(root: &Value) -> String {
+    let mut out = String::from("{\n");
+    let Some(map) = root.as_object() else {
+        return root.to_string();
+    };
+    let last = map.len().saturating_sub(1);
+    for (i, (name, value)) in map.iter().enumerate() {
+        out.push_str(&format!("  {}: ", Value::String(name.clone())));
+        match value {
+            Value::Array(items) if name == "keyframes" => {
+                out.push_str("[\n");
+                for (j, item) in items.iter().enumerate() {
+                    out.push_str("    ");
+                    out.push_str(&item.to_string());
+                    out.push_str(if j + 1 < items.len() { ",\n" } else { "\n" });
+                }
+                out.push_str("  ]");
+            }
+            other => out.push_str(&other.to_string()),
+        }
+        out.push_str(if i < last { ",\n" } else { "\n" });
+    }
+    out.push('}');
+    out
+}
+
+/// Writes `bytes` to a temporary file beside `path`, flushes it to disk, then renames it over
+/// `path`: readers see the old file or the new one, never a torn one.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "sequence.json".into());
+    let temp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let mut file = std::fs::File::create(&temp)?;
+        file.write_all(bytes)?;
+        file.sync_all()?;
+        std::fs::rename(&temp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&temp);
+    }
+    result
+}
