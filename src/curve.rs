@@ -28,7 +28,12 @@ pub enum Interp {
 }
 
 impl Interp {
-    pub const ALL: [Interp; 4] = [Interp::Step, Interp::Linear, Interp::Cubic, Interp::Monotone];
+    pub const ALL: [Interp; 4] = [
+        Interp::Step,
+        Interp::Linear,
+        Interp::Cubic,
+        Interp::Monotone,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -109,8 +114,14 @@ pub trait Interpolant: Copy + fmt::Debug {
     /// The change from `a` to `b` (a difference, or the rotation vector of `b·a⁻¹`).
     fn displacement(a: &Self, b: &Self) -> Self::Rate;
     /// Builds the segment from `a` to `b` of duration `h` seconds with end rates `ra`, `rb`.
-    fn segment(a: &Self, b: &Self, ra: Self::Rate, rb: Self::Rate, h: f64, mode: Interp)
-        -> Self::Segment;
+    fn segment(
+        a: &Self,
+        b: &Self,
+        ra: Self::Rate,
+        rb: Self::Rate,
+        h: f64,
+        mode: Interp,
+    ) -> Self::Segment;
     /// The value at fraction `f` ∈ [0, 1] of the segment.
     fn eval(segment: &Self::Segment, f: f64) -> Self;
 }
@@ -153,15 +164,13 @@ impl Rate for DVec3 {
 /// values are `a`, `b` and whose end derivatives with respect to f are `da`, `db`.
 fn hermite_coefficients<T>(a: T, b: T, da: T, db: T) -> [T; 4]
 where
-    T: Copy + std::ops::Sub<Output = T> + std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>,
+    T: Copy
+        + std::ops::Sub<Output = T>
+        + std::ops::Add<Output = T>
+        + std::ops::Mul<f64, Output = T>,
 {
     let delta = b - a;
-    [
-        a,
-        da,
-        delta * 3.0 - da * 2.0 - db,
-        delta * -2.0 + da + db,
-    ]
+    [a, da, delta * 3.0 - da * 2.0 - db, delta * -2.0 + da + db]
 }
 
 fn polynomial_segment<T>(a: T, b: T, ra: T, rb: T, h: f64, mode: Interp) -> [T; 4]
@@ -583,7 +592,10 @@ mod tests {
 
     #[test]
     fn cursor_agrees_with_random_access_in_any_order() {
-        let track = scalar(&[(0.0, 0.0), (1.0, 3.0), (2.5, -1.0), (4.0, 2.0)], Interp::Cubic);
+        let track = scalar(
+            &[(0.0, 0.0), (1.0, 3.0), (2.5, -1.0), (4.0, 2.0)],
+            Interp::Cubic,
+        );
         let mut cursor = track.cursor();
         for t in [-1.0, 0.3, 0.9, 1.0, 2.0, 0.5, 3.9, 4.0, 5.0, 1.2] {
             assert_eq!(cursor.sample(t), track.sample(t), "t = {t}");

@@ -42,7 +42,9 @@ impl fmt::Display for InputError {
         match &self.location {
             Location::File => write!(f, "{}: {}", self.file, self.message),
             // file:line:column, as compilers print it, so editors can jump to it.
-            Location::Syntax { .. } => write!(f, "{}:{}: {}", self.file, self.location, self.message),
+            Location::Syntax { .. } => {
+                write!(f, "{}:{}: {}", self.file, self.location, self.message)
+            }
             Location::Path(_) => write!(f, "{}: {}: {}", self.file, self.location, self.message),
         }
     }
@@ -309,6 +311,9 @@ mod tests {
     fn syntax_errors_carry_line_and_column() {
         let err = parse("f.json", "{\n  \"a\": 1,\n  oops\n}").unwrap_err();
         assert_eq!(err.location, Location::Syntax { line: 3, column: 3 });
-        assert!(err.to_string().starts_with("f.json:3:3: invalid JSON"), "{err}");
+        assert!(
+            err.to_string().starts_with("f.json:3:3: invalid JSON"),
+            "{err}"
+        );
     }
 }

@@ -110,7 +110,9 @@ pub fn parse_rate(s: &str) -> Result<f64, String> {
     if rate.is_finite() && rate > 0.0 && rate <= 100_000.0 {
         Ok(rate)
     } else {
-        Err(format!("expected a rate above 0 and at most 100000 Hz, found {s}"))
+        Err(format!(
+            "expected a rate above 0 and at most 100000 Hz, found {s}"
+        ))
     }
 }
 
@@ -124,7 +126,10 @@ pub fn write_output(path: Option<&Path>, text: &str) -> Result<(), CommandError>
         }),
         None => {
             let mut stdout = std::io::stdout().lock();
-            match stdout.write_all(text.as_bytes()).and_then(|_| stdout.flush()) {
+            match stdout
+                .write_all(text.as_bytes())
+                .and_then(|_| stdout.flush())
+            {
                 Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(CommandError::Output {
                     path: "standard output".into(),
                     source: e,

@@ -84,9 +84,11 @@ pub fn sample_rows(
         row.push(t);
         for (joint, &value) in robot.joints.iter().zip(&pose) {
             row.push(match (units, joint.kind) {
-                (Units::Ticks, _) => joint.servo.tick(value).map_err(|e| {
-                    CommandError::Usage(format!("joint {}: {e}", joint.name))
-                })? as f64,
+                (Units::Ticks, _) => joint
+                    .servo
+                    .tick(value)
+                    .map_err(|e| CommandError::Usage(format!("joint {}: {e}", joint.name)))?
+                    as f64,
                 (Units::Rad, JointKind::Revolute) => value.to_radians(),
                 _ => value,
             });

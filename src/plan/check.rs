@@ -97,7 +97,11 @@ impl Sampled {
     pub fn new(trajectory: &Trajectory, rate: f64) -> Sampled {
         let span = trajectory.duration();
         let steps = ((span * rate).ceil() as usize).max(1);
-        let dt = if span > 0.0 { span / steps as f64 } else { 1.0 / rate };
+        let dt = if span > 0.0 {
+            span / steps as f64
+        } else {
+            1.0 / rate
+        };
         let times: Vec<f64> = (0..=steps)
             .map(|k| trajectory.start + k as f64 * dt)
             .collect();
@@ -154,7 +158,13 @@ pub fn check(trajectory: &Trajectory, robot: &Robot, rate: f64) -> CheckReport {
         let limits = joint.limits;
         let mut record = |series: &Series, kind: LimitKind, low: f64, high: f64| {
             violations.extend(find_violations(
-                series, trajectory, &joint.name, unit, kind, low, high,
+                series,
+                trajectory,
+                &joint.name,
+                unit,
+                kind,
+                low,
+                high,
             ));
         };
         record(&position, LimitKind::Position, limits.min, limits.max);
@@ -174,7 +184,11 @@ pub fn check(trajectory: &Trajectory, robot: &Robot, rate: f64) -> CheckReport {
         joints.push(JointSummary {
             joint: joint.name.clone(),
             unit,
-            min_position: position.values.iter().copied().fold(f64::INFINITY, f64::min),
+            min_position: position
+                .values
+                .iter()
+                .copied()
+                .fold(f64::INFINITY, f64::min),
             max_position: position
                 .values
                 .iter()

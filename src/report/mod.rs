@@ -18,7 +18,11 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
     if report.passed() {
         let _ = writeln!(out, "ok: no limit violations");
     } else {
-        let _ = writeln!(out, "FAILED: {} limit violation(s)", report.violations.len());
+        let _ = writeln!(
+            out,
+            "FAILED: {} limit violation(s)",
+            report.violations.len()
+        );
         for v in &report.violations {
             let unit = per_unit(v.unit, v.kind);
             let relation = if v.peak > v.limit { ">" } else { "<" };

@@ -42,8 +42,16 @@ pub fn import_lerobot_calibration(
                 robot.joint_names().join(", ")
             )));
         };
-        node.only_fields(&["id", "drive_mode", "homing_offset", "range_min", "range_max"])?;
-        let id = node.require("id", "servo id")?.integer("servo id", 0, 252)? as u8;
+        node.only_fields(&[
+            "id",
+            "drive_mode",
+            "homing_offset",
+            "range_min",
+            "range_max",
+        ])?;
+        let id = node
+            .require("id", "servo id")?
+            .integer("servo id", 0, 252)? as u8;
         let drive_node = node.require("drive_mode", "0 or 1")?;
         let drive_mode = drive_node.integer("drive mode", 0, 1)?;
         let homing_offset = node
@@ -87,7 +95,10 @@ pub fn import_lerobot_calibration(
             return Err(json::InputError::new(
                 file,
                 json::Location::File,
-                format!("servo id {} is used by two joints after import", joint.servo.id),
+                format!(
+                    "servo id {} is used by two joints after import",
+                    joint.servo.id
+                ),
             ));
         }
         if !report.calibrated.contains(&joint.name) {

@@ -179,8 +179,12 @@ pub(super) fn parse_origin(node: &Node) -> Result<RigidTransform, InputError> {
 
 fn parse_limits(node: &Node) -> Result<Limits, InputError> {
     node.only_fields(&["min", "max", "velocity", "acceleration"])?;
-    let min = node.require("min", "lower position limit")?.number("lower limit")?;
-    let max = node.require("max", "upper position limit")?.number("upper limit")?;
+    let min = node
+        .require("min", "lower position limit")?
+        .number("lower limit")?;
+    let max = node
+        .require("max", "upper position limit")?
+        .number("upper limit")?;
     if min >= max {
         return Err(node.error(format!("min ({min}) must be below max ({max})")));
     }
@@ -210,7 +214,9 @@ fn parse_servo(node: &Node, kind: JointKind, protocol: Protocol) -> Result<Servo
         "metres_per_tick",
         "homing_offset",
     ])?;
-    let id = node.require("id", "the servo id")?.integer("servo id", 0, 252)? as u8;
+    let id = node
+        .require("id", "the servo id")?
+        .integer("servo id", 0, 252)? as u8;
     let model_node = node.require("model", "the servo model")?;
     let names: Vec<&str> = ServoModel::ALL.iter().map(|m| m.name()).collect();
     let model = ServoModel::parse(model_node.str("a servo model")?)
@@ -222,7 +228,9 @@ fn parse_servo(node: &Node, kind: JointKind, protocol: Protocol) -> Result<Servo
             protocol.name()
         )));
     }
-    let zero_tick = node.require("zero_tick", "tick at joint value 0")?.number("ticks")?;
+    let zero_tick = node
+        .require("zero_tick", "tick at joint value 0")?
+        .number("ticks")?;
     let direction_node = node.require("direction", "1 or -1")?;
     let direction = match direction_node.value.as_i64() {
         Some(1) => 1.0,

@@ -88,7 +88,11 @@ pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputEr
         }
         // Keys may be written in any order; stable, so equal times stay in file order and are
         // then reported as duplicates.
-        keyframes.sort_by(|a, b| a.time.partial_cmp(&b.time).unwrap_or(std::cmp::Ordering::Equal));
+        keyframes.sort_by(|a, b| {
+            a.time
+                .partial_cmp(&b.time)
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
         None
     };
 
@@ -202,7 +206,8 @@ fn parse_keyframe(node: &Node) -> Result<Keyframe, InputError> {
                 )));
             }
             let transform = parse_transform(&value)?;
-            key.values.push((name.to_string(), KeyValue::Transform(transform)));
+            key.values
+                .push((name.to_string(), KeyValue::Transform(transform)));
         }
     }
     if key.values.is_empty() {

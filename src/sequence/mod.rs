@@ -151,7 +151,9 @@ impl Sequence {
     }
 
     pub fn key_times(&self) -> Vec<f64> {
-        (0..self.keyframes.len()).map(|i| self.key_time(i)).collect()
+        (0..self.keyframes.len())
+            .map(|i| self.key_time(i))
+            .collect()
     }
 
     /// Gives every key an absolute time (the uniform spacing made explicit).

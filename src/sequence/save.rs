@@ -12,10 +12,7 @@ pub(super) fn to_json(sequence: &Sequence) -> String {
     if let Some(d) = &sequence.description {
         root.insert("description".into(), json!(d));
     }
-    root.insert(
-        "interpolation".into(),
-        json!(sequence.interpolation.name()),
-    );
+    root.insert("interpolation".into(), json!(sequence.interpolation.name()));
     if sequence.ends == Ends::Control {
         root.insert("ends".into(), json!("control"));
     }

@@ -1,0 +1,431 @@
+//! The `keypose` binary as a user runs it: exit codes, messages, and outputs.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn keypose(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_keypose"))
+        .args(args)
+        .output()
+        .expect("run keypose")
+}
+
+fn repo(path: &str) -> String {
+    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Runs `check` on `text` and returns stderr, asserting exit code 2 and no panic.
+fn bad_input(text: &str) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "bad.json", text);
+    let out = keypose(&["check", path.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(out.stdout.is_empty(), "printed a report for bad input");
+    assert!(
+        stderr.contains("bad.json"),
+        "message does not name the file: {stderr}"
+    );
+    stderr
+}
+
+fn sequence(keyframes: &str) -> String {
+    format!(r#"{{"format":"keypose-sequence/1","robot":"so101","keyframes":[{keyframes}]}}"#)
+}
+
+#[test]
+fn malformed_json_names_line_and_column() {
+    let err = bad_input("{\n  \"format\": \"keypose-sequence/1\",\n  \"robot\": so101\n}");
+    assert!(err.contains("bad.json:3:12: invalid JSON"), "{err}");
+}
+
+#[test]
+fn wrong_format_is_refused() {
+    let err = bad_input(r#"{"format":"keypose-sequence/9","robot":"so101","keyframes":[]}"#);
+    assert!(
+        err.contains(r#"$.format: expected "keypose-sequence/1", found "keypose-sequence/9""#),
+        "{err}"
+    );
+}
+
+#[test]
+fn unknown_joint_names_the_key_and_the_choices() {
+    let err = bad_input(&sequence(
+        r#"{"time":0,"joints":{"elbow_flex":0}},{"time":1,"joints":{"elbw":10}}"#,
+    ));
+    assert!(
+        err.contains(r#"$.keyframes[1].joints.elbw: unknown joint "elbw""#),
+        "{err}"
+    );
+    assert!(err.contains("elbow_flex"), "{err}");
+}
+
+#[test]
+fn non_numbers_and_out_of_range_numbers_are_refused() {
+    let err = bad_input(&sequence(r#"{"time":"NaN","joints":{"elbow_flex":0}}"#));
+    assert!(
+        err.contains("$.keyframes[0].time: expected a finite number"),
+        "{err}"
+    );
+    let err = bad_input(&sequence(r#"{"time":0,"joints":{"elbow_flex":1e999}}"#));
+    assert!(err.contains("bad.json:1:"), "{err}");
+    let err = bad_input(&sequence(r#"{"time":0,"joints":{"elbow_flex":null}}"#));
+    assert!(
+        err.contains("$.keyframes[0].joints.elbow_flex: expected a finite number"),
+        "{err}"
+    );
+}
+
+#[test]
+fn non_unit_and_zero_quaternions_are_refused() {
+    let err = bad_input(&sequence(
+        r#"{"time":0,"transforms":{"wrist_roll":{"r":{"w":1,"x":0,"y":0,"z":0.5}}}}"#,
+    ));
+    assert!(
+        err.contains("$.keyframes[0].transforms.wrist_roll.r: expected a unit quaternion"),
+        "{err}"
+    );
+    let err = bad_input(&sequence(
+        r#"{"time":0,"transforms":{"wrist_roll":{"r":{"w":0,"x":0,"y":0,"z":0}}}}"#,
+    ));
+    assert!(err.contains("found norm 0.000000"), "{err}");
+}
+
+#[test]
+fn a_rotation_off_the_joint_axis_is_refused_not_projected() {
+    // wrist_roll turns about its own z axis; this is 90° about x.
+    let err = bad_input(&sequence(
+        r#"{"time":0,"transforms":{"wrist_roll":{"r":{"w":0.7071068,"x":0.7071068,"y":0,"z":0}}}}"#,
+    ));
+    assert!(
+        err.contains(
+            "$.keyframes[0].transforms.wrist_roll: the rotation is 90.00° off the joint axis"
+        ),
+        "{err}"
+    );
+}
+
+#[test]
+fn duplicate_times_are_refused_at_the_second_key() {
+    let err = bad_input(&sequence(
+        r#"{"time":1,"joints":{"elbow_flex":0}},{"time":0,"joints":{"elbow_flex":5}},{"time":1,"joints":{"elbow_flex":9}}"#,
+    ));
+    // Sorted by time the keys are [1] (t=0), [0] (t=1), [2] (t=1); the later duplicate is named.
+    assert!(
+        err.contains("$.keyframes[2].time: duplicate key time 1 s (also at $.keyframes[0])"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_hold_that_overruns_the_next_key_is_refused() {
+    let err = bad_input(&sequence(
+        r#"{"time":0,"hold":1.5,"joints":{"elbow_flex":0}},{"time":1,"joints":{"elbow_flex":5}}"#,
+    ));
+    assert!(
+        err.contains("$.keyframes[0].hold: hold of 1.5 s overruns the next key, 1 s later"),
+        "{err}"
+    );
+}
+
+#[test]
+fn mixing_timed_and_untimed_keys_is_refused() {
+    let err = bad_input(&sequence(
+        r#"{"time":0,"joints":{"elbow_flex":0}},{"joints":{"elbow_flex":5}}"#,
+    ));
+    assert!(
+        err.contains("$.keyframes[1]: this key has no \"time\" but 1 of 2 keys do"),
+        "{err}"
+    );
+}
+
+#[test]
+fn keys_outside_joint_limits_are_refused() {
+    let err = bad_input(&sequence(r#"{"time":0,"joints":{"elbow_flex":120}}"#));
+    assert!(
+        err.contains("$.keyframes[0].joints.elbow_flex: 120.000 deg is outside the limits of elbow_flex: expected -96.83 … 96.83 deg"),
+        "{err}"
+    );
+}
+
+#[test]
+fn an_empty_keyframe_list_is_refused() {
+    let err = bad_input(&sequence(""));
+    assert!(
+        err.contains("$.keyframes: expected at least one keyframe"),
+        "{err}"
+    );
+}
+
+#[test]
+fn unknown_robots_are_refused() {
+    let err = bad_input(
+        r#"{"format":"keypose-sequence/1","robot":"so999","keyframes":[{"time":0,"joints":{"a":1}}]}"#,
+    );
+    assert!(
+        err.contains(
+            r#"$.robot: unknown robot "so999": expected a built-in robot (so101, koch, omx)"#
+        ),
+        "{err}"
+    );
+    let out = keypose(&[
+        "check",
+        &repo("sequences/so101_wave.json"),
+        "--robot",
+        "nope",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--robot: unknown robot \"nope\""));
+}
+
+#[test]
+fn misspelt_fields_are_refused_rather_than_ignored() {
+    let err = bad_input(&sequence(r#"{"tiem":0,"joints":{"elbow_flex":0}}"#));
+    assert!(
+        err.contains(r#"$.keyframes[0]: unknown field "tiem""#),
+        "{err}"
+    );
+}
+
+#[test]
+fn missing_files_and_bad_arguments_exit_2() {
+    let out = keypose(&["check", "/nonexistent/seq.json"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/seq.json: cannot read"));
+    let out = keypose(&["sample", &repo("sequences/so101_wave.json"), "--rate", "-5"]);
+    assert_eq!(out.status.code(), Some(2));
+    let out = keypose(&[
+        "sample",
+        &repo("sequences/so101_wave.json"),
+        "--units",
+        "furlongs",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn every_example_sequence_passes_check() {
+    for entry in std::fs::read_dir(repo("sequences")).unwrap() {
+        let path = entry.unwrap().path();
+        let out = keypose(&["check", path.to_str().unwrap()]);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{}: {}",
+            path.display(),
+            String::from_utf8_lossy(&out.stdout)
+        );
+    }
+}
+
+#[test]
+fn check_catches_a_cubic_overshoot_between_keys_inside_the_limit() {
+    // elbow_flex limit 96.83°. Keys 0 → 90 → 95 → 0 at t = 0, 2, 3, 5 are all inside it, but
+    // the slope at the 90° key, (95 − 0)/(3 − 0) = 95/3 °/s, carries the curve past 96.83°
+    // between t = 2 and t = 3.
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        dir.path(),
+        "overshoot.json",
+        &sequence(
+            r#"{"name":"a","time":0,"joints":{"elbow_flex":0}},{"name":"b","time":2,"joints":{"elbow_flex":90}},
+               {"name":"c","time":3,"joints":{"elbow_flex":95}},{"name":"d","time":5,"joints":{"elbow_flex":0}}"#,
+        ),
+    );
+    let out = keypose(&["check", path.to_str().unwrap(), "--format", "json"]);
+    assert_eq!(out.status.code(), Some(1));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let violations = report["violations"].as_array().unwrap();
+    let position: Vec<_> = violations
+        .iter()
+        .filter(|v| v["kind"] == "position")
+        .collect();
+    assert_eq!(position.len(), 1, "{violations:?}");
+    let v = position[0];
+    assert_eq!(v["joint"], "elbow_flex");
+    assert_eq!(v["segment"], 1);
+    assert_eq!(v["segment_label"], "b → c");
+    let peak = v["peak"].as_f64().unwrap();
+    // Hermite on [2, 3] (h = 1): a = 90, b = 95, slopes 95/3 and (0 − 90)/(5 − 2) = −30:
+    //   c2 = 3·5 − 2·95/3 + 30 = −55/3,  c3 = −2·5 + 95/3 − 30 = −25/3,
+    //   v(f) = 90 + (95/3) f − (55/3) f² − (25/3) f³,
+    //   v'(f) = 0 ⇔ 75 f² + 110 f − 95 = 0 ⇔ f = (−110 + √40600)/150 ≈ 0.610, v ≈ 100.60°.
+    let f: f64 = (-110.0 + 40600f64.sqrt()) / 150.0;
+    let expected = 90.0 + 95.0 / 3.0 * f - 55.0 / 3.0 * f * f - 25.0 / 3.0 * f * f * f;
+    assert!((peak - expected).abs() < 1e-9, "peak {peak} vs {expected}");
+    assert!((v["peak_time"].as_f64().unwrap() - (2.0 + f)).abs() < 1e-9);
+    assert!((v["excess"].as_f64().unwrap() - (expected - 96.83)).abs() < 1e-9);
+
+    // Monotone on the same keys stays inside.
+    let monotone = std::fs::read_to_string(&path).unwrap().replace(
+        r#""robot":"so101""#,
+        r#""robot":"so101","interpolation":"monotone""#,
+    );
+    let path = write(dir.path(), "monotone.json", &monotone);
+    assert_eq!(
+        keypose(&["check", path.to_str().unwrap()]).status.code(),
+        Some(0)
+    );
+}
+
+#[test]
+fn sample_rows_are_at_k_over_rate_without_drift() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        dir.path(),
+        "lin.json",
+        &sequence(
+            r#"{"time":0.5,"joints":{"elbow_flex":0}},{"time":3.5,"joints":{"elbow_flex":30}}"#,
+        )
+        .replace(
+            r#""robot":"so101""#,
+            r#""robot":"so101","interpolation":"linear""#,
+        ),
+    );
+    let out = keypose(&["sample", path.to_str().unwrap(), "--rate", "30"]);
+    assert_eq!(out.status.code(), Some(0));
+    let text = String::from_utf8(out.stdout).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "time,shoulder_pan,shoulder_lift,elbow_flex,wrist_flex,wrist_roll,gripper"
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    // 3 s at 30 Hz: rows k = 0 … 90, first and last key inclusive.
+    assert_eq!(rows.len(), 91);
+    for (k, row) in rows.iter().enumerate() {
+        let t = 0.5 + k as f64 / 30.0;
+        assert!((row[0] - t).abs() < 1e-9, "row {k}: {}", row[0]);
+        // Linear 0 → 30° over 3 s: 10°/s.
+        assert!((row[3] - 10.0 * (t - 0.5)).abs() < 1e-6, "row {k}");
+    }
+
+    let out = keypose(&[
+        "sample",
+        path.to_str().unwrap(),
+        "--rate",
+        "1",
+        "--units",
+        "ticks",
+    ]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    // 30° = 341.33 ticks past the zero tick 2047 at the end: 2388.
+    assert_eq!(
+        text.lines().last().unwrap(),
+        "3.5,2047,2047,2388,2047,2047,2047"
+    );
+    let out = keypose(&[
+        "sample",
+        path.to_str().unwrap(),
+        "--rate",
+        "1",
+        "--units",
+        "rad",
+        "--format",
+        "json",
+    ]);
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let last = json["rows"].as_array().unwrap().last().unwrap();
+    assert!((last[3].as_f64().unwrap() - 30f64.to_radians()).abs() < 1e-12);
+}
+
+#[test]
+fn plot_writes_an_svg_with_every_joint() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("wave.svg");
+    let out = keypose(&[
+        "plot",
+        &repo("sequences/so101_wave.json"),
+        "-o",
+        svg.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.starts_with("<svg") || text.starts_with("<?xml"));
+    for joint in ["shoulder_pan", "elbow_flex", "wrist_roll", "gripper"] {
+        assert!(text.contains(joint), "{joint} missing");
+    }
+    // Two curves (position, velocity) per joint.
+    assert_eq!(text.matches("<polyline").count(), 12);
+}
+
+#[test]
+fn retime_fixes_a_too_fast_sequence_and_leaves_a_sequence_that_checks() {
+    let dir = tempfile::tempdir().unwrap();
+    // 90° in 0.5 s: a cubic peaks at 1.5·90/0.5 = 270°/s against so101's 115°/s.
+    let path = write(
+        dir.path(),
+        "fast.json",
+        &sequence(
+            r#"{"time":0,"hold":0.2,"joints":{"elbow_flex":0}},{"time":0.7,"joints":{"elbow_flex":90}},{"time":1.5,"joints":{"elbow_flex":80}}"#,
+        ),
+    );
+    assert_eq!(
+        keypose(&["check", path.to_str().unwrap()]).status.code(),
+        Some(1)
+    );
+    let fixed = dir.path().join("fixed.json");
+    let out = keypose(&[
+        "retime",
+        path.to_str().unwrap(),
+        "-o",
+        fixed.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        keypose(&["check", fixed.to_str().unwrap()]).status.code(),
+        Some(0)
+    );
+    let text = std::fs::read_to_string(&fixed).unwrap();
+    let seq: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let keys = seq["keyframes"].as_array().unwrap();
+    // The hold is kept and the moving time grows at least by the velocity ratio 270/115.
+    assert_eq!(keys[0]["hold"], 0.2);
+    let moving = keys[1]["time"].as_f64().unwrap() - 0.2;
+    assert!(moving >= 0.5 * 270.0 / 115.0, "moving time {moving}");
+}
+
+#[test]
+fn retime_cannot_fix_a_step_jump_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        dir.path(),
+        "step.json",
+        &sequence(
+            r#"{"time":0,"interp":"step","joints":{"elbow_flex":0}},{"time":1,"joints":{"elbow_flex":60}}"#,
+        ),
+    );
+    let out = keypose(&["retime", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("cannot be fixed by retiming"), "{stderr}");
+    assert!(out.stdout.is_empty());
+}
+
+#[test]
+fn every_command_has_help() {
+    for command in ["check", "sample", "plot", "retime"] {
+        let out = keypose(&[command, "--help"]);
+        assert_eq!(out.status.code(), Some(0));
+        assert!(String::from_utf8_lossy(&out.stdout).contains("Usage: keypose"));
+    }
+}
