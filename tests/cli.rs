@@ -429,3 +429,19 @@ fn every_command_has_help() {
         assert!(String::from_utf8_lossy(&out.stdout).contains("Usage: keypose"));
     }
 }
+
+#[test]
+fn absurd_durations_are_refused_before_sampling() {
+    let err = bad_input(&sequence(
+        r#"{"time":0,"joints":{"elbow_flex":0}},{"time":1e9,"joints":{"elbow_flex":5}}"#,
+    ));
+    assert!(
+        err.contains("$.keyframes[1].time: key time 1000000000 s is out of range"),
+        "{err}"
+    );
+    // Within a day but 8 million samples at 100 Hz: refused, not allocated.
+    let err = bad_input(&sequence(
+        r#"{"time":0,"joints":{"elbow_flex":0}},{"time":80000,"joints":{"elbow_flex":5}}"#,
+    ));
+    assert!(err.contains("lower --rate"), "{err}");
+}

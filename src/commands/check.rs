@@ -26,6 +26,7 @@ pub fn run(args: &CheckArgs) -> Result<Verdict, CommandError> {
     let (sequence, robot) = args.input.load()?;
     let trajectory = Trajectory::build(&sequence, &robot)?;
     let rate = args.rate.unwrap_or(robot.control_hz);
+    super::check_sample_budget(&sequence.file, &trajectory, rate)?;
     let result = check(&trajectory, &robot, rate);
     let text = match args.format {
         ReportFormat::Text => report::check_text(&result, &sequence.file, &robot),

@@ -102,6 +102,26 @@ fn resolve_sequence_robot(sequence: &Sequence, sequence_path: &Path) -> Result<R
     })
 }
 
+/// Most samples a command computes per joint: at 100 Hz that is nearly 14 hours of motion, far
+/// beyond any sequence, while the memory it takes stays small.
+pub const MAX_SAMPLES: f64 = 5_000_000.0;
+
+/// Refuses a rate that would sample `trajectory` more than [`MAX_SAMPLES`] times.
+pub fn check_sample_budget(
+    file: &str,
+    trajectory: &crate::plan::Trajectory,
+    rate: f64,
+) -> Result<(), CommandError> {
+    let samples = trajectory.duration() * rate;
+    if samples > MAX_SAMPLES {
+        return Err(CommandError::Usage(format!(
+            "{file}: {:.1} s at {rate} Hz is {samples:.0} samples; expected at most {MAX_SAMPLES:.0}: lower --rate",
+            trajectory.duration()
+        )));
+    }
+    Ok(())
+}
+
 /// Parses a rate in Hz for clap: a finite number above 0 and at most 100 kHz.
 pub fn parse_rate(s: &str) -> Result<f64, String> {
     let rate: f64 = s

@@ -20,6 +20,7 @@ pub struct PlotArgs {
 pub fn run(args: &PlotArgs) -> Result<Verdict, CommandError> {
     let (sequence, robot) = args.input.load()?;
     let trajectory = Trajectory::build(&sequence, &robot)?;
+    super::check_sample_budget(&sequence.file, &trajectory, args.rate)?;
     let title = format!(
         "{} — {} ({}, {:.2} s)",
         sequence.file,

@@ -19,6 +19,11 @@ pub struct RetimeArgs {
 pub fn run(args: &RetimeArgs) -> Result<Verdict, CommandError> {
     let (sequence, robot) = args.input.load()?;
     let rate = args.rate.unwrap_or(robot.control_hz);
+    super::check_sample_budget(
+        &sequence.file,
+        &crate::plan::Trajectory::build(&sequence, &robot)?,
+        rate,
+    )?;
     let outcome = retime(&sequence, &robot, rate)?;
     for (segment, before, after) in &outcome.stretched {
         eprintln!(

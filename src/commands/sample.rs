@@ -42,6 +42,7 @@ pub enum SampleFormat {
 pub fn run(args: &SampleArgs) -> Result<Verdict, CommandError> {
     let (sequence, robot) = args.input.load()?;
     let trajectory = Trajectory::build(&sequence, &robot)?;
+    super::check_sample_budget(&sequence.file, &trajectory, args.rate)?;
     let rows = sample_rows(&trajectory, &robot, args.rate, args.units)?;
     let text = match args.format {
         SampleFormat::Csv => to_csv(&trajectory.joint_names, &rows),

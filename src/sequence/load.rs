@@ -9,6 +9,9 @@ use glam::{DQuat, DVec3};
 /// How far from 1 a quaternion's norm may be: hand-typed values such as 0.7071 are a few 1e-5
 /// off, while anything further is more likely a typo than rounding.
 const UNIT_TOLERANCE: f64 = 1e-3;
+/// Key times are bounded to a day either way: a teach-and-play sequence is minutes long, and the
+/// bound keeps every later sampling of the curve finite in size.
+pub const MAX_TIME: f64 = 86_400.0;
 
 pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputError> {
     let value = json::parse(file, text)?;
@@ -131,6 +134,21 @@ pub(super) fn validate_keys(sequence: &Sequence) -> Result<(), InputError> {
     for i in 0..n {
         let key = &sequence.keyframes[i];
         let path = sequence.key_path(i);
+        if times[i].is_nan() || times[i].abs() > MAX_TIME {
+            let field = if sequence.key_interval.is_some() {
+                "$.key_interval".to_string()
+            } else {
+                format!("{path}.time")
+            };
+            return Err(InputError::at_path(
+                file,
+                &field,
+                format!(
+                    "key time {} s is out of range; expected -{MAX_TIME} … {MAX_TIME} s (a day)",
+                    times[i]
+                ),
+            ));
+        }
         if !(key.hold.is_finite() && key.hold >= 0.0) {
             return Err(InputError::at_path(
                 file,

@@ -1,0 +1,144 @@
+//! The keyframe-list editing API that the teach pendant drives, and the file round trip.
+
+use keypose::sequence::{KeyValue, KeyframeList, Sequence};
+
+fn pose(deg: f64) -> Vec<(String, KeyValue)> {
+    vec![("elbow_flex".to_string(), KeyValue::Joint(deg))]
+}
+
+fn elbow(list: &KeyframeList, index: usize) -> f64 {
+    match list.sequence().keyframes[index].value("elbow_flex") {
+        Some(KeyValue::Joint(v)) => *v,
+        other => panic!("unexpected {other:?}"),
+    }
+}
+
+#[test]
+fn build_navigate_reorder_and_delete_in_a_uniform_list() {
+    let mut list = KeyframeList::new(Sequence::new("so101"));
+    assert!(list.is_empty() && !list.is_dirty());
+    for deg in [10.0, 20.0, 30.0] {
+        list.insert_after(pose(deg));
+    }
+    assert_eq!(list.len(), 3);
+    assert_eq!(list.current_index(), 2);
+    assert!(list.is_dirty());
+    assert!(!list.next_key(), "moved past the last key");
+    assert!(list.previous_key());
+    assert!(list.previous_key());
+    assert!(!list.previous_key(), "moved before the first key");
+    // Insert after the first: 10, 15, 20, 30.
+    list.insert_after(pose(15.0));
+    assert_eq!(list.current_index(), 1);
+    assert_eq!(
+        (0..4).map(|i| elbow(&list, i)).collect::<Vec<_>>(),
+        [10.0, 15.0, 20.0, 30.0]
+    );
+    // Move 15 to the end: 10, 20, 30, 15; it stays current.
+    assert!(list.move_by(2));
+    assert_eq!(list.current_index(), 3);
+    assert_eq!(elbow(&list, 3), 15.0);
+    assert!(!list.move_by(1));
+    // Update the current key from a new pose, then delete it: the one before becomes current.
+    assert!(list.update(pose(16.0)));
+    assert_eq!(elbow(&list, 3), 16.0);
+    assert_eq!(list.delete().map(|k| k.values), Some(pose(16.0)));
+    assert_eq!(list.current_index(), 2);
+    // Uniform spacing: key 2 sits at 2 × 2 s.
+    assert_eq!(list.current_time(), Some(4.0));
+    assert!(list.set_key_interval(1.5));
+    assert_eq!(list.current_time(), Some(3.0));
+    assert!(
+        !list.set_key_interval(0.05),
+        "accepted an interval below 0.1 s"
+    );
+}
+
+#[test]
+fn inserting_into_a_timed_list_goes_halfway_or_one_gap_on() {
+    let text = r#"{"format":"keypose-sequence/1","robot":"so101","keyframes":[
+        {"name":"a","time":0,"hold":1,"joints":{"elbow_flex":0}},
+        {"name":"b","time":3,"joints":{"elbow_flex":10}}]}"#;
+    let mut list = KeyframeList::new(Sequence::from_json("t.json", text).unwrap());
+    // After a (hold 1 s) and before b: halfway through the moving part, 1 + (3 − 1)/2 = 2.
+    list.insert_after(pose(5.0));
+    assert_eq!(list.current_time(), Some(2.0));
+    // After the last key: one previous gap (3 − 2 = 1 s) later.
+    assert!(list.next_key());
+    list.insert_after(pose(20.0));
+    assert_eq!(list.current_time(), Some(4.0));
+    // Moving a key keeps the times where they were: the rhythm does not change.
+    assert!(list.select(0));
+    assert!(list.move_by(1));
+    let times: Vec<f64> = list.sequence().key_times();
+    assert_eq!(times, [0.0, 2.0, 3.0, 4.0]);
+    assert_eq!(list.sequence().keyframes[1].name.as_deref(), Some("a"));
+    // A hold that would overrun the next key is refused.
+    assert!(!list.set_hold(1.0));
+    assert!(list.set_hold(0.5));
+}
+
+#[test]
+fn save_is_atomic_and_round_trips() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("taught.json");
+    let mut list = KeyframeList::new(Sequence::new("so101"));
+    list.insert_after(pose(0.0));
+    list.insert_after(pose(45.5));
+    assert!(list.set_name(Some("reach".into())));
+    list.save(&path).unwrap();
+    assert!(!list.is_dirty());
+    // Nothing but the file itself is left in the directory: the temporary was renamed.
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, ["taught.json"]);
+
+    let loaded = KeyframeList::load(&path).unwrap();
+    assert_eq!(loaded.len(), 2);
+    assert_eq!(elbow(&loaded, 1), 45.5);
+    assert_eq!(
+        loaded.sequence().keyframes[1].name.as_deref(),
+        Some("reach")
+    );
+    assert_eq!(loaded.sequence().key_interval, Some(2.0));
+}
+
+#[test]
+fn saving_an_empty_list_is_refused_and_leaves_the_old_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("keep.json");
+    let mut list = KeyframeList::new(Sequence::new("so101"));
+    list.insert_after(pose(1.0));
+    list.save(&path).unwrap();
+    let before = std::fs::read_to_string(&path).unwrap();
+    list.delete();
+    assert!(list.save(&path).is_err());
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), before);
+    assert!(list.is_dirty());
+}
+
+#[test]
+fn keys_written_out_of_order_load_sorted_and_save_sorted() {
+    let text = r#"{"format":"keypose-sequence/1","robot":"so101","keyframes":[
+        {"name":"late","time":2,"joints":{"elbow_flex":20}},
+        {"name":"early","time":0,"joints":{"elbow_flex":0}},
+        {"name":"mid","time":1,"transforms":{"wrist_roll":{"r":{"w":0.7071068,"x":0,"y":0,"z":0.7071068}}}}]}"#;
+    let sequence = Sequence::from_json("shuffled.json", text).unwrap();
+    let names: Vec<_> = sequence
+        .keyframes
+        .iter()
+        .map(|k| k.name.clone().unwrap())
+        .collect();
+    assert_eq!(names, ["early", "mid", "late"]);
+    // The path of a key in errors still points into the file as written.
+    assert_eq!(sequence.key_path(0), "$.keyframes[1]");
+    let again = Sequence::from_json("again.json", &sequence.to_json()).unwrap();
+    assert_eq!(again.keyframes.len(), 3);
+    for (a, b) in again.keyframes.iter().zip(&sequence.keyframes) {
+        assert_eq!(a.name, b.name);
+        assert_eq!(a.time, b.time);
+        assert_eq!(a.values, b.values);
+    }
+}
