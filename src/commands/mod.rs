@@ -6,6 +6,7 @@ pub mod plot;
 pub mod retime;
 pub mod sample;
 
+use crate::curve::Interp;
 use crate::json::{InputError, Location};
 use crate::robot::{import_lerobot_calibration, Robot};
 use crate::sequence::Sequence;
@@ -66,12 +67,24 @@ pub struct SequenceInput {
     /// LeRobot calibration file to apply to the robot's servo mapping and limits.
     #[arg(long, value_name = "FILE")]
     pub calibration: Option<PathBuf>,
+    /// Interpolation for segments without their own "interp", instead of the file's: try the same
+    /// keys in another mode.
+    #[arg(long, value_name = "MODE", value_parser = parse_interp)]
+    pub interpolation: Option<Interp>,
+}
+
+fn parse_interp(s: &str) -> Result<Interp, String> {
+    Interp::parse(s)
+        .ok_or_else(|| format!("expected one of step, linear, cubic, monotone, found {s:?}"))
 }
 
 impl SequenceInput {
     /// Loads the sequence and its robot (with any calibration applied).
     pub fn load(&self) -> Result<(Sequence, Robot), CommandError> {
-        let sequence = Sequence::load(&self.sequence)?;
+        let mut sequence = Sequence::load(&self.sequence)?;
+        if let Some(mode) = self.interpolation {
+            sequence.interpolation = mode;
+        }
         let mut robot = match &self.robot {
             Some(spec) => Robot::resolve(spec, "--robot")?,
             None => resolve_sequence_robot(&sequence, &self.sequence)?,

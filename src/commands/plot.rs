@@ -12,6 +12,9 @@ pub struct PlotArgs {
     /// SVG file to write.
     #[arg(short, long, value_name = "FILE.svg")]
     pub output: PathBuf,
+    /// Draw only these joints (comma-separated names) [default: all].
+    #[arg(long, value_name = "NAMES", value_delimiter = ',')]
+    pub joints: Vec<String>,
     /// Sampling rate of the drawn curves.
     #[arg(long, value_name = "HZ", default_value = "200", value_parser = parse_rate)]
     pub rate: f64,
@@ -28,7 +31,20 @@ pub fn run(args: &PlotArgs) -> Result<Verdict, CommandError> {
         sequence.interpolation,
         trajectory.duration()
     );
-    let data = report::plot_data(&title, &trajectory, &robot, args.rate, Vec::new());
+    let mut data = report::plot_data(&title, &trajectory, &robot, args.rate, Vec::new());
+    if !args.joints.is_empty() {
+        if let Some(unknown) = args
+            .joints
+            .iter()
+            .find(|name| robot.joint_index(name).is_none())
+        {
+            return Err(CommandError::Usage(format!(
+                "--joints: unknown joint {unknown:?}; expected names from: {}",
+                robot.joint_names().join(", ")
+            )));
+        }
+        data.joints.retain(|j| args.joints.contains(&j.name));
+    }
     write_output(Some(&args.output), &report::plot::render_svg(&data))?;
     Ok(Verdict::Pass)
 }

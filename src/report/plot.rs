@@ -967,7 +967,8 @@ impl fmt::Display for Px {
     }
 }
 
-/// A data value for human-readable annotations (limits, peaks): about four significant digits.
+/// A data value for human-readable annotations (limits, peaks): three significant digits, since
+/// "peak 44.999" reads worse than "peak 45" and says nothing more.
 fn short(v: f64) -> String {
     if !v.is_finite() {
         return "?".to_string();
@@ -983,8 +984,18 @@ fn short(v: f64) -> String {
             None => s,
         }
     } else {
-        let s = format!("{v:.3}");
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
+        // a is 0 or within [1e-3, 1e5) here, so the logarithm is finite or zero is special.
+        let decimals = if a == 0.0 {
+            0
+        } else {
+            (2 - a.log10().floor() as i64).clamp(0, 4) as usize
+        };
+        let s = format!("{v:.decimals$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
     };
     if s == "-0" {
         "0".to_string()
