@@ -100,9 +100,15 @@ pub enum CurveError {
     },
     #[error("key {index}: hold must be finite and at least 0 s, found {hold}")]
     BadHold { index: usize, hold: f64 },
-    #[error("key {index}: hold {hold} s does not end before the next key, {gap} s later")]
+    #[error(
+        "key {index}: hold {hold} s does not end at least {MIN_MOVING_TIME} s before the next key, {gap} s later"
+    )]
     HoldOverrun { index: usize, hold: f64, gap: f64 },
 }
+
+/// Shortest moving time of a segment, seconds. Below it 1/duration loses all precision (and
+/// for subnormal durations overflows to infinity); no servo resolves such a segment anyway.
+pub const MIN_MOVING_TIME: f64 = 1e-6;
 
 /// A value that a track can interpolate.
 pub trait Interpolant: Copy + fmt::Debug {
@@ -489,7 +495,7 @@ fn validate<V>(keys: &[TrackKey<V>]) -> Result<(), CurveError> {
         }
         if index > 0 {
             let previous = &keys[index - 1];
-            if key.time <= previous.time {
+            if key.time <= previous.time || !(key.time - previous.time).is_finite() {
                 return Err(CurveError::NotIncreasing {
                     index,
                     time: key.time,
@@ -497,7 +503,7 @@ fn validate<V>(keys: &[TrackKey<V>]) -> Result<(), CurveError> {
                 });
             }
             let gap = key.time - previous.time;
-            if previous.hold >= gap {
+            if gap - previous.hold < MIN_MOVING_TIME {
                 return Err(CurveError::HoldOverrun {
                     index: index - 1,
                     hold: previous.hold,

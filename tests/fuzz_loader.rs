@@ -136,7 +136,11 @@ fn apply(text: &str, mutations: &[Mutation]) -> Vec<u8> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 1500, ..ProptestConfig::default() })]
+    // 1,500 cases per property in every test run; PROPTEST_CASES raises it for a longer hunt.
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(1500),
+        ..ProptestConfig::default()
+    })]
 
     #[test]
     fn random_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..400)) {
@@ -178,5 +182,124 @@ proptest! {
         if let Some(mut robot) = Robot::builtin("so101") {
             let _ = import_lerobot_calibration(&mut robot, "cal.json", &String::from_utf8_lossy(&bytes));
         }
+    }
+}
+
+/// Values that sit on the edges of what the loaders and the curve math accept.
+fn edge_value() -> impl Strategy<Value = serde_json::Value> {
+    use serde_json::json;
+    prop_oneof![
+        prop::sample::select(vec![
+            json!(0),
+            json!(-0.0),
+            json!(1e-320),
+            json!(1e-9),
+            json!(0.001),
+            json!(0.0011),
+            json!(1e308),
+            json!(-1e308),
+            json!(86400),
+            json!(180),
+            json!(-180),
+            json!(175),
+            json!(360),
+            json!(1e5),
+            json!(-1),
+            json!(0.7071),
+            json!(""),
+            json!("step"),
+            json!("linear"),
+            json!("monotone"),
+            json!("control"),
+            json!("koch"),
+            json!("omx"),
+            json!(null),
+            json!([]),
+            json!({}),
+        ]),
+        (-1e4f64..1e4).prop_map(|x| json!(x)),
+        (-1.0f64..1.0).prop_map(|x| json!(x)),
+    ]
+}
+
+#[derive(Debug, Clone)]
+enum Edit {
+    /// Replace the n-th leaf (in document order) with a value.
+    Replace(usize, serde_json::Value),
+    /// Remove the n-th object member.
+    Remove(usize),
+    /// Duplicate the n-th array element.
+    DuplicateItem(usize),
+}
+
+fn edit() -> impl Strategy<Value = Edit> {
+    prop_oneof![
+        3 => (any::<usize>(), edge_value()).prop_map(|(n, v)| Edit::Replace(n, v)),
+        1 => any::<usize>().prop_map(Edit::Remove),
+        1 => any::<usize>().prop_map(Edit::DuplicateItem),
+    ]
+}
+
+/// Applies `edit` to the `target`-th place of its kind; returns how many places there were.
+fn apply_edit(value: &mut serde_json::Value, edit: &Edit, seen: &mut usize, target: usize) {
+    use serde_json::Value;
+    match value {
+        Value::Object(map) => {
+            if let Edit::Remove(_) = edit {
+                if *seen == target {
+                    if let Some(key) = map.keys().next().cloned() {
+                        map.shift_remove(&key);
+                    }
+                }
+                *seen += 1;
+            }
+            for (_, child) in map.iter_mut() {
+                apply_edit(child, edit, seen, target);
+            }
+        }
+        Value::Array(items) => {
+            if let Edit::DuplicateItem(_) = edit {
+                if *seen == target && !items.is_empty() {
+                    items.push(items[0].clone());
+                }
+                *seen += 1;
+            }
+            for child in items.iter_mut() {
+                apply_edit(child, edit, seen, target);
+            }
+        }
+        leaf => {
+            if let Edit::Replace(_, replacement) = edit {
+                if *seen == target {
+                    *leaf = replacement.clone();
+                }
+                *seen += 1;
+            }
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(1500),
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn edited_sequence_values_never_panic(
+        which in 0..SEQUENCES.len(),
+        edits in prop::collection::vec(edit(), 1..4),
+    ) {
+        let mut value: serde_json::Value = serde_json::from_str(SEQUENCES[which]).unwrap();
+        for e in &edits {
+            let n = match e { Edit::Replace(n, _) | Edit::Remove(n) | Edit::DuplicateItem(n) => *n };
+            let mut count = 0;
+            apply_edit(&mut value.clone(), e, &mut count, usize::MAX);
+            if count > 0 {
+                let mut seen = 0;
+                apply_edit(&mut value, e, &mut seen, n % count);
+            }
+        }
+        run_pipeline(&value.to_string());
     }
 }

@@ -138,7 +138,10 @@ fn parse_joint(node: &Node, protocol: Protocol) -> Result<Joint, InputError> {
         return Err(axis_node.expected("a non-zero axis"));
     }
     let origin = parse_origin(&node.require("origin", "the joint's pose in its parent")?)?;
-    let limits = parse_limits(&node.require("limits", "position, velocity, acceleration")?)?;
+    let limits = parse_limits(
+        &node.require("limits", "position, velocity, acceleration")?,
+        kind,
+    )?;
     let servo = parse_servo(&node.require("servo", "the servo mapping")?, kind, protocol)?;
     Ok(Joint {
         name: name.to_string(),
@@ -177,24 +180,40 @@ pub(super) fn parse_origin(node: &Node) -> Result<RigidTransform, InputError> {
     Ok(RigidTransform::new(xyz, rotation))
 }
 
-fn parse_limits(node: &Node) -> Result<Limits, InputError> {
+/// Bounds on what a limit may say, far outside any real joint but small enough that products
+/// and differences of joint values stay finite: ±256 turns is the Dynamixel extended-position
+/// range; 100 m covers any linear axis.
+const MAX_ANGLE_DEG: f64 = 92_160.0;
+const MAX_TRAVEL_M: f64 = 100.0;
+const MAX_RATE: f64 = 1e7;
+
+fn parse_limits(node: &Node, kind: JointKind) -> Result<Limits, InputError> {
     node.only_fields(&["min", "max", "velocity", "acceleration"])?;
-    let min = node
-        .require("min", "lower position limit")?
-        .number("lower limit")?;
-    let max = node
-        .require("max", "upper position limit")?
-        .number("upper limit")?;
+    let bound = match kind {
+        JointKind::Revolute => MAX_ANGLE_DEG,
+        JointKind::Prismatic => MAX_TRAVEL_M,
+    };
+    let position = |field: &'static str, what: &str| -> Result<f64, InputError> {
+        let n = node.require(field, what)?;
+        let x = n.number(what)?;
+        if x.abs() <= bound {
+            Ok(x)
+        } else {
+            Err(n.expected(&format!("a {what} within ±{bound} {}", kind.unit())))
+        }
+    };
+    let min = position("min", "lower limit")?;
+    let max = position("max", "upper limit")?;
     if min >= max {
         return Err(node.error(format!("min ({min}) must be below max ({max})")));
     }
     let positive = |field: &'static str| -> Result<f64, InputError> {
         let n = node.require(field, "a positive limit")?;
         let x = n.number(field)?;
-        if x > 0.0 {
+        if x > 0.0 && x <= MAX_RATE {
             Ok(x)
         } else {
-            Err(n.expected("a positive limit"))
+            Err(n.expected(&format!("a positive limit up to {MAX_RATE}")))
         }
     };
     Ok(Limits {

@@ -179,7 +179,7 @@ impl KeyframeList {
     pub fn set_hold(&mut self, hold: f64) -> bool {
         let times = self.sequence.key_times();
         let gap = times.get(self.current + 1).map(|t| t - times[self.current]);
-        if !(hold.is_finite() && hold >= 0.0) || gap.is_some_and(|g| hold >= g) {
+        if !(hold.is_finite() && hold >= 0.0) || gap.is_some_and(|g| hold > g - super::MIN_GAP) {
             return false;
         }
         self.edit_current(|k| k.hold = hold)
@@ -190,7 +190,12 @@ impl KeyframeList {
         if self.sequence.key_interval.is_none() || !(interval >= 0.1 && interval.is_finite()) {
             return false;
         }
-        if self.sequence.keyframes.iter().any(|k| k.hold >= interval) {
+        if self
+            .sequence
+            .keyframes
+            .iter()
+            .any(|k| k.hold > interval - super::MIN_GAP)
+        {
             return false;
         }
         self.sequence.key_interval = Some(interval);

@@ -12,6 +12,9 @@ const UNIT_TOLERANCE: f64 = 1e-3;
 /// Key times are bounded to a day either way: a teach-and-play sequence is minutes long, and the
 /// bound keeps every later sampling of the curve finite in size.
 pub const MAX_TIME: f64 = 86_400.0;
+/// Keys (and the end of a hold and the next key) are at least a millisecond apart: closer keys
+/// are below any servo's control period and only make the curve's slopes explode.
+pub const MIN_GAP: f64 = 0.001;
 
 pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputError> {
     let value = json::parse(file, text)?;
@@ -49,8 +52,8 @@ pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputEr
     let key_interval = match &interval_node {
         Some(n) => {
             let x = n.number("seconds")?;
-            if x <= 0.0 {
-                return Err(n.expected("a key interval above 0 s"));
+            if x < MIN_GAP {
+                return Err(n.expected(&format!("a key interval of at least {MIN_GAP} s")));
             }
             Some(x)
         }
@@ -158,7 +161,16 @@ pub(super) fn validate_keys(sequence: &Sequence) -> Result<(), InputError> {
         }
         if i + 1 < n {
             let gap = times[i + 1] - times[i];
-            if gap <= 0.0 {
+            if gap < MIN_GAP {
+                if gap > 0.0 {
+                    return Err(InputError::at_path(
+                        file,
+                        &format!("{}.time", sequence.key_path(i + 1)),
+                        format!(
+                            "key {gap} s after the previous key ({path}); expected at least {MIN_GAP} s between keys"
+                        ),
+                    ));
+                }
                 return Err(InputError::at_path(
                     file,
                     &format!("{}.time", sequence.key_path(i + 1)),
@@ -168,13 +180,14 @@ pub(super) fn validate_keys(sequence: &Sequence) -> Result<(), InputError> {
                     ),
                 ));
             }
-            if key.hold >= gap {
+            if key.hold > gap - MIN_GAP {
                 return Err(InputError::at_path(
                     file,
                     &format!("{path}.hold"),
                     format!(
-                        "hold of {} s overruns the next key, {gap} s later; expected less than {gap} s",
-                        key.hold
+                        "hold of {} s overruns the next key, {gap} s later; expected at most {} s",
+                        key.hold,
+                        gap - MIN_GAP
                     ),
                 ));
             }

@@ -14,6 +14,7 @@ use crate::pose::RigidTransform;
 use std::path::Path;
 
 pub use edit::KeyframeList;
+pub use load::{MAX_TIME, MIN_GAP};
 pub use save::write_atomically;
 
 pub const SEQUENCE_FORMAT: &str = "keypose-sequence/1";
