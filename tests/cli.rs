@@ -22,8 +22,7 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
 
 /// Runs `check` on `text` and returns stderr, asserting exit code 2 and no panic.
 fn bad_input(text: &str) -> String {
-    let dir = tempfile::tempdir().unwrap();
-    let path = write(dir.path(), "bad.json", text);
+    let (_dir, path) = temp_sequence("bad.json", text);
     let out = keypose(&["check", path.to_str().unwrap()]);
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     assert_eq!(out.status.code(), Some(2), "stderr: {stderr}");
@@ -36,144 +35,136 @@ fn bad_input(text: &str) -> String {
     stderr
 }
 
+/// Asserts that `text` is refused as bad input with a message containing `expected`.
+fn refused(text: &str, expected: &str) {
+    let err = bad_input(text);
+    assert!(err.contains(expected), "expected {expected:?} in: {err}");
+}
+
 fn sequence(keyframes: &str) -> String {
-    format!(r#"{{"format":"keypose-sequence/1","robot":"so101","keyframes":[{keyframes}]}}"#)
+    sequence_in("cubic", keyframes)
+}
+
+fn sequence_in(interpolation: &str, keyframes: &str) -> String {
+    format!(
+        r#"{{"format":"keypose-sequence/1","robot":"so101","interpolation":"{interpolation}","keyframes":[{keyframes}]}}"#
+    )
+}
+
+/// A sequence file in a fresh temporary directory (kept alive by the returned guard).
+fn temp_sequence(name: &str, text: &str) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), name, text);
+    (dir, path)
 }
 
 #[test]
 fn malformed_json_names_line_and_column() {
-    let err = bad_input("{\n  \"format\": \"keypose-sequence/1\",\n  \"robot\": so101\n}");
-    assert!(err.contains("bad.json:3:12: invalid JSON"), "{err}");
+    refused(
+        "{\n  \"format\": \"keypose-sequence/1\",\n  \"robot\": so101\n}",
+        "bad.json:3:12: invalid JSON",
+    );
 }
 
 #[test]
 fn wrong_format_is_refused() {
-    let err = bad_input(r#"{"format":"keypose-sequence/9","robot":"so101","keyframes":[]}"#);
-    assert!(
-        err.contains(r#"$.format: expected "keypose-sequence/1", found "keypose-sequence/9""#),
-        "{err}"
+    refused(
+        r#"{"format":"keypose-sequence/9","robot":"so101","keyframes":[]}"#,
+        r#"$.format: expected "keypose-sequence/1", found "keypose-sequence/9""#,
     );
 }
 
 #[test]
 fn unknown_joint_names_the_key_and_the_choices() {
-    let err = bad_input(&sequence(
-        r#"{"time":0,"joints":{"elbow_flex":0}},{"time":1,"joints":{"elbw":10}}"#,
-    ));
-    assert!(
-        err.contains(r#"$.keyframes[1].joints.elbw: unknown joint "elbw""#),
-        "{err}"
+    refused(
+        &sequence(r#"{"time":0,"joints":{"elbow_flex":0}},{"time":1,"joints":{"elbw":10}}"#),
+        r#"$.keyframes[1].joints.elbw: unknown joint "elbw" for robot so101; expected one of: shoulder_pan, shoulder_lift, elbow_flex"#,
     );
-    assert!(err.contains("elbow_flex"), "{err}");
 }
 
 #[test]
 fn non_numbers_and_out_of_range_numbers_are_refused() {
-    let err = bad_input(&sequence(r#"{"time":"NaN","joints":{"elbow_flex":0}}"#));
-    assert!(
-        err.contains("$.keyframes[0].time: expected a finite number"),
-        "{err}"
+    refused(
+        &sequence(r#"{"time":"NaN","joints":{"elbow_flex":0}}"#),
+        "$.keyframes[0].time: expected a finite number",
     );
-    let err = bad_input(&sequence(r#"{"time":0,"joints":{"elbow_flex":1e999}}"#));
-    assert!(err.contains("bad.json:1:"), "{err}");
-    let err = bad_input(&sequence(r#"{"time":0,"joints":{"elbow_flex":null}}"#));
-    assert!(
-        err.contains("$.keyframes[0].joints.elbow_flex: expected a finite number"),
-        "{err}"
+    refused(
+        &sequence(r#"{"time":0,"joints":{"elbow_flex":1e999}}"#),
+        "bad.json:1:",
+    );
+    refused(
+        &sequence(r#"{"time":0,"joints":{"elbow_flex":null}}"#),
+        "$.keyframes[0].joints.elbow_flex: expected a finite number",
     );
 }
 
 #[test]
 fn non_unit_and_zero_quaternions_are_refused() {
-    let err = bad_input(&sequence(
-        r#"{"time":0,"transforms":{"wrist_roll":{"r":{"w":1,"x":0,"y":0,"z":0.5}}}}"#,
-    ));
-    assert!(
-        err.contains("$.keyframes[0].transforms.wrist_roll.r: expected a unit quaternion"),
-        "{err}"
+    refused(
+        &sequence(r#"{"time":0,"transforms":{"wrist_roll":{"r":{"w":1,"x":0,"y":0,"z":0.5}}}}"#),
+        "$.keyframes[0].transforms.wrist_roll.r: expected a unit quaternion",
     );
-    let err = bad_input(&sequence(
-        r#"{"time":0,"transforms":{"wrist_roll":{"r":{"w":0,"x":0,"y":0,"z":0}}}}"#,
-    ));
-    assert!(err.contains("found norm 0.000000"), "{err}");
+    refused(
+        &sequence(r#"{"time":0,"transforms":{"wrist_roll":{"r":{"w":0,"x":0,"y":0,"z":0}}}}"#),
+        "found norm 0.000000",
+    );
 }
 
 #[test]
 fn a_rotation_off_the_joint_axis_is_refused_not_projected() {
     // wrist_roll turns about its own z axis; this is 90° about x.
-    let err = bad_input(&sequence(
-        r#"{"time":0,"transforms":{"wrist_roll":{"r":{"w":0.7071068,"x":0.7071068,"y":0,"z":0}}}}"#,
-    ));
-    assert!(
-        err.contains(
-            "$.keyframes[0].transforms.wrist_roll: the rotation is 90.00° off the joint axis"
+    refused(
+        &sequence(
+            r#"{"time":0,"transforms":{"wrist_roll":{"r":{"w":0.7071068,"x":0.7071068,"y":0,"z":0}}}}"#,
         ),
-        "{err}"
+        "$.keyframes[0].transforms.wrist_roll: the rotation is 90.00° off the joint axis",
     );
 }
 
 #[test]
 fn duplicate_times_are_refused_at_the_second_key() {
-    let err = bad_input(&sequence(
-        r#"{"time":1,"joints":{"elbow_flex":0}},{"time":0,"joints":{"elbow_flex":5}},{"time":1,"joints":{"elbow_flex":9}}"#,
-    ));
     // Sorted by time the keys are [1] (t=0), [0] (t=1), [2] (t=1); the later duplicate is named.
-    assert!(
-        err.contains("$.keyframes[2].time: duplicate key time 1 s (also at $.keyframes[0])"),
-        "{err}"
+    refused(
+        &sequence(
+            r#"{"time":1,"joints":{"elbow_flex":0}},{"time":0,"joints":{"elbow_flex":5}},{"time":1,"joints":{"elbow_flex":9}}"#,
+        ),
+        "$.keyframes[2].time: duplicate key time 1 s (also at $.keyframes[0])",
     );
 }
 
 #[test]
 fn a_hold_that_overruns_the_next_key_is_refused() {
-    let err = bad_input(&sequence(
-        r#"{"time":0,"hold":1.5,"joints":{"elbow_flex":0}},{"time":1,"joints":{"elbow_flex":5}}"#,
-    ));
-    assert!(
-        err.contains("$.keyframes[0].hold: hold of 1.5 s overruns the next key, 1 s later"),
-        "{err}"
+    refused(
+        &sequence(
+            r#"{"time":0,"hold":1.5,"joints":{"elbow_flex":0}},{"time":1,"joints":{"elbow_flex":5}}"#,
+        ),
+        "$.keyframes[0].hold: hold of 1.5 s overruns the next key, 1 s later",
     );
 }
 
 #[test]
 fn mixing_timed_and_untimed_keys_is_refused() {
-    let err = bad_input(&sequence(
-        r#"{"time":0,"joints":{"elbow_flex":0}},{"joints":{"elbow_flex":5}}"#,
-    ));
-    assert!(
-        err.contains("$.keyframes[1]: this key has no \"time\" but 1 of 2 keys do"),
-        "{err}"
+    refused(
+        &sequence(r#"{"time":0,"joints":{"elbow_flex":0}},{"joints":{"elbow_flex":5}}"#),
+        "$.keyframes[1]: this key has no \"time\" but 1 of 2 keys do",
     );
 }
 
 #[test]
 fn keys_outside_joint_limits_are_refused() {
-    let err = bad_input(&sequence(r#"{"time":0,"joints":{"elbow_flex":120}}"#));
-    assert!(
-        err.contains("$.keyframes[0].joints.elbow_flex: 120.000 deg is outside the limits of elbow_flex: expected -96.83 … 96.83 deg"),
-        "{err}"
-    );
+    refused(&sequence(r#"{"time":0,"joints":{"elbow_flex":120}}"#), "$.keyframes[0].joints.elbow_flex: 120.000 deg is outside the limits of elbow_flex: expected -96.83 … 96.83 deg");
 }
 
 #[test]
 fn an_empty_keyframe_list_is_refused() {
-    let err = bad_input(&sequence(""));
-    assert!(
-        err.contains("$.keyframes: expected at least one keyframe"),
-        "{err}"
-    );
+    refused(&sequence(""), "$.keyframes: expected at least one keyframe");
 }
 
 #[test]
 fn unknown_robots_are_refused() {
-    let err = bad_input(
+    refused(
         r#"{"format":"keypose-sequence/1","robot":"so999","keyframes":[{"time":0,"joints":{"a":1}}]}"#,
-    );
-    assert!(
-        err.contains(
-            r#"$.robot: unknown robot "so999": expected a built-in robot (so101, koch, omx)"#
-        ),
-        "{err}"
+        r#"$.robot: unknown robot "so999": expected a built-in robot (so101, koch, omx)"#,
     );
     let out = keypose(&[
         "check",
@@ -187,10 +178,9 @@ fn unknown_robots_are_refused() {
 
 #[test]
 fn misspelt_fields_are_refused_rather_than_ignored() {
-    let err = bad_input(&sequence(r#"{"tiem":0,"joints":{"elbow_flex":0}}"#));
-    assert!(
-        err.contains(r#"$.keyframes[0]: unknown field "tiem""#),
-        "{err}"
+    refused(
+        &sequence(r#"{"tiem":0,"joints":{"elbow_flex":0}}"#),
+        r#"$.keyframes[0]: unknown field "tiem""#,
     );
 }
 
@@ -230,15 +220,9 @@ fn check_catches_a_cubic_overshoot_between_keys_inside_the_limit() {
     // elbow_flex limit 96.83°. Keys 0 → 90 → 95 → 0 at t = 0, 2, 3, 5 are all inside it, but
     // the slope at the 90° key, (95 − 0)/(3 − 0) = 95/3 °/s, carries the curve past 96.83°
     // between t = 2 and t = 3.
-    let dir = tempfile::tempdir().unwrap();
-    let path = write(
-        dir.path(),
-        "overshoot.json",
-        &sequence(
-            r#"{"name":"a","time":0,"joints":{"elbow_flex":0}},{"name":"b","time":2,"joints":{"elbow_flex":90}},
-               {"name":"c","time":3,"joints":{"elbow_flex":95}},{"name":"d","time":5,"joints":{"elbow_flex":0}}"#,
-        ),
-    );
+    let keys = r#"{"name":"a","time":0,"joints":{"elbow_flex":0}},{"name":"b","time":2,"joints":{"elbow_flex":90}},
+               {"name":"c","time":3,"joints":{"elbow_flex":95}},{"name":"d","time":5,"joints":{"elbow_flex":0}}"#;
+    let (dir, path) = temp_sequence("overshoot.json", &sequence(keys));
     let out = keypose(&["check", path.to_str().unwrap(), "--format", "json"]);
     assert_eq!(out.status.code(), Some(1));
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
@@ -264,11 +248,7 @@ fn check_catches_a_cubic_overshoot_between_keys_inside_the_limit() {
     assert!((v["excess"].as_f64().unwrap() - (expected - 96.83)).abs() < 1e-9);
 
     // Monotone on the same keys stays inside.
-    let monotone = std::fs::read_to_string(&path).unwrap().replace(
-        r#""robot":"so101""#,
-        r#""robot":"so101","interpolation":"monotone""#,
-    );
-    let path = write(dir.path(), "monotone.json", &monotone);
+    let path = write(dir.path(), "monotone.json", &sequence_in("monotone", keys));
     assert_eq!(
         keypose(&["check", path.to_str().unwrap()]).status.code(),
         Some(0)
@@ -277,16 +257,11 @@ fn check_catches_a_cubic_overshoot_between_keys_inside_the_limit() {
 
 #[test]
 fn sample_rows_are_at_k_over_rate_without_drift() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = write(
-        dir.path(),
+    let (_dir, path) = temp_sequence(
         "lin.json",
-        &sequence(
+        &sequence_in(
+            "linear",
             r#"{"time":0.5,"joints":{"elbow_flex":0}},{"time":3.5,"joints":{"elbow_flex":30}}"#,
-        )
-        .replace(
-            r#""robot":"so101""#,
-            r#""robot":"so101","interpolation":"linear""#,
         ),
     );
     let out = keypose(&["sample", path.to_str().unwrap(), "--rate", "30"]);
@@ -365,10 +340,8 @@ fn plot_writes_an_svg_with_every_joint() {
 
 #[test]
 fn retime_fixes_a_too_fast_sequence_and_leaves_a_sequence_that_checks() {
-    let dir = tempfile::tempdir().unwrap();
     // 90° in 0.5 s: a cubic peaks at 1.5·90/0.5 = 270°/s against so101's 115°/s.
-    let path = write(
-        dir.path(),
+    let (dir, path) = temp_sequence(
         "fast.json",
         &sequence(
             r#"{"time":0,"hold":0.2,"joints":{"elbow_flex":0}},{"time":0.7,"joints":{"elbow_flex":90}},{"time":1.5,"joints":{"elbow_flex":80}}"#,
@@ -406,9 +379,7 @@ fn retime_fixes_a_too_fast_sequence_and_leaves_a_sequence_that_checks() {
 
 #[test]
 fn retime_cannot_fix_a_step_jump_and_says_so() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = write(
-        dir.path(),
+    let (_dir, path) = temp_sequence(
         "step.json",
         &sequence(
             r#"{"time":0,"interp":"step","joints":{"elbow_flex":0}},{"time":1,"joints":{"elbow_flex":60}}"#,
@@ -432,16 +403,15 @@ fn every_command_has_help() {
 
 #[test]
 fn absurd_durations_are_refused_before_sampling() {
-    let err = bad_input(&sequence(
-        r#"{"time":0,"joints":{"elbow_flex":0}},{"time":1e9,"joints":{"elbow_flex":5}}"#,
-    ));
-    assert!(
-        err.contains("$.keyframes[1].time: key time 1000000000 s is out of range"),
-        "{err}"
+    refused(
+        &sequence(r#"{"time":0,"joints":{"elbow_flex":0}},{"time":1e9,"joints":{"elbow_flex":5}}"#),
+        "$.keyframes[1].time: key time 1000000000 s is out of range",
     );
     // Within a day but 8 million samples at 100 Hz: refused, not allocated.
-    let err = bad_input(&sequence(
-        r#"{"time":0,"joints":{"elbow_flex":0}},{"time":80000,"joints":{"elbow_flex":5}}"#,
-    ));
-    assert!(err.contains("lower --rate"), "{err}");
+    refused(
+        &sequence(
+            r#"{"time":0,"joints":{"elbow_flex":0}},{"time":80000,"joints":{"elbow_flex":5}}"#,
+        ),
+        "lower --rate",
+    );
 }

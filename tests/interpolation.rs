@@ -321,3 +321,32 @@ fn keys_at_minus_170_and_plus_170_pass_through_zero_not_180() {
         assert!(v.abs() <= 170.0 + 1e-9, "passed {v}° at sample {k}");
     }
 }
+
+#[test]
+fn rigid_transform_tracks_lerp_translation_and_slerp_rotation_together() {
+    use keypose::pose::RigidTransform;
+    let a = RigidTransform::new(DVec3::new(0.0, 0.0, 0.0), DQuat::IDENTITY);
+    let b = RigidTransform::new(
+        DVec3::new(0.2, 0.0, -0.1),
+        DQuat::from_rotation_x(FRAC_PI_2),
+    );
+    let tr = Track::new(&[
+        TrackKey::new(0.0, a, Interp::Linear),
+        TrackKey::new(2.0, b, Interp::Linear),
+    ])
+    .unwrap();
+    let mid = tr.sample(1.0);
+    assert!((mid.t - DVec3::new(0.1, 0.0, -0.05)).length() < 1e-15);
+    let (axis, angle) = mid.r.to_axis_angle();
+    assert!((angle - PI / 4.0).abs() < 1e-12 && (axis - DVec3::X).length() < 1e-12);
+    // The cubic of a transform is the cubic of its parts: at the midpoint of a two-key cubic the
+    // Hermite basis gives exactly the halfway value (symmetric, zero end slopes).
+    let cubic = Track::new(&[
+        TrackKey::new(0.0, a, Interp::Cubic),
+        TrackKey::new(2.0, b, Interp::Cubic),
+    ])
+    .unwrap();
+    let mid = cubic.sample(1.0);
+    assert!((mid.t - DVec3::new(0.1, 0.0, -0.05)).length() < 1e-15);
+    assert!((mid.r.to_axis_angle().1 - PI / 4.0).abs() < 1e-12);
+}

@@ -845,33 +845,30 @@ fn draw_band(out: &mut String, p: &Panel, lo: Option<f64>, hi: Option<f64>) {
     }
 }
 
+/// A full-width line across a panel at pixel height `y`.
+fn horizontal_line(out: &mut String, p: &Panel, y: f64, colour: &str) {
+    w!(
+        out,
+        r#"<line x1="{}" y1="{}" x2="{}" y2="{}" stroke="{colour}" stroke-width="1"/>"#,
+        Px(p.left),
+        Px(y),
+        Px(p.right()),
+        Px(y)
+    );
+    out.push('\n');
+}
+
 fn draw_limit_lines(out: &mut String, p: &Panel, lo: Option<f64>, hi: Option<f64>) {
     for v in lo.into_iter().chain(hi) {
         let y = p.y.px(v);
-        w!(
-            out,
-            r#"<line x1="{}" y1="{}" x2="{}" y2="{}" stroke="{LIMIT_LINE}" stroke-width="1"/>"#,
-            Px(p.left),
-            Px(y),
-            Px(p.right()),
-            Px(y)
-        );
-        out.push('\n');
+        horizontal_line(out, p, y, LIMIT_LINE);
     }
 }
 
 fn draw_grid(out: &mut String, p: &Panel) {
     for (v, _) in nice_ticks(p.y.lo, p.y.hi, 5.0) {
         let y = p.y.px(v);
-        w!(
-            out,
-            r#"<line x1="{}" y1="{}" x2="{}" y2="{}" stroke="{GRID}" stroke-width="1"/>"#,
-            Px(p.left),
-            Px(y),
-            Px(p.right()),
-            Px(y)
-        );
-        out.push('\n');
+        horizontal_line(out, p, y, GRID);
     }
     for (v, _) in nice_ticks(p.x.lo, p.x.hi, 8.0) {
         let x = p.x.px(v);
