@@ -1,0 +1,122 @@
+//! Servo buses: the [`ServoBus`] trait that the player and the teaching session use without
+//! knowing the vendor, and its implementations — our own Dynamixel 2.0 and Feetech STS/SCS
+//! drivers over a serial port, the vendor SDKs through the Python bridge, and virtual servos.
+//!
+//! Layers, bottom up: `packet` (framing shared by both vendors), `dynamixel` and `feetech`
+//! (packet codecs, checksums, status errors), `registers` (per-model control tables and value
+//! encodings), `transport` (a serial port with deadlines and resynchronisation), `driver` (the
+//! native [`ServoBus`] over a transport), `virtual_bus` (emulated servos that answer the real
+//! protocols byte for byte), `sdk` (the vendor SDKs through the Python bridge).
+
+pub mod dynamixel;
+pub mod feetech;
+pub mod packet;
+pub mod registers;
+
+use std::fmt;
+
+/// What a servo says about itself when pinged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PingInfo {
+    pub id: u8,
+    pub model_number: u16,
+    /// Dynamixel reports its firmware version in the ping answer; Feetech does not.
+    pub firmware: Option<u8>,
+}
+
+/// Alarm conditions a servo reports, common to both vendors.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Alarms {
+    pub input_voltage: bool,
+    pub overheating: bool,
+    /// Magnetic encoder / angle sensor fault.
+    pub encoder: bool,
+    /// Dynamixel "electrical shock"; Feetech over-current.
+    pub electrical: bool,
+    pub overload: bool,
+}
+
+impl Alarms {
+    pub fn any(&self) -> bool {
+        self.input_voltage || self.overheating || self.encoder || self.electrical || self.overload
+    }
+}
+
+impl fmt::Display for Alarms {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let names: Vec<&str> = [
+            (self.input_voltage, "input voltage"),
+            (self.overheating, "overheating"),
+            (self.encoder, "encoder"),
+            (self.electrical, "electrical / over-current"),
+            (self.overload, "overload"),
+        ]
+        .into_iter()
+        .filter_map(|(on, name)| on.then_some(name))
+        .collect();
+        if names.is_empty() {
+            f.write_str("none")
+        } else {
+            f.write_str(&names.join(", "))
+        }
+    }
+}
+
+/// One servo's condition.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Health {
+    pub id: u8,
+    pub temperature_c: f64,
+    pub voltage_v: f64,
+    /// Load as a signed percentage of the maximum (Feetech, XL430) or derived from current.
+    pub load_percent: f64,
+    pub alarms: Alarms,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum BusError {
+    #[error("servo {id}: no answer within {timeout_ms} ms")]
+    Timeout { id: u8, timeout_ms: u64 },
+    #[error("servo {id}: corrupt answer ({detail})")]
+    Corrupt { id: u8, detail: String },
+    #[error("servo {id}: alarm: {alarms}")]
+    Alarm { id: u8, alarms: Alarms },
+    #[error("servo {id}: refused the instruction: {reason}")]
+    Refused { id: u8, reason: String },
+    #[error("serial port {port}: {source}")]
+    Port {
+        port: String,
+        source: std::io::Error,
+    },
+    #[error("{0}")]
+    Protocol(String),
+}
+
+impl BusError {
+    /// The servo the error is about, when there is one.
+    pub fn servo(&self) -> Option<u8> {
+        match self {
+            BusError::Timeout { id, .. }
+            | BusError::Corrupt { id, .. }
+            | BusError::Alarm { id, .. }
+            | BusError::Refused { id, .. } => Some(*id),
+            BusError::Port { .. } | BusError::Protocol(_) => None,
+        }
+    }
+}
+
+/// A bus of servos, addressed by id, positions in ticks.
+///
+/// Reads may be retried (a bounded number of times) by implementations; writes are never
+/// repeated, because a repeated goal is not harmless when the first one did arrive.
+pub trait ServoBus: Send {
+    /// A short description for messages ("dynamixel-2 on /dev/ttyUSB0 at 1000000").
+    fn describe(&self) -> String;
+    fn ping(&mut self, id: u8) -> Result<PingInfo, BusError>;
+    /// Present positions in ticks, in the order of `ids`.
+    fn read_positions(&mut self, ids: &[u8]) -> Result<Vec<i64>, BusError>;
+    /// Goal positions in ticks, all in one sync write.
+    fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError>;
+    fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError>;
+    fn read_health(&mut self, ids: &[u8]) -> Result<Vec<Health>, BusError>;
+}
