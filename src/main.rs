@@ -33,6 +33,28 @@ enum Command {
     /// Stretch key times, segment by segment, until velocity and acceleration limits hold, and
     /// write the new sequence.
     Retime(commands::retime::RetimeArgs),
+    /// Play a sequence on servos: ramp from the present pose, stream at the control rate.
+    ///
+    /// Ctrl-C decelerates along the path and holds (torque stays on); a second Ctrl-C holds at
+    /// once. A servo alarm, a failed write, repeated read failures or a lost port stop
+    /// streaming at once with exit code 3. The sequence is checked against the limits at the
+    /// chosen speed first, and refused (exit 1) if it breaks them.
+    Play(commands::play::PlayArgs),
+    /// Print the present pose (degrees; metres for prismatic joints) as JSON.
+    Read(commands::hardware::ReadArgs),
+    /// Turn torque on (hold where the arm is) or off (limp) for all or some joints.
+    Torque(commands::hardware::TorqueArgs),
+    /// Find the servos on a port: ping every id, report ids and models as JSON.
+    Scan(commands::hardware::ScanArgs),
+    /// List serial ports, with USB adapter details where the system gives them.
+    Ports,
+    /// Check this machine: serial ports, USB latency timers, the Python environment.
+    Doctor,
+    /// Serve emulated servos of a robot on a pseudo-terminal.
+    ///
+    /// Prints the device path as the first line, then serves until standard input closes or
+    /// the process is terminated.
+    VirtualBus(commands::hardware::VirtualBusArgs),
 }
 
 fn main() -> ExitCode {
@@ -42,6 +64,13 @@ fn main() -> ExitCode {
         Command::Sample(args) => commands::sample::run(args),
         Command::Plot(args) => commands::plot::run(args),
         Command::Retime(args) => commands::retime::run(args),
+        Command::Play(args) => commands::play::run(args),
+        Command::Read(args) => commands::hardware::read(args),
+        Command::Torque(args) => commands::hardware::torque(args),
+        Command::Scan(args) => commands::hardware::scan(args),
+        Command::Ports => commands::hardware::ports(),
+        Command::Doctor => commands::hardware::doctor(),
+        Command::VirtualBus(args) => commands::hardware::virtual_bus(args),
     };
     let code = match result {
         Ok(verdict) => verdict.exit_code(),

@@ -8,10 +8,19 @@
 //! native [`ServoBus`] over a transport), `virtual_bus` (emulated servos that answer the real
 //! protocols byte for byte), `sdk` (the vendor SDKs through the Python bridge).
 
+mod connect;
+pub mod driver;
 pub mod dynamixel;
 pub mod feetech;
 pub mod packet;
+pub mod ports;
 pub mod registers;
+pub mod sdk;
+pub mod transport;
+pub mod virtual_bus;
+
+pub use connect::{connect, scan, Connection, Driver, VIRTUAL_PORT};
+pub use ports::{latency_timers, list_ports, PortInfo};
 
 use std::fmt;
 

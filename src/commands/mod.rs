@@ -2,6 +2,8 @@
 //! [`CommandError`]; `main.rs` turns those into exit codes.
 
 pub mod check;
+pub mod hardware;
+pub mod play;
 pub mod plot;
 pub mod retime;
 pub mod sample;
@@ -36,10 +38,19 @@ impl Verdict {
     }
 }
 
+/// Exit code when a stop request (Ctrl-C) ended the command.
+pub const EXIT_INTERRUPTED: i32 = 130;
+
 #[derive(Debug, thiserror::Error)]
 pub enum CommandError {
     #[error(transparent)]
     Input(#[from] InputError),
+    /// The servos, the bus or the port failed.
+    #[error("{0}")]
+    Hardware(String),
+    /// A stop request ended the command (the arm holds where it stopped).
+    #[error("{0}")]
+    Interrupted(String),
     #[error("{0}")]
     Usage(String),
     #[error("cannot write {path}: {source}")]
@@ -51,7 +62,17 @@ pub enum CommandError {
 
 impl CommandError {
     pub fn exit_code(&self) -> i32 {
-        EXIT_BAD_INPUT
+        match self {
+            CommandError::Hardware(_) => EXIT_HARDWARE,
+            CommandError::Interrupted(_) => EXIT_INTERRUPTED,
+            _ => EXIT_BAD_INPUT,
+        }
+    }
+}
+
+impl From<crate::bus::BusError> for CommandError {
+    fn from(e: crate::bus::BusError) -> Self {
+        CommandError::Hardware(e.to_string())
     }
 }
 

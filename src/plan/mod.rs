@@ -1,6 +1,7 @@
 //! From a sequence and a robot to a timed joint trajectory, and the checks and retiming that
 //! work on it.
 
+mod approach;
 mod check;
 mod retime;
 
@@ -11,6 +12,7 @@ use crate::robot::{Joint, JointKind, Robot};
 use crate::sequence::{Ends, KeyValue, Sequence};
 use std::f64::consts::TAU;
 
+pub use approach::{Approach, APPROACH_LIMIT_SHARE, MIN_APPROACH_SECONDS};
 pub use check::{check, CheckReport, JointSummary, LimitKind, Sampled, Violation};
 pub use retime::{retime, RetimeOutcome};
 

@@ -43,6 +43,18 @@ impl ServoModel {
     pub fn is_dynamixel(self) -> bool {
         !matches!(self, ServoModel::Sts3215)
     }
+
+    /// No-load speed at the supply these arms use, degrees per second (ROBOTS.md §4): STS3215
+    /// 7.4 V on the SO-101's 5 V (≈34 rpm, derived), XL330 at 5 V, XL430 and XM430 at 12 V.
+    pub fn no_load_speed_deg_s(self) -> f64 {
+        match self {
+            ServoModel::Sts3215 => 200.0,
+            ServoModel::Xl330M288 => 618.0,
+            ServoModel::Xl330M077 => 2298.0,
+            ServoModel::Xl430W250 => 366.0,
+            ServoModel::Xm430W350 => 276.0,
+        }
+    }
 }
 
 /// How a signed tick count is represented in a position register.

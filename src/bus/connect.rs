@@ -1,0 +1,105 @@
+//! Opening the servos of a robot: a serial port or a virtual bus, our driver or the vendor SDK.
+
+use super::driver::NativeBus;
+use super::transport::SerialTransport;
+use super::virtual_bus::PtyServer;
+use super::{BusError, PingInfo, ServoBus};
+use crate::robot::{Protocol, Robot};
+
+/// Which code speaks the protocol.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Driver {
+    /// keypose's own protocol code.
+    Native,
+    /// The vendor's Python SDK (dynamixel-sdk, feetech-servo-sdk) through the bridge.
+    Sdk,
+}
+
+/// An open bus, with the virtual servos behind it when the port is "virtual".
+pub struct Connection {
+    pub bus: Box<dyn ServoBus>,
+    /// Kept alive for as long as the connection: dropping it stops the emulated servos.
+    pub virtual_bus: Option<PtyServer>,
+}
+
+/// The port name that starts emulated servos instead of opening a device.
+pub const VIRTUAL_PORT: &str = "virtual";
+
+/// Opens `robot`'s bus on `port` ("virtual" serves emulated servos on a pseudo-terminal and
+/// connects to it through the same serial code as a real adapter).
+pub fn connect(
+    robot: &Robot,
+    port: &str,
+    driver: Driver,
+    baud: Option<u32>,
+) -> Result<Connection, BusError> {
+    let baud = baud.unwrap_or(robot.bus.baud);
+    let (path, virtual_bus) = if port == VIRTUAL_PORT {
+        let server = PtyServer::start(robot)?;
+        (server.path().to_string(), Some(server))
+    } else {
+        (port.to_string(), None)
+    };
+    let bus: Box<dyn ServoBus> = match driver {
+        Driver::Native => {
+            let transport =
+                SerialTransport::open(&path, baud).map_err(|source| BusError::Port {
+                    port: path.clone(),
+                    source,
+                })?;
+            let servos: Vec<_> = robot
+                .joints
+                .iter()
+                .map(|j| (j.servo.id, j.servo.model))
+                .collect();
+            Box::new(NativeBus::new(
+                Box::new(transport),
+                robot.bus.protocol,
+                &servos,
+            ))
+        }
+        Driver::Sdk => Box::new(
+            super::sdk::SdkBus::open(&path, baud, robot.bus.protocol)
+                .map_err(|e| BusError::Protocol(format!("vendor SDK on {path}: {e}")))?,
+        ),
+    };
+    Ok(Connection { bus, virtual_bus })
+}
+
+/// Pings every id with each protocol; returns who answered.
+pub fn scan(
+    port: &str,
+    robot: &Robot,
+    protocols: &[Protocol],
+    baud: u32,
+) -> Result<Vec<(Protocol, PingInfo)>, BusError> {
+    let server = if port == VIRTUAL_PORT {
+        Some(PtyServer::start(robot)?)
+    } else {
+        None
+    };
+    let path = server.as_ref().map_or(port, |s| s.path());
+    let mut found = Vec::new();
+    for &protocol in protocols {
+        let transport = SerialTransport::open(path, baud).map_err(|source| BusError::Port {
+            port: path.to_string(),
+            source,
+        })?;
+        let max_id = if protocol == Protocol::Dynamixel2 {
+            super::dynamixel::MAX_DEVICE_ID
+        } else {
+            super::feetech::MAX_DEVICE_ID
+        };
+        let mut bus = NativeBus::new(Box::new(transport), protocol, &[]);
+        // A present servo answers within a millisecond at 1 Mbps plus the adapter's latency.
+        bus.timeout = std::time::Duration::from_millis(20);
+        for id in 0..=max_id {
+            match bus.ping(id) {
+                Ok(info) => found.push((protocol, info)),
+                Err(BusError::Timeout { .. } | BusError::Corrupt { .. }) => {}
+                Err(e) => return Err(e),
+            }
+        }
+    }
+    Ok(found)
+}

@@ -1,0 +1,522 @@
+//! Our own [`ServoBus`] over a [`Transport`]: Dynamixel 2.0 or Feetech STS/SCS.
+//!
+//! One transaction at a time, half duplex: discard stale input, send, then collect answers until
+//! a deadline. Reads are retried a bounded number of times; writes never are. Echoes of our own
+//! packets (some half-duplex adapters loop the line back) and answers from other ids are skipped,
+//! corrupt packets are counted and the search goes on behind them.
+
+use super::packet::{Decoded, Direction, Framing, Packet, PacketError};
+use super::registers::{self, Register, RegisterTable};
+use super::transport::Transport;
+use super::{dynamixel, feetech, Alarms, BusError, Health, PingInfo, ServoBus};
+use crate::robot::{Protocol, ServoModel};
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+/// How long to wait for one answer. Generous against the wire time of any packet here (under
+/// 1 ms at 1 Mbps) because a USB adapter adds its latency timer (up to 16 ms on FTDI).
+pub const DEFAULT_TIMEOUT: Duration = Duration::from_millis(40);
+/// Extra attempts for a read that got no valid answer.
+pub const DEFAULT_READ_RETRIES: u32 = 2;
+
+pub struct NativeBus {
+    transport: Box<dyn Transport>,
+    protocol: Protocol,
+    framing: Box<dyn Framing + Send>,
+    models: HashMap<u8, ServoModel>,
+    pub timeout: Duration,
+    pub read_retries: u32,
+    rx: Vec<u8>,
+}
+
+impl NativeBus {
+    /// A bus over `transport` for the given servos (id, model); ids not listed can only be
+    /// pinged.
+    pub fn new(
+        transport: Box<dyn Transport>,
+        protocol: Protocol,
+        servos: &[(u8, ServoModel)],
+    ) -> NativeBus {
+        let framing: Box<dyn Framing + Send> = match protocol {
+            Protocol::Dynamixel2 => Box::new(dynamixel::Dynamixel2),
+            Protocol::FeetechSts | Protocol::FeetechScs => Box::new(feetech::Feetech),
+        };
+        NativeBus {
+            transport,
+            protocol,
+            framing,
+            models: servos.iter().copied().collect(),
+            timeout: DEFAULT_TIMEOUT,
+            read_retries: DEFAULT_READ_RETRIES,
+            rx: Vec::new(),
+        }
+    }
+
+    fn table(&self, id: u8) -> Result<&'static RegisterTable, BusError> {
+        self.models
+            .get(&id)
+            .map(|&m| registers::table(m))
+            .ok_or_else(|| BusError::Protocol(format!("servo {id} is not part of this robot")))
+    }
+
+    /// The register of servo `id` picked by `pick`; all servos of one bus share one layout for
+    /// the registers used together, which `common_register` checks.
+    fn common_register(
+        &self,
+        ids: &[u8],
+        pick: fn(&RegisterTable) -> Register,
+    ) -> Result<(Register, &'static RegisterTable), BusError> {
+        let first = *ids
+            .first()
+            .ok_or_else(|| BusError::Protocol("no servos given".into()))?;
+        let table = self.table(first)?;
+        let register = pick(table);
+        for &id in &ids[1..] {
+            let other = pick(self.table(id)?);
+            if other.address != register.address || other.size != register.size {
+                return Err(BusError::Protocol(format!(
+                    "servos {first} and {id} keep {} at different addresses; they cannot share a sync transfer",
+                    register.name
+                )));
+            }
+        }
+        Ok((register, table))
+    }
+
+    fn protocol_error(&self, e: impl std::fmt::Display) -> BusError {
+        BusError::Protocol(format!("{}: {e}", self.protocol.name()))
+    }
+
+    fn port_error(&self, source: std::io::Error) -> BusError {
+        BusError::Port {
+            port: self.transport.describe(),
+            source,
+        }
+    }
+
+    fn read_params(&self, address: u16, length: u16) -> Result<Vec<u8>, BusError> {
+        Ok(match self.protocol {
+            Protocol::Dynamixel2 => dynamixel::read_params(address, length),
+            _ => feetech::read_params(self.short(address)?, self.short(length)?),
+        })
+    }
+
+    fn write_params(&self, address: u16, data: &[u8]) -> Result<Vec<u8>, BusError> {
+        Ok(match self.protocol {
+            Protocol::Dynamixel2 => dynamixel::write_params(address, data),
+            _ => feetech::write_params(self.short(address)?, data),
+        })
+    }
+
+    fn sync_read_params(&self, address: u16, length: u16, ids: &[u8]) -> Result<Vec<u8>, BusError> {
+        Ok(match self.protocol {
+            Protocol::Dynamixel2 => dynamixel::sync_read_params(address, length, ids),
+            _ => feetech::sync_read_params(self.short(address)?, self.short(length)?, ids),
+        })
+    }
+
+    fn sync_write_params(
+        &self,
+        address: u16,
+        length: u16,
+        data: &[(u8, Vec<u8>)],
+    ) -> Result<Vec<u8>, BusError> {
+        match self.protocol {
+            Protocol::Dynamixel2 => dynamixel::sync_write_params(address, length, data),
+            _ => feetech::sync_write_params(self.short(address)?, self.short(length)?, data),
+        }
+        .map_err(|e| self.protocol_error(e))
+    }
+
+    fn short(&self, value: u16) -> Result<u8, BusError> {
+        u8::try_from(value)
+            .map_err(|_| self.protocol_error(format!("{value} does not fit one byte")))
+    }
+
+    fn sync_instructions(&self) -> (u8, u8) {
+        match self.protocol {
+            Protocol::Dynamixel2 => (dynamixel::SYNC_READ, dynamixel::SYNC_WRITE),
+            _ => (feetech::SYNC_READ, feetech::SYNC_WRITE),
+        }
+    }
+
+    fn send(&mut self, id: u8, instruction: u8, params: &[u8]) -> Result<(), BusError> {
+        let bytes = self
+            .framing
+            .try_encode_instruction(id, instruction, params)
+            .map_err(|e| self.protocol_error(e))?;
+        // Anything still in the input is a late answer to an earlier, abandoned transaction.
+        self.rx.clear();
+        self.transport
+            .discard_input()
+            .map_err(|e| self.port_error(e))?;
+        self.transport
+            .write_all(&bytes)
+            .map_err(|e| self.port_error(e))
+    }
+
+    /// The next status packet from `id`, or a timeout.
+    fn receive(&mut self, id: u8) -> Result<Packet, BusError> {
+        let deadline = Instant::now() + self.timeout;
+        let mut corrupt: Option<PacketError> = None;
+        let mut chunk = [0u8; 512];
+        loop {
+            loop {
+                match self.framing.decode(&mut self.rx, Direction::FromServo) {
+                    Ok(Decoded::Packet(packet)) if packet.id == id => return Ok(packet),
+                    // Another servo's late answer: not ours.
+                    Ok(Decoded::Packet(_)) => continue,
+                    Ok(Decoded::NeedMore) => break,
+                    // The echo of our own instruction on a looped-back line.
+                    Err(PacketError::Direction { .. }) => continue,
+                    Err(e) => corrupt = Some(e),
+                }
+            }
+            let n = self
+                .transport
+                .read_until(&mut chunk, deadline)
+                .map_err(|e| self.port_error(e))?;
+            if n == 0 {
+                return Err(match corrupt {
+                    Some(e) => BusError::Corrupt {
+                        id,
+                        detail: e.to_string(),
+                    },
+                    None => BusError::Timeout {
+                        id,
+                        timeout_ms: self.timeout.as_millis() as u64,
+                    },
+                });
+            }
+            self.rx.extend_from_slice(&chunk[..n]);
+        }
+    }
+
+    /// Turns a status packet's error byte into an error, reading the alarm register when a
+    /// Dynamixel servo raises its alert bit.
+    fn check_status(&mut self, packet: &Packet) -> Result<(), BusError> {
+        let error = packet.error().unwrap_or(0);
+        let id = packet.id;
+        match self.protocol {
+            Protocol::Dynamixel2 => {
+                let status = dynamixel::StatusByte::parse(error);
+                if let Some(refusal) = status.refusal(id) {
+                    return Err(refusal);
+                }
+                if status.alert {
+                    let alarms = self.read_alarm_register(id).unwrap_or(Alarms {
+                        // The servo says it has a hardware error but not which: report the
+                        // most common cause on these arms rather than nothing.
+                        overload: true,
+                        ..Alarms::default()
+                    });
+                    return Err(BusError::Alarm { id, alarms });
+                }
+                Ok(())
+            }
+            _ => {
+                let alarms = feetech::status_alarms(error);
+                if alarms.any() {
+                    Err(BusError::Alarm { id, alarms })
+                } else {
+                    Ok(())
+                }
+            }
+        }
+    }
+
+    fn read_alarm_register(&mut self, id: u8) -> Result<Alarms, BusError> {
+        let register = self.table(id)?.hardware_error;
+        let params = self.read_params(register.address, u16::from(register.size))?;
+        self.send(id, dynamixel::READ, &params)?;
+        let packet = self.receive(id)?;
+        let raw = packet.params.first().copied().unwrap_or(0);
+        Ok(dynamixel::hardware_error_alarms(raw))
+    }
+
+    /// One instruction to one servo and its answer, checked.
+    fn transaction(&mut self, id: u8, instruction: u8, params: &[u8]) -> Result<Packet, BusError> {
+        self.send(id, instruction, params)?;
+        let packet = self.receive(id)?;
+        self.check_status(&packet)?;
+        Ok(packet)
+    }
+
+    /// Reads `length` bytes at `address` from each servo, in the order of `ids`: one sync read
+    /// where the protocol has it, else one read per servo. Retried as a whole on failure.
+    fn read_block(
+        &mut self,
+        ids: &[u8],
+        address: u16,
+        length: u16,
+    ) -> Result<Vec<Vec<u8>>, BusError> {
+        let mut attempt = 0;
+        loop {
+            match self.read_block_once(ids, address, length) {
+                Ok(blocks) => return Ok(blocks),
+                Err(BusError::Timeout { .. } | BusError::Corrupt { .. })
+                    if attempt < self.read_retries =>
+                {
+                    attempt += 1
+                }
+                Err(e) => return Err(e),
+            }
+        }
+    }
+
+    fn read_block_once(
+        &mut self,
+        ids: &[u8],
+        address: u16,
+        length: u16,
+    ) -> Result<Vec<Vec<u8>>, BusError> {
+        let check_length = |packet: &Packet| {
+            if packet.params.len() == usize::from(length) {
+                Ok(())
+            } else {
+                Err(BusError::Corrupt {
+                    id: packet.id,
+                    detail: format!(
+                        "{} data bytes where {length} were asked",
+                        packet.params.len()
+                    ),
+                })
+            }
+        };
+        let mut blocks = Vec::with_capacity(ids.len());
+        if self.protocol == Protocol::FeetechScs {
+            // SCS servos do not answer Sync Read (PROTOCOLS.md §2.2).
+            for &id in ids {
+                let params = self.read_params(address, length)?;
+                let packet = self.transaction(id, feetech::READ, &params)?;
+                check_length(&packet)?;
+                blocks.push(packet.params);
+            }
+            return Ok(blocks);
+        }
+        let (sync_read, _) = self.sync_instructions();
+        let params = self.sync_read_params(address, length, ids)?;
+        let broadcast = self.framing.broadcast_id();
+        self.send(broadcast, sync_read, &params)?;
+        // Each servo answers with its own status packet, in list order.
+        let mut first_error = None;
+        for &id in ids {
+            let packet = self.receive(id)?;
+            if let Err(e) = self.check_status_passive(&packet) {
+                first_error.get_or_insert(e);
+            }
+            check_length(&packet)?;
+            blocks.push(packet.params);
+        }
+        match first_error {
+            Some(e) => Err(self.resolve_alarm(e)),
+            None => Ok(blocks),
+        }
+    }
+
+    /// Like [`Self::check_status`] without any bus traffic (inside a sync read, where other
+    /// answers are still arriving); a Dynamixel alert is resolved afterwards.
+    fn check_status_passive(&self, packet: &Packet) -> Result<(), BusError> {
+        let error = packet.error().unwrap_or(0);
+        let id = packet.id;
+        match self.protocol {
+            Protocol::Dynamixel2 => {
+                let status = dynamixel::StatusByte::parse(error);
+                if let Some(refusal) = status.refusal(id) {
+                    return Err(refusal);
+                }
+                if status.alert {
+                    return Err(BusError::Alarm {
+                        id,
+                        alarms: Alarms::default(),
+                    });
+                }
+                Ok(())
+            }
+            _ => {
+                let alarms = feetech::status_alarms(error);
+                if alarms.any() {
+                    Err(BusError::Alarm { id, alarms })
+                } else {
+                    Ok(())
+                }
+            }
+        }
+    }
+
+    /// Fills in which alarm an alert stands for, once the sync read is over.
+    fn resolve_alarm(&mut self, error: BusError) -> BusError {
+        match error {
+            BusError::Alarm { id, alarms }
+                if !alarms.any() && self.protocol == Protocol::Dynamixel2 =>
+            {
+                match self.read_alarm_register(id) {
+                    Ok(alarms) if alarms.any() => BusError::Alarm { id, alarms },
+                    _ => BusError::Alarm {
+                        id,
+                        alarms: Alarms {
+                            overload: true,
+                            ..Alarms::default()
+                        },
+                    },
+                }
+            }
+            other => other,
+        }
+    }
+
+    /// Writes one value per servo into one register with a single sync write (no answer).
+    fn write_register(
+        &mut self,
+        values: &[(u8, i64)],
+        pick: fn(&RegisterTable) -> Register,
+    ) -> Result<(), BusError> {
+        let ids: Vec<u8> = values.iter().map(|(id, _)| *id).collect();
+        let (register, table) = self.common_register(&ids, pick)?;
+        let data = values
+            .iter()
+            .map(|&(id, value)| {
+                table
+                    .encode(&register, value)
+                    .map(|bytes| (id, bytes))
+                    .map_err(|e| BusError::Protocol(format!("servo {id}: {e}")))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let (_, sync_write) = self.sync_instructions();
+        let params = self.sync_write_params(register.address, u16::from(register.size), &data)?;
+        let broadcast = self.framing.broadcast_id();
+        self.send(broadcast, sync_write, &params)
+    }
+}
+
+impl ServoBus for NativeBus {
+    fn describe(&self) -> String {
+        format!("{} on {}", self.protocol.name(), self.transport.describe())
+    }
+
+    fn ping(&mut self, id: u8) -> Result<PingInfo, BusError> {
+        let ping = match self.protocol {
+            Protocol::Dynamixel2 => dynamixel::PING,
+            _ => feetech::PING,
+        };
+        self.send(id, ping, &[])?;
+        let packet = self.receive(id)?;
+        match self.protocol {
+            Protocol::Dynamixel2 => {
+                dynamixel::parse_ping_answer(&packet).map_err(|e| BusError::Corrupt {
+                    id,
+                    detail: e.to_string(),
+                })
+            }
+            _ => {
+                // Feetech's ping answer carries no model: read the model number register.
+                let register = registers::table(ServoModel::Sts3215).model_number_register;
+                let params = self.read_params(register.address, u16::from(register.size))?;
+                let packet = self.transaction(id, feetech::READ, &params)?;
+                let order = registers::ByteOrder::of(self.protocol);
+                let model_number =
+                    register
+                        .decode(&packet.params, order)
+                        .map_err(|e| BusError::Corrupt {
+                            id,
+                            detail: e.to_string(),
+                        })? as u16;
+                Ok(PingInfo {
+                    id,
+                    model_number,
+                    firmware: None,
+                })
+            }
+        }
+    }
+
+    fn read_positions(&mut self, ids: &[u8]) -> Result<Vec<i64>, BusError> {
+        let (register, table) = self.common_register(ids, |t| t.present_position)?;
+        let blocks = self.read_block(ids, register.address, u16::from(register.size))?;
+        ids.iter()
+            .zip(blocks)
+            .map(|(&id, bytes)| {
+                table
+                    .decode(&register, &bytes)
+                    .map_err(|e| BusError::Corrupt {
+                        id,
+                        detail: e.to_string(),
+                    })
+            })
+            .collect()
+    }
+
+    fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError> {
+        self.write_register(goals, |t| t.goal_position)
+    }
+
+    fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError> {
+        // One confirmed write per servo: torque is the one setting whose loss drops the arm or
+        // leaves it stiff, so each servo must say it took it.
+        let write = match self.protocol {
+            Protocol::Dynamixel2 => dynamixel::WRITE,
+            _ => feetech::WRITE,
+        };
+        for &id in ids {
+            let table = self.table(id)?;
+            let register = table.torque_enable;
+            let data = table
+                .encode(&register, i64::from(on))
+                .map_err(|e| BusError::Protocol(e.to_string()))?;
+            let params = self.write_params(register.address, &data)?;
+            self.transaction(id, write, &params)?;
+        }
+        Ok(())
+    }
+
+    fn read_health(&mut self, ids: &[u8]) -> Result<Vec<Health>, BusError> {
+        let first = *ids
+            .first()
+            .ok_or_else(|| BusError::Protocol("no servos given".into()))?;
+        let table = self.table(first)?;
+        let registers = table.health_registers();
+        // Dynamixel keeps its alarm register (70) far from the others (126…146): two reads
+        // are shorter on the wire than one spanning both.
+        let groups: Vec<Vec<Register>> = match registers::span(&registers) {
+            Some((_, length)) if length > 32 => {
+                let (alarm, rest): (Vec<Register>, Vec<Register>) = registers
+                    .iter()
+                    .partition(|r| r.address == table.hardware_error.address);
+                vec![rest, alarm]
+            }
+            _ => vec![registers.to_vec()],
+        };
+        let mut values: Vec<HashMap<&'static str, i64>> = vec![HashMap::new(); ids.len()];
+        for group in &groups {
+            let Some((start, length)) = registers::span(group) else {
+                continue;
+            };
+            let blocks = self.read_block(ids, start, length)?;
+            for ((slot, block), &id) in values.iter_mut().zip(&blocks).zip(ids) {
+                for register in group {
+                    let value = register
+                        .decode_in_block(block, start, table.byte_order)
+                        .map_err(|e| BusError::Corrupt {
+                            id,
+                            detail: e.to_string(),
+                        })?;
+                    slot.insert(register.name, value);
+                }
+            }
+        }
+        Ok(ids
+            .iter()
+            .zip(values)
+            .map(|(&id, v)| {
+                let get = |r: Register| v.get(r.name).copied().unwrap_or(0);
+                Health {
+                    id,
+                    temperature_c: table.temperature_c(get(table.present_temperature)),
+                    voltage_v: table.voltage_v(get(table.present_voltage)),
+                    load_percent: table.load_percent(get(table.present_load)),
+                    alarms: table.alarms(get(table.hardware_error) as u8),
+                }
+            })
+            .collect())
+    }
+}

@@ -1,0 +1,643 @@
+//! The vendor SDKs as a [`ServoBus`] (`--driver sdk`): ROBOTIS `dynamixel_sdk` and Feetech
+//! `scservo_sdk`, driven through keypose's Python bridge `sim/sdk_bridge.py`.
+//!
+//! The bridge moves raw register values; this side owns their meaning: signs through
+//! [`PositionEncoding`], units, alarm bits, and the mapping of the SDKs' communication results
+//! and status error bytes onto [`BusError`]. It exists to compare our own drivers with the
+//! vendors' code on the same servos, and as a fallback when ours misbehave.
+//!
+//! Reads are not retried here: the SDKs wait their own packet timeouts, and a caller that
+//! wants a retry sees the typed error first.
+
+use super::{Alarms, BusError, Health, PingInfo, ServoBus};
+use crate::pyenv::{Harness, HarnessError, HarnessOptions, PyConfig};
+use crate::robot::{PositionEncoding, Protocol};
+use serde_json::{json, Value};
+use std::collections::HashMap;
+use std::io;
+
+/// The bridge script, as embedded by [`crate::pyenv`].
+pub const BRIDGE_SCRIPT: &str = "sdk_bridge.py";
+
+/// A control-table register: address and size in bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Reg {
+    addr: u16,
+    len: u8,
+}
+
+const fn reg(addr: u16, len: u8) -> Reg {
+    Reg { addr, len }
+}
+
+// Dynamixel X series (XL330-M288, XL430-W250, XM430-W350): PROTOCOLS.md §1.8.
+const DXL_TORQUE_ENABLE: Reg = reg(64, 1);
+const DXL_HARDWARE_ERROR_STATUS: Reg = reg(70, 1);
+const DXL_GOAL_POSITION: Reg = reg(116, 4);
+/// Present Current on XL330 and XM430, Present Load (0.1 %) on XL430; signed.
+const DXL_PRESENT_LOAD_OR_CURRENT: Reg = reg(126, 2);
+const DXL_PRESENT_POSITION: Reg = reg(132, 4);
+/// 0.1 V per unit.
+const DXL_PRESENT_INPUT_VOLTAGE: Reg = reg(144, 2);
+/// °C.
+const DXL_PRESENT_TEMPERATURE: Reg = reg(146, 1);
+/// Current Limit, in Present Current's unit. Not in PROTOCOLS.md: ROBOTIS e-Manual control
+/// tables of the XL330-M288 and XM430-W350, address 38, 2 bytes (absent on the XL430).
+const DXL_CURRENT_LIMIT: Reg = reg(38, 2);
+
+/// Model numbers whose register 126 is a load in 0.1 % (PROTOCOLS.md §1.8): XL430-W250.
+const DXL_LOAD_MODELS: [u16; 1] = [1060];
+/// Model numbers whose register 126 is a current: XL330-M288 1200 and XM430-W350 1020
+/// (PROTOCOLS.md §1.8), XL330-M077 1190 (LeRobot `dynamixel/tables.py` MODEL_NUMBER_TABLE).
+const DXL_CURRENT_MODELS: [u16; 3] = [1200, 1190, 1020];
+
+/// The Alert bit of a Dynamixel status packet's ERR byte (PROTOCOLS.md §1.4); the low seven
+/// bits are an error number, meaning the instruction was refused.
+const DXL_ALERT: u8 = 0x80;
+
+// Feetech STS3215: PROTOCOLS.md §2.6. The SCS series has the same addresses for these
+// (rustypot `src/servo/feetech/scs0009.rs`), with big-endian values.
+const FT_TORQUE_ENABLE: Reg = reg(40, 1);
+/// Sign-magnitude, sign bit 15 on STS; unsigned on SCS.
+const FT_GOAL_POSITION: Reg = reg(42, 2);
+const FT_PRESENT_POSITION: Reg = reg(56, 2);
+/// 0.1 % of duty, sign-magnitude with sign bit 10 (PROTOCOLS.md §2.5).
+const FT_PRESENT_LOAD: Reg = reg(60, 2);
+const FT_LOAD_SIGN_BIT: u8 = 10;
+/// 0.1 V per unit.
+const FT_PRESENT_VOLTAGE: Reg = reg(62, 1);
+/// °C.
+const FT_PRESENT_TEMPERATURE: Reg = reg(63, 1);
+/// Alarm bits, the layout of the status packet's ERR byte (PROTOCOLS.md §2.3).
+const FT_STATUS: Reg = reg(65, 1);
+
+/// Opening a bus through the SDKs: the Python side, or the bus itself.
+#[derive(Debug, thiserror::Error)]
+pub enum SdkError {
+    #[error(transparent)]
+    Harness(#[from] HarnessError),
+    #[error(transparent)]
+    Bus(#[from] BusError),
+}
+
+impl From<SdkError> for BusError {
+    fn from(error: SdkError) -> BusError {
+        match error {
+            SdkError::Bus(error) => error,
+            SdkError::Harness(error) => BusError::Protocol(format!("vendor SDK bridge: {error}")),
+        }
+    }
+}
+
+/// A servo bus driven by the vendor SDK of its protocol, in a Python bridge process of its own.
+#[derive(Debug)]
+pub struct SdkBus {
+    harness: Harness,
+    protocol: Protocol,
+    port: String,
+    baud: u32,
+    /// Dynamixel model numbers seen by `ping`, to read register 126 as load or as current.
+    dxl_models: HashMap<u8, u16>,
+    dxl_current_limits: HashMap<u8, u16>,
+}
+
+impl SdkBus {
+    /// Opens `port` through the SDK of `protocol`, starting the bridge with the Python
+    /// environment from the process's variables (built on first use).
+    pub fn open(port: &str, baud: u32, protocol: Protocol) -> Result<SdkBus, SdkError> {
+        SdkBus::with_harness(Harness::start(BRIDGE_SCRIPT)?, port, baud, protocol)
+    }
+
+    /// As [`SdkBus::open`], with the Python environment of `config`.
+    pub fn open_in(
+        config: &PyConfig,
+        port: &str,
+        baud: u32,
+        protocol: Protocol,
+    ) -> Result<SdkBus, SdkError> {
+        let harness = Harness::start_in(config, BRIDGE_SCRIPT, HarnessOptions::default())?;
+        SdkBus::with_harness(harness, port, baud, protocol)
+    }
+
+    /// Opens `port` through a bridge that is already running (and has no port open).
+    pub fn with_harness(
+        mut harness: Harness,
+        port: &str,
+        baud: u32,
+        protocol: Protocol,
+    ) -> Result<SdkBus, SdkError> {
+        let request = json!({
+            "op": "open",
+            "port": port,
+            "baud": baud,
+            "protocol": protocol.name(),
+        });
+        match harness.request(&request) {
+            Ok(_) => {}
+            Err(HarnessError::Failed { reply, .. })
+                if reply.get("kind").and_then(Value::as_str) == Some("port") =>
+            {
+                return Err(SdkError::Bus(port_error(port, &reply)));
+            }
+            Err(error) => return Err(SdkError::Harness(error)),
+        }
+        Ok(SdkBus {
+            harness,
+            protocol,
+            port: port.to_string(),
+            baud,
+            dxl_models: HashMap::new(),
+            dxl_current_limits: HashMap::new(),
+        })
+    }
+
+    pub fn protocol(&self) -> Protocol {
+        self.protocol
+    }
+
+    /// The bridge, for its ready line (SDK and Python versions) and its stderr.
+    pub fn harness(&self) -> &Harness {
+        &self.harness
+    }
+
+    fn encoding(&self) -> PositionEncoding {
+        self.protocol.position_encoding()
+    }
+
+    fn dynamixel(&self) -> bool {
+        self.protocol == Protocol::Dynamixel2
+    }
+
+    fn sdk_name(&self) -> &'static str {
+        if self.dynamixel() {
+            "dynamixel_sdk"
+        } else {
+            "scservo_sdk"
+        }
+    }
+
+    fn call(&mut self, request: Value, about: Option<u8>) -> Result<Value, BusError> {
+        match self.harness.request(&request) {
+            Ok(reply) => Ok(reply),
+            Err(error) => Err(self.bus_error(error, about, true)),
+        }
+    }
+
+    /// A register read that still yields the value when the status packet only carried alarm
+    /// bits: the data is valid then, and health reports the alarms from their register.
+    fn read_reg_despite_alarms(&mut self, id: u8, reg: Reg) -> Result<u32, BusError> {
+        match self.harness.request(&read_request(id, reg)) {
+            Ok(reply) => raw_value(&reply, id),
+            Err(error) => match self.alarm_only_value(&error) {
+                Some(value) => raw_value(&json!({ "value": value }), id),
+                None => Err(self.bus_error(error, Some(id), false)),
+            },
+        }
+    }
+
+    /// Whether the script's refusal is only the servo's alarm bits: the instruction was carried
+    /// out. Feetech's ERR byte holds alarms only (PROTOCOLS.md §2.3); on Dynamixel only the
+    /// Alert bit is an alarm, an error number is a refusal (§1.4).
+    fn alarm_only(&self, error: &HarnessError) -> bool {
+        let Some(reply) = error.reply() else {
+            return false;
+        };
+        if reply.get("kind").and_then(Value::as_str) != Some("servo") {
+            return false;
+        }
+        match reply.get("servo_error_code").and_then(Value::as_u64) {
+            Some(code) => !self.dynamixel() || code & u64::from(!DXL_ALERT) == 0,
+            None => false,
+        }
+    }
+
+    /// The `value` of a reply whose only complaint is the servo's alarm bits.
+    fn alarm_only_value(&self, error: &HarnessError) -> Option<Value> {
+        if !self.alarm_only(error) {
+            return None;
+        }
+        error
+            .reply()?
+            .get("value")
+            .filter(|value| !value.is_null())
+            .cloned()
+    }
+
+    /// Maps a failed request onto [`BusError`]. `follow_alert` allows one extra read of the
+    /// Dynamixel hardware error register to name the alarms behind an Alert bit.
+    fn bus_error(
+        &mut self,
+        error: HarnessError,
+        about: Option<u8>,
+        follow_alert: bool,
+    ) -> BusError {
+        let HarnessError::Failed { reply, message, .. } = &error else {
+            return BusError::Protocol(format!("vendor SDK bridge: {error}"));
+        };
+        let servo = reply
+            .get("servo")
+            .and_then(Value::as_u64)
+            .and_then(|id| u8::try_from(id).ok())
+            .or(about);
+        let text = |key: &str| {
+            reply
+                .get(key)
+                .and_then(Value::as_str)
+                .unwrap_or(message)
+                .to_string()
+        };
+        match reply.get("kind").and_then(Value::as_str) {
+            Some("comm") => {
+                let comm_kind = reply.get("comm_kind").and_then(Value::as_str);
+                match (comm_kind, servo) {
+                    (Some("timeout"), Some(id)) => BusError::Timeout {
+                        id,
+                        timeout_ms: reply
+                            .get("elapsed_ms")
+                            .and_then(Value::as_f64)
+                            .map(|ms| ms.round().max(0.0) as u64)
+                            .unwrap_or(0),
+                    },
+                    (Some("corrupt"), Some(id)) => BusError::Corrupt {
+                        id,
+                        detail: text("comm"),
+                    },
+                    (Some("tx_fail"), _) => BusError::Port {
+                        port: self.port.clone(),
+                        source: io::Error::other(text("comm")),
+                    },
+                    _ => BusError::Protocol(format!("{}: {message}", self.sdk_name())),
+                }
+            }
+            Some("servo") => {
+                let code = reply
+                    .get("servo_error_code")
+                    .and_then(Value::as_u64)
+                    .and_then(|code| u8::try_from(code).ok())
+                    .unwrap_or(0);
+                let Some(id) = servo else {
+                    return BusError::Protocol(format!("{}: {message}", self.sdk_name()));
+                };
+                if !self.dynamixel() {
+                    return BusError::Alarm {
+                        id,
+                        alarms: feetech_alarms(code),
+                    };
+                }
+                if code & !DXL_ALERT != 0 {
+                    return BusError::Refused {
+                        id,
+                        reason: text("servo_error"),
+                    };
+                }
+                let alarms = if follow_alert {
+                    self.read_reg_despite_alarms(id, DXL_HARDWARE_ERROR_STATUS)
+                        .ok()
+                        .map(|bits| dynamixel_alarms(bits as u8))
+                } else {
+                    None
+                };
+                match alarms {
+                    Some(alarms) => BusError::Alarm { id, alarms },
+                    // The alarms could not be named: say what the servo said.
+                    None => BusError::Refused {
+                        id,
+                        reason: text("servo_error"),
+                    },
+                }
+            }
+            Some("port") => port_error(&self.port, reply),
+            _ => BusError::Protocol(format!("vendor SDK bridge: {message}")),
+        }
+    }
+
+    fn dxl_model(&mut self, id: u8) -> Result<u16, BusError> {
+        if let Some(model) = self.dxl_models.get(&id) {
+            return Ok(*model);
+        }
+        Ok(self.ping(id)?.model_number)
+    }
+
+    fn dxl_load_percent(&mut self, id: u8, raw: u32) -> Result<f64, BusError> {
+        let signed = f64::from(raw as u16 as i16);
+        let model = self.dxl_model(id)?;
+        if DXL_LOAD_MODELS.contains(&model) {
+            return Ok(signed * 0.1);
+        }
+        if !DXL_CURRENT_MODELS.contains(&model) {
+            return Err(BusError::Protocol(format!(
+                "servo {id}: Dynamixel model number {model} is not one keypose knows, so its \
+                 register {} cannot be read as a load",
+                DXL_PRESENT_LOAD_OR_CURRENT.addr
+            )));
+        }
+        let limit = match self.dxl_current_limits.get(&id) {
+            Some(limit) => *limit,
+            None => {
+                let limit = self.read_reg_despite_alarms(id, DXL_CURRENT_LIMIT)? as u16;
+                self.dxl_current_limits.insert(id, limit);
+                limit
+            }
+        };
+        if limit == 0 {
+            return Err(BusError::Protocol(format!(
+                "servo {id}: its current limit is 0, so its load has no percentage"
+            )));
+        }
+        Ok(signed / f64::from(limit) * 100.0)
+    }
+}
+
+fn read_request(id: u8, reg: Reg) -> Value {
+    json!({ "op": "read", "id": id, "addr": reg.addr, "len": reg.len })
+}
+
+fn raw_value(reply: &Value, id: u8) -> Result<u32, BusError> {
+    reply
+        .get("value")
+        .and_then(Value::as_u64)
+        .and_then(|value| u32::try_from(value).ok())
+        .ok_or_else(|| {
+            BusError::Protocol(format!(
+                "servo {id}: the SDK bridge's reply has no register value: {reply}"
+            ))
+        })
+}
+
+fn port_error(port: &str, reply: &Value) -> BusError {
+    let source = match reply
+        .get("errno")
+        .and_then(Value::as_i64)
+        .and_then(|errno| i32::try_from(errno).ok())
+    {
+        // pyserial passes the OS's errno on; as an io::Error it keeps its kind (NotFound,
+        // PermissionDenied, ResourceBusy) for callers that advise on it.
+        Some(errno) => io::Error::from_raw_os_error(errno),
+        None => io::Error::other(
+            reply
+                .get("error")
+                .and_then(Value::as_str)
+                .unwrap_or("cannot open the port")
+                .to_string(),
+        ),
+    };
+    BusError::Port {
+        port: port.to_string(),
+        source,
+    }
+}
+
+/// Hardware Error Status (register 70) bits, PROTOCOLS.md §1.8.
+fn dynamixel_alarms(bits: u8) -> Alarms {
+    Alarms {
+        input_voltage: bits & 0x01 != 0,
+        overheating: bits & 0x04 != 0,
+        encoder: bits & 0x08 != 0,
+        electrical: bits & 0x10 != 0,
+        overload: bits & 0x20 != 0,
+    }
+}
+
+/// Status register (65) and status ERR byte bits, PROTOCOLS.md §2.3.
+fn feetech_alarms(bits: u8) -> Alarms {
+    Alarms {
+        input_voltage: bits & 0x01 != 0,
+        encoder: bits & 0x02 != 0,
+        overheating: bits & 0x04 != 0,
+        electrical: bits & 0x08 != 0,
+        overload: bits & 0x20 != 0,
+    }
+}
+
+impl ServoBus for SdkBus {
+    fn describe(&self) -> String {
+        let version = self
+            .harness
+            .ready()
+            .get(self.sdk_name())
+            .and_then(Value::as_str)
+            .unwrap_or("unknown version");
+        format!(
+            "{} via {} {version} on {} at {}",
+            self.protocol.name(),
+            self.sdk_name(),
+            self.port,
+            self.baud
+        )
+    }
+
+    fn ping(&mut self, id: u8) -> Result<PingInfo, BusError> {
+        let request = json!({ "op": "ping", "id": id });
+        // A servo with an alarm still answers a ping with what it is; its alarms are health's
+        // business, so they do not make the servo missing.
+        let found = match self.harness.request(&request) {
+            Ok(reply) => reply,
+            Err(error) => match self.alarm_only_value(&error) {
+                Some(found) => found,
+                None => return Err(self.bus_error(error, Some(id), true)),
+            },
+        };
+        let model_number = found
+            .get("model_number")
+            .and_then(Value::as_u64)
+            .and_then(|model| u16::try_from(model).ok())
+            .ok_or_else(|| {
+                BusError::Protocol(format!(
+                    "servo {id}: the SDK bridge's ping reply has no model number: {found}"
+                ))
+            })?;
+        let firmware = found
+            .get("firmware")
+            .and_then(Value::as_u64)
+            .and_then(|firmware| u8::try_from(firmware).ok());
+        if self.dynamixel() {
+            self.dxl_models.insert(id, model_number);
+        }
+        Ok(PingInfo {
+            id,
+            model_number,
+            firmware,
+        })
+    }
+
+    fn read_positions(&mut self, ids: &[u8]) -> Result<Vec<i64>, BusError> {
+        if ids.is_empty() {
+            return Ok(Vec::new());
+        }
+        let reg = if self.dynamixel() {
+            DXL_PRESENT_POSITION
+        } else {
+            FT_PRESENT_POSITION
+        };
+        let raws: Vec<u32> = if self.protocol == Protocol::FeetechScs {
+            // SCS servos do not answer Sync Read (PROTOCOLS.md §2.2). Alarm bits in the
+            // answers are let through, as a sync read (which never sees them) does on the other
+            // protocols: the position is valid, and alarms are read_health's to report.
+            ids.iter()
+                .map(|&id| self.read_reg_despite_alarms(id, reg))
+                .collect::<Result<_, _>>()?
+        } else {
+            let request =
+                json!({ "op": "sync_read", "addr": reg.addr, "len": reg.len, "ids": ids });
+            let reply = self.call(request, None)?;
+            let values = reply
+                .get("values")
+                .and_then(Value::as_array)
+                .filter(|values| values.len() == ids.len())
+                .ok_or_else(|| {
+                    BusError::Protocol(format!(
+                        "the SDK bridge's sync read reply does not hold {} values: {reply}",
+                        ids.len()
+                    ))
+                })?;
+            ids.iter()
+                .zip(values)
+                .map(|(&id, value)| raw_value(&json!({ "value": value }), id))
+                .collect::<Result<_, _>>()?
+        };
+        let encoding = self.encoding();
+        Ok(raws.into_iter().map(|raw| encoding.decode(raw)).collect())
+    }
+
+    fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError> {
+        if goals.is_empty() {
+            return Ok(());
+        }
+        let reg = if self.dynamixel() {
+            DXL_GOAL_POSITION
+        } else {
+            FT_GOAL_POSITION
+        };
+        let encoding = self.encoding();
+        let values = goals
+            .iter()
+            .map(|&(id, tick)| {
+                encoding
+                    .encode(tick)
+                    .map(|raw| json!([id, raw]))
+                    .map_err(|error| {
+                        BusError::Protocol(format!("servo {id}: goal not sent: {error}"))
+                    })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let request =
+            json!({ "op": "sync_write", "addr": reg.addr, "len": reg.len, "values": values });
+        self.call(request, None).map(drop)
+    }
+
+    fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError> {
+        let reg = if self.dynamixel() {
+            DXL_TORQUE_ENABLE
+        } else {
+            FT_TORQUE_ENABLE
+        };
+        let mut first_error = None;
+        for &id in ids {
+            // One confirmed write per servo rather than an unanswered sync write: torque is
+            // the safety switch, and its failure must name the servo.
+            let request = json!({
+                "op": "write", "id": id, "addr": reg.addr, "len": reg.len, "value": u32::from(on),
+            });
+            let error = match self.harness.request(&request) {
+                Ok(_) => continue,
+                // A servo with an alarm did release: that is what a stop after a fault needs,
+                // not an error. Switching on with an alarm is refused below.
+                Err(error) if !on && self.alarm_only(&error) => continue,
+                Err(error) => self.bus_error(error, Some(id), true),
+            };
+            if on {
+                return Err(error);
+            }
+            // Releasing goes on past a failing servo: one fault must not leave the others
+            // holding the arm.
+            first_error.get_or_insert(error);
+        }
+        first_error.map_or(Ok(()), Err)
+    }
+
+    fn read_health(&mut self, ids: &[u8]) -> Result<Vec<Health>, BusError> {
+        let mut healths = Vec::with_capacity(ids.len());
+        for &id in ids {
+            let health = if self.dynamixel() {
+                let bits = self.read_reg_despite_alarms(id, DXL_HARDWARE_ERROR_STATUS)?;
+                let load = self.read_reg_despite_alarms(id, DXL_PRESENT_LOAD_OR_CURRENT)?;
+                let voltage = self.read_reg_despite_alarms(id, DXL_PRESENT_INPUT_VOLTAGE)?;
+                let temperature = self.read_reg_despite_alarms(id, DXL_PRESENT_TEMPERATURE)?;
+                Health {
+                    id,
+                    temperature_c: f64::from(temperature),
+                    voltage_v: f64::from(voltage) * 0.1,
+                    load_percent: self.dxl_load_percent(id, load)?,
+                    alarms: dynamixel_alarms(bits as u8),
+                }
+            } else {
+                let bits = self.read_reg_despite_alarms(id, FT_STATUS)?;
+                let load = self.read_reg_despite_alarms(id, FT_PRESENT_LOAD)?;
+                let voltage = self.read_reg_despite_alarms(id, FT_PRESENT_VOLTAGE)?;
+                let temperature = self.read_reg_despite_alarms(id, FT_PRESENT_TEMPERATURE)?;
+                let load = PositionEncoding::SignMagnitude16 {
+                    sign_bit: FT_LOAD_SIGN_BIT,
+                }
+                .decode(load);
+                Health {
+                    id,
+                    temperature_c: f64::from(temperature),
+                    voltage_v: f64::from(voltage) * 0.1,
+                    load_percent: load as f64 * 0.1,
+                    alarms: feetech_alarms(bits as u8),
+                }
+            };
+            healths.push(health);
+        }
+        Ok(healths)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn alarm_bits_follow_each_vendors_layout() {
+        let dxl = dynamixel_alarms(0b0011_1101);
+        assert!(
+            dxl.input_voltage && dxl.overheating && dxl.encoder && dxl.electrical && dxl.overload
+        );
+        // Bit 1 is unused on Dynamixel; on Feetech it is the angle sensor.
+        assert!(!dynamixel_alarms(0x02).any());
+        assert!(feetech_alarms(0x02).encoder);
+        assert_eq!(
+            feetech_alarms(0x04),
+            Alarms {
+                overheating: true,
+                ..Alarms::default()
+            }
+        );
+        assert!(feetech_alarms(0x08).electrical);
+        assert!(feetech_alarms(0x20).overload);
+    }
+
+    #[test]
+    fn port_errors_keep_the_os_error_kind() {
+        let reply = json!({"ok": false, "kind": "port", "error": "x", "errno": 2});
+        let error = port_error("/dev/ttyNOPE", &reply);
+        let text = error.to_string();
+        assert!(text.contains("/dev/ttyNOPE"), "{text}");
+        match error {
+            BusError::Port { source, .. } => assert_eq!(source.kind(), io::ErrorKind::NotFound),
+            other => panic!("expected a port error, got {other:?}"),
+        }
+        let reply = json!({"ok": false, "kind": "port", "error": "Could not configure port", "errno": null});
+        assert!(port_error("/dev/null", &reply)
+            .to_string()
+            .contains("Could not configure port"));
+    }
+
+    #[test]
+    fn raw_values_must_be_unsigned_32_bit() {
+        assert_eq!(raw_value(&json!({"value": 4095}), 1).ok(), Some(4095));
+        assert!(raw_value(&json!({"value": -1}), 1).is_err());
+        assert!(raw_value(&json!({"value": 1u64 << 32}), 1).is_err());
+        assert!(raw_value(&json!({}), 1).is_err());
+    }
+}

@@ -1,0 +1,167 @@
+//! Byte transports under the drivers: a real serial port, or an in-memory link to emulated
+//! servos. Both have the same contract, so the driver code path is identical.
+
+use std::io::{self, Read, Write};
+use std::time::{Duration, Instant};
+
+/// A half-duplex byte link with deadline-bounded reads.
+pub trait Transport: Send {
+    fn describe(&self) -> String;
+    fn write_all(&mut self, bytes: &[u8]) -> io::Result<()>;
+    /// Reads what is available, waiting until `deadline` at most; `Ok(0)` means nothing came.
+    fn read_until(&mut self, buf: &mut [u8], deadline: Instant) -> io::Result<usize>;
+    /// Drops any bytes already received (stale answers, line noise).
+    fn discard_input(&mut self) -> io::Result<()>;
+}
+
+/// A serial port through the `serialport` crate: a USB adapter, or a pseudo-terminal.
+pub struct SerialTransport {
+    name: String,
+    baud: u32,
+    port: Box<dyn serialport::SerialPort>,
+}
+
+impl SerialTransport {
+    pub fn open(path: &str, baud: u32) -> io::Result<Self> {
+        let port = serialport::new(path, baud)
+            .timeout(Duration::from_millis(10))
+            .open()
+            .map_err(io::Error::from)?;
+        Ok(Self {
+            name: path.to_string(),
+            baud,
+            port,
+        })
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+}
+
+impl Transport for SerialTransport {
+    fn describe(&self) -> String {
+        format!("{} at {} baud", self.name, self.baud)
+    }
+
+    fn write_all(&mut self, bytes: &[u8]) -> io::Result<()> {
+        self.port.write_all(bytes)?;
+        self.port.flush()
+    }
+
+    fn read_until(&mut self, buf: &mut [u8], deadline: Instant) -> io::Result<usize> {
+        loop {
+            let now = Instant::now();
+            if now >= deadline {
+                return Ok(0);
+            }
+            // serialport's timeout is per read call; keep it within the caller's deadline.
+            self.port
+                .set_timeout((deadline - now).min(Duration::from_millis(50)))?;
+            match self.port.read(buf) {
+                Ok(0) => {
+                    return Err(io::Error::new(
+                        io::ErrorKind::BrokenPipe,
+                        "the port closed (device unplugged?)",
+                    ))
+                }
+                Ok(n) => return Ok(n),
+                Err(e) if e.kind() == io::ErrorKind::TimedOut => continue,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e),
+            }
+        }
+    }
+
+    fn discard_input(&mut self) -> io::Result<()> {
+        self.port
+            .clear(serialport::ClearBuffer::Input)
+            .map_err(io::Error::from)
+    }
+}
+
+/// Something that answers bytes with bytes: the in-process side of a [`MemoryTransport`].
+pub trait Responder: Send {
+    /// Takes the bytes a driver wrote and returns the answer bytes, each chunk with the delay
+    /// after which it becomes readable.
+    fn respond(&mut self, written: &[u8]) -> Vec<(Duration, Vec<u8>)>;
+    /// False once the emulated port has "disappeared".
+    fn connected(&self) -> bool {
+        true
+    }
+}
+
+/// An in-memory transport: no serial port, no thread; answers become readable after their
+/// delay, so late answers and timeouts behave as on a wire.
+pub struct MemoryTransport<R: Responder> {
+    responder: R,
+    pending: Vec<(Instant, Vec<u8>)>,
+}
+
+impl<R: Responder> MemoryTransport<R> {
+    pub fn new(responder: R) -> Self {
+        Self {
+            responder,
+            pending: Vec::new(),
+        }
+    }
+
+    pub fn responder(&mut self) -> &mut R {
+        &mut self.responder
+    }
+
+    fn gone() -> io::Error {
+        io::Error::new(io::ErrorKind::BrokenPipe, "the port disappeared")
+    }
+}
+
+impl<R: Responder> Transport for MemoryTransport<R> {
+    fn describe(&self) -> String {
+        "in-process virtual bus".into()
+    }
+
+    fn write_all(&mut self, bytes: &[u8]) -> io::Result<()> {
+        if !self.responder.connected() {
+            return Err(Self::gone());
+        }
+        let now = Instant::now();
+        for (delay, chunk) in self.responder.respond(bytes) {
+            self.pending.push((now + delay, chunk));
+        }
+        Ok(())
+    }
+
+    fn read_until(&mut self, buf: &mut [u8], deadline: Instant) -> io::Result<usize> {
+        if !self.responder.connected() {
+            return Err(Self::gone());
+        }
+        let Some(&(ready_at, _)) = self.pending.first() else {
+            let now = Instant::now();
+            if deadline > now {
+                std::thread::sleep(deadline - now);
+            }
+            return Ok(0);
+        };
+        let now = Instant::now();
+        if ready_at > now {
+            std::thread::sleep(ready_at.min(deadline) - now);
+            if ready_at > deadline {
+                return Ok(0);
+            }
+        }
+        let (_, chunk) = &mut self.pending[0];
+        let n = chunk.len().min(buf.len());
+        buf[..n].copy_from_slice(&chunk[..n]);
+        chunk.drain(..n);
+        if chunk.is_empty() {
+            self.pending.remove(0);
+        }
+        Ok(n)
+    }
+
+    fn discard_input(&mut self) -> io::Result<()> {
+        let now = Instant::now();
+        self.pending.retain(|(ready_at, _)| *ready_at > now);
+        Ok(())
+    }
+}

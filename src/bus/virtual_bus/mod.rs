@@ -1,0 +1,553 @@
+//! Emulated servos that answer the real protocols byte for byte.
+//!
+//! Each virtual servo keeps its control table in memory, laid out by the model's register table,
+//! and moves as [`motion::Motion`] says. Instruction packets are decoded with the same codecs the
+//! driver uses to encode them, but the answers are built from the register tables and the
+//! protocol documents, and the conformance tests check both against the vendors' own SDKs.
+//!
+//! Faults can be injected per servo (no answer, a corrupted checksum, a late answer, an alarm)
+//! and for the whole bus (the port disappearing). Every instruction packet received is recorded,
+//! so tests can inspect exactly what reached the servos.
+
+pub mod motion;
+mod pty;
+
+pub use pty::PtyServer;
+
+use super::packet::{Decoded, Direction, Framing, Packet};
+use super::registers::{self, RegisterTable};
+use super::transport::Responder;
+use super::{dynamixel, feetech, Alarms};
+use crate::robot::{Protocol, Robot, ServoModel};
+use motion::Motion;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
+
+/// Size of each emulated control table; every register of the supported models lies below.
+const MEMORY_SIZE: usize = 256;
+/// Supply voltage reported by emulated servos, tenths of a volt.
+const SUPPLY_DECIVOLTS: i64 = 120;
+const ROOM_TEMPERATURE_C: i64 = 30;
+
+/// A fault to inject into one servo's behaviour.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ServoFault {
+    /// The servo never answers.
+    NoAnswer,
+    /// Answers carry a wrong checksum.
+    CorruptChecksum,
+    /// Answers come this late.
+    Late(Duration),
+    /// The servo raises these alarms (Dynamixel: alert bit + Hardware Error Status, and torque
+    /// shuts off; Feetech: the status error bits).
+    Alarm(Alarms),
+}
+
+#[derive(Debug, Clone)]
+pub struct VirtualServo {
+    pub id: u8,
+    pub model: ServoModel,
+    pub motion: Motion,
+    memory: Vec<u8>,
+    pub fault: Option<ServoFault>,
+}
+
+impl VirtualServo {
+    fn new(id: u8, model: ServoModel, position: f64) -> VirtualServo {
+        let table = registers::table(model);
+        let mut servo = VirtualServo {
+            id,
+            model,
+            motion: Motion::new(model, position),
+            memory: vec![0; MEMORY_SIZE],
+            fault: None,
+        };
+        servo.store(table.model_number_register, i64::from(table.model_number));
+        servo.store(table.id, i64::from(id));
+        servo.store(
+            table.status_return_level,
+            if table.is_dynamixel() { 2 } else { 1 },
+        );
+        servo.store(table.present_voltage, SUPPLY_DECIVOLTS);
+        servo.store(table.present_temperature, ROOM_TEMPERATURE_C);
+        servo.store(table.goal_position, position.round() as i64);
+        servo
+    }
+
+    fn table(&self) -> &'static RegisterTable {
+        registers::table(self.model)
+    }
+
+    fn store(&mut self, register: registers::Register, value: i64) {
+        if let Ok(bytes) = self.table().encode(&register, value) {
+            let start = usize::from(register.address);
+            self.memory[start..start + bytes.len()].copy_from_slice(&bytes);
+        }
+    }
+
+    fn load(&self, register: registers::Register) -> i64 {
+        let start = usize::from(register.address);
+        self.table()
+            .decode(
+                &register,
+                &self.memory[start..start + usize::from(register.size)],
+            )
+            .unwrap_or(0)
+    }
+
+    fn alarms(&self) -> Alarms {
+        match self.fault {
+            Some(ServoFault::Alarm(alarms)) => alarms,
+            _ => Alarms::default(),
+        }
+    }
+
+    /// Brings the present-value registers up to date with the motion.
+    fn refresh(&mut self) {
+        self.motion.update();
+        let table = self.table();
+        let position = self.motion.position.round() as i64;
+        let moving = (self.motion.goal - self.motion.position).abs() > 0.5 && self.motion.torque;
+        self.store(table.present_position, position);
+        self.store(table.moving, i64::from(moving));
+        self.store(table.torque_enable, i64::from(self.motion.torque));
+        let alarm_bits = if table.is_dynamixel() {
+            dynamixel::hardware_error_bits(&self.alarms())
+        } else {
+            feetech::status_bits(&self.alarms())
+        };
+        self.store(table.hardware_error, i64::from(alarm_bits));
+    }
+
+    /// Applies a write to the control table, then acts on the registers that move the servo.
+    /// Returns a Dynamixel error number when the write is refused.
+    fn write(&mut self, address: usize, data: &[u8]) -> Result<(), dynamixel::ErrorNumber> {
+        let end = address + data.len();
+        if end > MEMORY_SIZE {
+            return Err(dynamixel::ErrorNumber::DataLimit);
+        }
+        let table = self.table();
+        // X series: EEPROM (below 64) is writable only with torque off (PROTOCOLS.md §1.8).
+        if table.is_dynamixel() && address < 64 && self.motion.torque {
+            return Err(dynamixel::ErrorNumber::Access);
+        }
+        self.memory[address..end].copy_from_slice(data);
+        let touches =
+            |r: registers::Register| usize::from(r.address) < end && usize::from(r.end()) > address;
+        if touches(table.torque_enable) {
+            let on = self.load(table.torque_enable) != 0;
+            // A servo in shutdown keeps torque off until rebooted.
+            let shut_down = table.is_dynamixel() && self.alarms().any();
+            self.motion.set_torque(on && !shut_down);
+        }
+        if touches(table.goal_position) {
+            self.motion.set_goal(self.load(table.goal_position) as f64);
+        }
+        Ok(())
+    }
+
+    fn read(&mut self, address: usize, length: usize) -> Option<Vec<u8>> {
+        self.refresh();
+        self.memory
+            .get(address..address + length)
+            .map(<[u8]>::to_vec)
+    }
+
+    /// The status error byte for an answer without a refusal.
+    fn status_byte(&self) -> u8 {
+        let alarms = self.alarms();
+        if self.table().is_dynamixel() {
+            if alarms.any() {
+                dynamixel::ALERT_BIT
+            } else {
+                0
+            }
+        } else {
+            feetech::status_bits(&alarms)
+        }
+    }
+}
+
+/// The emulated bus: servos, fault switches, and the record of received instructions.
+pub struct VirtualServos {
+    protocol: Protocol,
+    framing: Box<dyn Framing + Send>,
+    pub servos: Vec<VirtualServo>,
+    /// Every instruction packet decoded, in order.
+    pub received: Vec<Packet>,
+    /// Bytes that did not decode into packets (for diagnosing a broken encoder).
+    pub corrupt_packets: usize,
+    /// False once the port "disappears".
+    pub connected: bool,
+    rx: Vec<u8>,
+}
+
+impl VirtualServos {
+    /// The servos of `robot`, resting at its home pose with torque off.
+    pub fn for_robot(robot: &Robot) -> VirtualServos {
+        let servos = robot
+            .joints
+            .iter()
+            .zip(&robot.home)
+            .map(|(joint, &home)| {
+                let tick = joint.servo.tick_exact(home);
+                VirtualServo::new(joint.servo.id, joint.servo.model, tick)
+            })
+            .collect();
+        VirtualServos::new(robot.bus.protocol, servos)
+    }
+
+    pub fn new(protocol: Protocol, servos: Vec<VirtualServo>) -> VirtualServos {
+        let framing: Box<dyn Framing + Send> = match protocol {
+            Protocol::Dynamixel2 => Box::new(dynamixel::Dynamixel2),
+            _ => Box::new(feetech::Feetech),
+        };
+        VirtualServos {
+            protocol,
+            framing,
+            servos,
+            received: Vec::new(),
+            corrupt_packets: 0,
+            connected: true,
+            rx: Vec::new(),
+        }
+    }
+
+    pub fn servo_mut(&mut self, id: u8) -> Option<&mut VirtualServo> {
+        self.servos.iter_mut().find(|s| s.id == id)
+    }
+
+    pub fn set_fault(&mut self, id: u8, fault: Option<ServoFault>) {
+        if let Some(servo) = self.servo_mut(id) {
+            servo.fault = fault;
+            if let Some(ServoFault::Alarm(alarms)) = fault {
+                // X series shut the torque off on a hardware error (Shutdown register default).
+                if alarms.any() && registers::table(servo.model).is_dynamixel() {
+                    servo.motion.set_torque(false);
+                }
+            }
+        }
+    }
+
+    /// Present positions (ticks), as the servos would report them now.
+    pub fn positions(&mut self) -> HashMap<u8, f64> {
+        self.servos
+            .iter_mut()
+            .map(|s| {
+                s.motion.update();
+                (s.id, s.motion.position)
+            })
+            .collect()
+    }
+
+    /// Every goal position written, in order: (servo id, ticks).
+    pub fn goals_received(&self) -> Vec<(u8, i64)> {
+        let mut goals = Vec::new();
+        for packet in &self.received {
+            for (id, address, data) in self.writes_in(packet) {
+                if let Some(servo) = self.servos.iter().find(|s| s.id == id) {
+                    let table = servo.table();
+                    let register = table.goal_position;
+                    if address == usize::from(register.address)
+                        && data.len() >= usize::from(register.size)
+                    {
+                        if let Ok(value) =
+                            table.decode(&register, &data[..usize::from(register.size)])
+                        {
+                            goals.push((id, value));
+                        }
+                    }
+                }
+            }
+        }
+        goals
+    }
+
+    /// The (id, address, data) writes an instruction packet makes.
+    fn writes_in(&self, packet: &Packet) -> Vec<(u8, usize, Vec<u8>)> {
+        let Some(code) = packet.instruction_code() else {
+            return Vec::new();
+        };
+        let p = &packet.params;
+        let dxl = self.protocol == Protocol::Dynamixel2;
+        let (write, sync_write) = if dxl {
+            (dynamixel::WRITE, dynamixel::SYNC_WRITE)
+        } else {
+            (feetech::WRITE, feetech::SYNC_WRITE)
+        };
+        let header = if dxl { 2 } else { 1 };
+        let word = |bytes: &[u8]| -> usize {
+            if dxl {
+                usize::from(u16::from_le_bytes([bytes[0], bytes[1]]))
+            } else {
+                usize::from(bytes[0])
+            }
+        };
+        if code == write && p.len() > header {
+            return vec![(packet.id, word(p), p[header..].to_vec())];
+        }
+        if code == sync_write && p.len() >= 2 * header {
+            let address = word(p);
+            let length = word(&p[header..]);
+            let entries = &p[2 * header..];
+            if length == 0 {
+                return Vec::new();
+            }
+            return entries
+                .chunks(1 + length)
+                .filter(|chunk| chunk.len() == 1 + length)
+                .map(|chunk| (chunk[0], address, chunk[1..].to_vec()))
+                .collect();
+        }
+        Vec::new()
+    }
+
+    /// Decodes what arrived and answers each instruction.
+    pub fn handle(&mut self, bytes: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+        self.rx.extend_from_slice(bytes);
+        let mut answers = Vec::new();
+        loop {
+            match self.framing.decode(&mut self.rx, Direction::ToServo) {
+                Ok(Decoded::Packet(packet)) => {
+                    answers.extend(self.answer(&packet));
+                    self.received.push(packet);
+                }
+                Ok(Decoded::NeedMore) => break,
+                Err(_) => self.corrupt_packets += 1,
+            }
+        }
+        answers
+    }
+
+    fn answer(&mut self, packet: &Packet) -> Vec<(Duration, Vec<u8>)> {
+        let Some(code) = packet.instruction_code() else {
+            return Vec::new();
+        };
+        let broadcast = self.framing.broadcast_id();
+        let dxl = self.protocol == Protocol::Dynamixel2;
+        let header = if dxl { 2 } else { 1 };
+        let p = packet.params.clone();
+        let word = |bytes: &[u8]| -> Option<usize> {
+            if dxl {
+                Some(usize::from(u16::from_le_bytes([
+                    *bytes.first()?,
+                    *bytes.get(1)?,
+                ])))
+            } else {
+                bytes.first().map(|b| usize::from(*b))
+            }
+        };
+        let (ping, read, write, sync_read, sync_write) = if dxl {
+            (
+                dynamixel::PING,
+                dynamixel::READ,
+                dynamixel::WRITE,
+                dynamixel::SYNC_READ,
+                dynamixel::SYNC_WRITE,
+            )
+        } else {
+            (
+                feetech::PING,
+                feetech::READ,
+                feetech::WRITE,
+                feetech::SYNC_READ,
+                feetech::SYNC_WRITE,
+            )
+        };
+        let mut out = Vec::new();
+        match code {
+            c if c == ping => {
+                let ids: Vec<u8> = if packet.id == broadcast {
+                    self.servos.iter().map(|s| s.id).collect()
+                } else {
+                    vec![packet.id]
+                };
+                for id in ids {
+                    let params = match self.servos.iter().find(|s| s.id == id) {
+                        Some(s) if dxl => {
+                            dynamixel::ping_answer_params(s.table().model_number, FIRMWARE_VERSION)
+                        }
+                        Some(_) => Vec::new(),
+                        None => continue,
+                    };
+                    out.extend(self.status(id, None, &params));
+                }
+            }
+            c if c == read && packet.id != broadcast => {
+                let (Some(address), Some(length)) =
+                    (word(&p), word(p.get(header..).unwrap_or(&[])))
+                else {
+                    return self.status(packet.id, Some(dynamixel::ErrorNumber::DataLength), &[]);
+                };
+                let data = self.servo_mut(packet.id).map(|s| s.read(address, length));
+                match data {
+                    Some(Some(bytes)) => out.extend(self.status(packet.id, None, &bytes)),
+                    Some(None) => out.extend(self.status(
+                        packet.id,
+                        Some(dynamixel::ErrorNumber::DataLimit),
+                        &[],
+                    )),
+                    None => {}
+                }
+            }
+            c if c == write => {
+                for (id, address, data) in self.writes_in(packet) {
+                    if id == broadcast {
+                        // A broadcast write reaches every servo and none answers.
+                        for servo in &mut self.servos {
+                            let _ = servo.write(address, &data);
+                        }
+                        continue;
+                    }
+                    let result = match self.servo_mut(id) {
+                        Some(servo) => servo.write(address, &data),
+                        None => continue,
+                    };
+                    out.extend(self.status(id, result.err(), &[]));
+                }
+            }
+            c if c == sync_write => {
+                for (id, address, data) in self.writes_in(packet) {
+                    if let Some(servo) = self.servo_mut(id) {
+                        let _ = servo.write(address, &data);
+                    }
+                }
+            }
+            c if c == sync_read && self.protocol != Protocol::FeetechScs => {
+                let (Some(address), Some(length)) =
+                    (word(&p), word(p.get(header..).unwrap_or(&[])))
+                else {
+                    return out;
+                };
+                let ids = p.get(2 * header..).unwrap_or(&[]).to_vec();
+                for id in ids {
+                    if let Some(Some(bytes)) = self.servo_mut(id).map(|s| s.read(address, length)) {
+                        out.extend(self.status(id, None, &bytes));
+                    }
+                }
+            }
+            c if dxl && c == dynamixel::FAST_SYNC_READ => {
+                out.extend(self.fast_sync_read(&p));
+            }
+            c if dxl && c == dynamixel::REBOOT => {
+                if let Some(servo) = self.servo_mut(packet.id) {
+                    servo.fault = None;
+                    servo.motion.set_torque(false);
+                }
+                out.extend(self.status(packet.id, None, &[]));
+            }
+            _ => {
+                if packet.id != broadcast && dxl {
+                    out.extend(self.status(
+                        packet.id,
+                        Some(dynamixel::ErrorNumber::Instruction),
+                        &[],
+                    ));
+                }
+            }
+        }
+        out
+    }
+
+    fn fast_sync_read(&mut self, p: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+        if p.len() < 4 {
+            return Vec::new();
+        }
+        let address = usize::from(u16::from_le_bytes([p[0], p[1]]));
+        let length = usize::from(u16::from_le_bytes([p[2], p[3]]));
+        let mut entries = Vec::new();
+        for &id in &p[4..] {
+            let Some(servo) = self.servo_mut(id) else {
+                continue;
+            };
+            let Some(data) = servo.read(address, length) else {
+                continue;
+            };
+            entries.push(dynamixel::FastSyncReadEntry {
+                id,
+                error: servo.status_byte(),
+                data,
+            });
+        }
+        match dynamixel::encode_fast_sync_read(&entries) {
+            Ok(params) => vec![(
+                Duration::ZERO,
+                self.framing
+                    .encode_status(self.framing.broadcast_id(), 0, &params),
+            )],
+            Err(_) => Vec::new(),
+        }
+    }
+
+    /// A status packet from servo `id`, shaped by its injected fault.
+    fn status(
+        &self,
+        id: u8,
+        refusal: Option<dynamixel::ErrorNumber>,
+        params: &[u8],
+    ) -> Vec<(Duration, Vec<u8>)> {
+        let Some(servo) = self.servos.iter().find(|s| s.id == id) else {
+            return Vec::new();
+        };
+        let mut error = servo.status_byte();
+        if let (Some(number), true) = (refusal, self.protocol == Protocol::Dynamixel2) {
+            error |= number.number();
+        }
+        let Ok(mut bytes) = self.framing.try_encode_status(id, error, params) else {
+            return Vec::new();
+        };
+        let mut delay = Duration::ZERO;
+        match servo.fault {
+            Some(ServoFault::NoAnswer) => return Vec::new(),
+            Some(ServoFault::CorruptChecksum) => {
+                if let Some(last) = bytes.last_mut() {
+                    *last ^= 0x5A;
+                }
+            }
+            Some(ServoFault::Late(d)) => delay = d,
+            _ => {}
+        }
+        vec![(delay, bytes)]
+    }
+}
+
+/// Firmware version reported in Dynamixel ping answers.
+const FIRMWARE_VERSION: u8 = 52;
+
+impl Responder for VirtualServos {
+    fn respond(&mut self, written: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+        self.handle(written)
+    }
+
+    fn connected(&self) -> bool {
+        self.connected
+    }
+}
+
+/// Shared access to a running virtual bus (from a test, or the server thread).
+#[derive(Clone)]
+pub struct VirtualBus(Arc<Mutex<VirtualServos>>);
+
+impl VirtualBus {
+    pub fn new(servos: VirtualServos) -> VirtualBus {
+        VirtualBus(Arc::new(Mutex::new(servos)))
+    }
+
+    pub fn lock(&self) -> MutexGuard<'_, VirtualServos> {
+        // A panic while holding the lock leaves consistent data here (plain values), so a
+        // poisoned lock is still usable.
+        self.0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// A [`Responder`] over a shared virtual bus, for an in-process [`super::transport::MemoryTransport`].
+impl Responder for VirtualBus {
+    fn respond(&mut self, written: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+        self.lock().handle(written)
+    }
+
+    fn connected(&self) -> bool {
+        self.lock().connected
+    }
+}

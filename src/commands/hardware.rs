@@ -1,0 +1,280 @@
+//! The commands that talk to servos or ports without a sequence: `read`, `torque`, `scan`,
+//! `ports`, `doctor`, `virtual-bus`.
+
+use super::{write_output, CommandError, Verdict};
+use crate::bus::{self, Driver};
+use crate::robot::{import_lerobot_calibration, Protocol, Robot};
+use serde_json::json;
+use std::io::BufRead;
+use std::path::PathBuf;
+
+/// Where the servos are.
+#[derive(Debug, Clone, clap::Args)]
+pub struct BusArgs {
+    /// Serial port (e.g. /dev/ttyUSB0, /dev/ttyACM0), or "virtual" for emulated servos on a
+    /// pseudo-terminal.
+    #[arg(long, value_name = "PATH|virtual")]
+    pub port: Option<String>,
+    /// Our own protocol code (native) or the vendor's Python SDK (sdk).
+    #[arg(long, value_enum, default_value_t = Driver::Native)]
+    pub driver: Driver,
+    /// Baud rate [default: the robot's].
+    #[arg(long, value_name = "BPS")]
+    pub baud: Option<u32>,
+}
+
+/// A robot for commands without a sequence.
+#[derive(Debug, Clone, clap::Args)]
+pub struct RobotArgs {
+    /// A built-in robot (so101, koch, omx) or a robot file.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub robot: String,
+    /// LeRobot calibration file to apply.
+    #[arg(long, value_name = "FILE")]
+    pub calibration: Option<PathBuf>,
+}
+
+impl RobotArgs {
+    pub fn load(&self) -> Result<Robot, CommandError> {
+        let mut robot = Robot::resolve(&self.robot, "--robot")?;
+        if let Some(path) = &self.calibration {
+            let text = crate::json::read_text(path)?;
+            import_lerobot_calibration(&mut robot, &path.display().to_string(), &text)?;
+        }
+        Ok(robot)
+    }
+}
+
+fn required_port(args: &BusArgs) -> Result<&str, CommandError> {
+    args.port.as_deref().ok_or_else(|| {
+        CommandError::Usage(
+            "--port is required: a serial port (see `keypose ports`) or \"virtual\"".into(),
+        )
+    })
+}
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct ReadArgs {
+    #[command(flatten)]
+    pub robot: RobotArgs,
+    #[command(flatten)]
+    pub bus: BusArgs,
+}
+
+/// `keypose read`: the present pose as JSON, in degrees (metres for prismatic joints).
+pub fn read(args: &ReadArgs) -> Result<Verdict, CommandError> {
+    let robot = args.robot.load()?;
+    let mut connection = bus::connect(
+        &robot,
+        required_port(&args.bus)?,
+        args.bus.driver,
+        args.bus.baud,
+    )?;
+    let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
+    let ticks = connection.bus.read_positions(&ids)?;
+    let mut joints = serde_json::Map::new();
+    for (joint, tick) in robot.joints.iter().zip(&ticks) {
+        joints.insert(joint.name.clone(), json!(joint.servo.value(*tick)));
+    }
+    let out = json!({ "robot": robot.name, "joints": joints, "ticks": ticks });
+    write_output(None, &format!("{out}\n"))?;
+    Ok(Verdict::Pass)
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum OnOff {
+    On,
+    Off,
+}
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct TorqueArgs {
+    /// on: hold position; off: limp, the joints can be moved by hand (they will fall under
+    /// gravity: support the arm).
+    #[arg(value_enum)]
+    pub state: OnOff,
+    #[command(flatten)]
+    pub robot: RobotArgs,
+    #[command(flatten)]
+    pub bus: BusArgs,
+    /// Only these joints (comma-separated) [default: all].
+    #[arg(long, value_name = "NAMES", value_delimiter = ',')]
+    pub joints: Vec<String>,
+}
+
+/// `keypose torque on|off`.
+pub fn torque(args: &TorqueArgs) -> Result<Verdict, CommandError> {
+    let robot = args.robot.load()?;
+    let mut ids = Vec::new();
+    for name in &args.joints {
+        let index = robot.joint_index(name).ok_or_else(|| {
+            CommandError::Usage(format!(
+                "--joints: unknown joint {name:?}; expected names from: {}",
+                robot.joint_names().join(", ")
+            ))
+        })?;
+        ids.push(robot.joints[index].servo.id);
+    }
+    if ids.is_empty() {
+        ids = robot.joints.iter().map(|j| j.servo.id).collect();
+    }
+    let mut connection = bus::connect(
+        &robot,
+        required_port(&args.bus)?,
+        args.bus.driver,
+        args.bus.baud,
+    )?;
+    let on = args.state == OnOff::On;
+    if on {
+        // Torque on must hold where the arm is: set the goals to the present positions first.
+        let ticks = connection.bus.read_positions(&ids)?;
+        let goals: Vec<(u8, i64)> = ids.iter().copied().zip(ticks).collect();
+        connection.bus.write_goals(&goals)?;
+    }
+    connection.bus.set_torque(&ids, on)?;
+    eprintln!(
+        "torque {} on servo(s) {ids:?}",
+        if on { "on" } else { "off" }
+    );
+    Ok(Verdict::Pass)
+}
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct ScanArgs {
+    /// Serial port to scan.
+    #[arg(long, value_name = "PATH|virtual")]
+    pub port: String,
+    /// Protocol to scan with [default: both Dynamixel 2.0 and Feetech STS].
+    #[arg(long, value_parser = parse_protocol)]
+    pub protocol: Option<Protocol>,
+    /// Baud rate [default: 1000000; X-series servos ship at 57600].
+    #[arg(long, value_name = "BPS", default_value_t = 1_000_000)]
+    pub baud: u32,
+    /// With --port virtual: the robot whose servos to emulate.
+    #[arg(long, value_name = "NAME|FILE", default_value = "so101")]
+    pub robot: String,
+}
+
+fn parse_protocol(s: &str) -> Result<Protocol, String> {
+    Protocol::ALL
+        .into_iter()
+        .find(|p| p.name() == s)
+        .ok_or_else(|| format!("expected dynamixel-2, feetech-sts or feetech-scs, found {s:?}"))
+}
+
+/// `keypose scan`: ping every id and report the servos that answer.
+pub fn scan(args: &ScanArgs) -> Result<Verdict, CommandError> {
+    let protocols: Vec<Protocol> = match args.protocol {
+        Some(p) => vec![p],
+        None => vec![Protocol::Dynamixel2, Protocol::FeetechSts],
+    };
+    let robot = Robot::resolve(&args.robot, "--robot")?;
+    let found = bus::scan(&args.port, &robot, &protocols, args.baud)?;
+    let rows: Vec<_> = found
+        .iter()
+        .map(|(protocol, info)| {
+            json!({
+                "protocol": protocol.name(),
+                "id": info.id,
+                "model_number": info.model_number,
+                "model": bus::registers::model_from_number(*protocol, info.model_number).map(|m| m.name()),
+                "firmware": info.firmware,
+            })
+        })
+        .collect();
+    write_output(
+        None,
+        &format!(
+            "{}\n",
+            json!({ "port": args.port, "baud": args.baud, "servos": rows })
+        ),
+    )?;
+    if found.is_empty() {
+        eprintln!("no servo answered on {} at {} baud", args.port, args.baud);
+    }
+    Ok(Verdict::Pass)
+}
+
+/// `keypose ports`: the serial ports of this machine, with USB adapter details.
+pub fn ports() -> Result<Verdict, CommandError> {
+    let ports = bus::list_ports();
+    if ports.is_empty() {
+        eprintln!("no serial ports found");
+    }
+    let text: String = ports.iter().map(|p| format!("{p}\n")).collect();
+    write_output(None, &text)?;
+    Ok(Verdict::Pass)
+}
+
+/// `keypose doctor`: what keypose finds on this machine, and what to fix.
+pub fn doctor() -> Result<Verdict, CommandError> {
+    let mut out = String::new();
+    out.push_str("serial ports:\n");
+    let ports = bus::list_ports();
+    if ports.is_empty() {
+        out.push_str("  none found\n");
+    }
+    for p in &ports {
+        out.push_str(&format!("  {p}\n"));
+    }
+    out.push_str("USB latency timers:\n");
+    let timers = bus::latency_timers();
+    if timers.is_empty() {
+        out.push_str("  no FTDI USB-serial adapters\n");
+    }
+    for (device, ms) in timers {
+        if ms >= 16 {
+            out.push_str(&format!(
+                "  WARNING {device}: latency_timer is {ms} ms, which adds up to {ms} ms to every read.\n    \
+                 Lower it: echo 1 | sudo tee /sys/bus/usb-serial/devices/{device}/latency_timer\n    \
+                 (permanently: a udev rule, ACTION==\"add\", SUBSYSTEM==\"usb-serial\", DRIVER==\"ftdi_sio\", ATTR{{latency_timer}}=\"1\")\n"
+            ));
+        } else {
+            out.push_str(&format!("  {device}: latency_timer {ms} ms (ok)\n"));
+        }
+    }
+    out.push_str("python (vendor SDK bridge, simulation):\n");
+    out.push_str(&crate::pyenv::doctor_report());
+    write_output(None, &out)?;
+    Ok(Verdict::Pass)
+}
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct VirtualBusArgs {
+    /// The robot whose servos to emulate (a built-in name or a robot file).
+    #[arg(long, value_name = "NAME|FILE")]
+    pub robot: String,
+}
+
+/// `keypose virtual-bus`: emulated servos on a pseudo-terminal; the device path is the first
+/// line printed; serves until standard input closes or the process is terminated.
+pub fn virtual_bus(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
+    let robot = Robot::resolve(&args.robot, "--robot")?;
+    let server = bus::virtual_bus::PtyServer::start(&robot)?;
+    println!("{}", server.path());
+    let stop = crate::player::StopSignal::default();
+    let handler_stop = stop.clone();
+    let _ = ctrlc::set_handler(move || handler_stop.request());
+    // Standard input closing (the parent went away) ends the server, as does a signal.
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let stdin = std::io::stdin();
+        for line in stdin.lock().lines() {
+            if line.is_err() {
+                break;
+            }
+        }
+        let _ = tx.send(());
+    });
+    loop {
+        if stop.count() > 0
+            || rx
+                .recv_timeout(std::time::Duration::from_millis(100))
+                .is_ok()
+        {
+            break;
+        }
+    }
+    drop(server);
+    Ok(Verdict::Pass)
+}

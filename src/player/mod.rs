@@ -1,0 +1,395 @@
+//! The real-time player: streams a trajectory to a [`ServoBus`] at a fixed rate.
+//!
+//! What it does, in the spirit of ROS 2's joint_trajectory_controller and PAL's play_motion2:
+//! - it reads where the arm is and ramps from there to the first pose (never a jump);
+//! - it paces cycles by absolute deadlines (`start + k·period`), so lateness never accumulates;
+//! - one sync write per cycle; present positions read back every N cycles, health periodically;
+//! - a stop request decelerates along the path and holds with torque on; a second one holds at
+//!   once where the arm is;
+//! - a fault (alarm, failed write, repeated read failures, the port gone) stops streaming within
+//!   the cycle and is reported with the servo and the reason.
+
+mod guard;
+mod log;
+mod timeline;
+
+pub use guard::{GoalGuard, LimitBreach};
+pub use timeline::{Loops, Phase, Timeline};
+
+use crate::bus::{BusError, ServoBus};
+use crate::plan::Trajectory;
+use crate::robot::Robot;
+use std::io::Write;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// How far outside its limits a joint may be measured at the start and still be ramped from
+/// (the ramp then starts at the limit): calibration and backlash put a resting arm a little
+/// outside now and then; anything further is a real problem to solve by hand.
+pub const START_OUTSIDE_TOLERANCE_DEG: f64 = 2.0;
+/// Consecutive failed read-backs that count as a fault.
+pub const MAX_READ_FAILURES: u32 = 3;
+/// How close (in joint units) the arm must come to the final pose before `--release-at-end`
+/// releases torque, and how long to wait for it.
+pub const RELEASE_TOLERANCE: f64 = 2.0;
+pub const RELEASE_WAIT: Duration = Duration::from_secs(3);
+
+#[derive(Debug, Clone)]
+pub struct PlayOptions {
+    pub rate_hz: f64,
+    pub speed: f64,
+    pub loops: Loops,
+    pub ping_pong: bool,
+    /// Keyframe index to start from.
+    pub from_key: Option<usize>,
+    /// Ramp from the measured pose to the first pose (only `--no-approach` turns it off).
+    pub approach: bool,
+    pub release_at_end: bool,
+    /// Read present positions every N cycles (None: never during playback).
+    pub readback_every: Option<u32>,
+    /// Read temperatures, voltages and alarms every N cycles.
+    pub health_every: u32,
+    pub log: Option<PathBuf>,
+    pub progress: bool,
+}
+
+impl PlayOptions {
+    pub fn new(rate_hz: f64) -> Self {
+        Self {
+            rate_hz,
+            speed: 1.0,
+            loops: Loops::Count(1),
+            ping_pong: false,
+            from_key: None,
+            approach: true,
+            release_at_end: false,
+            readback_every: Some(1),
+            health_every: (rate_hz / 4.0).ceil().max(1.0) as u32,
+            log: None,
+            progress: false,
+        }
+    }
+}
+
+/// Stop requests, counted: the first decelerates, the second holds at once. Shared with a
+/// Ctrl-C handler (or a test).
+#[derive(Debug, Clone, Default)]
+pub struct StopSignal(Arc<AtomicU32>);
+
+impl StopSignal {
+    pub fn request(&self) {
+        self.0.fetch_add(1, Ordering::SeqCst);
+    }
+    pub fn count(&self) -> u32 {
+        self.0.load(Ordering::SeqCst)
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Outcome {
+    /// Played to the end.
+    Finished,
+    /// A stop request decelerated the arm to rest; it holds there with torque on.
+    Stopped,
+    /// A second stop request held the arm at once.
+    Held,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum PlayError {
+    #[error("{}{error} (at {at:.3} s)", joint_prefix(joint))]
+    Fault {
+        joint: Option<String>,
+        error: BusError,
+        at: f64,
+    },
+    #[error(transparent)]
+    Limit(#[from] LimitBreach),
+    #[error("joint {joint} is at {value:.2}, outside its limits {min} … {max} by more than {START_OUTSIDE_TOLERANCE_DEG}: move it inside by hand (torque off) and start again")]
+    StartOutsideLimits {
+        joint: String,
+        value: f64,
+        min: f64,
+        max: f64,
+    },
+    #[error("cannot write log {path}: {source}")]
+    Log {
+        path: String,
+        source: std::io::Error,
+    },
+}
+
+fn joint_prefix(joint: &Option<String>) -> String {
+    joint
+        .as_ref()
+        .map(|j| format!("joint {j}: "))
+        .unwrap_or_default()
+}
+
+/// Figures from one playback, for the report and the benchmarks.
+#[derive(Debug, Clone, Default)]
+pub struct Stats {
+    pub cycles: u64,
+    /// Lateness of each cycle's start against its deadline, seconds.
+    pub lateness: Vec<f64>,
+    pub approach_seconds: f64,
+    pub max_tracking_error: f64,
+}
+
+pub fn play(
+    bus: &mut dyn ServoBus,
+    robot: &Robot,
+    trajectory: &Trajectory,
+    options: &PlayOptions,
+    stop: &StopSignal,
+) -> Result<(Outcome, Stats), PlayError> {
+    let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
+    let guard = GoalGuard::new(robot);
+    let fault = |error: BusError, at: f64| PlayError::Fault {
+        joint: error
+            .servo()
+            .and_then(|id| robot.joints.iter().find(|j| j.servo.id == id))
+            .map(|j| j.name.clone()),
+        error,
+        at,
+    };
+
+    let measured = clamp_start(
+        robot,
+        &measured_pose(bus, robot, &ids).map_err(|e| fault(e, 0.0))?,
+    )?;
+    // Hold where the arm is before torque comes on, so enabling torque moves nothing.
+    bus.write_goals(&guard.goals(&measured)?)
+        .map_err(|e| fault(e, 0.0))?;
+    bus.set_torque(&ids, true).map_err(|e| fault(e, 0.0))?;
+    let mut timeline = Timeline::new(robot, trajectory, options, &measured);
+    let mut log = match &options.log {
+        Some(path) => Some(log::PlaybackLog::create(path, robot)?),
+        None => None,
+    };
+
+    let period = Duration::from_secs_f64(1.0 / options.rate_hz);
+    let start = Instant::now();
+    let mut stats = Stats {
+        approach_seconds: timeline.approach_seconds(),
+        ..Stats::default()
+    };
+    let mut pose = vec![0.0; robot.joints.len()];
+    let mut last_goal = measured.clone();
+    let mut read_failures = 0;
+    let mut stops_seen = 0;
+    let mut last_progress = Instant::now() - Duration::from_secs(1);
+    let mut cycle: u64 = 0;
+
+    let outcome = loop {
+        let deadline = start + period * cycle as u32;
+        let now = Instant::now();
+        if deadline > now {
+            std::thread::sleep(deadline - now);
+        }
+        let elapsed = start.elapsed().as_secs_f64();
+        let lateness = (Instant::now() - deadline).as_secs_f64();
+        stats.lateness.push(lateness);
+
+        let requests = stop.count();
+        if requests >= 2 {
+            hold_here(bus, robot, &guard, &ids, &last_goal).map_err(|e| fault(e, elapsed))?;
+            break Outcome::Held;
+        }
+        if requests > stops_seen {
+            stops_seen = requests;
+            timeline.request_stop();
+        }
+
+        let Some(phase) = timeline.sample_into(&mut pose) else {
+            break if timeline.stopped() {
+                Outcome::Stopped
+            } else {
+                Outcome::Finished
+            };
+        };
+        let goals = guard.goals(&pose)?;
+        bus.write_goals(&goals).map_err(|e| fault(e, elapsed))?;
+        last_goal.copy_from_slice(&pose);
+
+        let mut measured_now = None;
+        if options
+            .readback_every
+            .is_some_and(|n| cycle % n as u64 == 0)
+        {
+            match bus.read_positions(&ids) {
+                Ok(ticks) => {
+                    read_failures = 0;
+                    let values: Vec<f64> = robot
+                        .joints
+                        .iter()
+                        .zip(&ticks)
+                        .map(|(j, &t)| j.servo.value(t))
+                        .collect();
+                    measured_now = Some(values);
+                }
+                Err(e @ BusError::Port { .. }) | Err(e @ BusError::Alarm { .. }) => {
+                    return Err(fault(e, elapsed));
+                }
+                Err(e) => {
+                    read_failures += 1;
+                    if read_failures >= MAX_READ_FAILURES {
+                        return Err(fault(e, elapsed));
+                    }
+                }
+            }
+        }
+        if cycle % options.health_every as u64 == 0 && cycle > 0 {
+            let health = bus.read_health(&ids).map_err(|e| fault(e, elapsed))?;
+            if let Some(h) = health.iter().find(|h| h.alarms.any()) {
+                return Err(fault(
+                    BusError::Alarm {
+                        id: h.id,
+                        alarms: h.alarms,
+                    },
+                    elapsed,
+                ));
+            }
+        }
+
+        if let Some(values) = &measured_now {
+            let error = values
+                .iter()
+                .zip(&pose)
+                .map(|(m, c)| (m - c).abs())
+                .fold(0.0, f64::max);
+            stats.max_tracking_error = stats.max_tracking_error.max(error);
+        }
+        if let Some(log) = &mut log {
+            log.row(
+                elapsed,
+                phase,
+                timeline.sequence_time(),
+                &pose,
+                measured_now.as_deref(),
+                lateness,
+            )?;
+        }
+        if options.progress && last_progress.elapsed() >= Duration::from_millis(100) {
+            last_progress = Instant::now();
+            print_progress(&timeline, trajectory);
+        }
+        timeline.advance(1.0 / options.rate_hz);
+        cycle += 1;
+        stats.cycles = cycle;
+    };
+    if options.progress {
+        print_progress(&timeline, trajectory);
+        eprintln!();
+    }
+    if let Some(log) = &mut log {
+        log.finish()?;
+    }
+    if outcome == Outcome::Finished && options.release_at_end {
+        release_when_reached(bus, robot, &ids, &last_goal).map_err(|e| fault(e, 0.0))?;
+    }
+    Ok((outcome, stats))
+}
+
+/// The present pose in joint values, clamped into the limits when it is only just outside.
+fn measured_pose(bus: &mut dyn ServoBus, robot: &Robot, ids: &[u8]) -> Result<Vec<f64>, BusError> {
+    let ticks = bus.read_positions(ids)?;
+    Ok(robot
+        .joints
+        .iter()
+        .zip(ticks)
+        .map(|(j, t)| j.servo.value(t))
+        .collect())
+}
+
+/// Checks a measured start pose and clamps it into the limits (for the ramp's first goal).
+pub fn clamp_start(robot: &Robot, measured: &[f64]) -> Result<Vec<f64>, PlayError> {
+    robot
+        .joints
+        .iter()
+        .zip(measured)
+        .map(|(j, &v)| {
+            let outside = (j.limits.min - v).max(v - j.limits.max);
+            if outside > START_OUTSIDE_TOLERANCE_DEG {
+                Err(PlayError::StartOutsideLimits {
+                    joint: j.name.clone(),
+                    value: v,
+                    min: j.limits.min,
+                    max: j.limits.max,
+                })
+            } else {
+                Ok(v.clamp(j.limits.min, j.limits.max))
+            }
+        })
+        .collect()
+}
+
+/// Second stop: command the pose the arm is at now (or, if it cannot be read, the last goal).
+fn hold_here(
+    bus: &mut dyn ServoBus,
+    robot: &Robot,
+    guard: &GoalGuard,
+    ids: &[u8],
+    last_goal: &[f64],
+) -> Result<(), BusError> {
+    let here = match bus.read_positions(ids) {
+        Ok(ticks) => robot
+            .joints
+            .iter()
+            .zip(ticks)
+            .map(|(j, t)| j.servo.value(t).clamp(j.limits.min, j.limits.max))
+            .collect(),
+        Err(_) => last_goal.to_vec(),
+    };
+    match guard.goals(&here) {
+        Ok(goals) => bus.write_goals(&goals),
+        Err(_) => Ok(()),
+    }
+}
+
+/// `--release-at-end`: torque off only once the arm has reached the final pose.
+fn release_when_reached(
+    bus: &mut dyn ServoBus,
+    robot: &Robot,
+    ids: &[u8],
+    goal: &[f64],
+) -> Result<(), BusError> {
+    let give_up = Instant::now() + RELEASE_WAIT;
+    while Instant::now() < give_up {
+        let pose = measured_pose(bus, robot, ids)?;
+        let reached = pose
+            .iter()
+            .zip(goal)
+            .all(|(p, g)| (p - g).abs() <= RELEASE_TOLERANCE);
+        if reached {
+            return bus.set_torque(ids, false);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    eprintln!(
+        "warning: the arm did not reach the final pose within {} s; torque stays on",
+        RELEASE_WAIT.as_secs()
+    );
+    Ok(())
+}
+
+fn print_progress(timeline: &Timeline, trajectory: &Trajectory) {
+    let t = timeline.sequence_time();
+    let key = trajectory.segment_at(t);
+    let label = &trajectory.key_labels[key];
+    let mut err = std::io::stderr().lock();
+    let _ = write!(
+        err,
+        "\r{:<9} {:>7.2} / {:.2} s  key {}/{} {:<16} loop {}   ",
+        timeline.phase_name(),
+        t,
+        trajectory.end,
+        key + 1,
+        trajectory.key_times.len(),
+        label,
+        timeline.loop_label(),
+    );
+    let _ = err.flush();
+}

@@ -1,0 +1,289 @@
+//! What the arm should do at each cycle: approach, play (looping, ping-pong), return between
+//! loops, and braking after a stop request — as a state machine advanced by wall-clock steps.
+//!
+//! Braking scales the rate at which the path is followed by a factor that falls linearly from 1
+//! to 0, so the arm slows down along the very path it was on instead of cutting across. The
+//! braking time keeps the extra deceleration within half of each joint's acceleration limit.
+
+use super::PlayOptions;
+use crate::plan::{Approach, Trajectory};
+use crate::robot::Robot;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Loops {
+    Count(u32),
+    Forever,
+}
+
+/// The phase of the commanded pose, as logged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    Approach,
+    Play,
+    /// Ramp from the last pose back to the first between loops.
+    Return,
+    /// Decelerating after a stop request.
+    Stopping,
+}
+
+impl Phase {
+    pub fn name(self) -> &'static str {
+        match self {
+            Phase::Approach => "approach",
+            Phase::Play => "play",
+            Phase::Return => "return",
+            Phase::Stopping => "stopping",
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+enum State {
+    Ramp {
+        ramp: Approach,
+        t: f64,
+        then_loop: u32,
+    },
+    Play,
+    /// The final pose, sent once more before finishing.
+    Final,
+    Done,
+}
+
+/// Shortest braking time, seconds.
+const MIN_BRAKE_SECONDS: f64 = 0.2;
+/// Share of the acceleration limit braking may add.
+const BRAKE_LIMIT_SHARE: f64 = 0.5;
+/// Below this distance (joint units) no return ramp is needed between loops.
+const SAME_POSE: f64 = 1e-6;
+
+#[derive(Debug, Clone)]
+pub struct Timeline<'a> {
+    robot: &'a Robot,
+    trajectory: &'a Trajectory,
+    state: State,
+    speed: f64,
+    loops: Loops,
+    loop_index: u32,
+    ping_pong: bool,
+    play_from: f64,
+    direction: f64,
+    tau: f64,
+    /// (current factor, factor lost per second) while braking.
+    brake: Option<(f64, f64)>,
+    stopped: bool,
+    approach_seconds: f64,
+    joints: usize,
+}
+
+impl<'a> Timeline<'a> {
+    pub fn new(
+        robot: &'a Robot,
+        trajectory: &'a Trajectory,
+        options: &PlayOptions,
+        measured: &[f64],
+    ) -> Timeline<'a> {
+        let play_from = options
+            .from_key
+            .and_then(|k| trajectory.key_times.get(k).copied())
+            .unwrap_or(trajectory.start)
+            .clamp(trajectory.start, trajectory.end);
+        let first = trajectory.sample(play_from);
+        let (state, approach_seconds) = if options.approach {
+            let ramp = Approach::new(robot, measured, &first);
+            let seconds = ramp.duration;
+            (
+                State::Ramp {
+                    ramp,
+                    t: 0.0,
+                    then_loop: 1,
+                },
+                seconds,
+            )
+        } else {
+            (State::Play, 0.0)
+        };
+        Timeline {
+            robot,
+            trajectory,
+            state,
+            speed: options.speed,
+            loops: options.loops,
+            loop_index: 1,
+            ping_pong: options.ping_pong,
+            play_from,
+            direction: 1.0,
+            tau: play_from,
+            brake: None,
+            stopped: false,
+            approach_seconds,
+            joints: robot.joints.len(),
+        }
+    }
+
+    pub fn approach_seconds(&self) -> f64 {
+        self.approach_seconds
+    }
+
+    pub fn stopped(&self) -> bool {
+        self.stopped
+    }
+
+    /// Sequence time of the commanded pose.
+    pub fn sequence_time(&self) -> f64 {
+        self.tau
+    }
+
+    pub fn phase_name(&self) -> &'static str {
+        self.phase().map_or("done", Phase::name)
+    }
+
+    pub fn loop_label(&self) -> String {
+        match self.loops {
+            Loops::Count(n) => format!("{}/{n}", self.loop_index),
+            Loops::Forever => format!("{}/∞", self.loop_index),
+        }
+    }
+
+    fn phase(&self) -> Option<Phase> {
+        if self.brake.is_some() && !matches!(self.state, State::Done) {
+            return Some(Phase::Stopping);
+        }
+        match self.state {
+            State::Ramp { then_loop: 1, .. } => Some(Phase::Approach),
+            State::Ramp { .. } => Some(Phase::Return),
+            State::Play | State::Final => Some(Phase::Play),
+            State::Done => None,
+        }
+    }
+
+    /// The commanded pose now; `None` once the timeline is over.
+    pub fn sample_into(&mut self, out: &mut [f64]) -> Option<Phase> {
+        match &self.state {
+            State::Ramp { ramp, t, .. } => ramp.sample_into(*t, out),
+            State::Play | State::Final => self.trajectory.sample_into(self.tau, out),
+            State::Done => return None,
+        }
+        self.phase()
+    }
+
+    /// Moves on by `dt` seconds of wall-clock time.
+    pub fn advance(&mut self, dt: f64) {
+        let factor = match &mut self.brake {
+            Some((factor, rate)) => {
+                *factor -= *rate * dt;
+                if *factor <= 0.0 {
+                    self.state = State::Done;
+                    self.stopped = true;
+                    return;
+                }
+                *factor
+            }
+            None => 1.0,
+        };
+        match &mut self.state {
+            State::Ramp { ramp, t, then_loop } => {
+                *t += dt * factor;
+                if *t >= ramp.duration {
+                    self.loop_index = *then_loop;
+                    self.tau = self.play_from;
+                    self.direction = 1.0;
+                    self.state = State::Play;
+                }
+            }
+            State::Play => {
+                self.tau += dt * self.speed * factor * self.direction;
+                self.at_boundary();
+            }
+            State::Final => self.state = State::Done,
+            State::Done => {}
+        }
+    }
+
+    /// Handles the end (or, backwards, the start) of a pass.
+    fn at_boundary(&mut self) {
+        let (end, start) = (self.trajectory.end, self.play_from);
+        let past_end = self.direction > 0.0 && self.tau >= end;
+        let past_start = self.direction < 0.0 && self.tau <= start;
+        if !(past_end || past_start) {
+            return;
+        }
+        let edge = if past_end { end } else { start };
+        let more = match self.loops {
+            Loops::Forever => true,
+            Loops::Count(n) => self.loop_index < n,
+        };
+        if !more {
+            self.tau = edge;
+            self.state = State::Final;
+            return;
+        }
+        if self.ping_pong {
+            // Reflect the overshoot so the pass continues smoothly in the other direction.
+            self.tau = edge - (self.tau - edge);
+            self.direction = -self.direction;
+            self.loop_index += 1;
+            return;
+        }
+        let last = self.trajectory.sample(end);
+        let first = self.trajectory.sample(start);
+        let distance = last
+            .iter()
+            .zip(&first)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        if distance <= SAME_POSE {
+            self.tau = start + (self.tau - end);
+            self.loop_index += 1;
+        } else {
+            // A loop whose end differs from its start would jump; ramp back instead.
+            self.tau = end;
+            self.state = State::Ramp {
+                ramp: Approach::new(self.robot, &last, &first),
+                t: 0.0,
+                then_loop: self.loop_index + 1,
+            };
+        }
+    }
+
+    /// Starts braking along the current path.
+    pub fn request_stop(&mut self) {
+        if self.brake.is_some() || matches!(self.state, State::Done) {
+            return;
+        }
+        let velocity = self.velocity();
+        let seconds = self
+            .robot
+            .joints
+            .iter()
+            .zip(&velocity)
+            .map(|(j, v)| v.abs() / (BRAKE_LIMIT_SHARE * j.limits.acceleration))
+            .fold(MIN_BRAKE_SECONDS, f64::max);
+        self.brake = Some((1.0, 1.0 / seconds));
+    }
+
+    /// Joint velocities of the commanded pose now, per second of wall-clock time.
+    fn velocity(&self) -> Vec<f64> {
+        let trajectory = self.trajectory;
+        let h = 1e-3;
+        let mut a = vec![0.0; self.joints];
+        let mut b = vec![0.0; self.joints];
+        let rate = match &self.state {
+            State::Ramp { ramp, t, .. } => {
+                ramp.sample_into(t - h, &mut a);
+                ramp.sample_into(t + h, &mut b);
+                1.0
+            }
+            State::Play | State::Final => {
+                trajectory.sample_into(self.tau - h, &mut a);
+                trajectory.sample_into(self.tau + h, &mut b);
+                self.speed
+            }
+            State::Done => return a,
+        };
+        a.iter()
+            .zip(&b)
+            .map(|(x, y)| (y - x) / (2.0 * h) * rate)
+            .collect()
+    }
+}
