@@ -250,18 +250,19 @@ impl NativeBus {
         address: u16,
         length: u16,
     ) -> Result<Vec<Vec<u8>>, BusError> {
-        let mut attempt = 0;
-        loop {
+        // The first failure names the culprit: a late answer from one servo can make a retry
+        // time out on another, whose error would then mislead.
+        let mut first_failure = None;
+        for _ in 0..=self.read_retries {
             match self.read_block_once(ids, address, length) {
                 Ok(blocks) => return Ok(blocks),
-                Err(BusError::Timeout { .. } | BusError::Corrupt { .. })
-                    if attempt < self.read_retries =>
-                {
-                    attempt += 1
+                Err(e @ (BusError::Timeout { .. } | BusError::Corrupt { .. })) => {
+                    first_failure.get_or_insert(e);
                 }
                 Err(e) => return Err(e),
             }
         }
+        Err(first_failure.unwrap_or_else(|| BusError::Protocol("read failed".into())))
     }
 
     fn read_block_once(

@@ -9,7 +9,7 @@
 //! Reads are not retried here: the SDKs wait their own packet timeouts, and a caller that
 //! wants a retry sees the typed error first.
 
-use super::{Alarms, BusError, Health, PingInfo, ServoBus};
+use super::{registers, Alarms, BusError, Health, PingInfo, ServoBus};
 use crate::pyenv::{Harness, HarnessError, HarnessOptions, PyConfig};
 use crate::robot::{PositionEncoding, Protocol};
 use serde_json::{json, Value};
@@ -41,16 +41,6 @@ const DXL_PRESENT_POSITION: Reg = reg(132, 4);
 const DXL_PRESENT_INPUT_VOLTAGE: Reg = reg(144, 2);
 /// °C.
 const DXL_PRESENT_TEMPERATURE: Reg = reg(146, 1);
-/// Current Limit, in Present Current's unit. Not in PROTOCOLS.md: ROBOTIS e-Manual control
-/// tables of the XL330-M288 and XM430-W350, address 38, 2 bytes (absent on the XL430).
-const DXL_CURRENT_LIMIT: Reg = reg(38, 2);
-
-/// Model numbers whose register 126 is a load in 0.1 % (PROTOCOLS.md §1.8): XL430-W250.
-const DXL_LOAD_MODELS: [u16; 1] = [1060];
-/// Model numbers whose register 126 is a current: XL330-M288 1200 and XM430-W350 1020
-/// (PROTOCOLS.md §1.8), XL330-M077 1190 (LeRobot `dynamixel/tables.py` MODEL_NUMBER_TABLE).
-const DXL_CURRENT_MODELS: [u16; 3] = [1200, 1190, 1020];
-
 /// The Alert bit of a Dynamixel status packet's ERR byte (PROTOCOLS.md §1.4); the low seven
 /// bits are an error number, meaning the instruction was refused.
 const DXL_ALERT: u8 = 0x80;
@@ -98,7 +88,6 @@ pub struct SdkBus {
     baud: u32,
     /// Dynamixel model numbers seen by `ping`, to read register 126 as load or as current.
     dxl_models: HashMap<u8, u16>,
-    dxl_current_limits: HashMap<u8, u16>,
 }
 
 impl SdkBus {
@@ -147,7 +136,6 @@ impl SdkBus {
             port: port.to_string(),
             baud,
             dxl_models: HashMap::new(),
-            dxl_current_limits: HashMap::new(),
         })
     }
 
@@ -318,33 +306,20 @@ impl SdkBus {
         Ok(self.ping(id)?.model_number)
     }
 
+    /// Register 126 as a signed percentage, the way the native driver reports it: a load in
+    /// 0.1 % on the XL430, a current as a share of the stall current on the XL330 and XM430
+    /// (the model's table in `registers`).
     fn dxl_load_percent(&mut self, id: u8, raw: u32) -> Result<f64, BusError> {
-        let signed = f64::from(raw as u16 as i16);
-        let model = self.dxl_model(id)?;
-        if DXL_LOAD_MODELS.contains(&model) {
-            return Ok(signed * 0.1);
-        }
-        if !DXL_CURRENT_MODELS.contains(&model) {
-            return Err(BusError::Protocol(format!(
-                "servo {id}: Dynamixel model number {model} is not one keypose knows, so its \
-                 register {} cannot be read as a load",
-                DXL_PRESENT_LOAD_OR_CURRENT.addr
-            )));
-        }
-        let limit = match self.dxl_current_limits.get(&id) {
-            Some(limit) => *limit,
-            None => {
-                let limit = self.read_reg_despite_alarms(id, DXL_CURRENT_LIMIT)? as u16;
-                self.dxl_current_limits.insert(id, limit);
-                limit
-            }
-        };
-        if limit == 0 {
-            return Err(BusError::Protocol(format!(
-                "servo {id}: its current limit is 0, so its load has no percentage"
-            )));
-        }
-        Ok(signed / f64::from(limit) * 100.0)
+        let model_number = self.dxl_model(id)?;
+        let model =
+            registers::model_from_number(Protocol::Dynamixel2, model_number).ok_or_else(|| {
+                BusError::Protocol(format!(
+                    "servo {id}: Dynamixel model number {model_number} is not one keypose \
+                     knows, so its register {} cannot be read as a load",
+                    DXL_PRESENT_LOAD_OR_CURRENT.addr
+                ))
+            })?;
+        Ok(registers::table(model).load_percent(i64::from(raw as u16 as i16)))
     }
 }
 

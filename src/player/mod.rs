@@ -179,6 +179,7 @@ pub fn play(
     let mut pose = vec![0.0; robot.joints.len()];
     let mut last_goal = measured.clone();
     let mut read_failures = 0;
+    let mut first_read_failure: Option<BusError> = None;
     let mut stops_seen = 0;
     let mut last_progress = Instant::now() - Duration::from_secs(1);
     let mut cycle: u64 = 0;
@@ -222,6 +223,7 @@ pub fn play(
             match bus.read_positions(&ids) {
                 Ok(ticks) => {
                     read_failures = 0;
+                    first_read_failure = None;
                     let values: Vec<f64> = robot
                         .joints
                         .iter()
@@ -235,8 +237,11 @@ pub fn play(
                 }
                 Err(e) => {
                     read_failures += 1;
+                    // Report the failure that started the streak: later ones may be its echo.
+                    let first = first_read_failure.get_or_insert(e);
                     if read_failures >= MAX_READ_FAILURES {
-                        return Err(fault(e, elapsed));
+                        let error = std::mem::replace(first, BusError::Protocol(String::new()));
+                        return Err(fault(error, elapsed));
                     }
                 }
             }
