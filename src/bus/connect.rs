@@ -59,8 +59,7 @@ pub fn connect(
             ))
         }
         Driver::Sdk => Box::new(
-            super::sdk::SdkBus::open(&path, baud, robot.bus.protocol)
-                .map_err(|e| BusError::Protocol(format!("vendor SDK on {path}: {e}")))?,
+            super::sdk::SdkBus::open(&path, baud, robot.bus.protocol).map_err(BusError::from)?,
         ),
     };
     Ok(Connection { bus, virtual_bus })

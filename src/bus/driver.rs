@@ -27,6 +27,10 @@ pub struct NativeBus {
     pub timeout: Duration,
     pub read_retries: u32,
     rx: Vec<u8>,
+    /// The last packet sent, until its echo has been ruled out. Some half-duplex adapters hear
+    /// their own transmission; a Feetech echo cannot be told from a status packet by its shape
+    /// (a READ's instruction byte 0x02 would read as an angle-sensor alarm), only by its bytes.
+    echo: Option<Vec<u8>>,
 }
 
 impl NativeBus {
@@ -49,6 +53,7 @@ impl NativeBus {
             timeout: DEFAULT_TIMEOUT,
             read_retries: DEFAULT_READ_RETRIES,
             rx: Vec::new(),
+            echo: None,
         }
     }
 
@@ -152,7 +157,27 @@ impl NativeBus {
             .map_err(|e| self.port_error(e))?;
         self.transport
             .write_all(&bytes)
-            .map_err(|e| self.port_error(e))
+            .map_err(|e| self.port_error(e))?;
+        self.echo = Some(bytes);
+        Ok(())
+    }
+
+    /// Drops our own packet from the front of the input if it came back; false while the input
+    /// is still too short to tell.
+    fn strip_echo(&mut self) -> bool {
+        let Some(echo) = &self.echo else {
+            return true;
+        };
+        if self.rx.starts_with(echo) {
+            self.rx.drain(..echo.len());
+            self.echo = None;
+            true
+        } else if echo.starts_with(&self.rx) {
+            false
+        } else {
+            self.echo = None;
+            true
+        }
     }
 
     /// The next status packet from `id`, or a timeout.
@@ -161,7 +186,7 @@ impl NativeBus {
         let mut corrupt: Option<PacketError> = None;
         let mut chunk = [0u8; 512];
         loop {
-            loop {
+            while self.strip_echo() {
                 match self.framing.decode(&mut self.rx, Direction::FromServo) {
                     Ok(Decoded::Packet(packet)) if packet.id == id => return Ok(packet),
                     // Another servo's late answer: not ours.
@@ -519,5 +544,57 @@ impl ServoBus for NativeBus {
                 }
             })
             .collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bus::transport::{MemoryTransport, Responder};
+    use crate::bus::virtual_bus::{VirtualBus, VirtualServos};
+    use crate::robot::Robot;
+
+    /// A half-duplex line that hears its own transmission: every packet comes back first.
+    struct Echoing(VirtualBus);
+
+    impl Responder for Echoing {
+        fn respond(&mut self, written: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+            let mut out = vec![(Duration::ZERO, written.to_vec())];
+            out.extend(self.0.lock().handle(written));
+            out
+        }
+    }
+
+    #[test]
+    fn an_echoing_adapter_is_heard_through() {
+        for name in ["so101", "koch"] {
+            let robot = Robot::builtin(name).unwrap();
+            let servos: Vec<_> = robot
+                .joints
+                .iter()
+                .map(|j| (j.servo.id, j.servo.model))
+                .collect();
+            let virtual_bus = VirtualBus::new(VirtualServos::for_robot(&robot));
+            let transport = MemoryTransport::new(Echoing(virtual_bus));
+            let mut bus = NativeBus::new(Box::new(transport), robot.bus.protocol, &servos);
+            let ids: Vec<u8> = servos.iter().map(|(id, _)| *id).collect();
+            // Without echo handling the STS READ echo would read as an angle-sensor alarm.
+            let info = bus.ping(ids[0]).unwrap();
+            assert_eq!(info.id, ids[0]);
+            let positions = bus.read_positions(&ids).unwrap();
+            let home: Vec<i64> = robot
+                .joints
+                .iter()
+                .zip(&robot.home)
+                .map(|(j, h)| j.servo.tick(*h).unwrap())
+                .collect();
+            assert_eq!(positions, home, "{name}");
+            bus.set_torque(&ids, true).unwrap();
+            assert!(bus
+                .read_health(&ids)
+                .unwrap()
+                .iter()
+                .all(|h| !h.alarms.any()));
+        }
     }
 }
