@@ -244,14 +244,96 @@ pub struct VirtualBusArgs {
     /// The robot whose servos to emulate (a built-in name or a robot file).
     #[arg(long, value_name = "NAME|FILE")]
     pub robot: String,
+    /// Inject a fault: ID:no-answer, ID:corrupt, ID:late=MS, ID:overload, ID:overheating,
+    /// ID:voltage, ID:encoder, ID:electrical; or "gone" (the port disappears). Repeatable.
+    #[arg(long, value_name = "FAULT", value_parser = parse_fault)]
+    pub fault: Vec<FaultSpec>,
+    /// Seconds after start at which the faults take effect.
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0)]
+    pub fault_after: f64,
+}
+
+/// A fault for the virtual bus, from the command line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FaultSpec {
+    Servo(u8, bus::virtual_bus::ServoFault),
+    PortGone,
+}
+
+fn parse_fault(s: &str) -> Result<FaultSpec, String> {
+    use bus::virtual_bus::ServoFault;
+    if s == "gone" {
+        return Ok(FaultSpec::PortGone);
+    }
+    let expected = || {
+        format!(
+            "expected ID:KIND (KIND: no-answer, corrupt, late=MS, overload, overheating, voltage, encoder, electrical) or \"gone\", found {s:?}"
+        )
+    };
+    let (id, kind) = s.split_once(':').ok_or_else(expected)?;
+    let id: u8 = id.parse().map_err(|_| expected())?;
+    let alarm = |set: fn(&mut bus::Alarms)| {
+        let mut alarms = bus::Alarms::default();
+        set(&mut alarms);
+        ServoFault::Alarm(alarms)
+    };
+    let fault = match kind {
+        "no-answer" => ServoFault::NoAnswer,
+        "corrupt" => ServoFault::CorruptChecksum,
+        "overload" => alarm(|a| a.overload = true),
+        "overheating" => alarm(|a| a.overheating = true),
+        "voltage" => alarm(|a| a.input_voltage = true),
+        "encoder" => alarm(|a| a.encoder = true),
+        "electrical" => alarm(|a| a.electrical = true),
+        late => {
+            let ms: u64 = late
+                .strip_prefix("late=")
+                .and_then(|ms| ms.parse().ok())
+                .ok_or_else(expected)?;
+            ServoFault::Late(std::time::Duration::from_millis(ms))
+        }
+    };
+    Ok(FaultSpec::Servo(id, fault))
 }
 
 /// `keypose virtual-bus`: emulated servos on a pseudo-terminal; the device path is the first
 /// line printed; serves until standard input closes or the process is terminated.
 pub fn virtual_bus(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
     let robot = Robot::resolve(&args.robot, "--robot")?;
+    if !(args.fault_after.is_finite() && args.fault_after >= 0.0) {
+        return Err(CommandError::Usage(
+            "--fault-after: expected seconds, 0 or more".into(),
+        ));
+    }
+    for fault in &args.fault {
+        if let FaultSpec::Servo(id, _) = fault {
+            if !robot.joints.iter().any(|j| j.servo.id == *id) {
+                return Err(CommandError::Usage(format!(
+                    "--fault: {} has no servo {id}",
+                    robot.name
+                )));
+            }
+        }
+    }
     let server = bus::virtual_bus::PtyServer::start(&robot)?;
     println!("{}", server.path());
+    // Flush now: the parent reads the path to connect while this process keeps running.
+    let _ = std::io::Write::flush(&mut std::io::stdout());
+    if !args.fault.is_empty() {
+        let virtual_bus = server.bus().clone();
+        let faults = args.fault.clone();
+        let delay = std::time::Duration::from_secs_f64(args.fault_after);
+        std::thread::spawn(move || {
+            std::thread::sleep(delay);
+            let mut servos = virtual_bus.lock();
+            for fault in faults {
+                match fault {
+                    FaultSpec::Servo(id, f) => servos.set_fault(id, Some(f)),
+                    FaultSpec::PortGone => servos.connected = false,
+                }
+            }
+        });
+    }
     let stop = crate::player::StopSignal::default();
     let handler_stop = stop.clone();
     let _ = ctrlc::set_handler(move || handler_stop.request());

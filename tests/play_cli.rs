@@ -1,0 +1,308 @@
+//! `keypose play` and the bus commands as a user runs them: the real binary, the real serial
+//! code, emulated servos on a pseudo-terminal (`--port virtual`, or a `keypose virtual-bus`
+//! process), real signals.
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::Duration;
+
+fn keypose() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_keypose"))
+}
+
+fn repo(path: &str) -> String {
+    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// A `keypose virtual-bus` process and the device path it printed.
+struct VirtualBusProcess {
+    child: Child,
+    path: String,
+}
+
+impl VirtualBusProcess {
+    fn start(args: &[&str]) -> VirtualBusProcess {
+        let mut child = keypose()
+            .arg("virtual-bus")
+            .args(args)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .spawn()
+            .expect("start keypose virtual-bus");
+        let stdout = child.stdout.take().expect("stdout");
+        let mut path = String::new();
+        BufReader::new(stdout)
+            .read_line(&mut path)
+            .expect("read the device path");
+        let path = path.trim().to_string();
+        assert!(
+            path.starts_with("/dev/"),
+            "first line is not a device path: {path:?}"
+        );
+        VirtualBusProcess { child, path }
+    }
+}
+
+impl Drop for VirtualBusProcess {
+    fn drop(&mut self) {
+        // Closing standard input ends the server.
+        drop(self.child.stdin.take());
+        let _ = self.child.wait();
+    }
+}
+
+/// A slow 6 s sweep of one joint, within every limit.
+fn long_sequence(dir: &std::path::Path, robot: &str, joint: &str) -> String {
+    let path = dir.join(format!("{robot}_long.json"));
+    std::fs::write(
+        &path,
+        format!(
+            r#"{{"format":"keypose-sequence/1","robot":"{robot}","keyframes":[
+              {{"time":0,"joints":{{"{joint}":0}}}},{{"time":6,"joints":{{"{joint}":30}}}}]}}"#
+        ),
+    )
+    .unwrap();
+    path.display().to_string()
+}
+
+#[test]
+fn every_example_plays_end_to_end_on_the_virtual_bus() {
+    for example in ["so101_nod", "koch_wave", "omx_reach"] {
+        let out = keypose()
+            .args([
+                "play",
+                &repo(&format!("sequences/{example}.json")),
+                "--port",
+                "virtual",
+            ])
+            .output()
+            .unwrap();
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(0), "{example}: {err}");
+        // The progress line and the closing report.
+        assert!(
+            err.contains("approach") && err.contains("loop 1/1"),
+            "{example}: {err}"
+        );
+        assert!(err.contains("done:"), "{example}: {err}");
+    }
+}
+
+#[test]
+fn a_virtual_bus_process_serves_play_read_torque_and_scan() {
+    let server = VirtualBusProcess::start(&["--robot", "koch"]);
+    let port = server.path.as_str();
+    let out = keypose()
+        .args(["read", "--robot", "koch", "--port", port])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let pose: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // Koch rests at home (all 0°): tick 2048 on every servo.
+    assert_eq!(
+        pose["ticks"],
+        serde_json::json!([2048, 2048, 2048, 2048, 2048, 2048])
+    );
+    assert_eq!(pose["joints"]["elbow_flex"], 0.0);
+
+    let out = keypose()
+        .args([
+            "play",
+            &repo("sequences/koch_wave.json"),
+            "--port",
+            port,
+            "--quiet",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let out = keypose()
+        .args([
+            "torque", "off", "--robot", "koch", "--port", port, "--joints", "gripper",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+
+    let out = keypose()
+        .args(["scan", "--port", port, "--protocol", "dynamixel-2"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let scan: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let models: Vec<(u64, String)> = scan["servos"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| {
+            (
+                s["id"].as_u64().unwrap(),
+                s["model"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    // Koch v1.1: XL430-W250 on ids 1–2, XL330-M288 on 3–6 (ROBOTS.md §2.4).
+    let expected: Vec<(u64, String)> = (1..=6)
+        .map(|id| {
+            (
+                id,
+                if id <= 2 { "xl430-w250" } else { "xl330-m288" }.to_string(),
+            )
+        })
+        .collect();
+    assert_eq!(models, expected);
+}
+
+#[test]
+fn every_injected_fault_ends_playback_with_a_report_and_exit_code_3() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        ("so101", "3:no-answer", "servo 3: no answer"),
+        ("so101", "3:corrupt", "servo 3: corrupt answer"),
+        ("so101", "3:late=150", "servo 3: no answer"),
+        ("so101", "3:overload", "servo 3: alarm: overload"),
+        ("koch", "3:overheating", "servo 3: alarm: overheating"),
+        ("koch", "3:voltage", "servo 3: alarm: input voltage"),
+        ("so101", "gone", "serial port"),
+    ];
+    let runs: Vec<_> = cases
+        .iter()
+        .map(|&(robot, fault, _)| {
+            // Both arms name their third joint (servo 3) elbow_flex.
+            let sequence = long_sequence(dir.path(), robot, "elbow_flex");
+            std::thread::spawn(move || {
+                let server = VirtualBusProcess::start(&[
+                    "--robot",
+                    robot,
+                    "--fault",
+                    fault,
+                    "--fault-after",
+                    "1.5",
+                ]);
+                let out = keypose()
+                    .args(["play", &sequence, "--port", &server.path, "--quiet"])
+                    .output()
+                    .unwrap();
+                (out, server.path.clone())
+            })
+        })
+        .collect();
+    for ((_, fault, expected), run) in cases.iter().zip(runs) {
+        let (out, path) = run.join().unwrap();
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(3), "{fault}: {err}");
+        assert!(
+            err.contains(expected),
+            "{fault}: expected {expected:?} in {err}"
+        );
+        assert!(err.contains("playback stopped"), "{fault}: {err}");
+        if *fault == "gone" {
+            assert!(
+                err.contains(&path),
+                "the report does not name the port: {err}"
+            );
+        } else {
+            assert!(err.contains("joint elbow_flex"), "{fault}: {err}");
+        }
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+/// Starts `play` on a 6 s sequence, sends SIGINT `signals` times after 1.5 s, returns output.
+fn interrupted(signals: usize) -> Output {
+    let dir = tempfile::tempdir().unwrap();
+    let sequence = long_sequence(dir.path(), "so101", "shoulder_pan");
+    let child = keypose()
+        .args(["play", &sequence, "--port", "virtual", "--quiet"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    for _ in 0..signals {
+        let status = Command::new("kill")
+            .args(["-INT", &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(status.success());
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn ctrl_c_decelerates_and_holds_a_second_ctrl_c_holds_at_once() {
+    let out = interrupted(1);
+    assert_eq!(out.status.code(), Some(130), "{}", stderr(&out));
+    assert!(stderr(&out).contains("decelerated along its path and holds there, torque on"));
+    let out = interrupted(2);
+    assert_eq!(out.status.code(), Some(130), "{}", stderr(&out));
+    assert!(stderr(&out).contains("held at once"), "{}", stderr(&out));
+}
+
+#[test]
+fn a_missing_port_is_a_bus_error_and_nothing_plays() {
+    let out = keypose()
+        .args([
+            "play",
+            &repo("sequences/so101_nod.json"),
+            "--port",
+            "/dev/keypose-no-such-port",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(3));
+    assert!(
+        stderr(&out).contains("/dev/keypose-no-such-port"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn a_sequence_beyond_the_limits_at_the_chosen_speed_is_refused_before_any_port_is_opened() {
+    let out = keypose()
+        .args([
+            "play",
+            &repo("sequences/so101_nod.json"),
+            "--port",
+            "/dev/keypose-no-such-port",
+            "--speed",
+            "2",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stderr(&out).contains("refusing to play"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn no_approach_needs_its_confirmation() {
+    let out = keypose()
+        .args([
+            "play",
+            &repo("sequences/so101_nod.json"),
+            "--port",
+            "virtual",
+            "--no-approach",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("--i-accept-the-jump"));
+}
+
+#[test]
+fn ports_and_doctor_run_on_a_machine_without_adapters() {
+    for command in ["ports", "doctor"] {
+        let out = keypose().arg(command).output().unwrap();
+        assert_eq!(out.status.code(), Some(0), "{command}: {}", stderr(&out));
+    }
+}
