@@ -306,3 +306,68 @@ fn ports_and_doctor_run_on_a_machine_without_adapters() {
         assert_eq!(out.status.code(), Some(0), "{command}: {}", stderr(&out));
     }
 }
+
+#[test]
+fn a_playback_log_overlays_on_its_sequence_and_a_broken_log_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("nod.csv");
+    let out = keypose()
+        .args([
+            "play",
+            &repo("sequences/so101_nod.json"),
+            "--port",
+            "virtual",
+            "--quiet",
+        ])
+        .args(["--log", log.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let text = std::fs::read_to_string(&log).unwrap();
+    let header = text.lines().next().unwrap();
+    assert!(header.starts_with("time,phase,sequence_time,shoulder_pan_cmd"));
+    assert!(header.ends_with("gripper_meas,lateness_ms"));
+    // 0.5 s ramp + 6 s at 100 Hz, plus the final pose: at least 650 cycles.
+    assert!(text.lines().count() > 650);
+
+    let svg = dir.path().join("nod.svg");
+    let out = keypose()
+        .args([
+            "plot",
+            &repo("sequences/so101_nod.json"),
+            "--log",
+            log.to_str().unwrap(),
+        ])
+        .args(["-o", svg.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    // Position, velocity and the measured trace for each of the 6 joints.
+    assert_eq!(
+        std::fs::read_to_string(&svg)
+            .unwrap()
+            .matches("<polyline")
+            .count(),
+        18
+    );
+
+    let broken = dir.path().join("broken.csv");
+    std::fs::write(&broken, text.replacen(",play,", ",play,x", 1)).unwrap();
+    let out = keypose()
+        .args([
+            "plot",
+            &repo("sequences/so101_nod.json"),
+            "--log",
+            broken.to_str().unwrap(),
+        ])
+        .args(["-o", svg.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("broken.csv:"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("expected a number in column \"sequence_time\""),
+        "{}",
+        stderr(&out)
+    );
+}

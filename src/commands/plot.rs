@@ -15,6 +15,9 @@ pub struct PlotArgs {
     /// Draw only these joints (comma-separated names) [default: all].
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]
     pub joints: Vec<String>,
+    /// A playback log (`keypose play --log`) whose measured positions to overlay.
+    #[arg(long, value_name = "FILE.csv")]
+    pub log: Option<PathBuf>,
     /// Sampling rate of the drawn curves.
     #[arg(long, value_name = "HZ", default_value = "200", value_parser = parse_rate)]
     pub rate: f64,
@@ -31,7 +34,11 @@ pub fn run(args: &PlotArgs) -> Result<Verdict, CommandError> {
         sequence.interpolation,
         trajectory.duration()
     );
-    let mut data = report::plot_data(&title, &trajectory, &robot, args.rate, Vec::new());
+    let measured = match &args.log {
+        Some(path) => report::log::measured_traces(path, &trajectory.joint_names)?,
+        None => Vec::new(),
+    };
+    let mut data = report::plot_data(&title, &trajectory, &robot, args.rate, measured);
     if !args.joints.is_empty() {
         if let Some(unknown) = args
             .joints

@@ -1,5 +1,6 @@
 //! Turning trajectories and checks into what people and programs read: text, JSON, SVG.
 
+pub mod log;
 pub mod plot;
 
 use crate::plan::{CheckReport, LimitKind, Sampled, Trajectory};

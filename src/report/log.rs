@@ -1,0 +1,75 @@
+//! Reading a playback log (`keypose play --log`) back, to overlay what was measured on the
+//! sequence it came from.
+
+use crate::json::{InputError, Location};
+use std::path::Path;
+
+/// Per joint (in `joints` order), the measured (sequence time, value) points of the log's play
+/// phase; `None` for a joint the log has no measurements of.
+pub fn measured_traces(
+    path: &Path,
+    joints: &[String],
+) -> Result<Vec<Option<Vec<(f64, f64)>>>, InputError> {
+    let file = path.display().to_string();
+    let text = crate::json::read_text(path)?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines
+        .next()
+        .ok_or_else(|| InputError::new(&file, Location::File, "empty log: expected a CSV header"))?
+        .split(',')
+        .collect();
+    let column = |name: &str| header.iter().position(|h| *h == name);
+    let missing = |name: &str| {
+        InputError::new(
+            &file,
+            Location::Syntax { line: 1, column: 1 },
+            format!("expected a keypose playback log with a {name:?} column"),
+        )
+    };
+    let phase = column("phase").ok_or_else(|| missing("phase"))?;
+    let time = column("sequence_time").ok_or_else(|| missing("sequence_time"))?;
+    let measured: Vec<Option<usize>> = joints
+        .iter()
+        .map(|j| column(&format!("{j}_meas")))
+        .collect();
+    let mut traces: Vec<Vec<(f64, f64)>> = vec![Vec::new(); joints.len()];
+    for (index, line) in lines.enumerate() {
+        let cells: Vec<&str> = line.split(',').collect();
+        // The approach and the ramps between loops are not on the sequence's time axis.
+        if !matches!(cells.get(phase), Some(&"play") | Some(&"stopping")) {
+            continue;
+        }
+        let number = |cell: &str, col: usize| -> Result<f64, InputError> {
+            cell.parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| {
+                    InputError::new(
+                        &file,
+                        Location::Syntax {
+                            line: index + 2,
+                            column: col + 1,
+                        },
+                        format!(
+                            "expected a number in column {:?}, found {cell:?}",
+                            header[col]
+                        ),
+                    )
+                })
+        };
+        let t = number(cells.get(time).copied().unwrap_or(""), time)?;
+        for (trace, col) in traces.iter_mut().zip(&measured) {
+            if let Some(col) = *col {
+                match cells.get(col) {
+                    Some(cell) if !cell.is_empty() => trace.push((t, number(cell, col)?)),
+                    _ => {}
+                }
+            }
+        }
+    }
+    Ok(traces
+        .into_iter()
+        .zip(&measured)
+        .map(|(trace, col)| col.map(|_| trace))
+        .collect())
+}
