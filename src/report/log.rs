@@ -4,12 +4,12 @@
 use crate::json::{InputError, Location};
 use std::path::Path;
 
-/// Per joint (in `joints` order), the measured (sequence time, value) points of the log's play
-/// phase; `None` for a joint the log has no measurements of.
-pub fn measured_traces(
-    path: &Path,
-    joints: &[String],
-) -> Result<Vec<Option<Vec<(f64, f64)>>>, InputError> {
+/// Measured (sequence time, value) points of one joint.
+pub type Trace = Vec<(f64, f64)>;
+
+/// Per joint (in `joints` order), the measured points of the log's play phase; `None` for a
+/// joint the log has no measurements of.
+pub fn measured_traces(path: &Path, joints: &[String]) -> Result<Vec<Option<Trace>>, InputError> {
     let file = path.display().to_string();
     let text = crate::json::read_text(path)?;
     let mut lines = text.lines();
@@ -32,7 +32,7 @@ pub fn measured_traces(
         .iter()
         .map(|j| column(&format!("{j}_meas")))
         .collect();
-    let mut traces: Vec<Vec<(f64, f64)>> = vec![Vec::new(); joints.len()];
+    let mut traces: Vec<Trace> = vec![Vec::new(); joints.len()];
     for (index, line) in lines.enumerate() {
         let cells: Vec<&str> = line.split(',').collect();
         // The approach and the ramps between loops are not on the sequence's time axis.

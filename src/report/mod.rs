@@ -122,7 +122,7 @@ pub fn plot_data(
     trajectory: &Trajectory,
     robot: &Robot,
     rate: f64,
-    measured: Vec<Option<Vec<(f64, f64)>>>,
+    measured: Vec<Option<log::Trace>>,
 ) -> plot::PlotData {
     let sampled = Sampled::new(trajectory, rate);
     let mut measured = measured.into_iter();
