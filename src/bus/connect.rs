@@ -71,6 +71,7 @@ pub fn scan(
     robot: &Robot,
     protocols: &[Protocol],
     baud: u32,
+    driver: Driver,
 ) -> Result<Vec<(Protocol, PingInfo)>, BusError> {
     let server = if port == VIRTUAL_PORT {
         Some(PtyServer::start(robot)?)
@@ -80,18 +81,28 @@ pub fn scan(
     let path = server.as_ref().map_or(port, |s| s.path());
     let mut found = Vec::new();
     for &protocol in protocols {
-        let transport = SerialTransport::open(path, baud).map_err(|source| BusError::Port {
-            port: path.to_string(),
-            source,
-        })?;
+        let mut bus: Box<dyn ServoBus> = match driver {
+            Driver::Native => {
+                let transport =
+                    SerialTransport::open(path, baud).map_err(|source| BusError::Port {
+                        port: path.to_string(),
+                        source,
+                    })?;
+                let mut native = NativeBus::new(Box::new(transport), protocol, &[]);
+                // A present servo answers within a millisecond at 1 Mbps plus the adapter's
+                // latency; 253 ids at this timeout take about 5 s.
+                native.timeout = std::time::Duration::from_millis(20);
+                Box::new(native)
+            }
+            Driver::Sdk => {
+                Box::new(super::sdk::SdkBus::open(path, baud, protocol).map_err(BusError::from)?)
+            }
+        };
         let max_id = if protocol == Protocol::Dynamixel2 {
             super::dynamixel::MAX_DEVICE_ID
         } else {
             super::feetech::MAX_DEVICE_ID
         };
-        let mut bus = NativeBus::new(Box::new(transport), protocol, &[]);
-        // A present servo answers within a millisecond at 1 Mbps plus the adapter's latency.
-        bus.timeout = std::time::Duration::from_millis(20);
         for id in 0..=max_id {
             match bus.ping(id) {
                 Ok(info) => found.push((protocol, info)),

@@ -26,6 +26,9 @@ pub struct NativeBus {
     models: HashMap<u8, ServoModel>,
     pub timeout: Duration,
     pub read_retries: u32,
+    /// Dynamixel: read with Fast Sync Read (0x8A, one combined answer) instead of Sync Read.
+    /// Off by default: which models and firmware support it is unverified (PROTOCOLS.md §1.7).
+    pub fast_sync_read: bool,
     rx: Vec<u8>,
     /// The last packet sent, until its echo has been ruled out. Some half-duplex adapters hear
     /// their own transmission; a Feetech echo cannot be told from a status packet by its shape
@@ -52,6 +55,7 @@ impl NativeBus {
             models: servos.iter().copied().collect(),
             timeout: DEFAULT_TIMEOUT,
             read_retries: DEFAULT_READ_RETRIES,
+            fast_sync_read: false,
             rx: Vec::new(),
             echo: None,
         }
@@ -320,6 +324,9 @@ impl NativeBus {
             }
             return Ok(blocks);
         }
+        if self.fast_sync_read && self.protocol == Protocol::Dynamixel2 {
+            return self.fast_sync_read_once(ids, address, length);
+        }
         let (sync_read, _) = self.sync_instructions();
         let params = self.sync_read_params(address, length, ids)?;
         let broadcast = self.framing.broadcast_id();
@@ -338,6 +345,56 @@ impl NativeBus {
             Some(e) => Err(self.resolve_alarm(e)),
             None => Ok(blocks),
         }
+    }
+
+    /// Dynamixel Fast Sync Read: one answer from the broadcast id carrying every servo's block.
+    fn fast_sync_read_once(
+        &mut self,
+        ids: &[u8],
+        address: u16,
+        length: u16,
+    ) -> Result<Vec<Vec<u8>>, BusError> {
+        let broadcast = self.framing.broadcast_id();
+        let params = dynamixel::sync_read_params(address, length, ids);
+        self.send(broadcast, dynamixel::FAST_SYNC_READ, &params)?;
+        let packet = self.receive(broadcast)?;
+        let entries = dynamixel::parse_fast_sync_read(&packet, length)
+            .map_err(|e| e.corrupt_answer(ids.first().copied().unwrap_or(broadcast)))?;
+        // The split into blocks depends only on the length asked for, so check that the ids
+        // that came back are the ones asked for, in order.
+        let got: Vec<u8> = entries.iter().map(|e| e.id).collect();
+        if got != ids {
+            let missing = ids.iter().find(|id| !got.contains(id)).copied();
+            return Err(BusError::Corrupt {
+                id: missing.unwrap_or(broadcast),
+                detail: format!("fast sync read answered for ids {got:?} where {ids:?} were asked"),
+            });
+        }
+        let mut first_error = None;
+        let mut blocks = Vec::with_capacity(entries.len());
+        for entry in entries {
+            let status = Packet::status(entry.id, entry.error, Vec::new());
+            if let Err(e) = self.check_status_passive(&status) {
+                first_error.get_or_insert(e);
+            }
+            blocks.push(entry.data);
+        }
+        match first_error {
+            Some(e) => Err(self.resolve_alarm(e)),
+            None => Ok(blocks),
+        }
+    }
+
+    /// Dynamixel REBOOT: the only way to clear a hardware-error shutdown (PROTOCOLS.md §1.8).
+    /// The servo comes back with torque off.
+    pub fn reboot(&mut self, id: u8) -> Result<(), BusError> {
+        if self.protocol != Protocol::Dynamixel2 {
+            return Err(self.protocol_error("REBOOT is a Dynamixel instruction"));
+        }
+        self.send(id, dynamixel::REBOOT, &[])?;
+        let packet = self.receive(id)?;
+        let status = dynamixel::StatusByte::parse(packet.error().unwrap_or(0));
+        status.refusal(id).map_or(Ok(()), Err)
     }
 
     /// Like [`Self::check_status`] without any bus traffic (inside a sync read, where other
@@ -563,6 +620,56 @@ mod tests {
             out.extend(self.0.lock().handle(written));
             out
         }
+    }
+
+    fn koch_in_process() -> (NativeBus, VirtualBus, Vec<u8>) {
+        let robot = Robot::builtin("koch").unwrap();
+        let servos: Vec<_> = robot
+            .joints
+            .iter()
+            .map(|j| (j.servo.id, j.servo.model))
+            .collect();
+        let virtual_bus = VirtualBus::new(VirtualServos::for_robot(&robot));
+        let transport = MemoryTransport::new(virtual_bus.clone());
+        let bus = NativeBus::new(Box::new(transport), robot.bus.protocol, &servos);
+        (bus, virtual_bus, servos.iter().map(|(id, _)| *id).collect())
+    }
+
+    #[test]
+    fn fast_sync_read_reads_what_sync_read_reads() {
+        let (mut bus, virtual_bus, ids) = koch_in_process();
+        virtual_bus
+            .lock()
+            .servo_mut(4)
+            .unwrap()
+            .motion
+            .push_to(1000.0);
+        let slow = bus.read_positions(&ids).unwrap();
+        bus.fast_sync_read = true;
+        let fast = bus.read_positions(&ids).unwrap();
+        assert_eq!(slow, fast);
+        assert_eq!(fast[3], 1000);
+        let last = virtual_bus.lock().received.last().cloned().unwrap();
+        assert_eq!(last.instruction_code(), Some(dynamixel::FAST_SYNC_READ));
+    }
+
+    #[test]
+    fn reboot_clears_a_shutdown() {
+        use crate::bus::virtual_bus::ServoFault;
+        let (mut bus, virtual_bus, ids) = koch_in_process();
+        let overheating = Alarms {
+            overheating: true,
+            ..Alarms::default()
+        };
+        virtual_bus
+            .lock()
+            .set_fault(3, Some(ServoFault::Alarm(overheating)));
+        match bus.read_positions(&ids) {
+            Err(BusError::Alarm { id: 3, alarms }) => assert!(alarms.overheating),
+            other => panic!("expected the alarm, got {other:?}"),
+        }
+        bus.reboot(3).unwrap();
+        assert!(bus.read_positions(&ids).is_ok());
     }
 
     #[test]

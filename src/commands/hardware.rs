@@ -153,6 +153,9 @@ pub struct ScanArgs {
     /// With --port virtual: the robot whose servos to emulate.
     #[arg(long, value_name = "NAME|FILE", default_value = "so101")]
     pub robot: String,
+    /// Our own protocol code (native) or the vendor's Python SDK (sdk).
+    #[arg(long, value_enum, default_value_t = Driver::Native)]
+    pub driver: Driver,
 }
 
 fn parse_protocol(s: &str) -> Result<Protocol, String> {
@@ -169,7 +172,7 @@ pub fn scan(args: &ScanArgs) -> Result<Verdict, CommandError> {
         None => vec![Protocol::Dynamixel2, Protocol::FeetechSts],
     };
     let robot = Robot::resolve(&args.robot, "--robot")?;
-    let found = bus::scan(&args.port, &robot, &protocols, args.baud)?;
+    let found = bus::scan(&args.port, &robot, &protocols, args.baud, args.driver)?;
     let rows: Vec<_> = found
         .iter()
         .map(|(protocol, info)| {

@@ -470,12 +470,9 @@ impl VirtualServos {
                 data,
             });
         }
+        // The combined answer is one whole packet from the broadcast id.
         match dynamixel::encode_fast_sync_read(&entries) {
-            Ok(params) => vec![(
-                Duration::ZERO,
-                self.framing
-                    .encode_status(self.framing.broadcast_id(), 0, &params),
-            )],
+            Ok(packet) => vec![(Duration::ZERO, packet)],
             Err(_) => Vec::new(),
         }
     }
