@@ -25,6 +25,16 @@ pub struct Connection {
 /// The port name that starts emulated servos instead of opening a device.
 pub const VIRTUAL_PORT: &str = "virtual";
 
+/// How to open a bus, beyond the port.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BusOptions {
+    pub driver: Driver,
+    /// None: the robot's baud rate.
+    pub baud: Option<u32>,
+    /// Dynamixel, native driver: read with Fast Sync Read.
+    pub fast_sync_read: bool,
+}
+
 /// Opens `robot`'s bus on `port` ("virtual" serves emulated servos on a pseudo-terminal and
 /// connects to it through the same serial code as a real adapter).
 pub fn connect(
@@ -33,7 +43,23 @@ pub fn connect(
     driver: Driver,
     baud: Option<u32>,
 ) -> Result<Connection, BusError> {
-    let baud = baud.unwrap_or(robot.bus.baud);
+    connect_with(
+        robot,
+        port,
+        &BusOptions {
+            driver,
+            baud,
+            fast_sync_read: false,
+        },
+    )
+}
+
+pub fn connect_with(
+    robot: &Robot,
+    port: &str,
+    options: &BusOptions,
+) -> Result<Connection, BusError> {
+    let (driver, baud) = (options.driver, options.baud.unwrap_or(robot.bus.baud));
     let (path, virtual_bus) = if port == VIRTUAL_PORT {
         let server = PtyServer::start(robot)?;
         (server.path().to_string(), Some(server))

@@ -19,7 +19,7 @@ pub mod sdk;
 pub mod transport;
 pub mod virtual_bus;
 
-pub use connect::{connect, scan, Connection, Driver, VIRTUAL_PORT};
+pub use connect::{connect, connect_with, scan, BusOptions, Connection, Driver, VIRTUAL_PORT};
 pub use ports::{latency_timers, list_ports, PortInfo};
 
 use std::fmt;

@@ -21,6 +21,22 @@ pub struct BusArgs {
     /// Baud rate [default: the robot's].
     #[arg(long, value_name = "BPS")]
     pub baud: Option<u32>,
+    /// Dynamixel: read with Fast Sync Read (one combined answer; not every model and firmware
+    /// supports it).
+    #[arg(long)]
+    pub fast_sync_read: bool,
+}
+
+impl BusArgs {
+    /// Opens the bus on `port` for `robot`.
+    pub fn connect(&self, robot: &Robot, port: &str) -> Result<bus::Connection, CommandError> {
+        let options = bus::BusOptions {
+            driver: self.driver,
+            baud: self.baud,
+            fast_sync_read: self.fast_sync_read,
+        };
+        Ok(bus::connect_with(robot, port, &options)?)
+    }
 }
 
 /// A robot for commands without a sequence.
@@ -64,12 +80,7 @@ pub struct ReadArgs {
 /// `keypose read`: the present pose as JSON, in degrees (metres for prismatic joints).
 pub fn read(args: &ReadArgs) -> Result<Verdict, CommandError> {
     let robot = args.robot.load()?;
-    let mut connection = bus::connect(
-        &robot,
-        required_port(&args.bus)?,
-        args.bus.driver,
-        args.bus.baud,
-    )?;
+    let mut connection = args.bus.connect(&robot, required_port(&args.bus)?)?;
     let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
     let ticks = connection.bus.read_positions(&ids)?;
     let mut joints = serde_json::Map::new();
@@ -118,12 +129,7 @@ pub fn torque(args: &TorqueArgs) -> Result<Verdict, CommandError> {
     if ids.is_empty() {
         ids = robot.joints.iter().map(|j| j.servo.id).collect();
     }
-    let mut connection = bus::connect(
-        &robot,
-        required_port(&args.bus)?,
-        args.bus.driver,
-        args.bus.baud,
-    )?;
+    let mut connection = args.bus.connect(&robot, required_port(&args.bus)?)?;
     let on = args.state == OnOff::On;
     if on {
         // Torque on must hold where the arm is: set the goals to the present positions first.

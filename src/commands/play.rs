@@ -111,7 +111,7 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
                 .into(),
         ));
     };
-    let mut connection = crate::bus::connect(&robot, port, args.bus.driver, args.bus.baud)?;
+    let mut connection = args.bus.connect(&robot, port)?;
     let stop = StopSignal::default();
     let handler_stop = stop.clone();
     // Only the first handler registration in a process succeeds; a second `play` in the same
