@@ -373,3 +373,34 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn from_a_key_ramps_to_that_key_and_release_at_end_lets_go_only_at_the_end() {
+    let robot = Robot::builtin("so101").unwrap();
+    let (mut bus, virtual_bus) = in_process(&robot);
+    let traj = trajectory(
+        &robot,
+        r#"{"format":"keypose-sequence/1","robot":"so101","keyframes":[
+          {"name":"a","time":0,"joints":{"elbow_flex":-40}},
+          {"name":"b","time":1,"joints":{"elbow_flex":10}},
+          {"name":"c","time":2,"joints":{"elbow_flex":30}}]}"#,
+    );
+    let options = PlayOptions {
+        from_key: Some(1),
+        release_at_end: true,
+        ..PlayOptions::new(100.0)
+    };
+    play(&mut bus, &robot, &traj, &options, &StopSignal::default()).unwrap();
+    let elbow: Vec<f64> = goal_history(&robot, &virtual_bus)
+        .iter()
+        .map(|g| g[2])
+        .collect();
+    // From home (0°) the ramp goes up to key b (10°) and never down towards key a (−40°).
+    assert!(elbow.iter().all(|v| *v >= -0.05), "went towards key a");
+    assert!((elbow.last().unwrap() - 30.0).abs() <= 0.05);
+    // Released only after arriving: the servos are limp and where the last key put them.
+    let mut servos = virtual_bus.lock();
+    assert!(servos.servos.iter().all(|s| !s.motion.torque));
+    let end = servos.positions()[&3];
+    assert!((robot.joints[2].servo.value(end.round() as i64) - 30.0).abs() <= 2.0);
+}
