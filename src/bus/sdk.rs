@@ -9,7 +9,7 @@
 //! Reads are not retried here: the SDKs wait their own packet timeouts, and a caller that
 //! wants a retry sees the typed error first.
 
-use super::{registers, Alarms, BusError, Health, PingInfo, ServoBus};
+use super::{registers, BusError, Health, PingInfo, ServoBus};
 use crate::pyenv::{Harness, HarnessError, HarnessOptions, PyConfig};
 use crate::robot::{PositionEncoding, Protocol};
 use serde_json::{json, Value};
@@ -269,7 +269,7 @@ impl SdkBus {
                 if !self.dynamixel() {
                     return BusError::Alarm {
                         id,
-                        alarms: feetech_alarms(code),
+                        alarms: super::feetech::status_alarms(code),
                     };
                 }
                 if code & !DXL_ALERT != 0 {
@@ -281,7 +281,7 @@ impl SdkBus {
                 let alarms = if follow_alert {
                     self.read_reg_despite_alarms(id, DXL_HARDWARE_ERROR_STATUS)
                         .ok()
-                        .map(|bits| dynamixel_alarms(bits as u8))
+                        .map(|bits| super::dynamixel::hardware_error_alarms(bits as u8))
                 } else {
                     None
                 };
@@ -359,28 +359,6 @@ fn port_error(port: &str, reply: &Value) -> BusError {
     BusError::Port {
         port: port.to_string(),
         source,
-    }
-}
-
-/// Hardware Error Status (register 70) bits, PROTOCOLS.md §1.8.
-fn dynamixel_alarms(bits: u8) -> Alarms {
-    Alarms {
-        input_voltage: bits & 0x01 != 0,
-        overheating: bits & 0x04 != 0,
-        encoder: bits & 0x08 != 0,
-        electrical: bits & 0x10 != 0,
-        overload: bits & 0x20 != 0,
-    }
-}
-
-/// Status register (65) and status ERR byte bits, PROTOCOLS.md §2.3.
-fn feetech_alarms(bits: u8) -> Alarms {
-    Alarms {
-        input_voltage: bits & 0x01 != 0,
-        encoder: bits & 0x02 != 0,
-        overheating: bits & 0x04 != 0,
-        electrical: bits & 0x08 != 0,
-        overload: bits & 0x20 != 0,
     }
 }
 
@@ -541,9 +519,11 @@ impl ServoBus for SdkBus {
                 Health {
                     id,
                     temperature_c: f64::from(temperature),
-                    voltage_v: f64::from(voltage) * 0.1,
+                    // The same conversion as the native driver, from the register tables.
+                    voltage_v: registers::table(crate::robot::ServoModel::Xm430W350)
+                        .voltage_v(i64::from(voltage)),
                     load_percent: self.dxl_load_percent(id, load)?,
-                    alarms: dynamixel_alarms(bits as u8),
+                    alarms: super::dynamixel::hardware_error_alarms(bits as u8),
                 }
             } else {
                 let bits = self.read_reg_despite_alarms(id, FT_STATUS)?;
@@ -554,12 +534,13 @@ impl ServoBus for SdkBus {
                     sign_bit: FT_LOAD_SIGN_BIT,
                 }
                 .decode(load);
+                let sts = registers::table(crate::robot::ServoModel::Sts3215);
                 Health {
                     id,
-                    temperature_c: f64::from(temperature),
-                    voltage_v: f64::from(voltage) * 0.1,
-                    load_percent: load as f64 * 0.1,
-                    alarms: feetech_alarms(bits as u8),
+                    temperature_c: sts.temperature_c(i64::from(temperature)),
+                    voltage_v: sts.voltage_v(i64::from(voltage)),
+                    load_percent: sts.load_percent(load),
+                    alarms: super::feetech::status_alarms(bits as u8),
                 }
             };
             healths.push(health);
@@ -571,26 +552,6 @@ impl ServoBus for SdkBus {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn alarm_bits_follow_each_vendors_layout() {
-        let dxl = dynamixel_alarms(0b0011_1101);
-        assert!(
-            dxl.input_voltage && dxl.overheating && dxl.encoder && dxl.electrical && dxl.overload
-        );
-        // Bit 1 is unused on Dynamixel; on Feetech it is the angle sensor.
-        assert!(!dynamixel_alarms(0x02).any());
-        assert!(feetech_alarms(0x02).encoder);
-        assert_eq!(
-            feetech_alarms(0x04),
-            Alarms {
-                overheating: true,
-                ..Alarms::default()
-            }
-        );
-        assert!(feetech_alarms(0x08).electrical);
-        assert!(feetech_alarms(0x20).overload);
-    }
 
     #[test]
     fn port_errors_keep_the_os_error_kind() {
