@@ -121,6 +121,34 @@ fn quantile(sorted: &[f64], q: f64) -> f64 {
     sorted[rank.clamp(1, sorted.len()) - 1]
 }
 
+/// Cumulative (total, steal) CPU time from the first line of /proc/stat, in clock ticks.
+/// Steal is time the hypervisor gave this machine's CPUs to someone else: on a shared virtual
+/// machine it is what turns a 100 µs bus cycle into a 10 ms one now and then.
+fn cpu_ticks() -> Option<(u64, u64)> {
+    let text = std::fs::read_to_string("/proc/stat").ok()?;
+    let fields: Vec<u64> = text
+        .lines()
+        .next()?
+        .split_whitespace()
+        .skip(1)
+        .filter_map(|f| f.parse().ok())
+        .collect();
+    // user nice system idle iowait irq softirq steal (guest time is already inside user).
+    let total = fields.iter().take(8).sum();
+    Some((total, *fields.get(7)?))
+}
+
+/// Steal as a share of all CPU time since `since`, as text ("12 %", or "?" without /proc).
+fn steal_since(since: Option<(u64, u64)>) -> String {
+    match (since, cpu_ticks()) {
+        (Some((total0, steal0)), Some((total1, steal1))) if total1 > total0 => format!(
+            "{:.0} %",
+            100.0 * (steal1 - steal0) as f64 / (total1 - total0) as f64
+        ),
+        _ => "?".into(),
+    }
+}
+
 fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")
         .map(|text| {
@@ -259,6 +287,8 @@ struct VendorResult {
     traffic: Traffic,
     native: DriverResult,
     sdk: DriverResult,
+    /// CPU steal during the timed runs.
+    steal: String,
 }
 
 fn bus_cycles(name: &str) -> VendorResult {
@@ -278,6 +308,7 @@ fn bus_cycles(name: &str) -> VendorResult {
     let mut sdk_reps = Vec::new();
     let mut native_durations = Vec::new();
     let mut sdk_durations = Vec::new();
+    let cpu_before = cpu_ticks();
     for _ in 0..REPS {
         if let Ok(link) = native.as_mut() {
             let (rate, durations) = link.run(RUN);
@@ -306,6 +337,7 @@ fn bus_cycles(name: &str) -> VendorResult {
         traffic,
         native: finish(native, native_reps, native_durations),
         sdk: finish(sdk, sdk_reps, sdk_durations),
+        steal: steal_since(cpu_before),
     }
 }
 
@@ -337,6 +369,8 @@ struct JitterFigures {
     max_after_health_ms: f64,
     max_after_other_ms: f64,
     wall_seconds: f64,
+    /// CPU steal during the playback.
+    steal: String,
 }
 
 fn jitter(rate_hz: f64, readback_every: u32) -> JitterResult {
@@ -352,6 +386,7 @@ fn jitter(rate_hz: f64, readback_every: u32) -> JitterResult {
         options.progress = false;
         options.readback_every = Some(readback_every);
         let started = Instant::now();
+        let cpu_before = cpu_ticks();
         let (outcome, stats) = play(
             connection.bus.as_mut(),
             &robot,
@@ -361,6 +396,7 @@ fn jitter(rate_hz: f64, readback_every: u32) -> JitterResult {
         )
         .map_err(|e| format!("playback failed: {e}"))?;
         let wall_seconds = started.elapsed().as_secs_f64();
+        let steal = steal_since(cpu_before);
         drop(connection);
         drop(server);
         if outcome != Outcome::Finished {
@@ -399,6 +435,7 @@ fn jitter(rate_hz: f64, readback_every: u32) -> JitterResult {
             max_after_health_ms: after_health * 1e3,
             max_after_other_ms: after_other * 1e3,
             wall_seconds,
+            steal,
         })
     })();
     JitterResult { label, outcome }
@@ -455,6 +492,7 @@ fn main() {
                 ""
             }
         );
+        println!("  CPU steal during the timed runs: {}", result.steal);
         vendors.push(result);
     }
 
@@ -468,7 +506,7 @@ fn main() {
                 "  {:<26} {} cycles (approach {:.2} s) in {:.2} s wall; lateness p50 {:.3} ms, \
                  p99 {:.3} ms, max {:.3} ms; mean period {:.4} ms (nominal {:.4}); {} cycles \
                  started > 1 period late; max lateness after a health-read cycle {:.3} ms, after \
-                 other cycles {:.3} ms",
+                 other cycles {:.3} ms; CPU steal {}",
                 run.label,
                 f.cycles,
                 f.approach_seconds,
@@ -481,6 +519,7 @@ fn main() {
                 f.late_by_a_period,
                 f.max_after_health_ms,
                 f.max_after_other_ms,
+                f.steal,
             ),
             Err(reason) => println!("  {:<26} failed: {reason}", run.label),
         }
@@ -494,8 +533,11 @@ fn main() {
 
     // The table for the README.
     println!();
-    println!("summary: | virtual bus (pty, 6 servos) | native cycles/s | SDK cycles/s | native/SDK | wire limit at 1 Mbps, RDT 0 | RDT 500 µs |");
-    println!("summary: |---|---|---|---|---|---|");
+    println!(
+        "summary: | virtual bus (pty, 6 servos) | native cycles/s | SDK cycles/s | native/SDK \
+         | wire limit at 1 Mbps, RDT 0 | RDT 500 µs | CPU steal |"
+    );
+    println!("summary: |---|---|---|---|---|---|---|");
     for v in &vendors {
         let rate = |r: &Result<f64, String>| match r {
             Ok(rate) => format!("{rate:.0}"),
@@ -506,7 +548,8 @@ fn main() {
             _ => "n/a".into(),
         };
         println!(
-            "summary: | {} ({} sync write + sync read) | {} | {} | {} | ≤ {:.0} Hz | ≤ {:.0} Hz |",
+            "summary: | {} ({} sync write + sync read) | {} | {} | {} | ≤ {:.0} Hz | ≤ {:.0} Hz \
+             | {} |",
             v.robot,
             v.traffic.name,
             rate(&v.native.rate),
@@ -514,24 +557,34 @@ fn main() {
             ratio,
             v.traffic.limit_hz(0.0).floor(),
             v.traffic.limit_hz(500e-6).floor(),
+            v.steal,
         );
     }
     println!("summary: ");
     println!(
-        "summary: | player, so101, native, pty | cycles | lateness p50 | p99 | max | mean period |"
+        "summary: | player, so101, native, pty | cycles | lateness p50 | p99 | max | mean period \
+         | cycles > 1 period late | CPU steal |"
     );
-    println!("summary: |---|---|---|---|---|---|");
+    println!("summary: |---|---|---|---|---|---|---|---|");
     for run in &runs {
         match &run.outcome {
             Ok(f) => println!(
-                "summary: | {} | {} | {:.3} ms | {:.3} ms | {:.3} ms | {:.4} ms |",
-                run.label, f.cycles, f.p50_ms, f.p99_ms, f.max_ms, f.mean_period_ms
+                "summary: | {} | {} | {:.3} ms | {:.3} ms | {:.3} ms | {:.4} ms | {} | {} |",
+                run.label,
+                f.cycles,
+                f.p50_ms,
+                f.p99_ms,
+                f.max_ms,
+                f.mean_period_ms,
+                f.late_by_a_period,
+                f.steal
             ),
-            Err(reason) => println!("summary: | {} | failed: {reason} | | | | |", run.label),
+            Err(reason) => println!("summary: | {} | failed: {reason} | | | | | | |", run.label),
         }
     }
     println!(
-        "summary: pty has no baud-rate limit: cycles/s are software overhead, not wire time. \
-         Load average {load_before} → {load_after}."
+        "summary: pty has no baud-rate limit and the virtual servos no return delay: cycles/s \
+         are software overhead, not wire time. Cycles include the ≥ 0.5 s approach ramp. Load \
+         average {load_before} → {load_after}."
     );
 }
