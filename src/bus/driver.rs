@@ -224,34 +224,8 @@ impl NativeBus {
     /// Turns a status packet's error byte into an error, reading the alarm register when a
     /// Dynamixel servo raises its alert bit.
     fn check_status(&mut self, packet: &Packet) -> Result<(), BusError> {
-        let error = packet.error().unwrap_or(0);
-        let id = packet.id;
-        match self.protocol {
-            Protocol::Dynamixel2 => {
-                let status = dynamixel::StatusByte::parse(error);
-                if let Some(refusal) = status.refusal(id) {
-                    return Err(refusal);
-                }
-                if status.alert {
-                    let alarms = self.read_alarm_register(id).unwrap_or(Alarms {
-                        // The servo says it has a hardware error but not which: report the
-                        // most common cause on these arms rather than nothing.
-                        overload: true,
-                        ..Alarms::default()
-                    });
-                    return Err(BusError::Alarm { id, alarms });
-                }
-                Ok(())
-            }
-            _ => {
-                let alarms = feetech::status_alarms(error);
-                if alarms.any() {
-                    Err(BusError::Alarm { id, alarms })
-                } else {
-                    Ok(())
-                }
-            }
-        }
+        self.check_status_passive(packet)
+            .map_err(|e| self.resolve_alarm(e))
     }
 
     fn read_alarm_register(&mut self, id: u8) -> Result<Alarms, BusError> {

@@ -5,7 +5,7 @@
 //! Python SDK). Multi-byte fields are little-endian.
 
 use super::packet::{seek_header, Decoded, Direction, Framing, Packet, PacketError, PacketKind};
-use super::{Alarms, BusError, PingInfo};
+use super::{AlarmBits, Alarms, BusError, PingInfo};
 
 pub const PING: u8 = 0x01;
 pub const READ: u8 = 0x02;
@@ -568,29 +568,23 @@ pub const HW_MOTOR_ENCODER: u8 = 1 << 3;
 pub const HW_ELECTRICAL_SHOCK: u8 = 1 << 4;
 pub const HW_OVERLOAD: u8 = 1 << 5;
 
-/// The alarms in a Hardware Error Status value (bits 1, 6 and 7 are unused and ignored).
+/// Hardware Error Status bits (bits 1, 6 and 7 are unused).
+pub const HARDWARE_ERROR_BITS: AlarmBits = AlarmBits {
+    input_voltage: HW_INPUT_VOLTAGE,
+    overheating: HW_OVERHEATING,
+    encoder: HW_MOTOR_ENCODER,
+    electrical: HW_ELECTRICAL_SHOCK,
+    overload: HW_OVERLOAD,
+};
+
+/// The alarms in a Hardware Error Status value.
 pub fn hardware_error_alarms(bits: u8) -> Alarms {
-    Alarms {
-        input_voltage: bits & HW_INPUT_VOLTAGE != 0,
-        overheating: bits & HW_OVERHEATING != 0,
-        encoder: bits & HW_MOTOR_ENCODER != 0,
-        electrical: bits & HW_ELECTRICAL_SHOCK != 0,
-        overload: bits & HW_OVERLOAD != 0,
-    }
+    HARDWARE_ERROR_BITS.decode(bits)
 }
 
 /// The Hardware Error Status value an emulated servo reports for `alarms`.
 pub fn hardware_error_bits(alarms: &Alarms) -> u8 {
-    [
-        (alarms.input_voltage, HW_INPUT_VOLTAGE),
-        (alarms.overheating, HW_OVERHEATING),
-        (alarms.encoder, HW_MOTOR_ENCODER),
-        (alarms.electrical, HW_ELECTRICAL_SHOCK),
-        (alarms.overload, HW_OVERLOAD),
-    ]
-    .into_iter()
-    .filter(|(on, _)| *on)
-    .fold(0, |bits, (_, bit)| bits | bit)
+    HARDWARE_ERROR_BITS.encode(alarms)
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@
 
 use super::packet::{seek_header, Decoded, Direction, Framing, Packet, PacketError, PacketKind};
 use super::registers::ByteOrder;
-use super::Alarms;
+use super::{AlarmBits, Alarms};
 use crate::robot::Protocol;
 
 pub const PING: u8 = 0x01;
@@ -235,30 +235,24 @@ pub const ERR_OVERHEAT: u8 = 1 << 2;
 pub const ERR_OVER_CURRENT: u8 = 1 << 3;
 pub const ERR_OVERLOAD: u8 = 1 << 5;
 
+/// Status ERR byte and Status register (65) bits.
+pub const STATUS_BITS: AlarmBits = AlarmBits {
+    input_voltage: ERR_VOLTAGE,
+    overheating: ERR_OVERHEAT,
+    encoder: ERR_ANGLE_SENSOR,
+    electrical: ERR_OVER_CURRENT,
+    overload: ERR_OVERLOAD,
+};
+
 /// The alarms in a status ERR byte, or in the Status register (65), which uses the same bits.
 /// Feetech's status byte reports conditions, not refusals: the instruction was carried out.
 pub fn status_alarms(bits: u8) -> Alarms {
-    Alarms {
-        input_voltage: bits & ERR_VOLTAGE != 0,
-        overheating: bits & ERR_OVERHEAT != 0,
-        encoder: bits & ERR_ANGLE_SENSOR != 0,
-        electrical: bits & ERR_OVER_CURRENT != 0,
-        overload: bits & ERR_OVERLOAD != 0,
-    }
+    STATUS_BITS.decode(bits)
 }
 
 /// The status byte an emulated servo reports for `alarms`.
 pub fn status_bits(alarms: &Alarms) -> u8 {
-    [
-        (alarms.input_voltage, ERR_VOLTAGE),
-        (alarms.encoder, ERR_ANGLE_SENSOR),
-        (alarms.overheating, ERR_OVERHEAT),
-        (alarms.electrical, ERR_OVER_CURRENT),
-        (alarms.overload, ERR_OVERLOAD),
-    ]
-    .into_iter()
-    .filter(|(on, _)| *on)
-    .fold(0, |bits, (_, bit)| bits | bit)
+    STATUS_BITS.encode(alarms)
 }
 
 #[cfg(test)]

@@ -51,6 +51,57 @@ impl Alarms {
     }
 }
 
+/// Which bit of a vendor's alarm byte stands for each alarm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AlarmBits {
+    pub input_voltage: u8,
+    pub overheating: u8,
+    pub encoder: u8,
+    pub electrical: u8,
+    pub overload: u8,
+}
+
+impl AlarmBits {
+    fn pairs(&self) -> [u8; 5] {
+        [
+            self.input_voltage,
+            self.overheating,
+            self.encoder,
+            self.electrical,
+            self.overload,
+        ]
+    }
+
+    /// The alarms set in `bits`; bits this layout does not use are ignored.
+    pub fn decode(&self, bits: u8) -> Alarms {
+        let [input_voltage, overheating, encoder, electrical, overload] =
+            self.pairs().map(|mask| bits & mask != 0);
+        Alarms {
+            input_voltage,
+            overheating,
+            encoder,
+            electrical,
+            overload,
+        }
+    }
+
+    /// The byte a servo reports for `alarms`.
+    pub fn encode(&self, alarms: &Alarms) -> u8 {
+        let on = [
+            alarms.input_voltage,
+            alarms.overheating,
+            alarms.encoder,
+            alarms.electrical,
+            alarms.overload,
+        ];
+        self.pairs()
+            .into_iter()
+            .zip(on)
+            .filter(|(_, on)| *on)
+            .fold(0, |bits, (mask, _)| bits | mask)
+    }
+}
+
 impl fmt::Display for Alarms {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let names: Vec<&str> = [
