@@ -16,3 +16,4 @@ pub mod pyenv;
 pub mod report;
 pub mod robot;
 pub mod sequence;
+pub mod sim;

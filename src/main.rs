@@ -33,7 +33,11 @@ enum Command {
     /// Stretch key times, segment by segment, until velocity and acceleration limits hold, and
     /// write the new sequence.
     Retime(commands::retime::RetimeArgs),
-    /// Play a sequence on servos: ramp from the present pose, stream at the control rate.
+    /// Play a sequence in MuJoCo and judge it: tracking, collisions, joint stops, saturation,
+    /// servo speed, divergence. Exit code 1 when the verdict fails.
+    Sim(commands::sim::SimArgs),
+    /// Play a sequence on servos (or, with no --port, in MuJoCo): ramp from the present pose,
+    /// stream at the control rate.
     ///
     /// Ctrl-C decelerates along the path and holds (torque stays on); a second Ctrl-C holds at
     /// once. A servo alarm, a failed write, repeated read failures or a lost port stop
@@ -64,6 +68,7 @@ fn main() -> ExitCode {
         Command::Sample(args) => commands::sample::run(args),
         Command::Plot(args) => commands::plot::run(args),
         Command::Retime(args) => commands::retime::run(args),
+        Command::Sim(args) => commands::sim::run(args),
         Command::Play(args) => commands::play::run(args),
         Command::Read(args) => commands::hardware::read(args),
         Command::Torque(args) => commands::hardware::torque(args),

@@ -1,7 +1,7 @@
 //! The Python side's environment and its long-lived scripts.
 //!
-//! keypose runs its Python helpers (`sim/*.py`: the vendor-SDK bridge, later the MuJoCo
-//! harness) with:
+//! keypose runs its Python helpers (`sim/*.py`: the vendor-SDK bridge, the MuJoCo harness)
+//! with:
 //! - `KEYPOSE_PYTHON`, an interpreter that must already have the packages of
 //!   `sim/requirements.txt`; keypose installs nothing into it;
 //! - otherwise a virtual environment that keypose builds once in its cache directory
@@ -33,10 +33,13 @@ use std::time::{Duration, Instant, SystemTime};
 pub const REQUIREMENTS: &str = include_str!("../sim/requirements.txt");
 
 /// The harness scripts, by file name, as embedded in the binary.
-const SCRIPTS: &[(&str, &str)] = &[("sdk_bridge.py", include_str!("../sim/sdk_bridge.py"))];
+const SCRIPTS: &[(&str, &str)] = &[
+    ("sdk_bridge.py", include_str!("../sim/sdk_bridge.py")),
+    ("sim_harness.py", include_str!("../sim/sim_harness.py")),
+];
 
-/// The oldest Python the scripts and their packages are used with.
-pub const MIN_PYTHON: (u32, u32) = (3, 10);
+/// The oldest Python the scripts and their packages are used with: MuJoCo 4 needs 3.11.
+pub const MIN_PYTHON: (u32, u32) = (3, 11);
 
 /// Written into a finished environment; an environment without it is not used.
 const MARKER: &str = "keypose-env.json";
@@ -736,13 +739,16 @@ fn last_lines(text: &str, count: usize) -> String {
     lines[lines.len().saturating_sub(count)..].join("\n")
 }
 
-/// Timeouts of a [`Harness`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Timeouts and environment of a [`Harness`].
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct HarnessOptions {
     /// For the ready line: the script imports its packages first.
     pub ready_timeout: Duration,
     /// For each reply, unless a request says otherwise.
     pub request_timeout: Duration,
+    /// Variables set for the child on top of keypose's own (the MuJoCo harness reads
+    /// `MUJOCO_GL` when it starts).
+    pub env: Vec<(String, String)>,
 }
 
 impl Default for HarnessOptions {
@@ -750,6 +756,7 @@ impl Default for HarnessOptions {
         HarnessOptions {
             ready_timeout: Duration::from_secs(60),
             request_timeout: Duration::from_secs(10),
+            env: Vec::new(),
         }
     }
 }
@@ -835,7 +842,8 @@ impl Harness {
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .env("PYTHONUNBUFFERED", "1")
-            .env("PYTHONIOENCODING", "utf-8");
+            .env("PYTHONIOENCODING", "utf-8")
+            .envs(options.env.iter().map(|(name, value)| (name, value)));
         #[cfg(unix)]
         {
             // Its own process group: Ctrl-C in the terminal then reaches keypose only, which

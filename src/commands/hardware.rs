@@ -12,7 +12,7 @@ use std::path::PathBuf;
 #[derive(Debug, Clone, clap::Args)]
 pub struct BusArgs {
     /// Serial port (e.g. /dev/ttyUSB0, /dev/ttyACM0), or "virtual" for emulated servos on a
-    /// pseudo-terminal.
+    /// pseudo-terminal. `play` without a port plays in MuJoCo.
     #[arg(long, value_name = "PATH|virtual")]
     pub port: Option<String>,
     /// Our own protocol code (native) or the vendor's Python SDK (sdk).

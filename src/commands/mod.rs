@@ -7,6 +7,7 @@ pub mod play;
 pub mod plot;
 pub mod retime;
 pub mod sample;
+pub mod sim;
 
 use crate::curve::Interp;
 use crate::json::{InputError, Location};

@@ -105,19 +105,6 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
         return Ok(Verdict::Fail);
     }
 
-    let Some(port) = &args.bus.port else {
-        return Err(CommandError::Usage(
-            "no --port given: give a serial port (see `keypose ports`) or `--port virtual` for emulated servos"
-                .into(),
-        ));
-    };
-    let mut connection = args.bus.connect(&robot, port)?;
-    let stop = StopSignal::default();
-    let handler_stop = stop.clone();
-    // Only the first handler registration in a process succeeds; a second `play` in the same
-    // process (tests) keeps the first handler, which is harmless.
-    let _ = ctrlc::set_handler(move || handler_stop.request());
-
     let options = PlayOptions {
         speed: args.speed,
         loops: args.loops,
@@ -130,6 +117,28 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
         progress: !args.quiet,
         ..PlayOptions::new(rate)
     };
+    let Some(port) = &args.bus.port else {
+        // No hardware: play in MuJoCo, with the same commands the servos would get.
+        if args.loops == Loops::Forever {
+            return Err(CommandError::Usage(
+                "--loop forever needs servos (--port); in simulation give a number of loops".into(),
+            ));
+        }
+        let result = super::sim::simulate(&sequence, &robot, &trajectory, &options, None)?;
+        print!("{}", super::sim::table(&sequence.file, &result));
+        return Ok(if result.verdict.passed() {
+            Verdict::Pass
+        } else {
+            Verdict::Fail
+        });
+    };
+    let mut connection = args.bus.connect(&robot, port)?;
+    let stop = StopSignal::default();
+    let handler_stop = stop.clone();
+    // Only the first handler registration in a process succeeds; a second `play` in the same
+    // process (tests) keeps the first handler, which is harmless.
+    let _ = ctrlc::set_handler(move || handler_stop.request());
+
     if !args.quiet {
         eprintln!(
             "playing {} on {} at {rate} Hz, speed {}",

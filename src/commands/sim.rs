@@ -1,0 +1,300 @@
+//! `keypose sim`: play a sequence in MuJoCo and judge it. Also `keypose play` without `--port`.
+
+use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
+use crate::plan::Trajectory;
+use crate::player::PlayOptions;
+use crate::robot::Robot;
+use crate::sequence::Sequence;
+use crate::sim::verdict::{self, KeyMark, Thresholds, Trace};
+use crate::sim::{self, SimError, Simulation};
+use serde_json::json;
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct SimArgs {
+    #[command(flatten)]
+    pub input: SequenceInput,
+    /// Another MJCF model to run instead of the built-in one (its joint names must match the
+    /// robot's), e.g. the arm maker's official mesh model.
+    #[arg(long, value_name = "FILE")]
+    pub mjcf: Option<PathBuf>,
+    /// Write the measurements and the verdict as JSON.
+    #[arg(long, value_name = "FILE.json")]
+    pub report: Option<PathBuf>,
+    /// Render the robot at each key (.png contact sheet) or the whole motion (.gif, .mp4).
+    #[arg(long, value_name = "FILE")]
+    pub render: Option<PathBuf>,
+    /// With --render to .png: a frame every this many seconds instead of one per key.
+    #[arg(long, value_name = "SECONDS")]
+    pub every: Option<f64>,
+    /// Control rate [default: the robot's control_hz].
+    #[arg(long, value_name = "HZ", value_parser = parse_rate)]
+    pub rate: Option<f64>,
+    /// Time scale, as for `play`.
+    #[arg(long, value_name = "F", default_value = "1")]
+    pub speed: f64,
+}
+
+/// Simulated seconds per request, so a progress line can follow a long run.
+const CHUNK_SECONDS: f64 = 1.0;
+
+/// The outcome of a simulated playback.
+pub struct Simulated {
+    pub verdict: verdict::Verdict,
+    pub trace: Trace,
+    pub model: String,
+    pub wall_seconds: f64,
+}
+
+fn sim_error(e: SimError) -> CommandError {
+    match e {
+        SimError::Model { .. } => CommandError::Usage(e.to_string()),
+        other => CommandError::Hardware(format!("simulation: {other}")),
+    }
+}
+
+/// Runs `trajectory` in MuJoCo as the player would play it with `options`.
+pub fn simulate(
+    sequence: &Sequence,
+    robot: &Robot,
+    trajectory: &Trajectory,
+    options: &PlayOptions,
+    mjcf: Option<&Path>,
+) -> Result<Simulated, CommandError> {
+    let started = Instant::now();
+    let stream = sim::command_stream(robot, trajectory, options);
+    let mut simulation = Simulation::start(robot, mjcf, None).map_err(sim_error)?;
+    let chunk = ((CHUNK_SECONDS * stream.rate).round() as usize).max(1);
+    let mut trace = Trace::default();
+    let total = stream.rows.len();
+    let mut start = 0;
+    while start < total {
+        let end = (start + chunk).min(total);
+        let part = simulation
+            .run(robot, &stream, start..end, start == 0)
+            .map_err(sim_error)?;
+        let diverged = !part.divergence.is_empty();
+        trace.extend(part);
+        if options.progress {
+            let t = stream.sequence_time[end - 1].unwrap_or(trajectory.start);
+            let key = trajectory.segment_at(t);
+            eprint!(
+                "\rsimulating {:>7.2} / {:.2} s  key {}/{} {:<16}",
+                t,
+                trajectory.end,
+                key + 1,
+                trajectory.key_times.len(),
+                trajectory.key_labels[key]
+            );
+            let _ = std::io::stderr().flush();
+        }
+        if diverged {
+            break;
+        }
+        start = end;
+    }
+    if options.progress {
+        eprintln!();
+    }
+    let keys: Vec<KeyMark> = sequence
+        .keyframes
+        .iter()
+        .zip(&trajectory.key_times)
+        .zip(&trajectory.key_labels)
+        .filter(|((_, t), _)| **t >= trajectory.start && **t <= trajectory.end)
+        .map(|((key, t), label)| KeyMark {
+            label: label.clone(),
+            settle_from: t + key.hold,
+        })
+        .collect();
+    let verdict = verdict::judge(robot, &trace, &keys, &Thresholds::default());
+    Ok(Simulated {
+        verdict,
+        trace,
+        model: simulation.model().to_string(),
+        wall_seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+pub fn run(args: &SimArgs) -> Result<Verdict, CommandError> {
+    let (sequence, robot) = args.input.load()?;
+    let trajectory = Trajectory::build(&sequence, &robot)?;
+    let rate = args.rate.unwrap_or(robot.control_hz);
+    if !(args.speed.is_finite() && (0.05..=4.0).contains(&args.speed)) {
+        return Err(CommandError::Usage(format!(
+            "--speed: expected a factor from 0.05 to 4, found {}",
+            args.speed
+        )));
+    }
+    super::check_sample_budget(&sequence.file, &trajectory, rate / args.speed)?;
+    let options = PlayOptions {
+        speed: args.speed,
+        ..PlayOptions::new(rate)
+    };
+    let result = simulate(
+        &sequence,
+        &robot,
+        &trajectory,
+        &options,
+        args.mjcf.as_deref(),
+    )?;
+    print!("{}", table(&sequence.file, &result));
+    if let Some(path) = &args.report {
+        let report = report_json(&sequence.file, &robot, &result);
+        write_output(Some(path), &format!("{report:#}\n"))?;
+    }
+    if let Some(path) = &args.render {
+        render(args, &sequence, &robot, &trajectory, path)?;
+    }
+    Ok(if result.verdict.passed() {
+        Verdict::Pass
+    } else {
+        Verdict::Fail
+    })
+}
+
+fn render(
+    args: &SimArgs,
+    sequence: &Sequence,
+    robot: &Robot,
+    trajectory: &Trajectory,
+    path: &Path,
+) -> Result<(), CommandError> {
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    let times: Vec<(f64, String)> = match (extension.as_str(), args.every) {
+        ("png", None) => trajectory
+            .key_times
+            .iter()
+            .zip(&trajectory.key_labels)
+            .filter(|(t, _)| **t >= trajectory.start && **t <= trajectory.end)
+            .map(|(t, l)| (*t, format!("{l} · {t:.2} s")))
+            .collect(),
+        ("png", Some(every)) if every > 0.0 && every.is_finite() => {
+            let count = (trajectory.duration() / every).floor() as usize;
+            (0..=count)
+                .map(|k| {
+                    let t = trajectory.start + k as f64 * every;
+                    (t, format!("{t:.2} s"))
+                })
+                .collect()
+        }
+        ("gif" | "mp4", _) => {
+            let fps = 25.0;
+            let count = (trajectory.duration() * fps).ceil() as usize;
+            (0..=count)
+                .map(|k| {
+                    let t = (trajectory.start + k as f64 / fps).min(trajectory.end);
+                    (t, format!("{t:.2} s"))
+                })
+                .collect()
+        }
+        _ => {
+            return Err(CommandError::Usage(format!(
+                "--render {}: expected a .png, .gif or .mp4 file (and --every above 0)",
+                path.display()
+            )))
+        }
+    };
+    if times.len() > 2000 {
+        return Err(CommandError::Usage(format!(
+            "--render: {} frames is too many; use a larger --every or a shorter sequence",
+            times.len()
+        )));
+    }
+    let frames: Vec<Vec<f64>> = times.iter().map(|(t, _)| trajectory.sample(*t)).collect();
+    let labels: Vec<String> = times.into_iter().map(|(_, l)| l).collect();
+    let gl = sim::render(robot, args.mjcf.as_deref(), &frames, &labels, path).map_err(sim_error)?;
+    eprintln!(
+        "{}: rendered {} frame(s) of {} to {} ({gl})",
+        sequence.file,
+        frames.len(),
+        robot.name,
+        path.display()
+    );
+    Ok(())
+}
+
+/// The verdict as a table a person can read.
+pub fn table(file: &str, result: &Simulated) -> String {
+    let mut out = String::new();
+    let simulated = result.trace.time.last().copied().unwrap_or(0.0);
+    let _ = writeln!(
+        out,
+        "{file} in MuJoCo ({}): {simulated:.2} s simulated in {:.2} s",
+        result.model, result.wall_seconds
+    );
+    let _ = writeln!(
+        out,
+        "  {:<18} {:>22} {:>10} {:>22} {:>18}",
+        "joint", "max tracking error", "rms", "worst after settling", "servo speed °/s"
+    );
+    for t in &result.verdict.tracking {
+        let worst = t
+            .settled
+            .iter()
+            .max_by(|a, b| a.2.total_cmp(&b.2))
+            .map(|(label, _, e)| format!("{e:.3} ({label})"))
+            .unwrap_or_else(|| "-".into());
+        let _ = writeln!(
+            out,
+            "  {:<18} {:>9.3} {:<3} @ {:>6.2} s {:>10.3} {:>22} {:>8.0} / {:<6.0}",
+            t.joint,
+            t.max_error,
+            t.unit,
+            t.max_error_time,
+            t.rms_error,
+            worst,
+            t.peak_speed_servo_deg_s,
+            t.servo_speed_limit_deg_s
+        );
+    }
+    if result.verdict.passed() {
+        let _ = writeln!(out, "PASSED: no collisions, limit hits, saturation, overspeed or divergence; tracking within bounds");
+    } else {
+        let _ = writeln!(out, "FAILED: {} finding(s)", result.verdict.findings.len());
+        for f in &result.verdict.findings {
+            let joint = f
+                .joint
+                .as_deref()
+                .map(|j| format!(" {j}:"))
+                .unwrap_or_default();
+            let _ = writeln!(
+                out,
+                "  t = {:>6.2} s  {:<16}{joint} {}",
+                f.time, f.kind, f.message
+            );
+        }
+    }
+    out
+}
+
+fn report_json(file: &str, robot: &Robot, result: &Simulated) -> serde_json::Value {
+    json!({
+        "sequence": file,
+        "robot": robot.name,
+        "model": result.model,
+        "passed": result.verdict.passed(),
+        "simulated_seconds": result.trace.time.last().copied().unwrap_or(0.0),
+        "wall_seconds": result.wall_seconds,
+        "findings": result.verdict.findings.iter().map(|f| json!({
+            "kind": f.kind, "joint": f.joint, "time": f.time, "message": f.message,
+        })).collect::<Vec<_>>(),
+        "tracking": result.verdict.tracking.iter().map(|t| json!({
+            "joint": t.joint,
+            "unit": t.unit,
+            "max_error": t.max_error,
+            "max_error_time": t.max_error_time,
+            "rms_error": t.rms_error,
+            "settled": t.settled.iter().map(|(label, time, e)| json!({"key": label, "time": time, "error": e})).collect::<Vec<_>>(),
+            "peak_servo_speed_deg_s": t.peak_speed_servo_deg_s,
+            "servo_speed_limit_deg_s": t.servo_speed_limit_deg_s,
+        })).collect::<Vec<_>>(),
+    })
+}

@@ -1,0 +1,344 @@
+//! Simulation in MuJoCo through the Python harness `sim/sim_harness.py`.
+//!
+//! The arm is commanded exactly as the player would command servos: the same [`Timeline`]
+//! (approach ramp from the pose the arm rests in, the control rate, loops, speed), the same
+//! joint values. The harness only measures; [`verdict`] decides.
+
+mod models;
+pub mod verdict;
+
+pub use models::model_path;
+
+use crate::plan::Trajectory;
+use crate::player::{Phase, PlayOptions, Timeline};
+use crate::pyenv::{Harness, HarnessError, HarnessOptions, PyConfig, PyEnvError};
+use crate::robot::{JointKind, Robot};
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+use verdict::{Contact, ContactKind, Trace};
+
+pub const HARNESS_SCRIPT: &str = "sim_harness.py";
+
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error(transparent)]
+    Env(#[from] PyEnvError),
+    #[error(transparent)]
+    Harness(#[from] HarnessError),
+    #[error("model {model}: {message}")]
+    Model { model: String, message: String },
+    #[error("the simulation's reply is not what the protocol says: {0}")]
+    Reply(String),
+    #[error("rendering failed with both EGL and OSMesa: {0}")]
+    Render(String),
+}
+
+/// What the player would send, cycle by cycle, in joint units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CommandStream {
+    pub rate: f64,
+    /// The pose the arm rests in before the first cycle.
+    pub initial: Vec<f64>,
+    pub rows: Vec<Vec<f64>>,
+    /// Sequence time of each row; `None` during ramps.
+    pub sequence_time: Vec<Option<f64>>,
+}
+
+/// The commands of playing `trajectory` from the robot's home pose with `options`.
+pub fn command_stream(
+    robot: &Robot,
+    trajectory: &Trajectory,
+    options: &PlayOptions,
+) -> CommandStream {
+    let initial = robot.home.clone();
+    let mut timeline = Timeline::new(robot, trajectory, options, &initial);
+    let mut rows = Vec::new();
+    let mut sequence_time = Vec::new();
+    let mut pose = vec![0.0; robot.joints.len()];
+    let dt = 1.0 / options.rate_hz;
+    while let Some(phase) = timeline.sample_into(&mut pose) {
+        rows.push(pose.clone());
+        sequence_time.push(match phase {
+            Phase::Approach | Phase::Return => None,
+            Phase::Play | Phase::Stopping => Some(timeline.sequence_time()),
+        });
+        timeline.advance(dt);
+    }
+    CommandStream {
+        rate: options.rate_hz,
+        initial,
+        rows,
+        sequence_time,
+    }
+}
+
+/// Joint value (degrees / metres) to MuJoCo's (radians / metres).
+fn to_model(robot: &Robot, values: &[f64]) -> Vec<f64> {
+    robot
+        .joints
+        .iter()
+        .zip(values)
+        .map(|(j, v)| match j.kind {
+            JointKind::Revolute => v.to_radians(),
+            JointKind::Prismatic => *v,
+        })
+        .collect()
+}
+
+fn from_model(robot: &Robot, values: &[f64]) -> Vec<f64> {
+    robot
+        .joints
+        .iter()
+        .zip(values)
+        .map(|(j, v)| match j.kind {
+            JointKind::Revolute => v.to_degrees(),
+            JointKind::Prismatic => *v,
+        })
+        .collect()
+}
+
+/// A loaded model in a running harness.
+pub struct Simulation {
+    harness: Harness,
+    model: String,
+    joints: Vec<String>,
+    force_limits: Vec<Option<f64>>,
+    pub timestep: f64,
+}
+
+impl Simulation {
+    /// Starts the harness (building the Python environment on first use) and loads the robot's
+    /// model, or `mjcf` when given (its joint names must match the robot's).
+    pub fn start(
+        robot: &Robot,
+        mjcf: Option<&Path>,
+        gl: Option<&str>,
+    ) -> Result<Simulation, SimError> {
+        let config = PyConfig::from_env()?;
+        let mut options = HarnessOptions {
+            // A long run is one request: allow minutes.
+            request_timeout: Duration::from_secs(600),
+            ..HarnessOptions::default()
+        };
+        if let Some(gl) = gl {
+            options.env.push(("MUJOCO_GL".into(), gl.into()));
+        }
+        let harness = Harness::start_in(&config, HARNESS_SCRIPT, options)?;
+        let path: PathBuf = match mjcf {
+            Some(p) => p.to_path_buf(),
+            None => model_path(&config, &robot.name)?,
+        };
+        let model = path.display().to_string();
+        let mut sim = Simulation {
+            harness,
+            model: model.clone(),
+            joints: robot.joints.iter().map(|j| j.name.clone()).collect(),
+            force_limits: Vec::new(),
+            timestep: 0.0,
+        };
+        let reply = sim.request(&json!({ "op": "load", "mjcf": model }))?;
+        sim.timestep = reply["timestep"].as_f64().unwrap_or(0.002);
+        let model_joints: Vec<&str> = reply["joints"]
+            .as_array()
+            .map(|a| a.iter().filter_map(|j| j["name"].as_str()).collect())
+            .unwrap_or_default();
+        let missing: Vec<&str> = sim
+            .joints
+            .iter()
+            .map(String::as_str)
+            .filter(|j| !model_joints.contains(j))
+            .collect();
+        if !missing.is_empty() {
+            return Err(SimError::Model {
+                model,
+                message: format!(
+                    "has no joint(s) {} of robot {}; its joints are: {}",
+                    missing.join(", "),
+                    robot.name,
+                    model_joints.join(", ")
+                ),
+            });
+        }
+        let actuators = reply["actuators"].as_array().cloned().unwrap_or_default();
+        sim.force_limits = sim
+            .joints
+            .iter()
+            .map(|joint| {
+                let a = actuators.iter().find(|a| a["joint"] == joint.as_str())?;
+                if a["forcelimited"].as_bool() != Some(true) {
+                    return None;
+                }
+                let range = a["forcerange"].as_array()?;
+                let high = range.get(1)?.as_f64()?;
+                let low = range.first()?.as_f64()?;
+                Some(high.abs().min(low.abs()))
+            })
+            .collect();
+        Ok(sim)
+    }
+
+    pub fn model(&self) -> &str {
+        &self.model
+    }
+
+    pub fn harness(&self) -> &Harness {
+        &self.harness
+    }
+
+    fn request(&mut self, request: &Value) -> Result<Value, SimError> {
+        Ok(self.harness.request(request)?)
+    }
+
+    /// Runs rows of `stream`, continuing from the current state unless `reset`. Times in the
+    /// trace are the simulation clock, which goes on across continued runs.
+    pub fn run(
+        &mut self,
+        robot: &Robot,
+        stream: &CommandStream,
+        rows: std::ops::Range<usize>,
+        reset: bool,
+    ) -> Result<Trace, SimError> {
+        let commands: Vec<Vec<f64>> = stream.rows[rows.clone()]
+            .iter()
+            .map(|r| to_model(robot, r))
+            .collect();
+        let reply = self.request(&json!({
+            "op": "run",
+            "joints": self.joints,
+            "control_hz": stream.rate,
+            "initial": to_model(robot, &stream.initial),
+            "reset": reset,
+            "commands": commands,
+        }))?;
+        let trace = &reply["trace"];
+        let matrix = |name: &str| -> Result<Vec<Vec<f64>>, SimError> {
+            trace[name]
+                .as_array()
+                .ok_or_else(|| SimError::Reply(format!("no trace.{name}")))?
+                .iter()
+                .map(|row| {
+                    row.as_array()
+                        .map(|r| r.iter().map(|x| x.as_f64().unwrap_or(f64::NAN)).collect())
+                        .ok_or_else(|| SimError::Reply(format!("trace.{name} row is not a list")))
+                })
+                .collect()
+        };
+        let time: Vec<f64> = trace["time"]
+            .as_array()
+            .ok_or_else(|| SimError::Reply("no trace.time".into()))?
+            .iter()
+            .map(|t| t.as_f64().unwrap_or(f64::NAN))
+            .collect();
+        let n = time.len();
+        let qpos = matrix("qpos")?;
+        let qvel = matrix("qvel")?;
+        let force = matrix("force")?;
+        let limit = matrix("limit")?;
+        let contacts = reply["contacts"]
+            .as_array()
+            .map(|list| {
+                list.iter()
+                    .map(|c| Contact {
+                        time: c["time"].as_f64().unwrap_or(0.0),
+                        body1: c["body1"].as_str().unwrap_or("?").into(),
+                        body2: c["body2"].as_str().unwrap_or("?").into(),
+                        kind: match c["kind"].as_str() {
+                            Some("floor") => ContactKind::Floor,
+                            Some("self") => ContactKind::SelfCollision,
+                            _ => ContactKind::Environment,
+                        },
+                        depth: c["depth"].as_f64().unwrap_or(0.0).abs(),
+                        force: c["force"].as_f64().unwrap_or(0.0),
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        let divergence = reply["divergence"]
+            .as_array()
+            .map(|list| {
+                // Non-fatal warnings (a full contact buffer) do not end the run.
+                list.iter()
+                    .filter(|d| d["fatal"].as_bool() != Some(false))
+                    .map(|d| {
+                        (
+                            d["time"].as_f64().unwrap_or(0.0),
+                            d["message"].as_str().unwrap_or("diverged").to_string(),
+                        )
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        Ok(Trace {
+            time,
+            sequence_time: stream.sequence_time[rows.clone()][..n].to_vec(),
+            commanded: stream.rows[rows][..n].to_vec(),
+            position: qpos.iter().map(|r| from_model(robot, r)).collect(),
+            velocity: qvel.iter().map(|r| from_model(robot, r)).collect(),
+            force,
+            at_limit: limit
+                .iter()
+                .map(|r| r.iter().map(|x| *x != 0.0).collect())
+                .collect(),
+            contacts,
+            divergence,
+            force_limits: self.force_limits.clone(),
+        })
+    }
+}
+
+impl Trace {
+    /// Appends a later part of the same run.
+    pub fn extend(&mut self, more: Trace) {
+        self.time.extend(more.time);
+        self.sequence_time.extend(more.sequence_time);
+        self.commanded.extend(more.commanded);
+        self.position.extend(more.position);
+        self.velocity.extend(more.velocity);
+        self.force.extend(more.force);
+        self.at_limit.extend(more.at_limit);
+        self.contacts.extend(more.contacts);
+        self.divergence.extend(more.divergence);
+        self.force_limits = more.force_limits;
+    }
+}
+
+/// Renders `frames` (joint values) to `path` (.png contact sheet, .gif or .mp4), headless: EGL
+/// first, OSMesa if EGL cannot make a context.
+pub fn render(
+    robot: &Robot,
+    mjcf: Option<&Path>,
+    frames: &[Vec<f64>],
+    labels: &[String],
+    path: &Path,
+) -> Result<String, SimError> {
+    let mut failures = Vec::new();
+    for gl in ["egl", "osmesa"] {
+        let mut sim = match Simulation::start(robot, mjcf, Some(gl)) {
+            Ok(sim) => sim,
+            Err(e) => {
+                failures.push(format!("{gl}: {e}"));
+                continue;
+            }
+        };
+        let request = json!({
+            "op": "render",
+            "joints": sim.joints,
+            "frames": frames.iter().map(|f| to_model(robot, f)).collect::<Vec<_>>(),
+            "labels": labels,
+            "path": path.display().to_string(),
+            "width": 320,
+            "height": 240,
+            "fps": 25,
+            "columns": 4,
+        });
+        match sim.request(&request) {
+            Ok(reply) => return Ok(reply["gl"].as_str().unwrap_or(gl).to_string()),
+            Err(SimError::Harness(e)) if e.reply().is_some_and(|r| r["kind"] == "render") => {
+                failures.push(format!("{gl}: {e}"));
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    Err(SimError::Render(failures.join("; ")))
+}
