@@ -324,6 +324,7 @@ fn own_script(dir: &Path, name: &str, body: &str) -> Harness {
     let options = HarnessOptions {
         ready_timeout: Duration::from_secs(20),
         request_timeout: Duration::from_secs(5),
+        ..HarnessOptions::default()
     };
     Harness::spawn(&shared().first.python, &path, options)
         .unwrap_or_else(|e| panic!("{name} did not start: {e}"))
