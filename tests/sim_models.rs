@@ -55,7 +55,11 @@ const CASES: [Case; 3] = [
             ("elbow_flex", -30.0),
             ("wrist_flex", -100.0),
         ],
-        into_itself: &[("shoulder_lift", -89.0), ("elbow_flex", 80.0)],
+        into_itself: &[
+            ("shoulder_lift", 20.0),
+            ("elbow_flex", 80.0),
+            ("wrist_flex", -90.0),
+        ],
     },
     Case {
         robot: "omx",
