@@ -244,8 +244,48 @@ pub fn doctor() -> Result<Verdict, CommandError> {
     }
     out.push_str("python (vendor SDK bridge, simulation):\n");
     out.push_str(&crate::pyenv::doctor_report());
+    out.push_str(&simulation_report());
     write_output(None, &out)?;
     Ok(Verdict::Pass)
+}
+
+/// What the simulation harness reports when it starts: MuJoCo's version and the GL backend.
+/// Never builds the environment (that is for the first `sim`).
+fn simulation_report() -> String {
+    use crate::pyenv::{Harness, HarnessOptions, PyConfig};
+    let config = match PyConfig::from_env() {
+        Ok(c) => c,
+        Err(e) => return format!("  simulation: {e}\n"),
+    };
+    let python = match config.find_python() {
+        Ok(Some(env)) => env.python,
+        Ok(None) => {
+            return "  simulation: the environment is built on the first `keypose sim`\n".into()
+        }
+        Err(e) => return format!("  simulation: {e}\n"),
+    };
+    let started = config
+        .script_path(crate::sim::HARNESS_SCRIPT)
+        .map_err(|e| e.to_string())
+        .and_then(|script| {
+            Harness::spawn(&python, &script, HarnessOptions::default()).map_err(|e| e.to_string())
+        });
+    match started {
+        Ok(harness) => {
+            let ready = harness.ready();
+            let field = |name: &str| ready[name].as_str().unwrap_or("?").to_string();
+            format!(
+                "  {}: ready: mujoco {}, numpy {}, MUJOCO_GL {}\n",
+                crate::sim::HARNESS_SCRIPT,
+                field("mujoco"),
+                field("numpy"),
+                ready["gl"]
+                    .as_str()
+                    .unwrap_or("not set (egl is tried first, then osmesa)")
+            )
+        }
+        Err(e) => format!("  {}: does not start: {e}\n", crate::sim::HARNESS_SCRIPT),
+    }
 }
 
 #[derive(Debug, Clone, clap::Args)]
