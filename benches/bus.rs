@@ -17,7 +17,7 @@
 //!    with a read-back every cycle and with one every 5th cycle.
 //!
 //! `cargo bench --bench bus` prints a compact table on lines starting with `summary:`. Nothing is
-//! asserted about timing. The SDK bridge needs python3 (3.10+, with venv) and PyPI the first
+//! asserted about timing. The SDK bridge needs python3 (3.11+, with venv) and PyPI the first
 //! time: its environment is built in `target/tmp/bench_bus_cache` unless `KEYPOSE_CACHE` or
 //! `KEYPOSE_PYTHON` is set. Without it the SDK figures say why they are missing.
 
