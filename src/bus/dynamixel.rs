@@ -4,7 +4,9 @@
 //! Every layout here is from PROTOCOLS.md §1 (ROBOTIS e-Manual Protocol 2.0 and the ROBOTIS
 //! Python SDK). Multi-byte fields are little-endian.
 
-use super::packet::{seek_header, Decoded, Direction, Framing, Packet, PacketError, PacketKind};
+use super::packet::{
+    append_sync_entries, seek_header, Decoded, Direction, Framing, Packet, PacketError, PacketKind,
+};
 use super::{AlarmBits, Alarms, BusError, PingInfo};
 
 pub const PING: u8 = 0x01;
@@ -313,17 +315,7 @@ pub fn sync_write_params(
     entries: &[(u8, Vec<u8>)],
 ) -> Result<Vec<u8>, PacketError> {
     let mut params = read_params(address, length);
-    for (id, data) in entries {
-        if data.len() != length as usize {
-            return Err(PacketError::DataLength {
-                id: *id,
-                expected: length as usize,
-                found: data.len(),
-            });
-        }
-        params.push(*id);
-        params.extend_from_slice(data);
-    }
+    append_sync_entries(&mut params, usize::from(length), entries)?;
     Ok(params)
 }
 

@@ -5,7 +5,9 @@
 //! SDK). Packet fields are single bytes, so framing has no byte order; register values do, and
 //! it depends on the series ([`Series`]).
 
-use super::packet::{seek_header, Decoded, Direction, Framing, Packet, PacketError, PacketKind};
+use super::packet::{
+    append_sync_entries, seek_header, Decoded, Direction, Framing, Packet, PacketError, PacketKind,
+};
 use super::registers::ByteOrder;
 use super::{AlarmBits, Alarms};
 use crate::robot::Protocol;
@@ -215,17 +217,7 @@ pub fn sync_write_params(
     entries: &[(u8, Vec<u8>)],
 ) -> Result<Vec<u8>, PacketError> {
     let mut params = read_params(address, length);
-    for (id, data) in entries {
-        if data.len() != length as usize {
-            return Err(PacketError::DataLength {
-                id: *id,
-                expected: length as usize,
-                found: data.len(),
-            });
-        }
-        params.push(*id);
-        params.extend_from_slice(data);
-    }
+    append_sync_entries(&mut params, usize::from(length), entries)?;
     Ok(params)
 }
 

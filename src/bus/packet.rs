@@ -90,6 +90,27 @@ impl Packet {
     }
 }
 
+/// Appends the (id, data) entries of a sync write, each exactly `length` bytes: the layout both
+/// vendors share after their address and length fields.
+pub fn append_sync_entries(
+    params: &mut Vec<u8>,
+    length: usize,
+    entries: &[(u8, Vec<u8>)],
+) -> Result<(), PacketError> {
+    for (id, data) in entries {
+        if data.len() != length {
+            return Err(PacketError::DataLength {
+                id: *id,
+                expected: length,
+                found: data.len(),
+            });
+        }
+        params.push(*id);
+        params.extend_from_slice(data);
+    }
+    Ok(())
+}
+
 /// The outcome of one successful decoding step.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Decoded {
