@@ -17,3 +17,4 @@ pub mod report;
 pub mod robot;
 pub mod sequence;
 pub mod sim;
+pub mod teach;

@@ -44,6 +44,9 @@ enum Command {
     /// streaming at once with exit code 3. The sequence is checked against the limits at the
     /// chosen speed first, and refused (exit 1) if it breaks them.
     Play(commands::play::PlayArgs),
+    /// Teach poses key by key in a terminal UI: limp the arm or jog it, capture keys, edit the
+    /// list, play it, save it.
+    Teach(commands::teach::TeachArgs),
     /// Print the present pose (degrees; metres for prismatic joints) as JSON.
     Read(commands::hardware::ReadArgs),
     /// Turn torque on (hold where the arm is) or off (limp) for all or some joints.
@@ -70,6 +73,7 @@ fn main() -> ExitCode {
         Command::Retime(args) => commands::retime::run(args),
         Command::Sim(args) => commands::sim::run(args),
         Command::Play(args) => commands::play::run(args),
+        Command::Teach(args) => commands::teach::run(args),
         Command::Read(args) => commands::hardware::read(args),
         Command::Torque(args) => commands::hardware::torque(args),
         Command::Scan(args) => commands::hardware::scan(args),

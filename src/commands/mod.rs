@@ -8,6 +8,7 @@ pub mod plot;
 pub mod retime;
 pub mod sample;
 pub mod sim;
+pub mod teach;
 
 use crate::curve::Interp;
 use crate::json::{InputError, Location};

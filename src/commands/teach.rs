@@ -1,0 +1,158 @@
+//! `keypose teach`: the key-by-key teaching session, in a terminal or driven by a key script.
+
+use super::hardware::BusArgs;
+use super::{CommandError, SequenceInput, Verdict};
+use crate::json::{InputError, Location};
+use crate::robot::{import_lerobot_calibration, Robot};
+use crate::sequence::{KeyframeList, Sequence};
+use crate::teach::{self, Journal, Session, TeachError, TeachState};
+use std::io::{BufRead, BufReader, IsTerminal};
+use std::path::{Path, PathBuf};
+
+/// Where `w` writes when neither SEQ nor --output says.
+pub const DEFAULT_OUTPUT: &str = "taught.json";
+/// The robot of a new sequence when --robot does not say.
+pub const DEFAULT_ROBOT: &str = "so101";
+
+#[derive(Debug, Clone, clap::Args)]
+#[command(after_help = teach::help_text())]
+pub struct TeachArgs {
+    /// Sequence file to edit; a new list when it does not exist yet (w creates it).
+    pub sequence: Option<PathBuf>,
+    /// A built-in robot (so101, koch, omx) or a robot file [default: the sequence's robot, else
+    /// so101].
+    #[arg(long, value_name = "NAME|FILE")]
+    pub robot: Option<String>,
+    /// LeRobot calibration file to apply to the robot's servo mapping and limits.
+    #[arg(long, value_name = "FILE")]
+    pub calibration: Option<PathBuf>,
+    #[command(flatten)]
+    pub bus: BusArgs,
+    /// Where w writes [default: SEQ, else taught.json].
+    #[arg(long, short, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+    /// Read the keys from this script instead of the terminal ("-": standard input), printing
+    /// the status after each step to standard error. Tokens are listed below.
+    #[arg(long, value_name = "FILE|-")]
+    pub keys: Option<PathBuf>,
+    /// Recover the journal of an interrupted session without asking.
+    #[arg(long)]
+    pub recover: bool,
+}
+
+pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
+    let port = args.bus.port.as_deref().ok_or_else(|| {
+        CommandError::Usage(
+            "--port is required: a serial port (see `keypose ports`), or \"virtual\" for \
+             emulated servos"
+                .into(),
+        )
+    })?;
+    let output = args
+        .output
+        .clone()
+        .or_else(|| args.sequence.clone())
+        .unwrap_or_else(|| PathBuf::from(DEFAULT_OUTPUT));
+    // The list comes from SEQ, else from the file w writes to if it exists already, so that a
+    // session never overwrites a file it has not shown.
+    let source = args
+        .sequence
+        .clone()
+        .or_else(|| Some(output.clone()))
+        .filter(|p| p.exists());
+    let (list, robot) = load(args, source.as_deref())?;
+
+    // Without a cache directory the session still runs, unjournaled; the screen says so.
+    let journal = crate::pyenv::PyConfig::from_env()
+        .ok()
+        .map(|config| Journal::for_target(&config.cache_dir, &output));
+    let pending = match &journal {
+        Some(journal) => journal.pending(&output).unwrap_or_else(|e| {
+            eprintln!("warning: the journal cannot be read, it is ignored: {e}");
+            None
+        }),
+        None => None,
+    };
+    let script = match &args.keys {
+        Some(path) => Some(open_script(path)?),
+        None => {
+            if !(std::io::stdin().is_terminal() && std::io::stdout().is_terminal()) {
+                return Err(CommandError::Usage(
+                    "keypose teach needs a terminal; to run it without one, give the keys with \
+                     --keys FILE (see --help)"
+                        .into(),
+                ));
+            }
+            None
+        }
+    };
+
+    let connection = args.bus.connect(&robot, port)?;
+    // Kept until the session ends: dropping it stops the emulated servos.
+    let _virtual_bus = connection.virtual_bus;
+    let mut session = Session::new(connection.bus, &robot);
+    let present = session
+        .read()?
+        .ok_or_else(|| CommandError::Hardware("the servos gave no present pose".into()))?;
+    let mut state = TeachState::new(robot, list, output, journal, present);
+    match pending {
+        Some(pending) if args.recover => state.recover(pending),
+        Some(pending) => state.offer_recovery(pending),
+        None if args.recover => eprintln!("teach: no journal to recover"),
+        None => {}
+    }
+    let start = state.start();
+    for event in teach::apply(&mut state, &mut session, start) {
+        if let teach::Event::BusError(message) = event {
+            return Err(CommandError::Hardware(format!(
+                "cannot hold the arm at the start: {message}"
+            )));
+        }
+    }
+
+    let result = match script {
+        Some(input) => teach::script::run(&mut state, &mut session, input, &mut std::io::stderr()),
+        None => teach::ui::run(&mut state, &mut session),
+    };
+    result.map_err(|e| match e {
+        TeachError::Session(_) | TeachError::Hardware(_) => CommandError::Hardware(e.to_string()),
+        TeachError::Terminal(_) | TeachError::Script(_) => CommandError::Usage(e.to_string()),
+    })?;
+    Ok(Verdict::Pass)
+}
+
+/// The list to edit and the robot to teach.
+fn load(args: &TeachArgs, source: Option<&Path>) -> Result<(KeyframeList, Robot), CommandError> {
+    if let Some(path) = source {
+        let input = SequenceInput {
+            sequence: path.to_path_buf(),
+            robot: args.robot.clone(),
+            calibration: args.calibration.clone(),
+            interpolation: None,
+        };
+        let (sequence, robot) = input.load()?;
+        return Ok((KeyframeList::new(sequence), robot));
+    }
+    let mut robot = Robot::resolve(args.robot.as_deref().unwrap_or(DEFAULT_ROBOT), "--robot")?;
+    if let Some(path) = &args.calibration {
+        let text = crate::json::read_text(path)?;
+        import_lerobot_calibration(&mut robot, &path.display().to_string(), &text)?;
+    }
+    // The file names the robot by name, which `keypose check` and `play` resolve as a built-in
+    // (or a file of that name beside the sequence).
+    Ok((KeyframeList::new(Sequence::new(&robot.name)), robot))
+}
+
+fn open_script(path: &Path) -> Result<Box<dyn BufRead>, CommandError> {
+    if path == Path::new("-") {
+        return Ok(Box::new(std::io::stdin().lock()));
+    }
+    let file = std::fs::File::open(path).map_err(|e| {
+        InputError::new(
+            &path.display().to_string(),
+            Location::File,
+            format!("cannot read the key script: {e}"),
+        )
+    })?;
+    Ok(Box::new(BufReader::new(file)))
+}

@@ -1,0 +1,230 @@
+//! The keys of the teaching session: the [`Key`] events the state machine understands, the
+//! bindings shown on screen and in `--help` (one table, so the two never disagree), and the
+//! tokens of a `--keys` script.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// One key press, after the terminal's (or the script's) own encoding is gone.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Key {
+    /// A printable character: the bindings, answers to prompts, text typed into a path prompt.
+    Char(char),
+    Up,
+    Down,
+    Left,
+    Right,
+    ShiftLeft,
+    ShiftRight,
+    Enter,
+    Esc,
+    Backspace,
+    /// Ctrl-C in raw mode: stops the arm when it moves, else asks to quit like `q`.
+    Interrupt,
+    /// Script only: import this file (what `i`, typing the path and Enter do on screen).
+    Import(PathBuf),
+    /// Script only: write to this file, which becomes the session's output.
+    Write(PathBuf),
+}
+
+/// A key binding as shown to the user.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Binding {
+    pub keys: &'static str,
+    /// For `--help`.
+    pub action: &'static str,
+    /// For the screen, where all of them must fit in a few lines of an 80-column terminal.
+    pub short: &'static str,
+}
+
+const fn bind(keys: &'static str, short: &'static str, action: &'static str) -> Binding {
+    Binding {
+        keys,
+        action,
+        short,
+    }
+}
+
+/// Every binding, in the order they are shown.
+pub const BINDINGS: &[Binding] = &[
+    bind(
+        "space",
+        "go to key",
+        "move the arm to the current key (safe ramp)",
+    ),
+    bind(
+        "u",
+        "update key",
+        "update the current key from the present pose",
+    ),
+    bind(
+        "n",
+        "new key",
+        "new key after the current one, from the present pose",
+    ),
+    bind("d", "delete", "delete the current key"),
+    bind("> <", "next/prev", "next / previous key (also . and ,)"),
+    bind("] [", "move key", "move the current key later / earlier"),
+    bind("i", "import", "import a sequence file (replaces the list)"),
+    bind("w", "write", "write the sequence file"),
+    bind("y", "play/stop", "play from the current key / stop"),
+    bind(
+        "+ -",
+        "interval/speed",
+        "time between keys ±0.1 s (timed sequences: playback speed ±0.1)",
+    ),
+    bind("t", "torque joint", "torque on/off, selected joint"),
+    bind("T", "torque all", "torque on/off, all joints"),
+    bind("↑ ↓", "select joint", "select a joint"),
+    bind(
+        "← →",
+        "jog 1° (shift 10°)",
+        "jog the selected joint 1° (shift: 10°; 1 mm / 10 mm)",
+    ),
+    bind("Esc", "stop/cancel", "stop the arm / cancel a prompt"),
+    bind("q", "quit", "quit (asks when there are unsaved changes)"),
+];
+
+/// The bindings as text for `--help`, and the script tokens.
+pub fn help_text() -> String {
+    let mut text = String::from("Keys:\n");
+    for b in BINDINGS {
+        text.push_str(&format!("  {:<7} {}\n", b.keys, b.action));
+    }
+    text.push_str(
+        "\nA --keys script holds tokens separated by spaces or lines (# starts a comment):\n  \
+         space u n d > < ] [ i w y + - t T q, up down left right shift-left shift-right,\n  \
+         enter esc backspace, yes no (answers), any single character (typed into a prompt),\n  \
+         import:PATH, write:PATH (paths without spaces), wait:500ms or wait:2s.\n  \
+         Each step waits until the arm has reached its goal; `-` as the file reads standard \
+         input.",
+    );
+    text
+}
+
+/// One step of a `--keys` script.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Step {
+    Key(Key),
+    /// Pause (the arm keeps holding), e.g. to watch the virtual arm or a real one.
+    Wait(Duration),
+}
+
+/// Parses one script token.
+pub fn parse_token(token: &str) -> Result<Step, String> {
+    let key = match token {
+        "space" => Key::Char(' '),
+        "up" => Key::Up,
+        "down" => Key::Down,
+        "left" => Key::Left,
+        "right" => Key::Right,
+        "shift-left" => Key::ShiftLeft,
+        "shift-right" => Key::ShiftRight,
+        "enter" => Key::Enter,
+        "esc" => Key::Esc,
+        "backspace" => Key::Backspace,
+        "yes" => Key::Char('y'),
+        "no" => Key::Char('n'),
+        _ => {
+            if let Some(path) = token.strip_prefix("import:") {
+                Key::Import(non_empty_path(token, path)?)
+            } else if let Some(path) = token.strip_prefix("write:") {
+                Key::Write(non_empty_path(token, path)?)
+            } else if let Some(duration) = token.strip_prefix("wait:") {
+                return parse_duration(duration).map(Step::Wait).ok_or_else(|| {
+                    format!("{token:?}: expected a wait like wait:500ms or wait:2s")
+                });
+            } else {
+                let mut chars = token.chars();
+                match (chars.next(), chars.next()) {
+                    (Some(c), None) => Key::Char(c),
+                    _ => {
+                        return Err(format!(
+                            "unknown key {token:?}; expected a key name (space, up, shift-left, \
+                             enter, esc, yes, no, …), a single character, import:PATH, \
+                             write:PATH or wait:DURATION"
+                        ))
+                    }
+                }
+            }
+        }
+    };
+    Ok(Step::Key(key))
+}
+
+fn non_empty_path(token: &str, path: &str) -> Result<PathBuf, String> {
+    if path.is_empty() {
+        Err(format!("{token:?}: expected a path after the colon"))
+    } else {
+        Ok(PathBuf::from(path))
+    }
+}
+
+/// "500ms", "2s", "1.5s".
+fn parse_duration(text: &str) -> Option<Duration> {
+    let (number, scale) = if let Some(ms) = text.strip_suffix("ms") {
+        (ms, 1e-3)
+    } else {
+        (text.strip_suffix('s')?, 1.0)
+    };
+    let value: f64 = number.parse().ok()?;
+    // An hour is far more than any pause a script needs; beyond it is a typo.
+    (value.is_finite() && value >= 0.0 && value * scale <= 3600.0)
+        .then(|| Duration::from_secs_f64(value * scale))
+}
+
+/// The steps of one script line, with their tokens (for the echo); `#` starts a comment.
+pub fn parse_line(line: &str) -> Result<Vec<(String, Step)>, String> {
+    let code = line.split('#').next().unwrap_or("");
+    code.split_whitespace()
+        .map(|token| parse_token(token).map(|step| (token.to_string(), step)))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tokens_map_to_keys() {
+        let steps = parse_line("space u n > < ] [ + - t T q yes no shift-right # comment y")
+            .expect("parses");
+        let keys: Vec<Step> = steps.into_iter().map(|(_, s)| s).collect();
+        assert_eq!(keys[0], Step::Key(Key::Char(' ')));
+        assert_eq!(keys[12], Step::Key(Key::Char('y')));
+        assert_eq!(keys[13], Step::Key(Key::Char('n')));
+        assert_eq!(keys[14], Step::Key(Key::ShiftRight));
+        assert_eq!(keys.len(), 15, "the comment is ignored");
+    }
+
+    #[test]
+    fn paths_and_waits() {
+        assert_eq!(
+            parse_token("import:a/b.json"),
+            Ok(Step::Key(Key::Import("a/b.json".into())))
+        );
+        assert_eq!(
+            parse_token("write:out.json"),
+            Ok(Step::Key(Key::Write("out.json".into())))
+        );
+        assert_eq!(
+            parse_token("wait:500ms"),
+            Ok(Step::Wait(Duration::from_millis(500)))
+        );
+        assert_eq!(
+            parse_token("wait:1.5s"),
+            Ok(Step::Wait(Duration::from_millis(1500)))
+        );
+        assert!(parse_token("wait:soon").is_err());
+        assert!(parse_token("write:").is_err());
+        assert!(parse_token("jump").is_err());
+    }
+
+    #[test]
+    fn help_lists_every_binding() {
+        let help = help_text();
+        for b in BINDINGS {
+            assert!(help.contains(b.action), "{} missing", b.keys);
+        }
+    }
+}

@@ -1,0 +1,517 @@
+//! The rules of the teaching session, checked on the state machine alone: a perfect bus is
+//! played by `apply`, which confirms every command as the session driver would.
+
+use super::*;
+use crate::sequence::Ends;
+
+fn so101() -> Robot {
+    Robot::builtin("so101").expect("built-in so101")
+}
+
+const PAN: usize = 0;
+const LIFT: usize = 1;
+const ELBOW: usize = 2;
+
+/// A fresh session on an empty list, journaled in `dir`, the arm at home and held.
+fn session(dir: &Path) -> TeachState {
+    let robot = so101();
+    let present = robot.home.clone();
+    let output = dir.join("taught.json");
+    let journal = Journal::for_target(dir, &output);
+    let mut state = TeachState::new(
+        robot,
+        KeyframeList::new(Sequence::new("so101")),
+        output,
+        Some(journal),
+        present,
+    );
+    let start = state.start();
+    apply(&mut state, start);
+    state
+}
+
+/// Confirms commands as a bus that does exactly what it is told (jogs arrive at once).
+fn apply(state: &mut TeachState, commands: Vec<Command>) -> Vec<Command> {
+    for command in commands.clone() {
+        match command {
+            Command::Torque { joints, on: true } => {
+                let values = joints
+                    .iter()
+                    .map(|&j| tidy(&state.robot().joints[j], state.present()[j]))
+                    .collect();
+                state.on_event(Event::Held { joints, values });
+            }
+            Command::Torque { joints, on: false } => state.on_event(Event::Released { joints }),
+            Command::Goals(goals) => {
+                let mut present = state.present().to_vec();
+                for &(j, v) in &goals {
+                    present[j] = v;
+                }
+                state.on_event(Event::GoalsSent(goals));
+                state.on_event(Event::Reading(present));
+            }
+            Command::Run(plan) => state.on_event(Event::MotionStarted {
+                kind: plan.kind,
+                end_pose: plan.end_pose.clone(),
+            }),
+            Command::Stop => {}
+        }
+    }
+    commands
+}
+
+fn press(state: &mut TeachState, key: Key) -> Vec<Command> {
+    let commands = state.handle_key(key);
+    apply(state, commands)
+}
+
+fn press_all(state: &mut TeachState, keys: &[Key]) {
+    for key in keys {
+        press(state, key.clone());
+    }
+}
+
+fn key_values(state: &TeachState, index: usize) -> Vec<f64> {
+    state.list().sequence().keyframes[index]
+        .values
+        .iter()
+        .map(|(_, v)| match v {
+            KeyValue::Joint(x) => *x,
+            KeyValue::Transform(_) => panic!("a captured key holds joint values"),
+        })
+        .collect()
+}
+
+fn journal_keys(state: &TeachState) -> Option<usize> {
+    let path = state.journal().expect("journaled").path();
+    path.exists()
+        .then(|| Sequence::load(path).expect("journal loads").keyframes.len())
+}
+
+#[test]
+fn the_session_starts_by_holding_every_joint() {
+    let dir = tempfile::tempdir().unwrap();
+    let state = session(dir.path());
+    assert!(state.torque().iter().all(|&t| t));
+    assert_eq!(state.goals(), state.robot().home.as_slice());
+}
+
+#[test]
+fn jogs_step_one_or_ten_degrees_and_stop_at_the_limits() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press_all(&mut state, &[Key::Right, Key::ShiftRight, Key::Left]);
+    assert_eq!(state.goals()[PAN], 10.0);
+    // Elbow: limits ±96.83°, so ten big steps end exactly at the limit, not past it.
+    press_all(&mut state, &[Key::Down, Key::Down]);
+    assert_eq!(state.selected(), ELBOW);
+    for _ in 0..10 {
+        press(&mut state, Key::ShiftRight);
+    }
+    assert_eq!(state.goals()[ELBOW], 96.83);
+    let commands = press(&mut state, Key::Right);
+    assert!(commands.is_empty(), "no goal past the limit");
+    assert!(state.status().error && state.status().text.contains("limit"));
+    for _ in 0..25 {
+        press(&mut state, Key::ShiftLeft);
+    }
+    assert_eq!(state.goals()[ELBOW], -96.83);
+    // Selection wraps around.
+    press_all(&mut state, &[Key::Up, Key::Up, Key::Up]);
+    assert_eq!(state.selected(), 5);
+}
+
+#[test]
+fn a_limp_joint_is_not_jogged() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press(&mut state, Key::Char('t')); // the pan carries no weight: released at once
+    assert!(!state.torque()[PAN]);
+    assert!(press(&mut state, Key::Right).is_empty());
+    assert!(state.status().error && state.status().text.contains("limp"));
+    press(&mut state, Key::Char('t'));
+    assert!(state.torque()[PAN]);
+    assert_eq!(press(&mut state, Key::Right).len(), 1);
+}
+
+#[test]
+fn weight_bearing_joints_follow_the_geometry() {
+    // Horizontal axes with the arm beyond them carry weight; vertical pans, wrist rolls and
+    // grippers do not. The same joints the robots' documentation would name, on all three arms.
+    let expected: [(&str, &[bool]); 3] = [
+        ("so101", &[false, true, true, true, false, false]),
+        ("koch", &[false, true, true, true, false, false]),
+        ("omx", &[false, true, true, true, false]),
+    ];
+    for (name, bearing) in expected {
+        let robot = Robot::builtin(name).unwrap();
+        assert_eq!(weight_bearing(&robot, &robot.home), bearing, "{name}");
+    }
+    // Pitch the so101 wrist down (wrist flex -90°): the wrist roll axis is now vertical and
+    // still carries nothing; lift and elbow still do.
+    let robot = so101();
+    let mut pose = robot.home.clone();
+    pose[3] = -90.0;
+    let bearing = weight_bearing(&robot, &pose);
+    assert!(bearing[LIFT] && bearing[ELBOW] && !bearing[4]);
+}
+
+#[test]
+fn releasing_a_joint_that_carries_weight_asks_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press(&mut state, Key::Down);
+    assert!(press(&mut state, Key::Char('t')).is_empty(), "asks first");
+    assert!(matches!(state.prompt(), Some(Prompt::Release { .. })));
+    assert!(state.question().unwrap().contains("shoulder_lift"));
+    // Another key does not answer; the question stays.
+    assert!(press(&mut state, Key::Right).is_empty());
+    assert!(state.prompt().is_some() && state.status().error);
+    press(&mut state, Key::Char('n'));
+    assert!(state.torque()[LIFT], "declined: torque stays on");
+    press(&mut state, Key::Char('t'));
+    let commands = press(&mut state, Key::Char('y'));
+    assert!(matches!(&commands[..], [Command::Torque { joints, on: false }] if joints == &[LIFT]));
+    assert!(!state.torque()[LIFT]);
+}
+
+#[test]
+fn all_joints_release_together_after_one_question_and_hold_together() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press(&mut state, Key::Char('T'));
+    let question = state.question().expect("asks");
+    assert!(
+        question.contains("shoulder_lift, elbow_flex, wrist_flex") && !question.contains("pan"),
+        "{question}"
+    );
+    press(&mut state, Key::Char('y'));
+    assert!(state.torque().iter().all(|&t| !t));
+    // Holding asks nothing.
+    press(&mut state, Key::Char('t'));
+    assert!(state.torque()[PAN] && !state.torque()[LIFT]);
+    // Mixed: T holds the limp ones, the safe direction.
+    let commands = press(&mut state, Key::Char('T'));
+    assert!(
+        matches!(&commands[..], [Command::Torque { joints, on: true }] if joints == &[1, 2, 3, 4, 5])
+    );
+    assert!(state.torque().iter().all(|&t| t));
+}
+
+#[test]
+fn a_new_key_is_the_present_pose_rounded_and_inside_the_limits() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    // Moved by hand: 12.34° reads as 12.3; a lift 0.4° past its stop is clamped to it.
+    state.on_event(Event::Reading(vec![12.34, 100.4, -0.04, -45.06, 0.0, 5.0]));
+    press(&mut state, Key::Char('n'));
+    assert_eq!(key_values(&state, 0), [12.3, 100.0, 0.0, -45.1, 0.0, 5.0]);
+    assert!(state.status().text.contains("shoulder_lift clamped"));
+    assert!(
+        key_values(&state, 0)[2].is_sign_positive(),
+        "-0.04 rounds to +0.0, never -0.0 in the file"
+    );
+    assert_eq!(journal_keys(&state), Some(1));
+}
+
+#[test]
+fn edits_update_delete_and_reorder_each_reach_the_journal() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    for _ in 0..3 {
+        press(&mut state, Key::Char('n'));
+        press(&mut state, Key::ShiftRight);
+    }
+    assert_eq!(journal_keys(&state), Some(3));
+    // Pan was captured at 0, 10, 20; it is now at 30: update the middle key.
+    press(&mut state, Key::Char('<'));
+    press(&mut state, Key::Char('u'));
+    assert_eq!(key_values(&state, 1)[PAN], 30.0);
+    press(&mut state, Key::Char(']'));
+    assert_eq!(state.list().current_index(), 2);
+    let pans: Vec<f64> = (0..3).map(|i| key_values(&state, i)[PAN]).collect();
+    assert_eq!(pans, [0.0, 20.0, 30.0]);
+    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    assert_eq!(journal.to_json(), state.list().sequence().to_json());
+    press(&mut state, Key::Char('d'));
+    assert_eq!(journal_keys(&state), Some(2));
+    press_all(&mut state, &[Key::Char('d'), Key::Char('d')]);
+    assert_eq!(journal_keys(&state), None, "nothing left to recover");
+    assert!(press(&mut state, Key::Char('d')).is_empty() && state.status().error);
+}
+
+#[test]
+fn the_interval_moves_in_tenths_and_never_below_a_tenth() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press(&mut state, Key::Char('n'));
+    press(&mut state, Key::Char('+'));
+    assert_eq!(state.list().sequence().key_interval, Some(2.1));
+    for _ in 0..30 {
+        press(&mut state, Key::Char('-'));
+    }
+    assert_eq!(state.list().sequence().key_interval, Some(0.1));
+    assert!(state.status().error);
+    press(&mut state, Key::Char('='));
+    assert_eq!(state.list().sequence().key_interval, Some(0.2));
+    assert!(state.is_dirty());
+}
+
+#[test]
+fn timed_sequences_change_the_playback_speed_instead() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut sequence = Sequence::new("so101");
+    sequence.key_interval = None;
+    let mut key = Keyframe::new(vec![("gripper".into(), KeyValue::Joint(0.0))]);
+    key.time = Some(0.0);
+    sequence.keyframes.push(key);
+    let robot = so101();
+    let present = robot.home.clone();
+    let mut state = TeachState::new(
+        robot,
+        KeyframeList::new(sequence),
+        dir.path().join("t.json"),
+        None,
+        present,
+    );
+    for _ in 0..5 {
+        press(&mut state, Key::Char('+'));
+    }
+    assert!((state.speed() - 1.5).abs() < 1e-12);
+    for _ in 0..50 {
+        press(&mut state, Key::Char('+'));
+    }
+    assert_eq!(state.speed(), MAX_SPEED);
+    for _ in 0..100 {
+        press(&mut state, Key::Char('-'));
+    }
+    assert!((state.speed() - MIN_SPEED).abs() < 1e-12);
+    assert!(
+        !state.is_dirty(),
+        "the speed is a session setting, not an edit"
+    );
+}
+
+#[test]
+fn quitting_with_unsaved_changes_asks_and_a_clean_quit_removes_the_journal() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press(&mut state, Key::Char('q'));
+    assert!(state.should_quit(), "nothing unsaved: quits at once");
+
+    let mut state = session(dir.path());
+    press(&mut state, Key::Char('n'));
+    press(&mut state, Key::Char('q'));
+    assert_eq!(state.prompt(), Some(&Prompt::Quit));
+    press(&mut state, Key::Char('n'));
+    assert!(!state.should_quit());
+    assert_eq!(journal_keys(&state), Some(1));
+    press(&mut state, Key::Char('q'));
+    press(&mut state, Key::Char('y'));
+    assert!(state.should_quit());
+    assert_eq!(journal_keys(&state), None, "discarded on purpose");
+}
+
+#[test]
+fn writing_saves_atomically_cleans_the_list_and_drops_the_journal() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press(&mut state, Key::Char('w'));
+    assert!(state.status().error, "an empty list is not a sequence file");
+    press_all(
+        &mut state,
+        &[Key::Char('n'), Key::ShiftRight, Key::Char('n')],
+    );
+    press(&mut state, Key::Char('w'));
+    assert!(!state.status().error, "{}", state.status().text);
+    assert!(state.status().text.contains("check passes"));
+    assert!(!state.is_dirty());
+    assert_eq!(journal_keys(&state), None);
+    let written = Sequence::load(&dir.path().join("taught.json")).unwrap();
+    assert_eq!(written.to_json(), state.list().sequence().to_json());
+    // Save-as: the new file is the output from now on.
+    let other = dir.path().join("other.json");
+    press(&mut state, Key::Write(other.clone()));
+    assert_eq!(state.output(), other.as_path());
+    assert!(other.exists());
+}
+
+#[test]
+fn a_journal_is_offered_and_recovered_or_declined() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut crashed = session(dir.path());
+    press_all(&mut crashed, &[Key::Char('n'), Key::Right, Key::Char('n')]);
+    let journal = crashed.journal().unwrap().clone();
+    drop(crashed);
+
+    for (answer, keys) in [('y', 2), ('n', 0)] {
+        let mut state = session(dir.path());
+        let pending = journal
+            .pending(state.output())
+            .unwrap()
+            .expect("the journal is newer than the (missing) file");
+        state.offer_recovery(pending);
+        assert!(matches!(state.prompt(), Some(Prompt::Recover { keys: 2 })));
+        press(&mut state, Key::Char(answer));
+        assert_eq!(state.list().len(), keys);
+        assert_eq!(state.is_dirty(), answer == 'y', "recovered work is unsaved");
+    }
+}
+
+#[test]
+fn importing_replaces_the_list_but_asks_over_unsaved_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let source = dir.path().join("wave.json");
+    let mut wave = Sequence::new("so101");
+    for deg in [10.0, 20.0, 30.0] {
+        wave.keyframes.push(Keyframe::new(vec![(
+            "elbow_flex".into(),
+            KeyValue::Joint(deg),
+        )]));
+    }
+    wave.save(&source).unwrap();
+
+    let mut state = session(dir.path());
+    press(&mut state, Key::Char('n'));
+    press(&mut state, Key::Import(source.clone()));
+    assert!(matches!(state.prompt(), Some(Prompt::Replace { .. })));
+    press(&mut state, Key::Char('y'));
+    assert_eq!(state.list().len(), 3);
+    assert!(
+        state.is_dirty(),
+        "the output file does not have these keys yet"
+    );
+    assert_eq!(journal_keys(&state), Some(3));
+
+    // The path prompt: `i`, edit the prefilled path, Enter.
+    let mut state = session(dir.path());
+    press(&mut state, Key::Char('i'));
+    for _ in 0.."taught.json".len() {
+        press(&mut state, Key::Backspace);
+    }
+    for c in "wave.json".chars() {
+        press(&mut state, Key::Char(c));
+    }
+    press(&mut state, Key::Enter);
+    assert_eq!(state.list().len(), 3, "{}", state.status().text);
+
+    // A file this robot cannot play is refused, and the list stays.
+    let bad = dir.path().join("bad.json");
+    let mut other = Sequence::new("so101");
+    other
+        .keyframes
+        .push(Keyframe::new(vec![("joint9".into(), KeyValue::Joint(0.0))]));
+    other.save(&bad).unwrap();
+    press(&mut state, Key::Write(dir.path().join("kept.json")));
+    press(&mut state, Key::Import(bad));
+    assert!(state.status().error && state.status().text.contains("joint9"));
+    assert_eq!(state.list().len(), 3);
+}
+
+#[test]
+fn space_ramps_to_the_key_and_y_plays_from_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press_all(
+        &mut state,
+        &[
+            Key::Char('n'),
+            Key::ShiftRight,
+            Key::ShiftRight,
+            Key::Char('n'),
+        ],
+    );
+    press(&mut state, Key::Char('<'));
+    let commands = press(&mut state, Key::Char(' '));
+    let [Command::Run(plan)] = &commands[..] else {
+        panic!("expected a motion, got {commands:?}");
+    };
+    assert_eq!(plan.kind, MotionKind::ToKey(0));
+    assert_eq!(plan.end_pose, vec![0.0; 6]);
+    assert!(plan.options.approach, "the safe ramp, as in keypose play");
+    assert_eq!(plan.trajectory.key_times.len(), 1);
+
+    // While moving: no jogs, no torque changes, no quitting; y stops, twice holds.
+    assert!(press(&mut state, Key::Right).is_empty() && state.status().error);
+    assert!(press(&mut state, Key::Char('t')).is_empty());
+    press(&mut state, Key::Char('q'));
+    assert!(!state.should_quit());
+    assert!(matches!(
+        &press(&mut state, Key::Char('y'))[..],
+        [Command::Stop]
+    ));
+    assert!(matches!(&press(&mut state, Key::Esc)[..], [Command::Stop]));
+    assert!(state.status().text.contains("at once"));
+    state.on_event(Event::MotionEnded {
+        outcome: Ok(Outcome::Held),
+        last_goals: Some(vec![12.04, 0.0, 0.0, 0.0, 0.0, 0.0]),
+    });
+    assert!(!state.is_moving());
+    assert_eq!(state.goals()[PAN], 12.0, "jogs go on from where it held");
+
+    let commands = press(&mut state, Key::Char('y'));
+    let [Command::Run(plan)] = &commands[..] else {
+        panic!("expected playback, got {commands:?}");
+    };
+    assert_eq!(plan.kind, MotionKind::Play { from: 0 });
+    assert_eq!(plan.options.from_key, Some(0));
+    assert_eq!(plan.end_pose[PAN], 20.0);
+    state.on_event(Event::MotionEnded {
+        outcome: Ok(Outcome::Finished),
+        last_goals: None,
+    });
+    assert_eq!(state.goals()[PAN], 20.0);
+    assert!(state.torque().iter().all(|&t| t));
+}
+
+#[test]
+fn playback_beyond_the_limits_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press(&mut state, Key::Char('n'));
+    for _ in 0..9 {
+        press(&mut state, Key::ShiftRight);
+    }
+    press(&mut state, Key::Char('n'));
+    // 90° in 0.1 s is far beyond 115°/s.
+    for _ in 0..19 {
+        press(&mut state, Key::Char('-'));
+    }
+    assert!(press(&mut state, Key::Char('y')).is_empty());
+    assert!(
+        state.status().text.contains("refusing to play"),
+        "{}",
+        state.status().text
+    );
+}
+
+#[test]
+fn moving_to_a_control_key_reaches_its_own_pose() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut sequence = Sequence::new("so101");
+    sequence.ends = Ends::Control;
+    for deg in [-20.0, 0.0, 10.0, 40.0] {
+        sequence.keyframes.push(Keyframe::new(vec![(
+            "shoulder_pan".into(),
+            KeyValue::Joint(deg),
+        )]));
+    }
+    let robot = so101();
+    let present = robot.home.clone();
+    let mut state = TeachState::new(
+        robot,
+        KeyframeList::new(sequence),
+        dir.path().join("c.json"),
+        None,
+        present,
+    );
+    let commands = state.handle_key(Key::Char(' '));
+    let [Command::Run(plan)] = &commands[..] else {
+        panic!("expected a motion");
+    };
+    assert!(
+        (plan.end_pose[PAN] + 20.0).abs() < 1e-9,
+        "{:?}",
+        plan.end_pose
+    );
+}

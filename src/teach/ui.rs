@@ -1,0 +1,384 @@
+//! The terminal front end: draws a [`TeachState`] and turns crossterm key presses into
+//! [`Key`]s. It holds no rules of its own.
+//!
+//! The terminal is in raw mode on the alternate screen while the session runs, and is restored
+//! on every way out: a normal return, an error (a guard's `Drop`), and a panic (ratatui's
+//! `try_init` installs a hook that restores the terminal before the panic message prints).
+
+use super::keys::{Key, BINDINGS};
+use super::state::{format_value, Activity, MotionKind, TeachState};
+use super::{press, refresh, Session, TeachError};
+use crate::sequence::KeyValue;
+use ratatui::crossterm::event::{self, KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
+use ratatui::layout::{Constraint, Layout, Rect};
+use ratatui::style::{Color, Modifier, Style};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Block, Cell, Paragraph, Row, Table, TableState, Wrap};
+use ratatui::Frame;
+use std::time::{Duration, Instant};
+
+/// How often the present pose is read while idle: 20 Hz, smooth to watch and a small share of
+/// the bus.
+pub const READ_PERIOD: Duration = Duration::from_millis(50);
+/// Width of the limit bar, in cells.
+const BAR_WIDTH: usize = 21;
+/// Below this width the joint table and the key list are stacked instead of side by side.
+const SIDE_BY_SIDE_WIDTH: u16 = 110;
+
+/// Exit code after SIGTERM or SIGHUP: the command line's code for an interruption.
+const EXIT_KILLED: i32 = 130;
+
+/// Restores the terminal when dropped, whatever way the session ends.
+struct RestoreTerminal;
+
+impl Drop for RestoreTerminal {
+    fn drop(&mut self) {
+        ratatui::restore();
+    }
+}
+
+/// Runs the session in the terminal until the user quits.
+pub fn run(state: &mut TeachState, session: &mut Session) -> Result<(), TeachError> {
+    // The guard comes first so that a failure half-way through initialisation still restores.
+    let _restore = RestoreTerminal;
+    // SIGTERM (kill) or SIGHUP (a closed terminal window) would otherwise leave the terminal in
+    // raw mode. Nothing is lost by exiting at once: every edit is already in the journal, and
+    // servos hold their last goal. Only one handler per process can be set; if another part of
+    // the process has one, that one stays.
+    let _ = ctrlc::set_handler(|| {
+        ratatui::restore();
+        std::process::exit(EXIT_KILLED);
+    });
+    let mut terminal = ratatui::try_init()?;
+    let bus = session.describe().to_string();
+    let mut next_read = Instant::now();
+    loop {
+        if let Some(event) = session.poll()? {
+            state.on_event(event);
+        }
+        if Instant::now() >= next_read {
+            refresh(state, session);
+            next_read = Instant::now() + READ_PERIOD;
+        }
+        terminal.draw(|frame| draw(frame, state, &bus))?;
+        if state.should_quit() {
+            return Ok(());
+        }
+        let timeout = next_read.saturating_duration_since(Instant::now());
+        if event::poll(timeout)? {
+            if let event::Event::Key(key_event) = event::read()? {
+                if key_event.kind != KeyEventKind::Release {
+                    if let Some(key) = map_key(key_event) {
+                        press(state, session, key);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A crossterm key press as a session key.
+pub fn map_key(event: KeyEvent) -> Option<Key> {
+    let shift = event.modifiers.contains(KeyModifiers::SHIFT);
+    Some(match event.code {
+        KeyCode::Char('c') if event.modifiers.contains(KeyModifiers::CONTROL) => Key::Interrupt,
+        KeyCode::Char(c) => Key::Char(c),
+        KeyCode::Up => Key::Up,
+        KeyCode::Down => Key::Down,
+        KeyCode::Left if shift => Key::ShiftLeft,
+        KeyCode::Right if shift => Key::ShiftRight,
+        KeyCode::Left => Key::Left,
+        KeyCode::Right => Key::Right,
+        KeyCode::Enter => Key::Enter,
+        KeyCode::Esc => Key::Esc,
+        KeyCode::Backspace => Key::Backspace,
+        _ => return None,
+    })
+}
+
+/// Draws the whole screen.
+pub fn draw(frame: &mut Frame, state: &TeachState, bus: &str) {
+    let help = help_lines(frame.area().width.saturating_sub(2) as usize);
+    let [title, body, status, help_area] = Layout::vertical([
+        Constraint::Length(1),
+        Constraint::Min(6),
+        Constraint::Length(2),
+        Constraint::Length(help.len() as u16 + 1),
+    ])
+    .areas(frame.area());
+    frame.render_widget(title_line(state, bus), title);
+
+    let [joints, keys] = if body.width >= SIDE_BY_SIDE_WIDTH {
+        Layout::horizontal([Constraint::Min(70), Constraint::Length(38)]).areas(body)
+    } else {
+        let rows = state.robot().joints.len() as u16 + 3;
+        Layout::vertical([Constraint::Length(rows), Constraint::Min(3)]).areas(body)
+    };
+    draw_joints(frame, joints, state);
+    draw_keys(frame, keys, state);
+    frame.render_widget(status_lines(state), status);
+    frame.render_widget(
+        Paragraph::new(help).block(Block::new().title(Line::styled(
+            " keys ",
+            Style::new().add_modifier(Modifier::BOLD),
+        ))),
+        help_area,
+    );
+}
+
+fn title_line(state: &TeachState, bus: &str) -> Line<'static> {
+    let dirty = if state.is_dirty() { " (unsaved)" } else { "" };
+    let timing = match state.list().sequence().key_interval {
+        Some(interval) => format!("{interval:.1} s between keys"),
+        None => format!("timed keys, speed ×{:.1}", state.speed()),
+    };
+    Line::from(vec![
+        Span::styled("keypose teach", Style::new().add_modifier(Modifier::BOLD)),
+        Span::raw(format!(
+            "  {} on {bus}  ·  {}{dirty}  ·  {timing}",
+            state.robot().name,
+            state.output().display()
+        )),
+    ])
+}
+
+fn draw_joints(frame: &mut Frame, area: Rect, state: &TeachState) {
+    let robot = state.robot();
+    let key = state.list().show();
+    let bearing = state.weight_bearing();
+    let rows = robot.joints.iter().enumerate().map(|(j, joint)| {
+        let present = state.present().get(j).copied().unwrap_or(f64::NAN);
+        let key_value = key.and_then(|k| k.value(&joint.name));
+        let key_number = match key_value {
+            Some(KeyValue::Joint(v)) => Some(*v),
+            _ => None,
+        };
+        let key_text = match key_value {
+            Some(KeyValue::Joint(v)) => format_value(joint, *v),
+            Some(KeyValue::Transform(_)) => "transform".into(),
+            None => "·".into(),
+        };
+        let (torque, torque_style) = if state.torque()[j] {
+            ("hold", Style::new().fg(Color::Green))
+        } else {
+            ("limp", Style::new().fg(Color::Yellow))
+        };
+        let marker = if j == state.selected() { "▶ " } else { "  " };
+        let row = Row::new(vec![
+            Cell::from(format!("{marker}{}", joint.name)),
+            Cell::from(format_value(joint, present)),
+            Cell::from(key_text),
+            Cell::from(limit_bar(joint, present, key_number)),
+            Cell::from(Span::styled(torque, torque_style)),
+            Cell::from(if bearing[j] { "load" } else { "" }),
+        ]);
+        if j == state.selected() {
+            row.style(Style::new().add_modifier(Modifier::BOLD))
+        } else {
+            row
+        }
+    });
+    let table = Table::new(
+        rows,
+        [
+            Constraint::Length(18),
+            Constraint::Length(10),
+            Constraint::Length(10),
+            Constraint::Length(BAR_WIDTH as u16 + 2),
+            Constraint::Length(5),
+            Constraint::Length(5),
+        ],
+    )
+    .header(
+        Row::new(vec!["  joint", "present", "key", "limits", "", ""])
+            .style(Style::new().add_modifier(Modifier::UNDERLINED)),
+    )
+    .block(
+        Block::bordered()
+            .title(" joints  (● present  ◆ current key; load: carries the arm's weight) "),
+    );
+    frame.render_widget(table, area);
+}
+
+/// `[──◆───●──]`: where the present value (●) and the key's value (◆) sit between the limits.
+fn limit_bar(joint: &crate::robot::Joint, present: f64, key: Option<f64>) -> Line<'static> {
+    let (min, max) = (joint.limits.min, joint.limits.max);
+    let cell = |v: f64| -> Option<usize> {
+        v.is_finite().then(|| {
+            (((v - min) / (max - min)).clamp(0.0, 1.0) * (BAR_WIDTH - 1) as f64).round() as usize
+        })
+    };
+    let mut spans = vec![Span::raw("[")];
+    let (p, k) = (cell(present), key.and_then(cell));
+    for i in 0..BAR_WIDTH {
+        spans.push(if Some(i) == p {
+            Span::styled("●", Style::new().fg(Color::Yellow))
+        } else if Some(i) == k {
+            Span::styled("◆", Style::new().fg(Color::Cyan))
+        } else {
+            Span::styled("─", Style::new().fg(Color::DarkGray))
+        });
+    }
+    spans.push(Span::raw("]"));
+    Line::from(spans)
+}
+
+fn draw_keys(frame: &mut Frame, area: Rect, state: &TeachState) {
+    let sequence = state.list().sequence();
+    let rows = sequence.keyframes.iter().enumerate().map(|(i, key)| {
+        Row::new(vec![
+            Cell::from(i.to_string()),
+            Cell::from(key.name.clone().unwrap_or_default()),
+            Cell::from(format!("{:.2}", sequence.key_time(i))),
+            Cell::from(if key.hold > 0.0 {
+                format!("{:.2}", key.hold)
+            } else {
+                String::new()
+            }),
+        ])
+    });
+    let table = Table::new(
+        rows,
+        [
+            Constraint::Length(4),
+            Constraint::Min(8),
+            Constraint::Length(8),
+            Constraint::Length(6),
+        ],
+    )
+    .header(
+        Row::new(vec!["#", "name", "time s", "hold"])
+            .style(Style::new().add_modifier(Modifier::UNDERLINED)),
+    )
+    .row_highlight_style(Style::new().add_modifier(Modifier::REVERSED))
+    .highlight_symbol("▶ ")
+    .block(Block::bordered().title(format!(" keys ({}) ", sequence.keyframes.len())));
+    let mut table_state = TableState::default();
+    if !sequence.keyframes.is_empty() {
+        table_state.select(Some(state.list().current_index()));
+    }
+    frame.render_stateful_widget(table, area, &mut table_state);
+}
+
+fn status_lines(state: &TeachState) -> Paragraph<'static> {
+    let first = match state.question() {
+        Some(question) => Line::styled(
+            format!("? {question}"),
+            Style::new().fg(Color::Yellow).add_modifier(Modifier::BOLD),
+        ),
+        None => {
+            let status = state.status();
+            let style = if status.error {
+                Style::new().fg(Color::Red)
+            } else {
+                Style::new()
+            };
+            Line::styled(status.text.clone(), style)
+        }
+    };
+    let activity = match state.activity() {
+        Activity::Idle => "idle".to_string(),
+        Activity::Moving { kind, stops, .. } => {
+            let what = match kind {
+                MotionKind::ToKey(i) => format!("moving to key {i}"),
+                MotionKind::Play { from } => format!("playing from key {from}"),
+            };
+            if *stops > 0 {
+                format!("{what}, stopping")
+            } else {
+                what
+            }
+        }
+    };
+    let journal = match state.journal() {
+        Some(j) => format!("journal {}", j.path().display()),
+        None => "no journal (no cache directory)".into(),
+    };
+    let second = Line::styled(
+        format!("{activity}  ·  {journal}"),
+        Style::new().fg(Color::DarkGray),
+    );
+    Paragraph::new(vec![first, second]).wrap(Wrap { trim: true })
+}
+
+/// The bindings, packed into as few lines as `width` allows.
+fn help_lines(width: usize) -> Vec<Line<'static>> {
+    let mut lines = Vec::new();
+    let mut spans: Vec<Span<'static>> = Vec::new();
+    let mut used = 0;
+    for binding in BINDINGS {
+        let len = binding.keys.chars().count() + binding.short.chars().count() + 4;
+        if used > 0 && used + len > width {
+            lines.push(Line::from(std::mem::take(&mut spans)));
+            used = 0;
+        }
+        spans.push(Span::styled(
+            binding.keys,
+            Style::new().fg(Color::Cyan).add_modifier(Modifier::BOLD),
+        ));
+        spans.push(Span::raw(format!(" {}   ", binding.short)));
+        used += len;
+    }
+    if !spans.is_empty() {
+        lines.push(Line::from(spans));
+    }
+    lines
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::robot::Robot;
+    use crate::sequence::{KeyframeList, Sequence};
+    use ratatui::backend::TestBackend;
+    use ratatui::Terminal;
+
+    #[test]
+    fn shift_arrows_jog_by_ten() {
+        let key = |code, modifiers| map_key(KeyEvent::new(code, modifiers));
+        assert_eq!(
+            key(KeyCode::Left, KeyModifiers::SHIFT),
+            Some(Key::ShiftLeft)
+        );
+        assert_eq!(key(KeyCode::Right, KeyModifiers::NONE), Some(Key::Right));
+        assert_eq!(
+            key(KeyCode::Char('c'), KeyModifiers::CONTROL),
+            Some(Key::Interrupt)
+        );
+        assert_eq!(
+            key(KeyCode::Char('T'), KeyModifiers::SHIFT),
+            Some(Key::Char('T'))
+        );
+    }
+
+    #[test]
+    fn the_screen_shows_joints_keys_status_and_help() {
+        let robot = Robot::builtin("so101").expect("built in");
+        let present = robot.home.clone();
+        let mut state = TeachState::new(
+            robot,
+            KeyframeList::new(Sequence::new("so101")),
+            "taught.json".into(),
+            None,
+            present,
+        );
+        let _ = state.handle_key(Key::Char('n'));
+        // The smallest usual terminal, and a wide one (side by side).
+        for (width, height) in [(80, 24), (140, 30)] {
+            let mut terminal = Terminal::new(TestBackend::new(width, height)).expect("terminal");
+            terminal
+                .draw(|frame| draw(frame, &state, "virtual"))
+                .expect("draws");
+            let screen: String = terminal
+                .backend()
+                .buffer()
+                .content()
+                .iter()
+                .map(|c| c.symbol())
+                .collect();
+            for text in ["gripper", "limp", "new key 0", "jog 1°", "quit", "▶ 0"] {
+                assert!(screen.contains(text), "{text:?} missing at width {width}");
+            }
+        }
+    }
+}

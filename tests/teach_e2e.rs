@@ -1,0 +1,281 @@
+//! `keypose teach` as a user runs it, without hardware: the real binary on emulated servos
+//! (`--port virtual`), driven by a key script. The virtual arm starts at home (every joint at
+//! 0°) and each jog is exactly ±1° or ±10°, stopped at the limits, so every captured value is
+//! known by hand. Each script step waits until the arm has arrived, so nothing here depends on
+//! timing.
+
+use serde_json::{json, Value};
+use std::io::{BufRead, BufReader, Write};
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+
+fn keypose(dir: &Path) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_keypose"));
+    // The journal goes to this test's own cache directory.
+    command
+        .current_dir(dir)
+        .env("KEYPOSE_CACHE", dir.join("cache"));
+    command
+}
+
+fn teach(dir: &Path, script: &str, extra: &[&str]) -> Output {
+    std::fs::write(dir.join("session.keys"), script).expect("write the key script");
+    keypose(dir)
+        .args(["teach", "--port", "virtual", "--keys", "session.keys"])
+        .args(extra)
+        .output()
+        .expect("run keypose teach")
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn read_json(path: &Path) -> Value {
+    let text = std::fs::read_to_string(path).expect("the written file");
+    serde_json::from_str(&text).expect("valid JSON")
+}
+
+/// so101 joints in order: shoulder_pan, shoulder_lift, elbow_flex, wrist_flex, wrist_roll,
+/// gripper.
+fn pose(values: [f64; 6]) -> Value {
+    let names = [
+        "shoulder_pan",
+        "shoulder_lift",
+        "elbow_flex",
+        "wrist_flex",
+        "wrist_roll",
+        "gripper",
+    ];
+    let joints: serde_json::Map<String, Value> = names
+        .iter()
+        .zip(values)
+        .map(|(n, v)| (n.to_string(), json!(v)))
+        .collect();
+    json!({ "joints": joints })
+}
+
+fn journals(dir: &Path) -> Vec<std::path::PathBuf> {
+    match std::fs::read_dir(dir.join("cache").join("teach")) {
+        Ok(entries) => entries.filter_map(|e| e.ok()).map(|e| e.path()).collect(),
+        Err(_) => Vec::new(),
+    }
+}
+
+/// The whole path a new user takes: jog, capture, delete, reorder, move to a key and update it,
+/// change the timing, play, write — then `keypose check` and `keypose play` accept the file.
+#[test]
+fn a_scripted_session_builds_checks_and_plays_a_sequence() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = "\
+        # A: home
+        n
+        # B: pan 25 (two big steps, five small)
+        shift-right shift-right right right right right right n
+        # C: lift 30; elbow to its limit 96.83 (the 11th step is refused there), then back
+        # 40° to 56.8 (a jog lands on tenths). A key at the limit would make the cubic
+        # overshoot it on the way to the next key, which check and y refuse.
+        down shift-right shift-right shift-right
+        down shift-right shift-right shift-right shift-right shift-right
+             shift-right shift-right shift-right shift-right shift-right shift-right
+             shift-left shift-left shift-left shift-left
+        n
+        # D: gripper 40 then back 2
+        down down down shift-right shift-right shift-right shift-right left left n
+        # E: wrist flex -15
+        up up shift-left left left left left left n
+        # F: pan back to 15 - then deleted
+        up up up shift-left n d
+        # reorder: E before D
+        [
+        # the pan carries no weight: released at once, not jogged while limp, held again
+        t right t
+        # the lift carries weight: asks, and no keeps it held
+        down t no
+        # to C, open the gripper to 10, update C
+        < space down down down down shift-right u
+        # 2.1 s between keys
+        + + -
+        # play the last two keys, then write
+        > y w q
+    ";
+    let out = teach(dir.path(), script, &[]);
+    let log = stderr(&out);
+    assert!(out.status.success(), "teach failed:\n{log}");
+    assert!(log.contains("elbow_flex is at its limit"), "{log}");
+    assert!(log.contains("shoulder_pan is limp"), "{log}");
+    assert!(
+        log.contains("shoulder_lift carries the arm's weight"),
+        "{log}"
+    );
+    assert!(log.contains("played to the end"), "{log}");
+    assert!(log.contains("check passes"), "{log}");
+
+    let file = dir.path().join("taught.json");
+    let expected = json!({
+        "format": "keypose-sequence/1",
+        "robot": "so101",
+        "interpolation": "cubic",
+        "key_interval": 2.1,
+        "keyframes": [
+            pose([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            pose([25.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            pose([25.0, 30.0, 56.8, 0.0, 0.0, 10.0]),
+            pose([25.0, 30.0, 56.8, -15.0, 0.0, 38.0]),
+            pose([25.0, 30.0, 56.8, 0.0, 0.0, 38.0]),
+        ]
+    });
+    assert_eq!(read_json(&file), expected);
+    assert!(
+        journals(dir.path()).is_empty(),
+        "the journal goes after a write"
+    );
+
+    let check = keypose(dir.path())
+        .args(["check", "taught.json"])
+        .output()
+        .unwrap();
+    assert!(check.status.success(), "check failed:\n{}", stderr(&check));
+    let play = keypose(dir.path())
+        .args(["play", "taught.json", "--port", "virtual", "--quiet"])
+        .output()
+        .unwrap();
+    assert!(play.status.success(), "play failed:\n{}", stderr(&play));
+}
+
+/// A session killed after some edits loses nothing: the next one offers the journal, and a
+/// scripted "yes" recovers it.
+#[test]
+fn a_killed_session_is_recovered_by_the_next() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = keypose(dir.path())
+        .args(["teach", "seq.json", "--port", "virtual", "--keys", "-"])
+        .stdin(Stdio::piped())
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("start keypose teach");
+    let mut stdin = child.stdin.take().unwrap();
+    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
+    writeln!(stdin, "n shift-right right n").unwrap();
+    stdin.flush().unwrap();
+    // Each step prints its status once done (and journaled): wait for the second capture.
+    let mut seen = Vec::new();
+    loop {
+        let line = lines
+            .next()
+            .expect("teach ended early")
+            .expect("read stderr");
+        seen.push(line.clone());
+        if line.contains("new key 1") {
+            break;
+        }
+        assert!(!line.contains("error"), "{seen:?}");
+    }
+    child.kill().expect("kill teach");
+    let _ = child.wait();
+    assert!(!dir.path().join("seq.json").exists(), "never written");
+    assert_eq!(journals(dir.path()).len(), 1, "{seen:?}");
+
+    let out = teach(dir.path(), "yes w q", &["seq.json"]);
+    let log = stderr(&out);
+    assert!(out.status.success(), "{log}");
+    assert!(
+        log.contains("recover it?") && log.contains("recovered 2 keys"),
+        "{log}"
+    );
+    let written = read_json(&dir.path().join("seq.json"));
+    assert_eq!(
+        written["keyframes"],
+        json!([
+            pose([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            pose([11.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+        ])
+    );
+    assert!(journals(dir.path()).is_empty());
+}
+
+/// A script that ends with unsaved work fails and keeps the journal; a script that does not
+/// answer the recovery question is stopped; `--recover` recovers without asking.
+#[test]
+fn unsaved_scripts_keep_the_journal_for_recover() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = teach(dir.path(), "n down shift-left n", &[]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("unsaved changes"), "{}", stderr(&out));
+    assert_eq!(journals(dir.path()).len(), 1);
+
+    let out = teach(dir.path(), "down n w q", &[]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("expected an answer"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!dir.path().join("taught.json").exists());
+
+    let out = teach(dir.path(), "w q", &["--recover"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let written = read_json(&dir.path().join("taught.json"));
+    assert_eq!(
+        written["keyframes"],
+        json!([
+            pose([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            pose([0.0, -10.0, 0.0, 0.0, 0.0, 0.0])
+        ])
+    );
+    assert!(journals(dir.path()).is_empty());
+
+    // The next session opens the written file, with nothing to recover.
+    let out = teach(dir.path(), "> d w q", &[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(
+        read_json(&dir.path().join("taught.json"))["keyframes"],
+        json!([pose([0.0, 0.0, 0.0, 0.0, 0.0, 0.0])])
+    );
+}
+
+#[test]
+fn bad_invocations_are_refused_with_exit_code_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = keypose(dir.path())
+        .args(["teach", "--keys", "x.keys"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("--port is required"),
+        "{}",
+        stderr(&out)
+    );
+
+    let out = teach(dir.path(), "n jump", &[]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("unknown key \"jump\""),
+        "{}",
+        stderr(&out)
+    );
+
+    // Without a terminal and without --keys there is nothing to read keys from.
+    let out = keypose(dir.path())
+        .args(["teach", "--port", "virtual"])
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("needs a terminal"),
+        "{}",
+        stderr(&out)
+    );
+
+    let help = keypose(dir.path())
+        .args(["teach", "--help"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&help.stdout);
+    for binding in ["space", "shift", "import:PATH", "quit (asks"] {
+        assert!(text.contains(binding), "--help lacks {binding:?}:\n{text}");
+    }
+}

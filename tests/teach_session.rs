@@ -1,0 +1,143 @@
+//! The teaching state machine and session driver on emulated servos (a pseudo-terminal, the
+//! real serial and protocol code): a limp joint moved by hand is captured where it was put,
+//! and playback started with `y` stops along its path on the next `y`.
+
+use keypose::bus::virtual_bus::PtyServer;
+use keypose::bus::{self, BusOptions, Connection, Driver};
+use keypose::player::Outcome;
+use keypose::robot::Robot;
+use keypose::sequence::{KeyValue, KeyframeList, Sequence};
+use keypose::teach::{self, Event, Key, Session, TeachState};
+
+/// Emulated servos of `robot` and a session on them; the server lives as long as the first.
+fn open(robot: &Robot) -> (Option<PtyServer>, Session) {
+    let Connection { bus, virtual_bus } = bus::connect_with(
+        robot,
+        bus::VIRTUAL_PORT,
+        &BusOptions {
+            driver: Driver::Native,
+            baud: None,
+            fast_sync_read: false,
+        },
+    )
+    .expect("virtual bus");
+    (virtual_bus, Session::new(bus, robot))
+}
+
+fn start(robot: &Robot, session: &mut Session) -> TeachState {
+    let present = session.read().expect("read").expect("a pose");
+    let mut state = TeachState::new(
+        robot.clone(),
+        KeyframeList::new(Sequence::new(&robot.name)),
+        "unused.json".into(),
+        None,
+        present,
+    );
+    let commands = state.start();
+    teach::apply(&mut state, session, commands);
+    state
+}
+
+/// A key press, then (as a script step does) waiting until the arm has arrived.
+fn press(state: &mut TeachState, session: &mut Session, key: Key) {
+    let events = teach::press(state, session, key);
+    assert!(
+        !events.iter().any(|e| matches!(e, Event::BusError(_))),
+        "{events:?}"
+    );
+    assert!(session
+        .settle(std::time::Duration::from_secs(5))
+        .expect("settle"));
+    teach::refresh(state, session);
+}
+
+fn pan(state: &TeachState, key: usize) -> f64 {
+    match state.list().sequence().keyframes[key].value("shoulder_pan") {
+        Some(KeyValue::Joint(v)) => *v,
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn a_limp_joint_moved_by_hand_is_captured_where_it_was_put() {
+    let robot = Robot::builtin("so101").unwrap();
+    let (server, mut session) = open(&robot);
+    let mut state = start(&robot, &mut session);
+    press(&mut state, &mut session, Key::Char('t'));
+    assert!(!state.torque()[0], "{}", state.status().text);
+
+    // Turn the pan by hand to 33.3°; the other joints hold.
+    let pan_servo = &robot.joints[0].servo;
+    let server = server.as_ref().expect("virtual servos");
+    server
+        .bus()
+        .lock()
+        .servo_mut(pan_servo.id)
+        .expect("pan servo")
+        .motion
+        .push_to(pan_servo.tick_exact(33.3));
+    press(&mut state, &mut session, Key::Char('n'));
+    assert_eq!(pan(&state, 0), 33.3);
+
+    // Held again where it is, it jogs from there.
+    press(&mut state, &mut session, Key::Char('t'));
+    press(&mut state, &mut session, Key::ShiftRight);
+    press(&mut state, &mut session, Key::Char('n'));
+    assert_eq!(pan(&state, 1), 43.3);
+
+    // A held joint is not moved by a push.
+    server
+        .bus()
+        .lock()
+        .servo_mut(pan_servo.id)
+        .unwrap()
+        .motion
+        .push_to(pan_servo.tick_exact(-50.0));
+    press(&mut state, &mut session, Key::Char('u'));
+    assert_eq!(pan(&state, 1), 43.3);
+}
+
+#[test]
+fn y_plays_and_a_second_y_stops_along_the_path() {
+    let robot = Robot::builtin("so101").unwrap();
+    let (_connection, mut session) = open(&robot);
+    let mut state = start(&robot, &mut session);
+    press(&mut state, &mut session, Key::Char('n'));
+    for _ in 0..9 {
+        press(&mut state, &mut session, Key::ShiftRight);
+    }
+    press(&mut state, &mut session, Key::Char('n'));
+    press(&mut state, &mut session, Key::Char('<'));
+
+    // From key 0: a ramp from 90° back to 0°, then the 90° sweep; stopped at once, it
+    // decelerates and holds wherever it was, torque on.
+    let events = teach::press(&mut state, &mut session, Key::Char('y'));
+    assert!(
+        events
+            .iter()
+            .any(|e| matches!(e, Event::MotionStarted { .. })),
+        "{events:?}"
+    );
+    assert!(state.is_moving() && session.is_moving());
+    // Keys are still read while it moves; bus keys are refused, not queued.
+    let _ = teach::press(&mut state, &mut session, Key::Right);
+    assert!(state.status().error);
+    let _ = teach::press(&mut state, &mut session, Key::Char('y'));
+    let ended = session.wait_motion().expect("joined").expect("ended");
+    assert!(
+        matches!(
+            ended,
+            Event::MotionEnded {
+                outcome: Ok(Outcome::Stopped),
+                ..
+            }
+        ),
+        "{ended:?}"
+    );
+    state.on_event(ended);
+    assert!(!state.is_moving());
+    assert!(state.torque().iter().all(|&t| t));
+    // The bus is back: jogging works again.
+    press(&mut state, &mut session, Key::Right);
+    assert!(!state.status().error, "{}", state.status().text);
+}
