@@ -2,10 +2,9 @@
 
 use super::hardware::BusArgs;
 use super::{parse_rate, CommandError, SequenceInput, Verdict};
-use crate::plan::{check, Trajectory};
+use crate::plan::{check_at_speed, Trajectory};
 use crate::player::{self, Loops, Outcome, PlayError, PlayOptions, StopSignal};
 use crate::report;
-use crate::robot::Robot;
 use std::path::PathBuf;
 
 #[derive(Debug, Clone, clap::Args)]
@@ -93,11 +92,9 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
     super::check_sample_budget(&sequence.file, &trajectory, rate)?;
 
     // Refuse what the servos would be asked to do beyond their limits at this speed.
-    let at_speed = limits_at_speed(&robot, args.speed);
-    // At speed F one control period covers F/rate seconds of the sequence.
-    let report = check(&trajectory, &at_speed, rate / args.speed);
+    let report = check_at_speed(&trajectory, &robot, rate, args.speed);
     if !report.passed() {
-        eprint!("{}", report::check_text(&report, &sequence.file, &at_speed));
+        eprint!("{}", report::check_text(&report, &sequence.file, &robot));
         eprintln!(
             "refusing to play: the sequence breaks the limits above at speed {} (try `keypose retime`, or a lower --speed)",
             args.speed
@@ -182,15 +179,4 @@ fn resolve_key(trajectory: &Trajectory, key: &str) -> Option<usize> {
         Ok(_) => None,
         Err(_) => trajectory.key_labels.iter().position(|l| l == key),
     }
-}
-
-/// The robot with its velocity and acceleration limits divided by the speed factor (and its
-/// square), so that checking the unscaled trajectory against them checks the scaled playback.
-fn limits_at_speed(robot: &Robot, speed: f64) -> Robot {
-    let mut scaled = robot.clone();
-    for joint in &mut scaled.joints {
-        joint.limits.velocity /= speed;
-        joint.limits.acceleration /= speed * speed;
-    }
-    scaled
 }

@@ -210,6 +210,23 @@ pub fn check(trajectory: &Trajectory, robot: &Robot, rate: f64) -> CheckReport {
     }
 }
 
+/// Checks playback at `speed` with a control rate of `rate` Hz: velocities scale with the speed
+/// and accelerations with its square, so the unscaled trajectory is checked against the limits
+/// divided by them, differenced at the sequence time one control period covers.
+pub fn check_at_speed(
+    trajectory: &Trajectory,
+    robot: &Robot,
+    rate: f64,
+    speed: f64,
+) -> CheckReport {
+    let mut scaled = robot.clone();
+    for joint in &mut scaled.joints {
+        joint.limits.velocity /= speed;
+        joint.limits.acceleration /= speed * speed;
+    }
+    check(trajectory, &scaled, rate / speed)
+}
+
 /// Grid positions merged with the track's turning points inside the played window.
 fn position_series(times: &[f64], p: &[f64], trajectory: &Trajectory, joint: usize) -> Series {
     let mut points: Vec<(f64, f64)> = times.iter().copied().zip(p.iter().copied()).collect();

@@ -13,7 +13,7 @@ use crate::sequence::{Ends, KeyValue, Sequence};
 use std::f64::consts::TAU;
 
 pub use approach::{Approach, APPROACH_LIMIT_SHARE, MIN_APPROACH_SECONDS};
-pub use check::{check, CheckReport, JointSummary, LimitKind, Sampled, Violation};
+pub use check::{check, check_at_speed, CheckReport, JointSummary, LimitKind, Sampled, Violation};
 pub use retime::{retime, RetimeOutcome};
 
 /// Largest rotation off the joint axis (swing) accepted in a keyed transform, degrees. Hand-typed

@@ -930,8 +930,7 @@ impl TeachState {
         let speed = self.speed();
         let rate = self.robot.control_hz;
         // The same refusal as `keypose play`: nothing beyond the limits at this speed.
-        let at_speed = limits_at_speed(&self.robot, speed);
-        let report = plan::check(&trajectory, &at_speed, rate / speed);
+        let report = plan::check_at_speed(&trajectory, &self.robot, rate, speed);
         if let Some(v) = report.violations.first() {
             return self.fail(format!(
                 "refusing to play at speed {speed:.1}: {} limit violation(s), first {} {} in {} (space the keys out with +, or keypose retime)",
@@ -1083,17 +1082,6 @@ impl TeachState {
         };
         Vec::new()
     }
-}
-
-/// The robot with velocity and acceleration limits divided by the speed (and its square), so
-/// checking the unscaled trajectory checks the scaled playback — as `keypose play` does.
-fn limits_at_speed(robot: &Robot, speed: f64) -> Robot {
-    let mut scaled = robot.clone();
-    for joint in &mut scaled.joints {
-        joint.limits.velocity /= speed;
-        joint.limits.acceleration /= speed * speed;
-    }
-    scaled
 }
 
 /// "1 key", "3 keys".
