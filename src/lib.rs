@@ -13,6 +13,7 @@ pub mod plan;
 pub mod player;
 pub mod pose;
 pub mod pyenv;
+pub mod record;
 pub mod report;
 pub mod robot;
 pub mod sequence;

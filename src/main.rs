@@ -47,6 +47,9 @@ enum Command {
     /// Teach poses key by key in a terminal UI: limp the arm or jog it, capture keys, edit the
     /// list, play it, save it.
     Teach(commands::teach::TeachArgs),
+    /// Record a motion made by hand (torque off), then turn it into the fewest keyframes that
+    /// reproduce it within a tolerance.
+    Record(commands::record::RecordArgs),
     /// Print the present pose (degrees; metres for prismatic joints) as JSON.
     Read(commands::hardware::ReadArgs),
     /// Turn torque on (hold where the arm is) or off (limp) for all or some joints.
@@ -74,6 +77,7 @@ fn main() -> ExitCode {
         Command::Sim(args) => commands::sim::run(args),
         Command::Play(args) => commands::play::run(args),
         Command::Teach(args) => commands::teach::run(args),
+        Command::Record(args) => commands::record::run(args),
         Command::Read(args) => commands::hardware::read(args),
         Command::Torque(args) => commands::hardware::torque(args),
         Command::Scan(args) => commands::hardware::scan(args),

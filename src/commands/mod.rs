@@ -5,6 +5,7 @@ pub mod check;
 pub mod hardware;
 pub mod play;
 pub mod plot;
+pub mod record;
 pub mod retime;
 pub mod sample;
 pub mod sim;

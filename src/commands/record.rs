@@ -1,0 +1,353 @@
+//! `keypose record`: move the arm by hand with torque off, then keep the fewest keyframes that
+//! reproduce the motion within a tolerance.
+
+use super::hardware::{BusArgs, RobotArgs};
+use super::{parse_rate, CommandError, Verdict};
+use crate::curve::Interp;
+use crate::player::StopSignal;
+use crate::record::{
+    self, KeyframeOptions, Keyframes, RecordError, RecordOptions, Retimed, StopReason,
+};
+use crate::report;
+use crate::robot::Robot;
+use std::io::{BufRead, IsTerminal};
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct RecordArgs {
+    /// Where to write the keyframes (keypose-sequence/1 JSON; replaced atomically).
+    #[arg(short, long, value_name = "FILE")]
+    pub output: PathBuf,
+    /// A built-in robot (so101, koch, omx) or a robot file.
+    #[arg(long, value_name = "NAME|FILE", default_value = "so101")]
+    pub robot: String,
+    /// LeRobot calibration file to apply.
+    #[arg(long, value_name = "FILE")]
+    pub calibration: Option<PathBuf>,
+    #[command(flatten)]
+    pub bus: BusArgs,
+    /// Joints to record, comma-separated: their torque goes off. The others keep theirs and
+    /// appear in the first key only, at their starting value [default: all].
+    #[arg(long, value_name = "NAMES", value_delimiter = ',')]
+    pub joints: Vec<String>,
+    /// Largest deviation of the keyframes' curve from the recording, degrees (revolute joints).
+    #[arg(long, value_name = "DEG", default_value = "1", value_parser = parse_tolerance)]
+    pub tolerance: f64,
+    /// Largest deviation for prismatic joints, metres.
+    #[arg(long, value_name = "M", default_value = "0.001", value_parser = parse_tolerance)]
+    pub tolerance_m: f64,
+    /// Sampling rate, at most 1000 Hz; also the rate of the limit check [default: the robot's
+    /// control_hz].
+    #[arg(long, value_name = "HZ", value_parser = parse_record_rate)]
+    pub rate: Option<f64>,
+    /// Interpolation of the keyframes: monotone never overshoots between keys (safe next to a
+    /// limit), cubic is smoother, linear has corners. Step is refused: it jumps.
+    #[arg(long, value_name = "MODE", default_value = "monotone", value_parser = parse_mode)]
+    pub interpolation: Interp,
+    /// Stop after this many seconds instead of waiting for Enter (for scripts).
+    #[arg(long, value_name = "SECONDS", value_parser = parse_duration)]
+    pub duration: Option<f64>,
+    /// No progress line.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Recordings longer than this (samples) announce the extraction, which then takes a while.
+const LONG_RECORDING_SAMPLES: usize = 3000;
+/// Retiming a linear recording by more than this factor earns a hint to use a smooth mode.
+const LINEAR_HINT_STRETCH: f64 = 1.25;
+
+fn parse_tolerance(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
+        _ => Err(format!("expected a tolerance above 0, found {s:?}")),
+    }
+}
+
+fn parse_record_rate(s: &str) -> Result<f64, String> {
+    let rate = parse_rate(s)?;
+    if rate > record::MAX_RATE_HZ {
+        return Err(format!(
+            "expected at most {} Hz (key times are whole milliseconds), found {s}",
+            record::MAX_RATE_HZ
+        ));
+    }
+    Ok(rate)
+}
+
+fn parse_mode(s: &str) -> Result<Interp, String> {
+    match Interp::parse(s) {
+        Some(Interp::Step) => Err(
+            "step jumps between keys, which no limit check passes; expected linear, cubic or monotone"
+                .into(),
+        ),
+        Some(mode) => Ok(mode),
+        None => Err(format!(
+            "expected linear, cubic or monotone, found {s:?}"
+        )),
+    }
+}
+
+fn parse_duration(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(x) if x.is_finite() && x > 0.0 && x <= record::MAX_SECONDS => Ok(x),
+        _ => Err(format!(
+            "expected seconds above 0 and at most {}, found {s:?}",
+            record::MAX_SECONDS
+        )),
+    }
+}
+
+pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
+    let robot = RobotArgs {
+        robot: args.robot.clone(),
+        calibration: args.calibration.clone(),
+    }
+    .load()?;
+    let joints = joint_indices(&robot, &args.joints)?;
+    let port = args.bus.port.as_deref().ok_or_else(|| {
+        CommandError::Usage(
+            "--port is required: a serial port (see `keypose ports`) or \"virtual\"".into(),
+        )
+    })?;
+    // Refuse a place the file cannot go before the user spends minutes moving the arm.
+    check_output_dir(&args.output)?;
+    let rate = args.rate.unwrap_or(robot.control_hz);
+    if rate > record::MAX_RATE_HZ {
+        return Err(CommandError::Usage(format!(
+            "the robot's control rate {rate} Hz is above the {} Hz a recording can keep: give --rate",
+            record::MAX_RATE_HZ
+        )));
+    }
+
+    let mut connection = args.bus.connect(&robot, port)?;
+    let stop = StopSignal::default();
+    let handler_stop = stop.clone();
+    // Only the first handler registration in a process succeeds; a second command in the same
+    // process (tests) keeps the first handler, and then only Enter or --duration stop.
+    let _ = ctrlc::set_handler(move || handler_stop.request());
+    watch_stdin(stop.clone(), args.duration.is_none());
+
+    let names: Vec<&str> = joints
+        .iter()
+        .map(|&j| robot.joints[j].name.as_str())
+        .collect();
+    if !args.quiet {
+        eprintln!(
+            "recording {} on {} at {rate} Hz: torque is off on {}; move the arm by hand, then {}",
+            robot.name,
+            connection.bus.describe(),
+            names.join(", "),
+            match args.duration {
+                Some(d) => format!("wait {d} s (or press Enter)"),
+                None => "press Enter (or Ctrl-C)".into(),
+            }
+        );
+    }
+    let options = RecordOptions {
+        rate_hz: rate,
+        joints,
+        duration: args.duration,
+        // A progress line rewrites itself with \r: only on a terminal.
+        progress: !args.quiet && std::io::stderr().is_terminal(),
+    };
+    let recording =
+        record::record(connection.bus.as_mut(), &robot, &options, &stop).map_err(|e| match e {
+            RecordError::Fault { .. } => CommandError::Hardware(format!(
+                "recording stopped: {e}; the limp joints were asked to hold where they are"
+            )),
+            other => CommandError::Usage(other.to_string()),
+        })?;
+    if recording.stopped == StopReason::Longest && !args.quiet {
+        eprintln!(
+            "stopped after {} s, the longest recording",
+            record::MAX_SECONDS
+        );
+    }
+
+    if !args.quiet && recording.times.len() > LONG_RECORDING_SAMPLES {
+        // Extraction grows with the length: a long recording takes seconds, so say what runs.
+        eprintln!(
+            "extracting keyframes from {} samples…",
+            recording.times.len()
+        );
+    }
+    let result = record::keyframes(
+        &recording,
+        &robot,
+        &KeyframeOptions {
+            interpolation: args.interpolation,
+            tolerance_deg: args.tolerance,
+            tolerance_m: args.tolerance_m,
+            check_rate_hz: rate,
+        },
+    )
+    .map_err(|e| CommandError::Usage(e.to_string()))?;
+    let mut sequence = result.sequence.clone();
+    sequence.robot = robot_reference(&args.robot);
+    sequence.file = args.output.display().to_string();
+    sequence.save(&args.output)?;
+
+    print_summary(&result, &args.output, args.calibration.is_some());
+    let slowed = result
+        .retimed
+        .as_ref()
+        .is_some_and(|r| r.after() > LINEAR_HINT_STRETCH * r.before());
+    if args.interpolation == Interp::Linear && (slowed || !result.check.passed()) {
+        eprintln!(
+            "hint: a linear corner changes velocity within one control period, which the acceleration limits allow only when slow; monotone or cubic keep the recorded timing"
+        );
+    }
+    if let Some(e) = &recording.hold_error {
+        return Err(CommandError::Hardware(format!(
+            "the keyframes are saved, but the limp joints could not be made to hold again ({e}): the arm may be limp, support it"
+        )));
+    }
+    if !result.check.passed() {
+        eprint!(
+            "{}",
+            report::check_text(&result.check, &sequence.file, &robot)
+        );
+        eprintln!("the keyframes are saved, but they break the limits above");
+        return Ok(Verdict::Fail);
+    }
+    Ok(Verdict::Pass)
+}
+
+/// Robot joint indices from `--joints` names; all joints when none are given.
+fn joint_indices(robot: &Robot, names: &[String]) -> Result<Vec<usize>, CommandError> {
+    if names.is_empty() {
+        return Ok((0..robot.joints.len()).collect());
+    }
+    let mut indices = Vec::new();
+    for name in names {
+        let index = robot.joint_index(name).ok_or_else(|| {
+            CommandError::Usage(format!(
+                "--joints: unknown joint {name:?}; expected names from: {}",
+                robot.joint_names().join(", ")
+            ))
+        })?;
+        if !indices.contains(&index) {
+            indices.push(index);
+        }
+    }
+    Ok(indices)
+}
+
+fn check_output_dir(output: &Path) -> Result<(), CommandError> {
+    let dir = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if dir.is_dir() {
+        Ok(())
+    } else {
+        Err(CommandError::Usage(format!(
+            "-o {}: the directory {} does not exist",
+            output.display(),
+            dir.display()
+        )))
+    }
+}
+
+/// What the sequence's "robot" says: a built-in name as given, a robot file as an absolute path,
+/// so that `keypose check` finds the same robot from anywhere.
+fn robot_reference(spec: &str) -> String {
+    let path = Path::new(spec);
+    if path.is_file() {
+        if let Ok(absolute) = std::fs::canonicalize(path) {
+            return absolute.display().to_string();
+        }
+    }
+    spec.to_string()
+}
+
+/// A line on standard input (Enter) requests the stop. End of input (no terminal, a closed
+/// pipe) is not a request: a script stops with --duration.
+fn watch_stdin(stop: StopSignal, warn_on_eof: bool) {
+    std::thread::spawn(move || {
+        let stdin = std::io::stdin();
+        let mut line = String::new();
+        match stdin.lock().read_line(&mut line) {
+            Ok(n) if n > 0 => stop.request(),
+            _ => {
+                if warn_on_eof {
+                    eprintln!("standard input is closed: stop the recording with Ctrl-C");
+                }
+            }
+        }
+    });
+}
+
+fn print_summary(result: &Keyframes, output: &Path, calibrated: bool) {
+    println!("{}", result.summary());
+    for c in &result.clamps {
+        eprintln!(
+            "warning: {} was pushed {} past its limit {} {} (worst at t = {:.3} s); the keys hold it at the limit",
+            c.joint,
+            format_amount(c.excess, c.unit),
+            c.limit,
+            c.unit,
+            c.time
+        );
+    }
+    for d in &result.drifts {
+        eprintln!(
+            "warning: {} was not recorded but moved {}; the file holds its starting value",
+            d.joint,
+            format_amount(d.moved, d.unit)
+        );
+    }
+    if result.made_monotone > 0 {
+        eprintln!(
+            "{} cubic segment(s) overshot a limit and were made monotone",
+            result.made_monotone
+        );
+    }
+    if let Some(r) = &result.retimed {
+        println!(
+            "retimed to respect the velocity and acceleration limits: {} of {} segments stretched, last key {:.3} s → {:.3} s",
+            r.stretched,
+            r.segments,
+            r.before(),
+            r.after()
+        );
+        println!("key times: {}", key_time_changes(r));
+    }
+    if calibrated {
+        eprintln!(
+            "note: the file names the robot without the calibration; give the same --calibration to check and play it"
+        );
+    }
+    println!("wrote {}", output.display());
+}
+
+/// "0.293 → 0.301 s, 0.811 → 0.840 s, …" for the keys whose time changed, at most
+/// SHOWN_CHANGES of them.
+fn key_time_changes(r: &Retimed) -> String {
+    const SHOWN_CHANGES: usize = 12;
+    let changes: Vec<String> = r
+        .key_times_before
+        .iter()
+        .zip(&r.key_times_after)
+        .filter(|(a, b)| (*b - *a).abs() > 1e-9)
+        .map(|(a, b)| format!("{a:.3} → {b:.3} s"))
+        .collect();
+    let mut text = changes
+        .iter()
+        .take(SHOWN_CHANGES)
+        .cloned()
+        .collect::<Vec<_>>()
+        .join(", ");
+    if changes.len() > SHOWN_CHANGES {
+        text.push_str(&format!(", … ({} more)", changes.len() - SHOWN_CHANGES));
+    }
+    text
+}
+
+fn format_amount(value: f64, unit: &str) -> String {
+    match unit {
+        "deg" => format!("{value:.2}°"),
+        unit => format!("{value:.4} {unit}"),
+    }
+}
