@@ -2,58 +2,11 @@
 //! code, emulated servos on a pseudo-terminal (`--port virtual`, or a `keypose virtual-bus`
 //! process), real signals.
 
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Output, Stdio};
+mod common;
+
+use common::{keypose, repo, stderr, VirtualBusProcess};
+use std::process::{Command, Output, Stdio};
 use std::time::Duration;
-
-fn keypose() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_keypose"))
-}
-
-fn repo(path: &str) -> String {
-    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-/// A `keypose virtual-bus` process and the device path it printed.
-struct VirtualBusProcess {
-    child: Child,
-    path: String,
-}
-
-impl VirtualBusProcess {
-    fn start(args: &[&str]) -> VirtualBusProcess {
-        let mut child = keypose()
-            .arg("virtual-bus")
-            .args(args)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .spawn()
-            .expect("start keypose virtual-bus");
-        let stdout = child.stdout.take().expect("stdout");
-        let mut path = String::new();
-        BufReader::new(stdout)
-            .read_line(&mut path)
-            .expect("read the device path");
-        let path = path.trim().to_string();
-        assert!(
-            path.starts_with("/dev/"),
-            "first line is not a device path: {path:?}"
-        );
-        VirtualBusProcess { child, path }
-    }
-}
-
-impl Drop for VirtualBusProcess {
-    fn drop(&mut self) {
-        // Closing standard input ends the server.
-        drop(self.child.stdin.take());
-        let _ = self.child.wait();
-    }
-}
 
 /// A slow 6 s sweep of one joint, within every limit.
 fn long_sequence(dir: &std::path::Path, robot: &str, joint: &str) -> String {

@@ -2,9 +2,7 @@
 //! virtual bus decodes them, moves, and answers; nothing is mocked but the wire itself (an
 //! in-memory transport; the pseudo-terminal path is covered in `tests/play_cli.rs`).
 
-use keypose::bus::driver::NativeBus;
-use keypose::bus::transport::MemoryTransport;
-use keypose::bus::virtual_bus::{ServoFault, VirtualBus, VirtualServos};
+use keypose::bus::virtual_bus::{ServoFault, VirtualBus};
 use keypose::bus::{Alarms, BusError};
 use keypose::plan::Trajectory;
 use keypose::player::{play, Loops, Outcome, PlayError, PlayOptions, StopSignal};
@@ -12,18 +10,6 @@ use keypose::robot::Robot;
 use keypose::sequence::Sequence;
 use proptest::prelude::*;
 use std::time::Duration;
-
-fn in_process(robot: &Robot) -> (NativeBus, VirtualBus) {
-    let virtual_bus = VirtualBus::new(VirtualServos::for_robot(robot));
-    let servos: Vec<_> = robot
-        .joints
-        .iter()
-        .map(|j| (j.servo.id, j.servo.model))
-        .collect();
-    let transport = MemoryTransport::new(virtual_bus.clone());
-    let bus = NativeBus::new(Box::new(transport), robot.bus.protocol, &servos);
-    (bus, virtual_bus)
-}
 
 fn trajectory(robot: &Robot, text: &str) -> Trajectory {
     let sequence = Sequence::from_json("test.json", text).unwrap();
@@ -54,7 +40,7 @@ const ELBOW_SWING: &str = r#"{"format":"keypose-sequence/1","robot":"so101","key
 #[test]
 fn plays_to_the_last_key_after_a_ramp_from_where_the_arm_was() {
     let robot = Robot::builtin("so101").unwrap();
-    let (mut bus, virtual_bus) = in_process(&robot);
+    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
     // The arm rests with the elbow pushed to +30° (torque off), not at the first key (−20°).
     let start_tick = robot.joints[2].servo.tick_exact(30.0);
     virtual_bus
@@ -101,7 +87,7 @@ fn plays_to_the_last_key_after_a_ramp_from_where_the_arm_was() {
 #[test]
 fn a_stop_request_decelerates_along_the_path_and_holds_with_torque_on() {
     let robot = Robot::builtin("so101").unwrap();
-    let (mut bus, virtual_bus) = in_process(&robot);
+    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
     let traj = trajectory(
         &robot,
         r#"{"format":"keypose-sequence/1","robot":"so101","interpolation":"linear","keyframes":[
@@ -138,7 +124,7 @@ fn a_stop_request_decelerates_along_the_path_and_holds_with_torque_on() {
 #[test]
 fn a_second_stop_request_holds_at_once() {
     let robot = Robot::builtin("so101").unwrap();
-    let (mut bus, virtual_bus) = in_process(&robot);
+    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
     let traj = trajectory(&robot, ELBOW_SWING);
     let stop = StopSignal::default();
     stop.request();
@@ -156,7 +142,7 @@ fn fault_after_start(
     port_gone: bool,
 ) -> (PlayError, usize, usize) {
     let robot = Robot::builtin(robot_name).unwrap();
-    let (mut bus, virtual_bus) = in_process(&robot);
+    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
     let joint = &robot.joints[2].name;
     let traj = trajectory(
         &robot,
@@ -297,7 +283,7 @@ fn loops_and_ping_pong_pass_through_every_key() {
     let robot = Robot::builtin("so101").unwrap();
     let traj = trajectory(&robot, ELBOW_SWING);
     for (ping_pong, expected_turns) in [(false, 2), (true, 2)] {
-        let (mut bus, virtual_bus) = in_process(&robot);
+        let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
         let options = PlayOptions {
             loops: Loops::Count(3),
             ping_pong,
@@ -354,7 +340,7 @@ proptest! {
             keys.join(",")
         );
         let traj = trajectory(&robot, &text);
-        let (mut bus, virtual_bus) = in_process(&robot);
+        let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
         let options = PlayOptions { readback_every: Some(10), ..PlayOptions::new(200.0) };
         let result = play(&mut bus, &robot, &traj, &options, &StopSignal::default());
         for goals in goal_history(&robot, &virtual_bus) {
@@ -377,7 +363,7 @@ proptest! {
 #[test]
 fn from_a_key_ramps_to_that_key_and_release_at_end_lets_go_only_at_the_end() {
     let robot = Robot::builtin("so101").unwrap();
-    let (mut bus, virtual_bus) = in_process(&robot);
+    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
     let traj = trajectory(
         &robot,
         r#"{"format":"keypose-sequence/1","robot":"so101","keyframes":[

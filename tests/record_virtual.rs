@@ -5,8 +5,7 @@
 //! in `tests/record_cli.rs`).
 
 use keypose::bus::driver::NativeBus;
-use keypose::bus::transport::MemoryTransport;
-use keypose::bus::virtual_bus::{ServoFault, VirtualBus, VirtualServos};
+use keypose::bus::virtual_bus::{ServoFault, VirtualBus};
 use keypose::bus::ServoBus;
 use keypose::curve::{Interp, Track, TrackKey};
 use keypose::plan::{check, Trajectory};
@@ -15,18 +14,6 @@ use keypose::record::{keyframes, record, KeyframeOptions, RecordError, RecordOpt
 use keypose::robot::Robot;
 use keypose::sequence::{KeyValue, Sequence};
 use std::time::{Duration, Instant};
-
-fn in_process(robot: &Robot) -> (NativeBus, VirtualBus) {
-    let virtual_bus = VirtualBus::new(VirtualServos::for_robot(robot));
-    let servos: Vec<_> = robot
-        .joints
-        .iter()
-        .map(|j| (j.servo.id, j.servo.model))
-        .collect();
-    let transport = MemoryTransport::new(virtual_bus.clone());
-    let bus = NativeBus::new(Box::new(transport), robot.bus.protocol, &servos);
-    (bus, virtual_bus)
-}
 
 /// The arm powered and holding where it rests, as before any recording.
 fn hold_all(bus: &mut NativeBus, robot: &Robot) {
@@ -86,7 +73,7 @@ fn a_hand_moved_elbow_is_recorded_and_its_keys_trace_the_path() {
     let robot = Robot::builtin("so101").unwrap();
     let elbow = robot.joint_index("elbow_flex").unwrap();
     let wrist = robot.joint_index("wrist_flex").unwrap();
-    let (mut bus, virtual_bus) = in_process(&robot);
+    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
     hold_all(&mut bus, &robot);
     let elbow_id = robot.joints[elbow].servo.id;
     let wrist_id = robot.joints[wrist].servo.id;
@@ -277,7 +264,7 @@ fn a_servo_that_stops_answering_ends_the_recording_and_the_others_hold() {
     let robot = Robot::builtin("so101").unwrap();
     let elbow = robot.joint_index("elbow_flex").unwrap();
     let wrist = robot.joint_index("wrist_flex").unwrap();
-    let (mut bus, virtual_bus) = in_process(&robot);
+    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
     hold_all(&mut bus, &robot);
     let elbow_id = robot.joints[elbow].servo.id;
     let wrist_id = robot.joints[wrist].servo.id;
@@ -312,7 +299,7 @@ fn a_servo_that_stops_answering_ends_the_recording_and_the_others_hold() {
 #[test]
 fn a_recording_ends_after_its_duration_with_every_sample_in_order() {
     let robot = Robot::builtin("koch").unwrap();
-    let (mut bus, virtual_bus) = in_process(&robot);
+    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
     let all: Vec<usize> = (0..robot.joints.len()).collect();
     let options = RecordOptions {
         rate_hz: 50.0,
@@ -338,7 +325,7 @@ fn a_recording_ends_after_its_duration_with_every_sample_in_order() {
 #[test]
 fn bad_options_are_refused_before_anything_goes_limp() {
     let robot = Robot::builtin("so101").unwrap();
-    let (mut bus, virtual_bus) = in_process(&robot);
+    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
     hold_all(&mut bus, &robot);
     for options in [
         RecordOptions {

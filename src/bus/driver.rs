@@ -598,15 +598,9 @@ mod tests {
 
     fn koch_in_process() -> (NativeBus, VirtualBus, Vec<u8>) {
         let robot = Robot::builtin("koch").unwrap();
-        let servos: Vec<_> = robot
-            .joints
-            .iter()
-            .map(|j| (j.servo.id, j.servo.model))
-            .collect();
-        let virtual_bus = VirtualBus::new(VirtualServos::for_robot(&robot));
-        let transport = MemoryTransport::new(virtual_bus.clone());
-        let bus = NativeBus::new(Box::new(transport), robot.bus.protocol, &servos);
-        (bus, virtual_bus, servos.iter().map(|(id, _)| *id).collect())
+        let (bus, virtual_bus) = VirtualBus::in_process(&robot);
+        let ids = robot.joints.iter().map(|j| j.servo.id).collect();
+        (bus, virtual_bus, ids)
     }
 
     #[test]

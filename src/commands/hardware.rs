@@ -300,6 +300,10 @@ pub struct VirtualBusArgs {
     /// Seconds after start at which the faults take effect.
     #[arg(long, value_name = "SECONDS", default_value_t = 0.0)]
     pub fault_after: f64,
+    /// A hand that moves the arm along this sequence (for the emulated robot) once a servo is
+    /// told to go limp, as a user would for `keypose record`; servos with torque on resist it.
+    #[arg(long, value_name = "SEQ")]
+    pub hand: Option<PathBuf>,
 }
 
 /// A fault for the virtual bus, from the command line.
@@ -345,6 +349,26 @@ fn parse_fault(s: &str) -> Result<FaultSpec, String> {
     Ok(FaultSpec::Servo(id, fault))
 }
 
+/// A hand moving every servo of `robot` along `trajectory` (from its start, in sequence time).
+fn start_hand(
+    bus: &bus::virtual_bus::VirtualBus,
+    robot: &Robot,
+    trajectory: crate::plan::Trajectory,
+) -> bus::virtual_bus::Hand {
+    let ids = robot.joints.iter().map(|j| j.servo.id).collect();
+    let servos: Vec<_> = robot.joints.iter().map(|j| j.servo.clone()).collect();
+    let start = trajectory.start();
+    let duration = trajectory.duration();
+    let mut values = vec![0.0; servos.len()];
+    let path = move |t: f64, ticks: &mut [f64]| {
+        trajectory.sample_into(start + t, &mut values);
+        for ((tick, servo), &value) in ticks.iter_mut().zip(&servos).zip(&values) {
+            *tick = servo.tick_exact(value);
+        }
+    };
+    bus::virtual_bus::Hand::start(bus.clone(), ids, duration, Box::new(path))
+}
+
 /// `keypose virtual-bus`: emulated servos on a pseudo-terminal; the device path is the first
 /// line printed; serves until standard input closes or the process is terminated.
 pub fn virtual_bus(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
@@ -364,7 +388,15 @@ pub fn virtual_bus(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
             }
         }
     }
+    let hand_trajectory = match &args.hand {
+        Some(path) => {
+            let sequence = crate::sequence::Sequence::load(path)?;
+            Some(crate::plan::Trajectory::build(&sequence, &robot)?)
+        }
+        None => None,
+    };
     let server = bus::virtual_bus::PtyServer::start(&robot)?;
+    let _hand = hand_trajectory.map(|trajectory| start_hand(server.bus(), &robot, trajectory));
     println!("{}", server.path());
     // Flush now: the parent reads the path to connect while this process keeps running.
     let _ = std::io::Write::flush(&mut std::io::stdout());

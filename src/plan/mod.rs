@@ -126,6 +126,11 @@ impl Trajectory {
         &self.tracks
     }
 
+    /// Sequence time of the first key played.
+    pub fn start(&self) -> f64 {
+        self.start
+    }
+
     pub fn duration(&self) -> f64 {
         self.end - self.start
     }

@@ -150,8 +150,8 @@ pub fn play(
     let fault = |error: BusError, at: f64| PlayError::Fault {
         joint: error
             .servo()
-            .and_then(|id| robot.joints.iter().find(|j| j.servo.id == id))
-            .map(|j| j.name.clone()),
+            .and_then(|id| robot.joint_of_servo(id))
+            .map(str::to_owned),
         error,
         at,
     };

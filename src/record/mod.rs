@@ -115,8 +115,8 @@ pub fn record(
     let fault = |error: BusError, at: f64| RecordError::Fault {
         joint: error
             .servo()
-            .and_then(|id| robot.joints.iter().find(|j| j.servo.id == id))
-            .map(|j| j.name.clone()),
+            .and_then(|id| robot.joint_of_servo(id))
+            .map(str::to_owned),
         error,
         at,
     };

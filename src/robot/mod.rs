@@ -173,6 +173,14 @@ impl Robot {
         self.joints.iter().position(|j| j.name == name)
     }
 
+    /// The name of the joint driven by servo `id`.
+    pub fn joint_of_servo(&self, id: u8) -> Option<&str> {
+        self.joints
+            .iter()
+            .find(|j| j.servo.id == id)
+            .map(|j| j.name.as_str())
+    }
+
     pub fn joint_names(&self) -> Vec<&str> {
         self.joints.iter().map(|j| j.name.as_str()).collect()
     }

@@ -9,9 +9,11 @@
 //! and for the whole bus (the port disappearing). Every instruction packet received is recorded,
 //! so tests can inspect exactly what reached the servos.
 
+mod hand;
 pub mod motion;
 mod pty;
 
+pub use hand::Hand;
 pub use pty::PtyServer;
 
 use super::packet::{Decoded, Direction, Framing, Packet};
@@ -51,6 +53,8 @@ pub struct VirtualServo {
     pub motion: Motion,
     memory: Vec<u8>,
     pub fault: Option<ServoFault>,
+    /// Writes of 0 to the torque-enable register so far: someone asked the servo to go limp.
+    pub releases: u32,
 }
 
 impl VirtualServo {
@@ -62,6 +66,7 @@ impl VirtualServo {
             motion: Motion::new(model, position),
             memory: vec![0; MEMORY_SIZE],
             fault: None,
+            releases: 0,
         };
         servo.store(table.model_number_register, i64::from(table.model_number));
         servo.store(table.id, i64::from(id));
@@ -137,6 +142,9 @@ impl VirtualServo {
             |r: registers::Register| usize::from(r.address) < end && usize::from(r.end()) > address;
         if touches(table.torque_enable) {
             let on = self.load(table.torque_enable) != 0;
+            if !on {
+                self.releases += 1;
+            }
             // A servo in shutdown keeps torque off until rebooted.
             let shut_down = table.is_dynamixel() && self.alarms().any();
             self.motion.set_torque(on && !shut_down);
@@ -535,6 +543,20 @@ impl VirtualBus {
         // A panic while holding the lock leaves consistent data here (plain values), so a
         // poisoned lock is still usable.
         self.0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Emulated servos for `robot` and the native driver talking to them through an in-memory
+    /// transport: the real packet code on both sides, without a pseudo-terminal.
+    pub fn in_process(robot: &Robot) -> (super::driver::NativeBus, VirtualBus) {
+        let virtual_bus = VirtualBus::new(VirtualServos::for_robot(robot));
+        let servos: Vec<_> = robot
+            .joints
+            .iter()
+            .map(|j| (j.servo.id, j.servo.model))
+            .collect();
+        let transport = super::transport::MemoryTransport::new(virtual_bus.clone());
+        let bus = super::driver::NativeBus::new(Box::new(transport), robot.bus.protocol, &servos);
+        (bus, virtual_bus)
     }
 }
 

@@ -1,0 +1,70 @@
+//! What the command-line tests share: the binary, paths in the repository, a `keypose
+//! virtual-bus` process.
+#![allow(dead_code)] // Each test file uses its own part of this.
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Output, Stdio};
+
+pub fn keypose() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_keypose"))
+}
+
+/// A path inside the repository.
+pub fn repo(path: &str) -> String {
+    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+pub fn stdout(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+pub fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Exit code and both streams, for an assertion message.
+pub fn show(out: &Output) -> String {
+    format!(
+        "exit {:?}\nstdout:\n{}\nstderr:\n{}",
+        out.status.code(),
+        stdout(out),
+        stderr(out)
+    )
+}
+
+/// A `keypose virtual-bus` process and the device path it printed.
+pub struct VirtualBusProcess {
+    pub child: Child,
+    pub path: String,
+}
+
+impl VirtualBusProcess {
+    pub fn start(args: &[&str]) -> VirtualBusProcess {
+        let mut child = keypose()
+            .arg("virtual-bus")
+            .args(args)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .spawn()
+            .expect("start keypose virtual-bus");
+        let stdout = child.stdout.take().expect("stdout");
+        let mut path = String::new();
+        BufReader::new(stdout)
+            .read_line(&mut path)
+            .expect("read the device path");
+        let path = path.trim().to_string();
+        assert!(
+            path.starts_with("/dev/"),
+            "first line is not a device path: {path:?}"
+        );
+        VirtualBusProcess { child, path }
+    }
+}
+
+impl Drop for VirtualBusProcess {
+    fn drop(&mut self) {
+        // Closing standard input ends the server.
+        drop(self.child.stdin.take());
+        let _ = self.child.wait();
+    }
+}
