@@ -55,14 +55,13 @@
 //! best so far; the slope start O(N·J·L·log L) for segments of L samples; a sweep of removals
 //! with slides ~150 window judgements per key, O(K·J·W) — so all of it grows about linearly with
 //! the length of the recording. Measured in a release build on 60 s at 100 Hz × 6 joints of busy
-//! motion (~250–450 keys at 1°): about 1–1.5 s, 1.5–2.5 % of the recording's length (`cargo bench --bench record`,
-//! against top-down greedy insertion: about 30 % fewer keys, 4–10× its time).
+//! motion (250–450 keys at 1°): 0.9–1.4 s, under 2.5 % of the recording's length; against
+//! top-down greedy insertion in the same run, about 30 % fewer keys for 4–10× its time
+//! (`cargo bench --bench record`).
 //!
-//! It is a heuristic, not guaranteed minimal. In random trials, a recording made from 5 keys
-//! taught the usual way (0.5–1.5 s apart, at most 60 °/s between them) came back with 5 keys or
-//! fewer in 99.7 % of cases; with wild keys (0.2 s apart, swings of 100°) 100 % in monotone but
-//! 92 % in cubic, the rest with a few keys more. A looser tolerance can now and then end one key
-//! above a slightly tighter one.
+//! It is a heuristic, not guaranteed minimal: `tests/record_extract.rs` checks that recordings
+//! made from five keys come back with at most five, and that a four times looser tolerance
+//! never needs more keys; between close tolerances the count can now and then go up by one.
 
 use crate::curve::{CurveError, Interp, Track, TrackKey, MIN_MOVING_TIME};
 use std::collections::HashSet;
