@@ -6,6 +6,12 @@ mod common;
 use common::{keypose, show, stdout as text_out};
 use keypose::sequence::{KeyValue, Sequence};
 
+/// `keypose check FILE` exits 0.
+fn assert_passes_check(file: &std::path::Path) {
+    let check = keypose().arg("check").arg(file).output().unwrap();
+    assert_eq!(check.status.code(), Some(0), "{}", show(&check));
+}
+
 #[test]
 fn recording_a_still_virtual_arm_gives_two_keys_at_home_that_pass_check() {
     let dir = tempfile::tempdir().unwrap();
@@ -35,8 +41,7 @@ fn recording_a_still_virtual_arm_gives_two_keys_at_home_that_pass_check() {
     }
     assert_eq!(sequence.keyframes[0].values.len(), 6);
 
-    let check = keypose().arg("check").arg(&file).output().unwrap();
-    assert_eq!(check.status.code(), Some(0), "{}", show(&check));
+    assert_passes_check(&file);
 }
 
 #[test]
@@ -74,8 +79,7 @@ fn recording_some_joints_keeps_the_others_in_the_first_key() {
     };
     assert_eq!(names(0).len(), 6);
     assert_eq!(names(1), ["elbow_flex", "wrist_flex"]);
-    let check = keypose().arg("check").arg(&file).output().unwrap();
-    assert_eq!(check.status.code(), Some(0), "{}", show(&check));
+    assert_passes_check(&file);
 }
 
 #[test]
@@ -200,8 +204,7 @@ fn a_motion_made_by_the_virtual_hand_comes_back_as_a_few_keys_on_its_path() {
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(0), "{}", show(&out));
-    let check = keypose().arg("check").arg(&file).output().unwrap();
-    assert_eq!(check.status.code(), Some(0), "{}", show(&check));
+    assert_passes_check(&file);
     let summary = text_out(&out);
     println!("{summary}");
 

@@ -121,11 +121,20 @@ pub enum PlayError {
     },
 }
 
-fn joint_prefix(joint: &Option<String>) -> String {
+/// "joint NAME: " before a fault's message, when the fault names a servo.
+pub(crate) fn joint_prefix(joint: &Option<String>) -> String {
     joint
         .as_ref()
         .map(|j| format!("joint {j}: "))
         .unwrap_or_default()
+}
+
+/// The joint whose servo a bus error names, if it names one.
+pub(crate) fn faulty_joint(robot: &Robot, error: &BusError) -> Option<String> {
+    error
+        .servo()
+        .and_then(|id| robot.joint_of_servo(id))
+        .map(str::to_owned)
 }
 
 /// Figures from one playback, for the report and the benchmarks.
@@ -148,10 +157,7 @@ pub fn play(
     let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
     let guard = GoalGuard::new(robot);
     let fault = |error: BusError, at: f64| PlayError::Fault {
-        joint: error
-            .servo()
-            .and_then(|id| robot.joint_of_servo(id))
-            .map(str::to_owned),
+        joint: faulty_joint(robot, &error),
         error,
         at,
     };

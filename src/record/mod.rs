@@ -13,7 +13,7 @@ use crate::bus::{BusError, ServoBus};
 use crate::curve::Interp;
 use crate::json::InputError;
 use crate::plan::{check, retime, CheckReport, LimitKind, Trajectory};
-use crate::player::StopSignal;
+use crate::player::{faulty_joint, joint_prefix, StopSignal};
 use crate::robot::{JointKind, Robot};
 use crate::sequence::{Ends, KeyValue, Keyframe, Sequence};
 use extract::ExtractError;
@@ -88,13 +88,6 @@ pub enum RecordError {
     Sequence(#[from] InputError),
 }
 
-fn joint_prefix(joint: &Option<String>) -> String {
-    joint
-        .as_ref()
-        .map(|j| format!("joint {j}: "))
-        .unwrap_or_default()
-}
-
 /// Limps `options.joints` and samples every joint's present position at `options.rate_hz`,
 /// paced by absolute deadlines, until `stop` is requested or the duration has passed; then
 /// writes each limp joint's present position as its goal and turns its torque back on, so the
@@ -113,10 +106,7 @@ pub fn record(
         .map(|&j| robot.joints[j].servo.id)
         .collect();
     let fault = |error: BusError, at: f64| RecordError::Fault {
-        joint: error
-            .servo()
-            .and_then(|id| robot.joint_of_servo(id))
-            .map(str::to_owned),
+        joint: faulty_joint(robot, &error),
         error,
         at,
     };
