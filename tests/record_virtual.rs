@@ -370,3 +370,67 @@ fn bad_options_are_refused_before_anything_goes_limp() {
         .iter()
         .all(|j| torque(&virtual_bus, j.servo.id)));
 }
+
+#[test]
+fn a_joint_pushed_past_its_limit_is_held_at_the_limit_or_left_limp_never_sent_past_it() {
+    // The hand (the virtual bus's own) pushes the elbow 10° past its upper limit and the wrist
+    // 1° past its own, once they go limp. At the end no goal may go past a limit: the wrist,
+    // within the 2° slack the player also allows, is held at its limit (a 1° move); the elbow
+    // would need a 10° jump, so it stays limp and the error names it.
+    let robot = Robot::builtin("so101").unwrap();
+    let elbow = robot.joint_index("elbow_flex").unwrap();
+    let wrist = robot.joint_index("wrist_flex").unwrap();
+    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
+    hold_all(&mut bus, &robot);
+    let servos = [&robot.joints[elbow], &robot.joints[wrist]];
+    let beyond = [servos[0].limits.max + 10.0, servos[1].limits.max + 1.0];
+    let ticks: Vec<f64> = servos
+        .iter()
+        .zip(beyond)
+        .map(|(joint, value)| joint.servo.tick_exact(value))
+        .collect();
+    let ids = servos.iter().map(|j| j.servo.id).collect();
+    let _hand = keypose::bus::virtual_bus::Hand::start(
+        virtual_bus.clone(),
+        ids,
+        0.0,
+        Box::new(move |_, out: &mut [f64]| out.copy_from_slice(&ticks)),
+    );
+    let options = RecordOptions {
+        rate_hz: 100.0,
+        joints: vec![elbow, wrist],
+        duration: Some(0.3),
+        progress: false,
+    };
+    let recording = record(&mut bus, &robot, &options, &StopSignal::default()).unwrap();
+    // The recording saw the hand's poses (to a tick).
+    let last = |j: usize| *recording.values[j].last().unwrap();
+    assert!((last(elbow) - beyond[0]).abs() < 0.1, "{}", last(elbow));
+    assert!((last(wrist) - beyond[1]).abs() < 0.1, "{}", last(wrist));
+    match &recording.hold_error {
+        Some(keypose::record::HoldError::OutsideLimits(joints)) => {
+            assert_eq!(joints, &["elbow_flex"])
+        }
+        other => panic!("expected the elbow left limp, got {other:?}"),
+    }
+    assert!(!torque(&virtual_bus, servos[0].servo.id));
+    assert!(torque(&virtual_bus, servos[1].servo.id));
+    // Every goal the servos received, decoded from the bytes: inside the limits. The wrist's
+    // last one is its limit.
+    let goals = virtual_bus.lock().goals_received();
+    for &(id, tick) in &goals {
+        let joint = robot.joints.iter().find(|j| j.servo.id == id).unwrap();
+        let value = joint.servo.value(tick);
+        assert!(joint.limits.contains(value), "{} got {value}", joint.name);
+    }
+    let wrist_goal = goals
+        .iter()
+        .rev()
+        .find(|(id, _)| *id == servos[1].servo.id)
+        .map(|&(_, tick)| servos[1].servo.value(tick))
+        .unwrap();
+    assert!(
+        (wrist_goal - servos[1].limits.max).abs() < 0.1,
+        "{wrist_goal}"
+    );
+}

@@ -141,3 +141,63 @@ fn y_plays_and_a_second_y_stops_along_the_path() {
     press(&mut state, &mut session, Key::Right);
     assert!(!state.status().error, "{}", state.status().text);
 }
+
+#[test]
+fn a_joint_pushed_far_past_its_limit_is_not_held_until_moved_inside() {
+    // Torque on where a joint is would need a goal outside its limits, and pulling it to the
+    // limit at once would be a jump: `t` says so and leaves it limp. A joint just past (within
+    // the player's 2° start slack) is held at its limit. No goal past a limit reaches a servo.
+    let robot = Robot::builtin("so101").unwrap();
+    let (server, mut session) = open(&robot);
+    let mut state = start(&robot, &mut session);
+    let pan = &robot.joints[0];
+    let server = server.as_ref().expect("virtual servos");
+    let push = |value: f64| {
+        server
+            .bus()
+            .lock()
+            .servo_mut(pan.servo.id)
+            .unwrap()
+            .motion
+            .push_to(pan.servo.tick_exact(value))
+    };
+    press(&mut state, &mut session, Key::Char('t'));
+    assert!(!state.torque()[0]);
+    push(pan.limits.max + 10.0);
+    let events = teach::press(&mut state, &mut session, Key::Char('t'));
+    assert!(
+        events
+            .iter()
+            .any(|e| matches!(e, Event::BusError(m) if m.contains("shoulder_pan"))),
+        "{events:?}"
+    );
+    assert!(!state.torque()[0], "{}", state.status().text);
+    assert!(
+        !server
+            .bus()
+            .lock()
+            .servo_mut(pan.servo.id)
+            .unwrap()
+            .motion
+            .torque
+    );
+
+    push(pan.limits.max + 1.0);
+    press(&mut state, &mut session, Key::Char('t'));
+    assert!(state.torque()[0], "{}", state.status().text);
+    let goals = server.bus().lock().goals_received();
+    let (_, last) = goals
+        .iter()
+        .rev()
+        .find(|(id, _)| *id == pan.servo.id)
+        .unwrap();
+    assert!((pan.servo.value(*last) - pan.limits.max).abs() < 0.1);
+    for (id, tick) in goals {
+        let joint = robot.joints.iter().find(|j| j.servo.id == id).unwrap();
+        assert!(
+            joint.limits.contains(joint.servo.value(tick)),
+            "{}",
+            joint.name
+        );
+    }
+}

@@ -186,12 +186,29 @@ impl NativeBus {
 
     /// The next status packet from `id`, or a timeout.
     fn receive(&mut self, id: u8) -> Result<Packet, BusError> {
+        self.receive_answer(id, None)
+    }
+
+    /// The next status packet from `id` carrying `data_bytes` bytes (when given), or a timeout.
+    /// Status packets carry no request number, so a packet from the right servo with another
+    /// length and no error is a late answer to an earlier request (the input was cleared when
+    /// this one was sent, but a servo can answer after that): it is skipped, and named only if
+    /// nothing better comes.
+    fn receive_answer(&mut self, id: u8, data_bytes: Option<usize>) -> Result<Packet, BusError> {
         let deadline = Instant::now() + self.timeout;
         let mut corrupt: Option<PacketError> = None;
+        let mut stale: Option<usize> = None;
         let mut chunk = [0u8; 512];
         loop {
             while self.strip_echo() {
                 match self.framing.decode(&mut self.rx, Direction::FromServo) {
+                    Ok(Decoded::Packet(packet))
+                        if packet.id == id
+                            && data_bytes.is_some_and(|n| packet.params.len() != n)
+                            && packet.error().unwrap_or(0) == 0 =>
+                    {
+                        stale = Some(packet.params.len());
+                    }
                     Ok(Decoded::Packet(packet)) if packet.id == id => return Ok(packet),
                     // Another servo's late answer: not ours.
                     Ok(Decoded::Packet(_)) => continue,
@@ -206,12 +223,16 @@ impl NativeBus {
                 .read_until(&mut chunk, deadline)
                 .map_err(|e| self.port_error(e))?;
             if n == 0 {
-                return Err(match corrupt {
-                    Some(e) => BusError::Corrupt {
+                return Err(match (corrupt, stale, data_bytes) {
+                    (Some(e), _, _) => BusError::Corrupt {
                         id,
                         detail: e.to_string(),
                     },
-                    None => BusError::Timeout {
+                    (None, Some(found), Some(asked)) => BusError::Corrupt {
+                        id,
+                        detail: format!("{found} data bytes where {asked} were asked"),
+                    },
+                    _ => BusError::Timeout {
                         id,
                         timeout_ms: self.timeout.as_millis() as u64,
                     },
@@ -232,15 +253,22 @@ impl NativeBus {
         let register = self.table(id)?.hardware_error;
         let params = self.read_params(register.address, u16::from(register.size))?;
         self.send(id, dynamixel::READ, &params)?;
-        let packet = self.receive(id)?;
+        let packet = self.receive_answer(id, Some(usize::from(register.size)))?;
         let raw = packet.params.first().copied().unwrap_or(0);
         Ok(dynamixel::hardware_error_alarms(raw))
     }
 
-    /// One instruction to one servo and its answer, checked.
-    fn transaction(&mut self, id: u8, instruction: u8, params: &[u8]) -> Result<Packet, BusError> {
+    /// One instruction to one servo and its answer (with `data_bytes` of data, when given),
+    /// checked.
+    fn transaction(
+        &mut self,
+        id: u8,
+        instruction: u8,
+        params: &[u8],
+        data_bytes: Option<usize>,
+    ) -> Result<Packet, BusError> {
         self.send(id, instruction, params)?;
-        let packet = self.receive(id)?;
+        let packet = self.receive_answer(id, data_bytes)?;
         self.check_status(&packet)?;
         Ok(packet)
     }
@@ -292,7 +320,8 @@ impl NativeBus {
             // SCS servos do not answer Sync Read (PROTOCOLS.md §2.2).
             for &id in ids {
                 let params = self.read_params(address, length)?;
-                let packet = self.transaction(id, feetech::READ, &params)?;
+                let packet =
+                    self.transaction(id, feetech::READ, &params, Some(usize::from(length)))?;
                 check_length(&packet)?;
                 blocks.push(packet.params);
             }
@@ -308,7 +337,7 @@ impl NativeBus {
         // Each servo answers with its own status packet, in list order.
         let mut first_error = None;
         for &id in ids {
-            let packet = self.receive(id)?;
+            let packet = self.receive_answer(id, Some(usize::from(length)))?;
             if let Err(e) = self.check_status_passive(&packet) {
                 first_error.get_or_insert(e);
             }
@@ -469,7 +498,8 @@ impl ServoBus for NativeBus {
                 // Feetech's ping answer carries no model: read the model number register.
                 let register = registers::table(ServoModel::Sts3215).model_number_register;
                 let params = self.read_params(register.address, u16::from(register.size))?;
-                let packet = self.transaction(id, feetech::READ, &params)?;
+                let packet =
+                    self.transaction(id, feetech::READ, &params, Some(usize::from(register.size)))?;
                 let order = registers::ByteOrder::of(self.protocol);
                 let model_number =
                     register
@@ -521,7 +551,7 @@ impl ServoBus for NativeBus {
                 .encode(&register, i64::from(on))
                 .map_err(|e| BusError::Protocol(e.to_string()))?;
             let params = self.write_params(register.address, &data)?;
-            self.transaction(id, write, &params)?;
+            self.transaction(id, write, &params, None)?;
         }
         Ok(())
     }
@@ -593,6 +623,69 @@ mod tests {
             let mut out = vec![(Duration::ZERO, written.to_vec())];
             out.extend(self.0.lock().handle(written));
             out
+        }
+    }
+
+    /// Before every answer, a late answer of servo `id` to an earlier request: a status packet
+    /// with 3 data bytes, a length no position read asks for. With `answer` false, only that.
+    struct LateAnswerFirst {
+        bus: VirtualBus,
+        framing: Box<dyn Framing + Send>,
+        id: u8,
+        answer: bool,
+    }
+
+    impl Responder for LateAnswerFirst {
+        fn respond(&mut self, written: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+            let stale = self.framing.encode_status(self.id, 0, &[0x11; 3]);
+            let mut out = vec![(Duration::ZERO, stale)];
+            let answers = self.bus.lock().handle(written);
+            if self.answer {
+                out.extend(answers);
+            }
+            out
+        }
+    }
+
+    #[test]
+    fn a_late_answer_to_an_earlier_request_is_skipped_by_its_length() {
+        for name in ["so101", "koch"] {
+            let robot = Robot::builtin(name).unwrap();
+            let servos: Vec<_> = robot
+                .joints
+                .iter()
+                .map(|j| (j.servo.id, j.servo.model))
+                .collect();
+            let ids: Vec<u8> = servos.iter().map(|(id, _)| *id).collect();
+            let connect = |answer: bool| {
+                let framing: Box<dyn Framing + Send> = match robot.bus.protocol {
+                    Protocol::Dynamixel2 => Box::new(dynamixel::Dynamixel2),
+                    _ => Box::new(feetech::Feetech),
+                };
+                let responder = LateAnswerFirst {
+                    bus: VirtualBus::new(VirtualServos::for_robot(&robot)),
+                    framing,
+                    id: ids[0],
+                    answer,
+                };
+                let transport = MemoryTransport::new(responder);
+                NativeBus::new(Box::new(transport), robot.bus.protocol, &servos)
+            };
+            let home: Vec<i64> = robot
+                .joints
+                .iter()
+                .zip(&robot.home)
+                .map(|(j, h)| j.servo.tick(*h).unwrap())
+                .collect();
+            assert_eq!(connect(true).read_positions(&ids).unwrap(), home, "{name}");
+            // Nothing but the late answer: reported as what it is, not as a silent timeout.
+            match connect(false).read_positions(&ids) {
+                Err(BusError::Corrupt { id, detail }) => {
+                    assert_eq!(id, ids[0], "{name}");
+                    assert!(detail.contains("3 data bytes"), "{name}: {detail}");
+                }
+                other => panic!("{name}: expected a corrupt answer, got {other:?}"),
+            }
         }
     }
 

@@ -132,9 +132,30 @@ pub fn torque(args: &TorqueArgs) -> Result<Verdict, CommandError> {
     let mut connection = args.bus.connect(&robot, required_port(&args.bus)?)?;
     let on = args.state == OnOff::On;
     if on {
-        // Torque on must hold where the arm is: set the goals to the present positions first.
+        // Torque on must hold where the arm is: set the goals to the present positions first,
+        // and only where a goal may go.
         let ticks = connection.bus.read_positions(&ids)?;
-        let goals: Vec<(u8, i64)> = ids.iter().copied().zip(ticks).collect();
+        let mut goals = Vec::with_capacity(ids.len());
+        for (&id, &tick) in ids.iter().zip(&ticks) {
+            let joint = robot
+                .joints
+                .iter()
+                .find(|j| j.servo.id == id)
+                .ok_or_else(|| CommandError::Usage(format!("no joint drives servo {id}")))?;
+            let present = joint.servo.value(tick);
+            let goal = crate::player::hold_value(joint, present)
+                .and_then(|value| joint.goal_tick(value).ok())
+                .ok_or_else(|| {
+                    CommandError::Usage(format!(
+                        "{} is at {present:.2} {}, past its limits {} … {}: move it inside by hand first (nothing was sent)",
+                        joint.name,
+                        joint.kind.unit(),
+                        joint.limits.min,
+                        joint.limits.max
+                    ))
+                })?;
+            goals.push((id, goal));
+        }
         connection.bus.write_goals(&goals)?;
     }
     connection.bus.set_torque(&ids, on)?;

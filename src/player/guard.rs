@@ -3,7 +3,18 @@
 //! Plans are checked before playback, so a goal outside the limits here is a bug; the player
 //! stops rather than send it.
 
-use crate::robot::Robot;
+use super::position_slack;
+use crate::robot::{Joint, Robot};
+
+/// Where to hold a joint measured at `present` when its torque comes on: where it is, or at the
+/// limit it is a little past (within [`position_slack`]). None when it is further past: a goal
+/// there is forbidden, and pulling it to the limit at once would be a jump, so it must be moved
+/// inside by hand first.
+pub fn hold_value(joint: &Joint, present: f64) -> Option<f64> {
+    let excess = (joint.limits.min - present).max(present - joint.limits.max);
+    (excess <= position_slack(joint.kind))
+        .then(|| present.clamp(joint.limits.min, joint.limits.max))
+}
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("refusing to send joint {joint} to {value}: outside its limits {min} … {max} (a bug; nothing was sent)")]
@@ -37,12 +48,8 @@ impl<'a> GoalGuard<'a> {
                     min: joint.limits.min,
                     max: joint.limits.max,
                 };
-                if !joint.limits.contains(value) {
-                    return Err(breach());
-                }
                 joint
-                    .servo
-                    .tick(value)
+                    .goal_tick(value)
                     .map(|tick| (joint.servo.id, tick))
                     .map_err(|_| breach())
             })

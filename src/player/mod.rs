@@ -13,27 +13,33 @@ mod guard;
 mod log;
 mod timeline;
 
-pub use guard::{GoalGuard, LimitBreach};
+pub use guard::{hold_value, GoalGuard, LimitBreach};
 pub use timeline::{Loops, Phase, Timeline};
 
 use crate::bus::{BusError, ServoBus};
 use crate::plan::Trajectory;
-use crate::robot::Robot;
+use crate::robot::{JointKind, Robot};
 use std::io::Write;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// How far outside its limits a joint may be measured at the start and still be ramped from
-/// (the ramp then starts at the limit): calibration and backlash put a resting arm a little
-/// outside now and then; anything further is a real problem to solve by hand.
-pub const START_OUTSIDE_TOLERANCE_DEG: f64 = 2.0;
+/// How far a measured joint may be from where it should be and still count as there, in its
+/// unit: how far outside its limits it may start and still be ramped from (the ramp then
+/// starts at the limit; calibration and backlash put a resting arm a little outside now and
+/// then, anything further is a real problem to solve by hand), and how close it must come to
+/// the final pose before `--release-at-end` releases it.
+pub fn position_slack(kind: JointKind) -> f64 {
+    match kind {
+        JointKind::Revolute => 2.0,
+        // A gripper's travel is a few centimetres: 2 mm is as coarse as 2° on a joint.
+        JointKind::Prismatic => 0.002,
+    }
+}
 /// Consecutive failed read-backs that count as a fault.
 pub const MAX_READ_FAILURES: u32 = 3;
-/// How close (in joint units) the arm must come to the final pose before `--release-at-end`
-/// releases torque, and how long to wait for it.
-pub const RELEASE_TOLERANCE: f64 = 2.0;
+/// How long `--release-at-end` waits for the arm to reach the final pose.
 pub const RELEASE_WAIT: Duration = Duration::from_secs(3);
 
 #[derive(Debug, Clone)]
@@ -107,12 +113,14 @@ pub enum PlayError {
     },
     #[error(transparent)]
     Limit(#[from] LimitBreach),
-    #[error("joint {joint} is at {value:.2}, outside its limits {min} … {max} by more than {START_OUTSIDE_TOLERANCE_DEG}: move it inside by hand (torque off) and start again")]
+    #[error("joint {joint} is at {value:.3} {unit}, outside its limits {min} … {max} by more than {slack}: move it inside by hand (torque off) and start again")]
     StartOutsideLimits {
         joint: String,
         value: f64,
         min: f64,
         max: f64,
+        unit: &'static str,
+        slack: f64,
     },
     #[error("cannot write log {path}: {source}")]
     Log {
@@ -323,12 +331,15 @@ pub fn clamp_start(robot: &Robot, measured: &[f64]) -> Result<Vec<f64>, PlayErro
         .zip(measured)
         .map(|(j, &v)| {
             let outside = (j.limits.min - v).max(v - j.limits.max);
-            if outside > START_OUTSIDE_TOLERANCE_DEG {
+            let slack = position_slack(j.kind);
+            if outside > slack {
                 Err(PlayError::StartOutsideLimits {
                     joint: j.name.clone(),
                     value: v,
                     min: j.limits.min,
                     max: j.limits.max,
+                    unit: j.kind.unit(),
+                    slack,
                 })
             } else {
                 Ok(v.clamp(j.limits.min, j.limits.max))
@@ -373,7 +384,8 @@ fn release_when_reached(
         let reached = pose
             .iter()
             .zip(goal)
-            .all(|(p, g)| (p - g).abs() <= RELEASE_TOLERANCE);
+            .zip(&robot.joints)
+            .all(|((p, g), joint)| (p - g).abs() <= position_slack(joint.kind));
         if reached {
             return bus.set_torque(ids, false);
         }

@@ -13,7 +13,7 @@ use crate::bus::{BusError, ServoBus};
 use crate::curve::Interp;
 use crate::json::InputError;
 use crate::plan::{check, retime, CheckReport, LimitKind, Trajectory};
-use crate::player::{faulty_joint, joint_prefix, StopSignal};
+use crate::player::{faulty_joint, hold_value, joint_prefix, StopSignal};
 use crate::robot::{JointKind, Robot};
 use crate::sequence::{Ends, KeyValue, Keyframe, Sequence};
 use extract::ExtractError;
@@ -65,9 +65,9 @@ pub struct Recording {
     pub recorded: Vec<bool>,
     pub rate_hz: f64,
     pub stopped: StopReason,
-    /// Set when the recording is complete but the limp joints could not be made to hold again:
-    /// the arm may still be limp.
-    pub hold_error: Option<BusError>,
+    /// Set when the recording is complete but the limp joints could not all be made to hold
+    /// again: some may still be limp.
+    pub hold_error: Option<HoldError>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -114,11 +114,11 @@ pub fn record(
     let mut last_ticks = bus.read_positions(&all).map_err(|e| fault(e, 0.0))?;
     if let Err(e) = bus.set_torque(&limp, false) {
         // Some servos may have gone limp before the failure: make them hold again.
-        let _ = hold_where_they_are(bus, &all, &limp, &last_ticks);
+        let _ = hold_where_they_are(bus, robot, &options.joints, &last_ticks);
         return Err(fault(e, 0.0));
     }
     let sampled = sample(bus, robot, options, stop, &all, &mut last_ticks);
-    let hold = hold_where_they_are(bus, &all, &limp, &last_ticks);
+    let hold = hold_where_they_are(bus, robot, &options.joints, &last_ticks);
     let (times, values, stopped) = match sampled {
         Ok(s) => s,
         Err((error, at)) => return Err(fault(error, at)),
@@ -261,40 +261,59 @@ fn print_progress(seconds: f64, samples: usize) {
     let _ = err.flush();
 }
 
-/// Goal = present position for each limp servo, then torque on: the arm neither drops nor jumps.
-/// Falls back to the last sampled position if the present one cannot be read. Returns the first
-/// failure.
+/// Why the limp joints could not all be made to hold again.
+#[derive(Debug, thiserror::Error)]
+pub enum HoldError {
+    #[error(transparent)]
+    Bus(#[from] BusError),
+    /// Holding these where they are would need a goal outside their limits, and pulling them
+    /// inside at once would be a jump: they stay limp.
+    #[error("{} left limp: pushed past {} limits, where no goal may go; move {} inside by hand, then `keypose torque on`", .0.join(", "), if .0.len() == 1 { "its" } else { "their" }, if .0.len() == 1 { "it" } else { "them" })]
+    OutsideLimits(Vec<String>),
+}
+
+/// Goal = present position for each limp joint, then torque on: the arm neither drops nor
+/// jumps. A joint a little past a limit (within the player's start slack) is held at the limit;
+/// one further past stays limp, since no goal may go outside the limits. Falls back to the last
+/// sampled positions if the present ones cannot be read, and carries on past a servo that
+/// fails, so that one does not leave the others limp. Returns the first problem.
 fn hold_where_they_are(
     bus: &mut dyn ServoBus,
-    all: &[u8],
-    limp: &[u8],
+    robot: &Robot,
+    limp: &[usize],
     last_ticks: &[i64],
-) -> Result<(), BusError> {
-    let ticks = match bus.read_positions(limp) {
-        Ok(ticks) => ticks,
-        Err(_) => limp
-            .iter()
-            .map(|id| {
-                all.iter()
-                    .position(|a| a == id)
-                    .and_then(|i| last_ticks.get(i).copied())
-                    .unwrap_or_default()
-            })
-            .collect(),
+) -> Result<(), HoldError> {
+    let ids: Vec<u8> = limp.iter().map(|&j| robot.joints[j].servo.id).collect();
+    let ticks: Vec<Option<i64>> = match bus.read_positions(&ids) {
+        Ok(ticks) => ticks.into_iter().map(Some).collect(),
+        Err(_) => limp.iter().map(|&j| last_ticks.get(j).copied()).collect(),
     };
-    let goals: Vec<(u8, i64)> = limp.iter().copied().zip(ticks).collect();
+    let mut goals = Vec::with_capacity(limp.len());
+    let mut outside = Vec::new();
+    for (&j, tick) in limp.iter().zip(ticks) {
+        let joint = &robot.joints[j];
+        let goal = tick
+            .and_then(|tick| hold_value(joint, joint.servo.value(tick)))
+            .and_then(|value| joint.goal_tick(value).ok());
+        match goal {
+            Some(goal) => goals.push((joint.servo.id, goal)),
+            None => outside.push(joint.name.clone()),
+        }
+    }
     // Without this write, torque on would drive each servo to its stale goal: limp is safer
     // than a jump, so a failure here leaves the torque off.
     bus.write_goals(&goals)?;
-    // Servo by servo, on past a failure: one servo that does not answer must not leave the
-    // others limp.
     let mut first_error = None;
-    for &id in limp {
+    for &(id, _) in &goals {
         if let Err(e) = bus.set_torque(&[id], true) {
             first_error.get_or_insert(e);
         }
     }
-    first_error.map_or(Ok(()), Err)
+    match (first_error, outside.is_empty()) {
+        (Some(e), _) => Err(e.into()),
+        (None, false) => Err(HoldError::OutsideLimits(outside)),
+        (None, true) => Ok(()),
+    }
 }
 
 #[derive(Debug, Clone, Copy)]

@@ -93,6 +93,23 @@ pub struct Joint {
 }
 
 impl Joint {
+    /// The tick to command for `value`: the nearest tick whose value is inside the limits too.
+    /// Plain rounding can land up to half a tick past a limit that `value` sits on.
+    pub fn goal_tick(&self, value: f64) -> Result<i64, TickError> {
+        let outside = TickError::OutsideLimits {
+            value,
+            min: self.limits.min,
+            max: self.limits.max,
+        };
+        if !self.limits.contains(value) {
+            return Err(outside);
+        }
+        let tick = self.servo.tick(value)?;
+        [tick, tick - 1, tick + 1]
+            .into_iter()
+            .find(|&t| self.limits.contains(self.servo.value(t)))
+            .ok_or(outside)
+    }
     /// The joint's motion for a joint value (degrees or metres).
     pub fn motion(&self, value: f64) -> RigidTransform {
         match self.kind {

@@ -74,6 +74,8 @@ pub enum TickError {
     OutOfRange { tick: i64, min: i64, max: i64 },
     #[error("joint value {0} has no tick: it is not a finite number")]
     NotFinite(f64),
+    #[error("joint value {value} is outside the limits {min} … {max}")]
+    OutsideLimits { value: f64, min: f64, max: f64 },
 }
 
 impl PositionEncoding {

@@ -10,7 +10,7 @@
 
 use super::state::{tidy, Command, Event, MotionPlan};
 use crate::bus::{BusError, ServoBus};
-use crate::player::{self, Outcome, PlayError, StopSignal};
+use crate::player::{self, hold_value, Outcome, PlayError, StopSignal};
 use crate::robot::Robot;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
@@ -167,29 +167,54 @@ impl Session {
 
     /// Torque on without a jump: the goal is set to where each joint is (rounded as a captured
     /// value is, within a tick) before torque comes on.
+    /// Torque on where the joints are (rounded, inside the limits). A joint pushed further past
+    /// a limit than the player's start slack is left as it is: holding it would need a goal
+    /// outside the limits, and pulling it inside at once would be a jump.
     fn hold(&mut self, joints: Vec<usize>) -> Result<Vec<Event>, BusError> {
         let ids: Vec<u8> = joints.iter().map(|&j| self.ids[j]).collect();
-        let bus = self.bus_mut()?;
-        let ticks = bus.read_positions(&ids)?;
-        let mut values = Vec::with_capacity(joints.len());
-        let mut goals = Vec::with_capacity(joints.len());
+        let ticks = self.bus_mut()?.read_positions(&ids)?;
+        let (mut held, mut values, mut goals, mut outside) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (&j, &tick) in joints.iter().zip(&ticks) {
             let joint = &self.robot.joints[j];
-            let value = tidy(joint, joint.servo.value(tick));
-            let goal = joint.servo.tick(value).map_err(|e| {
+            let Some(value) = hold_value(joint, joint.servo.value(tick)) else {
+                outside.push(joint.name.as_str());
+                continue;
+            };
+            let value = tidy(joint, value);
+            let goal = joint.goal_tick(value).map_err(|e| {
                 BusError::Protocol(format!("joint {}: cannot hold: {e}", joint.name))
             })?;
+            held.push(j);
             values.push(value);
             goals.push((joint.servo.id, goal));
         }
+        let mut events = Vec::new();
+        if !outside.is_empty() {
+            events.push(Event::BusError(format!(
+                "{} past the limits: left as is; move inside by hand, then t",
+                outside.join(", ")
+            )));
+        }
+        if held.is_empty() {
+            return Ok(events);
+        }
+        let held_ids: Vec<u8> = goals.iter().map(|&(id, _)| id).collect();
         let bus = self.bus_mut()?;
         bus.write_goals(&goals)?;
-        bus.set_torque(&ids, true)?;
-        for (&j, &(_, goal)) in joints.iter().zip(&goals) {
+        bus.set_torque(&held_ids, true)?;
+        for (&j, &(_, goal)) in held.iter().zip(&goals) {
             self.torque[j] = true;
             self.goal_ticks[j] = Some(goal);
         }
-        Ok(vec![Event::Held { joints, values }])
+        events.insert(
+            0,
+            Event::Held {
+                joints: held,
+                values,
+            },
+        );
+        Ok(events)
     }
 
     fn release(&mut self, joints: Vec<usize>) -> Result<Vec<Event>, BusError> {
@@ -207,16 +232,12 @@ impl Session {
         for &(j, value) in &goals {
             let joint = &self.robot.joints[j];
             // The state clamps jogs; this is the last line before the wire, as in the player.
-            if !joint.limits.contains(value) {
-                return Err(BusError::Protocol(format!(
-                    "refusing to send joint {} to {value}: outside its limits (nothing was sent)",
+            let tick = joint.goal_tick(value).map_err(|e| {
+                BusError::Protocol(format!(
+                    "refusing to send joint {}: {e} (nothing was sent)",
                     joint.name
-                )));
-            }
-            let tick = joint
-                .servo
-                .tick(value)
-                .map_err(|e| BusError::Protocol(format!("joint {}: {e}", joint.name)))?;
+                ))
+            })?;
             ticks.push((joint.servo.id, tick));
         }
         self.bus_mut()?.write_goals(&ticks)?;
