@@ -601,21 +601,10 @@ mod tests {
     }
 
     fn decode_all(buf: &mut Vec<u8>, direction: Direction) -> Vec<Result<Packet, PacketError>> {
-        let mut out = Vec::new();
-        loop {
-            let before = buf.len();
-            match Dynamixel2.decode(buf, direction) {
-                Ok(Decoded::NeedMore) => return out,
-                Ok(Decoded::Packet(p)) => out.push(Ok(p)),
-                Err(e) => out.push(Err(e)),
-            }
-            assert!(buf.len() < before, "a decoding step consumed nothing");
-        }
+        crate::bus::packet::test_support::decode_all(&Dynamixel2, buf, direction)
     }
 
-    fn packets(results: Vec<Result<Packet, PacketError>>) -> Vec<Packet> {
-        results.into_iter().filter_map(Result::ok).collect()
-    }
+    use crate::bus::packet::test_support::packets;
 
     #[test]
     fn crc_check_value_of_crc16_umts() {

@@ -283,6 +283,36 @@ pub(crate) fn seek_header(buf: &mut Vec<u8>, header: &[u8]) -> bool {
     false
 }
 
+/// Decoding helpers the codecs' tests share.
+#[cfg(test)]
+pub(crate) mod test_support {
+    use super::{Decoded, Direction, Framing, Packet, PacketError};
+
+    /// Every result `framing` decodes from `buf` until it needs more bytes. Panics if a step
+    /// consumes nothing: the driver's receive loop would spin on such input.
+    pub fn decode_all(
+        framing: &dyn Framing,
+        buf: &mut Vec<u8>,
+        direction: Direction,
+    ) -> Vec<Result<Packet, PacketError>> {
+        let mut out = Vec::new();
+        loop {
+            let before = buf.len();
+            match framing.decode(buf, direction) {
+                Ok(Decoded::NeedMore) => return out,
+                Ok(Decoded::Packet(p)) => out.push(Ok(p)),
+                Err(e) => out.push(Err(e)),
+            }
+            assert!(buf.len() < before, "a decoding step consumed nothing");
+        }
+    }
+
+    /// The packets among decoding results.
+    pub fn packets(results: Vec<Result<Packet, PacketError>>) -> Vec<Packet> {
+        results.into_iter().filter_map(Result::ok).collect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
