@@ -125,8 +125,14 @@ fn every_injected_fault_ends_playback_with_a_report_and_exit_code_3() {
     let runs: Vec<_> = cases
         .iter()
         .map(|&(robot, fault, _)| {
-            // Both arms name their third joint (servo 3) elbow_flex.
-            let sequence = long_sequence(dir.path(), robot, "elbow_flex");
+            // Both arms name their third joint (servo 3) elbow_flex. Written once per robot:
+            // writing it again for the next case would race with a run still reading it.
+            let sequence = dir.path().join(format!("{robot}_long.json"));
+            let sequence = if sequence.exists() {
+                sequence.display().to_string()
+            } else {
+                long_sequence(dir.path(), robot, "elbow_flex")
+            };
             std::thread::spawn(move || {
                 let server = VirtualBusProcess::start(&[
                     "--robot",

@@ -39,6 +39,33 @@ pub fn position_slack(kind: JointKind) -> f64 {
 }
 /// Consecutive failed read-backs that count as a fault.
 pub const MAX_READ_FAILURES: u32 = 3;
+
+/// Consecutive failed reads. One lost answer is skipped; [`MAX_READ_FAILURES`] in a row are a
+/// fault, reported by the failure that began the streak: on a shared bus a late answer from one
+/// servo delays the others' answers, so the later failures name servos that did nothing wrong.
+/// A port that is gone or an alarm is a fault at once.
+#[derive(Debug, Default)]
+pub struct ReadStreak {
+    failures: u32,
+    first: Option<BusError>,
+}
+
+impl ReadStreak {
+    pub fn succeeded(&mut self) {
+        *self = ReadStreak::default();
+    }
+
+    /// Counts a failed read; returns the error to stop with when it ends the tolerance.
+    pub fn failed(&mut self, error: BusError) -> Option<BusError> {
+        if matches!(error, BusError::Port { .. } | BusError::Alarm { .. }) {
+            return Some(error);
+        }
+        self.failures += 1;
+        let first = self.first.get_or_insert(error);
+        (self.failures >= MAX_READ_FAILURES)
+            .then(|| std::mem::replace(first, BusError::Protocol(String::new())))
+    }
+}
 /// How long `--release-at-end` waits for the arm to reach the final pose.
 pub const RELEASE_WAIT: Duration = Duration::from_secs(3);
 
@@ -192,8 +219,7 @@ pub fn play(
     };
     let mut pose = vec![0.0; robot.joints.len()];
     let mut last_goal = measured.clone();
-    let mut read_failures = 0;
-    let mut first_read_failure: Option<BusError> = None;
+    let mut reads = ReadStreak::default();
     let mut stops_seen = 0;
     let mut last_progress = Instant::now() - Duration::from_secs(1);
     let mut cycle: u64 = 0;
@@ -236,8 +262,7 @@ pub fn play(
         {
             match bus.read_positions(&ids) {
                 Ok(ticks) => {
-                    read_failures = 0;
-                    first_read_failure = None;
+                    reads.succeeded();
                     let values: Vec<f64> = robot
                         .joints
                         .iter()
@@ -246,30 +271,32 @@ pub fn play(
                         .collect();
                     measured_now = Some(values);
                 }
-                Err(e @ BusError::Port { .. }) | Err(e @ BusError::Alarm { .. }) => {
-                    return Err(fault(e, elapsed));
-                }
                 Err(e) => {
-                    read_failures += 1;
-                    // Report the failure that started the streak: later ones may be its echo.
-                    let first = first_read_failure.get_or_insert(e);
-                    if read_failures >= MAX_READ_FAILURES {
-                        let error = std::mem::replace(first, BusError::Protocol(String::new()));
+                    if let Some(error) = reads.failed(e) {
                         return Err(fault(error, elapsed));
                     }
                 }
             }
         }
         if cycle % options.health_every as u64 == 0 && cycle > 0 {
-            let health = bus.read_health(&ids).map_err(|e| fault(e, elapsed))?;
-            if let Some(h) = health.iter().find(|h| h.alarms.any()) {
-                return Err(fault(
-                    BusError::Alarm {
-                        id: h.id,
-                        alarms: h.alarms,
-                    },
-                    elapsed,
-                ));
+            // A health read is a read like the others: it counts in the same streak.
+            match bus.read_health(&ids) {
+                Ok(health) => {
+                    if let Some(h) = health.iter().find(|h| h.alarms.any()) {
+                        return Err(fault(
+                            BusError::Alarm {
+                                id: h.id,
+                                alarms: h.alarms,
+                            },
+                            elapsed,
+                        ));
+                    }
+                }
+                Err(e) => {
+                    if let Some(error) = reads.failed(e) {
+                        return Err(fault(error, elapsed));
+                    }
+                }
             }
         }
 

@@ -13,7 +13,7 @@ use crate::bus::{BusError, ServoBus};
 use crate::curve::Interp;
 use crate::json::InputError;
 use crate::plan::{check, retime, CheckReport, LimitKind, Trajectory};
-use crate::player::{faulty_joint, hold_value, joint_prefix, StopSignal};
+use crate::player::{faulty_joint, hold_value, joint_prefix, ReadStreak, StopSignal};
 use crate::robot::{JointKind, Robot};
 use crate::sequence::{Ends, KeyValue, Keyframe, Sequence};
 use extract::ExtractError;
@@ -25,8 +25,6 @@ pub const MAX_RATE_HZ: f64 = 1000.0;
 /// Longest recording, seconds: an hour of teaching by hand is far beyond any sequence, and the
 /// bound keeps memory and extraction time (about linear in length) in reason.
 pub const MAX_SECONDS: f64 = 3600.0;
-/// Consecutive failed reads that end a recording as a fault (a single lost answer is skipped).
-pub const MAX_READ_FAILURES: u32 = crate::player::MAX_READ_FAILURES;
 /// Rounds of "extract, check, make overshooting cubic segments monotone" at most; each round
 /// only ever makes more segments monotone, and all-monotone cannot overshoot.
 const MAX_LIMIT_ROUNDS: usize = 20;
@@ -187,8 +185,7 @@ fn sample(
     let limit = options.duration.unwrap_or(MAX_SECONDS).min(MAX_SECONDS);
     let mut times = Vec::new();
     let mut values: Vec<Vec<f64>> = vec![Vec::new(); robot.joints.len()];
-    let mut failures = 0;
-    let mut first_failure: Option<BusError> = None;
+    let mut reads = ReadStreak::default();
     let mut last_progress: Option<Instant> = None;
     let start = Instant::now();
     let mut cycle: u64 = 0;
@@ -209,16 +206,10 @@ fn sample(
                     series.push(joint.servo.value(tick));
                 }
                 *last_ticks = ticks;
-                failures = 0;
-                first_failure = None;
+                reads.succeeded();
             }
-            Err(e @ (BusError::Port { .. } | BusError::Alarm { .. })) => return Err((e, before)),
             Err(e) => {
-                failures += 1;
-                // Report the failure that started the streak: later ones may be its echo.
-                let first = first_failure.get_or_insert(e);
-                if failures >= MAX_READ_FAILURES {
-                    let error = std::mem::replace(first, BusError::Protocol(String::new()));
+                if let Some(error) = reads.failed(e) {
                     return Err((error, before));
                 }
             }
