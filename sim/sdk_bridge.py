@@ -42,34 +42,12 @@ the global again; every Feetech operation also checks the global before touching
 """
 
 import json
-import platform
-import signal
 import sys
 import time
 
+from harness_io import distribution_version, emit, ignore_sigint, interpreter, not_ready, serve, take_stdout
+
 PROTOCOLS = ("dynamixel-2", "feetech-sts", "feetech-scs")
-
-# The real stdout carries the protocol; anything else that prints (an SDK, a warning) must not
-# land in it, so sys.stdout is pointed at stderr once the ready line is out.
-_PROTOCOL_OUT = sys.stdout
-
-
-def emit(obj):
-    _PROTOCOL_OUT.write(json.dumps(obj) + "\n")
-    _PROTOCOL_OUT.flush()
-
-
-def distribution_version(name):
-    try:
-        from importlib import metadata
-    except ImportError:  # Python < 3.8
-        return None
-    try:
-        return metadata.version(name)
-    except metadata.PackageNotFoundError:
-        # The module imports but was not installed by pip (copied onto sys.path, say).
-        return None
-
 
 class BridgeError(Exception):
     def __init__(self, kind, message, **fields):
@@ -405,27 +383,13 @@ class Bridge:
 
 
 def main():
-    # Ctrl-C in a terminal reaches the whole process group; keypose decides how to stop (it may
-    # still need the bus to hold or release the arm), and closes our stdin when it is done.
-    try:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-    except (ValueError, OSError):
-        pass
-    python = platform.python_version()
+    take_stdout()
+    ignore_sigint()
     try:
         import dynamixel_sdk
         import scservo_sdk
     except ImportError as e:
-        emit(
-            {
-                "ready": False,
-                "error": f"missing Python package: {e}",
-                "missing": getattr(e, "name", None),
-                "python": python,
-                "executable": sys.executable,
-            }
-        )
-        return 2
+        return not_ready(f"missing Python package: {e}", missing=getattr(e, "name", None))
     # "packages" is keyed by distribution name, as in requirements.txt, so that keypose can
     # compare it with its pins whatever the harness.
     packages = {name: distribution_version(name) for name in ("dynamixel-sdk", "feetech-servo-sdk", "pyserial")}
@@ -435,17 +399,13 @@ def main():
             "dynamixel_sdk": packages["dynamixel-sdk"],
             "scservo_sdk": packages["feetech-servo-sdk"],
             "pyserial": packages["pyserial"],
-            "python": python,
-            "executable": sys.executable,
+            **interpreter(),
             "packages": packages,
         }
     )
-    sys.stdout = sys.stderr
     bridge = Bridge(dynamixel_sdk, scservo_sdk)
     try:
-        for line in sys.stdin:
-            if line.strip():
-                emit(bridge.handle_line(line))
+        serve(bridge)
     finally:
         bridge.shutdown()
     return 0

@@ -42,11 +42,11 @@ What PROTOCOL.md leaves open, decided here:
 import json
 import math
 import os
-import platform
 import re
-import signal
 import sys
 import time
+
+from harness_io import distribution_version, emit, ignore_sigint, interpreter, not_ready, serve, take_stdout
 
 # The backends' libraries, and the Debian/Ubuntu packages that provide them.
 GL_LIBRARIES = {"egl": "EGL", "osmesa": "OSMesa"}
@@ -64,42 +64,6 @@ MAX_IMAGE_SIDE = 8192
 
 # Decimals kept in a run's trace.
 TRACE_DECIMALS = 9
-
-
-def _protocol_stream():
-    """The protocol's own copy of stdout; file descriptor 1 then points at stderr.
-
-    MuJoCo, Mesa and ffmpeg are C code that may write to file descriptor 1 directly, below
-    Python's sys.stdout: any such line would corrupt the protocol stream.
-    """
-    fd = os.dup(1)
-    os.dup2(2, 1)
-    return os.fdopen(fd, "w", encoding="utf-8", newline="\n")
-
-
-_PROTOCOL_OUT = None
-
-
-def emit(obj):
-    try:
-        line = json.dumps(obj, allow_nan=False)
-    except ValueError as e:
-        # JSON has no NaN: a reply that carries one is a bug here, not a reason to send bad JSON.
-        fallback = {"ok": False, "kind": "internal", "error": f"reply not encodable as JSON: {e}"}
-        if isinstance(obj, dict) and "seq" in obj:
-            fallback["seq"] = obj["seq"]
-        line = json.dumps(fallback)
-    _PROTOCOL_OUT.write(line + "\n")
-    _PROTOCOL_OUT.flush()
-
-
-def distribution_version(name):
-    from importlib import metadata
-
-    try:
-        return metadata.version(name)
-    except metadata.PackageNotFoundError:
-        return None
 
 
 def choose_gl():
@@ -914,16 +878,8 @@ def _write_mp4(images, fps, path):
 
 
 def main():
-    global _PROTOCOL_OUT
-    _PROTOCOL_OUT = _protocol_stream()
-    sys.stdout = sys.stderr
-    # Ctrl-C in a terminal reaches the whole process group; keypose decides how to stop, and
-    # closes our stdin when it is done.
-    try:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-    except (ValueError, OSError):
-        pass
-    python = platform.python_version()
+    take_stdout()
+    ignore_sigint()
     gl, gl_problem = choose_gl()
     try:
         import numpy
@@ -931,26 +887,11 @@ def main():
         import PIL  # noqa: F401 (checked now so that a broken environment is reported at start)
         import imageio_ffmpeg  # noqa: F401
     except ImportError as e:
-        emit(
-            {
-                "ready": False,
-                "error": f"missing Python package: {e}",
-                "missing": getattr(e, "name", None),
-                "python": python,
-                "executable": sys.executable,
-            }
-        )
-        return 2
+        return not_ready(f"missing Python package: {e}", missing=getattr(e, "name", None))
     except Exception as e:  # a package that is there but does not import (a broken library)
-        emit(
-            {
-                "ready": False,
-                "error": f"importing MuJoCo failed with MUJOCO_GL={os.environ.get('MUJOCO_GL')}: {type(e).__name__}: {e}",
-                "python": python,
-                "executable": sys.executable,
-            }
+        return not_ready(
+            f"importing MuJoCo failed with MUJOCO_GL={os.environ.get('MUJOCO_GL')}: {type(e).__name__}: {e}"
         )
-        return 2
     packages = {
         name: distribution_version(name)
         for name in ("mujoco", "mujoco-core", "numpy", "pyopengl", "pillow", "imageio-ffmpeg")
@@ -959,8 +900,7 @@ def main():
         "ready": True,
         "mujoco": mujoco.__version__,
         "numpy": numpy.__version__,
-        "python": python,
-        "executable": sys.executable,
+        **interpreter(),
         "gl": gl,
         "packages": packages,
     }
@@ -968,9 +908,7 @@ def main():
         ready["gl_error"] = gl_problem
     harness = Harness(mujoco, numpy, gl, gl_problem)
     emit(ready)
-    for line in sys.stdin:
-        if line.strip():
-            emit(harness.handle_line(line))
+    serve(harness)
     return 0
 
 

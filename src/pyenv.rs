@@ -38,6 +38,9 @@ const SCRIPTS: &[(&str, &str)] = &[
     ("sim_harness.py", include_str!("../sim/sim_harness.py")),
 ];
 
+/// Modules the harness scripts import, written beside them.
+const SUPPORT: &[(&str, &str)] = &[("harness_io.py", include_str!("../sim/harness_io.py"))];
+
 /// The oldest Python the scripts and their packages are used with: MuJoCo 4 needs 3.11.
 pub const MIN_PYTHON: (u32, u32) = (3, 11);
 
@@ -303,6 +306,10 @@ impl PyConfig {
                 name: name.to_string(),
                 known: script_names().join(", "),
             })?;
+        // The modules first: a script never starts without what it imports.
+        for (module, text) in SUPPORT {
+            self.write_embedded(module, text)?;
+        }
         self.write_embedded(name, content)
     }
 

@@ -1,18 +1,9 @@
 //! The `keypose` binary as a user runs it: exit codes, messages, and outputs.
 
+mod common;
+
+use common::{repo, run as keypose};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn keypose(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_keypose"))
-        .args(args)
-        .output()
-        .expect("run keypose")
-}
-
-fn repo(path: &str) -> String {
-    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
-}
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let path = dir.join(name);

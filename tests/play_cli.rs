@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{keypose, repo, stderr, VirtualBusProcess};
+use common::{keypose, repo, run, stderr, VirtualBusProcess};
 use std::process::{Command, Output, Stdio};
 use std::time::Duration;
 
@@ -25,15 +25,12 @@ fn long_sequence(dir: &std::path::Path, robot: &str, joint: &str) -> String {
 #[test]
 fn every_example_plays_end_to_end_on_the_virtual_bus() {
     for example in ["so101_nod", "koch_wave", "omx_reach"] {
-        let out = keypose()
-            .args([
-                "play",
-                &repo(&format!("sequences/{example}.json")),
-                "--port",
-                "virtual",
-            ])
-            .output()
-            .unwrap();
+        let out = run(&[
+            "play",
+            &repo(&format!("sequences/{example}.json")),
+            "--port",
+            "virtual",
+        ]);
         let err = stderr(&out);
         assert_eq!(out.status.code(), Some(0), "{example}: {err}");
         // The progress line and the closing report.
@@ -49,10 +46,7 @@ fn every_example_plays_end_to_end_on_the_virtual_bus() {
 fn a_virtual_bus_process_serves_play_read_torque_and_scan() {
     let server = VirtualBusProcess::start(&["--robot", "koch"]);
     let port = server.path.as_str();
-    let out = keypose()
-        .args(["read", "--robot", "koch", "--port", port])
-        .output()
-        .unwrap();
+    let out = run(&["read", "--robot", "koch", "--port", port]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     let pose: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     // Koch rests at home (all 0°): tick 2048 on every servo.
@@ -62,29 +56,20 @@ fn a_virtual_bus_process_serves_play_read_torque_and_scan() {
     );
     assert_eq!(pose["joints"]["elbow_flex"], 0.0);
 
-    let out = keypose()
-        .args([
-            "play",
-            &repo("sequences/koch_wave.json"),
-            "--port",
-            port,
-            "--quiet",
-        ])
-        .output()
-        .unwrap();
+    let out = run(&[
+        "play",
+        &repo("sequences/koch_wave.json"),
+        "--port",
+        port,
+        "--quiet",
+    ]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
-    let out = keypose()
-        .args([
-            "torque", "off", "--robot", "koch", "--port", port, "--joints", "gripper",
-        ])
-        .output()
-        .unwrap();
+    let out = run(&[
+        "torque", "off", "--robot", "koch", "--port", port, "--joints", "gripper",
+    ]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
 
-    let out = keypose()
-        .args(["scan", "--port", port, "--protocol", "dynamixel-2"])
-        .output()
-        .unwrap();
+    let out = run(&["scan", "--port", port, "--protocol", "dynamixel-2"]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     let scan: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let models: Vec<(u64, String)> = scan["servos"]
@@ -142,10 +127,7 @@ fn every_injected_fault_ends_playback_with_a_report_and_exit_code_3() {
                     "--fault-after",
                     "1.5",
                 ]);
-                let out = keypose()
-                    .args(["play", &sequence, "--port", &server.path, "--quiet"])
-                    .output()
-                    .unwrap();
+                let out = run(&["play", &sequence, "--port", &server.path, "--quiet"]);
                 (out, server.path.clone())
             })
         })
@@ -204,15 +186,12 @@ fn ctrl_c_decelerates_and_holds_a_second_ctrl_c_holds_at_once() {
 
 #[test]
 fn a_missing_port_is_a_bus_error_and_nothing_plays() {
-    let out = keypose()
-        .args([
-            "play",
-            &repo("sequences/so101_nod.json"),
-            "--port",
-            "/dev/keypose-no-such-port",
-        ])
-        .output()
-        .unwrap();
+    let out = run(&[
+        "play",
+        &repo("sequences/so101_nod.json"),
+        "--port",
+        "/dev/keypose-no-such-port",
+    ]);
     assert_eq!(out.status.code(), Some(3));
     assert!(
         stderr(&out).contains("/dev/keypose-no-such-port"),
@@ -223,17 +202,14 @@ fn a_missing_port_is_a_bus_error_and_nothing_plays() {
 
 #[test]
 fn a_sequence_beyond_the_limits_at_the_chosen_speed_is_refused_before_any_port_is_opened() {
-    let out = keypose()
-        .args([
-            "play",
-            &repo("sequences/so101_nod.json"),
-            "--port",
-            "/dev/keypose-no-such-port",
-            "--speed",
-            "2",
-        ])
-        .output()
-        .unwrap();
+    let out = run(&[
+        "play",
+        &repo("sequences/so101_nod.json"),
+        "--port",
+        "/dev/keypose-no-such-port",
+        "--speed",
+        "2",
+    ]);
     assert_eq!(out.status.code(), Some(1));
     assert!(
         stderr(&out).contains("refusing to play"),
@@ -244,16 +220,13 @@ fn a_sequence_beyond_the_limits_at_the_chosen_speed_is_refused_before_any_port_i
 
 #[test]
 fn no_approach_needs_its_confirmation() {
-    let out = keypose()
-        .args([
-            "play",
-            &repo("sequences/so101_nod.json"),
-            "--port",
-            "virtual",
-            "--no-approach",
-        ])
-        .output()
-        .unwrap();
+    let out = run(&[
+        "play",
+        &repo("sequences/so101_nod.json"),
+        "--port",
+        "virtual",
+        "--no-approach",
+    ]);
     assert_eq!(out.status.code(), Some(2));
     assert!(stderr(&out).contains("--i-accept-the-jump"));
 }

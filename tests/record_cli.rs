@@ -6,6 +6,16 @@ mod common;
 use common::{keypose, show, stdout as text_out};
 use keypose::sequence::{KeyValue, Sequence};
 
+/// `keypose record -o FILE ARGS` to the end.
+fn record(file: &std::path::Path, args: &[&str]) -> std::process::Output {
+    keypose()
+        .args(["record", "-o"])
+        .arg(file)
+        .args(args)
+        .output()
+        .expect("run keypose record")
+}
+
 /// `keypose check FILE` exits 0.
 fn assert_passes_check(file: &std::path::Path) {
     let check = keypose().arg("check").arg(file).output().unwrap();
@@ -16,12 +26,10 @@ fn assert_passes_check(file: &std::path::Path) {
 fn recording_a_still_virtual_arm_gives_two_keys_at_home_that_pass_check() {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("out.json");
-    let out = keypose()
-        .args(["record", "-o"])
-        .arg(&file)
-        .args(["--port", "virtual", "--robot", "so101", "--duration", "1"])
-        .output()
-        .unwrap();
+    let out = record(
+        &file,
+        &["--port", "virtual", "--robot", "so101", "--duration", "1"],
+    );
     assert_eq!(out.status.code(), Some(0), "{}", show(&out));
     // Nothing moves the virtual arm: the first and the last sample, both at home (all 0° on
     // the SO-101), reproduce it exactly.
@@ -48,10 +56,9 @@ fn recording_a_still_virtual_arm_gives_two_keys_at_home_that_pass_check() {
 fn recording_some_joints_keeps_the_others_in_the_first_key() {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("elbow.json");
-    let out = keypose()
-        .args(["record", "-o"])
-        .arg(&file)
-        .args([
+    let out = record(
+        &file,
+        &[
             "--port",
             "virtual",
             "--robot",
@@ -64,9 +71,8 @@ fn recording_some_joints_keeps_the_others_in_the_first_key() {
             "cubic",
             "--rate",
             "50",
-        ])
-        .output()
-        .unwrap();
+        ],
+    );
     assert_eq!(out.status.code(), Some(0), "{}", show(&out));
     let sequence = Sequence::load(&file).unwrap();
     assert_eq!(sequence.interpolation.name(), "cubic");
@@ -147,12 +153,10 @@ fn bad_arguments_exit_2_and_write_nothing() {
 fn a_port_that_does_not_exist_exits_3() {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("never.json");
-    let out = keypose()
-        .args(["record", "-o"])
-        .arg(&file)
-        .args(["--port", "/dev/keypose-no-such-port", "--duration", "1"])
-        .output()
-        .unwrap();
+    let out = record(
+        &file,
+        &["--port", "/dev/keypose-no-such-port", "--duration", "1"],
+    );
     assert_eq!(out.status.code(), Some(3), "{}", show(&out));
     assert!(!file.exists());
 }
@@ -196,13 +200,20 @@ fn a_motion_made_by_the_virtual_hand_comes_back_as_a_few_keys_on_its_path() {
     let file = dir.path().join("recorded.json");
     // The whole motion, then half a second at rest.
     let duration = format!("{:.3}", original.duration() + 0.5);
-    let out = keypose()
-        .args(["record", "-o"])
-        .arg(&file)
-        .args(["--port", &bus.path, "--robot", "so101", "--quiet"])
-        .args(["--duration", &duration, "--interpolation", "cubic"])
-        .output()
-        .unwrap();
+    let out = record(
+        &file,
+        &[
+            "--port",
+            &bus.path,
+            "--robot",
+            "so101",
+            "--quiet",
+            "--duration",
+            &duration,
+            "--interpolation",
+            "cubic",
+        ],
+    );
     assert_eq!(out.status.code(), Some(0), "{}", show(&out));
     assert_passes_check(&file);
     let summary = text_out(&out);

@@ -3,11 +3,14 @@
 //! simulation must catch. (The verdict logic itself is unit-tested on synthetic traces in
 //! `src/sim/verdict.rs`.)
 
+mod common;
+
+use common::repo;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 fn keypose(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_keypose"))
+    common::keypose()
         .args(args)
         .env("KEYPOSE_CACHE", cache())
         .output()
@@ -17,10 +20,6 @@ fn keypose(args: &[&str]) -> Output {
 /// One Python environment for this test binary, under target/ (built on first use).
 fn cache() -> PathBuf {
     Path::new(env!("CARGO_TARGET_TMPDIR")).join("sim_cli_cache")
-}
-
-fn repo(path: &str) -> String {
-    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
 }
 
 fn text(out: &Output) -> String {

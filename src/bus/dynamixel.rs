@@ -1048,17 +1048,10 @@ mod tests {
             params in prop::collection::vec(params_with_header_runs(), 2),
             tail_ff in 0usize..3,
         ) {
-            let mut buf = garbage[0].clone();
-            buf.extend(std::iter::repeat_n(0xFF, tail_ff));
-            buf.extend(Dynamixel2.encode_status(1, 0, &params[0]));
-            buf.extend(&garbage[1]);
-            buf.extend(Dynamixel2.encode_status(2, 0, &params[1]));
-            buf.extend(&garbage[2]);
-            let found = packets(decode_all(&mut buf, Direction::FromServo));
-            prop_assert_eq!(found, vec![
-                Packet::status(1, 0, params[0].clone()),
-                Packet::status(2, 0, params[1].clone()),
-            ]);
+            let (found, expected) = crate::bus::packet::test_support::between_garbage(
+                &Dynamixel2, &garbage, &params, tail_ff,
+            );
+            prop_assert_eq!(found, expected);
         }
 
         #[test]

@@ -474,17 +474,10 @@ mod tests {
             params in prop::collection::vec(prop::collection::vec(any::<u8>(), 0..40), 2),
             tail_ff in 0usize..4,
         ) {
-            let mut buf = garbage[0].clone();
-            buf.extend(std::iter::repeat_n(0xFF, tail_ff));
-            buf.extend(Feetech.encode_status(1, 0, &params[0]));
-            buf.extend(&garbage[1]);
-            buf.extend(Feetech.encode_status(2, 0, &params[1]));
-            buf.extend(&garbage[2]);
-            let found = packets(decode_all(&mut buf, Direction::FromServo));
-            prop_assert_eq!(found, vec![
-                Packet::status(1, 0, params[0].clone()),
-                Packet::status(2, 0, params[1].clone()),
-            ]);
+            let (found, expected) = crate::bus::packet::test_support::between_garbage(
+                &Feetech, &garbage, &params, tail_ff,
+            );
+            prop_assert_eq!(found, expected);
         }
 
         #[test]

@@ -307,6 +307,29 @@ pub(crate) mod test_support {
         }
     }
 
+    /// Decodes garbage, `tail_ff` bytes of 0xFF (a header's start), a status packet from servo
+    /// 1, garbage, one from servo 2, garbage: returns what was found and the two packets that
+    /// should have been.
+    pub fn between_garbage(
+        framing: &dyn Framing,
+        garbage: &[Vec<u8>],
+        params: &[Vec<u8>],
+        tail_ff: usize,
+    ) -> (Vec<Packet>, Vec<Packet>) {
+        let mut buf = garbage[0].clone();
+        buf.extend(std::iter::repeat_n(0xFF, tail_ff));
+        buf.extend(framing.encode_status(1, 0, &params[0]));
+        buf.extend(&garbage[1]);
+        buf.extend(framing.encode_status(2, 0, &params[1]));
+        buf.extend(&garbage[2]);
+        let found = packets(decode_all(framing, &mut buf, Direction::FromServo));
+        let expected = vec![
+            Packet::status(1, 0, params[0].clone()),
+            Packet::status(2, 0, params[1].clone()),
+        ];
+        (found, expected)
+    }
+
     /// The packets among decoding results.
     pub fn packets(results: Vec<Result<Packet, PacketError>>) -> Vec<Packet> {
         results.into_iter().filter_map(Result::ok).collect()

@@ -9,6 +9,11 @@ pub fn keypose() -> Command {
     Command::new(env!("CARGO_BIN_EXE_keypose"))
 }
 
+/// Runs `keypose ARGS` to the end.
+pub fn run(args: &[&str]) -> Output {
+    keypose().args(args).output().expect("run keypose")
+}
+
 /// A path inside the repository.
 pub fn repo(path: &str) -> String {
     format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))

@@ -1,0 +1,78 @@
+"""What keypose's Python harnesses share: the JSON-lines protocol on stdout, the ready line's
+facts, and leaving Ctrl-C to keypose.
+
+keypose writes this file beside the harness scripts (src/pyenv.rs), so `import harness_io`
+finds it in the script's own directory.
+"""
+
+import json
+import os
+import platform
+import signal
+import sys
+
+_protocol_out = None
+
+
+def take_stdout():
+    """Keeps the real stdout for the protocol and points everything else at stderr.
+
+    Vendor SDKs print, and MuJoCo, Mesa and ffmpeg are C code that may write to file
+    descriptor 1 directly, below Python's sys.stdout: any such line would corrupt the protocol.
+    """
+    global _protocol_out
+    fd = os.dup(1)
+    os.dup2(2, 1)
+    _protocol_out = os.fdopen(fd, "w", encoding="utf-8", newline="\n")
+    sys.stdout = sys.stderr
+
+
+def emit(obj):
+    try:
+        line = json.dumps(obj, allow_nan=False)
+    except ValueError as e:
+        # JSON has no NaN: a reply that carries one is a bug here, not a reason to send bad JSON.
+        fallback = {"ok": False, "kind": "internal", "error": f"reply not encodable as JSON: {e}"}
+        if isinstance(obj, dict) and "seq" in obj:
+            fallback["seq"] = obj["seq"]
+        line = json.dumps(fallback)
+    _protocol_out.write(line + "\n")
+    _protocol_out.flush()
+
+
+def ignore_sigint():
+    """Ctrl-C in a terminal reaches the whole process group; keypose decides how to stop (it
+    may still need the harness, to hold or release the arm) and closes our stdin when done."""
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except (ValueError, OSError):
+        pass
+
+
+def distribution_version(name):
+    """The installed version of a distribution, by its name in requirements.txt."""
+    from importlib import metadata
+
+    try:
+        return metadata.version(name)
+    except metadata.PackageNotFoundError:
+        # The module imports but was not installed by pip (copied onto sys.path, say).
+        return None
+
+
+def interpreter():
+    """The facts about this Python that every ready line carries."""
+    return {"python": platform.python_version(), "executable": sys.executable}
+
+
+def not_ready(error, **fields):
+    """Says why the harness cannot serve; returns the exit status."""
+    emit({"ready": False, "error": error, **fields, **interpreter()})
+    return 2
+
+
+def serve(handler):
+    """Answers request lines until stdin closes."""
+    for line in sys.stdin:
+        if line.strip():
+            emit(handler.handle_line(line))
