@@ -182,6 +182,14 @@ fn fault_after_start(
     )
 }
 
+/// The bus error a playback fault carries.
+fn bus_error(error: &PlayError) -> &BusError {
+    match error {
+        PlayError::Fault { error, .. } => error,
+        other => panic!("expected a bus fault, got {other:?}"),
+    }
+}
+
 #[test]
 fn an_alarm_stops_streaming_within_the_cycle_and_names_the_servo() {
     for robot in ["so101", "koch"] {
@@ -219,13 +227,7 @@ fn an_alarm_stops_streaming_within_the_cycle_and_names_the_servo() {
 fn a_servo_that_stops_answering_ends_playback_after_bounded_retries() {
     let (error, before, after) = fault_after_start("so101", Some(ServoFault::NoAnswer), false);
     assert!(
-        matches!(
-            error,
-            PlayError::Fault {
-                error: BusError::Timeout { id: 3, .. },
-                ..
-            }
-        ),
+        matches!(bus_error(&error), BusError::Timeout { id: 3, .. }),
         "{error:?}"
     );
     // Three failed read-backs (each retried twice at 40 ms) is the bound.
@@ -236,13 +238,7 @@ fn a_servo_that_stops_answering_ends_playback_after_bounded_retries() {
 fn corrupt_and_late_answers_end_playback() {
     let (error, _, _) = fault_after_start("koch", Some(ServoFault::CorruptChecksum), false);
     assert!(
-        matches!(
-            error,
-            PlayError::Fault {
-                error: BusError::Corrupt { id: 3, .. },
-                ..
-            }
-        ),
+        matches!(bus_error(&error), BusError::Corrupt { id: 3, .. }),
         "{error:?}"
     );
     let (error, _, _) = fault_after_start(
@@ -251,13 +247,7 @@ fn corrupt_and_late_answers_end_playback() {
         false,
     );
     assert!(
-        matches!(
-            error,
-            PlayError::Fault {
-                error: BusError::Timeout { id: 3, .. },
-                ..
-            }
-        ),
+        matches!(bus_error(&error), BusError::Timeout { id: 3, .. }),
         "{error:?}"
     );
 }
@@ -266,13 +256,7 @@ fn corrupt_and_late_answers_end_playback() {
 fn the_port_disappearing_ends_playback_at_the_next_write() {
     let (error, before, after) = fault_after_start("so101", None, true);
     assert!(
-        matches!(
-            error,
-            PlayError::Fault {
-                error: BusError::Port { .. },
-                ..
-            }
-        ),
+        matches!(bus_error(&error), BusError::Port { .. }),
         "{error:?}"
     );
     assert_eq!(after, before);

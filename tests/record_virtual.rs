@@ -16,6 +16,31 @@ use keypose::sequence::{KeyValue, Sequence};
 use std::time::{Duration, Instant};
 
 /// The arm powered and holding where it rests, as before any recording.
+/// An SO-101 of emulated servos holding at home, as before any recording, and the indices of
+/// the two joints the tests record.
+struct Arm {
+    robot: Robot,
+    bus: NativeBus,
+    virtual_bus: VirtualBus,
+    elbow: usize,
+    wrist: usize,
+}
+
+fn so101_holding() -> Arm {
+    let robot = Robot::builtin("so101").unwrap();
+    let elbow = robot.joint_index("elbow_flex").unwrap();
+    let wrist = robot.joint_index("wrist_flex").unwrap();
+    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
+    hold_all(&mut bus, &robot);
+    Arm {
+        robot,
+        bus,
+        virtual_bus,
+        elbow,
+        wrist,
+    }
+}
+
 fn hold_all(bus: &mut NativeBus, robot: &Robot) {
     let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
     let ticks = bus.read_positions(&ids).unwrap();
@@ -70,11 +95,13 @@ impl HandLog {
 
 #[test]
 fn a_hand_moved_elbow_is_recorded_and_its_keys_trace_the_path() {
-    let robot = Robot::builtin("so101").unwrap();
-    let elbow = robot.joint_index("elbow_flex").unwrap();
-    let wrist = robot.joint_index("wrist_flex").unwrap();
-    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
-    hold_all(&mut bus, &robot);
+    let Arm {
+        robot,
+        mut bus,
+        virtual_bus,
+        elbow,
+        wrist,
+    } = so101_holding();
     let elbow_id = robot.joints[elbow].servo.id;
     let wrist_id = robot.joints[wrist].servo.id;
     let elbow_servo = robot.joints[elbow].servo.clone();
@@ -261,11 +288,13 @@ fn recording_times(key_times: &[f64], times: &[f64]) -> Vec<f64> {
 
 #[test]
 fn a_servo_that_stops_answering_ends_the_recording_and_the_others_hold() {
-    let robot = Robot::builtin("so101").unwrap();
-    let elbow = robot.joint_index("elbow_flex").unwrap();
-    let wrist = robot.joint_index("wrist_flex").unwrap();
-    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
-    hold_all(&mut bus, &robot);
+    let Arm {
+        robot,
+        mut bus,
+        virtual_bus,
+        elbow,
+        wrist,
+    } = so101_holding();
     let elbow_id = robot.joints[elbow].servo.id;
     let wrist_id = robot.joints[wrist].servo.id;
     let breaker = {
@@ -377,11 +406,13 @@ fn a_joint_pushed_past_its_limit_is_held_at_the_limit_or_left_limp_never_sent_pa
     // 1° past its own, once they go limp. At the end no goal may go past a limit: the wrist,
     // within the 2° slack the player also allows, is held at its limit (a 1° move); the elbow
     // would need a 10° jump, so it stays limp and the error names it.
-    let robot = Robot::builtin("so101").unwrap();
-    let elbow = robot.joint_index("elbow_flex").unwrap();
-    let wrist = robot.joint_index("wrist_flex").unwrap();
-    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
-    hold_all(&mut bus, &robot);
+    let Arm {
+        robot,
+        mut bus,
+        virtual_bus,
+        elbow,
+        wrist,
+    } = so101_holding();
     let servos = [&robot.joints[elbow], &robot.joints[wrist]];
     let beyond = [servos[0].limits.max + 10.0, servos[1].limits.max + 1.0];
     let ticks: Vec<f64> = servos

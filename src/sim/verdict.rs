@@ -144,15 +144,8 @@ pub fn judge(robot: &Robot, trace: &Trace, keys: &[KeyMark], t: &Thresholds) -> 
             (t.max_error_m, t.settled_error_m)
         };
         let error = |row: usize| (trace.position[row][j] - trace.commanded[row][j]).abs();
-        let (mut max_error, mut max_time, mut sum_sq) = (0.0f64, 0.0, 0.0);
-        for row in 0..rows {
-            let e = error(row);
-            sum_sq += e * e;
-            if e > max_error {
-                max_error = e;
-                max_time = trace.time[row];
-            }
-        }
+        let (max_error, max_time) = peak(trace, error);
+        let sum_sq: f64 = (0..rows).map(|row| error(row).powi(2)).sum();
         if max_error > max_allowed {
             findings.push(Finding {
                 kind: "tracking",
@@ -196,21 +189,14 @@ pub fn judge(robot: &Robot, trace: &Trace, keys: &[KeyMark], t: &Thresholds) -> 
         let deg_per_tick = crate::robot::servo::DEGREES_PER_TICK;
         let servo_speed = |v: f64| (v / joint.servo.units_per_tick).abs() * deg_per_tick;
         let limit = joint.servo.model.no_load_speed_deg_s();
-        let (mut peak, mut peak_time) = (0.0f64, 0.0);
-        for row in 0..rows {
-            let s = servo_speed(trace.velocity[row][j]);
-            if s > peak {
-                peak = s;
-                peak_time = trace.time[row];
-            }
-        }
-        if peak > limit {
+        let (top_speed, top_speed_time) = peak(trace, |row| servo_speed(trace.velocity[row][j]));
+        if top_speed > limit {
             findings.push(Finding {
                 kind: "speed",
                 joint: Some(joint.name.clone()),
-                time: peak_time,
+                time: top_speed_time,
                 message: format!(
-                    "servo speed {peak:.0} °/s beyond the {} no-load speed {limit:.0} °/s",
+                    "servo speed {top_speed:.0} °/s beyond the {} no-load speed {limit:.0} °/s",
                     joint.servo.model.name()
                 ),
             });
@@ -273,7 +259,7 @@ pub fn judge(robot: &Robot, trace: &Trace, keys: &[KeyMark], t: &Thresholds) -> 
                 0.0
             },
             settled,
-            peak_speed_servo_deg_s: peak,
+            peak_speed_servo_deg_s: top_speed,
             servo_speed_limit_deg_s: limit,
         });
     }
@@ -321,6 +307,18 @@ pub fn judge(robot: &Robot, trace: &Trace, keys: &[KeyMark], t: &Thresholds) -> 
 }
 
 /// The longest run of consecutive rows where `hit` holds: (first row, last row).
+/// The largest `value(row)` over the trace (at least 0) and the time of its first row.
+fn peak(trace: &Trace, value: impl Fn(usize) -> f64) -> (f64, f64) {
+    (0..trace.time.len()).fold((0.0, 0.0), |(best, at), row| {
+        let v = value(row);
+        if v > best {
+            (v, trace.time[row])
+        } else {
+            (best, at)
+        }
+    })
+}
+
 fn longest_run(rows: usize, hit: impl Fn(usize) -> bool) -> Option<(usize, usize)> {
     let mut best: Option<(usize, usize)> = None;
     let mut start = None;
