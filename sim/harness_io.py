@@ -14,6 +14,19 @@ import sys
 _protocol_out = None
 
 
+class RequestError(Exception):
+    """A request that fails: the reply says which kind of failure, why, and any further fields."""
+
+    def __init__(self, kind, message, **fields):
+        super().__init__(message)
+        self.kind = kind
+        self.message = message
+        self.fields = fields
+
+    def reply(self):
+        return {"ok": False, "kind": self.kind, "error": self.message, **self.fields}
+
+
 def take_stdout():
     """Keeps the real stdout for the protocol and points everything else at stderr.
 

@@ -45,21 +45,13 @@ import json
 import sys
 import time
 
-from harness_io import distribution_version, emit, ignore_sigint, interpreter, not_ready, serve, take_stdout
+from harness_io import RequestError, distribution_version, emit, ignore_sigint, interpreter, not_ready, serve, take_stdout
 
 PROTOCOLS = ("dynamixel-2", "feetech-sts", "feetech-scs")
 
-class BridgeError(Exception):
-    def __init__(self, kind, message, **fields):
-        super().__init__(message)
-        self.kind = kind
-        self.message = message
-        self.fields = fields
 
-    def reply(self):
-        out = {"ok": False, "kind": self.kind, "error": self.message}
-        out.update(self.fields)
-        return out
+class BridgeError(RequestError):
+    pass
 
 
 def field(req, name, kind=int, lo=None, hi=None):

@@ -46,7 +46,7 @@ import re
 import sys
 import time
 
-from harness_io import distribution_version, emit, ignore_sigint, interpreter, not_ready, serve, take_stdout
+from harness_io import RequestError, distribution_version, emit, ignore_sigint, interpreter, not_ready, serve, take_stdout
 
 # The backends' libraries, and the Debian/Ubuntu packages that provide them.
 GL_LIBRARIES = {"egl": "EGL", "osmesa": "OSMesa"}
@@ -101,17 +101,8 @@ def choose_gl():
     return gl, problem
 
 
-class SimError(Exception):
-    def __init__(self, kind, message, **fields):
-        super().__init__(message)
-        self.kind = kind
-        self.message = message
-        self.fields = fields
-
-    def reply(self):
-        out = {"ok": False, "kind": self.kind, "error": self.message}
-        out.update(self.fields)
-        return out
+class SimError(RequestError):
+    pass
 
 
 def request_error(message):

@@ -873,11 +873,7 @@ impl Op {
 fn sdk_bytes_equal_ours(robot_name: &str, vendor: Vendor, ops: &[Op]) {
     let _wire = one_at_a_time();
     let robot = Robot::builtin(robot_name).expect("built-in robot");
-    let servos: Vec<(u8, ServoModel)> = robot
-        .joints
-        .iter()
-        .map(|j| (j.servo.id, j.servo.model))
-        .collect();
+    let servos: Vec<(u8, ServoModel)> = robot.servos();
     let model = servos[0].1;
     let baud = robot.bus.baud;
 
@@ -1079,11 +1075,7 @@ fn dynamixel_stuffing_ours_equals_the_sdks_stuffer_which_its_transmitter_skips()
         ),
     ];
     let robot = Robot::builtin("koch").expect("koch");
-    let servos: Vec<(u8, ServoModel)> = robot
-        .joints
-        .iter()
-        .map(|j| (j.servo.id, j.servo.model))
-        .collect();
+    let servos: Vec<(u8, ServoModel)> = robot.servos();
     let mut sdk_wire = Wire::new(Protocol::Dynamixel2);
     let mut sdk = bridge_on(&sdk_wire.path(), robot.bus.baud, Protocol::Dynamixel2);
     let mut native_wire = Wire::new(Protocol::Dynamixel2);
@@ -1151,11 +1143,7 @@ fn sdk_bus_and_native_bus_agree(robot_name: &str) {
     let expected = expected_servos(robot_name);
     let ids: Vec<u8> = expected.iter().map(|s| s.id).collect();
     let home: Vec<i64> = expected.iter().map(|s| s.home_tick).collect();
-    let servos: Vec<(u8, ServoModel)> = robot
-        .joints
-        .iter()
-        .map(|j| (j.servo.id, j.servo.model))
-        .collect();
+    let servos: Vec<(u8, ServoModel)> = robot.servos();
     let server = PtyServer::start(&robot).expect("virtual bus on a pseudo-terminal");
     // The SDK opens the port first: it closes and reopens it while setting the baud rate, and
     // our driver opens it exclusively (TIOCEXCL), which would refuse that reopening to anyone

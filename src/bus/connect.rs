@@ -73,11 +73,7 @@ pub fn connect_with(
                     port: path.clone(),
                     source,
                 })?;
-            let servos: Vec<_> = robot
-                .joints
-                .iter()
-                .map(|j| (j.servo.id, j.servo.model))
-                .collect();
+            let servos: Vec<_> = robot.servos();
             Box::new(NativeBus::new(
                 Box::new(transport),
                 robot.bus.protocol,

@@ -651,11 +651,7 @@ mod tests {
     fn a_late_answer_to_an_earlier_request_is_skipped_by_its_length() {
         for name in ["so101", "koch"] {
             let robot = Robot::builtin(name).unwrap();
-            let servos: Vec<_> = robot
-                .joints
-                .iter()
-                .map(|j| (j.servo.id, j.servo.model))
-                .collect();
+            let servos: Vec<_> = robot.servos();
             let ids: Vec<u8> = servos.iter().map(|(id, _)| *id).collect();
             let connect = |answer: bool| {
                 let framing: Box<dyn Framing + Send> = match robot.bus.protocol {
@@ -737,11 +733,7 @@ mod tests {
     fn an_echoing_adapter_is_heard_through() {
         for name in ["so101", "koch"] {
             let robot = Robot::builtin(name).unwrap();
-            let servos: Vec<_> = robot
-                .joints
-                .iter()
-                .map(|j| (j.servo.id, j.servo.model))
-                .collect();
+            let servos: Vec<_> = robot.servos();
             let virtual_bus = VirtualBus::new(VirtualServos::for_robot(&robot));
             let transport = MemoryTransport::new(Echoing(virtual_bus));
             let mut bus = NativeBus::new(Box::new(transport), robot.bus.protocol, &servos);

@@ -116,19 +116,8 @@ pub struct TorqueArgs {
 /// `keypose torque on|off`.
 pub fn torque(args: &TorqueArgs) -> Result<Verdict, CommandError> {
     let robot = args.robot.load()?;
-    let mut ids = Vec::new();
-    for name in &args.joints {
-        let index = robot.joint_index(name).ok_or_else(|| {
-            CommandError::Usage(format!(
-                "--joints: unknown joint {name:?}; expected names from: {}",
-                robot.joint_names().join(", ")
-            ))
-        })?;
-        ids.push(robot.joints[index].servo.id);
-    }
-    if ids.is_empty() {
-        ids = robot.joints.iter().map(|j| j.servo.id).collect();
-    }
+    let joints = super::joint_indices(&robot, &args.joints)?;
+    let ids: Vec<u8> = joints.iter().map(|&j| robot.joints[j].servo.id).collect();
     let mut connection = args.bus.connect(&robot, required_port(&args.bus)?)?;
     let on = args.state == OnOff::On;
     if on {
@@ -136,24 +125,18 @@ pub fn torque(args: &TorqueArgs) -> Result<Verdict, CommandError> {
         // and only where a goal may go.
         let ticks = connection.bus.read_positions(&ids)?;
         let mut goals = Vec::with_capacity(ids.len());
-        for (&id, &tick) in ids.iter().zip(&ticks) {
-            let joint = robot
-                .joints
-                .iter()
-                .find(|j| j.servo.id == id)
-                .ok_or_else(|| CommandError::Usage(format!("no joint drives servo {id}")))?;
-            let present = joint.servo.value(tick);
-            let goal = crate::player::hold_value(joint, present)
-                .and_then(|value| joint.goal_tick(value).ok())
-                .ok_or_else(|| {
-                    CommandError::Usage(format!(
-                        "{} is at {present:.2} {}, past its limits {} … {}: move it inside by hand first (nothing was sent)",
-                        joint.name,
-                        joint.kind.unit(),
-                        joint.limits.min,
-                        joint.limits.max
-                    ))
-                })?;
+        for ((&j, &id), &tick) in joints.iter().zip(&ids).zip(&ticks) {
+            let joint = &robot.joints[j];
+            let goal = crate::player::hold_tick(joint, tick).ok_or_else(|| {
+                CommandError::Usage(format!(
+                    "{} is at {:.2} {}, past its limits {} … {}: move it inside by hand first (nothing was sent)",
+                    joint.name,
+                    joint.servo.value(tick),
+                    joint.kind.unit(),
+                    joint.limits.min,
+                    joint.limits.max
+                ))
+            })?;
             goals.push((id, goal));
         }
         connection.bus.write_goals(&goals)?;

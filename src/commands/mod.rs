@@ -160,6 +160,27 @@ pub fn check_sample_budget(
 }
 
 /// Parses a rate in Hz for clap: a finite number above 0 and at most 100 kHz.
+/// Robot joint indices for `--joints` names, in the order given, each once; all joints when
+/// none are given.
+pub fn joint_indices(robot: &Robot, names: &[String]) -> Result<Vec<usize>, CommandError> {
+    if names.is_empty() {
+        return Ok((0..robot.joints.len()).collect());
+    }
+    let mut indices = Vec::new();
+    for name in names {
+        let index = robot.joint_index(name).ok_or_else(|| {
+            CommandError::Usage(format!(
+                "--joints: unknown joint {name:?}; expected names from: {}",
+                robot.joint_names().join(", ")
+            ))
+        })?;
+        if !indices.contains(&index) {
+            indices.push(index);
+        }
+    }
+    Ok(indices)
+}
+
 pub fn parse_rate(s: &str) -> Result<f64, String> {
     let rate: f64 = s
         .parse()

@@ -40,16 +40,7 @@ pub fn run(args: &PlotArgs) -> Result<Verdict, CommandError> {
     };
     let mut data = report::plot_data(&title, &trajectory, &robot, args.rate, measured);
     if !args.joints.is_empty() {
-        if let Some(unknown) = args
-            .joints
-            .iter()
-            .find(|name| robot.joint_index(name).is_none())
-        {
-            return Err(CommandError::Usage(format!(
-                "--joints: unknown joint {unknown:?}; expected names from: {}",
-                robot.joint_names().join(", ")
-            )));
-        }
+        super::joint_indices(&robot, &args.joints)?;
         data.joints.retain(|j| args.joints.contains(&j.name));
     }
     write_output(Some(&args.output), &report::plot::render_svg(&data))?;

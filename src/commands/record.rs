@@ -2,14 +2,13 @@
 //! reproduce the motion within a tolerance.
 
 use super::hardware::{BusArgs, RobotArgs};
-use super::{parse_rate, CommandError, Verdict};
+use super::{joint_indices, parse_rate, CommandError, Verdict};
 use crate::curve::Interp;
 use crate::player::StopSignal;
 use crate::record::{
     self, KeyframeOptions, Keyframes, RecordError, RecordOptions, Retimed, StopReason,
 };
 use crate::report;
-use crate::robot::Robot;
 use std::io::{BufRead, IsTerminal};
 use std::path::{Path, PathBuf};
 
@@ -212,26 +211,6 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
         return Ok(Verdict::Fail);
     }
     Ok(Verdict::Pass)
-}
-
-/// Robot joint indices from `--joints` names; all joints when none are given.
-fn joint_indices(robot: &Robot, names: &[String]) -> Result<Vec<usize>, CommandError> {
-    if names.is_empty() {
-        return Ok((0..robot.joints.len()).collect());
-    }
-    let mut indices = Vec::new();
-    for name in names {
-        let index = robot.joint_index(name).ok_or_else(|| {
-            CommandError::Usage(format!(
-                "--joints: unknown joint {name:?}; expected names from: {}",
-                robot.joint_names().join(", ")
-            ))
-        })?;
-        if !indices.contains(&index) {
-            indices.push(index);
-        }
-    }
-    Ok(indices)
 }
 
 fn check_output_dir(output: &Path) -> Result<(), CommandError> {

@@ -16,6 +16,11 @@ pub fn hold_value(joint: &Joint, present: f64) -> Option<f64> {
         .then(|| present.clamp(joint.limits.min, joint.limits.max))
 }
 
+/// [`hold_value`] for a servo measured at `present` ticks, as the goal tick to write.
+pub fn hold_tick(joint: &Joint, present: i64) -> Option<i64> {
+    hold_value(joint, joint.servo.value(present)).and_then(|value| joint.goal_tick(value).ok())
+}
+
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("refusing to send joint {joint} to {value}: outside its limits {min} … {max} (a bug; nothing was sent)")]
 pub struct LimitBreach {

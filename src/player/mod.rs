@@ -13,7 +13,7 @@ mod guard;
 mod log;
 mod timeline;
 
-pub use guard::{hold_value, GoalGuard, LimitBreach};
+pub use guard::{hold_tick, hold_value, GoalGuard, LimitBreach};
 pub use timeline::{Loops, Phase, Timeline};
 
 use crate::bus::{BusError, ServoBus};

@@ -13,7 +13,7 @@ use crate::bus::{BusError, ServoBus};
 use crate::curve::Interp;
 use crate::json::InputError;
 use crate::plan::{check, retime, CheckReport, LimitKind, Trajectory};
-use crate::player::{faulty_joint, hold_value, joint_prefix, ReadStreak, StopSignal};
+use crate::player::{faulty_joint, hold_tick, joint_prefix, ReadStreak, StopSignal};
 use crate::robot::{JointKind, Robot};
 use crate::sequence::{Ends, KeyValue, Keyframe, Sequence};
 use extract::ExtractError;
@@ -283,9 +283,7 @@ fn hold_where_they_are(
     let mut outside = Vec::new();
     for (&j, tick) in limp.iter().zip(ticks) {
         let joint = &robot.joints[j];
-        let goal = tick
-            .and_then(|tick| hold_value(joint, joint.servo.value(tick)))
-            .and_then(|value| joint.goal_tick(value).ok());
+        let goal = tick.and_then(|tick| hold_tick(joint, tick));
         match goal {
             Some(goal) => goals.push((joint.servo.id, goal)),
             None => outside.push(joint.name.clone()),

@@ -190,6 +190,14 @@ impl Robot {
         self.joints.iter().position(|j| j.name == name)
     }
 
+    /// The id and model of every joint's servo, in joint order.
+    pub fn servos(&self) -> Vec<(u8, ServoModel)> {
+        self.joints
+            .iter()
+            .map(|j| (j.servo.id, j.servo.model))
+            .collect()
+    }
+
     /// The name of the joint driven by servo `id`.
     pub fn joint_of_servo(&self, id: u8) -> Option<&str> {
         self.joints

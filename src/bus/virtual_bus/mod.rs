@@ -549,11 +549,7 @@ impl VirtualBus {
     /// transport: the real packet code on both sides, without a pseudo-terminal.
     pub fn in_process(robot: &Robot) -> (super::driver::NativeBus, VirtualBus) {
         let virtual_bus = VirtualBus::new(VirtualServos::for_robot(robot));
-        let servos: Vec<_> = robot
-            .joints
-            .iter()
-            .map(|j| (j.servo.id, j.servo.model))
-            .collect();
+        let servos: Vec<_> = robot.servos();
         let transport = super::transport::MemoryTransport::new(virtual_bus.clone());
         let bus = super::driver::NativeBus::new(Box::new(transport), robot.bus.protocol, &servos);
         (bus, virtual_bus)
