@@ -11,7 +11,7 @@
 //!    answer with no return delay, so the virtual figures measure software overhead only
 //!    (driver, kernel pty, the emulator thread, and for the SDK the Python bridge and its pipe).
 //! 2. Player jitter: the player streams a 10 s cubic on so101's shoulder_pan to the virtual bus
-//!    with the native driver at 100 Hz and 500 Hz; from `Stats.lateness` (each cycle's start
+//!    with the native driver at 100 Hz and 500 Hz; from `Stats.pacing.lateness` (each cycle's start
 //!    against its absolute deadline) come p50, p99 and max, and the achieved mean period. The
 //!    approach ramp (≥ 0.5 s) that precedes the sequence is included. At 500 Hz the run is made
 //!    with a read-back every cycle and with one every 5th cycle.
@@ -402,7 +402,7 @@ fn jitter(rate_hz: f64, readback_every: u32) -> JitterResult {
         if outcome != Outcome::Finished {
             return Err(format!("playback ended {outcome:?}"));
         }
-        let late = &stats.lateness;
+        let late = &stats.pacing.lateness;
         if late.len() < 2 {
             return Err("fewer than two cycles".into());
         }

@@ -40,6 +40,7 @@ fn recording(
         times,
         rate_hz: RATE,
         stopped: StopReason::Duration,
+        gaps: Default::default(),
         hold_error: None,
     }
 }

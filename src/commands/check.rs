@@ -8,7 +8,8 @@ use crate::report;
 pub struct CheckArgs {
     #[command(flatten)]
     pub input: SequenceInput,
-    /// Rate at which velocity and acceleration are differenced [default: the robot's control rate].
+    /// Rate at which velocity and acceleration are differenced [default: the robot's control
+    /// rate]; a lower rate is raised to the control rate, which would otherwise hide violations.
     #[arg(long, value_name = "HZ", value_parser = parse_rate)]
     pub rate: Option<f64>,
     /// Report format.
@@ -25,7 +26,7 @@ pub enum ReportFormat {
 pub fn run(args: &CheckArgs) -> Result<Verdict, CommandError> {
     let (sequence, robot) = args.input.load()?;
     let trajectory = Trajectory::build(&sequence, &robot)?;
-    let rate = args.rate.unwrap_or(robot.control_hz);
+    let rate = super::limit_check_rate(args.rate, &robot);
     super::check_sample_budget(&sequence.file, &trajectory, rate)?;
     let result = check(&trajectory, &robot, rate);
     let text = match args.format {

@@ -159,7 +159,6 @@ pub fn check_sample_budget(
     Ok(())
 }
 
-/// Parses a rate in Hz for clap: a finite number above 0 and at most 100 kHz.
 /// Robot joint indices for `--joints` names, in the order given, each once; all joints when
 /// none are given.
 pub fn joint_indices(robot: &Robot, names: &[String]) -> Result<Vec<usize>, CommandError> {
@@ -181,6 +180,7 @@ pub fn joint_indices(robot: &Robot, names: &[String]) -> Result<Vec<usize>, Comm
     Ok(indices)
 }
 
+/// Parses a rate in Hz for clap: a finite number above 0 and at most 100 kHz.
 pub fn parse_rate(s: &str) -> Result<f64, String> {
     let rate: f64 = s
         .parse()
@@ -192,6 +192,43 @@ pub fn parse_rate(s: &str) -> Result<f64, String> {
             "expected a rate above 0 and at most 100000 Hz, found {s}"
         ))
     }
+}
+
+/// Parses a control rate for clap (`play`, `record`): a finite number within
+/// [`crate::player::RATE_RANGE_HZ`].
+pub fn parse_control_rate(s: &str) -> Result<f64, String> {
+    let range = crate::player::RATE_RANGE_HZ;
+    match s.parse::<f64>() {
+        Ok(rate) if range.contains(&rate) => Ok(rate),
+        _ => Err(format!(
+            "expected a control rate from {} to {} Hz, found {s:?}",
+            range.start(),
+            range.end()
+        )),
+    }
+}
+
+/// The rate a loop that drives servos runs at: `--rate`, or the robot's own control rate, which
+/// a robot file may set outside what the player can keep; checked before anything is opened.
+pub fn control_rate(rate: Option<f64>, robot: &Robot) -> Result<f64, CommandError> {
+    let range = crate::player::RATE_RANGE_HZ;
+    match rate {
+        Some(rate) => Ok(rate),
+        None if range.contains(&robot.control_hz) => Ok(robot.control_hz),
+        None => Err(CommandError::Usage(format!(
+            "robot {}: control_hz {} is outside the {} … {} Hz the player can keep: give --rate",
+            robot.name,
+            robot.control_hz,
+            range.start(),
+            range.end()
+        ))),
+    }
+}
+
+/// The rate at which limits are checked: never below the robot's control rate, since velocity
+/// and acceleration differenced at a coarser rate would hide what the servos will be asked to do.
+pub fn limit_check_rate(rate: Option<f64>, robot: &Robot) -> f64 {
+    rate.map_or(robot.control_hz, |r| r.max(robot.control_hz))
 }
 
 /// Writes `text` to `path`, or to standard output when there is no path. A closed pipe on

@@ -1,7 +1,7 @@
 //! `keypose play`: stream a sequence to the servos.
 
 use super::hardware::BusArgs;
-use super::{parse_rate, CommandError, SequenceInput, Verdict};
+use super::{parse_control_rate, CommandError, SequenceInput, Verdict};
 use crate::plan::{check_at_speed, Trajectory};
 use crate::player::{self, Loops, Outcome, PlayError, PlayOptions, StopSignal};
 use crate::report;
@@ -13,8 +13,8 @@ pub struct PlayArgs {
     pub input: SequenceInput,
     #[command(flatten)]
     pub bus: BusArgs,
-    /// Control rate [default: the robot's control_hz].
-    #[arg(long, value_name = "HZ", value_parser = parse_rate)]
+    /// Control rate, 10 to 1000 Hz [default: the robot's control_hz].
+    #[arg(long, value_name = "HZ", value_parser = parse_control_rate, allow_negative_numbers = true)]
     pub rate: Option<f64>,
     /// Time scale: 0.5 plays at half speed, 2 at double (limits are checked at this speed).
     #[arg(long, value_name = "F", default_value = "1", value_parser = parse_speed)]
@@ -47,6 +47,20 @@ pub struct PlayArgs {
     /// No progress line.
     #[arg(long, short)]
     pub quiet: bool,
+    /// A goal held this many milliseconds longer than one control period (the process did not
+    /// run: a stall) is a fault: the arm brakes to rest along its path and keypose exits 3.
+    #[arg(long, value_name = "MS", default_value = "250", value_parser = parse_max_stall, allow_negative_numbers = true)]
+    pub max_stall: f64,
+}
+
+/// `--max-stall` in milliseconds, returned in seconds.
+fn parse_max_stall(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(ms) if ms.is_finite() && (1.0..=10_000.0).contains(&ms) => Ok(ms / 1000.0),
+        _ => Err(format!(
+            "expected a stall bound from 1 to 10000 ms, found {s:?}"
+        )),
+    }
 }
 
 fn parse_speed(s: &str) -> Result<f64, String> {
@@ -88,7 +102,7 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
             ))
         })?),
     };
-    let rate = args.rate.unwrap_or(robot.control_hz);
+    let rate = super::control_rate(args.rate, &robot)?;
     super::check_sample_budget(&sequence.file, &trajectory, rate)?;
 
     // Refuse what the servos would be asked to do beyond their limits at this speed.
@@ -112,6 +126,7 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
         readback_every: (args.readback > 0).then_some(args.readback),
         log: args.log.clone(),
         progress: !args.quiet,
+        max_stall: args.max_stall,
         ..PlayOptions::new(rate)
     };
     let Some(port) = &args.bus.port else {
@@ -158,17 +173,46 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
                     stats.cycles, stats.approach_seconds, stats.max_tracking_error
                 );
             }
+            report_pacing(&stats);
             Ok(Verdict::Pass)
         }
-        Ok((Outcome::Stopped, _)) => Err(CommandError::Interrupted(
-            "stopped on request: the arm decelerated along its path and holds there, torque on"
-                .into(),
-        )),
-        Ok((Outcome::Held, _)) => Err(CommandError::Interrupted(
-            "held at once on a second request: torque on".into(),
-        )),
+        Ok((Outcome::Stopped, stats)) => {
+            report_pacing(&stats);
+            Err(CommandError::Interrupted(
+                "stopped on request: the arm decelerated along its path and holds there, torque on"
+                    .into(),
+            ))
+        }
+        Ok((Outcome::Held, stats)) => {
+            report_pacing(&stats);
+            Err(CommandError::Interrupted(
+                "held at once on a second request: torque on".into(),
+            ))
+        }
         Err(e @ PlayError::Log { .. }) => Err(CommandError::Usage(e.to_string())),
         Err(e) => Err(CommandError::Hardware(format!("playback stopped: {e}"))),
+    }
+}
+
+/// Stalls and limiter interventions are reported even with `--quiet`: they change what the arm
+/// did.
+fn report_pacing(stats: &player::Stats) {
+    let pacing = &stats.pacing;
+    if pacing.stalls > 0 {
+        eprintln!(
+            "warning: {} stall(s): the longest held a goal {:.0} ms beyond its period; {} deadline(s) skipped, the sequence ran {:.3} s late; largest lateness {:.1} ms",
+            pacing.stalls,
+            pacing.longest_stall * 1e3,
+            pacing.skipped_deadlines,
+            pacing.time_lost,
+            pacing.max_lateness * 1e3
+        );
+    }
+    if stats.limited_goals > 0 {
+        eprintln!(
+            "warning: the step limiter held back {} goal(s), by up to {:.3}, to stay within the velocity and acceleration limits",
+            stats.limited_goals, stats.largest_limiter_correction
+        );
     }
 }
 

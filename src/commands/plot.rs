@@ -18,7 +18,8 @@ pub struct PlotArgs {
     /// A playback log (`keypose play --log`) whose measured positions to overlay.
     #[arg(long, value_name = "FILE.csv")]
     pub log: Option<PathBuf>,
-    /// Sampling rate of the drawn curves.
+    /// Sampling rate of the drawn curves; never below the robot's control rate, so the velocity
+    /// drawn is the one the servos will be asked for.
     #[arg(long, value_name = "HZ", default_value = "200", value_parser = parse_rate)]
     pub rate: f64,
 }
@@ -26,7 +27,8 @@ pub struct PlotArgs {
 pub fn run(args: &PlotArgs) -> Result<Verdict, CommandError> {
     let (sequence, robot) = args.input.load()?;
     let trajectory = Trajectory::build(&sequence, &robot)?;
-    super::check_sample_budget(&sequence.file, &trajectory, args.rate)?;
+    let rate = super::limit_check_rate(Some(args.rate), &robot);
+    super::check_sample_budget(&sequence.file, &trajectory, rate)?;
     let title = format!(
         "{} — {} ({}, {:.2} s)",
         sequence.file,
@@ -38,7 +40,7 @@ pub fn run(args: &PlotArgs) -> Result<Verdict, CommandError> {
         Some(path) => report::log::measured_traces(path, &trajectory.joint_names)?,
         None => Vec::new(),
     };
-    let mut data = report::plot_data(&title, &trajectory, &robot, args.rate, measured);
+    let mut data = report::plot_data(&title, &trajectory, &robot, rate, measured);
     if !args.joints.is_empty() {
         super::joint_indices(&robot, &args.joints)?;
         data.joints.retain(|j| args.joints.contains(&j.name));

@@ -2,7 +2,7 @@
 //! reproduce the motion within a tolerance.
 
 use super::hardware::{BusArgs, RobotArgs};
-use super::{joint_indices, parse_rate, CommandError, Verdict};
+use super::{joint_indices, parse_control_rate, CommandError, Verdict};
 use crate::curve::Interp;
 use crate::player::StopSignal;
 use crate::record::{
@@ -35,9 +35,9 @@ pub struct RecordArgs {
     /// Largest deviation for prismatic joints, metres.
     #[arg(long, value_name = "M", default_value = "0.001", value_parser = parse_tolerance)]
     pub tolerance_m: f64,
-    /// Sampling rate, at most 1000 Hz; also the rate of the limit check [default: the robot's
+    /// Sampling rate, 10 to 1000 Hz; also the rate of the limit check [default: the robot's
     /// control_hz].
-    #[arg(long, value_name = "HZ", value_parser = parse_record_rate)]
+    #[arg(long, value_name = "HZ", value_parser = parse_control_rate, allow_negative_numbers = true)]
     pub rate: Option<f64>,
     /// Interpolation of the keyframes: monotone never overshoots between keys (safe next to a
     /// limit), cubic is smoother, linear has corners. Step is refused: it jumps.
@@ -61,17 +61,6 @@ fn parse_tolerance(s: &str) -> Result<f64, String> {
         Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
         _ => Err(format!("expected a tolerance above 0, found {s:?}")),
     }
-}
-
-fn parse_record_rate(s: &str) -> Result<f64, String> {
-    let rate = parse_rate(s)?;
-    if rate > record::MAX_RATE_HZ {
-        return Err(format!(
-            "expected at most {} Hz (key times are whole milliseconds), found {s}",
-            record::MAX_RATE_HZ
-        ));
-    }
-    Ok(rate)
 }
 
 fn parse_mode(s: &str) -> Result<Interp, String> {
@@ -111,13 +100,7 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
     })?;
     // Refuse a place the file cannot go before the user spends minutes moving the arm.
     check_output_dir(&args.output)?;
-    let rate = args.rate.unwrap_or(robot.control_hz);
-    if rate > record::MAX_RATE_HZ {
-        return Err(CommandError::Usage(format!(
-            "the robot's control rate {rate} Hz is above the {} Hz a recording can keep: give --rate",
-            record::MAX_RATE_HZ
-        )));
-    }
+    let rate = super::control_rate(args.rate, &robot)?;
 
     let mut connection = args.bus.connect(&robot, port)?;
     let stop = StopSignal::default();
@@ -157,6 +140,7 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
             )),
             other => CommandError::Usage(other.to_string()),
         })?;
+    warn_about_gaps(&recording.gaps, rate);
     if recording.stopped == StopReason::Longest && !args.quiet {
         eprintln!(
             "stopped after {} s, the longest recording",
@@ -239,6 +223,24 @@ fn robot_reference(spec: &str) -> String {
         }
     }
     spec.to_string()
+}
+
+/// Missing samples are said even with `--quiet`: the keys are fitted across them, so the file
+/// may not be what the hand did there.
+fn warn_about_gaps(gaps: &record::SampleGaps, rate: f64) {
+    let period = 1.0 / rate;
+    if gaps.missing() == 0 && gaps.longest <= crate::player::STALL_PERIODS * period {
+        return;
+    }
+    eprintln!(
+        "warning: {} sample(s) missing ({} failed read(s), {} deadline(s) skipped by {} stall(s)); the longest gap, {:.0} ms, ends at t = {:.3} s: the motion there is fitted across, not recorded",
+        gaps.missing(),
+        gaps.failed_reads,
+        gaps.skipped_deadlines,
+        gaps.stalls,
+        gaps.longest * 1e3,
+        gaps.longest_at
+    );
 }
 
 /// A line on standard input (Enter) requests the stop. End of input (no terminal, a closed

@@ -11,14 +11,14 @@ pub struct RetimeArgs {
     /// Where to write the retimed sequence [default: standard output].
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
-    /// Rate at which limits are checked [default: the robot's control rate].
+    /// Rate at which limits are checked [default: the robot's control rate]; never below it.
     #[arg(long, value_name = "HZ", value_parser = parse_rate)]
     pub rate: Option<f64>,
 }
 
 pub fn run(args: &RetimeArgs) -> Result<Verdict, CommandError> {
     let (sequence, robot) = args.input.load()?;
-    let rate = args.rate.unwrap_or(robot.control_hz);
+    let rate = super::limit_check_rate(args.rate, &robot);
     super::check_sample_budget(
         &sequence.file,
         &crate::plan::Trajectory::build(&sequence, &robot)?,

@@ -61,6 +61,9 @@ pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
         .or_else(|| Some(output.clone()))
         .filter(|p| p.exists());
     let (list, robot) = load(args, source.as_deref())?;
+    // Teach plays at the robot's own control rate: refuse one the player cannot keep now,
+    // before the bus is opened, rather than at the first playback.
+    super::control_rate(None, &robot)?;
 
     // Without a cache directory the session still runs, unjournaled; the screen says so.
     let journal = crate::pyenv::PyConfig::from_env()

@@ -2,18 +2,30 @@
 //!
 //! What it does, in the spirit of ROS 2's joint_trajectory_controller and PAL's play_motion2:
 //! - it reads where the arm is and ramps from there to the first pose (never a jump);
-//! - it paces cycles by absolute deadlines (`start + k·period`), so lateness never accumulates;
+//! - it paces cycles by absolute deadlines (`start + k·period`), so lateness never accumulates,
+//!   and skips the deadlines a stall missed instead of replaying them;
+//! - no goal step exceeds what the velocity and acceleration limits allow over one period, and
+//!   no goal is outside the position limits, whatever the scheduler did;
 //! - one sync write per cycle; present positions read back every N cycles, health periodically;
 //! - a stop request decelerates along the path and holds with torque on; a second one holds at
 //!   once where the arm is;
 //! - a fault (alarm, failed write, repeated read failures, the port gone) stops streaming within
-//!   the cycle and is reported with the servo and the reason.
+//!   the cycle and is reported with the servo and the reason; a stall longer than the bound
+//!   brakes to rest first.
 
+mod clock;
 mod guard;
+mod limiter;
 mod log;
+mod pacing;
+mod stop;
 mod timeline;
 
+pub use clock::{Clock, WallClock};
 pub use guard::{hold_tick, hold_value, GoalGuard, LimitBreach};
+pub use limiter::StepLimiter;
+pub use pacing::{CycleStart, LatenessSummary, Pacer, STALL_PERIODS};
+pub use stop::StopSignal;
 pub use timeline::{Loops, Phase, Timeline};
 
 use crate::bus::{BusError, ServoBus};
@@ -21,8 +33,6 @@ use crate::plan::Trajectory;
 use crate::robot::{JointKind, Robot};
 use std::io::Write;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicU32, Ordering};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// How far a measured joint may be from where it should be and still count as there, in its
@@ -68,6 +78,11 @@ impl ReadStreak {
 }
 /// How long `--release-at-end` waits for the arm to reach the final pose.
 pub const RELEASE_WAIT: Duration = Duration::from_secs(3);
+/// The longest a goal may be held beyond its period before the stall is a fault, seconds.
+pub const DEFAULT_MAX_STALL: f64 = 0.25;
+/// Control rates the player, recording and teaching accept, Hz: below 10 Hz the goals are too
+/// coarse to follow smoothly, above 1 kHz no supported bus can keep up.
+pub const RATE_RANGE_HZ: std::ops::RangeInclusive<f64> = 10.0..=1000.0;
 
 #[derive(Debug, Clone)]
 pub struct PlayOptions {
@@ -86,6 +101,8 @@ pub struct PlayOptions {
     pub health_every: u32,
     pub log: Option<PathBuf>,
     pub progress: bool,
+    /// A goal held this much longer than one period (seconds) is a fault: brake, then stop.
+    pub max_stall: f64,
 }
 
 impl PlayOptions {
@@ -102,21 +119,8 @@ impl PlayOptions {
             health_every: (rate_hz / 4.0).ceil().max(1.0) as u32,
             log: None,
             progress: false,
+            max_stall: DEFAULT_MAX_STALL,
         }
-    }
-}
-
-/// Stop requests, counted: the first decelerates, the second holds at once. Shared with a
-/// Ctrl-C handler (or a test).
-#[derive(Debug, Clone, Default)]
-pub struct StopSignal(Arc<AtomicU32>);
-
-impl StopSignal {
-    pub fn request(&self) {
-        self.0.fetch_add(1, Ordering::SeqCst);
-    }
-    pub fn count(&self) -> u32 {
-        self.0.load(Ordering::SeqCst)
     }
 }
 
@@ -149,6 +153,13 @@ pub enum PlayError {
         unit: &'static str,
         slack: f64,
     },
+    #[error("stalled: the goal was held {:.0} ms beyond its {:.0} ms period (the bound is {:.0} ms); braked to rest along the path and holding, torque on (at {at:.3} s)", held * 1e3, period * 1e3, bound * 1e3)]
+    Stall {
+        held: f64,
+        period: f64,
+        bound: f64,
+        at: f64,
+    },
     #[error("cannot write log {path}: {source}")]
     Log {
         path: String,
@@ -176,10 +187,14 @@ pub(crate) fn faulty_joint(robot: &Robot, error: &BusError) -> Option<String> {
 #[derive(Debug, Clone, Default)]
 pub struct Stats {
     pub cycles: u64,
-    /// Lateness of each cycle's start against its deadline, seconds.
-    pub lateness: Vec<f64>,
+    /// Lateness, stalls and skipped deadlines.
+    pub pacing: LatenessSummary,
     pub approach_seconds: f64,
     pub max_tracking_error: f64,
+    /// Goals the step limiter had to change (none in ordinary playback), and by how much at
+    /// most, in joint units.
+    pub limited_goals: u64,
+    pub largest_limiter_correction: f64,
 }
 
 pub fn play(
@@ -188,6 +203,18 @@ pub fn play(
     trajectory: &Trajectory,
     options: &PlayOptions,
     stop: &StopSignal,
+) -> Result<(Outcome, Stats), PlayError> {
+    play_with_clock(bus, robot, trajectory, options, stop, &WallClock::new())
+}
+
+/// [`play`] on a given clock (tests make it stall).
+pub fn play_with_clock(
+    bus: &mut dyn ServoBus,
+    robot: &Robot,
+    trajectory: &Trajectory,
+    options: &PlayOptions,
+    stop: &StopSignal,
+    clock: &dyn Clock,
 ) -> Result<(Outcome, Stats), PlayError> {
     let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
     let guard = GoalGuard::new(robot);
@@ -211,8 +238,10 @@ pub fn play(
         None => None,
     };
 
-    let period = Duration::from_secs_f64(1.0 / options.rate_hz);
-    let start = Instant::now();
+    let period = 1.0 / options.rate_hz;
+    let mut pacer = Pacer::new(clock, period);
+    let t0 = clock.now().as_secs_f64();
+    let mut limiter = StepLimiter::new(robot, period, &measured);
     let mut stats = Stats {
         approach_seconds: timeline.approach_seconds(),
         ..Stats::default()
@@ -221,18 +250,27 @@ pub fn play(
     let mut last_goal = measured.clone();
     let mut reads = ReadStreak::default();
     let mut stops_seen = 0;
+    let mut stall_fault: Option<PlayError> = None;
     let mut last_progress = Instant::now() - Duration::from_secs(1);
     let mut cycle: u64 = 0;
 
     let outcome = loop {
-        let deadline = start + period * cycle as u32;
-        let now = Instant::now();
-        if deadline > now {
-            std::thread::sleep(deadline - now);
+        let start = pacer.wait(clock, stop, stops_seen);
+        let elapsed = start.now - t0;
+        let stalled = cycle > 0 && start.stalled(period);
+        if stalled {
+            timeline.after_stall(period, start.gap);
+            let held = start.gap - period;
+            if held > options.max_stall && stall_fault.is_none() {
+                stall_fault = Some(PlayError::Stall {
+                    held,
+                    period,
+                    bound: options.max_stall,
+                    at: elapsed,
+                });
+                timeline.request_stop();
+            }
         }
-        let elapsed = start.elapsed().as_secs_f64();
-        let lateness = (Instant::now() - deadline).as_secs_f64();
-        stats.lateness.push(lateness);
 
         let requests = stop.count();
         if requests >= 2 {
@@ -243,6 +281,9 @@ pub fn play(
             stops_seen = requests;
             timeline.request_stop();
         }
+        if cycle > 0 {
+            timeline.advance(period);
+        }
 
         let Some(phase) = timeline.sample_into(&mut pose) else {
             break if timeline.stopped() {
@@ -251,6 +292,7 @@ pub fn play(
                 Outcome::Finished
             };
         };
+        limiter.limit(&mut pose, start.gap);
         let goals = guard.goals(&pose)?;
         bus.write_goals(&goals).map_err(|e| fault(e, elapsed))?;
         last_goal.copy_from_slice(&pose);
@@ -309,29 +351,35 @@ pub fn play(
             stats.max_tracking_error = stats.max_tracking_error.max(error);
         }
         if let Some(log) = &mut log {
-            log.row(
-                elapsed,
+            log.row(&log::Row {
+                time: elapsed,
                 phase,
-                timeline.sequence_time(),
-                &pose,
-                measured_now.as_deref(),
-                lateness,
-            )?;
+                sequence_time: timeline.sequence_time(),
+                commanded: &pose,
+                measured: measured_now.as_deref(),
+                lateness: start.lateness,
+                stall: stalled.then_some(start.gap - period),
+            })?;
         }
         if options.progress && last_progress.elapsed() >= Duration::from_millis(100) {
             last_progress = Instant::now();
             print_progress(&timeline, trajectory);
         }
-        timeline.advance(1.0 / options.rate_hz);
         cycle += 1;
         stats.cycles = cycle;
     };
+    stats.pacing = pacer.summary;
+    stats.limited_goals = limiter.engaged;
+    stats.largest_limiter_correction = limiter.largest_correction;
     if options.progress {
         print_progress(&timeline, trajectory);
         eprintln!();
     }
     if let Some(log) = &mut log {
         log.finish()?;
+    }
+    if let Some(stall) = stall_fault {
+        return Err(stall);
     }
     if outcome == Outcome::Finished && options.release_at_end {
         release_when_reached(bus, robot, &ids, &last_goal).map_err(|e| fault(e, 0.0))?;

@@ -1,9 +1,15 @@
 //! What the arm should do at each cycle: approach, play (looping, ping-pong), return between
 //! loops, and braking after a stop request — as a state machine advanced by wall-clock steps.
 //!
-//! Braking scales the rate at which the path is followed by a factor that falls linearly from 1
-//! to 0, so the arm slows down along the very path it was on instead of cutting across. The
-//! braking time keeps the extra deceleration within half of each joint's acceleration limit.
+//! The rate at which the path is followed is a factor of the wall-clock rate:
+//! - braking lowers it linearly from where it is to 0, so the arm slows down along the very path
+//!   it was on instead of cutting across; the braking time keeps the extra deceleration within
+//!   half of each joint's acceleration limit;
+//! - a stall (the process did not run for a while, so the last goal was held) lowers it to the
+//!   rate the arm really followed, `period / gap` of it; it then climbs back to 1 no faster than
+//!   each joint's acceleration limit leaves room for next to the path's own acceleration. The
+//!   sequence resumes along the path from where it was, later by the stall; it never jumps
+//!   ahead to where the clock says it should be.
 
 use super::PlayOptions;
 use crate::plan::{Approach, Trajectory};
@@ -24,6 +30,8 @@ pub enum Phase {
     Return,
     /// Decelerating after a stop request.
     Stopping,
+    /// Coming back up to speed along the path after a stall.
+    Resuming,
 }
 
 impl Phase {
@@ -33,6 +41,7 @@ impl Phase {
             Phase::Play => "play",
             Phase::Return => "return",
             Phase::Stopping => "stopping",
+            Phase::Resuming => "resuming",
         }
     }
 }
@@ -56,6 +65,21 @@ const MIN_BRAKE_SECONDS: f64 = 0.2;
 const BRAKE_LIMIT_SHARE: f64 = 0.5;
 /// Below this distance (joint units) no return ramp is needed between loops.
 const SAME_POSE: f64 = 1e-6;
+/// Share of the acceleration headroom (the limit less the path's own acceleration) that
+/// coming back up to speed after a stall may use; the rest is margin for the step limiter.
+const RESUME_HEADROOM_SHARE: f64 = 0.9;
+/// Fastest return to full rate (per second), where the path hardly moves.
+const MAX_RESUME_RATE: f64 = 20.0;
+/// Step for the finite differences of the path's velocity and acceleration, seconds.
+const DIFFERENCE_STEP: f64 = 1e-3;
+
+/// How fast the path is followed, as a share of the wall-clock rate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PathRate {
+    factor: f64,
+    /// While braking: the factor lost per second.
+    braking: Option<f64>,
+}
 
 #[derive(Debug, Clone)]
 pub struct Timeline<'a> {
@@ -69,8 +93,7 @@ pub struct Timeline<'a> {
     play_from: f64,
     direction: f64,
     tau: f64,
-    /// (current factor, factor lost per second) while braking.
-    brake: Option<(f64, f64)>,
+    rate: PathRate,
     stopped: bool,
     approach_seconds: f64,
     joints: usize,
@@ -114,7 +137,10 @@ impl<'a> Timeline<'a> {
             play_from,
             direction: 1.0,
             tau: play_from,
-            brake: None,
+            rate: PathRate {
+                factor: 1.0,
+                braking: None,
+            },
             stopped: false,
             approach_seconds,
             joints: robot.joints.len(),
@@ -146,8 +172,13 @@ impl<'a> Timeline<'a> {
     }
 
     fn phase(&self) -> Option<Phase> {
-        if self.brake.is_some() && !matches!(self.state, State::Done) {
-            return Some(Phase::Stopping);
+        if !matches!(self.state, State::Done) {
+            if self.rate.braking.is_some() {
+                return Some(Phase::Stopping);
+            }
+            if self.rate.factor < 1.0 {
+                return Some(Phase::Resuming);
+            }
         }
         match self.state {
             State::Ramp { then_loop: 1, .. } => Some(Phase::Approach),
@@ -167,19 +198,33 @@ impl<'a> Timeline<'a> {
         self.phase()
     }
 
+    /// The last goal was held for `gap` seconds instead of one `period`: the path was followed
+    /// at `period / gap` of the rate, and resumes from there.
+    pub fn after_stall(&mut self, period: f64, gap: f64) {
+        if gap > period {
+            self.rate.factor *= period / gap;
+        }
+    }
+
     /// Moves on by `dt` seconds of wall-clock time.
     pub fn advance(&mut self, dt: f64) {
-        let factor = match &mut self.brake {
-            Some((factor, rate)) => {
-                *factor -= *rate * dt;
-                if *factor <= 0.0 {
+        let factor = match self.rate.braking {
+            Some(per_second) => {
+                self.rate.factor -= per_second * dt;
+                if self.rate.factor <= 0.0 {
                     self.state = State::Done;
                     self.stopped = true;
                     return;
                 }
-                *factor
+                self.rate.factor
             }
-            None => 1.0,
+            None => {
+                if self.rate.factor < 1.0 {
+                    let climb = self.resume_rate() * dt;
+                    self.rate.factor = (self.rate.factor + climb).min(1.0);
+                }
+                self.rate.factor
+            }
         };
         match &mut self.state {
             State::Ramp { ramp, t, then_loop } => {
@@ -248,10 +293,10 @@ impl<'a> Timeline<'a> {
 
     /// Starts braking along the current path.
     pub fn request_stop(&mut self) {
-        if self.brake.is_some() || matches!(self.state, State::Done) {
+        if self.rate.braking.is_some() || matches!(self.state, State::Done) {
             return;
         }
-        let velocity = self.velocity();
+        let (velocity, _) = self.derivatives();
         let seconds = self
             .robot
             .joints
@@ -259,31 +304,60 @@ impl<'a> Timeline<'a> {
             .zip(&velocity)
             .map(|(j, v)| v.abs() / (BRAKE_LIMIT_SHARE * j.limits.acceleration))
             .fold(MIN_BRAKE_SECONDS, f64::max);
-        self.brake = Some((1.0, 1.0 / seconds));
+        // From the rate the path is followed at now (lower after a stall) down to zero.
+        self.rate.braking = Some(self.rate.factor / seconds);
     }
 
-    /// Joint velocities of the commanded pose now, per second of wall-clock time.
-    fn velocity(&self) -> Vec<f64> {
-        let trajectory = self.trajectory;
-        let h = 1e-3;
-        let mut a = vec![0.0; self.joints];
-        let mut b = vec![0.0; self.joints];
+    /// How fast the rate factor may climb back to 1 (per second): the extra acceleration it
+    /// adds, `velocity · climb`, must fit within each joint's limit next to the path's own
+    /// acceleration at the present factor, `factor² · acceleration`.
+    fn resume_rate(&self) -> f64 {
+        let (velocity, acceleration) = self.derivatives();
+        let f2 = self.rate.factor * self.rate.factor;
+        self.robot
+            .joints
+            .iter()
+            .zip(velocity.iter().zip(&acceleration))
+            .map(|(j, (v, a))| {
+                let headroom = (j.limits.acceleration - f2 * a.abs()).max(0.0);
+                RESUME_HEADROOM_SHARE * headroom / v.abs().max(f64::MIN_POSITIVE)
+            })
+            .fold(MAX_RESUME_RATE, f64::min)
+    }
+
+    /// Joint velocities and accelerations of the commanded path now, at the full rate, per
+    /// second of wall-clock time (central differences).
+    fn derivatives(&self) -> (Vec<f64>, Vec<f64>) {
+        let h = DIFFERENCE_STEP;
+        let mut before = vec![0.0; self.joints];
+        let mut here = vec![0.0; self.joints];
+        let mut after = vec![0.0; self.joints];
         let rate = match &self.state {
             State::Ramp { ramp, t, .. } => {
-                ramp.sample_into(t - h, &mut a);
-                ramp.sample_into(t + h, &mut b);
+                ramp.sample_into(t - h, &mut before);
+                ramp.sample_into(*t, &mut here);
+                ramp.sample_into(t + h, &mut after);
                 1.0
             }
             State::Play | State::Final => {
-                trajectory.sample_into(self.tau - h, &mut a);
-                trajectory.sample_into(self.tau + h, &mut b);
+                self.trajectory.sample_into(self.tau - h, &mut before);
+                self.trajectory.sample_into(self.tau, &mut here);
+                self.trajectory.sample_into(self.tau + h, &mut after);
                 self.speed
             }
-            State::Done => return a,
+            State::Done => return (before, here),
         };
-        a.iter()
-            .zip(&b)
-            .map(|(x, y)| (y - x) / (2.0 * h) * rate)
-            .collect()
+        let velocity = before
+            .iter()
+            .zip(&after)
+            .map(|(a, b)| (b - a) / (2.0 * h) * rate)
+            .collect();
+        let acceleration = before
+            .iter()
+            .zip(&here)
+            .zip(&after)
+            .map(|((a, m), b)| (b - 2.0 * m + a) / (h * h) * rate * rate)
+            .collect();
+        (velocity, acceleration)
     }
 }

@@ -13,14 +13,17 @@ use crate::bus::{BusError, ServoBus};
 use crate::curve::Interp;
 use crate::json::InputError;
 use crate::plan::{check, retime, CheckReport, LimitKind, Trajectory};
-use crate::player::{faulty_joint, hold_tick, joint_prefix, ReadStreak, StopSignal};
+use crate::player::{
+    faulty_joint, hold_tick, joint_prefix, Clock, Pacer, ReadStreak, StopSignal, WallClock,
+};
 use crate::robot::{JointKind, Robot};
 use crate::sequence::{Ends, KeyValue, Keyframe, Sequence};
 use extract::ExtractError;
 use std::io::Write;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
-/// Highest sampling rate: key times are whole milliseconds, so faster samples would share them.
+/// Highest sampling rate: key times are whole milliseconds, so faster samples would share them
+/// (it is also the top of the player's control rates).
 pub const MAX_RATE_HZ: f64 = 1000.0;
 /// Longest recording, seconds: an hour of teaching by hand is far beyond any sequence, and the
 /// bound keeps memory and extraction time (about linear in length) in reason.
@@ -63,6 +66,8 @@ pub struct Recording {
     pub recorded: Vec<bool>,
     pub rate_hz: f64,
     pub stopped: StopReason,
+    /// Samples missing from the recording, and the longest gap between two.
+    pub gaps: SampleGaps,
     /// Set when the recording is complete but the limp joints could not all be made to hold
     /// again: some may still be limp.
     pub hold_error: Option<HoldError>,
@@ -96,6 +101,17 @@ pub fn record(
     options: &RecordOptions,
     stop: &StopSignal,
 ) -> Result<Recording, RecordError> {
+    record_with_clock(bus, robot, options, stop, &WallClock::new())
+}
+
+/// [`record`] on a given clock (tests make it stall).
+pub fn record_with_clock(
+    bus: &mut dyn ServoBus,
+    robot: &Robot,
+    options: &RecordOptions,
+    stop: &StopSignal,
+    clock: &dyn Clock,
+) -> Result<Recording, RecordError> {
     validate_options(robot, options)?;
     let all: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
     let limp: Vec<u8> = options
@@ -115,9 +131,9 @@ pub fn record(
         let _ = hold_where_they_are(bus, robot, &options.joints, &last_ticks);
         return Err(fault(e, 0.0));
     }
-    let sampled = sample(bus, robot, options, stop, &all, &mut last_ticks);
+    let sampled = sample(bus, robot, options, stop, clock, &all, &mut last_ticks);
     let hold = hold_where_they_are(bus, robot, &options.joints, &last_ticks);
-    let (times, values, stopped) = match sampled {
+    let (times, values, stopped, gaps) = match sampled {
         Ok(s) => s,
         Err((error, at)) => return Err(fault(error, at)),
     };
@@ -131,15 +147,17 @@ pub fn record(
         recorded,
         rate_hz: options.rate_hz,
         stopped,
+        gaps,
         hold_error: hold.err(),
     })
 }
 
 fn validate_options(robot: &Robot, options: &RecordOptions) -> Result<(), RecordError> {
     let rate = options.rate_hz;
-    if !(rate.is_finite() && rate > 0.0 && rate <= MAX_RATE_HZ) {
+    let lowest = *crate::player::RATE_RANGE_HZ.start();
+    if !(rate.is_finite() && (lowest..=MAX_RATE_HZ).contains(&rate)) {
         return Err(RecordError::Invalid(format!(
-            "the rate must be above 0 and at most {MAX_RATE_HZ} Hz (key times are whole milliseconds), found {rate}"
+            "the rate must be from {lowest} to {MAX_RATE_HZ} Hz (key times are whole milliseconds), found {rate}"
         )));
     }
     if let Some(d) = options.duration {
@@ -170,7 +188,37 @@ fn validate_options(robot: &Robot, options: &RecordOptions) -> Result<(), Record
     Ok(())
 }
 
-type Samples = (Vec<f64>, Vec<Vec<f64>>, StopReason);
+type Samples = (Vec<f64>, Vec<Vec<f64>>, StopReason, SampleGaps);
+
+/// Where a recording has no samples for longer than one period: what the hand did there is
+/// not known, and the keys are fitted across it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SampleGaps {
+    /// Reads that failed (each one a sample missing).
+    pub failed_reads: u64,
+    /// Cycles that began late after a stall of the process, and the deadlines passed over.
+    pub stalls: u64,
+    pub skipped_deadlines: u64,
+    /// The longest time between two samples, seconds, and where it ended (recording time).
+    pub longest: f64,
+    pub longest_at: f64,
+}
+
+impl SampleGaps {
+    fn sampled(&mut self, times: &[f64], t: f64) {
+        if let Some(&previous) = times.last() {
+            if t - previous > self.longest {
+                self.longest = t - previous;
+                self.longest_at = t;
+            }
+        }
+    }
+
+    /// Samples the recording should have and does not.
+    pub fn missing(&self) -> u64 {
+        self.failed_reads + self.skipped_deadlines
+    }
+}
 
 /// The sampling loop. On a fault returns the error and the time it happened.
 fn sample(
@@ -178,6 +226,7 @@ fn sample(
     robot: &Robot,
     options: &RecordOptions,
     stop: &StopSignal,
+    clock: &dyn Clock,
     ids: &[u8],
     last_ticks: &mut Vec<i64>,
 ) -> Result<Samples, (BusError, f64)> {
@@ -186,21 +235,20 @@ fn sample(
     let mut times = Vec::new();
     let mut values: Vec<Vec<f64>> = vec![Vec::new(); robot.joints.len()];
     let mut reads = ReadStreak::default();
+    let mut gaps = SampleGaps::default();
     let mut last_progress: Option<Instant> = None;
-    let start = Instant::now();
-    let mut cycle: u64 = 0;
+    // Absolute deadlines, and a stall skips the deadlines it missed rather than bunching
+    // samples after it; the pacer counts both.
+    let mut pacer = Pacer::new(clock, period);
+    let t0 = clock.now().as_secs_f64();
     let stopped = loop {
-        // Absolute deadlines: lateness never accumulates.
-        let deadline = start + Duration::from_secs_f64(cycle as f64 * period);
-        let now = Instant::now();
-        if deadline > now {
-            std::thread::sleep(deadline - now);
-        }
-        let before = start.elapsed().as_secs_f64();
+        let start = pacer.wait(clock, stop, 0);
+        let before = start.now - t0;
         match bus.read_positions(ids) {
             Ok(ticks) => {
                 // The servos answered some time during the read: its middle is the best guess.
-                let t = (before + start.elapsed().as_secs_f64()) / 2.0;
+                let t = (before + clock.now().as_secs_f64() - t0) / 2.0;
+                gaps.sampled(&times, t);
                 times.push(t);
                 for ((series, joint), &tick) in values.iter_mut().zip(&robot.joints).zip(&ticks) {
                     series.push(joint.servo.value(tick));
@@ -209,6 +257,7 @@ fn sample(
                 reads.succeeded();
             }
             Err(e) => {
+                gaps.failed_reads += 1;
                 if let Some(error) = reads.failed(e) {
                     return Err((error, before));
                 }
@@ -218,15 +267,11 @@ fn sample(
             last_progress = Some(Instant::now());
             print_progress(before, times.len());
         }
-        // A stall (a slow answer, a busy machine) skips the deadlines it missed rather than
-        // bunching samples after it.
-        let elapsed = start.elapsed().as_secs_f64();
-        cycle = (cycle + 1).max((elapsed / period).ceil() as u64);
         if !times.is_empty() {
             if stop.count() > 0 {
                 break StopReason::Requested;
             }
-            if cycle as f64 * period > limit + 1e-9 {
+            if before + period > limit + 1e-9 {
                 break match options.duration {
                     Some(_) => StopReason::Duration,
                     None => StopReason::Longest,
@@ -235,15 +280,18 @@ fn sample(
         }
     };
     if options.progress {
-        print_progress(start.elapsed().as_secs_f64(), times.len());
+        print_progress(clock.now().as_secs_f64() - t0, times.len());
         eprintln!();
     }
+    gaps.stalls = pacer.summary.stalls;
+    gaps.skipped_deadlines = pacer.summary.skipped_deadlines;
     // Times from the first sample.
-    let t0 = times.first().copied().unwrap_or(0.0);
+    let first = times.first().copied().unwrap_or(0.0);
     for t in &mut times {
-        *t -= t0;
+        *t -= first;
     }
-    Ok((times, values, stopped))
+    gaps.longest_at -= first;
+    Ok((times, values, stopped, gaps))
 }
 
 fn print_progress(seconds: f64, samples: usize) {

@@ -36,7 +36,10 @@ pub fn measured_traces(path: &Path, joints: &[String]) -> Result<Vec<Option<Trac
     for (index, line) in lines.enumerate() {
         let cells: Vec<&str> = line.split(',').collect();
         // The approach and the ramps between loops are not on the sequence's time axis.
-        if !matches!(cells.get(phase), Some(&"play") | Some(&"stopping")) {
+        if !matches!(
+            cells.get(phase),
+            Some(&"play") | Some(&"stopping") | Some(&"resuming")
+        ) {
             continue;
         }
         let number = |cell: &str, col: usize| -> Result<f64, InputError> {

@@ -61,7 +61,7 @@ pub fn command_stream(
         rows.push(pose.clone());
         sequence_time.push(match phase {
             Phase::Approach | Phase::Return => None,
-            Phase::Play | Phase::Stopping => Some(timeline.sequence_time()),
+            Phase::Play | Phase::Stopping | Phase::Resuming => Some(timeline.sequence_time()),
         });
         timeline.advance(dt);
     }

@@ -1,0 +1,193 @@
+//! Control-cycle pacing: absolute deadlines on a fixed grid, missed deadlines skipped.
+//!
+//! Deadlines are `start + k·period`, so ordinary lateness never accumulates. When the process
+//! stalls (SIGSTOP, a page fault, CPU steal, a burst of slow answers) the deadlines it missed
+//! are skipped, not replayed back to back: replaying them is exactly the burst of goals, each a
+//! full period's step apart by only a few milliseconds, that the velocity limits forbid. The
+//! stall is measured here and handed to the timeline, which resumes along the path from the
+//! rate the arm actually followed during the stall.
+
+use super::{Clock, StopSignal};
+use std::time::Duration;
+
+/// A cycle that starts more than this many periods after the previous one is a stall: the
+/// goal was held for longer than one period, and the path rate is brought down accordingly.
+/// Below it is scheduling jitter, which the absolute deadlines absorb.
+pub const STALL_PERIODS: f64 = 1.5;
+
+/// How many cycles' lateness are kept for percentiles (the summary figures cover all cycles).
+const KEPT_LATENESS: usize = 1 << 20;
+
+/// The start of one control cycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CycleStart {
+    /// Clock time the cycle began, seconds.
+    pub now: f64,
+    /// How late it began against its own deadline, seconds.
+    pub lateness: f64,
+    /// Time since the previous cycle began, seconds (one period when on time; for the first
+    /// cycle, one period).
+    pub gap: f64,
+    /// Deadlines passed over before this cycle.
+    pub skipped: u64,
+}
+
+impl CycleStart {
+    /// Whether the goal before this cycle was held long enough to count as a stall.
+    pub fn stalled(&self, period: f64) -> bool {
+        self.gap > STALL_PERIODS * period
+    }
+}
+
+/// Lateness over a whole playback: summary figures over every cycle, and the lateness of the
+/// first cycles for percentiles (bounded, so `--loop forever` cannot grow it without end).
+#[derive(Debug, Clone, Default)]
+pub struct LatenessSummary {
+    pub cycles: u64,
+    /// Cycles that began after a stall (see [`STALL_PERIODS`]).
+    pub stalls: u64,
+    pub skipped_deadlines: u64,
+    /// The longest time a goal was held beyond its period, seconds.
+    pub longest_stall: f64,
+    pub max_lateness: f64,
+    /// Time by which stalls held the path, seconds: the timeline runs that much later.
+    pub time_lost: f64,
+    /// Lateness of the first cycles, seconds.
+    pub lateness: Vec<f64>,
+}
+
+impl LatenessSummary {
+    fn add(&mut self, start: &CycleStart, period: f64) {
+        self.cycles += 1;
+        self.skipped_deadlines += start.skipped;
+        self.max_lateness = self.max_lateness.max(start.lateness);
+        if start.stalled(period) {
+            self.stalls += 1;
+            let held = start.gap - period;
+            self.longest_stall = self.longest_stall.max(held);
+            self.time_lost += held;
+        }
+        if self.lateness.len() < KEPT_LATENESS {
+            self.lateness.push(start.lateness);
+        }
+    }
+}
+
+#[derive(Debug)]
+pub struct Pacer {
+    period: f64,
+    /// Clock time of deadline 0, seconds.
+    anchor: f64,
+    /// Index of the next deadline on the grid.
+    next: u64,
+    previous_start: Option<f64>,
+    pub summary: LatenessSummary,
+}
+
+impl Pacer {
+    /// Deadlines every `period` seconds from the clock's present time.
+    pub fn new(clock: &dyn Clock, period: f64) -> Self {
+        Self {
+            period,
+            anchor: clock.now().as_secs_f64(),
+            next: 0,
+            previous_start: None,
+            summary: LatenessSummary::default(),
+        }
+    }
+
+    pub fn period(&self) -> f64 {
+        self.period
+    }
+
+    fn deadline(&self, index: u64) -> f64 {
+        // u64 · period in f64: exact to well below a microsecond for centuries of cycles.
+        self.anchor + index as f64 * self.period
+    }
+
+    /// Waits for the next deadline (waking early on a new stop request) and starts a cycle.
+    pub fn wait(&mut self, clock: &dyn Clock, stop: &StopSignal, seen: u32) -> CycleStart {
+        let due = self.deadline(self.next);
+        if clock.now().as_secs_f64() < due {
+            clock.sleep_until(Duration::from_secs_f64(due), stop, seen);
+        }
+        let now = clock.now().as_secs_f64();
+        // Past the deadline after this one too: skip to the latest deadline that has passed.
+        let latest = ((now - self.anchor) / self.period).floor().max(0.0) as u64;
+        let skipped = latest.saturating_sub(self.next);
+        let start = CycleStart {
+            now,
+            lateness: (now - due).max(0.0),
+            gap: self.previous_start.map_or(self.period, |p| now - p),
+            skipped,
+        };
+        self.next = self.next.max(latest) + 1;
+        self.previous_start = Some(now);
+        self.summary.add(&start, self.period);
+        start
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Mutex;
+
+    /// A clock that jumps: sleeping moves it to the deadline at once; `stall` adds time.
+    #[derive(Default)]
+    struct Jumps(Mutex<Duration>);
+
+    impl Jumps {
+        fn stall(&self, seconds: f64) {
+            *self.0.lock().unwrap() += Duration::from_secs_f64(seconds);
+        }
+    }
+
+    impl Clock for Jumps {
+        fn now(&self) -> Duration {
+            *self.0.lock().unwrap()
+        }
+        fn sleep_until(&self, deadline: Duration, _: &StopSignal, _: u32) {
+            let mut now = self.0.lock().unwrap();
+            *now = (*now).max(deadline);
+        }
+    }
+
+    #[test]
+    fn on_time_cycles_follow_the_grid() {
+        let clock = Jumps::default();
+        let stop = StopSignal::default();
+        let mut pacer = Pacer::new(&clock, 0.01);
+        for k in 0..5 {
+            let start = pacer.wait(&clock, &stop, 0);
+            assert!((start.now - k as f64 * 0.01).abs() < 1e-12);
+            assert_eq!(start.skipped, 0);
+            assert!(!start.stalled(0.01));
+        }
+        assert_eq!(pacer.summary.stalls, 0);
+    }
+
+    #[test]
+    fn a_stall_skips_the_missed_deadlines_instead_of_replaying_them() {
+        let clock = Jumps::default();
+        let stop = StopSignal::default();
+        let mut pacer = Pacer::new(&clock, 0.01);
+        pacer.wait(&clock, &stop, 0); // t = 0
+        pacer.wait(&clock, &stop, 0); // t = 0.01
+        clock.stall(0.5); // t = 0.51: deadlines 0.02 … 0.51 have all passed
+        let late = pacer.wait(&clock, &stop, 0);
+        assert!((late.now - 0.51).abs() < 1e-9);
+        assert!((late.gap - 0.5).abs() < 1e-9);
+        assert!((late.lateness - 0.49).abs() < 1e-9, "{late:?}");
+        // Deadlines 0.02 … 0.50 (49 of them) are passed over; this cycle is deadline 0.51's.
+        assert_eq!(late.skipped, 49);
+        // The next cycle waits for the following deadline: no burst.
+        let next = pacer.wait(&clock, &stop, 0);
+        assert!((next.now - 0.52).abs() < 1e-9, "{next:?}");
+        assert!((next.gap - 0.01).abs() < 1e-9);
+        let summary = &pacer.summary;
+        assert_eq!((summary.stalls, summary.skipped_deadlines), (1, 49));
+        assert!((summary.time_lost - 0.49).abs() < 1e-9);
+        assert!((summary.longest_stall - 0.49).abs() < 1e-9);
+    }
+}
