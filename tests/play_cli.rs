@@ -258,7 +258,7 @@ fn a_playback_log_overlays_on_its_sequence_and_a_broken_log_is_refused() {
     let text = std::fs::read_to_string(&log).unwrap();
     let header = text.lines().next().unwrap();
     assert!(header.starts_with("time,phase,sequence_time,shoulder_pan_cmd"));
-    assert!(header.ends_with("gripper_meas,lateness_ms"));
+    assert!(header.ends_with("gripper_meas,lateness_ms,stall_ms"));
     // 0.5 s ramp + 6 s at 100 Hz, plus the final pose: at least 650 cycles.
     assert!(text.lines().count() > 650);
 
@@ -302,4 +302,126 @@ fn a_playback_log_overlays_on_its_sequence_and_a_broken_log_is_refused() {
         "{}",
         stderr(&out)
     );
+}
+
+/// Plays `so101_wave.json` with a log, stops the process (SIGSTOP) for `stall_ms` 1.5 s in,
+/// then lets it go on; returns the output and the log's rows.
+fn stopped_for(stall_ms: u64, extra: &[&str]) -> (Output, Vec<Vec<String>>, Vec<String>) {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("stall.csv");
+    let log_arg = log.display().to_string();
+    let wave = repo("sequences/so101_wave.json");
+    let mut args = vec![
+        "play",
+        wave.as_str(),
+        "--port",
+        "virtual",
+        "--quiet",
+        "--log",
+        log_arg.as_str(),
+    ];
+    args.extend_from_slice(extra);
+    let child = keypose()
+        .args(&args)
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let pid = child.id().to_string();
+    let signal = |name: &str| {
+        let status = Command::new("kill")
+            .args([name, pid.as_str()])
+            .status()
+            .unwrap();
+        assert!(status.success());
+    };
+    std::thread::sleep(Duration::from_millis(1500));
+    signal("-STOP");
+    std::thread::sleep(Duration::from_millis(stall_ms));
+    signal("-CONT");
+    let out = child.wait_with_output().unwrap();
+    let text = std::fs::read_to_string(&log).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    (out, rows, header)
+}
+
+/// Checks every commanded step in a playback log against v·T of the SO-101 (115 °/s at
+/// 100 Hz: 1.15° per cycle; the log keeps six decimals). Returns the rows marked as stalls.
+fn commanded_steps_within_velocity(rows: &[Vec<String>], header: &[String]) -> usize {
+    let columns: Vec<usize> = (0..header.len())
+        .filter(|&i| header[i].ends_with("_cmd"))
+        .collect();
+    let stall = header.iter().position(|h| h == "stall_ms").unwrap();
+    for pair in rows.windows(2) {
+        for &c in &columns {
+            let step: f64 = pair[1][c].parse::<f64>().unwrap() - pair[0][c].parse::<f64>().unwrap();
+            assert!(
+                step.abs() <= 1.15 + 2e-6,
+                "{}: step {step}° at t = {}",
+                header[c],
+                pair[1][0]
+            );
+        }
+    }
+    rows.iter().filter(|r| !r[stall].is_empty()).count()
+}
+
+#[test]
+fn a_process_stopped_for_600_ms_brakes_and_exits_3_naming_the_stall() {
+    let (out, rows, header) = stopped_for(600, &[]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(err.contains("stalled: the goal was held"), "{err}");
+    assert!(err.contains("the bound is 250 ms"), "{err}");
+    assert!(commanded_steps_within_velocity(&rows, &header) >= 1);
+    // It braked along the path after the stall instead of playing on.
+    let phase = header.iter().position(|h| h == "phase").unwrap();
+    assert_eq!(rows.last().unwrap()[phase], "stopping", "{err}");
+}
+
+#[test]
+fn with_a_looser_bound_playback_resumes_along_the_path_after_a_stall() {
+    let (out, rows, header) = stopped_for(600, &["--max-stall", "5000"]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(err.contains("stall(s): the longest held a goal"), "{err}");
+    assert!(commanded_steps_within_velocity(&rows, &header) >= 1);
+    let phase = header.iter().position(|h| h == "phase").unwrap();
+    assert!(rows.iter().any(|r| r[phase] == "resuming"), "{err}");
+    // The whole sequence was played: the last commanded pose is the last key's.
+    let time = header.iter().position(|h| h == "sequence_time").unwrap();
+    let last: f64 = rows.last().unwrap()[time].parse().unwrap();
+    assert!((last - 8.8).abs() < 1e-6, "ended at sequence time {last}");
+}
+
+#[test]
+fn control_rates_outside_10_hz_to_1_khz_are_refused_before_anything_opens() {
+    for rate in ["1e-300", "1e-10", "5", "2000", "inf", "NaN", "-100"] {
+        for command in [
+            vec!["play", "sequences/so101_wave.json"],
+            vec!["record", "-o", "never.json"],
+        ] {
+            let mut args: Vec<&str> = command.clone();
+            args.extend(["--port", "/dev/keypose-no-such-port", "--rate", rate]);
+            let out = keypose()
+                .args(&args)
+                .current_dir(env!("CARGO_MANIFEST_DIR"))
+                .output()
+                .unwrap();
+            let err = stderr(&out);
+            // Exit 2 before the port is opened (opening it would be exit 3).
+            assert_eq!(
+                out.status.code(),
+                Some(2),
+                "{command:?} --rate {rate}: {err}"
+            );
+            assert!(
+                err.contains("expected a control rate from 10 to 1000 Hz"),
+                "{command:?} --rate {rate}: {err}"
+            );
+        }
+    }
 }

@@ -201,3 +201,38 @@ fn a_joint_pushed_far_past_its_limit_is_not_held_until_moved_inside() {
         );
     }
 }
+
+#[test]
+fn a_big_jog_moves_along_a_ramp_within_the_limits_not_in_one_jump() {
+    let robot = Robot::builtin("so101").unwrap();
+    let (server, mut session) = open(&robot);
+    let mut state = start(&robot, &mut session);
+    let server = server.as_ref().expect("virtual servos");
+    let pan = &robot.joints[0];
+    let before = server.bus().lock().goals_received().len();
+    // Shift+right: +10° on the selected joint (the pan), from 0°.
+    press(&mut state, &mut session, Key::ShiftRight);
+    let pan_goals: Vec<f64> = server.bus().lock().goals_received()[before..]
+        .iter()
+        .filter(|(id, _)| *id == pan.servo.id)
+        .map(|&(_, tick)| pan.servo.value(tick))
+        .collect();
+    // A minimum-jerk ramp at half the limits: 10° needs 15/8 · 10 / 57.5 = 0.326 s (velocity)
+    // and √(5.774 · 10 / 172) = 0.579 s (acceleration), so about 58 goals at 100 Hz.
+    assert!(
+        pan_goals.len() >= 50,
+        "{} goals: {pan_goals:?}",
+        pan_goals.len()
+    );
+    let tick = 360.0 / 4096.0;
+    let mut previous = 0.0;
+    for goal in &pan_goals {
+        // 115 °/s over 10 ms, and a tick of rounding.
+        assert!(
+            (goal - previous).abs() <= 1.15 + tick,
+            "{previous} → {goal}"
+        );
+        previous = *goal;
+    }
+    assert!((pan_goals.last().unwrap() - 10.0).abs() <= tick / 2.0);
+}

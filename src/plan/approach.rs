@@ -27,6 +27,12 @@ pub struct Approach {
 impl Approach {
     /// A ramp from `from` to `to` (joint values in robot order), timed by `robot`'s limits.
     pub fn new(robot: &Robot, from: &[f64], to: &[f64]) -> Approach {
+        Self::at_least(robot, from, to, MIN_APPROACH_SECONDS)
+    }
+
+    /// [`Approach::new`] with another shortest duration (a jog of a joint held where it is,
+    /// whose start is known exactly, needs no deliberate half second).
+    pub fn at_least(robot: &Robot, from: &[f64], to: &[f64], shortest: f64) -> Approach {
         let duration = robot
             .joints
             .iter()
@@ -38,7 +44,7 @@ impl Approach {
                 (PEAK_VELOCITY_FACTOR * distance / v)
                     .max((PEAK_ACCELERATION_FACTOR * distance / acc).sqrt())
             })
-            .fold(MIN_APPROACH_SECONDS, f64::max);
+            .fold(shortest, f64::max);
         Approach {
             from: from.to_vec(),
             to: to.to_vec(),

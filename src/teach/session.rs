@@ -10,7 +10,8 @@
 
 use super::state::{tidy, Command, Event, MotionPlan};
 use crate::bus::{BusError, ServoBus};
-use crate::player::{self, hold_value, Outcome, PlayError, StopSignal};
+use crate::plan::Approach;
+use crate::player::{self, hold_value, Outcome, Pacer, PlayError, StopSignal, WallClock};
 use crate::robot::Robot;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
@@ -227,24 +228,67 @@ impl Session {
         Ok(vec![Event::Released { joints }])
     }
 
+    /// Moves the joints to new goals (a jog) along a minimum-jerk ramp at the control rate,
+    /// from the goals they hold, within half their velocity and acceleration limits: a jog of
+    /// 10° written at once would be a jump at the servo's top speed.
     fn send_goals(&mut self, goals: Vec<(usize, f64)>) -> Result<Vec<Event>, BusError> {
+        let ramp = self.jog_ramp(&goals)?;
+        let period = 1.0 / self.robot.control_hz;
+        let clock = WallClock::new();
+        let mut pacer = Pacer::new(&clock, period);
+        let mut pose = vec![0.0; self.robot.joints.len()];
         let mut ticks = Vec::with_capacity(goals.len());
-        for &(j, value) in &goals {
-            let joint = &self.robot.joints[j];
-            // The state clamps jogs; this is the last line before the wire, as in the player.
-            let tick = joint.goal_tick(value).map_err(|e| {
-                BusError::Protocol(format!(
-                    "refusing to send joint {}: {e} (nothing was sent)",
-                    joint.name
-                ))
-            })?;
-            ticks.push((joint.servo.id, tick));
+        let never = StopSignal::default();
+        for k in 1.. {
+            pacer.wait(&clock, &never, 0);
+            let t = (k as f64 * period).min(ramp.duration);
+            ramp.sample_into(t, &mut pose);
+            ticks.clear();
+            for &(j, _) in &goals {
+                ticks.push((self.ids[j], self.goal_tick(j, pose[j])?));
+            }
+            self.bus_mut()?.write_goals(&ticks)?;
+            if t >= ramp.duration {
+                break;
+            }
         }
-        self.bus_mut()?.write_goals(&ticks)?;
         for (&(j, _), &(_, tick)) in goals.iter().zip(&ticks) {
             self.goal_ticks[j] = Some(tick);
         }
         Ok(vec![Event::GoalsSent(goals)])
+    }
+
+    /// The ramp from each jogged joint's present goal to its new one; the other joints stay.
+    fn jog_ramp(&self, goals: &[(usize, f64)]) -> Result<Approach, BusError> {
+        let mut from: Vec<f64> = self
+            .goal_ticks
+            .iter()
+            .zip(&self.robot.joints)
+            .map(|(tick, joint)| tick.map_or(0.0, |t| joint.servo.value(t)))
+            .collect();
+        let mut to = from.clone();
+        for &(j, value) in goals {
+            // The state clamps jogs; this is the last line before the wire, as in the player.
+            self.goal_tick(j, value)?;
+            match self.goal_ticks[j] {
+                Some(tick) => from[j] = self.robot.joints[j].servo.value(tick),
+                // No goal held (not expected: jogging needs torque on): start at the target,
+                // which the ramp then holds.
+                None => from[j] = value,
+            }
+            to[j] = value;
+        }
+        Ok(Approach::at_least(&self.robot, &from, &to, 0.0))
+    }
+
+    fn goal_tick(&self, j: usize, value: f64) -> Result<i64, BusError> {
+        let joint = &self.robot.joints[j];
+        joint.goal_tick(value).map_err(|e| {
+            BusError::Protocol(format!(
+                "refusing to send joint {}: {e} (nothing was sent)",
+                joint.name
+            ))
+        })
     }
 
     fn run(&mut self, plan: MotionPlan) -> Result<Vec<Event>, BusError> {
