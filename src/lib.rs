@@ -5,6 +5,7 @@
 //! turns trajectories and checks into text, JSON and SVG. [`commands`] holds the command-line
 //! verbs so that `main.rs` only parses arguments and maps errors to exit codes.
 
+pub mod atomic_file;
 pub mod bus;
 pub mod commands;
 pub mod curve;

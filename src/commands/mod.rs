@@ -194,13 +194,15 @@ pub fn parse_rate(s: &str) -> Result<f64, String> {
     }
 }
 
-/// Writes `text` to `path`, or to standard output when there is no path. A closed pipe on
+/// Writes `text` to `path` (atomically), or to standard output when there is no path. A closed pipe on
 /// standard output (`keypose sample … | head`) is not an error.
 pub fn write_output(path: Option<&Path>, text: &str) -> Result<(), CommandError> {
     match path {
-        Some(path) => std::fs::write(path, text).map_err(|source| CommandError::Output {
-            path: path.display().to_string(),
-            source,
+        Some(path) => crate::atomic_file::write(path, text.as_bytes()).map_err(|source| {
+            CommandError::Output {
+                path: path.display().to_string(),
+                source,
+            }
         }),
         None => {
             let mut stdout = std::io::stdout().lock();

@@ -29,7 +29,7 @@ pub fn model_path(config: &PyConfig, robot: &str) -> Result<PathBuf, SimError> {
         model: path.display().to_string(),
         message: format!("cannot write: {e}"),
     };
-    std::fs::create_dir_all(&dir).map_err(io)?;
-    crate::sequence::write_atomically(&path, text.as_bytes()).map_err(io)?;
+    crate::atomic_file::create_private_dir(&dir).map_err(io)?;
+    crate::atomic_file::write(&path, text.as_bytes()).map_err(io)?;
     Ok(path)
 }
