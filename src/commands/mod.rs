@@ -205,6 +205,8 @@ pub fn write_output(path: Option<&Path>, text: &str) -> Result<(), CommandError>
             }
         }),
         None => {
+            // Reports quote file text (key and joint names); a terminal must not run it.
+            let text = crate::terminal_text::escape_controls(text);
             let mut stdout = std::io::stdout().lock();
             match stdout
                 .write_all(text.as_bytes())

@@ -5,6 +5,7 @@ use super::{parse_rate, CommandError, SequenceInput, Verdict};
 use crate::plan::{check_at_speed, Trajectory};
 use crate::player::{self, Loops, Outcome, PlayError, PlayOptions, StopSignal};
 use crate::report;
+use crate::terminal_text::escape_controls;
 use std::path::PathBuf;
 
 #[derive(Debug, Clone, clap::Args)]
@@ -94,7 +95,8 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
     // Refuse what the servos would be asked to do beyond their limits at this speed.
     let report = check_at_speed(&trajectory, &robot, rate, args.speed);
     if !report.passed() {
-        eprint!("{}", report::check_text(&report, &sequence.file, &robot));
+        let text = report::check_text(&report, &sequence.file, &robot);
+        eprint!("{}", escape_controls(&text));
         eprintln!(
             "refusing to play: the sequence breaks the limits above at speed {} (try `keypose retime`, or a lower --speed)",
             args.speed
@@ -122,7 +124,10 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
             ));
         }
         let result = super::sim::simulate(&sequence, &robot, &trajectory, &options, None)?;
-        print!("{}", super::sim::table(&sequence.file, &result));
+        print!(
+            "{}",
+            escape_controls(&super::sim::table(&sequence.file, &result))
+        );
         return Ok(if result.verdict.passed() {
             Verdict::Pass
         } else {

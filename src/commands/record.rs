@@ -9,6 +9,7 @@ use crate::record::{
     self, KeyframeOptions, Keyframes, RecordError, RecordOptions, Retimed, StopReason,
 };
 use crate::report;
+use crate::terminal_text::escape_controls;
 use std::io::{BufRead, IsTerminal};
 use std::path::{Path, PathBuf};
 
@@ -203,10 +204,8 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
         )));
     }
     if !result.check.passed() {
-        eprint!(
-            "{}",
-            report::check_text(&result.check, &sequence.file, &robot)
-        );
+        let text = report::check_text(&result.check, &sequence.file, &robot);
+        eprint!("{}", escape_controls(&text));
         eprintln!("the keyframes are saved, but they break the limits above");
         return Ok(Verdict::Fail);
     }
@@ -259,7 +258,7 @@ fn watch_stdin(stop: StopSignal, warn_on_eof: bool) {
 }
 
 fn print_summary(result: &Keyframes, output: &Path, calibrated: bool) {
-    println!("{}", result.summary());
+    println!("{}", escape_controls(&result.summary()));
     for c in &result.clamps {
         eprintln!(
             "warning: {} was pushed {} past its limit {} {} (worst at t = {:.3} s); the keys hold it at the limit",

@@ -7,6 +7,7 @@ use crate::robot::Robot;
 use crate::sequence::Sequence;
 use crate::sim::verdict::{self, KeyMark, Thresholds, Trace};
 use crate::sim::{self, SimError, Simulation};
+use crate::terminal_text::escape_controls;
 use serde_json::json;
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -87,7 +88,7 @@ pub fn simulate(
                 trajectory.end,
                 key + 1,
                 trajectory.key_times.len(),
-                trajectory.key_labels[key]
+                escape_controls(&trajectory.key_labels[key])
             );
             let _ = std::io::stderr().flush();
         }
@@ -141,7 +142,7 @@ pub fn run(args: &SimArgs) -> Result<Verdict, CommandError> {
         &options,
         args.mjcf.as_deref(),
     )?;
-    print!("{}", table(&sequence.file, &result));
+    print!("{}", escape_controls(&table(&sequence.file, &result)));
     if let Some(path) = &args.report {
         let report = report_json(&sequence.file, &robot, &result);
         write_output(Some(path), &format!("{report:#}\n"))?;
