@@ -153,3 +153,164 @@ fn key_names_with_escape_sequences_are_printed_escaped() {
 fn stdout_has(out: &Output, text: &str) -> bool {
     String::from_utf8_lossy(&out.stdout).contains(text)
 }
+
+/// Asserts a refused option value: exit 2, the option named, `expected` in the message, and
+/// not clap's tip about `-- -1` for a negative number.
+fn refused_option(args: &[&str], option: &str, expected: &str) {
+    let out = keypose(args);
+    let err = bad_input(&out, expected);
+    assert!(err.contains(option), "{option} not named in: {err}");
+    assert!(
+        !err.contains("-- -"),
+        "clap's tip instead of a message: {err}"
+    );
+}
+
+#[test]
+fn absurd_and_negative_option_values_are_refused_with_what_was_expected() {
+    let wave = repo("sequences/so101_wave.json");
+    let w = wave.as_str();
+    // 1e300 seconds used to reach Duration::from_secs_f64 (a panic).
+    refused_option(
+        &["virtual-bus", "--robot", "so101", "--fault-after", "1e300"],
+        "--fault-after",
+        "expected seconds from 0 to 86400, found \"1e300\"",
+    );
+    refused_option(
+        &["virtual-bus", "--robot", "so101", "--fault-after", "-1"],
+        "--fault-after",
+        "expected seconds from 0 to 86400, found \"-1\"",
+    );
+    refused_option(
+        &["virtual-bus", "--robot", "so101", "--fault", "1:late=1e300"],
+        "--fault",
+        "late=MS: milliseconds, a whole number from 0 to 10000",
+    );
+    refused_option(
+        &["play", w, "--port", "virtual", "--speed", "-1"],
+        "--speed",
+        "expected a speed factor from 0.05 to 4, found \"-1\"",
+    );
+    refused_option(
+        &["play", w, "--port", "virtual", "--readback", "-1"],
+        "--readback",
+        "a whole number from 0 to 4294967295, found \"-1\"",
+    );
+    refused_option(
+        &["play", w, "--port", "virtual", "--loop", "-2"],
+        "--loop",
+        "expected a number of loops (1 or more)",
+    );
+    refused_option(
+        &["play", w, "--port", "virtual", "--baud", "-9600"],
+        "--baud",
+        "a baud rate, a whole number from 1 to 10500000",
+    );
+    refused_option(
+        &["scan", "--port", "virtual", "--baud", "0"],
+        "--baud",
+        "a baud rate, a whole number from 1 to 10500000, found \"0\"",
+    );
+    refused_option(
+        &[
+            "record",
+            "-o",
+            "x.json",
+            "--port",
+            "virtual",
+            "--tolerance",
+            "-1",
+        ],
+        "--tolerance",
+        "expected a tolerance in degrees above 0 and at most 360, found \"-1\"",
+    );
+    refused_option(
+        &[
+            "record",
+            "-o",
+            "x.json",
+            "--port",
+            "virtual",
+            "--duration",
+            "1e300",
+        ],
+        "--duration",
+        "expected seconds above 0 and at most 3600, found \"1e300\"",
+    );
+    refused_option(
+        &["sim", w, "--render", "x.png", "--every", "0"],
+        "--every",
+        "expected seconds above 0 and at most 86400, found \"0\"",
+    );
+    refused_option(
+        &["sim", w, "--speed", "nan"],
+        "--speed",
+        "expected a speed factor from 0.05 to 4, found \"nan\"",
+    );
+}
+
+/// Runs `keypose sim ARGS` with an empty cache and asserts it was refused before MuJoCo
+/// started: the harness would have written its scripts into the cache.
+fn sim_refused_before_starting(args: &[&str], expected: &str) {
+    let cache = tempfile::tempdir().unwrap();
+    let out = common::keypose()
+        .arg("sim")
+        .args(args)
+        .env("KEYPOSE_CACHE", cache.path())
+        .output()
+        .unwrap();
+    bad_input(&out, expected);
+    assert!(
+        fs::read_dir(cache.path()).unwrap().next().is_none(),
+        "the simulation started: {:?}",
+        fs::read_dir(cache.path()).unwrap().collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn sim_refuses_a_bad_render_name_or_model_before_the_simulation_runs() {
+    let wave = repo("sequences/so101_wave.json");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("wave.txt");
+    sim_refused_before_starting(
+        &[&wave, "--render", out.to_str().unwrap()],
+        "wave.txt: expected a .png, .gif or .mp4 file",
+    );
+    assert!(!out.exists());
+    sim_refused_before_starting(
+        &[&wave, "--render", "wave.gif", "--every", "1"],
+        "--every: only with a .png contact sheet",
+    );
+    // A sequence is JSON, not a MuJoCo model.
+    sim_refused_before_starting(
+        &[&wave, "--mjcf", &wave],
+        "so101_wave.json: expected a MuJoCo model (XML whose root element is <mujoco>, or a URDF <robot>), found no XML element",
+    );
+    let html = write(
+        dir.path(),
+        "page.xml",
+        "<?xml version=\"1.0\"?>\n<html><body/></html>",
+    );
+    sim_refused_before_starting(
+        &[&wave, "--mjcf", html.to_str().unwrap()],
+        "page.xml: expected a MuJoCo model (XML whose root element is <mujoco>, or a URDF <robot>), found <html>",
+    );
+    sim_refused_before_starting(
+        &[&wave, "--mjcf", "/dev/zero"],
+        "/dev/zero: is a character device; expected a regular file",
+    );
+}
+
+#[test]
+fn plot_refuses_a_png_name_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("wave.png");
+    let out = keypose(&[
+        "plot",
+        &repo("sequences/so101_wave.json"),
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    bad_input(&out, "wave.png: expected a .svg file");
+    assert!(fs::read_dir(dir.path()).unwrap().next().is_none());
+}

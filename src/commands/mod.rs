@@ -3,6 +3,7 @@
 
 pub mod check;
 pub mod hardware;
+pub mod option_values;
 pub mod play;
 pub mod plot;
 pub mod record;
