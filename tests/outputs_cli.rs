@@ -90,3 +90,34 @@ fn an_orphan_temporary_of_the_output_is_cleaned_up() {
     assert!(fs::read_to_string(&output).unwrap().starts_with("time,"));
     assert_eq!(names_in(dir.path()), ["samples.csv"]);
 }
+
+/// A playback log is streamed to a temporary and put in place when playback ends, also when it
+/// ends in a fault (the case the log is most needed for).
+#[test]
+fn a_playback_log_is_kept_when_playback_ends_in_a_fault() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("faulted.csv");
+    fs::write(&log, "an older log\n").unwrap();
+    // Servo 3 stops answering 1.5 s in (as play_cli's fault cases), during the 6.5 s nod.
+    let server = common::VirtualBusProcess::start(&[
+        "--robot",
+        "so101",
+        "--fault",
+        "3:no-answer",
+        "--fault-after",
+        "1.5",
+    ]);
+    let out = keypose(&[
+        "play",
+        &repo("sequences/so101_nod.json"),
+        "--port",
+        &server.path,
+        "--quiet",
+        "--log",
+        log.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(3), "{}", show(&out));
+    let text = fs::read_to_string(&log).unwrap();
+    assert!(text.starts_with("time,phase,sequence_time,"), "{text}");
+    assert_eq!(names_in(dir.path()), ["faulted.csv"]);
+}
