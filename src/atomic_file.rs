@@ -306,11 +306,23 @@ fn is_orphan(entry: &fs::DirEntry, pid: Option<u32>) -> bool {
     }
 }
 
-/// Flushes a directory's entries, so that a rename in it is on disk.
+/// Flushes a directory's entries, so that a rename in it is on disk. File systems that cannot
+/// sync a directory (some network and FUSE ones answer EINVAL) are not an error: the rename has
+/// happened, and reporting the write as failed would be false.
 fn sync_dir(dir: &Path) -> io::Result<()> {
     #[cfg(unix)]
     {
-        File::open(dir)?.sync_all()
+        match File::open(dir)?.sync_all() {
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::InvalidInput | io::ErrorKind::Unsupported
+                ) =>
+            {
+                Ok(())
+            }
+            other => other,
+        }
     }
     #[cfg(not(unix))]
     {
