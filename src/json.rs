@@ -64,26 +64,17 @@ impl InputError {
     }
 }
 
-/// Reads a file as UTF-8 text.
+/// Reads an input file (a sequence, a robot, a calibration) as UTF-8 text: a regular file of
+/// at most [`crate::input_file::MAX_INPUT_BYTES`].
 pub fn read_text(path: &Path) -> Result<String, InputError> {
-    let label = path.display().to_string();
-    let bytes = std::fs::read(path)
-        .map_err(|e| InputError::new(&label, Location::File, format!("cannot read: {e}")))?;
-    String::from_utf8(bytes).map_err(|e| {
-        InputError::new(
-            &label,
-            Location::File,
-            format!(
-                "expected UTF-8 JSON text, found invalid UTF-8 at byte {}",
-                e.utf8_error().valid_up_to()
-            ),
-        )
-    })
+    crate::input_file::read_text(path, crate::input_file::MAX_INPUT_BYTES)
 }
 
-/// Parses JSON text, mapping syntax errors to line:column.
+/// Parses JSON text, mapping syntax errors to line:column. An object that names a key twice is
+/// refused (serde_json alone would keep the last value silently: a pasted-in second `"robot"`
+/// or `"joints"` would override the first without a word).
 pub fn parse(file: &str, text: &str) -> Result<Value, InputError> {
-    serde_json::from_str(text).map_err(|e| {
+    parse_unique(text).map_err(|e| {
         let message = e.to_string();
         // serde_json appends " at line L column C"; the location is reported separately.
         let message = match message.rfind(" at line ") {
@@ -99,6 +90,86 @@ pub fn parse(file: &str, text: &str) -> Result<Value, InputError> {
             format!("invalid JSON: {message}"),
         )
     })
+}
+
+fn parse_unique(text: &str) -> Result<Value, serde_json::Error> {
+    use serde::Deserialize;
+    let mut deserializer = serde_json::Deserializer::from_str(text);
+    let UniqueKeys(value) = UniqueKeys::deserialize(&mut deserializer)?;
+    deserializer.end()?;
+    Ok(value)
+}
+
+/// A JSON value whose objects name each key once. The error is raised right after the
+/// repeated key is read, so serde_json's line:column points at it.
+struct UniqueKeys(Value);
+
+impl<'de> serde::Deserialize<'de> for UniqueKeys {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        deserializer
+            .deserialize_any(UniqueKeysVisitor)
+            .map(UniqueKeys)
+    }
+}
+
+struct UniqueKeysVisitor;
+
+impl<'de> serde::de::Visitor<'de> for UniqueKeysVisitor {
+    type Value = Value;
+
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("a JSON value")
+    }
+
+    fn visit_bool<E>(self, b: bool) -> Result<Value, E> {
+        Ok(Value::Bool(b))
+    }
+
+    fn visit_i64<E>(self, n: i64) -> Result<Value, E> {
+        Ok(Value::Number(n.into()))
+    }
+
+    fn visit_u64<E>(self, n: u64) -> Result<Value, E> {
+        Ok(Value::Number(n.into()))
+    }
+
+    fn visit_f64<E>(self, x: f64) -> Result<Value, E> {
+        Ok(serde_json::Number::from_f64(x).map_or(Value::Null, Value::Number))
+    }
+
+    fn visit_str<E>(self, s: &str) -> Result<Value, E> {
+        Ok(Value::String(s.to_string()))
+    }
+
+    fn visit_string<E>(self, s: String) -> Result<Value, E> {
+        Ok(Value::String(s))
+    }
+
+    fn visit_unit<E>(self) -> Result<Value, E> {
+        Ok(Value::Null)
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Value, A::Error> {
+        let mut items = Vec::new();
+        while let Some(UniqueKeys(item)) = seq.next_element()? {
+            items.push(item);
+        }
+        Ok(Value::Array(items))
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut entries: A) -> Result<Value, A::Error> {
+        let mut map = Map::new();
+        while let Some(key) = entries.next_key::<String>()? {
+            if map.contains_key(&key) {
+                return Err(serde::de::Error::custom(format!(
+                    "duplicate key {key:?}; expected each key once in an object"
+                )));
+            }
+            let UniqueKeys(value) = entries.next_value()?;
+            map.insert(key, value);
+        }
+        Ok(Value::Object(map))
+    }
 }
 
 /// A short description of a JSON value for "found …" in messages.
@@ -305,6 +376,40 @@ mod tests {
             err.to_string(),
             r#"f.json: $.keyframes[0].joints["a b"]: expected a finite number (degrees), found "x""#
         );
+    }
+
+    #[test]
+    fn a_duplicate_key_is_refused_at_its_line_and_column() {
+        let text = "{\n  \"robot\": \"so101\",\n  \"robot\": \"koch\"\n}";
+        let err = parse("f.json", text).unwrap_err();
+        // Line 3, just past the second "robot" (columns 3–9).
+        assert_eq!(err.location, Location::Syntax { line: 3, column: 9 });
+        assert_eq!(
+            err.to_string(),
+            r#"f.json:3:9: invalid JSON: duplicate key "robot"; expected each key once in an object"#
+        );
+        // Nested objects too, and the same key in two different objects is fine.
+        let nested = r#"{"keyframes":[{"joints":{"a":1}},{"joints":{"a":1,"b":2,"a":3}}]}"#;
+        let err = parse("f.json", nested).unwrap_err();
+        assert!(err.message.contains(r#"duplicate key "a""#), "{err}");
+        assert_eq!(
+            err.location,
+            Location::Syntax {
+                line: 1,
+                column: 59
+            }
+        );
+    }
+
+    #[test]
+    fn values_parse_as_serde_json_parses_them() {
+        let text = r#"{"b":[1,-2,3.5,1e-7,18446744073709551615,true,null,"x\u00e9"],"a":{}}"#;
+        let ours = parse("f.json", text).unwrap();
+        let theirs: Value = serde_json::from_str(text).unwrap();
+        assert_eq!(ours, theirs);
+        // Key order is the file's (preserve_order).
+        let keys: Vec<&String> = ours.as_object().unwrap().keys().collect();
+        assert_eq!(keys, ["b", "a"]);
     }
 
     #[test]

@@ -5,9 +5,11 @@
 //! turns trajectories and checks into text, JSON and SVG. [`commands`] holds the command-line
 //! verbs so that `main.rs` only parses arguments and maps errors to exit codes.
 
+pub mod atomic_file;
 pub mod bus;
 pub mod commands;
 pub mod curve;
+pub mod input_file;
 pub mod json;
 pub mod plan;
 pub mod player;
@@ -19,3 +21,4 @@ pub mod robot;
 pub mod sequence;
 pub mod sim;
 pub mod teach;
+pub mod terminal_text;

@@ -88,7 +88,12 @@ fn main() -> ExitCode {
     let code = match result {
         Ok(verdict) => verdict.exit_code(),
         Err(error) => {
-            eprintln!("error: {error}");
+            // Messages quote file text (names, values): no escape sequence reaches the terminal.
+            let message = error.to_string();
+            eprintln!(
+                "error: {}",
+                keypose::terminal_text::escape_controls(&message)
+            );
             error.exit_code()
         }
     };

@@ -16,6 +16,7 @@
 //! first line says it is ready (with the versions it runs), then one request line gets one
 //! reply line.
 
+use crate::atomic_file;
 use serde_json::{Map, Value};
 use std::collections::VecDeque;
 use std::ffi::OsString;
@@ -324,19 +325,9 @@ impl PyConfig {
         if fs::read(&path).is_ok_and(|on_disk| on_disk == content.as_bytes()) {
             return Ok(path);
         }
-        fs::create_dir_all(&dir).map_err(io_error("creating", &dir))?;
-        // Written beside and renamed, so that a process starting the script meanwhile never
-        // sees half a file.
-        let partial = dir.join(format!("{name}.{}", unique_suffix()));
-        fs::write(&partial, content).map_err(io_error("writing", &partial))?;
-        if let Err(source) = fs::rename(&partial, &path) {
-            let _ = fs::remove_file(&partial);
-            return Err(PyEnvError::Io {
-                action: "writing",
-                path,
-                source,
-            });
-        }
+        atomic_file::create_private_dir(&dir).map_err(io_error("creating", &dir))?;
+        // Atomic, so that a process starting the script meanwhile never sees half a file.
+        atomic_file::write(&path, content.as_bytes()).map_err(io_error("writing", &path))?;
         Ok(path)
     }
 
@@ -380,7 +371,8 @@ impl PyConfig {
     fn build_env(&self) -> Result<PythonEnv, PyEnvError> {
         let venv = self.venv_dir();
         let key = env_key(REQUIREMENTS);
-        fs::create_dir_all(&self.cache_dir).map_err(io_error("creating", &self.cache_dir))?;
+        atomic_file::create_private_dir(&self.cache_dir)
+            .map_err(io_error("creating", &self.cache_dir))?;
         remove_stale_builds(&self.cache_dir, &key);
         if venv.exists() {
             // There, but without its marker or with its interpreter gone (a Python upgrade
@@ -629,7 +621,8 @@ fn build_into(base: &BasePython, building: &Path, key: &str) -> Result<(), PyEnv
     // The requirements go inside the environment: pip reads them from there, and they record
     // what the environment was built from.
     let requirements = building.join("keypose-requirements.txt");
-    fs::write(&requirements, REQUIREMENTS).map_err(io_error("writing", &requirements))?;
+    atomic_file::write(&requirements, REQUIREMENTS.as_bytes())
+        .map_err(io_error("writing", &requirements))?;
     let python = venv_python(building);
     let mut pip = Command::new(&python);
     // --no-compile: compiled files would name the temporary directory in their tracebacks;
@@ -660,7 +653,8 @@ fn build_into(base: &BasePython, building: &Path, key: &str) -> Result<(), PyEnv
         "python_version": base.version,
         "built_by": format!("keypose {}", env!("CARGO_PKG_VERSION")),
     });
-    fs::write(&marker, format!("{record:#}\n")).map_err(io_error("writing", &marker))
+    atomic_file::write(&marker, format!("{record:#}\n").as_bytes())
+        .map_err(io_error("writing", &marker))
 }
 
 enum StreamFailure {

@@ -1,7 +1,7 @@
 //! The commands that talk to servos or ports without a sequence: `read`, `torque`, `scan`,
 //! `ports`, `doctor`, `virtual-bus`.
 
-use super::{write_output, CommandError, Verdict};
+use super::{option_values, write_output, CommandError, Verdict};
 use crate::bus::{self, Driver};
 use crate::robot::{import_lerobot_calibration, Protocol, Robot};
 use serde_json::json;
@@ -19,7 +19,7 @@ pub struct BusArgs {
     #[arg(long, value_enum, default_value_t = Driver::Native)]
     pub driver: Driver,
     /// Baud rate [default: the robot's].
-    #[arg(long, value_name = "BPS")]
+    #[arg(long, value_name = "BPS", value_parser = option_values::parse_baud, allow_negative_numbers = true)]
     pub baud: Option<u32>,
     /// Dynamixel: read with Fast Sync Read (one combined answer; not every model and firmware
     /// supports it).
@@ -158,7 +158,7 @@ pub struct ScanArgs {
     #[arg(long, value_parser = parse_protocol)]
     pub protocol: Option<Protocol>,
     /// Baud rate [default: 1000000; X-series servos ship at 57600].
-    #[arg(long, value_name = "BPS", default_value_t = 1_000_000)]
+    #[arg(long, value_name = "BPS", default_value_t = 1_000_000, value_parser = option_values::parse_baud, allow_negative_numbers = true)]
     pub baud: u32,
     /// With --port virtual: the robot whose servos to emulate.
     #[arg(long, value_name = "NAME|FILE", default_value = "so101")]
@@ -302,7 +302,7 @@ pub struct VirtualBusArgs {
     #[arg(long, value_name = "FAULT", value_parser = parse_fault)]
     pub fault: Vec<FaultSpec>,
     /// Seconds after start at which the faults take effect.
-    #[arg(long, value_name = "SECONDS", default_value_t = 0.0)]
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = option_values::parse_fault_after, allow_negative_numbers = true)]
     pub fault_after: f64,
     /// A hand that moves the arm along this sequence (for the emulated robot) once a servo is
     /// told to go limp, as a user would for `keypose record`; servos with torque on resist it.
@@ -343,10 +343,12 @@ fn parse_fault(s: &str) -> Result<FaultSpec, String> {
         "encoder" => alarm(|a| a.encoder = true),
         "electrical" => alarm(|a| a.electrical = true),
         late => {
-            let ms: u64 = late
-                .strip_prefix("late=")
-                .and_then(|ms| ms.parse().ok())
-                .ok_or_else(expected)?;
+            let ms = late.strip_prefix("late=").ok_or_else(expected)?;
+            let ms = option_values::integer_in(
+                ms,
+                0..=option_values::MAX_LATE_MS,
+                "late=MS: milliseconds",
+            )?;
             ServoFault::Late(std::time::Duration::from_millis(ms))
         }
     };
@@ -377,11 +379,6 @@ fn start_hand(
 /// line printed; serves until standard input closes or the process is terminated.
 pub fn virtual_bus(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
     let robot = Robot::resolve(&args.robot, "--robot")?;
-    if !(args.fault_after.is_finite() && args.fault_after >= 0.0) {
-        return Err(CommandError::Usage(
-            "--fault-after: expected seconds, 0 or more".into(),
-        ));
-    }
     for fault in &args.fault {
         if let FaultSpec::Servo(id, _) = fault {
             if !robot.joints.iter().any(|j| j.servo.id == *id) {

@@ -3,6 +3,7 @@
 
 pub mod check;
 pub mod hardware;
+pub mod option_values;
 pub mod play;
 pub mod plot;
 pub mod record;
@@ -231,15 +232,19 @@ pub fn limit_check_rate(rate: Option<f64>, robot: &Robot) -> f64 {
     rate.map_or(robot.control_hz, |r| r.max(robot.control_hz))
 }
 
-/// Writes `text` to `path`, or to standard output when there is no path. A closed pipe on
+/// Writes `text` to `path` (atomically), or to standard output when there is no path. A closed pipe on
 /// standard output (`keypose sample … | head`) is not an error.
 pub fn write_output(path: Option<&Path>, text: &str) -> Result<(), CommandError> {
     match path {
-        Some(path) => std::fs::write(path, text).map_err(|source| CommandError::Output {
-            path: path.display().to_string(),
-            source,
+        Some(path) => crate::atomic_file::write(path, text.as_bytes()).map_err(|source| {
+            CommandError::Output {
+                path: path.display().to_string(),
+                source,
+            }
         }),
         None => {
+            // Reports quote file text (key and joint names); a terminal must not run it.
+            let text = crate::terminal_text::escape_controls(text);
             let mut stdout = std::io::stdout().lock();
             match stdout
                 .write_all(text.as_bytes())

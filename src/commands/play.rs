@@ -1,10 +1,11 @@
 //! `keypose play`: stream a sequence to the servos.
 
 use super::hardware::BusArgs;
-use super::{parse_control_rate, CommandError, SequenceInput, Verdict};
+use super::{option_values, parse_control_rate, CommandError, SequenceInput, Verdict};
 use crate::plan::{check_at_speed, Trajectory};
 use crate::player::{self, Loops, Outcome, PlayError, PlayOptions, StopSignal};
 use crate::report;
+use crate::terminal_text::escape_controls;
 use std::path::PathBuf;
 
 #[derive(Debug, Clone, clap::Args)]
@@ -17,16 +18,16 @@ pub struct PlayArgs {
     #[arg(long, value_name = "HZ", value_parser = parse_control_rate, allow_negative_numbers = true)]
     pub rate: Option<f64>,
     /// Time scale: 0.5 plays at half speed, 2 at double (limits are checked at this speed).
-    #[arg(long, value_name = "F", default_value = "1", value_parser = parse_speed)]
+    #[arg(long, value_name = "F", default_value = "1", value_parser = option_values::parse_speed, allow_negative_numbers = true)]
     pub speed: f64,
     /// How many times to play: a number, or "forever".
-    #[arg(long = "loop", value_name = "N|forever", default_value = "1", value_parser = parse_loops)]
+    #[arg(long = "loop", value_name = "N|forever", default_value = "1", value_parser = parse_loops, allow_negative_numbers = true)]
     pub loops: Loops,
     /// Play forwards then backwards (each pass counts as one loop) instead of ramping back.
     #[arg(long)]
     pub ping_pong: bool,
     /// Start at this key: its index (0-based) or its name.
-    #[arg(long, value_name = "KEY")]
+    #[arg(long, value_name = "KEY", allow_negative_numbers = true)]
     pub from: Option<String>,
     /// Do not ramp from the measured pose to the first pose: the arm JUMPS there at full servo
     /// speed. Needs --i-accept-the-jump.
@@ -39,7 +40,7 @@ pub struct PlayArgs {
     #[arg(long)]
     pub release_at_end: bool,
     /// Read present positions every N cycles (0: never).
-    #[arg(long, value_name = "N", default_value_t = 1)]
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = option_values::parse_readback, allow_negative_numbers = true)]
     pub readback: u32,
     /// Write commanded and measured positions and cycle lateness to a CSV file.
     #[arg(long, value_name = "FILE.csv")]
@@ -59,15 +60,6 @@ fn parse_max_stall(s: &str) -> Result<f64, String> {
         Ok(ms) if ms.is_finite() && (1.0..=10_000.0).contains(&ms) => Ok(ms / 1000.0),
         _ => Err(format!(
             "expected a stall bound from 1 to 10000 ms, found {s:?}"
-        )),
-    }
-}
-
-fn parse_speed(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(x) if x.is_finite() && (0.05..=4.0).contains(&x) => Ok(x),
-        _ => Err(format!(
-            "expected a speed factor from 0.05 to 4, found {s:?}"
         )),
     }
 }
@@ -108,7 +100,8 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
     // Refuse what the servos would be asked to do beyond their limits at this speed.
     let report = check_at_speed(&trajectory, &robot, rate, args.speed);
     if !report.passed() {
-        eprint!("{}", report::check_text(&report, &sequence.file, &robot));
+        let text = report::check_text(&report, &sequence.file, &robot);
+        eprint!("{}", escape_controls(&text));
         eprintln!(
             "refusing to play: the sequence breaks the limits above at speed {} (try `keypose retime`, or a lower --speed)",
             args.speed
@@ -137,7 +130,10 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
             ));
         }
         let result = super::sim::simulate(&sequence, &robot, &trajectory, &options, None)?;
-        print!("{}", super::sim::table(&sequence.file, &result));
+        print!(
+            "{}",
+            escape_controls(&super::sim::table(&sequence.file, &result))
+        );
         return Ok(if result.verdict.passed() {
             Verdict::Pass
         } else {

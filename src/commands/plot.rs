@@ -3,7 +3,7 @@
 use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
 use crate::plan::Trajectory;
 use crate::report;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct PlotArgs {
@@ -25,6 +25,7 @@ pub struct PlotArgs {
 }
 
 pub fn run(args: &PlotArgs) -> Result<Verdict, CommandError> {
+    check_svg_extension(&args.output)?;
     let (sequence, robot) = args.input.load()?;
     let trajectory = Trajectory::build(&sequence, &robot)?;
     let rate = super::limit_check_rate(Some(args.rate), &robot);
@@ -47,4 +48,18 @@ pub fn run(args: &PlotArgs) -> Result<Verdict, CommandError> {
     }
     write_output(Some(&args.output), &report::plot::render_svg(&data))?;
     Ok(Verdict::Pass)
+}
+
+/// keypose draws SVG only: a `.png` name would get SVG text under a PNG name, which viewers
+/// refuse. (Rasterising in-process would need a renderer and its fonts, far heavier than the
+/// rest of keypose; `rsvg-convert` or a browser does it from the SVG.)
+fn check_svg_extension(output: &Path) -> Result<(), CommandError> {
+    let extension = output.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if extension.eq_ignore_ascii_case("svg") {
+        return Ok(());
+    }
+    Err(CommandError::Usage(format!(
+        "-o {}: expected a .svg file (keypose draws SVG; convert it to PNG with e.g. rsvg-convert)",
+        output.display()
+    )))
 }

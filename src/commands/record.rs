@@ -2,13 +2,14 @@
 //! reproduce the motion within a tolerance.
 
 use super::hardware::{BusArgs, RobotArgs};
-use super::{joint_indices, parse_control_rate, CommandError, Verdict};
+use super::{joint_indices, option_values, parse_control_rate, CommandError, Verdict};
 use crate::curve::Interp;
 use crate::player::StopSignal;
 use crate::record::{
     self, KeyframeOptions, Keyframes, RecordError, RecordOptions, Retimed, StopReason,
 };
 use crate::report;
+use crate::terminal_text::escape_controls;
 use std::io::{BufRead, IsTerminal};
 use std::path::{Path, PathBuf};
 
@@ -30,10 +31,10 @@ pub struct RecordArgs {
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]
     pub joints: Vec<String>,
     /// Largest deviation of the keyframes' curve from the recording, degrees (revolute joints).
-    #[arg(long, value_name = "DEG", default_value = "1", value_parser = parse_tolerance)]
+    #[arg(long, value_name = "DEG", default_value = "1", value_parser = parse_tolerance, allow_negative_numbers = true)]
     pub tolerance: f64,
     /// Largest deviation for prismatic joints, metres.
-    #[arg(long, value_name = "M", default_value = "0.001", value_parser = parse_tolerance)]
+    #[arg(long, value_name = "M", default_value = "0.001", value_parser = parse_tolerance_m, allow_negative_numbers = true)]
     pub tolerance_m: f64,
     /// Sampling rate, 10 to 1000 Hz; also the rate of the limit check [default: the robot's
     /// control_hz].
@@ -44,7 +45,7 @@ pub struct RecordArgs {
     #[arg(long, value_name = "MODE", default_value = "monotone", value_parser = parse_mode)]
     pub interpolation: Interp,
     /// Stop after this many seconds instead of waiting for Enter (for scripts).
-    #[arg(long, value_name = "SECONDS", value_parser = parse_duration)]
+    #[arg(long, value_name = "SECONDS", value_parser = parse_duration, allow_negative_numbers = true)]
     pub duration: Option<f64>,
     /// No progress line.
     #[arg(long, short)]
@@ -56,11 +57,13 @@ const LONG_RECORDING_SAMPLES: usize = 3000;
 /// Retiming a linear recording by more than this factor earns a hint to use a smooth mode.
 const LINEAR_HINT_STRETCH: f64 = 1.25;
 
+/// Tolerances above a turn (or a metre) are not tolerances: the whole motion is within them.
 fn parse_tolerance(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
-        _ => Err(format!("expected a tolerance above 0, found {s:?}")),
-    }
+    option_values::positive_up_to(s, 360.0, "a tolerance in degrees")
+}
+
+fn parse_tolerance_m(s: &str) -> Result<f64, String> {
+    option_values::positive_up_to(s, 1.0, "a tolerance in metres")
 }
 
 fn parse_mode(s: &str) -> Result<Interp, String> {
@@ -77,13 +80,7 @@ fn parse_mode(s: &str) -> Result<Interp, String> {
 }
 
 fn parse_duration(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(x) if x.is_finite() && x > 0.0 && x <= record::MAX_SECONDS => Ok(x),
-        _ => Err(format!(
-            "expected seconds above 0 and at most {}, found {s:?}",
-            record::MAX_SECONDS
-        )),
-    }
+    option_values::positive_up_to(s, record::MAX_SECONDS, "seconds")
 }
 
 pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
@@ -187,10 +184,8 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
         )));
     }
     if !result.check.passed() {
-        eprint!(
-            "{}",
-            report::check_text(&result.check, &sequence.file, &robot)
-        );
+        let text = report::check_text(&result.check, &sequence.file, &robot);
+        eprint!("{}", escape_controls(&text));
         eprintln!("the keyframes are saved, but they break the limits above");
         return Ok(Verdict::Fail);
     }
@@ -261,7 +256,7 @@ fn watch_stdin(stop: StopSignal, warn_on_eof: bool) {
 }
 
 fn print_summary(result: &Keyframes, output: &Path, calibrated: bool) {
-    println!("{}", result.summary());
+    println!("{}", escape_controls(&result.summary()));
     for c in &result.clamps {
         eprintln!(
             "warning: {} was pushed {} past its limit {} {} (worst at t = {:.3} s); the keys hold it at the limit",

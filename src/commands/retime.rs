@@ -2,6 +2,7 @@
 
 use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
 use crate::plan::{retime, LimitKind};
+use crate::terminal_text::escape_controls;
 use std::path::PathBuf;
 
 #[derive(Debug, Clone, clap::Args)]
@@ -26,11 +27,12 @@ pub fn run(args: &RetimeArgs) -> Result<Verdict, CommandError> {
     )?;
     let outcome = retime(&sequence, &robot, rate)?;
     for (segment, before, after) in &outcome.stretched {
-        eprintln!(
+        let line = format!(
             "segment {segment} ({} → {}): {before:.3} s → {after:.3} s",
             sequence.keyframes[*segment].label(*segment),
             sequence.keyframes[segment + 1].label(segment + 1),
         );
+        eprintln!("{}", escape_controls(&line));
     }
     if outcome.stretched.is_empty() {
         eprintln!("no segment needed stretching");
@@ -46,7 +48,7 @@ pub fn run(args: &RetimeArgs) -> Result<Verdict, CommandError> {
                 LimitKind::Position => "move the keys inside the limits or use monotone",
                 _ => "use a smooth mode for this segment",
             };
-            eprintln!(
+            let line = format!(
                 "  {} {} in segment {} ({}) at t = {:.3} s: {:.3} vs limit {:.3} — {hint}",
                 v.joint,
                 v.kind.name(),
@@ -56,6 +58,7 @@ pub fn run(args: &RetimeArgs) -> Result<Verdict, CommandError> {
                 v.peak,
                 v.limit
             );
+            eprintln!("{}", escape_controls(&line));
         }
         return Ok(Verdict::Fail);
     }

@@ -1,12 +1,13 @@
 //! `keypose sim`: play a sequence in MuJoCo and judge it. Also `keypose play` without `--port`.
 
-use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
+use super::{option_values, parse_rate, write_output, CommandError, SequenceInput, Verdict};
 use crate::plan::Trajectory;
 use crate::player::PlayOptions;
 use crate::robot::Robot;
 use crate::sequence::Sequence;
 use crate::sim::verdict::{self, KeyMark, Thresholds, Trace};
 use crate::sim::{self, SimError, Simulation};
+use crate::terminal_text::escape_controls;
 use serde_json::json;
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -28,13 +29,13 @@ pub struct SimArgs {
     #[arg(long, value_name = "FILE")]
     pub render: Option<PathBuf>,
     /// With --render to .png: a frame every this many seconds instead of one per key.
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", value_parser = option_values::parse_every, allow_negative_numbers = true)]
     pub every: Option<f64>,
     /// Control rate [default: the robot's control_hz].
     #[arg(long, value_name = "HZ", value_parser = parse_rate)]
     pub rate: Option<f64>,
     /// Time scale, as for `play`.
-    #[arg(long, value_name = "F", default_value = "1")]
+    #[arg(long, value_name = "F", default_value = "1", value_parser = option_values::parse_speed, allow_negative_numbers = true)]
     pub speed: f64,
 }
 
@@ -87,7 +88,7 @@ pub fn simulate(
                 trajectory.end,
                 key + 1,
                 trajectory.key_times.len(),
-                trajectory.key_labels[key]
+                escape_controls(&trajectory.key_labels[key])
             );
             let _ = std::io::stderr().flush();
         }
@@ -123,11 +124,22 @@ pub fn run(args: &SimArgs) -> Result<Verdict, CommandError> {
     let (sequence, robot) = args.input.load()?;
     let trajectory = Trajectory::build(&sequence, &robot)?;
     let rate = args.rate.unwrap_or(robot.control_hz);
-    if !(args.speed.is_finite() && (0.05..=4.0).contains(&args.speed)) {
-        return Err(CommandError::Usage(format!(
-            "--speed: expected a factor from 0.05 to 4, found {}",
-            args.speed
-        )));
+    // Everything that can be refused is refused before MuJoCo starts.
+    let render_times = match &args.render {
+        Some(path) => Some(render_times(
+            render_kind(path, args.every)?,
+            args.every,
+            &trajectory,
+        )?),
+        None if args.every.is_some() => {
+            return Err(CommandError::Usage(
+                "--every: only with --render FILE.png (a frame every so many seconds)".into(),
+            ))
+        }
+        None => None,
+    };
+    if let Some(path) = &args.mjcf {
+        sim::check_mjcf_file(path)?;
     }
     super::check_sample_budget(&sequence.file, &trajectory, rate / args.speed)?;
     let options = PlayOptions {
@@ -141,13 +153,14 @@ pub fn run(args: &SimArgs) -> Result<Verdict, CommandError> {
         &options,
         args.mjcf.as_deref(),
     )?;
-    print!("{}", table(&sequence.file, &result));
+    print!("{}", escape_controls(&table(&sequence.file, &result)));
     if let Some(path) = &args.report {
         let report = report_json(&sequence.file, &robot, &result);
         write_output(Some(path), &format!("{report:#}\n"))?;
     }
-    if let Some(path) = &args.render {
-        render(args, &sequence, &robot, &trajectory, path)?;
+    if let (Some(path), Some(times)) = (&args.render, render_times) {
+        let mjcf = args.mjcf.as_deref();
+        render(mjcf, times, &sequence, &robot, &trajectory, path)?;
     }
     Ok(if result.verdict.passed() {
         Verdict::Pass
@@ -156,61 +169,95 @@ pub fn run(args: &SimArgs) -> Result<Verdict, CommandError> {
     })
 }
 
-fn render(
-    args: &SimArgs,
-    sequence: &Sequence,
-    robot: &Robot,
-    trajectory: &Trajectory,
-    path: &Path,
-) -> Result<(), CommandError> {
+/// What `--render` draws, from the file's extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum RenderKind {
+    /// A .png contact sheet: a frame at each key, or every `--every` seconds.
+    Sheet,
+    /// A .gif or .mp4 of the whole motion.
+    Motion,
+}
+
+fn render_kind(path: &Path, every: Option<f64>) -> Result<RenderKind, CommandError> {
     let extension = path
         .extension()
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
-    let times: Vec<(f64, String)> = match (extension.as_str(), args.every) {
-        ("png", None) => trajectory
+    match (extension.as_str(), every) {
+        ("png", _) => Ok(RenderKind::Sheet),
+        ("gif" | "mp4", None) => Ok(RenderKind::Motion),
+        ("gif" | "mp4", Some(_)) => Err(CommandError::Usage(format!(
+            "--every: only with a .png contact sheet; {} is drawn at 25 frames per second",
+            path.display()
+        ))),
+        _ => Err(CommandError::Usage(format!(
+            "--render {}: expected a .png, .gif or .mp4 file",
+            path.display()
+        ))),
+    }
+}
+
+/// Most frames a render draws.
+const MAX_FRAMES: usize = 2000;
+
+/// The times (and labels) of the frames to draw, counted before any is made: a tiny `--every`
+/// must be refused, not allocated.
+fn render_times(
+    kind: RenderKind,
+    every: Option<f64>,
+    trajectory: &Trajectory,
+) -> Result<Vec<(f64, String)>, CommandError> {
+    let fps = 25.0;
+    let count = match (kind, every) {
+        (RenderKind::Sheet, None) => trajectory
+            .key_times
+            .iter()
+            .filter(|t| (trajectory.start..=trajectory.end).contains(*t))
+            .count() as f64,
+        (RenderKind::Sheet, Some(every)) => (trajectory.duration() / every).floor() + 1.0,
+        (RenderKind::Motion, _) => (trajectory.duration() * fps).ceil() + 1.0,
+    };
+    if count > MAX_FRAMES as f64 {
+        return Err(CommandError::Usage(format!(
+            "--render: {count:.0} frames is too many (at most {MAX_FRAMES}); use a larger --every or a shorter sequence"
+        )));
+    }
+    let frames = count as usize;
+    Ok(match (kind, every) {
+        (RenderKind::Sheet, None) => trajectory
             .key_times
             .iter()
             .zip(&trajectory.key_labels)
             .filter(|(t, _)| **t >= trajectory.start && **t <= trajectory.end)
             .map(|(t, l)| (*t, format!("{l} · {t:.2} s")))
             .collect(),
-        ("png", Some(every)) if every > 0.0 && every.is_finite() => {
-            let count = (trajectory.duration() / every).floor() as usize;
-            (0..=count)
-                .map(|k| {
-                    let t = trajectory.start + k as f64 * every;
-                    (t, format!("{t:.2} s"))
-                })
-                .collect()
-        }
-        ("gif" | "mp4", _) => {
-            let fps = 25.0;
-            let count = (trajectory.duration() * fps).ceil() as usize;
-            (0..=count)
-                .map(|k| {
-                    let t = (trajectory.start + k as f64 / fps).min(trajectory.end);
-                    (t, format!("{t:.2} s"))
-                })
-                .collect()
-        }
-        _ => {
-            return Err(CommandError::Usage(format!(
-                "--render {}: expected a .png, .gif or .mp4 file (and --every above 0)",
-                path.display()
-            )))
-        }
-    };
-    if times.len() > 2000 {
-        return Err(CommandError::Usage(format!(
-            "--render: {} frames is too many; use a larger --every or a shorter sequence",
-            times.len()
-        )));
-    }
+        (RenderKind::Sheet, Some(every)) => (0..frames)
+            .map(|k| {
+                let t = trajectory.start + k as f64 * every;
+                (t, format!("{t:.2} s"))
+            })
+            .collect(),
+        (RenderKind::Motion, _) => (0..frames)
+            .map(|k| {
+                let t = (trajectory.start + k as f64 / fps).min(trajectory.end);
+                (t, format!("{t:.2} s"))
+            })
+            .collect(),
+    })
+}
+
+fn render(
+    mjcf: Option<&Path>,
+    times: Vec<(f64, String)>,
+    sequence: &Sequence,
+    robot: &Robot,
+    trajectory: &Trajectory,
+    path: &Path,
+) -> Result<(), CommandError> {
     let frames: Vec<Vec<f64>> = times.iter().map(|(t, _)| trajectory.sample(*t)).collect();
     let labels: Vec<String> = times.into_iter().map(|(_, l)| l).collect();
-    let gl = sim::render(robot, args.mjcf.as_deref(), &frames, &labels, path).map_err(sim_error)?;
+    let gl = sim::render(robot, mjcf, &frames, &labels, path).map_err(sim_error)?;
     eprintln!(
         "{}: rendered {} frame(s) of {} to {} ({gl})",
         sequence.file,

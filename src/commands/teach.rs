@@ -2,7 +2,6 @@
 
 use super::hardware::BusArgs;
 use super::{CommandError, SequenceInput, Verdict};
-use crate::json::{InputError, Location};
 use crate::robot::{import_lerobot_calibration, Robot};
 use crate::sequence::{KeyframeList, Sequence};
 use crate::teach::{self, Journal, Session, TeachError, TeachState};
@@ -71,7 +70,11 @@ pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
         .map(|config| Journal::for_target(&config.cache_dir, &output));
     let pending = match &journal {
         Some(journal) => journal.pending(&output).unwrap_or_else(|e| {
-            eprintln!("warning: the journal cannot be read, it is ignored: {e}");
+            let message = e.to_string();
+            eprintln!(
+                "warning: the journal cannot be read, it is ignored: {}",
+                crate::terminal_text::escape_controls(&message)
+            );
             None
         }),
         None => None,
@@ -150,12 +153,8 @@ fn open_script(path: &Path) -> Result<Box<dyn BufRead>, CommandError> {
     if path == Path::new("-") {
         return Ok(Box::new(std::io::stdin().lock()));
     }
-    let file = std::fs::File::open(path).map_err(|e| {
-        InputError::new(
-            &path.display().to_string(),
-            Location::File,
-            format!("cannot read the key script: {e}"),
-        )
-    })?;
+    // A regular file: a script is read line by line, and a device such as /dev/zero has no end
+    // of line (`-` reads standard input, for a pipe).
+    let file = crate::input_file::open_regular(path)?;
     Ok(Box::new(BufReader::new(file)))
 }

@@ -6,11 +6,16 @@
 //! a stall: how much longer than one period the previous goal was held; empty otherwise).
 //! `keypose plot
 //! --log` overlays the measured columns on the sequence, against `sequence_time`.
+//!
+//! The log is streamed to a temporary file and put in place when playback ends, however it ends
+//! (finished, stopped, a fault: [`PlaybackLog`] commits when dropped), so `--log` equal to an
+//! earlier log never leaves a torn file. A process killed outright leaves no log, only a
+//! temporary that the next write of the same log removes.
 
 use super::{Phase, PlayError};
+use crate::atomic_file::{AtomicFile, Privacy};
 use crate::robot::Robot;
 use std::fmt::Write as _;
-use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
@@ -28,20 +33,21 @@ pub struct Row<'a> {
 
 pub struct PlaybackLog {
     path: String,
-    out: BufWriter<File>,
+    /// `None` once committed.
+    out: Option<BufWriter<AtomicFile>>,
     line: String,
 }
 
 impl PlaybackLog {
     pub fn create(path: &Path, robot: &Robot) -> Result<Self, PlayError> {
         let label = path.display().to_string();
-        let file = File::create(path).map_err(|source| PlayError::Log {
+        let file = AtomicFile::create(path, Privacy::Shared).map_err(|source| PlayError::Log {
             path: label.clone(),
             source,
         })?;
         let mut log = Self {
             path: label,
-            out: BufWriter::new(file),
+            out: Some(BufWriter::new(file)),
             line: String::new(),
         };
         let mut header = String::from("time,phase,sequence_time");
@@ -86,19 +92,35 @@ impl PlaybackLog {
         result
     }
 
+    /// Puts the log in place of the target.
     pub fn finish(&mut self) -> Result<(), PlayError> {
-        self.out.flush().map_err(|source| PlayError::Log {
-            path: self.path.clone(),
-            source,
-        })
-    }
-
-    fn write(&mut self, text: &str) -> Result<(), PlayError> {
-        self.out
-            .write_all(text.as_bytes())
+        let Some(out) = self.out.take() else {
+            return Ok(());
+        };
+        out.into_inner()
+            .map_err(|e| e.into_error())
+            .and_then(AtomicFile::commit)
             .map_err(|source| PlayError::Log {
                 path: self.path.clone(),
                 source,
             })
+    }
+
+    fn write(&mut self, text: &str) -> Result<(), PlayError> {
+        let Some(out) = &mut self.out else {
+            return Ok(());
+        };
+        out.write_all(text.as_bytes())
+            .map_err(|source| PlayError::Log {
+                path: self.path.clone(),
+                source,
+            })
+    }
+}
+
+impl Drop for PlaybackLog {
+    /// Playback that ends in a fault returns early: its log is the one most worth keeping.
+    fn drop(&mut self) {
+        let _ = self.finish();
     }
 }

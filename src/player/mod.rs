@@ -476,7 +476,7 @@ fn release_when_reached(
 fn print_progress(timeline: &Timeline, trajectory: &Trajectory) {
     let t = timeline.sequence_time();
     let key = trajectory.segment_at(t);
-    let label = &trajectory.key_labels[key];
+    let label = crate::terminal_text::escape_field(&trajectory.key_labels[key]);
     let mut err = std::io::stderr().lock();
     let _ = write!(
         err,

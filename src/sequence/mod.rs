@@ -15,7 +15,6 @@ use std::path::Path;
 
 pub use edit::KeyframeList;
 pub use load::{MAX_TIME, MIN_GAP};
-pub use save::write_atomically;
 
 pub const SEQUENCE_FORMAT: &str = "keypose-sequence/1";
 pub const DEFAULT_KEY_INTERVAL: f64 = 2.0;
@@ -134,7 +133,7 @@ impl Sequence {
     /// Writes the sequence atomically, so a crash never leaves a half-written file.
     pub fn save(&self, path: &Path) -> Result<(), InputError> {
         self.validate()?;
-        write_atomically(path, self.to_json().as_bytes()).map_err(|e| {
+        crate::atomic_file::write(path, self.to_json().as_bytes()).map_err(|e| {
             InputError::new(
                 &path.display().to_string(),
                 crate::json::Location::File,

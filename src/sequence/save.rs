@@ -2,8 +2,6 @@
 
 use super::{Ends, KeyValue, Sequence, SEQUENCE_FORMAT};
 use serde_json::{json, Map, Value};
-use std::io::Write;
-use std::path::Path;
 
 pub(super) fn to_json(sequence: &Sequence) -> String {
     let mut root = Map::new();
@@ -97,28 +95,4 @@ fn compact_keys(root: &Value) -> String {
     }
     out.push('}');
     out
-}
-
-/// Writes `bytes` to a temporary file beside `path`, flushes it to disk, then renames it over
-/// `path`: readers see the old file or the new one, never a torn one.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    };
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "sequence.json".into());
-    let temp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-    let result = (|| {
-        let mut file = std::fs::File::create(&temp)?;
-        file.write_all(bytes)?;
-        file.sync_all()?;
-        std::fs::rename(&temp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&temp);
-    }
-    result
 }

@@ -7,7 +7,7 @@
 mod models;
 pub mod verdict;
 
-pub use models::model_path;
+pub use models::{check_mjcf_file, model_path};
 
 use crate::plan::Trajectory;
 use crate::player::{Phase, PlayOptions, Timeline};
@@ -32,6 +32,23 @@ pub enum SimError {
     Reply(String),
     #[error("rendering failed with both EGL and OSMesa: {0}")]
     Render(String),
+}
+
+/// A model MuJoCo cannot load is bad input (exit 2), not a failure of the simulation.
+fn model_error(error: SimError, model: &str) -> SimError {
+    match &error {
+        SimError::Harness(e) if e.reply().is_some_and(|r| r["kind"] == "model") => {
+            SimError::Model {
+                model: model.to_string(),
+                message: e
+                    .reply()
+                    .and_then(|r| r["error"].as_str())
+                    .unwrap_or("does not load")
+                    .to_string(),
+            }
+        }
+        _ => error,
+    }
 }
 
 /// What the player would send, cycle by cycle, in joint units.
@@ -137,7 +154,9 @@ impl Simulation {
             force_limits: Vec::new(),
             timestep: 0.0,
         };
-        let reply = sim.request(&json!({ "op": "load", "mjcf": model }))?;
+        let reply = sim
+            .request(&json!({ "op": "load", "mjcf": model }))
+            .map_err(|e| model_error(e, &model))?;
         sim.timestep = reply["timestep"].as_f64().unwrap_or(0.002);
         let model_joints: Vec<&str> = reply["joints"]
             .as_array()

@@ -2,8 +2,9 @@
 //! simulation needs them (MuJoCo loads models from files).
 
 use super::SimError;
+use crate::json::{InputError, Location};
 use crate::pyenv::PyConfig;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 const MODELS: [(&str, &str); 3] = [
     ("so101", include_str!("../../sim/models/so101.xml")),
@@ -29,7 +30,66 @@ pub fn model_path(config: &PyConfig, robot: &str) -> Result<PathBuf, SimError> {
         model: path.display().to_string(),
         message: format!("cannot write: {e}"),
     };
-    std::fs::create_dir_all(&dir).map_err(io)?;
-    crate::sequence::write_atomically(&path, text.as_bytes()).map_err(io)?;
+    crate::atomic_file::create_private_dir(&dir).map_err(io)?;
+    crate::atomic_file::write(&path, text.as_bytes()).map_err(io)?;
     Ok(path)
+}
+
+/// Checks a model given with `--mjcf` before MuJoCo starts: a regular file (not a FIFO MuJoCo
+/// would wait on) whose root element is `<mujoco>`, or a URDF `<robot>`, which MuJoCo also
+/// compiles. Anything else is bad input, not a simulation failure.
+pub fn check_mjcf_file(path: &Path) -> Result<(), InputError> {
+    let text = crate::json::read_text(path)?;
+    match root_element(&text) {
+        Some("mujoco" | "robot") => Ok(()),
+        found => Err(InputError::new(
+            &path.display().to_string(),
+            Location::File,
+            format!(
+                "expected a MuJoCo model (XML whose root element is <mujoco>, or a URDF <robot>), found {}",
+                match found {
+                    Some(name) => format!("<{name}>"),
+                    None => "no XML element".to_string(),
+                }
+            ),
+        )),
+    }
+}
+
+/// The name of the first element of an XML text, past its declaration, comments and doctype.
+fn root_element(text: &str) -> Option<&str> {
+    let mut rest = text.trim_start_matches('\u{feff}').trim_start();
+    loop {
+        rest = if let Some(r) = rest.strip_prefix("<?") {
+            r.split_once("?>")?.1
+        } else if let Some(r) = rest.strip_prefix("<!--") {
+            r.split_once("-->")?.1
+        } else if let Some(r) = rest.strip_prefix("<!") {
+            r.split_once('>')?.1
+        } else {
+            break;
+        }
+        .trim_start();
+    }
+    let name = rest.strip_prefix('<')?;
+    let end = name
+        .find(|c: char| c.is_whitespace() || c == '>' || c == '/')
+        .unwrap_or(name.len());
+    Some(&name[..end]).filter(|n| !n.is_empty())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_root_element_is_found_past_the_prolog() {
+        let mjcf =
+            "\u{feff}<?xml version=\"1.0\"?>\n<!-- arm -->\n<!DOCTYPE x>\n<mujoco model=\"a\">";
+        assert_eq!(root_element(mjcf), Some("mujoco"));
+        assert_eq!(root_element("<robot name=\"r\"/>"), Some("robot"));
+        assert_eq!(root_element("{\"format\": \"keypose-sequence/1\"}"), None);
+        assert_eq!(root_element("<html><body>"), Some("html"));
+        assert_eq!(root_element("<!-- never closed"), None);
+    }
 }

@@ -7,8 +7,9 @@
 //! (two `taught.json` in different directories do not share a journal), and removed after a
 //! successful write or a clean quit.
 
+use crate::atomic_file;
 use crate::json::InputError;
-use crate::sequence::{write_atomically, Sequence};
+use crate::sequence::Sequence;
 use std::io;
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
@@ -76,10 +77,11 @@ impl Journal {
         if sequence.keyframes.is_empty() {
             return self.remove();
         }
+        // Unsaved work is the user's alone: the journal is 0600 in a 0700 directory.
         if let Some(dir) = self.path.parent() {
-            std::fs::create_dir_all(dir)?;
+            atomic_file::make_private_dir(dir)?;
         }
-        write_atomically(&self.path, sequence.to_json().as_bytes())
+        atomic_file::write_private(&self.path, sequence.to_json().as_bytes())
     }
 
     /// Removes the journal; a journal that is not there is not an error.
@@ -156,6 +158,18 @@ mod tests {
         journal.save(&Sequence::new("so101")).unwrap();
         assert!(!journal.path().exists());
         journal.remove().unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn the_journal_is_private_0600_in_a_0700_directory() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let journal = Journal::for_target(dir.path(), &dir.path().join("seq.json"));
+        journal.save(&one_key()).unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(journal.path()), 0o600);
+        assert_eq!(mode(journal.path().parent().unwrap()), 0o700);
     }
 
     #[test]

@@ -141,6 +141,6 @@ fn show(echo: &mut impl Write, token: &str, state: &TeachState) {
         }
     };
     // The echo is a progress report; a closed standard error must not stop the session.
-    let _ = writeln!(echo, "{line}");
+    let _ = writeln!(echo, "{}", crate::terminal_text::escape_controls(&line));
     let _ = echo.flush();
 }

@@ -9,6 +9,7 @@ use super::keys::{Key, BINDINGS};
 use super::state::{format_value, Activity, MotionKind, TeachState};
 use super::{press, refresh, Session, TeachError};
 use crate::sequence::KeyValue;
+use crate::terminal_text::escape_field;
 use ratatui::crossterm::event::{self, KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Modifier, Style};
@@ -136,8 +137,8 @@ fn title_line(state: &TeachState, bus: &str) -> Line<'static> {
         Span::styled("keypose teach", Style::new().add_modifier(Modifier::BOLD)),
         Span::raw(format!(
             "  {} on {bus}  ·  {}{dirty}  ·  {timing}",
-            state.robot().name,
-            state.output().display()
+            escape_field(&state.robot().name),
+            escape_field(&state.output().display().to_string())
         )),
     ])
 }
@@ -165,7 +166,7 @@ fn draw_joints(frame: &mut Frame, area: Rect, state: &TeachState) {
         };
         let marker = if j == state.selected() { "▶ " } else { "  " };
         let row = Row::new(vec![
-            Cell::from(format!("{marker}{}", joint.name)),
+            Cell::from(format!("{marker}{}", escape_field(&joint.name))),
             Cell::from(format_value(joint, present)),
             Cell::from(key_text),
             Cell::from(limit_bar(joint, present, key_number)),
@@ -228,7 +229,7 @@ fn draw_keys(frame: &mut Frame, area: Rect, state: &TeachState) {
     let rows = sequence.keyframes.iter().enumerate().map(|(i, key)| {
         Row::new(vec![
             Cell::from(i.to_string()),
-            Cell::from(key.name.clone().unwrap_or_default()),
+            Cell::from(escape_field(key.name.as_deref().unwrap_or_default()).into_owned()),
             Cell::from(format!("{:.2}", sequence.key_time(i))),
             Cell::from(if key.hold > 0.0 {
                 format!("{:.2}", key.hold)
@@ -263,7 +264,7 @@ fn draw_keys(frame: &mut Frame, area: Rect, state: &TeachState) {
 fn status_lines(state: &TeachState) -> Paragraph<'static> {
     let first = match state.question() {
         Some(question) => Line::styled(
-            format!("? {question}"),
+            format!("? {}", escape_field(&question.to_string())),
             Style::new().fg(Color::Yellow).add_modifier(Modifier::BOLD),
         ),
         None => {
@@ -273,7 +274,7 @@ fn status_lines(state: &TeachState) -> Paragraph<'static> {
             } else {
                 Style::new()
             };
-            Line::styled(status.text.clone(), style)
+            Line::styled(escape_field(&status.text).into_owned(), style)
         }
     };
     let activity = match state.activity() {

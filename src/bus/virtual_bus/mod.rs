@@ -6,8 +6,9 @@
 //! protocol documents, and the conformance tests check both against the vendors' own SDKs.
 //!
 //! Faults can be injected per servo (no answer, a corrupted checksum, a late answer, an alarm)
-//! and for the whole bus (the port disappearing). Every instruction packet received is recorded,
-//! so tests can inspect exactly what reached the servos.
+//! and for the whole bus (the port disappearing). The instruction packets received are recorded
+//! (the last [`RECEIVED_LOG_CAPACITY`] of them, so a server left running at 1 kHz does not grow
+//! without bound), so tests can inspect exactly what reached the servos.
 
 mod hand;
 pub mod motion;
@@ -177,13 +178,22 @@ impl VirtualServo {
     }
 }
 
+/// Instruction packets kept in [`VirtualServos::received`]: minutes of a 6-servo arm at 1 kHz,
+/// far more than any test reads.
+pub const RECEIVED_LOG_CAPACITY: usize = 1_000_000;
+
 /// The emulated bus: servos, fault switches, and the record of received instructions.
 pub struct VirtualServos {
     protocol: Protocol,
     framing: Box<dyn Framing + Send>,
     pub servos: Vec<VirtualServo>,
-    /// Every instruction packet decoded, in order.
+    /// The instruction packets decoded, in order: at least the last `received_capacity` (the
+    /// oldest are dropped in batches, so a push stays cheap).
     pub received: Vec<Packet>,
+    /// How many packets `received` keeps ([`RECEIVED_LOG_CAPACITY`]).
+    pub received_capacity: usize,
+    /// Packets dropped from the front of `received`.
+    pub received_dropped: usize,
     /// Bytes that did not decode into packets (for diagnosing a broken encoder).
     pub corrupt_packets: usize,
     /// False once the port "disappears".
@@ -216,6 +226,8 @@ impl VirtualServos {
             framing,
             servos,
             received: Vec::new(),
+            received_capacity: RECEIVED_LOG_CAPACITY,
+            received_dropped: 0,
             corrupt_packets: 0,
             connected: true,
             rx: Vec::new(),
@@ -311,6 +323,19 @@ impl VirtualServos {
         Vec::new()
     }
 
+    /// Keeps `packet` in the log, dropping the oldest quarter of the capacity once it is
+    /// exceeded by that much: a `Vec` stays what callers index and slice, and the cost of a
+    /// drop is spread over as many pushes.
+    fn record(&mut self, packet: Packet) {
+        self.received.push(packet);
+        let slack = (self.received_capacity / 4).max(1);
+        if self.received.len() > self.received_capacity + slack {
+            let excess = self.received.len() - self.received_capacity;
+            self.received.drain(..excess);
+            self.received_dropped += excess;
+        }
+    }
+
     /// Decodes what arrived and answers each instruction.
     pub fn handle(&mut self, bytes: &[u8]) -> Vec<(Duration, Vec<u8>)> {
         self.rx.extend_from_slice(bytes);
@@ -319,7 +344,7 @@ impl VirtualServos {
             match self.framing.decode(&mut self.rx, Direction::ToServo) {
                 Ok(Decoded::Packet(packet)) => {
                     answers.extend(self.answer(&packet));
-                    self.received.push(packet);
+                    self.record(packet);
                 }
                 Ok(Decoded::NeedMore) => break,
                 Err(_) => self.corrupt_packets += 1,
@@ -564,5 +589,28 @@ impl Responder for VirtualBus {
 
     fn connected(&self) -> bool {
         self.lock().connected
+    }
+}
+
+#[cfg(test)]
+mod log_tests {
+    use super::*;
+    use crate::bus::packet::Framing;
+
+    #[test]
+    fn the_received_log_keeps_the_latest_packets_within_its_capacity() {
+        let mut servos = VirtualServos::new(Protocol::Dynamixel2, Vec::new());
+        servos.received_capacity = 8;
+        // 100 pings to ids 0…99 (none answers: no servos), one packet each.
+        for id in 0..100u8 {
+            let bytes = dynamixel::Dynamixel2.encode_instruction(id, dynamixel::PING, &[]);
+            servos.handle(&bytes);
+        }
+        let kept: Vec<u8> = servos.received.iter().map(|p| p.id).collect();
+        // At most capacity + a quarter of it, at least the capacity, and the newest ones.
+        assert!((8..=10).contains(&kept.len()), "{kept:?}");
+        let first = 100 - kept.len() as u8;
+        assert_eq!(kept, (first..100).collect::<Vec<u8>>());
+        assert_eq!(servos.received_dropped + kept.len(), 100);
     }
 }
