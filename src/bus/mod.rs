@@ -11,6 +11,7 @@
 mod connect;
 pub mod driver;
 pub mod dynamixel;
+mod echo;
 pub mod feetech;
 pub mod packet;
 pub mod ports;
@@ -31,6 +32,8 @@ pub struct PingInfo {
     pub model_number: u16,
     /// Dynamixel reports its firmware version in the ping answer; Feetech does not.
     pub firmware: Option<u8>,
+    /// The alarms the servo reported while answering: a servo in alarm still says what it is.
+    pub alarms: Alarms,
 }
 
 /// Alarm conditions a servo reports, common to both vendors.

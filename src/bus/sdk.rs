@@ -381,12 +381,16 @@ impl ServoBus for SdkBus {
 
     fn ping(&mut self, id: u8) -> Result<PingInfo, BusError> {
         let request = json!({ "op": "ping", "id": id });
-        // A servo with an alarm still answers a ping with what it is; its alarms are health's
-        // business, so they do not make the servo missing.
-        let found = match self.harness.request(&request) {
-            Ok(reply) => reply,
+        // A servo with an alarm still answers a ping with what it is: the alarms go into the
+        // answer, so they do not make the servo missing.
+        let (found, alarms) = match self.harness.request(&request) {
+            Ok(reply) => (reply, super::Alarms::default()),
             Err(error) => match self.alarm_only_value(&error) {
-                Some(found) => found,
+                Some(found) => match self.bus_error(error, Some(id), true) {
+                    BusError::Alarm { alarms, .. } => (found, alarms),
+                    // The Alert bit whose alarms could not be read.
+                    _ => (found, super::Alarms::default()),
+                },
                 None => return Err(self.bus_error(error, Some(id), true)),
             },
         };
@@ -410,6 +414,7 @@ impl ServoBus for SdkBus {
             id,
             model_number,
             firmware,
+            alarms,
         })
     }
 
