@@ -3,7 +3,7 @@
 
 use super::{write_output, CommandError, Verdict};
 use crate::bus::{self, Driver};
-use crate::robot::{import_lerobot_calibration, Protocol, Robot};
+use crate::robot::{Protocol, Robot};
 use serde_json::json;
 use std::io::BufRead;
 use std::path::PathBuf;
@@ -52,12 +52,7 @@ pub struct RobotArgs {
 
 impl RobotArgs {
     pub fn load(&self) -> Result<Robot, CommandError> {
-        let mut robot = Robot::resolve(&self.robot, "--robot")?;
-        if let Some(path) = &self.calibration {
-            let text = crate::json::read_text(path)?;
-            import_lerobot_calibration(&mut robot, &path.display().to_string(), &text)?;
-        }
-        Ok(robot)
+        super::load_robot(&self.robot, self.calibration.as_deref())
     }
 }
 
@@ -181,7 +176,7 @@ pub fn scan(args: &ScanArgs) -> Result<Verdict, CommandError> {
         Some(p) => vec![p],
         None => vec![Protocol::Dynamixel2, Protocol::FeetechSts],
     };
-    let robot = Robot::resolve(&args.robot, "--robot")?;
+    let robot = super::load_robot(&args.robot, None)?;
     let found = bus::scan(&args.port, &robot, &protocols, args.baud, args.driver)?;
     let rows: Vec<_> = found
         .iter()
@@ -376,7 +371,7 @@ fn start_hand(
 /// `keypose virtual-bus`: emulated servos on a pseudo-terminal; the device path is the first
 /// line printed; serves until standard input closes or the process is terminated.
 pub fn virtual_bus(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
-    let robot = Robot::resolve(&args.robot, "--robot")?;
+    let robot = super::load_robot(&args.robot, None)?;
     if !(args.fault_after.is_finite() && args.fault_after >= 0.0) {
         return Err(CommandError::Usage(
             "--fault-after: expected seconds, 0 or more".into(),

@@ -88,6 +88,7 @@ pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
 
     Ok(Robot {
         name: name.to_string(),
+        source: super::RobotSource::File(file.into()),
         description,
         bus,
         control_hz,
