@@ -105,9 +105,10 @@ impl AlarmBits {
     }
 }
 
-impl fmt::Display for Alarms {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let names: Vec<&str> = [
+impl Alarms {
+    /// The name of every alarm that is set.
+    pub fn names(&self) -> Vec<&'static str> {
+        [
             (self.input_voltage, "input voltage"),
             (self.overheating, "overheating"),
             (self.encoder, "encoder"),
@@ -116,7 +117,13 @@ impl fmt::Display for Alarms {
         ]
         .into_iter()
         .filter_map(|(on, name)| on.then_some(name))
-        .collect();
+        .collect()
+    }
+}
+
+impl fmt::Display for Alarms {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let names = self.names();
         if names.is_empty() {
             f.write_str("none")
         } else {

@@ -170,7 +170,8 @@ fn parse_protocol(s: &str) -> Result<Protocol, String> {
         .ok_or_else(|| format!("expected dynamixel-2, feetech-sts or feetech-scs, found {s:?}"))
 }
 
-/// `keypose scan`: ping every id and report the servos that answer.
+/// `keypose scan`: ping every id and report the servos that answer, with their alarms. Exit 0
+/// when every servo found answered cleanly, 1 when some are in alarm or none answered.
 pub fn scan(args: &ScanArgs) -> Result<Verdict, CommandError> {
     let protocols: Vec<Protocol> = match args.protocol {
         Some(p) => vec![p],
@@ -187,6 +188,7 @@ pub fn scan(args: &ScanArgs) -> Result<Verdict, CommandError> {
                 "model_number": info.model_number,
                 "model": bus::registers::model_from_number(*protocol, info.model_number).map(|m| m.name()),
                 "firmware": info.firmware,
+                "alarms": info.alarms.names(),
             })
         })
         .collect();
@@ -198,9 +200,27 @@ pub fn scan(args: &ScanArgs) -> Result<Verdict, CommandError> {
         ),
     )?;
     if found.is_empty() {
-        eprintln!("no servo answered on {} at {} baud", args.port, args.baud);
+        let protocols: Vec<&str> = protocols.iter().map(|p| p.name()).collect();
+        eprintln!(
+            "no servo answered on {} at {} baud ({}). Check that the servos are powered (the \
+             adapter's USB alone does not power them), the baud rate (--baud: Feetech ships at \
+             1000000, Dynamixel X-series at 57600), the protocol (--protocol), that every servo \
+             has its own id, and that the adapter is the bus adapter and is wired to the servos",
+            args.port,
+            args.baud,
+            protocols.join(", ")
+        );
+        return Ok(Verdict::Fail);
     }
-    Ok(Verdict::Pass)
+    let in_alarm: Vec<_> = found.iter().filter(|(_, info)| info.alarms.any()).collect();
+    for (_, info) in &in_alarm {
+        eprintln!("servo {}: alarm: {}", info.id, info.alarms);
+    }
+    Ok(if in_alarm.is_empty() {
+        Verdict::Pass
+    } else {
+        Verdict::Fail
+    })
 }
 
 /// `keypose ports`: the serial ports of this machine, with USB adapter details.
