@@ -150,6 +150,7 @@ fn parse_joint(node: &Node, protocol: Protocol) -> Result<Joint, InputError> {
         axis: axis.normalize(),
         origin,
         limits,
+        limits_origin: super::LimitsOrigin::Robot,
         servo,
     })
 }

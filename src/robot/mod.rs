@@ -12,7 +12,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 pub use builtin::BUILTIN_NAMES;
-pub use lerobot::{import_lerobot_calibration, CalibrationReport};
+pub use lerobot::{import_lerobot_calibration, CalibrationMismatch, CalibrationReport, IdMismatch};
 pub use servo::{PositionEncoding, Servo, ServoModel, TickError};
 
 pub const ROBOT_FORMAT: &str = "keypose-robot/1";
@@ -81,6 +81,28 @@ impl Limits {
     }
 }
 
+/// What set a joint's position limits.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LimitsOrigin {
+    /// The robot description.
+    Robot,
+    /// A LeRobot calibration whose recorded range is tighter than the robot's limits.
+    Calibration { file: String },
+}
+
+impl LimitsOrigin {
+    /// Why the limits are what they are, for a message about a value outside them ("" when
+    /// they are the robot's own).
+    pub fn note(&self) -> String {
+        match self {
+            LimitsOrigin::Robot => String::new(),
+            LimitsOrigin::Calibration { file } => {
+                format!(" (narrowed by the calibration {file} to the range recorded there)")
+            }
+        }
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct Joint {
     pub name: String,
@@ -90,6 +112,7 @@ pub struct Joint {
     /// Pose of the joint frame in its parent's frame (the previous joint's moving frame).
     pub origin: RigidTransform,
     pub limits: Limits,
+    pub limits_origin: LimitsOrigin,
     pub servo: Servo,
 }
 
