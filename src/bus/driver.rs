@@ -568,6 +568,23 @@ impl ServoBus for NativeBus {
         self.write_register(goals, |t| t.goal_position)
     }
 
+    fn read_homing_offsets(&mut self, servos: &[(u8, ServoModel)]) -> Result<Vec<i64>, BusError> {
+        let ids: Vec<u8> = servos.iter().map(|(id, _)| *id).collect();
+        let (register, table) = self.common_register(&ids, |t| t.homing_offset)?;
+        let blocks = self.read_block(&ids, register.address, u16::from(register.size))?;
+        ids.iter()
+            .zip(blocks)
+            .map(|(&id, bytes)| {
+                table
+                    .decode(&register, &bytes)
+                    .map_err(|e| BusError::Corrupt {
+                        id,
+                        detail: e.to_string(),
+                    })
+            })
+            .collect()
+    }
+
     fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError> {
         // One confirmed write per servo: torque is the one setting whose loss drops the arm or
         // leaves it stiff, so each servo must say it took it.

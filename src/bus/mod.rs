@@ -13,6 +13,7 @@ pub mod driver;
 pub mod dynamixel;
 mod echo;
 pub mod feetech;
+pub mod homing;
 pub mod packet;
 pub mod ports;
 pub mod registers;
@@ -160,6 +161,10 @@ pub enum BusError {
     },
     #[error("{0}")]
     Protocol(String),
+    /// The servos hold other homing offsets than the description: not a fault of the bus but
+    /// of the input (a calibration made on another arm), found by reading the servos.
+    #[error(transparent)]
+    HomingOffset(#[from] homing::HomingMismatch),
 }
 
 impl BusError {
@@ -170,6 +175,7 @@ impl BusError {
             | BusError::Corrupt { id, .. }
             | BusError::Alarm { id, .. }
             | BusError::Refused { id, .. } => Some(*id),
+            BusError::HomingOffset(m) => m.mismatches.first().map(|m| m.servo),
             BusError::Port { .. } | BusError::Protocol(_) => None,
         }
     }
@@ -189,4 +195,9 @@ pub trait ServoBus: Send {
     fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError>;
     fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError>;
     fn read_health(&mut self, ids: &[u8]) -> Result<Vec<Health>, BusError>;
+    /// The Homing_Offset register of each servo (id, model), in ticks, in order.
+    fn read_homing_offsets(
+        &mut self,
+        servos: &[(u8, crate::robot::ServoModel)],
+    ) -> Result<Vec<i64>, BusError>;
 }

@@ -513,6 +513,33 @@ impl ServoBus for SdkBus {
         first_error.map_or(Ok(()), Err)
     }
 
+    fn read_homing_offsets(
+        &mut self,
+        servos: &[(u8, crate::robot::ServoModel)],
+    ) -> Result<Vec<i64>, BusError> {
+        servos
+            .iter()
+            .map(|&(id, model)| {
+                let table = registers::table(model);
+                let register = table.homing_offset;
+                let raw = self.read_reg_despite_alarms(id, reg(register.address, register.size))?;
+                // The bridge gives the register as an unsigned number; its sign convention
+                // (sign-magnitude on Feetech, two's complement on Dynamixel) is the table's.
+                let size = usize::from(register.size);
+                let bytes = match table.byte_order {
+                    registers::ByteOrder::Little => raw.to_le_bytes()[..size].to_vec(),
+                    registers::ByteOrder::Big => raw.to_be_bytes()[4 - size..].to_vec(),
+                };
+                table
+                    .decode(&register, &bytes)
+                    .map_err(|e| BusError::Corrupt {
+                        id,
+                        detail: e.to_string(),
+                    })
+            })
+            .collect()
+    }
+
     fn read_health(&mut self, ids: &[u8]) -> Result<Vec<Health>, BusError> {
         let mut healths = Vec::with_capacity(ids.len());
         for &id in ids {

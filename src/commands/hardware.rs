@@ -316,6 +316,10 @@ pub struct VirtualBusArgs {
     /// ID:voltage, ID:encoder, ID:electrical; or "gone" (the port disappears). Repeatable.
     #[arg(long, value_name = "FAULT", value_parser = parse_fault)]
     pub fault: Vec<FaultSpec>,
+    /// Set a servo's Homing_Offset register (as a calibration tool would): ID:TICKS.
+    /// Repeatable.
+    #[arg(long, value_name = "ID:TICKS", value_parser = parse_homing_offset)]
+    pub homing_offset: Vec<(u8, i64)>,
     /// Seconds after start at which the faults take effect.
     #[arg(long, value_name = "SECONDS", default_value_t = 0.0)]
     pub fault_after: f64,
@@ -368,6 +372,15 @@ fn parse_fault(s: &str) -> Result<FaultSpec, String> {
     Ok(FaultSpec::Servo(id, fault))
 }
 
+fn parse_homing_offset(s: &str) -> Result<(u8, i64), String> {
+    let expected = || format!("expected ID:TICKS (e.g. 3:-1024), found {s:?}");
+    let (id, ticks) = s.split_once(':').ok_or_else(expected)?;
+    Ok((
+        id.parse().map_err(|_| expected())?,
+        ticks.parse().map_err(|_| expected())?,
+    ))
+}
+
 /// A hand moving every servo of `robot` along `trajectory` (from its start, in sequence time).
 fn start_hand(
     bus: &bus::virtual_bus::VirtualBus,
@@ -415,6 +428,17 @@ pub fn virtual_bus(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
         None => None,
     };
     let server = bus::virtual_bus::PtyServer::start(&robot)?;
+    for &(id, ticks) in &args.homing_offset {
+        match server.bus().lock().servo_mut(id) {
+            Some(servo) => servo.set_homing_offset(ticks),
+            None => {
+                return Err(CommandError::Usage(format!(
+                    "--homing-offset: {} has no servo {id}",
+                    robot.name
+                )))
+            }
+        }
+    }
     let _hand = hand_trajectory.map(|trajectory| start_hand(server.bus(), &robot, trajectory));
     println!("{}", server.path());
     // Flush now: the parent reads the path to connect while this process keeps running.

@@ -87,7 +87,11 @@ impl CommandError {
 
 impl From<crate::bus::BusError> for CommandError {
     fn from(e: crate::bus::BusError) -> Self {
-        CommandError::Hardware(e.to_string())
+        match e {
+            // The servos are fine; the calibration is not theirs: bad input.
+            crate::bus::BusError::HomingOffset(_) => CommandError::Usage(e.to_string()),
+            _ => CommandError::Hardware(e.to_string()),
+        }
     }
 }
 
