@@ -13,6 +13,9 @@ use std::process::ExitCode;
                   (files, arguments); 3 hardware or bus error; 130 interrupted."
 )]
 struct Cli {
+    /// Say which inputs are used (the robot: built-in or file; the calibration).
+    #[arg(short, long, global = true)]
+    verbose: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -69,6 +72,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    commands::set_verbose(cli.verbose);
     let result: Result<Verdict, CommandError> = match &cli.command {
         Command::Check(args) => commands::check::run(args),
         Command::Sample(args) => commands::sample::run(args),

@@ -20,7 +20,7 @@ use keypose::bus::virtual_bus::VirtualBus;
 use keypose::bus::{BusError, Health, PingInfo, ServoBus};
 use keypose::plan::{retime, Trajectory};
 use keypose::player::{play_with_clock, Clock, Outcome, PlayError, PlayOptions, StopSignal};
-use keypose::robot::Robot;
+use keypose::robot::{Robot, ServoModel};
 use keypose::sequence::Sequence;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -125,6 +125,9 @@ impl ServoBus for TimedWrites<'_> {
     }
     fn read_health(&mut self, ids: &[u8]) -> Result<Vec<Health>, BusError> {
         self.inner.read_health(ids)
+    }
+    fn read_homing_offsets(&mut self, servos: &[(u8, ServoModel)]) -> Result<Vec<i64>, BusError> {
+        self.inner.read_homing_offsets(servos)
     }
 }
 

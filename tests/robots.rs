@@ -1,5 +1,5 @@
 //! Robot descriptions against the published kinematics (world anchors and TCPs measured in
-//! MuJoCo from the official models, ../shared/ROBOTS.md §1.3, §2.3, §3.3), hand-derived poses,
+//! MuJoCo from the official models, ROBOTS.md §1.3, §2.3, §3.3), hand-derived poses,
 //! and servo encodings derived bit by bit from the protocol documents.
 
 use glam::DVec3;
@@ -139,12 +139,27 @@ fn negative_ticks_on_the_wire() {
 fn lerobot_calibration_sets_zero_at_the_range_midpoint() {
     let mut robot = Robot::builtin("so101").unwrap();
     // A calibration as LeRobot writes it (values typical of an SO-101 follower).
+    // The joints not examined here record the whole turn (0 … 4095), wider than their limits.
     let text = r#"{
       "shoulder_pan": {"id": 1, "drive_mode": 0, "homing_offset": -1470, "range_min": 758, "range_max": 3292},
-      "elbow_flex": {"id": 3, "drive_mode": 1, "homing_offset": 1200, "range_min": 1000, "range_max": 3000}
+      "shoulder_lift": {"id": 2, "drive_mode": 0, "homing_offset": 0, "range_min": 0, "range_max": 4095},
+      "elbow_flex": {"id": 3, "drive_mode": 1, "homing_offset": 1200, "range_min": 1000, "range_max": 3000},
+      "wrist_flex": {"id": 4, "drive_mode": 0, "homing_offset": 0, "range_min": 0, "range_max": 4095},
+      "wrist_roll": {"id": 5, "drive_mode": 0, "homing_offset": 0, "range_min": 0, "range_max": 4095},
+      "gripper": {"id": 6, "drive_mode": 0, "homing_offset": 0, "range_min": 0, "range_max": 4095}
     }"#;
     let report = import_lerobot_calibration(&mut robot, "calibration.json", text).unwrap();
-    assert_eq!(report.calibrated, ["shoulder_pan", "elbow_flex"]);
+    assert_eq!(
+        report.calibrated,
+        [
+            "shoulder_pan",
+            "shoulder_lift",
+            "elbow_flex",
+            "wrist_flex",
+            "wrist_roll",
+            "gripper"
+        ]
+    );
     let pan = &robot.joints[0];
     // Midpoint (758 + 3292)/2 = 2025; the range is ±1267 ticks = ±111.35°, wider than the
     // joint's ±110°, so the limits stay.

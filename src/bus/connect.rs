@@ -84,7 +84,10 @@ pub fn connect_with(
             super::sdk::SdkBus::open(&path, baud, robot.bus.protocol).map_err(BusError::from)?,
         ),
     };
-    Ok(Connection { bus, virtual_bus })
+    let mut connection = Connection { bus, virtual_bus };
+    // Before anything can move: the servos must hold the homing offsets the ticks assume.
+    super::homing::check_homing_offsets(connection.bus.as_mut(), robot)?;
+    Ok(connection)
 }
 
 /// Pings every id with each protocol; returns who answered.

@@ -2,9 +2,10 @@
 //!
 //! One transaction at a time, half duplex: discard stale input, send, then collect answers until
 //! a deadline. Reads are retried a bounded number of times; writes never are. Echoes of our own
-//! packets (some half-duplex adapters loop the line back) and answers from other ids are skipped,
-//! corrupt packets are counted and the search goes on behind them.
+//! packets (some half-duplex adapters loop the line back, see [`super::echo`]) and answers from
+//! other ids are skipped, corrupt packets are counted and the search goes on behind them.
 
+use super::echo::{Echoes, Front};
 use super::packet::{Decoded, Direction, Framing, Packet, PacketError};
 use super::registers::{self, Register, RegisterTable};
 use super::transport::Transport;
@@ -30,10 +31,8 @@ pub struct NativeBus {
     /// Off by default: which models and firmware support it is unverified (PROTOCOLS.md §1.7).
     pub fast_sync_read: bool,
     rx: Vec<u8>,
-    /// The last packet sent, until its echo has been ruled out. Some half-duplex adapters hear
-    /// their own transmission; a Feetech echo cannot be told from a status packet by its shape
-    /// (a READ's instruction byte 0x02 would read as an angle-sensor alarm), only by its bytes.
-    echo: Option<Vec<u8>>,
+    /// Packets sent whose echo may still come back.
+    echoes: Echoes,
 }
 
 impl NativeBus {
@@ -57,7 +56,7 @@ impl NativeBus {
             read_retries: DEFAULT_READ_RETRIES,
             fast_sync_read: false,
             rx: Vec::new(),
-            echo: None,
+            echoes: Echoes::default(),
         }
     }
 
@@ -154,7 +153,8 @@ impl NativeBus {
             .framing
             .try_encode_instruction(id, instruction, params)
             .map_err(|e| self.protocol_error(e))?;
-        // Anything still in the input is a late answer to an earlier, abandoned transaction.
+        // Anything still in the input is a late answer to an earlier, abandoned transaction (or
+        // an echo, which `echoes` still expects if it comes later).
         self.rx.clear();
         self.transport
             .discard_input()
@@ -162,26 +162,8 @@ impl NativeBus {
         self.transport
             .write_all(&bytes)
             .map_err(|e| self.port_error(e))?;
-        self.echo = Some(bytes);
+        self.echoes.sent(bytes);
         Ok(())
-    }
-
-    /// Drops our own packet from the front of the input if it came back; false while the input
-    /// is still too short to tell.
-    fn strip_echo(&mut self) -> bool {
-        let Some(echo) = &self.echo else {
-            return true;
-        };
-        if self.rx.starts_with(echo) {
-            self.rx.drain(..echo.len());
-            self.echo = None;
-            true
-        } else if echo.starts_with(&self.rx) {
-            false
-        } else {
-            self.echo = None;
-            true
-        }
     }
 
     /// The next status packet from `id`, or a timeout.
@@ -190,17 +172,47 @@ impl NativeBus {
     }
 
     /// The next status packet from `id` carrying `data_bytes` bytes (when given), or a timeout.
+    fn receive_answer(&mut self, id: u8, data_bytes: Option<usize>) -> Result<Packet, BusError> {
+        self.collect_answer(id, data_bytes, false)
+    }
+
+    /// The next status packet from `id` carrying `data_bytes` bytes (when given), or a timeout.
     /// Status packets carry no request number, so a packet from the right servo with another
     /// length and no error is a late answer to an earlier request (the input was cleared when
     /// this one was sent, but a servo can answer after that): it is skipped, and named only if
     /// nothing better comes.
-    fn receive_answer(&mut self, id: u8, data_bytes: Option<usize>) -> Result<Packet, BusError> {
+    ///
+    /// `copy_may_answer`: the answer can be byte for byte the request (a Feetech PING answered
+    /// with error byte 0x01, input voltage, is the PING itself). A copy of the request is then
+    /// an echo if anything else comes after it, and the answer if nothing does by the deadline:
+    /// an adapter without echo delivers only the answer.
+    fn collect_answer(
+        &mut self,
+        id: u8,
+        data_bytes: Option<usize>,
+        copy_may_answer: bool,
+    ) -> Result<Packet, BusError> {
         let deadline = Instant::now() + self.timeout;
         let mut corrupt: Option<PacketError> = None;
         let mut stale: Option<usize> = None;
+        let mut own_copy: Option<Packet> = None;
         let mut chunk = [0u8; 512];
         loop {
-            while self.strip_echo() {
+            loop {
+                match self.echoes.strip(&mut self.rx) {
+                    Front::Undecided => break,
+                    Front::Echo(mut bytes) => {
+                        if copy_may_answer {
+                            if let Ok(Decoded::Packet(p)) =
+                                self.framing.decode(&mut bytes, Direction::FromServo)
+                            {
+                                own_copy = Some(p).filter(|p| p.id == id);
+                            }
+                        }
+                        continue;
+                    }
+                    Front::NotEcho => {}
+                }
                 match self.framing.decode(&mut self.rx, Direction::FromServo) {
                     Ok(Decoded::Packet(packet))
                         if packet.id == id
@@ -209,7 +221,10 @@ impl NativeBus {
                     {
                         stale = Some(packet.params.len());
                     }
-                    Ok(Decoded::Packet(packet)) if packet.id == id => return Ok(packet),
+                    Ok(Decoded::Packet(packet)) if packet.id == id => {
+                        self.echoes.answered();
+                        return Ok(packet);
+                    }
                     // Another servo's late answer: not ours.
                     Ok(Decoded::Packet(_)) => continue,
                     Ok(Decoded::NeedMore) => break,
@@ -223,6 +238,11 @@ impl NativeBus {
                 .read_until(&mut chunk, deadline)
                 .map_err(|e| self.port_error(e))?;
             if n == 0 {
+                // Anything else after the copy, even corrupt, shows the copy was an echo.
+                if let Some(packet) = own_copy.filter(|_| corrupt.is_none() && stale.is_none()) {
+                    self.echoes.answered();
+                    return Ok(packet);
+                }
                 return Err(match (corrupt, stale, data_bytes) {
                     (Some(e), _, _) => BusError::Corrupt {
                         id,
@@ -249,11 +269,12 @@ impl NativeBus {
             .map_err(|e| self.resolve_alarm(e))
     }
 
+    /// Dynamixel Hardware Error Status: one byte at the same address on every X-series model,
+    /// so it can be read from a servo of unknown model (a scan).
     fn read_alarm_register(&mut self, id: u8) -> Result<Alarms, BusError> {
-        let register = self.table(id)?.hardware_error;
-        let params = self.read_params(register.address, u16::from(register.size))?;
+        let params = self.read_params(dynamixel::HARDWARE_ERROR_STATUS, 1)?;
         self.send(id, dynamixel::READ, &params)?;
-        let packet = self.receive_answer(id, Some(usize::from(register.size)))?;
+        let packet = self.receive_answer(id, Some(1))?;
         let raw = packet.params.first().copied().unwrap_or(0);
         Ok(dynamixel::hardware_error_alarms(raw))
     }
@@ -486,20 +507,29 @@ impl ServoBus for NativeBus {
             _ => feetech::PING,
         };
         self.send(id, ping, &[])?;
-        let packet = self.receive(id)?;
+        let packet = self.collect_answer(id, None, true)?;
+        // A servo in alarm still answers: the alarms go into the answer, not into an error.
+        let alarms = match self.check_status(&packet) {
+            Ok(()) => Alarms::default(),
+            Err(BusError::Alarm { alarms, .. }) => alarms,
+            Err(e) => return Err(e),
+        };
         match self.protocol {
             Protocol::Dynamixel2 => {
-                dynamixel::parse_ping_answer(&packet).map_err(|e| BusError::Corrupt {
-                    id,
-                    detail: e.to_string(),
-                })
+                let info =
+                    dynamixel::parse_ping_answer(&packet).map_err(|e| BusError::Corrupt {
+                        id,
+                        detail: e.to_string(),
+                    })?;
+                Ok(PingInfo { alarms, ..info })
             }
             _ => {
-                // Feetech's ping answer carries no model: read the model number register.
+                // Feetech's ping answer carries no model: read the model number register (its
+                // answer carries the same alarm bits, already taken from the ping's).
                 let register = registers::table(ServoModel::Sts3215).model_number_register;
                 let params = self.read_params(register.address, u16::from(register.size))?;
-                let packet =
-                    self.transaction(id, feetech::READ, &params, Some(usize::from(register.size)))?;
+                self.send(id, feetech::READ, &params)?;
+                let packet = self.receive_answer(id, Some(usize::from(register.size)))?;
                 let order = registers::ByteOrder::of(self.protocol);
                 let model_number =
                     register
@@ -512,6 +542,7 @@ impl ServoBus for NativeBus {
                     id,
                     model_number,
                     firmware: None,
+                    alarms,
                 })
             }
         }
@@ -535,6 +566,23 @@ impl ServoBus for NativeBus {
 
     fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError> {
         self.write_register(goals, |t| t.goal_position)
+    }
+
+    fn read_homing_offsets(&mut self, servos: &[(u8, ServoModel)]) -> Result<Vec<i64>, BusError> {
+        let ids: Vec<u8> = servos.iter().map(|(id, _)| *id).collect();
+        let (register, table) = self.common_register(&ids, |t| t.homing_offset)?;
+        let blocks = self.read_block(&ids, register.address, u16::from(register.size))?;
+        ids.iter()
+            .zip(blocks)
+            .map(|(&id, bytes)| {
+                table
+                    .decode(&register, &bytes)
+                    .map_err(|e| BusError::Corrupt {
+                        id,
+                        detail: e.to_string(),
+                    })
+            })
+            .collect()
     }
 
     fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError> {
@@ -645,6 +693,100 @@ mod tests {
             }
             out
         }
+    }
+
+    /// An echoing adapter whose echo arrives late: the echo of a packet that gets no answer (a
+    /// sync write) reaches the host only after the driver has flushed its input for the next
+    /// packet, so it arrives right before that packet's own echo and answer.
+    struct LateEcho {
+        bus: VirtualBus,
+        late: Option<Vec<u8>>,
+    }
+
+    impl Responder for LateEcho {
+        fn respond(&mut self, written: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+            let mut out: Vec<(Duration, Vec<u8>)> = self
+                .late
+                .take()
+                .map(|echo| (Duration::ZERO, echo))
+                .into_iter()
+                .collect();
+            let answers = self.bus.lock().handle(written);
+            if answers.is_empty() {
+                self.late = Some(written.to_vec());
+            } else {
+                out.push((Duration::ZERO, written.to_vec()));
+                out.extend(answers);
+            }
+            out
+        }
+    }
+
+    #[test]
+    fn a_late_echo_of_a_sync_write_is_not_taken_for_a_status() {
+        for name in ["so101", "koch"] {
+            let robot = Robot::builtin(name).unwrap();
+            let servos: Vec<_> = robot.servos();
+            let ids: Vec<u8> = servos.iter().map(|(id, _)| *id).collect();
+            let responder = LateEcho {
+                bus: VirtualBus::new(VirtualServos::for_robot(&robot)),
+                late: None,
+            };
+            let mut bus = NativeBus::new(
+                Box::new(MemoryTransport::new(responder)),
+                robot.bus.protocol,
+                &servos,
+            );
+            // What `torque on` does: read, hold where the arm is, then one WRITE per servo.
+            // Without matching, the STS WRITE echo (FF FF 01 04 03 28 01 CE) behind the late
+            // sync-write echo reads as a status with error byte 0x03: voltage + angle sensor.
+            let ticks = bus.read_positions(&ids).unwrap();
+            let goals: Vec<(u8, i64)> = ids.iter().copied().zip(ticks).collect();
+            bus.write_goals(&goals).unwrap();
+            bus.set_torque(&ids, true).unwrap();
+            bus.write_goals(&goals).unwrap();
+            assert_eq!(
+                bus.read_positions(&ids).unwrap(),
+                goals.iter().map(|g| g.1).collect::<Vec<_>>(),
+                "{name}"
+            );
+            bus.write_goals(&goals).unwrap();
+            assert!(bus.ping(ids[0]).is_ok(), "{name}");
+        }
+    }
+
+    #[test]
+    fn a_ping_answer_equal_to_the_ping_is_an_answer_not_an_echo() {
+        let robot = Robot::builtin("so101").unwrap();
+        let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
+        let voltage = Alarms {
+            input_voltage: true,
+            ..Alarms::default()
+        };
+        virtual_bus
+            .lock()
+            .set_fault(1, Some(crate::bus::virtual_bus::ServoFault::Alarm(voltage)));
+        // STS PING to id 1: FF FF 01 02 01 FB. A status from id 1 with error byte 0x01 (input
+        // voltage, PROTOCOLS.md §2.3) and no data is the same six bytes.
+        let ping = [0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB];
+        assert_eq!(
+            virtual_bus.lock().handle(&ping),
+            vec![(Duration::ZERO, ping.to_vec())]
+        );
+        let info = bus.ping(1).unwrap();
+        assert_eq!((info.id, info.model_number), (1, 777));
+        assert_eq!(info.alarms, voltage);
+    }
+
+    #[test]
+    fn an_echoing_adapter_without_a_servo_times_out() {
+        let robot = Robot::builtin("so101").unwrap();
+        let servos: Vec<_> = robot.servos();
+        let virtual_bus = VirtualBus::new(VirtualServos::for_robot(&robot));
+        let transport = MemoryTransport::new(Echoing(virtual_bus));
+        let mut bus = NativeBus::new(Box::new(transport), robot.bus.protocol, &servos);
+        // Id 9 is not on the bus: only the ping's own echo comes back.
+        assert!(matches!(bus.ping(9), Err(BusError::Timeout { id: 9, .. })));
     }
 
     #[test]

@@ -332,6 +332,8 @@ pub fn parse_ping_answer(packet: &Packet) -> Result<PingInfo, PacketError> {
             id: packet.id,
             model_number: u16::from_le_bytes([lo, hi]),
             firmware: Some(firmware),
+            // Which alarms an Alert bit stands for takes a register read: the driver's part.
+            alarms: super::Alarms::default(),
         }),
         (PacketKind::Status { .. }, params) => Err(PacketError::Malformed {
             id: packet.id,
@@ -814,7 +816,8 @@ mod tests {
             Ok(PingInfo {
                 id: 1,
                 model_number: 1200,
-                firmware: Some(52)
+                firmware: Some(52),
+                alarms: crate::bus::Alarms::default(),
             })
         );
     }

@@ -11,7 +11,9 @@
 mod connect;
 pub mod driver;
 pub mod dynamixel;
+mod echo;
 pub mod feetech;
+pub mod homing;
 pub mod packet;
 pub mod ports;
 pub mod registers;
@@ -31,6 +33,8 @@ pub struct PingInfo {
     pub model_number: u16,
     /// Dynamixel reports its firmware version in the ping answer; Feetech does not.
     pub firmware: Option<u8>,
+    /// The alarms the servo reported while answering: a servo in alarm still says what it is.
+    pub alarms: Alarms,
 }
 
 /// Alarm conditions a servo reports, common to both vendors.
@@ -102,9 +106,10 @@ impl AlarmBits {
     }
 }
 
-impl fmt::Display for Alarms {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let names: Vec<&str> = [
+impl Alarms {
+    /// The name of every alarm that is set.
+    pub fn names(&self) -> Vec<&'static str> {
+        [
             (self.input_voltage, "input voltage"),
             (self.overheating, "overheating"),
             (self.encoder, "encoder"),
@@ -113,7 +118,13 @@ impl fmt::Display for Alarms {
         ]
         .into_iter()
         .filter_map(|(on, name)| on.then_some(name))
-        .collect();
+        .collect()
+    }
+}
+
+impl fmt::Display for Alarms {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let names = self.names();
         if names.is_empty() {
             f.write_str("none")
         } else {
@@ -150,6 +161,10 @@ pub enum BusError {
     },
     #[error("{0}")]
     Protocol(String),
+    /// The servos hold other homing offsets than the description: not a fault of the bus but
+    /// of the input (a calibration made on another arm), found by reading the servos.
+    #[error(transparent)]
+    HomingOffset(#[from] homing::HomingMismatch),
 }
 
 impl BusError {
@@ -160,6 +175,7 @@ impl BusError {
             | BusError::Corrupt { id, .. }
             | BusError::Alarm { id, .. }
             | BusError::Refused { id, .. } => Some(*id),
+            BusError::HomingOffset(m) => m.mismatches.first().map(|m| m.servo),
             BusError::Port { .. } | BusError::Protocol(_) => None,
         }
     }
@@ -179,4 +195,9 @@ pub trait ServoBus: Send {
     fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError>;
     fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError>;
     fn read_health(&mut self, ids: &[u8]) -> Result<Vec<Health>, BusError>;
+    /// The Homing_Offset register of each servo (id, model), in ticks, in order.
+    fn read_homing_offsets(
+        &mut self,
+        servos: &[(u8, crate::robot::ServoModel)],
+    ) -> Result<Vec<i64>, BusError>;
 }

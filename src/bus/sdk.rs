@@ -381,12 +381,16 @@ impl ServoBus for SdkBus {
 
     fn ping(&mut self, id: u8) -> Result<PingInfo, BusError> {
         let request = json!({ "op": "ping", "id": id });
-        // A servo with an alarm still answers a ping with what it is; its alarms are health's
-        // business, so they do not make the servo missing.
-        let found = match self.harness.request(&request) {
-            Ok(reply) => reply,
+        // A servo with an alarm still answers a ping with what it is: the alarms go into the
+        // answer, so they do not make the servo missing.
+        let (found, alarms) = match self.harness.request(&request) {
+            Ok(reply) => (reply, super::Alarms::default()),
             Err(error) => match self.alarm_only_value(&error) {
-                Some(found) => found,
+                Some(found) => match self.bus_error(error, Some(id), true) {
+                    BusError::Alarm { alarms, .. } => (found, alarms),
+                    // The Alert bit whose alarms could not be read.
+                    _ => (found, super::Alarms::default()),
+                },
                 None => return Err(self.bus_error(error, Some(id), true)),
             },
         };
@@ -410,6 +414,7 @@ impl ServoBus for SdkBus {
             id,
             model_number,
             firmware,
+            alarms,
         })
     }
 
@@ -506,6 +511,33 @@ impl ServoBus for SdkBus {
             first_error.get_or_insert(error);
         }
         first_error.map_or(Ok(()), Err)
+    }
+
+    fn read_homing_offsets(
+        &mut self,
+        servos: &[(u8, crate::robot::ServoModel)],
+    ) -> Result<Vec<i64>, BusError> {
+        servos
+            .iter()
+            .map(|&(id, model)| {
+                let table = registers::table(model);
+                let register = table.homing_offset;
+                let raw = self.read_reg_despite_alarms(id, reg(register.address, register.size))?;
+                // The bridge gives the register as an unsigned number; its sign convention
+                // (sign-magnitude on Feetech, two's complement on Dynamixel) is the table's.
+                let size = usize::from(register.size);
+                let bytes = match table.byte_order {
+                    registers::ByteOrder::Little => raw.to_le_bytes()[..size].to_vec(),
+                    registers::ByteOrder::Big => raw.to_be_bytes()[4 - size..].to_vec(),
+                };
+                table
+                    .decode(&register, &bytes)
+                    .map_err(|e| BusError::Corrupt {
+                        id,
+                        detail: e.to_string(),
+                    })
+            })
+            .collect()
     }
 
     fn read_health(&mut self, ids: &[u8]) -> Result<Vec<Health>, BusError> {

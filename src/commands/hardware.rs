@@ -3,7 +3,7 @@
 
 use super::{option_values, write_output, CommandError, Verdict};
 use crate::bus::{self, Driver};
-use crate::robot::{import_lerobot_calibration, Protocol, Robot};
+use crate::robot::{Protocol, Robot};
 use serde_json::json;
 use std::io::BufRead;
 use std::path::PathBuf;
@@ -52,12 +52,7 @@ pub struct RobotArgs {
 
 impl RobotArgs {
     pub fn load(&self) -> Result<Robot, CommandError> {
-        let mut robot = Robot::resolve(&self.robot, "--robot")?;
-        if let Some(path) = &self.calibration {
-            let text = crate::json::read_text(path)?;
-            import_lerobot_calibration(&mut robot, &path.display().to_string(), &text)?;
-        }
-        Ok(robot)
+        super::load_robot(&self.robot, self.calibration.as_deref())
     }
 }
 
@@ -175,13 +170,14 @@ fn parse_protocol(s: &str) -> Result<Protocol, String> {
         .ok_or_else(|| format!("expected dynamixel-2, feetech-sts or feetech-scs, found {s:?}"))
 }
 
-/// `keypose scan`: ping every id and report the servos that answer.
+/// `keypose scan`: ping every id and report the servos that answer, with their alarms. Exit 0
+/// when every servo found answered cleanly, 1 when some are in alarm or none answered.
 pub fn scan(args: &ScanArgs) -> Result<Verdict, CommandError> {
     let protocols: Vec<Protocol> = match args.protocol {
         Some(p) => vec![p],
         None => vec![Protocol::Dynamixel2, Protocol::FeetechSts],
     };
-    let robot = Robot::resolve(&args.robot, "--robot")?;
+    let robot = super::load_robot(&args.robot, None)?;
     let found = bus::scan(&args.port, &robot, &protocols, args.baud, args.driver)?;
     let rows: Vec<_> = found
         .iter()
@@ -192,6 +188,7 @@ pub fn scan(args: &ScanArgs) -> Result<Verdict, CommandError> {
                 "model_number": info.model_number,
                 "model": bus::registers::model_from_number(*protocol, info.model_number).map(|m| m.name()),
                 "firmware": info.firmware,
+                "alarms": info.alarms.names(),
             })
         })
         .collect();
@@ -203,9 +200,27 @@ pub fn scan(args: &ScanArgs) -> Result<Verdict, CommandError> {
         ),
     )?;
     if found.is_empty() {
-        eprintln!("no servo answered on {} at {} baud", args.port, args.baud);
+        let protocols: Vec<&str> = protocols.iter().map(|p| p.name()).collect();
+        eprintln!(
+            "no servo answered on {} at {} baud ({}). Check that the servos are powered (the \
+             adapter's USB alone does not power them), the baud rate (--baud: Feetech ships at \
+             1000000, Dynamixel X-series at 57600), the protocol (--protocol), that every servo \
+             has its own id, and that the adapter is the bus adapter and is wired to the servos",
+            args.port,
+            args.baud,
+            protocols.join(", ")
+        );
+        return Ok(Verdict::Fail);
     }
-    Ok(Verdict::Pass)
+    let in_alarm: Vec<_> = found.iter().filter(|(_, info)| info.alarms.any()).collect();
+    for (_, info) in &in_alarm {
+        eprintln!("servo {}: alarm: {}", info.id, info.alarms);
+    }
+    Ok(if in_alarm.is_empty() {
+        Verdict::Pass
+    } else {
+        Verdict::Fail
+    })
 }
 
 /// `keypose ports`: the serial ports of this machine, with USB adapter details.
@@ -301,6 +316,10 @@ pub struct VirtualBusArgs {
     /// ID:voltage, ID:encoder, ID:electrical; or "gone" (the port disappears). Repeatable.
     #[arg(long, value_name = "FAULT", value_parser = parse_fault)]
     pub fault: Vec<FaultSpec>,
+    /// Set a servo's Homing_Offset register (as a calibration tool would): ID:TICKS.
+    /// Repeatable.
+    #[arg(long, value_name = "ID:TICKS", value_parser = parse_homing_offset)]
+    pub homing_offset: Vec<(u8, i64)>,
     /// Seconds after start at which the faults take effect.
     #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = option_values::parse_fault_after, allow_negative_numbers = true)]
     pub fault_after: f64,
@@ -355,6 +374,15 @@ fn parse_fault(s: &str) -> Result<FaultSpec, String> {
     Ok(FaultSpec::Servo(id, fault))
 }
 
+fn parse_homing_offset(s: &str) -> Result<(u8, i64), String> {
+    let expected = || format!("expected ID:TICKS (e.g. 3:-1024), found {s:?}");
+    let (id, ticks) = s.split_once(':').ok_or_else(expected)?;
+    Ok((
+        id.parse().map_err(|_| expected())?,
+        ticks.parse().map_err(|_| expected())?,
+    ))
+}
+
 /// A hand moving every servo of `robot` along `trajectory` (from its start, in sequence time).
 fn start_hand(
     bus: &bus::virtual_bus::VirtualBus,
@@ -378,7 +406,7 @@ fn start_hand(
 /// `keypose virtual-bus`: emulated servos on a pseudo-terminal; the device path is the first
 /// line printed; serves until standard input closes or the process is terminated.
 pub fn virtual_bus(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
-    let robot = Robot::resolve(&args.robot, "--robot")?;
+    let robot = super::load_robot(&args.robot, None)?;
     for fault in &args.fault {
         if let FaultSpec::Servo(id, _) = fault {
             if !robot.joints.iter().any(|j| j.servo.id == *id) {
@@ -397,6 +425,17 @@ pub fn virtual_bus(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
         None => None,
     };
     let server = bus::virtual_bus::PtyServer::start(&robot)?;
+    for &(id, ticks) in &args.homing_offset {
+        match server.bus().lock().servo_mut(id) {
+            Some(servo) => servo.set_homing_offset(ticks),
+            None => {
+                return Err(CommandError::Usage(format!(
+                    "--homing-offset: {} has no servo {id}",
+                    robot.name
+                )))
+            }
+        }
+    }
     let _hand = hand_trajectory.map(|trajectory| start_hand(server.bus(), &robot, trajectory));
     println!("{}", server.path());
     // Flush now: the parent reads the path to connect while this process keeps running.

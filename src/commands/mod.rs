@@ -14,10 +14,22 @@ pub mod teach;
 
 use crate::curve::Interp;
 use crate::json::{InputError, Location};
-use crate::robot::{import_lerobot_calibration, Robot};
+use crate::robot::{import_lerobot_calibration, ResolveError, Robot};
 use crate::sequence::Sequence;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Whether `-v/--verbose` was given: commands then say which inputs they use.
+static VERBOSE: AtomicBool = AtomicBool::new(false);
+
+pub fn set_verbose(on: bool) {
+    VERBOSE.store(on, Ordering::Relaxed);
+}
+
+pub fn verbose() -> bool {
+    VERBOSE.load(Ordering::Relaxed)
+}
 
 /// Exit code for a failed check or simulation verdict.
 pub const EXIT_VERDICT_FAILED: i32 = 1;
@@ -76,7 +88,11 @@ impl CommandError {
 
 impl From<crate::bus::BusError> for CommandError {
     fn from(e: crate::bus::BusError) -> Self {
-        CommandError::Hardware(e.to_string())
+        match e {
+            // The servos are fine; the calibration is not theirs: bad input.
+            crate::bus::BusError::HomingOffset(_) => CommandError::Usage(e.to_string()),
+            _ => CommandError::Hardware(e.to_string()),
+        }
     }
 }
 
@@ -110,34 +126,54 @@ impl SequenceInput {
         if let Some(mode) = self.interpolation {
             sequence.interpolation = mode;
         }
-        let mut robot = match &self.robot {
-            Some(spec) => Robot::resolve(spec, "--robot")?,
+        let robot = match &self.robot {
+            Some(spec) => resolve_option_robot(spec)?,
             None => resolve_sequence_robot(&sequence, &self.sequence)?,
         };
-        if let Some(path) = &self.calibration {
-            let text = crate::json::read_text(path)?;
-            import_lerobot_calibration(&mut robot, &path.display().to_string(), &text)?;
-        }
+        let robot = finish_robot(robot, self.calibration.as_deref())?;
         Ok((sequence, robot))
     }
 }
 
-/// The robot a sequence names: a built-in name, or a file path relative to the sequence.
-fn resolve_sequence_robot(sequence: &Sequence, sequence_path: &Path) -> Result<Robot, InputError> {
-    let name = sequence.robot.as_str();
-    let beside = sequence_path
-        .parent()
-        .map(|dir| dir.join(name))
-        .filter(|p| p.is_file());
-    if let Some(path) = beside {
-        return Robot::load(&path);
-    }
-    Robot::resolve(name, &sequence.file).map_err(|e| match e.location {
-        Location::File if e.file == sequence.file => {
-            InputError::at_path(&sequence.file, "$.robot", e.message)
+/// The robot `--robot` names (a built-in name, or a path to a robot file), with a LeRobot
+/// calibration applied when given.
+pub fn load_robot(spec: &str, calibration: Option<&Path>) -> Result<Robot, CommandError> {
+    finish_robot(resolve_option_robot(spec)?, calibration)
+}
+
+fn resolve_option_robot(spec: &str) -> Result<Robot, InputError> {
+    Robot::resolve(spec, None).map_err(|e| match e {
+        ResolveError::Unknown(unknown) => {
+            InputError::new("--robot", Location::File, unknown.to_string())
         }
-        _ => e,
+        ResolveError::Input(e) => e,
     })
+}
+
+/// The robot a sequence names: a built-in name, or a path to a robot file relative to the
+/// sequence.
+fn resolve_sequence_robot(sequence: &Sequence, sequence_path: &Path) -> Result<Robot, InputError> {
+    Robot::resolve(&sequence.robot, sequence_path.parent()).map_err(|e| match e {
+        ResolveError::Unknown(unknown) => {
+            InputError::at_path(&sequence.file, "$.robot", unknown.to_string())
+        }
+        ResolveError::Input(e) => e,
+    })
+}
+
+/// Applies the calibration, then says which robot (and calibration) is in use under `-v`.
+fn finish_robot(mut robot: Robot, calibration: Option<&Path>) -> Result<Robot, CommandError> {
+    if let Some(path) = calibration {
+        let text = crate::json::read_text(path)?;
+        import_lerobot_calibration(&mut robot, &path.display().to_string(), &text)?;
+    }
+    if verbose() {
+        eprintln!("robot {}: {}", robot.name, robot.source);
+        if let Some(path) = calibration {
+            eprintln!("calibration: {}", path.display());
+        }
+    }
+    Ok(robot)
 }
 
 /// Most samples a command computes per joint: at 100 Hz that is nearly 14 hours of motion, far

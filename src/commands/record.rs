@@ -212,7 +212,7 @@ fn check_output_dir(output: &Path) -> Result<(), CommandError> {
 /// so that `keypose check` finds the same robot from anywhere.
 fn robot_reference(spec: &str) -> String {
     let path = Path::new(spec);
-    if path.is_file() {
+    if crate::robot::names_a_file(spec) {
         if let Ok(absolute) = std::fs::canonicalize(path) {
             return absolute.display().to_string();
         }

@@ -2,7 +2,7 @@
 
 use super::hardware::BusArgs;
 use super::{CommandError, SequenceInput, Verdict};
-use crate::robot::{import_lerobot_calibration, Robot};
+use crate::robot::Robot;
 use crate::sequence::{KeyframeList, Sequence};
 use crate::teach::{self, Journal, Session, TeachError, TeachState};
 use std::io::{BufRead, BufReader, IsTerminal};
@@ -139,13 +139,12 @@ fn load(args: &TeachArgs, source: Option<&Path>) -> Result<(KeyframeList, Robot)
         let (sequence, robot) = input.load()?;
         return Ok((KeyframeList::new(sequence), robot));
     }
-    let mut robot = Robot::resolve(args.robot.as_deref().unwrap_or(DEFAULT_ROBOT), "--robot")?;
-    if let Some(path) = &args.calibration {
-        let text = crate::json::read_text(path)?;
-        import_lerobot_calibration(&mut robot, &path.display().to_string(), &text)?;
-    }
-    // The file names the robot by name, which `keypose check` and `play` resolve as a built-in
-    // (or a file of that name beside the sequence).
+    let robot = super::load_robot(
+        args.robot.as_deref().unwrap_or(DEFAULT_ROBOT),
+        args.calibration.as_deref(),
+    )?;
+    // The file names the robot by its name, which `keypose check` and `play` resolve as a
+    // built-in.
     Ok((KeyframeList::new(Sequence::new(&robot.name)), robot))
 }
 

@@ -78,12 +78,13 @@ impl Trajectory {
                         file,
                         &path,
                         format!(
-                            "{} is outside the limits of {}: expected {} … {} {}",
+                            "{} is outside the limits of {}: expected {} … {} {}{}",
                             format_value(v, joint.kind),
                             joint.name,
                             joint.limits.min,
                             joint.limits.max,
-                            joint.kind.unit()
+                            joint.kind.unit(),
+                            joint.limits_origin.note()
                         ),
                     ));
                 }

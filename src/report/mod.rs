@@ -4,7 +4,7 @@ pub mod log;
 pub mod plot;
 
 use crate::plan::{CheckReport, LimitKind, Sampled, Trajectory};
-use crate::robot::Robot;
+use crate::robot::{Robot, RobotSource};
 use serde_json::{json, Value};
 use std::fmt::Write;
 
@@ -13,8 +13,8 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "{sequence_file}: robot {}, {:.3} s … {:.3} s, sampled at {} Hz",
-        robot.name, report.start, report.end, report.rate
+        "{sequence_file}: robot {} ({}), {:.3} s … {:.3} s, sampled at {} Hz",
+        robot.name, robot.source, report.start, report.end, report.rate
     );
     if report.passed() {
         let _ = writeln!(out, "ok: no limit violations");
@@ -85,6 +85,10 @@ pub fn check_json(report: &CheckReport, sequence_file: &str, robot: &Robot) -> V
     json!({
         "sequence": sequence_file,
         "robot": robot.name,
+        "robot_source": match &robot.source {
+            RobotSource::Builtin(name) => json!({ "builtin": name }),
+            RobotSource::File(path) => json!({ "file": path.display().to_string() }),
+        },
         "passed": report.passed(),
         "rate_hz": report.rate,
         "start": report.start,

@@ -1,6 +1,6 @@
 //! Robots compiled into the binary, so keypose works from any directory.
 
-use super::Robot;
+use super::{Robot, RobotSource};
 
 /// (name, file text) of every built-in robot.
 const BUILTIN: [(&str, &str); 3] = [
@@ -15,5 +15,7 @@ pub fn get(name: &str) -> Option<Robot> {
     let (_, text) = BUILTIN.iter().find(|(n, _)| *n == name)?;
     // A built-in that does not parse is a build defect that the tests catch; refuse it rather
     // than panic in a user's hands.
-    Robot::from_json(&format!("robots/{name}.json (built in)"), text).ok()
+    let mut robot = Robot::from_json(&format!("robots/{name}.json (built in)"), text).ok()?;
+    robot.source = RobotSource::Builtin(name.to_string());
+    Some(robot)
 }

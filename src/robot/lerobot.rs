@@ -6,16 +6,71 @@
 //! midpoint becomes keypose's `zero_tick`. LeRobot divides by 4095 ticks per turn where the
 //! encoder has 4096; keypose keeps the true 4096, which differs from LeRobot's degrees by at most
 //! 1/4096 of the angle (0.04° at 160°).
+//!
+//! A calibration belongs to one arm: it must name every joint, with the servo id the robot
+//! gives that joint. A partial file or other ids mean it was made for another arm or another
+//! wiring, and applying it would move servos by another arm's offsets.
 
-use super::Robot;
+use super::{LimitsOrigin, Robot};
 use crate::json::{self, InputError, Node};
+
+/// The top-level arrays of LeRobot's old calibration format (one array per field, indexed by
+/// `motor_names`), which current LeRobot replaced by one object per motor.
+const OLD_FORMAT_FIELDS: [&str; 6] = [
+    "homing_offset",
+    "drive_mode",
+    "start_pos",
+    "end_pos",
+    "calib_mode",
+    "motor_names",
+];
+
+/// A joint whose calibration gives another servo id than the robot.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct IdMismatch {
+    pub joint: String,
+    pub calibration_id: u8,
+    pub robot_id: u8,
+}
+
+/// A calibration that does not fit the robot as a whole.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum CalibrationMismatch {
+    #[error(
+        "LeRobot's old calibration format (top-level arrays {}); keypose reads the current one, \
+         an object per motor with id, drive_mode, homing_offset, range_min and range_max: \
+         recalibrate the arm with current LeRobot (lerobot-calibrate)",
+        fields.join(", ")
+    )]
+    OldFormat { fields: Vec<String> },
+    #[error(
+        "the calibration does not name joint(s) {} of {robot}: expected an entry for every joint ({})",
+        missing.join(", "),
+        expected.join(", ")
+    )]
+    MissingJoints {
+        robot: String,
+        missing: Vec<String>,
+        expected: Vec<String>,
+    },
+    #[error(
+        "servo ids differ from {robot}'s: {}; a calibration is for the arm it was made on",
+        mismatches
+            .iter()
+            .map(|m| format!("{} has id {} in the calibration, {} in the robot", m.joint, m.calibration_id, m.robot_id))
+            .collect::<Vec<_>>()
+            .join("; ")
+    )]
+    Ids {
+        robot: String,
+        mismatches: Vec<IdMismatch>,
+    },
+}
 
 /// What an import changed, for the user to read.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CalibrationReport {
     pub calibrated: Vec<String>,
-    /// Joints the file does not mention; they keep the robot file's mapping.
-    pub untouched: Vec<String>,
     /// Joints whose position limits were narrowed to the recorded range: (joint, min, max).
     pub narrowed: Vec<(String, f64, f64)>,
 }
@@ -28,12 +83,25 @@ pub fn import_lerobot_calibration(
 ) -> Result<CalibrationReport, InputError> {
     let value = json::parse(file, text)?;
     let root = Node::root(file, &value);
+    let whole_file = |mismatch: CalibrationMismatch| {
+        InputError::new(file, json::Location::File, mismatch.to_string())
+    };
     let mut report = CalibrationReport {
         calibrated: Vec::new(),
-        untouched: Vec::new(),
         narrowed: Vec::new(),
     };
     let entries = root.entries()?;
+    let old_fields: Vec<String> = entries
+        .iter()
+        .filter(|(name, node)| OLD_FORMAT_FIELDS.contains(name) && node.value.is_array())
+        .map(|(name, _)| name.to_string())
+        .collect();
+    if !old_fields.is_empty() {
+        return Err(whole_file(CalibrationMismatch::OldFormat {
+            fields: old_fields,
+        }));
+    }
+    let mut mismatches = Vec::new();
     for (motor, node) in &entries {
         let Some(index) = robot.joint_index(motor) else {
             return Err(node.error(format!(
@@ -67,7 +135,13 @@ pub fn import_lerobot_calibration(
         }
 
         let joint = &mut robot.joints[index];
-        joint.servo.id = id;
+        if id != joint.servo.id {
+            mismatches.push(IdMismatch {
+                joint: joint.name.clone(),
+                calibration_id: id,
+                robot_id: joint.servo.id,
+            });
+        }
         joint.servo.zero_tick = (range_min + range_max) as f64 / 2.0;
         joint.servo.direction = if drive_mode == 1 { -1.0 } else { 1.0 };
         joint.servo.homing_offset = Some(homing_offset);
@@ -85,25 +159,31 @@ pub fn import_lerobot_calibration(
         if min != joint.limits.min || max != joint.limits.max {
             joint.limits.min = min;
             joint.limits.max = max;
+            joint.limits_origin = LimitsOrigin::Calibration {
+                file: file.to_string(),
+            };
             report.narrowed.push((joint.name.clone(), min, max));
         }
         report.calibrated.push(joint.name.clone());
     }
-    let mut seen_ids = std::collections::HashSet::new();
-    for joint in &robot.joints {
-        if !seen_ids.insert(joint.servo.id) {
-            return Err(json::InputError::new(
-                file,
-                json::Location::File,
-                format!(
-                    "servo id {} is used by two joints after import",
-                    joint.servo.id
-                ),
-            ));
-        }
-        if !report.calibrated.contains(&joint.name) {
-            report.untouched.push(joint.name.clone());
-        }
+    if !mismatches.is_empty() {
+        return Err(whole_file(CalibrationMismatch::Ids {
+            robot: robot.name.clone(),
+            mismatches,
+        }));
+    }
+    let missing: Vec<String> = robot
+        .joints
+        .iter()
+        .filter(|j| !report.calibrated.contains(&j.name))
+        .map(|j| j.name.clone())
+        .collect();
+    if !missing.is_empty() {
+        return Err(whole_file(CalibrationMismatch::MissingJoints {
+            robot: robot.name.clone(),
+            missing,
+            expected: robot.joint_names().iter().map(|n| n.to_string()).collect(),
+        }));
     }
     for (joint, home) in robot.joints.iter().zip(robot.home.iter_mut()) {
         *home = home.clamp(joint.limits.min, joint.limits.max);

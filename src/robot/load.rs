@@ -88,6 +88,7 @@ pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
 
     Ok(Robot {
         name: name.to_string(),
+        source: super::RobotSource::File(file.into()),
         description,
         bus,
         control_hz,
@@ -149,6 +150,7 @@ fn parse_joint(node: &Node, protocol: Protocol) -> Result<Joint, InputError> {
         axis: axis.normalize(),
         origin,
         limits,
+        limits_origin: super::LimitsOrigin::Robot,
         servo,
     })
 }

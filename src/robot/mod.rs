@@ -8,10 +8,11 @@ pub mod servo;
 use crate::json::InputError;
 use crate::pose::RigidTransform;
 use glam::{DQuat, DVec3};
-use std::path::Path;
+use std::fmt;
+use std::path::{Path, PathBuf};
 
 pub use builtin::BUILTIN_NAMES;
-pub use lerobot::{import_lerobot_calibration, CalibrationReport};
+pub use lerobot::{import_lerobot_calibration, CalibrationMismatch, CalibrationReport, IdMismatch};
 pub use servo::{PositionEncoding, Servo, ServoModel, TickError};
 
 pub const ROBOT_FORMAT: &str = "keypose-robot/1";
@@ -80,6 +81,28 @@ impl Limits {
     }
 }
 
+/// What set a joint's position limits.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LimitsOrigin {
+    /// The robot description.
+    Robot,
+    /// A LeRobot calibration whose recorded range is tighter than the robot's limits.
+    Calibration { file: String },
+}
+
+impl LimitsOrigin {
+    /// Why the limits are what they are, for a message about a value outside them ("" when
+    /// they are the robot's own).
+    pub fn note(&self) -> String {
+        match self {
+            LimitsOrigin::Robot => String::new(),
+            LimitsOrigin::Calibration { file } => {
+                format!(" (narrowed by the calibration {file} to the range recorded there)")
+            }
+        }
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct Joint {
     pub name: String,
@@ -89,6 +112,7 @@ pub struct Joint {
     /// Pose of the joint frame in its parent's frame (the previous joint's moving frame).
     pub origin: RigidTransform,
     pub limits: Limits,
+    pub limits_origin: LimitsOrigin,
     pub servo: Servo,
 }
 
@@ -136,9 +160,52 @@ pub struct BusSettings {
     pub baud: u32,
 }
 
+/// Where a robot description came from, for the user to see which one is in use.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum RobotSource {
+    /// Compiled into the binary, by name.
+    Builtin(String),
+    /// Read from a file (or parsed from text named like one).
+    File(PathBuf),
+}
+
+impl fmt::Display for RobotSource {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RobotSource::Builtin(_) => f.write_str("built-in"),
+            RobotSource::File(path) => write!(f, "file {}", path.display()),
+        }
+    }
+}
+
+/// A robot named as a built-in that does not exist.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown robot {spec:?}: expected a built-in robot ({}) or a robot file given as a path (containing a '/' or ending in .json, e.g. ./{spec})", BUILTIN_NAMES.join(", "))]
+pub struct UnknownRobot {
+    pub spec: String,
+}
+
+/// Why a robot could not be resolved.
+#[derive(Debug, thiserror::Error)]
+pub enum ResolveError {
+    #[error(transparent)]
+    Unknown(#[from] UnknownRobot),
+    #[error(transparent)]
+    Input(#[from] InputError),
+}
+
+/// Whether a robot given by the user names a file: it contains a '/' or ends in ".json".
+/// Anything else is a built-in name, and never a file: a file called `so101` in the working
+/// directory or beside a sequence must not stand in for the built-in robot.
+pub fn names_a_file(spec: &str) -> bool {
+    spec.contains('/') || spec.ends_with(".json")
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct Robot {
     pub name: String,
+    /// The built-in or the file this description was read from.
+    pub source: RobotSource,
     pub description: String,
     pub bus: BusSettings,
     /// Default streaming rate of the player, Hz.
@@ -167,23 +234,19 @@ impl Robot {
         builtin::get(name)
     }
 
-    /// A robot given as a path to a file or a built-in name: a file on disk wins, so a user's
-    /// edited copy overrides the built-in one.
-    pub fn resolve(spec: &str, context: &str) -> Result<Robot, InputError> {
-        let path = Path::new(spec);
-        if path.is_file() {
-            return Robot::load(path);
+    /// A robot given as a built-in name or as a path to a robot file ([`names_a_file`]); a
+    /// relative path is taken relative to `base` when given (a sequence's directory).
+    pub fn resolve(spec: &str, base: Option<&Path>) -> Result<Robot, ResolveError> {
+        if names_a_file(spec) {
+            let path = match base {
+                Some(dir) if Path::new(spec).is_relative() => dir.join(spec),
+                _ => PathBuf::from(spec),
+            };
+            return Ok(Robot::load(&path)?);
         }
-        Robot::builtin(spec).ok_or_else(|| {
-            InputError::new(
-                context,
-                crate::json::Location::File,
-                format!(
-                    "unknown robot {spec:?}: expected a built-in robot ({}) or a robot file",
-                    BUILTIN_NAMES.join(", ")
-                ),
-            )
-        })
+        Ok(Robot::builtin(spec).ok_or_else(|| UnknownRobot {
+            spec: spec.to_string(),
+        })?)
     }
 
     pub fn joint_index(&self, name: &str) -> Option<usize> {

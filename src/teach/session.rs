@@ -70,6 +70,12 @@ impl ServoBus for ObservedBus {
     fn read_health(&mut self, ids: &[u8]) -> Result<Vec<crate::bus::Health>, BusError> {
         self.inner.read_health(ids)
     }
+    fn read_homing_offsets(
+        &mut self,
+        servos: &[(u8, crate::robot::ServoModel)],
+    ) -> Result<Vec<i64>, BusError> {
+        self.inner.read_homing_offsets(servos)
+    }
 }
 
 type MotionResult = (Box<dyn ServoBus>, Result<Outcome, PlayError>);

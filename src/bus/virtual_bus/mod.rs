@@ -85,6 +85,12 @@ impl VirtualServo {
         registers::table(self.model)
     }
 
+    /// Sets the Homing_Offset register, as a calibration tool writes it (the emulated servo
+    /// reports it; its positions are emulated after the offset, as a real servo's are).
+    pub fn set_homing_offset(&mut self, ticks: i64) {
+        self.store(self.table().homing_offset, ticks);
+    }
+
     fn store(&mut self, register: registers::Register, value: i64) {
         if let Ok(bytes) = self.table().encode(&register, value) {
             let start = usize::from(register.address);
@@ -202,7 +208,8 @@ pub struct VirtualServos {
 }
 
 impl VirtualServos {
-    /// The servos of `robot`, resting at its home pose with torque off.
+    /// The servos of `robot`, resting at its home pose with torque off, holding the homing
+    /// offsets the robot (or its calibration) gives: the arm it describes.
     pub fn for_robot(robot: &Robot) -> VirtualServos {
         let servos = robot
             .joints
@@ -210,7 +217,11 @@ impl VirtualServos {
             .zip(&robot.home)
             .map(|(joint, &home)| {
                 let tick = joint.servo.tick_exact(home);
-                VirtualServo::new(joint.servo.id, joint.servo.model, tick)
+                let mut servo = VirtualServo::new(joint.servo.id, joint.servo.model, tick);
+                if let Some(offset) = joint.servo.homing_offset {
+                    servo.set_homing_offset(offset);
+                }
+                servo
             })
             .collect();
         VirtualServos::new(robot.bus.protocol, servos)

@@ -1,0 +1,173 @@
+//! LeRobot calibration files that do not fit the robot: partial, other servo ids, the old
+//! format; and the cause of a narrowed limit in the message about a key outside it.
+
+mod common;
+
+use common::{run, show, stderr};
+use keypose::robot::{import_lerobot_calibration, Robot};
+
+/// One SO-101 motor entry as LeRobot writes it; the whole turn recorded unless `range` given.
+fn motor(name: &str, id: u8, range: (i64, i64)) -> String {
+    format!(
+        r#""{name}": {{"id": {id}, "drive_mode": 0, "homing_offset": 0, "range_min": {}, "range_max": {}}}"#,
+        range.0, range.1
+    )
+}
+
+const SO101_JOINTS: [&str; 6] = [
+    "shoulder_pan",
+    "shoulder_lift",
+    "elbow_flex",
+    "wrist_flex",
+    "wrist_roll",
+    "gripper",
+];
+
+/// A calibration for the built-in SO-101 (servo ids 1–6 in joint order), with `id_of` and
+/// `range_of` overriding single entries and only the joints in `joints`.
+fn calibration(
+    joints: &[&str],
+    id_of: &dyn Fn(&str, u8) -> u8,
+    range_of: &dyn Fn(&str) -> (i64, i64),
+) -> String {
+    let entries: Vec<String> = SO101_JOINTS
+        .iter()
+        .enumerate()
+        .filter(|(_, name)| joints.contains(name))
+        .map(|(i, name)| motor(name, id_of(name, i as u8 + 1), range_of(name)))
+        .collect();
+    format!("{{{}}}", entries.join(",\n"))
+}
+
+fn import(text: &str) -> Result<Robot, String> {
+    let mut robot = Robot::builtin("so101").unwrap();
+    import_lerobot_calibration(&mut robot, "cal.json", text)
+        .map(|_| robot)
+        .map_err(|e| e.to_string())
+}
+
+const WHOLE_TURN: (i64, i64) = (0, 4095);
+
+#[test]
+fn a_calibration_for_every_joint_with_the_robots_ids_is_accepted() {
+    let text = calibration(&SO101_JOINTS, &|_, id| id, &|_| WHOLE_TURN);
+    assert!(import(&text).is_ok());
+}
+
+#[test]
+fn a_partial_calibration_names_the_missing_joints() {
+    let text = calibration(&["shoulder_pan", "elbow_flex"], &|_, id| id, &|_| {
+        WHOLE_TURN
+    });
+    let message = import(&text).unwrap_err();
+    assert!(message.starts_with("cal.json: "), "{message}");
+    assert!(
+        message.contains(
+            "does not name joint(s) shoulder_lift, wrist_flex, wrist_roll, gripper of so101"
+        ),
+        "{message}"
+    );
+}
+
+#[test]
+fn a_calibration_with_other_servo_ids_names_the_joints() {
+    // elbow_flex is servo 3 and gripper servo 6 on the built-in SO-101.
+    let swap = |name: &str, id: u8| match name {
+        "elbow_flex" => 7,
+        "gripper" => 9,
+        _ => id,
+    };
+    let text = calibration(&SO101_JOINTS, &swap, &|_| WHOLE_TURN);
+    let message = import(&text).unwrap_err();
+    assert!(
+        message.contains("elbow_flex has id 7 in the calibration, 3 in the robot"),
+        "{message}"
+    );
+    assert!(
+        message.contains("gripper has id 9 in the calibration, 6 in the robot"),
+        "{message}"
+    );
+    assert!(!message.contains("shoulder_pan"), "{message}");
+}
+
+#[test]
+fn the_old_lerobot_format_is_recognised_and_the_fix_named() {
+    let text = r#"{"homing_offset": [2048, 3072, 3072, -1024, -2048, 0],
+                   "drive_mode": [0, 0, 0, 0, 0, 0],
+                   "start_pos": [2048, 3072, 3072, 1024, 2048, 0],
+                   "end_pos": [3072, 2048, 2048, 2048, 3072, 1024],
+                   "calib_mode": ["DEGREE", "DEGREE", "DEGREE", "DEGREE", "DEGREE", "LINEAR"],
+                   "motor_names": ["shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll", "gripper"]}"#;
+    let message = import(text).unwrap_err();
+    for expected in [
+        "cal.json",
+        "old calibration format",
+        "homing_offset",
+        "motor_names",
+        "recalibrate",
+    ] {
+        assert!(message.contains(expected), "{expected:?} in {message}");
+    }
+}
+
+#[test]
+fn a_key_outside_a_limit_the_calibration_narrowed_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    // elbow_flex recorded over 1048 … 3048: ±1000 ticks = ±87.890625°, inside the robot's
+    // ±96.83°. A key at 90° is inside the robot's limits and outside the calibration's.
+    let text = calibration(&SO101_JOINTS, &|_, id| id, &|name| {
+        if name == "elbow_flex" {
+            (1048, 3048)
+        } else {
+            WHOLE_TURN
+        }
+    });
+    let cal = dir.path().join("cal.json");
+    std::fs::write(&cal, text).unwrap();
+    let seq = dir.path().join("elbow.json");
+    std::fs::write(
+        &seq,
+        r#"{"format":"keypose-sequence/1","robot":"so101","keyframes":[
+          {"time":0,"joints":{"elbow_flex":0}},{"time":10,"joints":{"elbow_flex":90}}]}"#,
+    )
+    .unwrap();
+    let (seq, cal) = (seq.display().to_string(), cal.display().to_string());
+    let out = run(&["check", &seq]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let out = run(&["check", &seq, "--calibration", &cal]);
+    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+    let err = stderr(&out);
+    assert!(err.contains("expected -87.890625 … 87.890625 deg"), "{err}");
+    assert!(
+        err.contains(&format!("narrowed by the calibration {cal}")),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_partial_calibration_on_the_command_line_is_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let cal = dir.path().join("partial.json");
+    std::fs::write(
+        &cal,
+        calibration(&["gripper"], &|_, id| id, &|_| WHOLE_TURN),
+    )
+    .unwrap();
+    let cal = cal.display().to_string();
+    let out = run(&[
+        "read",
+        "--robot",
+        "so101",
+        "--port",
+        "virtual",
+        "--calibration",
+        &cal,
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+    assert!(
+        stderr(&out).contains(&cal) && stderr(&out).contains("shoulder_pan"),
+        "{}",
+        show(&out)
+    );
+    assert!(out.stdout.is_empty(), "{}", show(&out));
+}
