@@ -406,3 +406,62 @@ fn absurd_durations_are_refused_before_sampling() {
         "lower --rate",
     );
 }
+
+/// A linear 0 → 80° pan in 1 s from rest: at the 100 Hz control rate its first step asks for
+/// 80 °/s within one 10 ms period, 8000 °/s² against the 344 °/s² limit. Sampled once a second,
+/// the same start looks like 80 °/s² and would pass.
+const SUDDEN_START: &str =
+    r#"{"time":0,"joints":{"shoulder_pan":0}},{"time":1,"joints":{"shoulder_pan":80}}"#;
+
+#[test]
+fn a_rate_below_the_control_rate_does_not_hide_a_violation() {
+    let (_dir, path) = temp_sequence("sudden.json", &sequence_in("linear", SUDDEN_START));
+    let path = path.to_str().unwrap();
+    for rate in ["1", "10", "100"] {
+        let out = keypose(&["check", path, "--rate", rate]);
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(out.status.code(), Some(1), "--rate {rate}: {text}");
+        assert!(text.contains("acceleration"), "--rate {rate}: {text}");
+        assert!(text.contains("sampled at 100 Hz"), "--rate {rate}: {text}");
+    }
+    // retime stretches the segment at the control rate even when asked for 1 Hz.
+    let out = keypose(&["retime", path, "--rate", "1"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("segment 0"), "{err}");
+    // plot draws the curves at least at the control rate: 1 s at 100 Hz is 101 points.
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("sudden.svg");
+    let out = keypose(&["plot", path, "--rate", "1", "-o", svg.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0));
+    let text = std::fs::read_to_string(&svg).unwrap();
+    let points = text
+        .split("<polyline")
+        .nth(1)
+        .and_then(|p| p.split("points=\"").nth(1))
+        .and_then(|p| p.split('"').next())
+        .unwrap();
+    assert!(points.split_whitespace().count() >= 101, "{points}");
+}
+
+#[test]
+fn a_robot_whose_control_rate_the_player_cannot_keep_is_refused_before_teach_opens_a_port() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = std::fs::read_to_string(repo("robots/so101.json"))
+        .unwrap()
+        .replace("\"control_hz\": 100", "\"control_hz\": 2000");
+    assert!(robot.contains("\"control_hz\": 2000"));
+    let robot_path = write(dir.path(), "fast.json", &robot);
+    let out = keypose(&[
+        "teach",
+        "--robot",
+        robot_path.to_str().unwrap(),
+        "--port",
+        "/dev/keypose-no-such-port",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("control_hz 2000 is outside the 10 … 1000 Hz"),
+        "{err}"
+    );
+}

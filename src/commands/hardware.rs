@@ -472,7 +472,7 @@ pub fn virtual_bus(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
     loop {
         if stop.count() > 0
             || rx
-                .recv_timeout(std::time::Duration::from_millis(100))
+                .recv_timeout(std::time::Duration::from_millis(20))
                 .is_ok()
         {
             break;

@@ -190,4 +190,26 @@ mod tests {
         assert!((summary.time_lost - 0.49).abs() < 1e-9);
         assert!((summary.longest_stall - 0.49).abs() < 1e-9);
     }
+
+    #[test]
+    fn deadlines_stay_exact_after_weeks_of_cycles() {
+        // Six weeks at 1 kHz is 3.6e9 cycles, past u32::MAX (a 32-bit cycle counter wraps at
+        // 49.7 days of 1 kHz and would send the deadlines back in time: a burst).
+        let clock = Jumps::default();
+        let stop = StopSignal::default();
+        let mut pacer = Pacer::new(&clock, 0.001);
+        pacer.wait(&clock, &stop, 0);
+        let six_weeks = 6.0 * 7.0 * 86_400.0;
+        clock.stall(six_weeks);
+        let late = pacer.wait(&clock, &stop, 0);
+        assert_eq!(late.skipped, 3_628_799_999);
+        // The next deadline is one period on, to well within a microsecond.
+        let next = pacer.wait(&clock, &stop, 0);
+        assert!(
+            (next.now - (six_weeks + 0.001)).abs() < 1e-6,
+            "{}",
+            next.now
+        );
+        assert!((next.gap - 0.001).abs() < 1e-6);
+    }
 }
