@@ -25,6 +25,24 @@ use keypose::sequence::Sequence;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+/// Plays with no stop request on `clock`.
+fn play_on(
+    bus: &mut dyn ServoBus,
+    robot: &Robot,
+    trajectory: &Trajectory,
+    options: &PlayOptions,
+    clock: &dyn Clock,
+) -> Result<(Outcome, keypose::player::Stats), PlayError> {
+    play_with_clock(
+        bus,
+        robot,
+        trajectory,
+        options,
+        &StopSignal::default(),
+        clock,
+    )
+}
+
 /// A small deterministic generator (xorshift64*), so every case can be replayed by its seed.
 struct Rng(u64);
 
@@ -305,15 +323,8 @@ fn after_thousands_of_stalls_no_goal_step_exceeds_the_limits_over_one_period() {
             max_stall: 10.0,
             ..PlayOptions::new(rate)
         };
-        let (outcome, stats) = play_with_clock(
-            &mut bus,
-            &robot,
-            &trajectory,
-            &options,
-            &StopSignal::default(),
-            &clock,
-        )
-        .unwrap_or_else(|e| panic!("case {case}: {e}"));
+        let (outcome, stats) = play_on(&mut bus, &robot, &trajectory, &options, &clock)
+            .unwrap_or_else(|e| panic!("case {case}: {e}"));
         assert_eq!(outcome, Outcome::Finished, "case {case}");
         let times = bus.times.clone();
         let checked = check_goals(&robot, rate, &times, &virtual_bus.lock().goals_received());
@@ -365,15 +376,7 @@ fn ordinary_playback_with_jitter_never_needs_the_limiter() {
             readback_every: Some(10),
             ..PlayOptions::new(rate)
         };
-        let (outcome, stats) = play_with_clock(
-            &mut bus,
-            &robot,
-            &trajectory,
-            &options,
-            &StopSignal::default(),
-            &clock,
-        )
-        .unwrap();
+        let (outcome, stats) = play_on(&mut bus, &robot, &trajectory, &options, &clock).unwrap();
         assert_eq!(outcome, Outcome::Finished);
         assert_eq!(stats.pacing.stalls, 0, "{file}");
         assert_eq!(
@@ -397,12 +400,11 @@ fn a_stall_beyond_the_bound_brakes_to_rest_and_is_a_fault_naming_the_stall() {
         seconds: 0.4,
     });
     let (mut native, virtual_bus) = VirtualBus::in_process(&robot);
-    let error = play_with_clock(
+    let error = play_on(
         &mut native,
         &robot,
         &trajectory,
         &PlayOptions::new(100.0),
-        &StopSignal::default(),
         clock.as_ref(),
     )
     .expect_err("a 400 ms stall is beyond the 250 ms bound");

@@ -473,6 +473,20 @@ impl NativeBus {
     }
 
     /// Writes one value per servo into one register with a single sync write (no answer).
+    /// One register of every servo in `ids` (the same in all their tables), as values.
+    fn read_values(
+        &mut self,
+        ids: &[u8],
+        pick: fn(&RegisterTable) -> Register,
+    ) -> Result<Vec<i64>, BusError> {
+        let (register, table) = self.common_register(ids, pick)?;
+        let blocks = self.read_block(ids, register.address, u16::from(register.size))?;
+        ids.iter()
+            .zip(blocks)
+            .map(|(&id, bytes)| table.decode_answer(id, &register, &bytes))
+            .collect()
+    }
+
     fn write_register(
         &mut self,
         values: &[(u8, i64)],
@@ -549,19 +563,7 @@ impl ServoBus for NativeBus {
     }
 
     fn read_positions(&mut self, ids: &[u8]) -> Result<Vec<i64>, BusError> {
-        let (register, table) = self.common_register(ids, |t| t.present_position)?;
-        let blocks = self.read_block(ids, register.address, u16::from(register.size))?;
-        ids.iter()
-            .zip(blocks)
-            .map(|(&id, bytes)| {
-                table
-                    .decode(&register, &bytes)
-                    .map_err(|e| BusError::Corrupt {
-                        id,
-                        detail: e.to_string(),
-                    })
-            })
-            .collect()
+        self.read_values(ids, |t| t.present_position)
     }
 
     fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError> {
@@ -570,19 +572,7 @@ impl ServoBus for NativeBus {
 
     fn read_homing_offsets(&mut self, servos: &[(u8, ServoModel)]) -> Result<Vec<i64>, BusError> {
         let ids: Vec<u8> = servos.iter().map(|(id, _)| *id).collect();
-        let (register, table) = self.common_register(&ids, |t| t.homing_offset)?;
-        let blocks = self.read_block(&ids, register.address, u16::from(register.size))?;
-        ids.iter()
-            .zip(blocks)
-            .map(|(&id, bytes)| {
-                table
-                    .decode(&register, &bytes)
-                    .map_err(|e| BusError::Corrupt {
-                        id,
-                        detail: e.to_string(),
-                    })
-            })
-            .collect()
+        self.read_values(&ids, |t| t.homing_offset)
     }
 
     fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError> {

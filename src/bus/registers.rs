@@ -511,6 +511,20 @@ impl RegisterTable {
         register.decode(bytes, self.byte_order)
     }
 
+    /// [`Self::decode`] for servo `id`'s answer: bytes that do not fit are a corrupt answer.
+    pub fn decode_answer(
+        &self,
+        id: u8,
+        register: &Register,
+        bytes: &[u8],
+    ) -> Result<i64, super::BusError> {
+        self.decode(register, bytes)
+            .map_err(|e| super::BusError::Corrupt {
+                id,
+                detail: e.to_string(),
+            })
+    }
+
     pub fn is_dynamixel(&self) -> bool {
         self.model.is_dynamixel()
     }

@@ -530,12 +530,7 @@ impl ServoBus for SdkBus {
                     registers::ByteOrder::Little => raw.to_le_bytes()[..size].to_vec(),
                     registers::ByteOrder::Big => raw.to_be_bytes()[4 - size..].to_vec(),
                 };
-                table
-                    .decode(&register, &bytes)
-                    .map_err(|e| BusError::Corrupt {
-                        id,
-                        detail: e.to_string(),
-                    })
+                table.decode_answer(id, &register, &bytes)
             })
             .collect()
     }
