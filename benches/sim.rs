@@ -4,8 +4,7 @@
 //!
 //! `cargo bench --bench sim`. The Python environment is built once in target/ (not timed).
 
-use keypose::plan::Trajectory;
-use keypose::player::PlayOptions;
+use keypose::plan::{TimelineOptions, Trajectory};
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
 use keypose::sim::{command_stream, Simulation};
@@ -47,7 +46,12 @@ fn main() {
     let robot = Robot::builtin("so101").expect("so101");
     let sequence = Sequence::from_json("sixty.json", &sixty_seconds()).expect("sequence");
     let trajectory = Trajectory::build(&sequence, &robot).expect("trajectory");
-    let stream = command_stream(&robot, &trajectory, &PlayOptions::new(robot.control_hz));
+    let stream = command_stream(
+        &robot,
+        &trajectory,
+        &TimelineOptions::default(),
+        robot.control_hz,
+    );
     let simulated = stream.rows.len() as f64 / stream.rate;
 
     // Build the environment outside the timing.

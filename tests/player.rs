@@ -4,8 +4,9 @@
 
 use keypose::bus::virtual_bus::{ServoFault, VirtualBus};
 use keypose::bus::{Alarms, BusError};
+use keypose::plan::Loops;
 use keypose::plan::Trajectory;
-use keypose::player::{play, Loops, Outcome, PlayError, PlayOptions, StopSignal};
+use keypose::player::{play, Outcome, PlayError, PlayOptions, StopSignal};
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
 use proptest::prelude::*;

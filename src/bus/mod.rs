@@ -12,6 +12,7 @@ mod connect;
 pub mod driver;
 pub mod dynamixel;
 mod echo;
+mod faults;
 pub mod feetech;
 pub mod homing;
 pub mod packet;
@@ -22,6 +23,7 @@ pub mod transport;
 pub mod virtual_bus;
 
 pub use connect::{connect, connect_with, scan, BusOptions, Connection, Driver, VIRTUAL_PORT};
+pub use faults::{faulty_joint, joint_prefix, ReadStreak, MAX_READ_FAILURES};
 pub use ports::{latency_timers, list_ports, PortInfo};
 
 use std::fmt;

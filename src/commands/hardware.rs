@@ -122,7 +122,7 @@ pub fn torque(args: &TorqueArgs) -> Result<Verdict, CommandError> {
         let mut goals = Vec::with_capacity(ids.len());
         for ((&j, &id), &tick) in joints.iter().zip(&ids).zip(&ticks) {
             let joint = &robot.joints[j];
-            let goal = crate::player::hold_tick(joint, tick).ok_or_else(|| {
+            let goal = joint.hold_tick(tick).ok_or_else(|| {
                 CommandError::Usage(format!(
                     "{} is at {:.2} {}, past its limits {} … {}: move it inside by hand first (nothing was sent)",
                     joint.name,
@@ -455,9 +455,7 @@ pub fn virtual_bus(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
             }
         });
     }
-    let stop = crate::player::StopSignal::default();
-    let handler_stop = stop.clone();
-    let _ = ctrlc::set_handler(move || handler_stop.request());
+    let stop = crate::stop::stop_on_signal();
     // Standard input closing (the parent went away) ends the server, as does a signal.
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {

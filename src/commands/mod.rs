@@ -232,9 +232,9 @@ pub fn parse_rate(s: &str) -> Result<f64, String> {
 }
 
 /// Parses a control rate for clap (`play`, `record`): a finite number within
-/// [`crate::player::RATE_RANGE_HZ`].
+/// [`crate::pacing::RATE_RANGE_HZ`].
 pub fn parse_control_rate(s: &str) -> Result<f64, String> {
-    let range = crate::player::RATE_RANGE_HZ;
+    let range = crate::pacing::RATE_RANGE_HZ;
     match s.parse::<f64>() {
         Ok(rate) if range.contains(&rate) => Ok(rate),
         _ => Err(format!(
@@ -248,7 +248,7 @@ pub fn parse_control_rate(s: &str) -> Result<f64, String> {
 /// The rate a loop that drives servos runs at: `--rate`, or the robot's own control rate, which
 /// a robot file may set outside what the player can keep; checked before anything is opened.
 pub fn control_rate(rate: Option<f64>, robot: &Robot) -> Result<f64, CommandError> {
-    let range = crate::player::RATE_RANGE_HZ;
+    let range = crate::pacing::RATE_RANGE_HZ;
     match rate {
         Some(rate) => Ok(rate),
         None if range.contains(&robot.control_hz) => Ok(robot.control_hz),

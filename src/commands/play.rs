@@ -2,8 +2,9 @@
 
 use super::hardware::BusArgs;
 use super::{option_values, parse_control_rate, CommandError, SequenceInput, Verdict};
+use crate::plan::Loops;
 use crate::plan::{check_at_speed, Trajectory};
-use crate::player::{self, Loops, Outcome, PlayError, PlayOptions, StopSignal};
+use crate::player::{self, Outcome, PlayError, PlayOptions};
 use crate::report;
 use crate::terminal_text::escape_controls;
 use std::path::PathBuf;
@@ -141,11 +142,7 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
         });
     };
     let mut connection = args.bus.connect(&robot, port)?;
-    let stop = StopSignal::default();
-    let handler_stop = stop.clone();
-    // Only the first handler registration in a process succeeds; a second `play` in the same
-    // process (tests) keeps the first handler, which is harmless.
-    let _ = ctrlc::set_handler(move || handler_stop.request());
+    let stop = crate::stop::stop_on_signal();
 
     if !args.quiet {
         eprintln!(

@@ -4,11 +4,11 @@
 use super::hardware::{BusArgs, RobotArgs};
 use super::{joint_indices, option_values, parse_control_rate, CommandError, Verdict};
 use crate::curve::Interp;
-use crate::player::StopSignal;
 use crate::record::{
     self, KeyframeOptions, Keyframes, RecordError, RecordOptions, Retimed, StopReason,
 };
 use crate::report;
+use crate::stop::StopSignal;
 use crate::terminal_text::escape_controls;
 use std::io::{BufRead, IsTerminal};
 use std::path::{Path, PathBuf};
@@ -100,11 +100,7 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
     let rate = super::control_rate(args.rate, &robot)?;
 
     let mut connection = args.bus.connect(&robot, port)?;
-    let stop = StopSignal::default();
-    let handler_stop = stop.clone();
-    // Only the first handler registration in a process succeeds; a second command in the same
-    // process (tests) keeps the first handler, and then only Enter or --duration stop.
-    let _ = ctrlc::set_handler(move || handler_stop.request());
+    let stop = crate::stop::stop_on_signal();
     watch_stdin(stop.clone(), args.duration.is_none());
 
     let names: Vec<&str> = joints
@@ -224,7 +220,7 @@ fn robot_reference(spec: &str) -> String {
 /// may not be what the hand did there.
 fn warn_about_gaps(gaps: &record::SampleGaps, rate: f64) {
     let period = 1.0 / rate;
-    if gaps.missing() == 0 && gaps.longest <= crate::player::STALL_PERIODS * period {
+    if gaps.missing() == 0 && gaps.longest <= crate::pacing::STALL_PERIODS * period {
         return;
     }
     eprintln!(

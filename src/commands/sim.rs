@@ -66,7 +66,7 @@ pub fn simulate(
     mjcf: Option<&Path>,
 ) -> Result<Simulated, CommandError> {
     let started = Instant::now();
-    let stream = sim::command_stream(robot, trajectory, options);
+    let stream = sim::command_stream(robot, trajectory, &options.timeline(), options.rate_hz);
     let mut simulation = Simulation::start(robot, mjcf, None).map_err(sim_error)?;
     let chunk = ((CHUNK_SECONDS * stream.rate).round() as usize).max(1);
     let mut trace = Trace::default();

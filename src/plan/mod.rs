@@ -4,6 +4,7 @@
 mod approach;
 mod check;
 mod retime;
+mod timeline;
 
 use crate::curve::{Cursor, CurveError, Track, TrackKey};
 use crate::json::InputError;
@@ -15,6 +16,7 @@ use std::f64::consts::TAU;
 pub use approach::{Approach, APPROACH_LIMIT_SHARE, MIN_APPROACH_SECONDS};
 pub use check::{check, check_at_speed, CheckReport, JointSummary, LimitKind, Sampled, Violation};
 pub use retime::{retime, RetimeOutcome};
+pub use timeline::{Loops, Phase, Timeline, TimelineOptions};
 
 /// Largest rotation off the joint axis (swing) accepted in a keyed transform, degrees. Hand-typed
 /// quaternions carry rounding of this order; more than that is a rotation the joint cannot make.

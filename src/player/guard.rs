@@ -3,23 +3,7 @@
 //! Plans are checked before playback, so a goal outside the limits here is a bug; the player
 //! stops rather than send it.
 
-use super::position_slack;
-use crate::robot::{Joint, Robot};
-
-/// Where to hold a joint measured at `present` when its torque comes on: where it is, or at the
-/// limit it is a little past (within [`position_slack`]). None when it is further past: a goal
-/// there is forbidden, and pulling it to the limit at once would be a jump, so it must be moved
-/// inside by hand first.
-pub fn hold_value(joint: &Joint, present: f64) -> Option<f64> {
-    let excess = (joint.limits.min - present).max(present - joint.limits.max);
-    (excess <= position_slack(joint.kind))
-        .then(|| present.clamp(joint.limits.min, joint.limits.max))
-}
-
-/// [`hold_value`] for a servo measured at `present` ticks, as the goal tick to write.
-pub fn hold_tick(joint: &Joint, present: i64) -> Option<i64> {
-    hold_value(joint, joint.servo.value(present)).and_then(|value| joint.goal_tick(value).ok())
-}
+use crate::robot::Robot;
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("refusing to send joint {joint} to {value}: outside its limits {min} … {max} (a bug; nothing was sent)")]

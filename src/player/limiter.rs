@@ -2,7 +2,7 @@
 //! velocity and acceleration limits allow over one control period, whatever the scheduler did.
 //!
 //! The timeline already keeps its path within the limits, and after a stall resumes from the
-//! rate the arm really followed (see [`super::pacing`]). This limiter makes that a guarantee
+//! rate the arm really followed (see [`crate::pacing`]). This limiter makes that a guarantee
 //! rather than a property of the timeline's arithmetic, in the manner of ros2_control's joint
 //! saturation limiter: each joint's step is saturated into the band its limits allow from the
 //! previous step, and it is kept slow enough to stop before a position limit. It should never
@@ -15,7 +15,7 @@
 //! - the step stays within `v·T` of zero and within `a·T²` of the reference;
 //! - from the new goal, decelerating by `a·T²` per period, the joint stops inside its limits.
 
-use super::pacing::STALL_PERIODS;
+use crate::pacing::STALL_PERIODS;
 use crate::robot::Robot;
 
 /// Relative slack for floating-point noise: a step this close to a bound is within it.

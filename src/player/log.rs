@@ -12,8 +12,9 @@
 //! earlier log never leaves a torn file. A process killed outright leaves no log, only a
 //! temporary that the next write of the same log removes.
 
-use super::{Phase, PlayError};
+use super::PlayError;
 use crate::atomic_file::{AtomicFile, Privacy};
+use crate::plan::Phase;
 use crate::robot::Robot;
 use std::fmt::Write as _;
 use std::io::{BufWriter, Write};

@@ -13,76 +13,27 @@
 //!   the cycle and is reported with the servo and the reason; a stall longer than the bound
 //!   brakes to rest first.
 
-mod clock;
 mod guard;
 mod limiter;
 mod log;
-mod pacing;
-mod stop;
-mod timeline;
 
-pub use clock::{Clock, WallClock};
-pub use guard::{hold_tick, hold_value, GoalGuard, LimitBreach};
+pub use crate::pacing::{Clock, LatenessSummary, WallClock};
+pub use crate::stop::StopSignal;
+pub use guard::{GoalGuard, LimitBreach};
 pub use limiter::StepLimiter;
-pub use pacing::{CycleStart, LatenessSummary, Pacer, STALL_PERIODS};
-pub use stop::StopSignal;
-pub use timeline::{Loops, Phase, Timeline};
 
-use crate::bus::{BusError, ServoBus};
-use crate::plan::Trajectory;
-use crate::robot::{JointKind, Robot};
+use crate::bus::{faulty_joint, joint_prefix, BusError, ReadStreak, ServoBus};
+use crate::pacing::Pacer;
+use crate::plan::{Loops, Timeline, TimelineOptions, Trajectory};
+use crate::robot::Robot;
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-/// How far a measured joint may be from where it should be and still count as there, in its
-/// unit: how far outside its limits it may start and still be ramped from (the ramp then
-/// starts at the limit; calibration and backlash put a resting arm a little outside now and
-/// then, anything further is a real problem to solve by hand), and how close it must come to
-/// the final pose before `--release-at-end` releases it.
-pub fn position_slack(kind: JointKind) -> f64 {
-    match kind {
-        JointKind::Revolute => 2.0,
-        // A gripper's travel is a few centimetres: 2 mm is as coarse as 2° on a joint.
-        JointKind::Prismatic => 0.002,
-    }
-}
-/// Consecutive failed read-backs that count as a fault.
-pub const MAX_READ_FAILURES: u32 = 3;
-
-/// Consecutive failed reads. One lost answer is skipped; [`MAX_READ_FAILURES`] in a row are a
-/// fault, reported by the failure that began the streak: on a shared bus a late answer from one
-/// servo delays the others' answers, so the later failures name servos that did nothing wrong.
-/// A port that is gone or an alarm is a fault at once.
-#[derive(Debug, Default)]
-pub struct ReadStreak {
-    failures: u32,
-    first: Option<BusError>,
-}
-
-impl ReadStreak {
-    pub fn succeeded(&mut self) {
-        *self = ReadStreak::default();
-    }
-
-    /// Counts a failed read; returns the error to stop with when it ends the tolerance.
-    pub fn failed(&mut self, error: BusError) -> Option<BusError> {
-        if matches!(error, BusError::Port { .. } | BusError::Alarm { .. }) {
-            return Some(error);
-        }
-        self.failures += 1;
-        let first = self.first.get_or_insert(error);
-        (self.failures >= MAX_READ_FAILURES)
-            .then(|| std::mem::replace(first, BusError::Protocol(String::new())))
-    }
-}
 /// How long `--release-at-end` waits for the arm to reach the final pose.
 pub const RELEASE_WAIT: Duration = Duration::from_secs(3);
 /// The longest a goal may be held beyond its period before the stall is a fault, seconds.
 pub const DEFAULT_MAX_STALL: f64 = 0.25;
-/// Control rates the player, recording and teaching accept, Hz: below 10 Hz the goals are too
-/// coarse to follow smoothly, above 1 kHz no supported bus can keep up.
-pub const RATE_RANGE_HZ: std::ops::RangeInclusive<f64> = 10.0..=1000.0;
 
 #[derive(Debug, Clone)]
 pub struct PlayOptions {
@@ -106,6 +57,17 @@ pub struct PlayOptions {
 }
 
 impl PlayOptions {
+    /// What the timeline needs of these options.
+    pub fn timeline(&self) -> TimelineOptions {
+        TimelineOptions {
+            speed: self.speed,
+            loops: self.loops,
+            ping_pong: self.ping_pong,
+            from_key: self.from_key,
+            approach: self.approach,
+        }
+    }
+
     pub fn new(rate_hz: f64) -> Self {
         Self {
             rate_hz,
@@ -167,22 +129,6 @@ pub enum PlayError {
     },
 }
 
-/// "joint NAME: " before a fault's message, when the fault names a servo.
-pub(crate) fn joint_prefix(joint: &Option<String>) -> String {
-    joint
-        .as_ref()
-        .map(|j| format!("joint {j}: "))
-        .unwrap_or_default()
-}
-
-/// The joint whose servo a bus error names, if it names one.
-pub(crate) fn faulty_joint(robot: &Robot, error: &BusError) -> Option<String> {
-    error
-        .servo()
-        .and_then(|id| robot.joint_of_servo(id))
-        .map(str::to_owned)
-}
-
 /// Figures from one playback, for the report and the benchmarks.
 #[derive(Debug, Clone, Default)]
 pub struct Stats {
@@ -232,7 +178,7 @@ pub fn play_with_clock(
     bus.write_goals(&guard.goals(&measured)?)
         .map_err(|e| fault(e, 0.0))?;
     bus.set_torque(&ids, true).map_err(|e| fault(e, 0.0))?;
-    let mut timeline = Timeline::new(robot, trajectory, options, &measured);
+    let mut timeline = Timeline::new(robot, trajectory, &options.timeline(), &measured);
     let mut log = match &options.log {
         Some(path) => Some(log::PlaybackLog::create(path, robot)?),
         None => None,
@@ -406,7 +352,7 @@ pub fn clamp_start(robot: &Robot, measured: &[f64]) -> Result<Vec<f64>, PlayErro
         .zip(measured)
         .map(|(j, &v)| {
             let outside = (j.limits.min - v).max(v - j.limits.max);
-            let slack = position_slack(j.kind);
+            let slack = j.kind.position_slack();
             if outside > slack {
                 Err(PlayError::StartOutsideLimits {
                     joint: j.name.clone(),
@@ -460,7 +406,7 @@ fn release_when_reached(
             .iter()
             .zip(goal)
             .zip(&robot.joints)
-            .all(|((p, g), joint)| (p - g).abs() <= position_slack(joint.kind));
+            .all(|((p, g), joint)| (p - g).abs() <= joint.kind.position_slack());
         if reached {
             return bus.set_torque(ids, false);
         }

@@ -9,15 +9,14 @@
 
 pub mod extract;
 
-use crate::bus::{BusError, ServoBus};
+use crate::bus::{faulty_joint, joint_prefix, BusError, ReadStreak, ServoBus};
 use crate::curve::Interp;
 use crate::json::InputError;
+use crate::pacing::{Clock, Pacer, WallClock};
 use crate::plan::{check, retime, CheckReport, LimitKind, Trajectory};
-use crate::player::{
-    faulty_joint, hold_tick, joint_prefix, Clock, Pacer, ReadStreak, StopSignal, WallClock,
-};
 use crate::robot::{JointKind, Robot};
 use crate::sequence::{Ends, KeyValue, Keyframe, Sequence};
+use crate::stop::StopSignal;
 use extract::ExtractError;
 use std::io::Write;
 use std::time::Instant;
@@ -154,7 +153,7 @@ pub fn record_with_clock(
 
 fn validate_options(robot: &Robot, options: &RecordOptions) -> Result<(), RecordError> {
     let rate = options.rate_hz;
-    let lowest = *crate::player::RATE_RANGE_HZ.start();
+    let lowest = *crate::pacing::RATE_RANGE_HZ.start();
     if !(rate.is_finite() && (lowest..=MAX_RATE_HZ).contains(&rate)) {
         return Err(RecordError::Invalid(format!(
             "the rate must be from {lowest} to {MAX_RATE_HZ} Hz (key times are whole milliseconds), found {rate}"
@@ -331,7 +330,7 @@ fn hold_where_they_are(
     let mut outside = Vec::new();
     for (&j, tick) in limp.iter().zip(ticks) {
         let joint = &robot.joints[j];
-        let goal = tick.and_then(|tick| hold_tick(joint, tick));
+        let goal = tick.and_then(|tick| joint.hold_tick(tick));
         match goal {
             Some(goal) => goals.push((joint.servo.id, goal)),
             None => outside.push(joint.name.clone()),

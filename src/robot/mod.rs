@@ -64,6 +64,19 @@ impl JointKind {
             JointKind::Prismatic => "m",
         }
     }
+
+    /// How far a measured joint may be from where it should be and still count as there, in
+    /// its unit: how far outside its limits it may start and still be ramped from or held (at
+    /// the limit; calibration and backlash put a resting arm a little outside now and then,
+    /// anything further is a real problem to solve by hand), and how close it must come to a
+    /// final pose before it counts as arrived.
+    pub fn position_slack(self) -> f64 {
+        match self {
+            JointKind::Revolute => 2.0,
+            // A gripper's travel is a few centimetres: 2 mm is as coarse as 2° on a joint.
+            JointKind::Prismatic => 0.002,
+        }
+    }
 }
 
 /// Limits in the joint's unit (degrees or metres) and per second.
@@ -117,6 +130,22 @@ pub struct Joint {
 }
 
 impl Joint {
+    /// Where to hold this joint, measured at `present`, when its torque comes on: where it is,
+    /// or at the limit it is a little past (within [`JointKind::position_slack`]). None when it
+    /// is further past: a goal there is forbidden, and pulling it to the limit at once would be
+    /// a jump, so it must be moved inside by hand first.
+    pub fn hold_value(&self, present: f64) -> Option<f64> {
+        let excess = (self.limits.min - present).max(present - self.limits.max);
+        (excess <= self.kind.position_slack())
+            .then(|| present.clamp(self.limits.min, self.limits.max))
+    }
+
+    /// [`Joint::hold_value`] for the servo measured at `present` ticks, as the goal tick.
+    pub fn hold_tick(&self, present: i64) -> Option<i64> {
+        self.hold_value(self.servo.value(present))
+            .and_then(|value| self.goal_tick(value).ok())
+    }
+
     /// The tick to command for `value`: the nearest tick whose value is inside the limits too.
     /// Plain rounding can land up to half a tick past a limit that `value` sits on.
     pub fn goal_tick(&self, value: f64) -> Result<i64, TickError> {

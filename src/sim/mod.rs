@@ -10,7 +10,7 @@ pub mod verdict;
 pub use models::{check_mjcf_file, model_path};
 
 use crate::plan::Trajectory;
-use crate::player::{Phase, PlayOptions, Timeline};
+use crate::plan::{Phase, Timeline, TimelineOptions};
 use crate::pyenv::{Harness, HarnessError, HarnessOptions, PyConfig, PyEnvError};
 use crate::robot::{JointKind, Robot};
 use serde_json::{json, Value};
@@ -62,18 +62,19 @@ pub struct CommandStream {
     pub sequence_time: Vec<Option<f64>>,
 }
 
-/// The commands of playing `trajectory` from the robot's home pose with `options`.
+/// The commands of playing `trajectory` from the robot's home pose with `options` at `rate` Hz.
 pub fn command_stream(
     robot: &Robot,
     trajectory: &Trajectory,
-    options: &PlayOptions,
+    options: &TimelineOptions,
+    rate: f64,
 ) -> CommandStream {
     let initial = robot.home.clone();
     let mut timeline = Timeline::new(robot, trajectory, options, &initial);
     let mut rows = Vec::new();
     let mut sequence_time = Vec::new();
     let mut pose = vec![0.0; robot.joints.len()];
-    let dt = 1.0 / options.rate_hz;
+    let dt = 1.0 / rate;
     while let Some(phase) = timeline.sample_into(&mut pose) {
         rows.push(pose.clone());
         sequence_time.push(match phase {
@@ -83,7 +84,7 @@ pub fn command_stream(
         timeline.advance(dt);
     }
     CommandStream {
-        rate: options.rate_hz,
+        rate,
         initial,
         rows,
         sequence_time,

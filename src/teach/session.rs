@@ -10,8 +10,9 @@
 
 use super::state::{tidy, Command, Event, MotionPlan};
 use crate::bus::{BusError, ServoBus};
+use crate::pacing::{Pacer, WallClock};
 use crate::plan::Approach;
-use crate::player::{self, hold_value, Outcome, Pacer, PlayError, StopSignal, WallClock};
+use crate::player::{self, Outcome, PlayError, StopSignal};
 use crate::robot::Robot;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
@@ -184,7 +185,7 @@ impl Session {
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (&j, &tick) in joints.iter().zip(&ticks) {
             let joint = &self.robot.joints[j];
-            let Some(value) = hold_value(joint, joint.servo.value(tick)) else {
+            let Some(value) = joint.hold_value(joint.servo.value(tick)) else {
                 outside.push(joint.name.as_str());
                 continue;
             };

@@ -44,9 +44,8 @@ pub fn run(state: &mut TeachState, session: &mut Session) -> Result<(), TeachErr
     let _restore = RestoreTerminal;
     // SIGTERM (kill) or SIGHUP (a closed terminal window) would otherwise leave the terminal in
     // raw mode. Nothing is lost by exiting at once: every edit is already in the journal, and
-    // servos hold their last goal. Only one handler per process can be set; if another part of
-    // the process has one, that one stays.
-    let _ = ctrlc::set_handler(|| {
+    // servos hold their last goal. (Ctrl-C in raw mode is a key, not a signal.)
+    crate::stop::on_signal(|| {
         ratatui::restore();
         std::process::exit(EXIT_KILLED);
     });

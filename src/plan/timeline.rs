@@ -11,14 +11,39 @@
 //!   sequence resumes along the path from where it was, later by the stall; it never jumps
 //!   ahead to where the clock says it should be.
 
-use super::PlayOptions;
-use crate::plan::{Approach, Trajectory};
+use super::{Approach, Trajectory};
 use crate::robot::Robot;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Loops {
     Count(u32),
     Forever,
+}
+
+/// How a trajectory is played: what the timeline needs to know, and nothing of buses or clocks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimelineOptions {
+    /// Time scale: 0.5 plays at half speed.
+    pub speed: f64,
+    pub loops: Loops,
+    /// Forwards then backwards, each pass a loop, instead of ramping back to the start.
+    pub ping_pong: bool,
+    /// Keyframe index to start from.
+    pub from_key: Option<usize>,
+    /// Ramp from where the arm is to the first pose (off only with `--no-approach`).
+    pub approach: bool,
+}
+
+impl Default for TimelineOptions {
+    fn default() -> Self {
+        Self {
+            speed: 1.0,
+            loops: Loops::Count(1),
+            ping_pong: false,
+            from_key: None,
+            approach: true,
+        }
+    }
 }
 
 /// The phase of the commanded pose, as logged.
@@ -103,7 +128,7 @@ impl<'a> Timeline<'a> {
     pub fn new(
         robot: &'a Robot,
         trajectory: &'a Trajectory,
-        options: &PlayOptions,
+        options: &TimelineOptions,
         measured: &[f64],
     ) -> Timeline<'a> {
         let play_from = options

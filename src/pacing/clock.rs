@@ -5,7 +5,7 @@
 //! SIGSTOP, a page fault or CPU steal would) at chosen cycles, thousands of times, without
 //! waiting for any of it.
 
-use super::StopSignal;
+use crate::stop::StopSignal;
 use std::time::{Duration, Instant};
 
 pub trait Clock: Send + Sync {

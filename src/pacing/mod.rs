@@ -1,19 +1,28 @@
-//! Control-cycle pacing: absolute deadlines on a fixed grid, missed deadlines skipped.
+//! Control-cycle pacing: absolute deadlines on a fixed grid, missed deadlines skipped; shared by
+//! every loop that paces itself (playback, recording, jogging).
 //!
 //! Deadlines are `start + k·period`, so ordinary lateness never accumulates. When the process
 //! stalls (SIGSTOP, a page fault, CPU steal, a burst of slow answers) the deadlines it missed
 //! are skipped, not replayed back to back: replaying them is exactly the burst of goals, each a
 //! full period's step apart by only a few milliseconds, that the velocity limits forbid. The
-//! stall is measured here and handed to the timeline, which resumes along the path from the
-//! rate the arm actually followed during the stall.
+//! stall is measured here; the player hands it to the timeline, which resumes along the path
+//! from the rate the arm actually followed during the stall.
 
-use super::{Clock, StopSignal};
+mod clock;
+
+pub use clock::{Clock, WallClock};
+
+use crate::stop::StopSignal;
 use std::time::Duration;
 
 /// A cycle that starts more than this many periods after the previous one is a stall: the
 /// goal was held for longer than one period, and the path rate is brought down accordingly.
 /// Below it is scheduling jitter, which the absolute deadlines absorb.
 pub const STALL_PERIODS: f64 = 1.5;
+
+/// Control rates the player, recording and teaching accept, Hz: below 10 Hz the goals are too
+/// coarse to follow smoothly, above 1 kHz no supported bus can keep up.
+pub const RATE_RANGE_HZ: std::ops::RangeInclusive<f64> = 10.0..=1000.0;
 
 /// How many cycles' lateness are kept for percentiles (the summary figures cover all cycles).
 const KEPT_LATENESS: usize = 1 << 20;

@@ -1,12 +1,50 @@
 //! Stop requests (Ctrl-C, a test, the teach UI), counted: the first decelerates, the second
-//! holds at once.
+//! holds at once; and the process's one signal handler.
 //!
 //! A request also wakes whoever is waiting for the next control cycle: the player sleeps on
 //! this signal instead of in a plain `sleep`, so a stop is acted on at once at any control
 //! rate, not after the rest of a long period.
+//!
+//! A process can register only one handler for SIGINT, SIGTERM and SIGHUP. It is installed
+//! here, once, and does what the command running now asked for ([`stop_on_signal`] or
+//! [`on_signal`]), so that a second command in the same process (tests) is not left with the
+//! first one's handler.
 
-use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, OnceLock, PoisonError};
 use std::time::{Duration, Instant};
+
+type Action = Box<dyn Fn() + Send>;
+
+/// What the handler does now.
+static ACTION: Mutex<Option<Action>> = Mutex::new(None);
+/// Whether the handler could be installed (it cannot where another library already has one).
+static INSTALLED: OnceLock<bool> = OnceLock::new();
+
+/// A fresh stop signal that Ctrl-C (and SIGTERM, SIGHUP) requests from now on.
+pub fn stop_on_signal() -> StopSignal {
+    let stop = StopSignal::default();
+    let requester = stop.clone();
+    on_signal(move || requester.request());
+    stop
+}
+
+/// Runs `action` on Ctrl-C, SIGTERM or SIGHUP from now on, instead of what ran before. Returns
+/// false if no handler could be installed in this process.
+pub fn on_signal(action: impl Fn() + Send + 'static) -> bool {
+    *ACTION.lock().unwrap_or_else(PoisonError::into_inner) = Some(Box::new(action));
+    *INSTALLED.get_or_init(|| {
+        ctrlc::set_handler(|| {
+            if let Some(action) = ACTION
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .as_ref()
+            {
+                action();
+            }
+        })
+        .is_ok()
+    })
+}
 
 #[derive(Debug, Clone, Default)]
 pub struct StopSignal(Arc<Shared>);
@@ -78,6 +116,16 @@ mod tests {
         assert_eq!(stop.wait_for(Duration::from_secs(60), 0), 1);
         thread.join().unwrap();
         assert!(started.elapsed() < Duration::from_secs(60));
+    }
+
+    #[test]
+    fn a_signal_requests_the_stop_of_the_latest_signal_only() {
+        let first = stop_on_signal();
+        let second = stop_on_signal();
+        assert!(INSTALLED.get().copied().unwrap_or(false));
+        // What the handler runs: the latest action.
+        ACTION.lock().unwrap().as_ref().unwrap()();
+        assert_eq!((first.count(), second.count()), (0, 1));
     }
 
     #[test]
