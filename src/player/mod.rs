@@ -16,14 +16,14 @@
 mod guard;
 mod limiter;
 mod log;
+mod run;
 
 pub use crate::pacing::{Clock, LatenessSummary, WallClock};
 pub use crate::stop::StopSignal;
 pub use guard::{GoalGuard, LimitBreach};
 pub use limiter::StepLimiter;
 
-use crate::bus::{faulty_joint, joint_prefix, BusError, ReadStreak, ServoBus};
-use crate::pacing::Pacer;
+use crate::bus::{joint_prefix, BusError, ServoBus};
 use crate::plan::{Loops, Timeline, TimelineOptions, Trajectory};
 use crate::robot::Robot;
 use std::io::Write;
@@ -162,175 +162,9 @@ pub fn play_with_clock(
     stop: &StopSignal,
     clock: &dyn Clock,
 ) -> Result<(Outcome, Stats), PlayError> {
-    let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
-    let guard = GoalGuard::new(robot);
-    let fault = |error: BusError, at: f64| PlayError::Fault {
-        joint: faulty_joint(robot, &error),
-        error,
-        at,
-    };
-
-    let measured = clamp_start(
-        robot,
-        &measured_pose(bus, robot, &ids).map_err(|e| fault(e, 0.0))?,
-    )?;
-    // Hold where the arm is before torque comes on, so enabling torque moves nothing.
-    bus.write_goals(&guard.goals(&measured)?)
-        .map_err(|e| fault(e, 0.0))?;
-    bus.set_torque(&ids, true).map_err(|e| fault(e, 0.0))?;
-    let mut timeline = Timeline::new(robot, trajectory, &options.timeline(), &measured);
-    let mut log = match &options.log {
-        Some(path) => Some(log::PlaybackLog::create(path, robot)?),
-        None => None,
-    };
-
-    let period = 1.0 / options.rate_hz;
-    let mut pacer = Pacer::new(clock, period);
-    let t0 = clock.now().as_secs_f64();
-    let mut limiter = StepLimiter::new(robot, period, &measured);
-    let mut stats = Stats {
-        approach_seconds: timeline.approach_seconds(),
-        ..Stats::default()
-    };
-    let mut pose = vec![0.0; robot.joints.len()];
-    let mut last_goal = measured.clone();
-    let mut reads = ReadStreak::default();
-    let mut stops_seen = 0;
-    let mut stall_fault: Option<PlayError> = None;
-    let mut last_progress = Instant::now() - Duration::from_secs(1);
-    let mut cycle: u64 = 0;
-
-    let outcome = loop {
-        let start = pacer.wait(clock, stop, stops_seen);
-        let elapsed = start.now - t0;
-        let stalled = cycle > 0 && start.stalled(period);
-        if stalled {
-            timeline.after_stall(period, start.gap);
-            let held = start.gap - period;
-            if held > options.max_stall && stall_fault.is_none() {
-                stall_fault = Some(PlayError::Stall {
-                    held,
-                    period,
-                    bound: options.max_stall,
-                    at: elapsed,
-                });
-                timeline.request_stop();
-            }
-        }
-
-        let requests = stop.count();
-        if requests >= 2 {
-            hold_here(bus, robot, &guard, &ids, &last_goal).map_err(|e| fault(e, elapsed))?;
-            break Outcome::Held;
-        }
-        if requests > stops_seen {
-            stops_seen = requests;
-            timeline.request_stop();
-        }
-        if cycle > 0 {
-            timeline.advance(period);
-        }
-
-        let Some(phase) = timeline.sample_into(&mut pose) else {
-            break if timeline.stopped() {
-                Outcome::Stopped
-            } else {
-                Outcome::Finished
-            };
-        };
-        limiter.limit(&mut pose, start.gap);
-        let goals = guard.goals(&pose)?;
-        bus.write_goals(&goals).map_err(|e| fault(e, elapsed))?;
-        last_goal.copy_from_slice(&pose);
-
-        let mut measured_now = None;
-        if options
-            .readback_every
-            .is_some_and(|n| cycle % n as u64 == 0)
-        {
-            match bus.read_positions(&ids) {
-                Ok(ticks) => {
-                    reads.succeeded();
-                    let values: Vec<f64> = robot
-                        .joints
-                        .iter()
-                        .zip(&ticks)
-                        .map(|(j, &t)| j.servo.value(t))
-                        .collect();
-                    measured_now = Some(values);
-                }
-                Err(e) => {
-                    if let Some(error) = reads.failed(e) {
-                        return Err(fault(error, elapsed));
-                    }
-                }
-            }
-        }
-        if cycle % options.health_every as u64 == 0 && cycle > 0 {
-            // A health read is a read like the others: it counts in the same streak.
-            match bus.read_health(&ids) {
-                Ok(health) => {
-                    if let Some(h) = health.iter().find(|h| h.alarms.any()) {
-                        return Err(fault(
-                            BusError::Alarm {
-                                id: h.id,
-                                alarms: h.alarms,
-                            },
-                            elapsed,
-                        ));
-                    }
-                }
-                Err(e) => {
-                    if let Some(error) = reads.failed(e) {
-                        return Err(fault(error, elapsed));
-                    }
-                }
-            }
-        }
-
-        if let Some(values) = &measured_now {
-            let error = values
-                .iter()
-                .zip(&pose)
-                .map(|(m, c)| (m - c).abs())
-                .fold(0.0, f64::max);
-            stats.max_tracking_error = stats.max_tracking_error.max(error);
-        }
-        if let Some(log) = &mut log {
-            log.row(&log::Row {
-                time: elapsed,
-                phase,
-                sequence_time: timeline.sequence_time(),
-                commanded: &pose,
-                measured: measured_now.as_deref(),
-                lateness: start.lateness,
-                stall: stalled.then_some(start.gap - period),
-            })?;
-        }
-        if options.progress && last_progress.elapsed() >= Duration::from_millis(100) {
-            last_progress = Instant::now();
-            print_progress(&timeline, trajectory);
-        }
-        cycle += 1;
-        stats.cycles = cycle;
-    };
-    stats.pacing = pacer.summary;
-    stats.limited_goals = limiter.engaged;
-    stats.largest_limiter_correction = limiter.largest_correction;
-    if options.progress {
-        print_progress(&timeline, trajectory);
-        eprintln!();
-    }
-    if let Some(log) = &mut log {
-        log.finish()?;
-    }
-    if let Some(stall) = stall_fault {
-        return Err(stall);
-    }
-    if outcome == Outcome::Finished && options.release_at_end {
-        release_when_reached(bus, robot, &ids, &last_goal).map_err(|e| fault(e, 0.0))?;
-    }
-    Ok((outcome, stats))
+    let mut run = run::Run::start(bus, robot, trajectory, options, clock)?;
+    let outcome = run.cycles(stop, clock)?;
+    run.finish(outcome)
 }
 
 /// The present pose in joint values, clamped into the limits when it is only just outside.

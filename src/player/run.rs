@@ -1,0 +1,323 @@
+//! One playback, step by step: start (measure, hold, torque on), then one cycle per control
+//! period (pace, stalls, stop requests, the commanded pose through the limiter and the guard,
+//! read-back, health, log), then finish (summary, release).
+
+use super::log::{PlaybackLog, Row};
+use super::{
+    clamp_start, hold_here, measured_pose, print_progress, release_when_reached, GoalGuard,
+    Outcome, PlayError, PlayOptions, Stats, StepLimiter,
+};
+use crate::bus::{faulty_joint, BusError, ReadStreak, ServoBus};
+use crate::pacing::{Clock, CycleStart, Pacer};
+use crate::plan::{Phase, Timeline, Trajectory};
+use crate::robot::Robot;
+use crate::stop::StopSignal;
+use std::time::{Duration, Instant};
+
+/// How often the progress line is redrawn.
+const PROGRESS_EVERY: Duration = Duration::from_millis(100);
+
+pub(super) struct Run<'a> {
+    bus: &'a mut dyn ServoBus,
+    robot: &'a Robot,
+    trajectory: &'a Trajectory,
+    options: &'a PlayOptions,
+    ids: Vec<u8>,
+    guard: GoalGuard<'a>,
+    timeline: Timeline<'a>,
+    pacer: Pacer,
+    limiter: StepLimiter,
+    log: Option<PlaybackLog>,
+    stats: Stats,
+    period: f64,
+    /// Clock time playback began, seconds.
+    t0: f64,
+    pose: Vec<f64>,
+    last_goal: Vec<f64>,
+    reads: ReadStreak,
+    stops_seen: u32,
+    /// A stall beyond the bound: braking, then this is the result.
+    stall_fault: Option<PlayError>,
+    last_progress: Option<Instant>,
+    cycle: u64,
+}
+
+/// What one cycle did to the arm.
+struct Commanded {
+    phase: Phase,
+    stalled: bool,
+}
+
+impl<'a> Run<'a> {
+    /// Reads where the arm is, holds it there, turns torque on: enabling torque moves nothing.
+    pub(super) fn start(
+        bus: &'a mut dyn ServoBus,
+        robot: &'a Robot,
+        trajectory: &'a Trajectory,
+        options: &'a PlayOptions,
+        clock: &dyn Clock,
+    ) -> Result<Run<'a>, PlayError> {
+        let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
+        let guard = GoalGuard::new(robot);
+        let fault = |error| fault(robot, error, 0.0);
+        let measured = clamp_start(robot, &measured_pose(bus, robot, &ids).map_err(fault)?)?;
+        bus.write_goals(&guard.goals(&measured)?).map_err(fault)?;
+        bus.set_torque(&ids, true).map_err(fault)?;
+        let timeline = Timeline::new(robot, trajectory, &options.timeline(), &measured);
+        let log = match &options.log {
+            Some(path) => Some(PlaybackLog::create(path, robot)?),
+            None => None,
+        };
+        let period = 1.0 / options.rate_hz;
+        Ok(Run {
+            stats: Stats {
+                approach_seconds: timeline.approach_seconds(),
+                ..Stats::default()
+            },
+            pacer: Pacer::new(clock, period),
+            t0: clock.now().as_secs_f64(),
+            limiter: StepLimiter::new(robot, period, &measured),
+            pose: vec![0.0; robot.joints.len()],
+            last_goal: measured,
+            bus,
+            robot,
+            trajectory,
+            options,
+            ids,
+            guard,
+            timeline,
+            log,
+            period,
+            reads: ReadStreak::default(),
+            stops_seen: 0,
+            stall_fault: None,
+            last_progress: None,
+            cycle: 0,
+        })
+    }
+
+    /// Runs cycles until the timeline is over, a second stop holds, or a fault.
+    pub(super) fn cycles(
+        &mut self,
+        stop: &StopSignal,
+        clock: &dyn Clock,
+    ) -> Result<Outcome, PlayError> {
+        loop {
+            let start = self.pacer.wait(clock, stop, self.stops_seen);
+            if let Some(outcome) = self.cycle(&start, stop)? {
+                return Ok(outcome);
+            }
+        }
+    }
+
+    fn cycle(
+        &mut self,
+        start: &CycleStart,
+        stop: &StopSignal,
+    ) -> Result<Option<Outcome>, PlayError> {
+        let elapsed = start.now - self.t0;
+        let stalled = self.cycle > 0 && start.stalled(self.period);
+        if stalled {
+            self.after_stall(start, elapsed);
+        }
+        if let Some(outcome) = self.on_stop_requests(stop, elapsed)? {
+            return Ok(Some(outcome));
+        }
+        if self.cycle > 0 {
+            self.timeline.advance(self.period);
+        }
+        let Some(phase) = self.timeline.sample_into(&mut self.pose) else {
+            return Ok(Some(if self.timeline.stopped() {
+                Outcome::Stopped
+            } else {
+                Outcome::Finished
+            }));
+        };
+        self.command(start.gap, elapsed)?;
+        let measured = self.read_back(elapsed)?;
+        self.check_health(elapsed)?;
+        self.record(
+            start,
+            elapsed,
+            &Commanded { phase, stalled },
+            measured.as_deref(),
+        )?;
+        self.cycle += 1;
+        self.stats.cycles = self.cycle;
+        Ok(None)
+    }
+
+    /// The last goal was held for the whole gap: resume from the rate really followed, and
+    /// brake to a stop when the stall was beyond the bound.
+    fn after_stall(&mut self, start: &CycleStart, elapsed: f64) {
+        self.timeline.after_stall(self.period, start.gap);
+        let held = start.gap - self.period;
+        if held > self.options.max_stall && self.stall_fault.is_none() {
+            self.stall_fault = Some(PlayError::Stall {
+                held,
+                period: self.period,
+                bound: self.options.max_stall,
+                at: elapsed,
+            });
+            self.timeline.request_stop();
+        }
+    }
+
+    /// A first request brakes along the path; a second holds at once.
+    fn on_stop_requests(
+        &mut self,
+        stop: &StopSignal,
+        elapsed: f64,
+    ) -> Result<Option<Outcome>, PlayError> {
+        let requests = stop.count();
+        if requests >= 2 {
+            hold_here(
+                self.bus,
+                self.robot,
+                &self.guard,
+                &self.ids,
+                &self.last_goal,
+            )
+            .map_err(|e| fault(self.robot, e, elapsed))?;
+            return Ok(Some(Outcome::Held));
+        }
+        if requests > self.stops_seen {
+            self.stops_seen = requests;
+            self.timeline.request_stop();
+        }
+        Ok(None)
+    }
+
+    /// The pose of this cycle, through the step limiter and the position guard, to the servos.
+    fn command(&mut self, gap: f64, elapsed: f64) -> Result<(), PlayError> {
+        self.limiter.limit(&mut self.pose, gap);
+        let goals = self.guard.goals(&self.pose)?;
+        self.bus
+            .write_goals(&goals)
+            .map_err(|e| fault(self.robot, e, elapsed))?;
+        self.last_goal.copy_from_slice(&self.pose);
+        Ok(())
+    }
+
+    /// Present positions every `readback_every` cycles; a lost answer is skipped, a streak of
+    /// them is a fault.
+    fn read_back(&mut self, elapsed: f64) -> Result<Option<Vec<f64>>, PlayError> {
+        let due = self
+            .options
+            .readback_every
+            .is_some_and(|n| self.cycle % u64::from(n) == 0);
+        if !due {
+            return Ok(None);
+        }
+        match self.bus.read_positions(&self.ids) {
+            Ok(ticks) => {
+                self.reads.succeeded();
+                let values: Vec<f64> = self
+                    .robot
+                    .joints
+                    .iter()
+                    .zip(&ticks)
+                    .map(|(j, &t)| j.servo.value(t))
+                    .collect();
+                let error = values
+                    .iter()
+                    .zip(&self.pose)
+                    .map(|(m, c)| (m - c).abs())
+                    .fold(0.0, f64::max);
+                self.stats.max_tracking_error = self.stats.max_tracking_error.max(error);
+                Ok(Some(values))
+            }
+            Err(e) => self.read_failed(e, elapsed).map(|()| None),
+        }
+    }
+
+    /// Temperatures, voltages and alarms every `health_every` cycles; an alarm is a fault.
+    fn check_health(&mut self, elapsed: f64) -> Result<(), PlayError> {
+        if self.cycle == 0 || self.cycle % u64::from(self.options.health_every) != 0 {
+            return Ok(());
+        }
+        match self.bus.read_health(&self.ids) {
+            Ok(health) => match health.iter().find(|h| h.alarms.any()) {
+                Some(h) => Err(fault(
+                    self.robot,
+                    BusError::Alarm {
+                        id: h.id,
+                        alarms: h.alarms,
+                    },
+                    elapsed,
+                )),
+                None => Ok(()),
+            },
+            // A health read is a read like the others: it counts in the same streak.
+            Err(e) => self.read_failed(e, elapsed),
+        }
+    }
+
+    fn read_failed(&mut self, error: BusError, elapsed: f64) -> Result<(), PlayError> {
+        match self.reads.failed(error) {
+            Some(error) => Err(fault(self.robot, error, elapsed)),
+            None => Ok(()),
+        }
+    }
+
+    /// The log row and the progress line of this cycle.
+    fn record(
+        &mut self,
+        start: &CycleStart,
+        elapsed: f64,
+        commanded: &Commanded,
+        measured: Option<&[f64]>,
+    ) -> Result<(), PlayError> {
+        if let Some(log) = &mut self.log {
+            log.row(&Row {
+                time: elapsed,
+                phase: commanded.phase,
+                sequence_time: self.timeline.sequence_time(),
+                commanded: &self.pose,
+                measured,
+                lateness: start.lateness,
+                stall: commanded.stalled.then_some(start.gap - self.period),
+            })?;
+        }
+        if self.options.progress
+            && self
+                .last_progress
+                .is_none_or(|p| p.elapsed() >= PROGRESS_EVERY)
+        {
+            self.last_progress = Some(Instant::now());
+            print_progress(&self.timeline, self.trajectory);
+        }
+        Ok(())
+    }
+
+    /// The summary, the log closed, and `--release-at-end` once the arm has arrived.
+    pub(super) fn finish(mut self, outcome: Outcome) -> Result<(Outcome, Stats), PlayError> {
+        self.stats.pacing = std::mem::take(&mut self.pacer.summary);
+        self.stats.limited_goals = self.limiter.engaged;
+        self.stats.largest_limiter_correction = self.limiter.largest_correction;
+        if self.options.progress {
+            print_progress(&self.timeline, self.trajectory);
+            eprintln!();
+        }
+        if let Some(log) = &mut self.log {
+            log.finish()?;
+        }
+        if let Some(stall) = self.stall_fault.take() {
+            return Err(stall);
+        }
+        if outcome == Outcome::Finished && self.options.release_at_end {
+            release_when_reached(self.bus, self.robot, &self.ids, &self.last_goal)
+                .map_err(|e| fault(self.robot, e, 0.0))?;
+        }
+        Ok((outcome, self.stats))
+    }
+}
+
+/// A bus error as a playback fault, naming the joint whose servo it names.
+fn fault(robot: &Robot, error: BusError, at: f64) -> PlayError {
+    PlayError::Fault {
+        joint: faulty_joint(robot, &error),
+        error,
+        at,
+    }
+}
