@@ -315,6 +315,25 @@ impl Interpolant for RigidTransform {
 }
 
 /// The keys of one degree of freedom and the segments between them, ready to sample.
+///
+/// ```
+/// use keypose::curve::{Interp, Track, TrackKey};
+///
+/// // 0 → 10 over two seconds.
+/// let keys = |mode| [TrackKey::new(0.0, 0.0, mode), TrackKey::new(2.0, 10.0, mode)];
+/// let linear = Track::new(&keys(Interp::Linear)).unwrap();
+/// assert_eq!(linear.sample(0.5), 2.5);
+///
+/// // Cubic with zero end slopes: between two keys the smoothstep 3f² − 2f³,
+/// // so a quarter of the way (f = 0.25) it is at 10 · 0.15625.
+/// let cubic = Track::new(&keys(Interp::Cubic)).unwrap();
+/// assert!((cubic.sample(0.5) - 1.5625).abs() < 1e-12);
+/// assert!((cubic.sample(1.0) - 5.0).abs() < 1e-12);
+///
+/// // Outside the keys a track holds its end values.
+/// assert_eq!(cubic.sample(-1.0), 0.0);
+/// assert_eq!(cubic.sample(9.0), 10.0);
+/// ```
 #[derive(Debug, Clone)]
 pub struct Track<V: Interpolant> {
     times: Vec<f64>,

@@ -1,9 +1,24 @@
-//! keypose: teach a robot arm poses key by key and play them back smoothly.
+//! keypose: teach a robot arm poses key by key and play them back smoothly, on real servos or
+//! in MuJoCo.
 //!
-//! Data flows one way, from files to bytes: [`sequence`] and [`robot`] files become a
-//! [`plan::Trajectory`] of per-joint [`curve::Track`]s built on the [`pose`] math; [`report`]
-//! turns trajectories and checks into text, JSON and SVG. [`commands`] holds the command-line
-//! verbs so that `main.rs` only parses arguments and maps errors to exit codes.
+//! Data flows one way, from files to bytes (docs/architecture.md has the whole map):
+//!
+//! - [`sequence`] and [`robot`] read the files: keyframe lists, arm descriptions, LeRobot
+//!   calibrations; [`pose`] is the rigid-transform math under them;
+//! - [`curve`] interpolates one degree of freedom over key times ([`curve::Track`]);
+//! - [`plan`] turns a sequence into a [`plan::Trajectory`] for a robot, checks it against the
+//!   joint limits, retimes it, and says what the arm should do at each moment of playback
+//!   ([`plan::Timeline`]);
+//! - [`bus`] talks to servos: the [`bus::ServoBus`] trait, the Dynamixel 2.0 and Feetech codecs,
+//!   our driver, the vendors' SDKs through Python, emulated servos;
+//! - [`player`] streams a trajectory to a bus at the control rate ([`player::play`]), paced by
+//!   [`pacing`], stoppable through [`stop`], never past a joint's limits;
+//! - [`sim`] plays the same command stream in MuJoCo and judges it; [`record`] turns a motion
+//!   made by hand into keys; [`teach`] is the teach pendant; [`report`] writes text, JSON and
+//!   SVG.
+//!
+//! The command line lives in [`commands`]; `main.rs` only parses arguments and maps errors to
+//! exit codes.
 
 pub mod atomic_file;
 pub mod bus;

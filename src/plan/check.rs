@@ -89,7 +89,7 @@ pub struct Sampled {
     pub times: Vec<f64>,
     /// Grid spacing, at most 1/rate.
     pub dt: f64,
-    /// positions[joint][k]
+    /// `positions[joint][k]`
     pub positions: Vec<Vec<f64>>,
 }
 

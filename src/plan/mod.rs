@@ -43,6 +43,40 @@ pub struct Trajectory {
 impl Trajectory {
     /// Builds the joint tracks, rejecting with a path into the sequence file anything the robot
     /// cannot do: unknown joints, rotations off the joint axis, keys outside the joint limits.
+    ///
+    /// ```
+    /// use keypose::plan::{check, Trajectory};
+    /// use keypose::robot::Robot;
+    /// use keypose::sequence::Sequence;
+    ///
+    /// let robot = Robot::builtin("so101").unwrap();
+    /// let sequence = Sequence::from_json(
+    ///     "nod.json",
+    ///     r#"{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "linear",
+    ///         "keyframes": [{"time": 0, "joints": {"elbow_flex": 0}},
+    ///                       {"time": 2, "joints": {"elbow_flex": 40}}]}"#,
+    /// )
+    /// .unwrap();
+    /// let trajectory = Trajectory::build(&sequence, &robot).unwrap();
+    /// let elbow = trajectory.joint_names.iter().position(|j| j == "elbow_flex").unwrap();
+    /// assert_eq!(trajectory.sample(0.5)[elbow], 10.0);
+    /// // Joints no key names hold the robot's home pose.
+    /// assert_eq!(trajectory.sample(0.5)[0], robot.home[0]);
+    ///
+    /// // A linear start from rest asks for 20 °/s within one 10 ms period: 2000 °/s², beyond
+    /// // the SO-101's 344 °/s².
+    /// assert!(!check(&trajectory, &robot, 100.0).passed());
+    ///
+    /// // A key outside the joint's limits is refused, naming where it is in the file.
+    /// let outside = Sequence::from_json(
+    ///     "far.json",
+    ///     r#"{"format": "keypose-sequence/1", "robot": "so101",
+    ///         "keyframes": [{"time": 0, "joints": {"elbow_flex": 170}}]}"#,
+    /// )
+    /// .unwrap();
+    /// let error = Trajectory::build(&outside, &robot).unwrap_err().to_string();
+    /// assert!(error.contains("far.json") && error.contains("elbow_flex"), "{error}");
+    /// ```
     pub fn build(sequence: &Sequence, robot: &Robot) -> Result<Trajectory, InputError> {
         sequence.validate()?;
         let file = sequence.file.as_str();

@@ -143,6 +143,41 @@ pub struct Stats {
     pub largest_limiter_correction: f64,
 }
 
+/// Plays `trajectory` on the servos behind `bus`: measures the arm, holds it, turns torque on,
+/// ramps to the first pose, streams every control period until the end, a stop request or a
+/// fault.
+///
+/// ```
+/// use keypose::bus::virtual_bus::VirtualBus;
+/// use keypose::plan::Trajectory;
+/// use keypose::player::{play, Outcome, PlayOptions, StopSignal};
+/// use keypose::robot::Robot;
+/// use keypose::sequence::Sequence;
+///
+/// let robot = Robot::builtin("so101").unwrap();
+/// let sequence = Sequence::from_json(
+///     "tilt.json",
+///     r#"{"format": "keypose-sequence/1", "robot": "so101",
+///         "keyframes": [{"time": 0, "joints": {"wrist_flex": 0}},
+///                       {"time": 1, "joints": {"wrist_flex": 15}}]}"#,
+/// )
+/// .unwrap();
+/// let trajectory = Trajectory::build(&sequence, &robot).unwrap();
+/// // Emulated servos behind the real driver and packet code, in memory.
+/// let (mut bus, servos) = VirtualBus::in_process(&robot);
+/// let options = PlayOptions::new(100.0);
+/// let (outcome, stats) = play(&mut bus, &robot, &trajectory, &options, &StopSignal::default())
+///     .unwrap();
+/// assert_eq!(outcome, Outcome::Finished);
+/// // The 0.5 s approach ramp (the arm rests at the first pose already) and 1 s of motion at
+/// // 100 Hz, plus the final pose sent once more.
+/// assert!(stats.cycles >= 150);
+/// // The last goal the wrist's servo received is the last key, to half a tick.
+/// let wrist = &robot.joints[3];
+/// let (_, tick) = *servos.lock().goals_received().iter().rev()
+///     .find(|(id, _)| *id == wrist.servo.id).unwrap();
+/// assert!((wrist.servo.value(tick) - 15.0).abs() <= 360.0 / 4096.0 / 2.0);
+/// ```
 pub fn play(
     bus: &mut dyn ServoBus,
     robot: &Robot,

@@ -90,7 +90,7 @@ impl Keyframe {
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sequence {
-    /// Where it came from, for messages ("<new>" when built in memory).
+    /// Where it came from, for messages (`"<new>"` when built in memory).
     pub file: String,
     pub robot: String,
     pub description: Option<String>,
