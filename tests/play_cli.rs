@@ -83,7 +83,7 @@ fn a_virtual_bus_process_serves_play_read_torque_and_scan() {
             )
         })
         .collect();
-    // Koch v1.1: XL430-W250 on ids 1–2, XL330-M288 on 3–6 (ROBOTS.md §2.4).
+    // Koch v1.1: XL430-W250 on ids 1–2, XL330-M288 on 3–6 (docs/robots.md §2.4).
     let expected: Vec<(u64, String)> = (1..=6)
         .map(|id| {
             (

@@ -7,7 +7,7 @@ use common::{keypose, repo, show, stderr};
 use serde_json::Value;
 use std::path::Path;
 
-/// The built-in SO-101 (its limit on shoulder_pan is ±110°, ROBOTS.md) with that joint widened
+/// The built-in SO-101 (its limit on shoulder_pan is ±110°, docs/robots.md) with that joint widened
 /// to ±170°: what a planted copy could carry.
 fn wide_so101() -> String {
     let text = std::fs::read_to_string(repo("robots/so101.json")).unwrap();

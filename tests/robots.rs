@@ -1,5 +1,5 @@
 //! Robot descriptions against the published kinematics (world anchors and TCPs measured in
-//! MuJoCo from the official models, ROBOTS.md §1.3, §2.3, §3.3), hand-derived poses,
+//! MuJoCo from the official models, docs/robots.md §1.3, §2.3, §3.3), hand-derived poses,
 //! and servo encodings derived bit by bit from the protocol documents.
 
 use glam::DVec3;

@@ -28,7 +28,7 @@ fn a_feetech_servo_in_alarm_is_listed_with_the_others_and_exit_1() {
     let server = VirtualBusProcess::start(&["--robot", "so101", "--fault", "3:overload"]);
     let out = run(&["scan", "--port", &server.path, "--protocol", "feetech-sts"]);
     assert_eq!(out.status.code(), Some(1), "{}", show(&out));
-    // SO-101: six STS3215 on ids 1–6 (ROBOTS.md); only servo 3 in alarm.
+    // SO-101: six STS3215 on ids 1–6 (docs/robots.md); only servo 3 in alarm.
     let expected: Vec<(u64, String, Value)> = (1..=6)
         .map(|id| {
             let alarms = if id == 3 {

@@ -44,7 +44,7 @@ impl ServoModel {
         !matches!(self, ServoModel::Sts3215)
     }
 
-    /// No-load speed at the supply these arms use, degrees per second (ROBOTS.md §4): STS3215
+    /// No-load speed at the supply these arms use, degrees per second (docs/robots.md §4): STS3215
     /// 7.4 V on the SO-101's 5 V (≈34 rpm, derived), XL330 at 5 V, XL430 and XM430 at 12 V.
     pub fn no_load_speed_deg_s(self) -> f64 {
         match self {
