@@ -24,7 +24,7 @@ pub mod atomic_file;
 pub mod bus;
 pub mod commands;
 pub mod curve;
-pub mod input_file;
+
 pub mod json;
 pub mod pacing;
 pub mod plan;

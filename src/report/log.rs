@@ -11,7 +11,7 @@ pub type Trace = Vec<(f64, f64)>;
 /// joint the log has no measurements of.
 pub fn measured_traces(path: &Path, joints: &[String]) -> Result<Vec<Option<Trace>>, InputError> {
     let file = path.display().to_string();
-    let text = crate::input_file::read_text(path, crate::input_file::MAX_LOG_BYTES)?;
+    let text = crate::json::input_file::read_text(path, crate::json::input_file::MAX_LOG_BYTES)?;
     let mut lines = text.lines();
     let header: Vec<&str> = lines
         .next()

@@ -4,6 +4,8 @@
 //! value out of range, an unknown joint) the useful position is the JSON path of the field, so
 //! input is walked through [`Node`]s that carry their path and build [`InputError`]s.
 
+pub mod input_file;
+
 use serde_json::{Map, Value};
 use std::fmt;
 use std::path::Path;
@@ -65,9 +67,9 @@ impl InputError {
 }
 
 /// Reads an input file (a sequence, a robot, a calibration) as UTF-8 text: a regular file of
-/// at most [`crate::input_file::MAX_INPUT_BYTES`].
+/// at most [`crate::json::input_file::MAX_INPUT_BYTES`].
 pub fn read_text(path: &Path) -> Result<String, InputError> {
-    crate::input_file::read_text(path, crate::input_file::MAX_INPUT_BYTES)
+    crate::json::input_file::read_text(path, crate::json::input_file::MAX_INPUT_BYTES)
 }
 
 /// Parses JSON text, mapping syntax errors to line:column. An object that names a key twice is

@@ -4,7 +4,7 @@
 //! forever, and a huge file read whole would take memory without bound; both are refused up
 //! front as bad input (exit 2) naming the file.
 
-use crate::json::{InputError, Location};
+use super::{InputError, Location};
 use std::fs::File;
 use std::io::Read;
 use std::path::Path;
