@@ -1,8 +1,8 @@
 """What keypose's Python harnesses share: the JSON-lines protocol on stdout, the ready line's
 facts, and leaving Ctrl-C to keypose.
 
-keypose writes this file beside the harness scripts (src/pyenv.rs), so `import harness_io`
-finds it in the script's own directory.
+keypose writes this file beside the harness scripts (src/python/scripts.rs), so
+`import harness_io` finds it in the script's own directory.
 """
 
 import json

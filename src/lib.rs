@@ -14,7 +14,7 @@ pub mod json;
 pub mod plan;
 pub mod player;
 pub mod pose;
-pub mod pyenv;
+pub mod python;
 pub mod record;
 pub mod report;
 pub mod robot;
