@@ -15,8 +15,17 @@ const SCRIPTS: &[(&str, &str)] = &[
     ("sim_harness.py", include_str!("../../sim/sim_harness.py")),
 ];
 
-/// Modules the harness scripts import, written beside them.
-const SUPPORT: &[(&str, &str)] = &[("harness_io.py", include_str!("../../sim/harness_io.py"))];
+/// Modules the harness scripts import, written beside them (all of them before any script
+/// starts, so that a script never imports a module of another build: each is rewritten when
+/// its content differs from the embedded one).
+const SUPPORT: &[(&str, &str)] = &[
+    ("harness_io.py", include_str!("../../sim/harness_io.py")),
+    ("sim_requests.py", include_str!("../../sim/sim_requests.py")),
+    ("sim_model.py", include_str!("../../sim/sim_model.py")),
+    ("sim_run.py", include_str!("../../sim/sim_run.py")),
+    ("sim_render.py", include_str!("../../sim/sim_render.py")),
+    ("sim_images.py", include_str!("../../sim/sim_images.py")),
+];
 
 /// The file names of the embedded harness scripts.
 pub fn script_names() -> Vec<&'static str> {
