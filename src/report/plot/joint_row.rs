@@ -49,6 +49,18 @@ fn finite_limit(v: f64) -> Option<f64> {
     v.is_finite().then_some(v)
 }
 
+/// Opens the group clipped to panel (`row`, `col`): curves beyond the axis range stay inside.
+fn open_clip(out: &mut String, row: usize, col: usize) {
+    w!(out, r#"<g clip-path="url(#clip-{row}-{col})">"#);
+    out.push('\n');
+}
+
+/// The commanded curve of `values`, sampled at the data's times.
+fn draw_commanded(out: &mut String, r: &Row, p: &Panel, values: &[f64]) {
+    let commanded = r.data.times.iter().copied().zip(values.iter().copied());
+    draw_polyline(out, p, commanded, r.color, 1.8, None);
+}
+
 // --- position panel ---------------------------------------------------------------------------
 
 fn draw_position_panel(out: &mut String, r: &Row) {
@@ -106,15 +118,8 @@ fn position_info(pmin: Option<f64>, pmax: Option<f64>, unit: &str) -> String {
 /// The commanded curve, the measured overlay and the key dots, clipped to the panel.
 fn draw_position_curves(out: &mut String, r: &Row, pos: &Panel) {
     let joint = r.joint;
-    w!(out, r#"<g clip-path="url(#clip-{}-0)">"#, r.row);
-    out.push('\n');
-    let commanded = r
-        .data
-        .times
-        .iter()
-        .copied()
-        .zip(joint.positions.iter().copied());
-    draw_polyline(out, pos, commanded, r.color, 1.8, None);
+    open_clip(out, r.row, 0);
+    draw_commanded(out, r, pos, &joint.positions);
     if let Some(m) = &joint.measured {
         draw_polyline(
             out,
@@ -164,15 +169,8 @@ fn draw_velocity_panel(out: &mut String, r: &Row) {
     horizontal_line(out, &vel, vel.y.px(0.0), ZERO_LINE);
     draw_key_guides(out, r.data, &vel);
     draw_limit_lines(out, &vel, vlim.map(|l| -l), vlim);
-    w!(out, r#"<g clip-path="url(#clip-{}-1)">"#, r.row);
-    out.push('\n');
-    let commanded = r
-        .data
-        .times
-        .iter()
-        .copied()
-        .zip(joint.velocities.iter().copied());
-    draw_polyline(out, &vel, commanded, r.color, 1.8, None);
+    open_clip(out, r.row, 1);
+    draw_commanded(out, r, &vel, &joint.velocities);
     w!(out, "</g>\n");
     draw_border(out, &vel);
 }

@@ -1,4 +1,3 @@
-
 use super::axis::{nice_step, nice_ticks};
 use super::layout::{PANEL_GAP, ROW_TITLE_H};
 use super::style::{KEY_MARK, LIMIT_FILL, LIMIT_LINE};

@@ -71,7 +71,10 @@ mod tests {
 
     #[test]
     fn kinds_print_and_serialise_as_their_names() {
-        assert_eq!(format!("[{:<12}]", FindingKind::JointLimit), "[joint limit ]");
+        assert_eq!(
+            format!("[{:<12}]", FindingKind::JointLimit),
+            "[joint limit ]"
+        );
         assert_eq!(
             serde_json::to_value(FindingKind::FloorCollision).unwrap(),
             serde_json::json!("floor collision")
