@@ -69,29 +69,7 @@ pub fn python_report_for(config: &PyConfig, build: bool) -> PythonReport {
         Some(python) => report
             .lines
             .push(format!("KEYPOSE_PYTHON: {} (used as is)", python.display())),
-        None => {
-            let venv = config.venv_dir();
-            let state = if env_is_ready(&venv) {
-                "built"
-            } else if build {
-                "not built yet: building it now"
-            } else {
-                "not built yet: keypose builds it on first use"
-            };
-            report.lines.push("KEYPOSE_PYTHON: not set".to_string());
-            report
-                .lines
-                .push(format!("environment: {} ({state})", venv.display()));
-            if !env_is_ready(&venv) {
-                match find_base_python() {
-                    Ok(base) => report.lines.push(format!(
-                        "base interpreter: {} (Python {})",
-                        base.executable, base.version
-                    )),
-                    Err(error) => report.problems.push(error.to_string()),
-                }
-            }
-        }
+        None => describe_own_environment(&mut report, config, build),
     }
     let env = if build {
         config.ensure_python().map(Some)
@@ -112,6 +90,33 @@ pub fn python_report_for(config: &PyConfig, build: bool) -> PythonReport {
         Err(error) => report.problems.push(error.to_string()),
     }
     report
+}
+
+/// keypose's own environment: built or not, and the base interpreter a build would use.
+fn describe_own_environment(report: &mut PythonReport, config: &PyConfig, build: bool) {
+    let venv = config.venv_dir();
+    let ready = env_is_ready(&venv);
+    let state = if ready {
+        "built"
+    } else if build {
+        "not built yet: building it now"
+    } else {
+        "not built yet: keypose builds it on first use"
+    };
+    report.lines.push("KEYPOSE_PYTHON: not set".to_string());
+    report
+        .lines
+        .push(format!("environment: {} ({state})", venv.display()));
+    if ready {
+        return;
+    }
+    match find_base_python() {
+        Ok(base) => report.lines.push(format!(
+            "base interpreter: {} (Python {})",
+            base.executable, base.version
+        )),
+        Err(error) => report.problems.push(error.to_string()),
+    }
 }
 
 fn describe_ready(report: &mut PythonReport, script: &str, ready: &Value) {

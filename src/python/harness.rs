@@ -142,52 +142,28 @@ impl Harness {
     }
 
     fn wait_ready(&mut self, timeout: Duration) -> Result<Value, HarnessError> {
-        let not_ready = |harness: &mut Harness, reason: String| HarnessError::NotReady {
-            script: harness.script.clone(),
-            reason,
-            hint: String::new(),
-            stderr: harness.stderr_block(),
-        };
-        let line = match self.lines.recv_timeout(timeout) {
-            Ok(Event::Line(line)) => line,
-            Ok(Event::ReadError(error)) => {
-                return Err(not_ready(self, format!("reading its output: {error}")))
-            }
+        self.ready_line(timeout)
+            .and_then(|line| parse_ready(&line))
+            .map_err(|reason| HarnessError::NotReady {
+                script: self.script.clone(),
+                reason,
+                hint: String::new(),
+                stderr: self.stderr_block(),
+            })
+    }
+
+    /// The child's first line, or why there is none.
+    fn ready_line(&mut self, timeout: Duration) -> Result<String, String> {
+        match self.lines.recv_timeout(timeout) {
+            Ok(Event::Line(line)) => Ok(line),
+            Ok(Event::ReadError(error)) => Err(format!("reading its output: {error}")),
             Err(RecvTimeoutError::Timeout) => {
-                let reason = format!("no ready line within {} s", timeout.as_secs_f64());
-                return Err(not_ready(self, reason));
+                Err(format!("no ready line within {} s", timeout.as_secs_f64()))
             }
             Err(RecvTimeoutError::Disconnected) => {
                 let status = self.exit_status();
-                return Err(not_ready(
-                    self,
-                    format!("it exited ({status}) before saying it was ready"),
-                ));
+                Err(format!("it exited ({status}) before saying it was ready"))
             }
-        };
-        let ready: Value = match serde_json::from_str(&line) {
-            Ok(value) => value,
-            Err(error) => {
-                return Err(not_ready(
-                    self,
-                    format!("its first line is not JSON ({error}): {}", clip(&line)),
-                ))
-            }
-        };
-        match ready.get("ready") {
-            Some(Value::Bool(true)) => Ok(ready),
-            Some(Value::Bool(false)) => {
-                let reason = ready
-                    .get("error")
-                    .and_then(Value::as_str)
-                    .unwrap_or("it says it is not ready")
-                    .to_string();
-                Err(not_ready(self, reason))
-            }
-            _ => Err(not_ready(
-                self,
-                format!("its first line is not a ready line: {}", clip(&line)),
-            )),
         }
     }
 
@@ -446,6 +422,24 @@ fn child_command(python: &Path, script: &Path, options: &HarnessOptions) -> Comm
         command.process_group(0);
     }
     command
+}
+
+/// The ready line (`{"ready": true, …}`), or why `line` is not one.
+fn parse_ready(line: &str) -> Result<Value, String> {
+    let ready: Value = serde_json::from_str(line)
+        .map_err(|error| format!("its first line is not JSON ({error}): {}", clip(line)))?;
+    match ready.get("ready") {
+        Some(Value::Bool(true)) => Ok(ready),
+        Some(Value::Bool(false)) => Err(ready
+            .get("error")
+            .and_then(Value::as_str)
+            .unwrap_or("it says it is not ready")
+            .to_string()),
+        _ => Err(format!(
+            "its first line is not a ready line: {}",
+            clip(line)
+        )),
+    }
 }
 
 fn not_ready_hint(config: &PyConfig, env: &PythonEnv) -> String {

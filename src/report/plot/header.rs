@@ -9,70 +9,64 @@ use super::text::{fit_text, text_width};
 use super::PlotData;
 use std::fmt::Write;
 
+/// The legend: one sample of each kind of mark, each followed by its label, left to right.
 pub(super) fn draw_legend(out: &mut String, any_measured: bool) {
-    let y = LEGEND_Y;
     let mut x = MARGIN_LEFT;
-    let label = |out: &mut String, x: &mut f64, text: &str| {
-        w!(
-            out,
-            r#"<text x="{}" y="{}" font-size="12">{}</text>"#,
-            Px(*x + 30.0),
-            Px(y + 4.0),
-            Esc(text)
-        );
-        out.push('\n');
-        *x += 30.0 + text_width(text, 12.0) + 24.0;
-    };
-
-    // `<line>` rather than `<polyline>` so the legend never counts as a curve.
-    w!(
-        out,
-        r#"<line x1="{}" y1="{}" x2="{}" y2="{}" stroke="{}" stroke-width="2"/>"#,
-        Px(x),
-        Px(y),
-        Px(x + 24.0),
-        Px(y),
-        PALETTE[0]
-    );
-    label(out, &mut x, "commanded position");
-
+    legend_line(out, x, PALETTE[0], 2.0, None);
+    legend_label(out, &mut x, "commanded position");
     // A fully rounded rect instead of `<circle>` keeps circle elements reserved for real keys.
     w!(
         out,
         r#"<rect x="{}" y="{}" width="7" height="7" rx="3.5" ry="3.5" fill="{}" stroke="{WHITE}" stroke-width="1"/>"#,
         Px(x + 8.5),
-        Px(y - 3.5),
+        Px(LEGEND_Y - 3.5),
         PALETTE[0]
     );
-    label(out, &mut x, "keys");
-
+    legend_label(out, &mut x, "keys");
     w!(
         out,
         r#"<rect x="{}" y="{}" width="24" height="10" fill="{LIMIT_FILL}"/>"#,
         Px(x),
-        Px(y - 10.0)
+        Px(LEGEND_Y - 10.0)
     );
+    legend_line(out, x, LIMIT_LINE, 1.0, None);
+    legend_label(out, &mut x, "limit (shaded = outside)");
+    if any_measured {
+        legend_line(out, x, MEASURED_COLOR, 1.4, Some("5 3"));
+        legend_label(out, &mut x, "measured");
+    }
+}
+
+/// A 24 px sample line at `x`. `<line>` rather than `<polyline>` so the legend never counts
+/// as a curve.
+fn legend_line(out: &mut String, x: f64, stroke: &str, width: f64, dash: Option<&str>) {
+    let y = LEGEND_Y;
     w!(
         out,
-        r#"<line x1="{}" y1="{}" x2="{}" y2="{}" stroke="{LIMIT_LINE}" stroke-width="1"/>"#,
+        r#"<line x1="{}" y1="{}" x2="{}" y2="{}" stroke="{stroke}" stroke-width="{}""#,
         Px(x),
         Px(y),
         Px(x + 24.0),
-        Px(y)
+        Px(y),
+        Px(width)
     );
-    label(out, &mut x, "limit (shaded = outside)");
-
-    if any_measured {
-        w!(
-            out,
-            r#"<line x1="{}" y1="{}" x2="{}" y2="{}" stroke="{MEASURED_COLOR}" stroke-width="1.4" stroke-dasharray="5 3"/>"#,
-            Px(x),
-            Px(y),
-            Px(x + 24.0),
-            Px(y)
-        );
-        label(out, &mut x, "measured");
+    if let Some(dash) = dash {
+        w!(out, r#" stroke-dasharray="{dash}""#);
     }
+    out.push_str("/>");
+}
+
+/// The label after the sample at `x`; moves `x` past it to the next sample.
+fn legend_label(out: &mut String, x: &mut f64, text: &str) {
+    w!(
+        out,
+        r#"<text x="{}" y="{}" font-size="12">{}</text>"#,
+        Px(*x + 30.0),
+        Px(LEGEND_Y + 4.0),
+        Esc(text)
+    );
+    out.push('\n');
+    *x += 30.0 + text_width(text, 12.0) + 24.0;
 }
 
 /// Key-mark labels go in the header, once per column, staggered on two baselines when they
