@@ -16,10 +16,10 @@
 //! first line says it is ready (with the versions it runs), then one request line gets one
 //! reply line.
 //!
-//! One file per job: [`config`] (where things live), [`requirements`] (the pins and the
-//! environment's key), [`scripts`] (the embedded scripts on disk), [`base_python`] and
-//! [`venv`] (finding and building the interpreter), [`streamed`] (running pip and venv),
-//! [`harness`] with [`pipes`] (the child process and its JSON lines), [`doctor`] (the report).
+//! One file per job: `config` (where things live), `requirements` (the pins and the
+//! environment's key), `scripts` (the embedded scripts on disk), `base_python` and
+//! `venv` (finding and building the interpreter), `streamed` (running pip and venv),
+//! `harness` with `pipes` (the child process and its JSON lines), `doctor` (the report).
 
 mod base_python;
 mod config;

@@ -5,10 +5,10 @@
 //! an optional measured trace overlaid dashed. No plotting crate is used so the report has no
 //! extra dependencies and the SVG stays small and diff-able.
 //!
-//! This module only assembles the document; [`axis`] (ranges, pixel maps, ticks), [`text`]
-//! (widths, fitting, short numbers), [`svg`] (pixel numbers, escaping), [`layout`] and
-//! [`style`] (where and how), [`header`] (legend, key labels), [`panel`] (a panel's parts) and
-//! [`joint_row`] (a joint's two panels) do the rest.
+//! This module only assembles the document; `axis` (ranges, pixel maps, ticks), `text`
+//! (widths, fitting, short numbers), `svg` (pixel numbers, escaping), `layout` and
+//! `style` (where and how), `header` (legend, key labels), `panel` (a panel's parts) and
+//! `joint_row` (a joint's two panels) do the rest.
 
 use std::fmt::Write;
 
@@ -17,7 +17,7 @@ use std::fmt::Write;
 pub struct PlotJoint {
     /// Joint name as written in the robot file; shown in panel titles and the y axis label.
     pub name: String,
-    /// Unit label for positions, e.g. "deg" or "m"; velocity axis uses "<unit>/s".
+    /// Unit label for positions, e.g. "deg" or "m"; velocity axis uses `"<unit>/s"`.
     pub unit: String,
     /// Position limits (same unit). A non-finite limit leaves that side unlimited (no shading);
     /// a swapped pair is drawn as if given in order.

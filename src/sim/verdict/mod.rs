@@ -2,8 +2,8 @@
 //! in [`Thresholds`], applied to a [`Trace`] in joint units (degrees, metres, seconds).
 //!
 //! One check per [`FindingKind`], each in the module named for what it looks at:
-//! [`tracking`] (in motion, settling at keys), [`speed`], [`limits`] (joint stops),
-//! [`saturation`], [`contacts`] (collisions, divergence). This module only runs them, joint by
+//! `tracking` (in motion, settling at keys), `speed`, `limits` (joint stops),
+//! `saturation`, `contacts` (collisions, divergence). This module only runs them, joint by
 //! joint, and knows nothing about any threshold's meaning.
 
 mod column;
@@ -28,7 +28,7 @@ pub struct Trace {
     pub time: Vec<f64>,
     /// The sequence time each row belongs to, or `None` during the approach ramp.
     pub sequence_time: Vec<Option<f64>>,
-    /// commanded[row][joint]
+    /// `commanded[row][joint]`
     pub commanded: Vec<Vec<f64>>,
     pub position: Vec<Vec<f64>>,
     /// Joint units per second.
