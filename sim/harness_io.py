@@ -1,8 +1,11 @@
-"""What keypose's Python harnesses share: the JSON-lines protocol on stdout, the ready line's
-facts, and leaving Ctrl-C to keypose.
+"""What keypose's Python harnesses share: the JSON-lines protocol on stdout, one request line
+to one reply (parsing, the "seq" echo, errors as replies), the checks of request members, the
+ready line's facts, and leaving Ctrl-C to keypose.
 
-keypose writes this file beside the harness scripts (src/pyenv.rs), so `import harness_io`
-finds it in the script's own directory.
+It knows nothing about servos or physics: each harness passes its own dispatch.
+
+keypose writes this file beside the harness scripts (src/python/scripts.rs), so
+`import harness_io` finds it in the script's own directory.
 """
 
 import json
@@ -25,6 +28,58 @@ class RequestError(Exception):
 
     def reply(self):
         return {"ok": False, "kind": self.kind, "error": self.message, **self.fields}
+
+
+def member(req, name, default=None, required=True):
+    """`req[name]`; without it `default`, or a request error when the member is required."""
+    if name in req:
+        return req[name]
+    if required:
+        raise RequestError("request", f"request {req.get('op')!r} lacks {name!r}")
+    return default
+
+
+def is_integer(value):
+    # bool is an int in Python; a true/false where a number belongs is a malformed request.
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def integer_in(what, value, lo, hi):
+    """`value` if it is an integer in lo..hi; `what` names it in the error."""
+    if not is_integer(value) or value < lo or value > hi:
+        raise RequestError("request", f"{what} must be an integer in {lo}..{hi}, not {json.dumps(value)}")
+    return value
+
+
+def describe_exception(e):
+    return f"{type(e).__name__}: {e}"
+
+
+def handle_line(line, dispatch, parse=json.loads, shown=json.dumps, describe=describe_exception):
+    """The reply to one request line; the harness goes on after every kind of failure.
+
+    The line must hold a JSON object (`parse` reads it; `shown` writes a request that is not an
+    object into the error); `dispatch(req)` returns the reply's members or raises a
+    RequestError, and any other exception is an "internal" error that `describe` puts into
+    words. A request's "seq" is echoed, so that keypose can match a late reply.
+    """
+    try:
+        req = parse(line)
+    except ValueError as e:
+        return RequestError("request", f"malformed request (not JSON): {e}").reply()
+    seq = req.get("seq") if isinstance(req, dict) else None
+    try:
+        if not isinstance(req, dict):
+            raise RequestError("request", f"a request must be a JSON object, not {shown(req)}")
+        reply = {"ok": True}
+        reply.update(dispatch(req))
+    except RequestError as e:
+        reply = e.reply()
+    except Exception as e:  # an unforeseen input or a bug must not end the harness
+        reply = RequestError("internal", describe(e)).reply()
+    if seq is not None:
+        reply["seq"] = seq
+    return reply
 
 
 def take_stdout():

@@ -45,7 +45,20 @@ import json
 import sys
 import time
 
-from harness_io import RequestError, distribution_version, emit, ignore_sigint, interpreter, not_ready, serve, take_stdout
+from harness_io import (
+    RequestError,
+    distribution_version,
+    emit,
+    handle_line,
+    ignore_sigint,
+    integer_in,
+    interpreter,
+    is_integer,
+    member,
+    not_ready,
+    serve,
+    take_stdout,
+)
 
 PROTOCOLS = ("dynamixel-2", "feetech-sts", "feetech-scs")
 
@@ -55,11 +68,8 @@ class BridgeError(RequestError):
 
 
 def field(req, name, kind=int, lo=None, hi=None):
-    if name not in req:
-        raise BridgeError("request", f"request {req.get('op')!r} lacks {name!r}")
-    value = req[name]
-    # bool is an int in Python; a true/false where a number belongs is a malformed request.
-    if kind is int and (isinstance(value, bool) or not isinstance(value, int)):
+    value = member(req, name)
+    if kind is int and not is_integer(value):
         raise BridgeError("request", f"{name!r} must be an integer, not {json.dumps(value)}")
     if kind is str and not isinstance(value, str):
         raise BridgeError("request", f"{name!r} must be a string, not {json.dumps(value)}")
@@ -67,12 +77,6 @@ def field(req, name, kind=int, lo=None, hi=None):
         raise BridgeError("request", f"{name!r} must be a list, not {json.dumps(value)}")
     if lo is not None and value < lo or hi is not None and value > hi:
         raise BridgeError("request", f"{name!r} = {value} is outside {lo}..{hi}")
-    return value
-
-
-def check_int(name, value, lo, hi):
-    if isinstance(value, bool) or not isinstance(value, int) or value < lo or value > hi:
-        raise BridgeError("request", f"{name} must be an integer in {lo}..{hi}, not {json.dumps(value)}")
     return value
 
 
@@ -277,7 +281,7 @@ class Bus:
         self._guard_byte_order()
         group = self.sdk.GroupSyncRead(self.port, self.ph, addr, length)
         for servo in ids:
-            check_int("each of 'ids'", servo, 0, self.max_id)
+            integer_in("each of 'ids'", servo, 0, self.max_id)
             if not group.addParam(servo):
                 raise BridgeError("request", f"servo {servo} appears twice in 'ids'")
         started = time.monotonic()
@@ -304,8 +308,8 @@ class Bus:
         for pair in pairs:
             if not isinstance(pair, list) or len(pair) != 2:
                 raise BridgeError("request", f"each of 'values' must be [id, value], not {json.dumps(pair)}")
-            servo = check_int("a sync_write id", pair[0], 0, self.max_id)
-            value = check_int(f"servo {servo}'s value", pair[1], 0, (1 << (8 * length)) - 1)
+            servo = integer_in("a sync_write id", pair[0], 0, self.max_id)
+            value = integer_in(f"servo {servo}'s value", pair[1], 0, (1 << (8 * length)) - 1)
             if not group.addParam(servo, self._split(value, length)):
                 raise BridgeError("request", f"servo {servo} appears twice in 'values'")
         started = time.monotonic()
@@ -321,23 +325,7 @@ class Bridge:
         self.bus = None
 
     def handle_line(self, line):
-        try:
-            req = json.loads(line)
-        except ValueError as e:
-            return BridgeError("request", f"malformed request (not JSON): {e}").reply()
-        seq = req.get("seq") if isinstance(req, dict) else None
-        try:
-            if not isinstance(req, dict):
-                raise BridgeError("request", f"a request must be a JSON object, not {json.dumps(req)}")
-            reply = {"ok": True}
-            reply.update(self.dispatch(req))
-        except BridgeError as e:
-            reply = e.reply()
-        except Exception as e:  # an SDK bug or an unforeseen input must not end the bridge
-            reply = BridgeError("internal", f"{type(e).__name__}: {e}").reply()
-        if seq is not None:
-            reply["seq"] = seq
-        return reply
+        return handle_line(line, self.dispatch)
 
     def dispatch(self, req):
         op = req.get("op")

@@ -30,7 +30,7 @@ pub mod pacing;
 pub mod plan;
 pub mod player;
 pub mod pose;
-pub mod pyenv;
+pub mod python;
 pub mod record;
 pub mod report;
 pub mod robot;

@@ -28,7 +28,7 @@ use keypose::bus::sdk::SdkBus;
 use keypose::bus::transport::SerialTransport;
 use keypose::bus::virtual_bus::{PtyServer, VirtualBus};
 use keypose::bus::{BusError, ServoBus};
-use keypose::pyenv::{Harness, HarnessError, HarnessOptions, PyConfig, PythonEnv};
+use keypose::python::{Harness, HarnessError, HarnessOptions, PyConfig, PythonEnv};
 use keypose::robot::{PositionEncoding, Protocol, Robot, ServoModel};
 use serde_json::{json, Value};
 use serialport::{SerialPort, TTYPort};
@@ -77,8 +77,8 @@ fn env() -> &'static Env {
                 "keypose's Python environment in {} is not available; the conformance tests \
                  need python3 {}.{}+ with its venv module and access to PyPI: {e}",
                 cache.display(),
-                keypose::pyenv::MIN_PYTHON.0,
-                keypose::pyenv::MIN_PYTHON.1
+                keypose::python::MIN_PYTHON.0,
+                keypose::python::MIN_PYTHON.1
             )
         })?;
         Ok(Env { config, python })

@@ -8,7 +8,7 @@
 
 use keypose::bus::sdk::{SdkBus, SdkError};
 use keypose::bus::BusError;
-use keypose::pyenv::{
+use keypose::python::{
     Harness, HarnessError, HarnessOptions, PyConfig, PyEnvError, PythonEnv, REQUIREMENTS,
 };
 use keypose::robot::Protocol;
@@ -40,8 +40,8 @@ fn shared() -> &'static Shared {
                 "building keypose's Python environment in {} failed; these tests need \
                  python3 {}.{}+ with its venv module and access to PyPI: {e}",
                 cache.display(),
-                keypose::pyenv::MIN_PYTHON.0,
-                keypose::pyenv::MIN_PYTHON.1
+                keypose::python::MIN_PYTHON.0,
+                keypose::python::MIN_PYTHON.1
             )
         })?;
         let marker_modified = marker(&first)
@@ -102,7 +102,7 @@ fn the_environment_is_built_from_scratch_then_reused() {
     assert!(shared.first.created, "the first call must have built it");
     let venv = shared.first.venv.clone().expect("a venv");
     assert!(venv.starts_with(&shared.config.cache_dir));
-    let key = keypose::pyenv::env_key(REQUIREMENTS);
+    let key = keypose::python::env_key(REQUIREMENTS);
     assert_eq!(
         venv.file_name().and_then(|n| n.to_str()),
         Some(format!("venv-{key}").as_str())
@@ -312,7 +312,7 @@ fn keypose_python_without_the_packages_is_not_ready_and_says_how_to_fix_it() {
     assert!(
         !config
             .cache_dir
-            .join(format!("venv-{}", keypose::pyenv::env_key(REQUIREMENTS)))
+            .join(format!("venv-{}", keypose::python::env_key(REQUIREMENTS)))
             .exists(),
         "with KEYPOSE_PYTHON set, keypose must not build an environment"
     );

@@ -12,7 +12,7 @@
 //! with venv), PyPI, or the system's EGL and OSMesa libraries these tests fail and say so:
 //! they never skip.
 
-use keypose::pyenv::{Harness, HarnessError, HarnessOptions, PyConfig, PythonEnv};
+use keypose::python::{Harness, HarnessError, HarnessOptions, PyConfig, PythonEnv};
 use serde_json::{json, Value};
 use std::f64::consts::FRAC_PI_2;
 use std::fs;
@@ -99,8 +99,8 @@ fn shared() -> &'static Shared {
                 "building keypose's Python environment in {} failed; these tests need python3 \
                  {}.{}+ with its venv module and access to PyPI: {e}",
                 cache.display(),
-                keypose::pyenv::MIN_PYTHON.0,
-                keypose::pyenv::MIN_PYTHON.1
+                keypose::python::MIN_PYTHON.0,
+                keypose::python::MIN_PYTHON.1
             )
         })?;
         let models = cache.join("models");
@@ -201,7 +201,7 @@ fn hold(joints: &[&str], initial: &[f64], target: &[f64], rows: usize) -> Value 
 fn the_harness_is_ready_with_the_pinned_versions() {
     let harness = start("egl");
     let ready = harness.ready();
-    let requirements = keypose::pyenv::pinned_versions();
+    let requirements = keypose::python::pinned_versions();
     let pin = |name: &str| {
         requirements
             .iter()

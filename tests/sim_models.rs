@@ -15,7 +15,7 @@
 //! (a changed `sim/requirements.txt` builds a new one beside it). Without python3 (3.10+, with venv)
 //! or without PyPI these tests fail and say so: they never skip.
 
-use keypose::pyenv::{Harness, HarnessOptions, PyConfig};
+use keypose::python::{Harness, HarnessOptions, PyConfig};
 use keypose::robot::{JointKind, Robot};
 use serde_json::{json, Map, Value};
 use std::path::PathBuf;
@@ -80,8 +80,8 @@ fn config() -> &'static PyConfig {
                 "building keypose's Python environment in {} failed; these tests need python3 \
                  {}.{}+ with its venv module and access to PyPI: {e}",
                 cache.display(),
-                keypose::pyenv::MIN_PYTHON.0,
-                keypose::pyenv::MIN_PYTHON.1
+                keypose::python::MIN_PYTHON.0,
+                keypose::python::MIN_PYTHON.1
             )
         })?;
         Ok(config)

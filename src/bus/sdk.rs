@@ -10,13 +10,13 @@
 //! wants a retry sees the typed error first.
 
 use super::{registers, BusError, Health, PingInfo, ServoBus};
-use crate::pyenv::{Harness, HarnessError, HarnessOptions, PyConfig};
+use crate::python::{Harness, HarnessError, HarnessOptions, PyConfig};
 use crate::robot::{PositionEncoding, Protocol};
 use serde_json::{json, Value};
 use std::collections::HashMap;
 use std::io;
 
-/// The bridge script, as embedded by [`crate::pyenv`].
+/// The bridge script, as embedded by [`crate::python`].
 pub const BRIDGE_SCRIPT: &str = "sdk_bridge.py";
 
 /// A control-table register: address and size in bytes.

@@ -262,7 +262,7 @@ pub fn doctor() -> Result<Verdict, CommandError> {
         }
     }
     out.push_str("python (vendor SDK bridge, simulation):\n");
-    out.push_str(&crate::pyenv::doctor_report());
+    out.push_str(&crate::python::doctor_report());
     out.push_str(&simulation_report());
     write_output(None, &out)?;
     Ok(Verdict::Pass)
@@ -271,7 +271,7 @@ pub fn doctor() -> Result<Verdict, CommandError> {
 /// What the simulation harness reports when it starts: MuJoCo's version and the GL backend.
 /// Never builds the environment (that is for the first `sim`).
 fn simulation_report() -> String {
-    use crate::pyenv::{Harness, HarnessOptions, PyConfig};
+    use crate::python::{Harness, HarnessOptions, PyConfig};
     let config = match PyConfig::from_env() {
         Ok(c) => c,
         Err(e) => return format!("  simulation: {e}\n"),

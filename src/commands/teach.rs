@@ -65,7 +65,7 @@ pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
     super::control_rate(None, &robot)?;
 
     // Without a cache directory the session still runs, unjournaled; the screen says so.
-    let journal = crate::pyenv::PyConfig::from_env()
+    let journal = crate::python::PyConfig::from_env()
         .ok()
         .map(|config| Journal::for_target(&config.cache_dir, &output));
     let pending = match &journal {

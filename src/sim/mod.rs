@@ -11,7 +11,7 @@ pub use models::{check_mjcf_file, model_path};
 
 use crate::plan::Trajectory;
 use crate::plan::{Phase, Timeline, TimelineOptions};
-use crate::pyenv::{Harness, HarnessError, HarnessOptions, PyConfig, PyEnvError};
+use crate::python::{Harness, HarnessError, HarnessOptions, PyConfig, PyEnvError};
 use crate::robot::{JointKind, Robot};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};

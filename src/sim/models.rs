@@ -3,7 +3,7 @@
 
 use super::SimError;
 use crate::json::{InputError, Location};
-use crate::pyenv::PyConfig;
+use crate::python::PyConfig;
 use std::path::{Path, PathBuf};
 
 const MODELS: [(&str, &str); 3] = [

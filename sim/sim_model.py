@@ -1,0 +1,201 @@
+"""A loaded MJCF model: its joints, sites, position servos and contact classes, looked up once,
+and the queries on it that need no simulation (describing it, forward kinematics).
+
+It knows nothing about runs, rendering or the request loop.
+"""
+
+import json
+import math
+
+from harness_io import member
+from sim_requests import SimError, is_number, request_error, string_list
+
+
+class Model:
+    """A loaded MJCF model with the lookups the requests need, computed once."""
+
+    def __init__(self, mujoco, np, path, model):
+        self.mujoco = mujoco
+        self.np = np
+        self.path = path
+        self.m = m = model
+        # Autoreset would make a diverging trace jump back to qpos0 without a trace of why.
+        m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
+        self.data = mujoco.MjData(m)
+        self.scratch = mujoco.MjData(m)
+        self._index_names()
+        self._index_servos()
+        self._classify_contacts()
+
+    def _name(self, obj, index, fallback):
+        found = self.mujoco.mj_id2name(self.m, obj, index)
+        return found if found else f"{fallback}#{index}"
+
+    def _index_names(self):
+        """The addressable joints (named hinges and slides), the bodies and the named sites."""
+        m, mujoco = self.m, self.mujoco
+        hinge = int(mujoco.mjtJoint.mjJNT_HINGE)
+        slide = int(mujoco.mjtJoint.mjJNT_SLIDE)
+        self.joint_names = []
+        self.joint_ids = {}
+        for j in range(m.njnt):
+            kind = int(m.jnt_type[j])
+            joint_name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j)
+            # Unnamed joints cannot be addressed in a request; free and ball joints are not scalar.
+            if joint_name and kind in (hinge, slide):
+                self.joint_ids[joint_name] = j
+                self.joint_names.append(joint_name)
+        self.joint_type = {j: ("hinge" if int(m.jnt_type[j]) == hinge else "slide") for j in self.joint_ids.values()}
+        self.body_names = [self._name(mujoco.mjtObj.mjOBJ_BODY, b, "body") for b in range(m.nbody)]
+        self.site_ids = {}
+        for s in range(m.nsite):
+            site_name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_SITE, s)
+            if site_name:
+                self.site_ids[site_name] = s
+
+    def _index_servos(self):
+        """Position servos on joints: gain kp, bias -kp*length (and possibly -kv*velocity)."""
+        m, mujoco = self.m, self.mujoco
+        self.actuators = []
+        self.joint_actuators = {}
+        for a in range(m.nactuator):
+            if not self._is_position_servo(a):
+                continue
+            j = int(m.actuator_trnid[a, 0])
+            if j not in self.joint_type:
+                continue
+            info = {
+                "id": a,
+                "joint": j,
+                "ctrl": int(m.actuator_ctrladr[a]),
+                "out": int(m.actuator_outadr[a]),
+                "gear": float(m.actuator_gear[m.actuator_outadr[a], 0]),
+            }
+            self.actuators.append(info)
+            self.joint_actuators.setdefault(j, []).append(info)
+        self.actuator_reply = [
+            {
+                "name": self._name(mujoco.mjtObj.mjOBJ_ACTUATOR, info["id"], "actuator"),
+                "joint": mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, info["joint"]),
+                "kp": float(m.actuator_gainprm[info["id"], 0]),
+                "kv": float(-m.actuator_biasprm[info["id"], 2]),
+                "gear": info["gear"],
+                "forcerange": [float(v) for v in m.actuator_forcerange[info["id"]]],
+                "forcelimited": bool(m.actuator_forcelimited[info["id"]]),
+            }
+            for info in self.actuators
+        ]
+
+    def _classify_contacts(self):
+        """Which geoms are floor and which bodies are the robot's.
+
+        The robot is the kinematic trees its actuated joints are in (or every tree that moves,
+        in a model without actuators); everything else attached to the world is environment.
+        """
+        m, mujoco, np = self.m, self.mujoco, self.np
+        plane = int(mujoco.mjtGeom.mjGEOM_PLANE)
+        self.geom_floor = np.array(
+            [int(m.geom_type[g]) == plane or mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) == "floor" for g in range(m.ngeom)],
+            dtype=bool,
+        )
+        roots = {int(m.body_rootid[m.jnt_bodyid[info["joint"]]]) for info in self.actuators}
+        if not roots:
+            roots = {int(m.body_rootid[m.jnt_bodyid[j]]) for j in range(m.njnt)}
+        roots.discard(0)
+        self.body_robot = np.array([b != 0 and int(m.body_rootid[b]) in roots for b in range(m.nbody)], dtype=bool)
+
+    def _is_position_servo(self, a):
+        m, mujoco = self.m, self.mujoco
+        if int(m.actuator_trntype[a]) != int(mujoco.mjtTrn.mjTRN_JOINT):
+            return False
+        if int(m.actuator_ctrlnum[a]) != 1 or int(m.actuator_outnum[a]) != 1:
+            return False
+        if int(m.actuator_gaintype[a]) != int(mujoco.mjtGain.mjGAIN_FIXED):
+            return False
+        if int(m.actuator_biastype[a]) != int(mujoco.mjtBias.mjBIAS_AFFINE):
+            return False
+        kp = float(m.actuator_gainprm[a, 0])
+        bias = m.actuator_biasprm[a]
+        return kp > 0 and float(bias[0]) == 0.0 and math.isclose(float(bias[1]), -kp, rel_tol=1e-9)
+
+    def joint(self, joint_name, what="joint"):
+        j = self.joint_ids.get(joint_name)
+        if j is None:
+            known = ", ".join(self.joint_names) or "none"
+            raise request_error(f"{what} {joint_name!r} is not a hinge or slide joint of {self.path} (its joints: {known})")
+        return j
+
+    def set_joints(self, data, joint_ids, values):
+        m = self.m
+        data.qpos[:] = m.qpos0
+        for j, value in zip(joint_ids, values):
+            data.qpos[m.jnt_qposadr[j]] = value
+
+    def describe(self):
+        m = self.m
+        joints = []
+        for joint_name in self.joint_names:
+            j = self.joint_ids[joint_name]
+            joints.append(
+                {
+                    "name": joint_name,
+                    "type": self.joint_type[j],
+                    "range": [float(v) for v in m.jnt_range[j]],
+                    "limited": bool(m.jnt_limited[j]),
+                }
+            )
+        return {
+            "timestep": float(m.opt.timestep),
+            "joints": joints,
+            "actuators": self.actuator_reply,
+            "bodies": self.body_names,
+            "sites": list(self.site_ids),
+        }
+
+    def kinematics(self, req):
+        """Forward kinematics at the given joint values: joint anchors and axes, site positions."""
+        model = self
+        mujoco, m, data = self.mujoco, model.m, model.scratch
+        qpos = member(req, "qpos")
+        if not isinstance(qpos, dict):
+            raise request_error(f"'qpos' must be an object of joint: value, not {json.dumps(qpos)[:200]}")
+        ids, values = [], []
+        for joint_name, value in qpos.items():
+            ids.append(model.joint(joint_name))
+            if not is_number(value):
+                raise request_error(f"qpos of {joint_name!r} must be a finite number, not {json.dumps(value)}")
+            values.append(float(value))
+        sites = string_list(req, "sites", required=False, nonempty=False)
+        if sites is None:
+            sites = list(model.site_ids)
+        site_ids = []
+        for site in sites:
+            s = model.site_ids.get(site)
+            if s is None:
+                known = ", ".join(model.site_ids) or "none"
+                raise request_error(f"site {site!r} is not in {model.path} (its sites: {known})")
+            site_ids.append(s)
+        model.set_joints(data, ids, values)
+        mujoco.mj_kinematics(m, data)
+        anchors, axes = {}, {}
+        for joint_name in model.joint_names:
+            j = model.joint_ids[joint_name]
+            anchors[joint_name] = data.xanchor[j].tolist()
+            axes[joint_name] = data.xaxis[j].tolist()
+        return {
+            "anchors": anchors,
+            "axes": axes,
+            "sites": {site: data.site_xpos[s].tolist() for site, s in zip(sites, site_ids)},
+        }
+
+
+def load_model(mujoco, np, req):
+    """The model of a load request's "mjcf" file; a "model" error when MuJoCo refuses it."""
+    path = member(req, "mjcf")
+    if not isinstance(path, str) or not path:
+        raise request_error(f"'mjcf' must be a path, not {json.dumps(path)}")
+    try:
+        model = mujoco.MjModel.from_xml_path(path)
+    except Exception as e:  # MuJoCo raises ValueError for XML and compile errors
+        raise SimError("model", f"cannot load {path}: {e}".rstrip())
+    return Model(mujoco, np, path, model)

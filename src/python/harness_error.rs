@@ -1,0 +1,79 @@
+//! How a harness fails, in words that name the script and what it was asked.
+//!
+//! Knows nothing about the child process itself; [`super::harness`] builds these.
+
+use super::PyEnvError;
+use serde_json::Value;
+use std::io;
+
+#[derive(Debug, thiserror::Error)]
+pub enum HarnessError {
+    #[error(transparent)]
+    Env(#[from] PyEnvError),
+    #[error("cannot start {python} {script}: {source}")]
+    Spawn {
+        python: String,
+        script: String,
+        source: io::Error,
+    },
+    #[error("{script} did not start: {reason}{hint}{stderr}")]
+    NotReady {
+        script: String,
+        reason: String,
+        /// Empty, or a sentence that starts with "; ".
+        hint: String,
+        /// Empty, or the child's last stderr lines on lines of their own.
+        stderr: String,
+    },
+    #[error("{script} exited ({status}){stderr}")]
+    Exited {
+        script: String,
+        status: String,
+        stderr: String,
+    },
+    #[error("{script} did not answer {op} within {waited_ms} ms")]
+    Timeout {
+        script: String,
+        op: String,
+        waited_ms: u64,
+    },
+    #[error("{script}: {op} failed: {message}")]
+    Failed {
+        script: String,
+        op: String,
+        message: String,
+        /// The whole reply, for callers that map its fields (error kinds, codes) further.
+        reply: Box<Value>,
+    },
+    #[error("{script} sent a line that is not a reply ({detail}): {line}")]
+    BadReply {
+        script: String,
+        detail: String,
+        line: String,
+    },
+    #[error("writing a request to {script}: {source}")]
+    Write { script: String, source: io::Error },
+}
+
+impl HarnessError {
+    /// The reply of a request that the script answered with `"ok": false`.
+    pub fn reply(&self) -> Option<&Value> {
+        match self {
+            HarnessError::Failed { reply, .. } => Some(reply),
+            _ => None,
+        }
+    }
+}
+
+/// `line` shortened to 300 bytes for a message, on a character boundary.
+pub(super) fn clip(line: &str) -> String {
+    const MAX: usize = 300;
+    if line.len() <= MAX {
+        return line.to_string();
+    }
+    let mut end = MAX;
+    while !line.is_char_boundary(end) {
+        end -= 1;
+    }
+    format!("{}…", &line[..end])
+}

@@ -1,0 +1,59 @@
+//! Collisions: contacts deeper than a resting touch, one finding per colliding pair and kind
+//! (the deepest), and the physics' own divergence warnings.
+//!
+//! Knows nothing about joints.
+
+use super::{Contact, ContactKind, Finding, FindingKind, Thresholds, Trace};
+
+pub(super) fn check_contacts(trace: &Trace, t: &Thresholds) -> Vec<Finding> {
+    deepest_per_pair(trace, t.contact_depth)
+        .into_iter()
+        .map(|c| Finding {
+            kind: match c.kind {
+                ContactKind::Floor => FindingKind::FloorCollision,
+                ContactKind::SelfCollision => FindingKind::SelfCollision,
+                ContactKind::Environment => FindingKind::Collision,
+            },
+            joint: None,
+            time: c.time,
+            message: format!(
+                "{} touches {}: {:.1} mm deep, {:.1} N",
+                c.body1,
+                c.body2,
+                c.depth * 1000.0,
+                c.force
+            ),
+        })
+        .collect()
+}
+
+/// The deepest contact of each (kind, body, body) at least `min_depth` deep, in the order the
+/// pairs first touch.
+fn deepest_per_pair(trace: &Trace, min_depth: f64) -> Vec<&Contact> {
+    let mut worst: Vec<&Contact> = Vec::new();
+    for c in trace.contacts.iter().filter(|c| c.depth >= min_depth) {
+        match worst
+            .iter_mut()
+            .find(|w| w.kind == c.kind && w.body1 == c.body1 && w.body2 == c.body2)
+        {
+            Some(w) if w.depth < c.depth => *w = c,
+            Some(_) => {}
+            None => worst.push(c),
+        }
+    }
+    worst
+}
+
+/// Each divergence the physics reported.
+pub(super) fn check_divergence(trace: &Trace) -> Vec<Finding> {
+    trace
+        .divergence
+        .iter()
+        .map(|(time, message)| Finding {
+            kind: FindingKind::Divergence,
+            joint: None,
+            time: *time,
+            message: message.clone(),
+        })
+        .collect()
+}

@@ -1,0 +1,322 @@
+//! Verdicts on a simulated run. Python measures; Rust decides (DESIGN.md): every threshold is
+//! in [`Thresholds`], applied to a [`Trace`] in joint units (degrees, metres, seconds).
+//!
+//! One check per [`FindingKind`], each in the module named for what it looks at:
+//! `tracking` (in motion, settling at keys), `speed`, `limits` (joint stops),
+//! `saturation`, `contacts` (collisions, divergence). This module only runs them, joint by
+//! joint, and knows nothing about any threshold's meaning.
+
+mod column;
+mod contacts;
+mod finding;
+mod limits;
+mod saturation;
+mod speed;
+mod tolerances;
+mod tracking;
+
+pub use finding::{Finding, FindingKind};
+pub use tolerances::Thresholds;
+
+use crate::robot::Robot;
+use column::Column;
+
+/// One simulated run, in joint units, one row per control cycle.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Trace {
+    /// Seconds since the start of the run.
+    pub time: Vec<f64>,
+    /// The sequence time each row belongs to, or `None` during the approach ramp.
+    pub sequence_time: Vec<Option<f64>>,
+    /// `commanded[row][joint]`
+    pub commanded: Vec<Vec<f64>>,
+    pub position: Vec<Vec<f64>>,
+    /// Joint units per second.
+    pub velocity: Vec<Vec<f64>>,
+    /// Actuator force or torque (N·m, N).
+    pub force: Vec<Vec<f64>>,
+    /// A joint-limit constraint was active.
+    pub at_limit: Vec<Vec<bool>>,
+    pub contacts: Vec<Contact>,
+    pub divergence: Vec<(f64, String)>,
+    /// Actuator force limits per joint (None: unlimited).
+    pub force_limits: Vec<Option<f64>>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Contact {
+    pub time: f64,
+    pub body1: String,
+    pub body2: String,
+    pub kind: ContactKind,
+    /// Penetration, metres (positive).
+    pub depth: f64,
+    /// Normal force, newtons.
+    pub force: f64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ContactKind {
+    Floor,
+    SelfCollision,
+    Environment,
+}
+
+impl ContactKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            ContactKind::Floor => "floor",
+            ContactKind::SelfCollision => "self",
+            ContactKind::Environment => "environment",
+        }
+    }
+}
+
+/// Per-joint tracking figures.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tracking {
+    pub joint: String,
+    pub unit: &'static str,
+    pub max_error: f64,
+    pub max_error_time: f64,
+    pub rms_error: f64,
+    /// (key label, sequence time, error) after settling at each key.
+    pub settled: Vec<(String, f64, f64)>,
+    pub peak_speed_servo_deg_s: f64,
+    pub servo_speed_limit_deg_s: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Verdict {
+    pub tracking: Vec<Tracking>,
+    pub findings: Vec<Finding>,
+}
+
+impl Verdict {
+    pub fn passed(&self) -> bool {
+        self.findings.is_empty()
+    }
+}
+
+/// Key times and labels in sequence time, for settling checks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KeyMark {
+    pub label: String,
+    /// When the arm should be at the key and still: the key time plus its hold.
+    pub settle_from: f64,
+}
+
+/// The verdict on `trace`: every check of every joint, then the run's contacts and divergence,
+/// findings in time order.
+pub fn judge(robot: &Robot, trace: &Trace, keys: &[KeyMark], t: &Thresholds) -> Verdict {
+    let mut findings = Vec::new();
+    let mut tracking = Vec::new();
+    for (index, joint) in robot.joints.iter().enumerate() {
+        let column = Column {
+            trace,
+            index,
+            joint,
+        };
+        tracking.push(judge_joint(&column, keys, t, &mut findings));
+    }
+    findings.extend(contacts::check_contacts(trace, t));
+    findings.extend(contacts::check_divergence(trace));
+    // Stable: findings at the same time keep the order of the checks.
+    findings.sort_by(|a, b| a.time.total_cmp(&b.time));
+    Verdict { tracking, findings }
+}
+
+/// One joint's checks, their findings added to `findings`, and its tracking figures.
+fn judge_joint(
+    column: &Column,
+    keys: &[KeyMark],
+    t: &Thresholds,
+    findings: &mut Vec<Finding>,
+) -> Tracking {
+    let errors = tracking::error_figures(column);
+    findings.extend(tracking::check_tracking(column, &errors, t));
+    let (settled, settling) = tracking::check_settling(column, keys, t);
+    findings.extend(settling);
+    let top_speed = speed::peak_servo_speed(column);
+    findings.extend(speed::check_speed(column, top_speed));
+    findings.extend(speed::check_commanded_speed(column));
+    findings.extend(limits::check_joint_stop(column));
+    findings.extend(saturation::check_saturation(column, t));
+    Tracking {
+        joint: column.joint.name.clone(),
+        unit: column.joint.kind.unit(),
+        max_error: errors.max,
+        max_error_time: errors.max_time,
+        rms_error: errors.rms,
+        settled,
+        peak_speed_servo_deg_s: top_speed.0,
+        servo_speed_limit_deg_s: column.servo_speed_limit(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A synthetic 2 s run at 100 Hz of the so101: every joint tracks perfectly unless a test
+    /// changes it.
+    fn perfect(robot: &Robot) -> Trace {
+        let rows = 200;
+        let n = robot.joints.len();
+        Trace {
+            time: (0..rows).map(|r| r as f64 / 100.0).collect(),
+            sequence_time: (0..rows).map(|r| Some(r as f64 / 100.0)).collect(),
+            commanded: vec![vec![0.0; n]; rows],
+            position: vec![vec![0.0; n]; rows],
+            velocity: vec![vec![0.0; n]; rows],
+            force: vec![vec![0.0; n]; rows],
+            at_limit: vec![vec![false; n]; rows],
+            contacts: Vec::new(),
+            divergence: Vec::new(),
+            force_limits: vec![Some(3.35); n],
+        }
+    }
+
+    fn kinds(v: &Verdict) -> Vec<&'static str> {
+        v.findings.iter().map(|f| f.kind.name()).collect()
+    }
+
+    #[test]
+    fn a_perfect_run_passes_with_zero_error() {
+        let robot = Robot::builtin("so101").unwrap();
+        let v = judge(&robot, &perfect(&robot), &[], &Thresholds::default());
+        assert!(v.passed(), "{:?}", v.findings);
+        assert!(v
+            .tracking
+            .iter()
+            .all(|t| t.max_error == 0.0 && t.rms_error == 0.0));
+    }
+
+    #[test]
+    fn tracking_error_max_and_rms_are_computed_by_hand() {
+        let robot = Robot::builtin("so101").unwrap();
+        let mut trace = perfect(&robot);
+        // Elbow lags 4° for the first half (100 rows) and 0 after: RMS = √(100·16/200) = √8.
+        for row in 0..100 {
+            trace.position[row][2] = 4.0;
+        }
+        let v = judge(&robot, &trace, &[], &Thresholds::default());
+        assert_eq!(v.tracking[2].max_error, 4.0);
+        assert!((v.tracking[2].rms_error - 8f64.sqrt()).abs() < 1e-12);
+        assert!(v.passed(), "4° is within the 15° allowed in motion");
+        trace.position[150][2] = 16.0;
+        let v = judge(&robot, &trace, &[], &Thresholds::default());
+        assert_eq!(kinds(&v), ["tracking"]);
+        assert_eq!(v.findings[0].time, 1.5);
+    }
+
+    #[test]
+    fn an_arm_that_has_not_settled_half_a_second_after_a_key_fails() {
+        let robot = Robot::builtin("so101").unwrap();
+        let mut trace = perfect(&robot);
+        // 5° off from t = 1.0 on; the key at 0.4 s settles by 0.9 s, so it is judged at 0.9 s
+        // (fine) and the key at 0.6 s at 1.1 s (5° off: fails).
+        for row in 100..200 {
+            trace.position[row][1] = 5.0;
+        }
+        let keys = [
+            KeyMark {
+                label: "a".into(),
+                settle_from: 0.4,
+            },
+            KeyMark {
+                label: "b".into(),
+                settle_from: 0.6,
+            },
+        ];
+        let v = judge(&robot, &trace, &keys, &Thresholds::default());
+        assert_eq!(kinds(&v), ["settling"]);
+        assert!(v.findings[0].message.contains("key b"));
+        assert_eq!(v.tracking[1].settled[0].2, 0.0);
+        assert_eq!(v.tracking[1].settled[1].2, 5.0);
+    }
+
+    #[test]
+    fn momentary_saturation_passes_sustained_saturation_fails() {
+        let robot = Robot::builtin("so101").unwrap();
+        let mut trace = perfect(&robot);
+        // 20 rows = 0.19 s at the limit: momentary.
+        for row in 10..30 {
+            trace.force[row][1] = -3.35;
+        }
+        assert!(judge(&robot, &trace, &[], &Thresholds::default()).passed());
+        // 40 rows = 0.39 s: sustained.
+        for row in 50..90 {
+            trace.force[row][1] = 3.34;
+        }
+        let v = judge(&robot, &trace, &[], &Thresholds::default());
+        assert_eq!(kinds(&v), ["saturation"]);
+        assert_eq!(v.findings[0].time, 0.5);
+    }
+
+    #[test]
+    fn speeds_beyond_the_servo_limits_fail() {
+        let robot = Robot::builtin("so101").unwrap();
+        let mut trace = perfect(&robot);
+        // STS3215 on 5 V: 200 °/s no-load; 199 passes, 201 fails.
+        trace.velocity[50][0] = 199.0;
+        assert!(judge(&robot, &trace, &[], &Thresholds::default()).passed());
+        trace.velocity[60][0] = -201.0;
+        let v = judge(&robot, &trace, &[], &Thresholds::default());
+        assert_eq!(kinds(&v), ["speed"]);
+        assert!((v.tracking[0].peak_speed_servo_deg_s - 201.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_command_faster_than_the_servo_fails() {
+        let robot = Robot::builtin("so101").unwrap();
+        let mut trace = perfect(&robot);
+        // 2.5° in one 10 ms cycle is 250 °/s, beyond the STS3215's 200 °/s on 5 V.
+        for row in 100..200 {
+            trace.commanded[row][4] = 2.5;
+            trace.position[row][4] = 2.5;
+        }
+        let v = judge(&robot, &trace, &[], &Thresholds::default());
+        assert_eq!(kinds(&v), ["speed"]);
+        assert!(
+            v.findings[0].message.contains("commanded 250 °/s"),
+            "{}",
+            v.findings[0].message
+        );
+        assert_eq!(v.findings[0].time, 1.0);
+    }
+
+    #[test]
+    fn limits_contacts_and_divergence_are_reported_once_each() {
+        let robot = Robot::builtin("so101").unwrap();
+        let mut trace = perfect(&robot);
+        trace.at_limit[70][3] = true;
+        trace.at_limit[71][3] = true;
+        let contact = |time, depth, kind| Contact {
+            time,
+            body1: "gripper".into(),
+            body2: "floor".into(),
+            kind,
+            depth,
+            force: 2.0,
+        };
+        trace.contacts = vec![
+            contact(0.8, 0.0001, ContactKind::Floor), // a resting touch: ignored
+            contact(0.9, 0.003, ContactKind::Floor),
+            contact(1.0, 0.004, ContactKind::Floor),
+            contact(1.1, 0.002, ContactKind::SelfCollision),
+        ];
+        trace.divergence = vec![(1.5, "mjWARN_BADQACC".into())];
+        let v = judge(&robot, &trace, &[], &Thresholds::default());
+        assert_eq!(
+            kinds(&v),
+            [
+                "joint limit",
+                "floor collision",
+                "self collision",
+                "divergence"
+            ]
+        );
+        assert!(v.findings[1].message.contains("4.0 mm deep"));
+    }
+}

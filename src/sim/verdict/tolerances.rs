@@ -1,0 +1,50 @@
+//! Every threshold a verdict applies, in one place, apart from the checks that apply them (as
+//! a trajectory controller keeps its goal and path tolerances apart from its control law).
+//!
+//! Knows nothing about traces or robots: plain numbers in joint units.
+
+/// The thresholds of a verdict.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Thresholds {
+    /// Largest tracking error, degrees (revolute) during motion.
+    pub max_error_deg: f64,
+    /// Largest tracking error, metres (prismatic).
+    pub max_error_m: f64,
+    /// Error allowed once the arm has settled at a key, degrees / metres.
+    pub settled_error_deg: f64,
+    pub settled_error_m: f64,
+    /// How long after a key (or the end of its hold) the arm has to settle, seconds.
+    pub settle_time: f64,
+    /// Saturation shorter than this is normal during fast moves, seconds.
+    pub saturation_time: f64,
+    /// Share of the force limit that counts as saturated.
+    pub saturation_share: f64,
+    /// Contacts shallower than this are resting touches, not collisions, metres.
+    pub contact_depth: f64,
+}
+
+impl Default for Thresholds {
+    fn default() -> Self {
+        Thresholds {
+            max_error_deg: 15.0,
+            max_error_m: 0.005,
+            settled_error_deg: 3.0,
+            settled_error_m: 0.002,
+            settle_time: 0.5,
+            saturation_time: 0.25,
+            saturation_share: 0.98,
+            contact_depth: 0.0005,
+        }
+    }
+}
+
+impl Thresholds {
+    /// (in motion, once settled) error allowed for a revolute or a prismatic joint.
+    pub fn error_allowed(&self, revolute: bool) -> (f64, f64) {
+        if revolute {
+            (self.max_error_deg, self.settled_error_deg)
+        } else {
+            (self.max_error_m, self.settled_error_m)
+        }
+    }
+}
