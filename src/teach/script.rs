@@ -6,9 +6,10 @@
 //! The script is strict where a terminal user would simply look again: a key sent while the
 //! session waits for an answer, or a bus failure, stops it with an error.
 
+use super::format;
 use super::keys::{parse_line, Key, Step};
-use super::state::Event;
-use super::{press, refresh, Session, TeachError, TeachState};
+use super::messages::Event;
+use super::{apply, press, refresh, Session, TeachError, TeachState};
 use std::io::{BufRead, Write};
 use std::time::Duration;
 
@@ -58,7 +59,7 @@ pub fn run(
         }
     }
     // The end of the script is the end of the session, as closing the terminal would be.
-    if let Some(question) = state.question() {
+    if let Some(question) = format::question(state) {
         return Err(TeachError::Script(format!(
             "the key script ended while the session asks: {question}"
         )));
@@ -72,8 +73,9 @@ pub fn run(
             "the key script ended with unsaved changes{journal}: end it with w (and q)"
         )));
     }
-    // Not dirty: a clean end, like `q`.
-    let _ = state.handle_key(Key::Char('q'));
+    // Not dirty: a clean end, like `q` (which removes the journal).
+    let commands = state.handle_key(Key::Char('q'));
+    apply(state, session, commands);
     Ok(())
 }
 
@@ -87,7 +89,7 @@ fn run_key(
         if !prompt.accepts(&key) {
             return Err(TeachError::Script(format!(
                 "{where_}: the session asks \"{}\"; expected an answer (yes or no)",
-                state.question().unwrap_or_default()
+                format::question(state).unwrap_or_default()
             )));
         }
     }
@@ -95,7 +97,8 @@ fn run_key(
     // Wait for the motion the key started, so the next step sees the arm at rest.
     if let Some(ended) = session.wait_motion()? {
         events.push(ended.clone());
-        state.on_event(ended);
+        let follow = state.on_event(ended);
+        events.extend(apply(state, session, follow));
     }
     let commanded = events.iter().any(|e| {
         matches!(
@@ -132,7 +135,7 @@ fn run_key(
 
 /// One line per step: the status, or the question the session now asks.
 fn show(echo: &mut impl Write, token: &str, state: &TeachState) {
-    let line = match state.question() {
+    let line = match format::question(state) {
         Some(question) => format!("teach: {token}: ? {question}"),
         None => {
             let status = state.status();
