@@ -1,23 +1,30 @@
 //! The command-line verbs. Each takes its parsed arguments and returns a [`Verdict`] or a
 //! [`CommandError`]; `main.rs` turns those into exit codes.
 
+pub mod args;
 pub mod check;
-pub mod hardware;
+pub mod doctor;
 pub mod option_values;
 pub mod play;
 pub mod plot;
+pub mod ports;
+pub mod read;
 pub mod record;
 pub mod retime;
 pub mod sample;
+pub mod scan;
 pub mod sim;
 pub mod teach;
+pub mod torque;
+pub mod virtual_bus;
 
-use crate::curve::Interp;
+pub use args::{BusArgs, RobotArgs, SequenceInput};
+
 use crate::json::{InputError, Location};
 use crate::robot::{import_lerobot_calibration, ResolveError, Robot};
 use crate::sequence::Sequence;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Whether `-v/--verbose` was given: commands then say which inputs they use.
@@ -93,45 +100,6 @@ impl From<crate::bus::BusError> for CommandError {
             crate::bus::BusError::HomingOffset(_) => CommandError::Usage(e.to_string()),
             _ => CommandError::Hardware(e.to_string()),
         }
-    }
-}
-
-/// The inputs every sequence command takes.
-#[derive(Debug, Clone, clap::Args)]
-pub struct SequenceInput {
-    /// Sequence file (keypose-sequence/1 JSON).
-    pub sequence: PathBuf,
-    /// Robot to use instead of the one the sequence names: a built-in name (so101, koch, omx)
-    /// or a robot file.
-    #[arg(long, value_name = "NAME|FILE")]
-    pub robot: Option<String>,
-    /// LeRobot calibration file to apply to the robot's servo mapping and limits.
-    #[arg(long, value_name = "FILE")]
-    pub calibration: Option<PathBuf>,
-    /// Interpolation for segments without their own "interp", instead of the file's: try the same
-    /// keys in another mode.
-    #[arg(long, value_name = "MODE", value_parser = parse_interp)]
-    pub interpolation: Option<Interp>,
-}
-
-fn parse_interp(s: &str) -> Result<Interp, String> {
-    Interp::parse(s)
-        .ok_or_else(|| format!("expected one of step, linear, cubic, monotone, found {s:?}"))
-}
-
-impl SequenceInput {
-    /// Loads the sequence and its robot (with any calibration applied).
-    pub fn load(&self) -> Result<(Sequence, Robot), CommandError> {
-        let mut sequence = Sequence::load(&self.sequence)?;
-        if let Some(mode) = self.interpolation {
-            sequence.interpolation = mode;
-        }
-        let robot = match &self.robot {
-            Some(spec) => resolve_option_robot(spec)?,
-            None => resolve_sequence_robot(&sequence, &self.sequence)?,
-        };
-        let robot = finish_robot(robot, self.calibration.as_deref())?;
-        Ok((sequence, robot))
     }
 }
 

@@ -1,6 +1,6 @@
 //! `keypose play`: stream a sequence to the servos.
 
-use super::hardware::BusArgs;
+use super::BusArgs;
 use super::{option_values, parse_control_rate, CommandError, SequenceInput, Verdict};
 use crate::plan::{check_at_speed, Trajectory};
 use crate::player::{self, Loops, Outcome, PlayError, PlayOptions, StopSignal};

@@ -1,8 +1,8 @@
 //! `keypose record`: move the arm by hand with torque off, then keep the fewest keyframes that
 //! reproduce the motion within a tolerance.
 
-use super::hardware::{BusArgs, RobotArgs};
 use super::{joint_indices, option_values, parse_control_rate, CommandError, Verdict};
+use super::{BusArgs, RobotArgs};
 use crate::curve::Interp;
 use crate::player::StopSignal;
 use crate::record::{

@@ -1,6 +1,6 @@
 //! `keypose teach`: the key-by-key teaching session, in a terminal or driven by a key script.
 
-use super::hardware::BusArgs;
+use super::BusArgs;
 use super::{CommandError, SequenceInput, Verdict};
 use crate::robot::Robot;
 use crate::sequence::{KeyframeList, Sequence};
