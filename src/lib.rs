@@ -2,12 +2,11 @@
 //!
 //! Data flows one way, from files to bytes: [`sequence`] and [`robot`] files become a
 //! [`plan::Trajectory`] of per-joint [`curve::Track`]s built on the [`pose`] math; [`report`]
-//! turns trajectories and checks into text, JSON and SVG. [`commands`] holds the command-line
-//! verbs so that `main.rs` only parses arguments and maps errors to exit codes.
+//! turns trajectories and checks into text, JSON and SVG. The command-line verbs belong to the
+//! binary (`src/commands/`), which uses this library as any other client would.
 
 pub mod atomic_file;
 pub mod bus;
-pub mod commands;
 pub mod curve;
 pub mod input_file;
 pub mod json;

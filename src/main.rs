@@ -1,7 +1,9 @@
 //! The `keypose` command line: parse arguments, run the verb, map the outcome to an exit code.
 
+mod commands;
+
 use clap::{Parser, Subcommand};
-use keypose::commands::{self, CommandError, Verdict};
+use commands::{CommandError, Verdict};
 use std::process::ExitCode;
 
 #[derive(Debug, Parser)]

@@ -2,10 +2,10 @@
 //! ([`RobotArgs`]), which sequence on which robot ([`SequenceInput`]).
 
 use super::{option_values, CommandError};
-use crate::bus::{self, Driver};
-use crate::curve::Interp;
-use crate::robot::Robot;
-use crate::sequence::Sequence;
+use keypose::bus::{self, Driver};
+use keypose::curve::Interp;
+use keypose::robot::Robot;
+use keypose::sequence::Sequence;
 use std::path::PathBuf;
 
 /// Where the servos are.

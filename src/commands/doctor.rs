@@ -1,14 +1,14 @@
 //! `keypose doctor`: what keypose finds on this machine, and what to fix.
 
 use super::{write_output, CommandError, Verdict};
-use crate::bus;
+use keypose::bus;
 
 /// `keypose doctor`: what keypose finds on this machine, and what to fix.
 pub fn run() -> Result<Verdict, CommandError> {
     let mut out = ports_report();
     out.push_str(&latency_report());
     out.push_str("python (vendor SDK bridge, simulation):\n");
-    out.push_str(&crate::pyenv::doctor_report());
+    out.push_str(&keypose::pyenv::doctor_report());
     out.push_str(&simulation_report());
     write_output(None, &out)?;
     Ok(Verdict::Pass)
@@ -51,7 +51,7 @@ fn latency_report() -> String {
 /// What the simulation harness reports when it starts: MuJoCo's version and the GL backend.
 /// Never builds the environment (that is for the first `sim`).
 fn simulation_report() -> String {
-    use crate::pyenv::{Harness, HarnessOptions, PyConfig};
+    use keypose::pyenv::{Harness, HarnessOptions, PyConfig};
     let config = match PyConfig::from_env() {
         Ok(c) => c,
         Err(e) => return format!("  simulation: {e}\n"),
@@ -64,7 +64,7 @@ fn simulation_report() -> String {
         Err(e) => return format!("  simulation: {e}\n"),
     };
     let started = config
-        .script_path(crate::sim::HARNESS_SCRIPT)
+        .script_path(keypose::sim::HARNESS_SCRIPT)
         .map_err(|e| e.to_string())
         .and_then(|script| {
             Harness::spawn(&python, &script, HarnessOptions::default()).map_err(|e| e.to_string())
@@ -75,7 +75,7 @@ fn simulation_report() -> String {
             let field = |name: &str| ready[name].as_str().unwrap_or("?").to_string();
             format!(
                 "  {}: ready: mujoco {}, numpy {}, MUJOCO_GL {}\n",
-                crate::sim::HARNESS_SCRIPT,
+                keypose::sim::HARNESS_SCRIPT,
                 field("mujoco"),
                 field("numpy"),
                 ready["gl"]
@@ -83,6 +83,6 @@ fn simulation_report() -> String {
                     .unwrap_or("not set (egl is tried first, then osmesa)")
             )
         }
-        Err(e) => format!("  {}: does not start: {e}\n", crate::sim::HARNESS_SCRIPT),
+        Err(e) => format!("  {}: does not start: {e}\n", keypose::sim::HARNESS_SCRIPT),
     }
 }

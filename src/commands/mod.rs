@@ -20,9 +20,9 @@ pub mod virtual_bus;
 
 pub use args::{BusArgs, RobotArgs, SequenceInput};
 
-use crate::json::{InputError, Location};
-use crate::robot::{import_lerobot_calibration, ResolveError, Robot};
-use crate::sequence::Sequence;
+use keypose::json::{InputError, Location};
+use keypose::robot::{import_lerobot_calibration, ResolveError, Robot};
+use keypose::sequence::Sequence;
 use std::io::Write;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -93,11 +93,11 @@ impl CommandError {
     }
 }
 
-impl From<crate::bus::BusError> for CommandError {
-    fn from(e: crate::bus::BusError) -> Self {
+impl From<keypose::bus::BusError> for CommandError {
+    fn from(e: keypose::bus::BusError) -> Self {
         match e {
             // The servos are fine; the calibration is not theirs: bad input.
-            crate::bus::BusError::HomingOffset(_) => CommandError::Usage(e.to_string()),
+            keypose::bus::BusError::HomingOffset(_) => CommandError::Usage(e.to_string()),
             _ => CommandError::Hardware(e.to_string()),
         }
     }
@@ -132,7 +132,7 @@ fn resolve_sequence_robot(sequence: &Sequence, sequence_path: &Path) -> Result<R
 /// Applies the calibration, then says which robot (and calibration) is in use under `-v`.
 fn finish_robot(mut robot: Robot, calibration: Option<&Path>) -> Result<Robot, CommandError> {
     if let Some(path) = calibration {
-        let text = crate::json::read_text(path)?;
+        let text = keypose::json::read_text(path)?;
         import_lerobot_calibration(&mut robot, &path.display().to_string(), &text)?;
     }
     if verbose() {
@@ -151,7 +151,7 @@ pub const MAX_SAMPLES: f64 = 5_000_000.0;
 /// Refuses a rate that would sample `trajectory` more than [`MAX_SAMPLES`] times.
 pub fn check_sample_budget(
     file: &str,
-    trajectory: &crate::plan::Trajectory,
+    trajectory: &keypose::plan::Trajectory,
     rate: f64,
 ) -> Result<(), CommandError> {
     let samples = trajectory.duration() * rate;
@@ -200,9 +200,9 @@ pub fn parse_rate(s: &str) -> Result<f64, String> {
 }
 
 /// Parses a control rate for clap (`play`, `record`): a finite number within
-/// [`crate::player::RATE_RANGE_HZ`].
+/// [`keypose::player::RATE_RANGE_HZ`].
 pub fn parse_control_rate(s: &str) -> Result<f64, String> {
-    let range = crate::player::RATE_RANGE_HZ;
+    let range = keypose::player::RATE_RANGE_HZ;
     match s.parse::<f64>() {
         Ok(rate) if range.contains(&rate) => Ok(rate),
         _ => Err(format!(
@@ -216,7 +216,7 @@ pub fn parse_control_rate(s: &str) -> Result<f64, String> {
 /// The rate a loop that drives servos runs at: `--rate`, or the robot's own control rate, which
 /// a robot file may set outside what the player can keep; checked before anything is opened.
 pub fn control_rate(rate: Option<f64>, robot: &Robot) -> Result<f64, CommandError> {
-    let range = crate::player::RATE_RANGE_HZ;
+    let range = keypose::player::RATE_RANGE_HZ;
     match rate {
         Some(rate) => Ok(rate),
         None if range.contains(&robot.control_hz) => Ok(robot.control_hz),
@@ -240,7 +240,7 @@ pub fn limit_check_rate(rate: Option<f64>, robot: &Robot) -> f64 {
 /// standard output (`keypose sample … | head`) is not an error.
 pub fn write_output(path: Option<&Path>, text: &str) -> Result<(), CommandError> {
     match path {
-        Some(path) => crate::atomic_file::write(path, text.as_bytes()).map_err(|source| {
+        Some(path) => keypose::atomic_file::write(path, text.as_bytes()).map_err(|source| {
             CommandError::Output {
                 path: path.display().to_string(),
                 source,
@@ -248,7 +248,7 @@ pub fn write_output(path: Option<&Path>, text: &str) -> Result<(), CommandError>
         }),
         None => {
             // Reports quote file text (key and joint names); a terminal must not run it.
-            let text = crate::terminal_text::escape_controls(text);
+            let text = keypose::terminal_text::escape_controls(text);
             let mut stdout = std::io::stdout().lock();
             match stdout
                 .write_all(text.as_bytes())

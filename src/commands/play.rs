@@ -2,10 +2,10 @@
 
 use super::BusArgs;
 use super::{option_values, parse_control_rate, CommandError, SequenceInput, Verdict};
-use crate::plan::{check_at_speed, Trajectory};
-use crate::player::{self, Loops, Outcome, PlayError, PlayOptions, StopSignal};
-use crate::report;
-use crate::terminal_text::escape_controls;
+use keypose::plan::{check_at_speed, Trajectory};
+use keypose::player::{self, Loops, Outcome, PlayError, PlayOptions, StopSignal};
+use keypose::report;
+use keypose::terminal_text::escape_controls;
 use std::path::PathBuf;
 
 #[derive(Debug, Clone, clap::Args)]

@@ -1,7 +1,7 @@
 //! `keypose ports`: the serial ports of this machine.
 
 use super::{write_output, CommandError, Verdict};
-use crate::bus;
+use keypose::bus;
 
 /// `keypose ports`: the serial ports of this machine, with USB adapter details.
 pub fn run() -> Result<Verdict, CommandError> {

@@ -3,13 +3,13 @@
 
 use super::{joint_indices, option_values, parse_control_rate, CommandError, Verdict};
 use super::{BusArgs, RobotArgs};
-use crate::curve::Interp;
-use crate::player::StopSignal;
-use crate::record::{
+use keypose::curve::Interp;
+use keypose::player::StopSignal;
+use keypose::record::{
     self, KeyframeOptions, Keyframes, RecordError, RecordOptions, Retimed, StopReason,
 };
-use crate::report;
-use crate::terminal_text::escape_controls;
+use keypose::report;
+use keypose::terminal_text::escape_controls;
 use std::io::{BufRead, IsTerminal};
 use std::path::{Path, PathBuf};
 
@@ -212,7 +212,7 @@ fn check_output_dir(output: &Path) -> Result<(), CommandError> {
 /// so that `keypose check` finds the same robot from anywhere.
 fn robot_reference(spec: &str) -> String {
     let path = Path::new(spec);
-    if crate::robot::names_a_file(spec) {
+    if keypose::robot::names_a_file(spec) {
         if let Ok(absolute) = std::fs::canonicalize(path) {
             return absolute.display().to_string();
         }
@@ -224,7 +224,7 @@ fn robot_reference(spec: &str) -> String {
 /// may not be what the hand did there.
 fn warn_about_gaps(gaps: &record::SampleGaps, rate: f64) {
     let period = 1.0 / rate;
-    if gaps.missing() == 0 && gaps.longest <= crate::player::STALL_PERIODS * period {
+    if gaps.missing() == 0 && gaps.longest <= keypose::player::STALL_PERIODS * period {
         return;
     }
     eprintln!(

@@ -1,8 +1,8 @@
 //! `keypose scan`: which servos answer on a port.
 
 use super::{option_values, write_output, CommandError, Verdict};
-use crate::bus::{self, Driver};
-use crate::robot::Protocol;
+use keypose::bus::{self, Driver};
+use keypose::robot::Protocol;
 use serde_json::json;
 
 #[derive(Debug, Clone, clap::Args)]

@@ -2,9 +2,9 @@
 
 use super::BusArgs;
 use super::{CommandError, SequenceInput, Verdict};
-use crate::robot::Robot;
-use crate::sequence::{KeyframeList, Sequence};
-use crate::teach::{self, Journal, Session, TeachError, TeachState};
+use keypose::robot::Robot;
+use keypose::sequence::{KeyframeList, Sequence};
+use keypose::teach::{self, Journal, Session, TeachError, TeachState};
 use std::io::{BufRead, BufReader, IsTerminal};
 use std::path::{Path, PathBuf};
 
@@ -65,7 +65,7 @@ pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
     super::control_rate(None, &robot)?;
 
     // Without a cache directory the session still runs, unjournaled; the screen says so.
-    let journal = crate::pyenv::PyConfig::from_env()
+    let journal = keypose::pyenv::PyConfig::from_env()
         .ok()
         .map(|config| Journal::for_target(&config.cache_dir, &output));
     let pending = match &journal {
@@ -73,7 +73,7 @@ pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
             let message = e.to_string();
             eprintln!(
                 "warning: the journal cannot be read, it is ignored: {}",
-                crate::terminal_text::escape_controls(&message)
+                keypose::terminal_text::escape_controls(&message)
             );
             None
         }),
@@ -154,6 +154,6 @@ fn open_script(path: &Path) -> Result<Box<dyn BufRead>, CommandError> {
     }
     // A regular file: a script is read line by line, and a device such as /dev/zero has no end
     // of line (`-` reads standard input, for a pipe).
-    let file = crate::input_file::open_regular(path)?;
+    let file = keypose::input_file::open_regular(path)?;
     Ok(Box::new(BufReader::new(file)))
 }

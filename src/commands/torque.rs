@@ -1,7 +1,7 @@
 //! `keypose torque on|off`: hold the arm where it is, or let it go limp.
 
 use super::{BusArgs, CommandError, RobotArgs, Verdict};
-use crate::robot::Robot;
+use keypose::robot::Robot;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum OnOff {
@@ -58,7 +58,7 @@ fn hold_goals(
         .zip(ticks)
         .map(|(&j, &tick)| {
             let joint = &robot.joints[j];
-            let goal = crate::player::hold_tick(joint, tick).ok_or_else(|| {
+            let goal = keypose::player::hold_tick(joint, tick).ok_or_else(|| {
                 CommandError::Usage(format!(
                     "{} is at {:.2} {}, past its limits {} … {}: move it inside by hand first (nothing was sent)",
                     joint.name,

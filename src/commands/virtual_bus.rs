@@ -2,8 +2,8 @@
 //! offsets and a hand that moves the arm.
 
 use super::{option_values, CommandError, Verdict};
-use crate::bus;
-use crate::robot::Robot;
+use keypose::bus;
+use keypose::robot::Robot;
 use std::io::BufRead;
 use std::path::PathBuf;
 
@@ -87,7 +87,7 @@ fn parse_homing_offset(s: &str) -> Result<(u8, i64), String> {
 fn start_hand(
     bus: &bus::virtual_bus::VirtualBus,
     robot: &Robot,
-    trajectory: crate::plan::Trajectory,
+    trajectory: keypose::plan::Trajectory,
 ) -> bus::virtual_bus::Hand {
     let ids = robot.joints.iter().map(|j| j.servo.id).collect();
     let servos: Vec<_> = robot.joints.iter().map(|j| j.servo.clone()).collect();
@@ -110,8 +110,8 @@ pub fn run(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
     check_fault_ids(&robot, &args.fault)?;
     let hand_trajectory = match &args.hand {
         Some(path) => {
-            let sequence = crate::sequence::Sequence::load(path)?;
-            Some(crate::plan::Trajectory::build(&sequence, &robot)?)
+            let sequence = keypose::sequence::Sequence::load(path)?;
+            Some(keypose::plan::Trajectory::build(&sequence, &robot)?)
         }
         None => None,
     };
@@ -182,7 +182,7 @@ fn inject_faults_after(server: &bus::virtual_bus::PtyServer, faults: Vec<FaultSp
 /// Blocks until standard input closes (the parent went away) or a signal arrives, checking
 /// every 20 ms so that a signal is acted on promptly.
 fn wait_for_the_end() {
-    let stop = crate::player::StopSignal::default();
+    let stop = keypose::player::StopSignal::default();
     let handler_stop = stop.clone();
     let _ = ctrlc::set_handler(move || handler_stop.request());
     let (tx, rx) = std::sync::mpsc::channel();
