@@ -3,12 +3,15 @@
 
 use super::{joint_indices, option_values, parse_control_rate, CommandError, Verdict};
 use super::{BusArgs, RobotArgs};
+use keypose::bus::Connection;
 use keypose::curve::Interp;
 use keypose::player::StopSignal;
 use keypose::record::{
-    self, KeyframeOptions, Keyframes, RecordError, RecordOptions, Retimed, StopReason,
+    self, KeyframeOptions, Keyframes, RecordError, RecordOptions, Recording, Retimed, StopReason,
 };
 use keypose::report;
+use keypose::robot::Robot;
+use keypose::sequence::Sequence;
 use keypose::terminal_text::escape_controls;
 use std::io::{BufRead, IsTerminal};
 use std::path::{Path, PathBuf};
@@ -90,38 +93,35 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
     }
     .load()?;
     let joints = joint_indices(&robot, &args.joints)?;
-    let port = args.bus.port.as_deref().ok_or_else(|| {
-        CommandError::Usage(
-            "--port is required: a serial port (see `keypose ports`) or \"virtual\"".into(),
-        )
-    })?;
+    let port = args.bus.required_port()?;
     // Refuse a place the file cannot go before the user spends minutes moving the arm.
     check_output_dir(&args.output)?;
     let rate = super::control_rate(args.rate, &robot)?;
+    // The connection stays open to the end, as the emulated servos of `--port virtual` do.
+    let (_connection, recording) = capture(args, &robot, joints, port, rate)?;
+    let (result, sequence) = fit_and_save(args, &robot, &recording, rate)?;
+    print_summary(&result, &args.output, args.calibration.is_some());
+    hint_at_linear(args, &result);
+    conclude(&recording, &result, &sequence, &robot)
+}
 
-    let mut connection = args.bus.connect(&robot, port)?;
+/// Limps the joints and records until Enter, Ctrl-C or the duration; says what is missing.
+fn capture(
+    args: &RecordArgs,
+    robot: &Robot,
+    joints: Vec<usize>,
+    port: &str,
+    rate: f64,
+) -> Result<(Connection, Recording), CommandError> {
+    let mut connection = args.bus.connect(robot, port)?;
     let stop = StopSignal::default();
     let handler_stop = stop.clone();
     // Only the first handler registration in a process succeeds; a second command in the same
     // process (tests) keeps the first handler, and then only Enter or --duration stop.
     let _ = ctrlc::set_handler(move || handler_stop.request());
     watch_stdin(stop.clone(), args.duration.is_none());
-
-    let names: Vec<&str> = joints
-        .iter()
-        .map(|&j| robot.joints[j].name.as_str())
-        .collect();
     if !args.quiet {
-        eprintln!(
-            "recording {} on {} at {rate} Hz: torque is off on {}; move the arm by hand, then {}",
-            robot.name,
-            connection.bus.describe(),
-            names.join(", "),
-            match args.duration {
-                Some(d) => format!("wait {d} s (or press Enter)"),
-                None => "press Enter (or Ctrl-C)".into(),
-            }
-        );
+        announce(args, robot, &joints, &connection.bus.describe(), rate);
     }
     let options = RecordOptions {
         rate_hz: rate,
@@ -131,7 +131,7 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
         progress: !args.quiet && std::io::stderr().is_terminal(),
     };
     let recording =
-        record::record(connection.bus.as_mut(), &robot, &options, &stop).map_err(|e| match e {
+        record::record(connection.bus.as_mut(), robot, &options, &stop).map_err(|e| match e {
             RecordError::Fault { .. } => CommandError::Hardware(format!(
                 "recording stopped: {e}; the limp joints were asked to hold where they are"
             )),
@@ -144,7 +144,33 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
             record::MAX_SECONDS
         );
     }
+    Ok((connection, recording))
+}
 
+/// What is about to happen, and how to end it.
+fn announce(args: &RecordArgs, robot: &Robot, joints: &[usize], bus: &str, rate: f64) {
+    let names: Vec<&str> = joints
+        .iter()
+        .map(|&j| robot.joints[j].name.as_str())
+        .collect();
+    eprintln!(
+        "recording {} on {bus} at {rate} Hz: torque is off on {}; move the arm by hand, then {}",
+        robot.name,
+        names.join(", "),
+        match args.duration {
+            Some(d) => format!("wait {d} s (or press Enter)"),
+            None => "press Enter (or Ctrl-C)".into(),
+        }
+    );
+}
+
+/// The keyframes of `recording`, saved to `-o` under the robot's name as given.
+fn fit_and_save(
+    args: &RecordArgs,
+    robot: &Robot,
+    recording: &Recording,
+    rate: f64,
+) -> Result<(Keyframes, Sequence), CommandError> {
     if !args.quiet && recording.times.len() > LONG_RECORDING_SAMPLES {
         // Extraction grows with the length: a long recording takes seconds, so say what runs.
         eprintln!(
@@ -153,8 +179,8 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
         );
     }
     let result = record::keyframes(
-        &recording,
-        &robot,
+        recording,
+        robot,
         &KeyframeOptions {
             interpolation: args.interpolation,
             tolerance_deg: args.tolerance,
@@ -167,8 +193,12 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
     sequence.robot = robot_reference(&args.robot);
     sequence.file = args.output.display().to_string();
     sequence.save(&args.output)?;
+    Ok((result, sequence))
+}
 
-    print_summary(&result, &args.output, args.calibration.is_some());
+/// Linear keys that had to be slowed down much, or that still break the limits, would keep
+/// the recorded timing in a smooth mode.
+fn hint_at_linear(args: &RecordArgs, result: &Keyframes) {
     let slowed = result
         .retimed
         .as_ref()
@@ -178,13 +208,23 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
             "hint: a linear corner changes velocity within one control period, which the acceleration limits allow only when slow; monotone or cubic keep the recorded timing"
         );
     }
+}
+
+/// The file is saved either way; an arm that may still be limp is the worse news, then the
+/// limits the keys break.
+fn conclude(
+    recording: &Recording,
+    result: &Keyframes,
+    sequence: &Sequence,
+    robot: &Robot,
+) -> Result<Verdict, CommandError> {
     if let Some(e) = &recording.hold_error {
         return Err(CommandError::Hardware(format!(
             "the keyframes are saved, but the limp joints could not be made to hold again ({e}): the arm may be limp, support it"
         )));
     }
     if !result.check.passed() {
-        let text = report::check_text(&result.check, &sequence.file, &robot);
+        let text = report::check_text(&result.check, &sequence.file, robot);
         eprint!("{}", escape_controls(&text));
         eprintln!("the keyframes are saved, but they break the limits above");
         return Ok(Verdict::Fail);
