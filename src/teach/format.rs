@@ -84,3 +84,24 @@ pub fn question(state: &TeachState) -> Option<String> {
         }
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sequence::{KeyValue, Keyframe};
+
+    #[test]
+    fn values_keys_and_joints_read_as_the_screen_shows_them() {
+        let robot = Robot::builtin("so101").unwrap();
+        assert_eq!(value(&robot.joints[0], 12.34), "12.3°");
+        assert_eq!((count(1), count(3)), ("1 key".into(), "3 keys".into()));
+        let mut sequence = Sequence::new("so101");
+        let mut key = Keyframe::new(vec![("gripper".into(), KeyValue::Joint(0.0))]);
+        key.name = Some("wave".into());
+        sequence.keyframes.push(key);
+        assert_eq!(key_label(&sequence, 0), "key 0 (wave)");
+        assert_eq!(key_label(&sequence, 1), "key 1");
+        assert_eq!(joint_list(&robot, &[1, 2]), "shoulder_lift, elbow_flex");
+        assert_eq!(joint_list(&robot, &[0, 1, 2, 3, 4, 5]), "all joints");
+    }
+}
