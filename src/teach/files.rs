@@ -28,18 +28,9 @@ pub fn execute(command: FileCommand) -> Event {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sequence::{KeyValue, Keyframe};
+    use crate::teach::journal::tests::one_key;
     use crate::teach::journal::Journal;
     use crate::teach::messages::Clearing;
-
-    fn one_key() -> Sequence {
-        let mut s = Sequence::new("so101");
-        s.keyframes.push(Keyframe::new(vec![(
-            "gripper".into(),
-            KeyValue::Joint(5.0),
-        )]));
-        s
-    }
 
     #[test]
     fn a_saved_list_loads_back_and_a_missing_file_is_an_error_message() {
