@@ -58,7 +58,12 @@ pub fn run(
             }
         }
     }
-    // The end of the script is the end of the session, as closing the terminal would be.
+    end(state, session)
+}
+
+/// The end of the script is the end of the session, as closing the terminal would be: an
+/// error while a question is open or work is unsaved, else a clean `q`.
+fn end(state: &mut TeachState, session: &mut Session) -> Result<(), TeachError> {
     if let Some(question) = format::question(state) {
         return Err(TeachError::Script(format!(
             "the key script ended while the session asks: {question}"
@@ -117,20 +122,22 @@ fn run_key(
         }
         refresh(state, session);
     }
-    for event in &events {
-        let failure = match event {
-            Event::BusError(message) => Some(message.clone()),
-            Event::MotionEnded {
-                outcome: Err(message),
-                ..
-            } => Some(message.clone()),
-            _ => None,
-        };
-        if let Some(message) = failure {
-            return Err(TeachError::Hardware(format!("{where_}: {message}")));
-        }
+    match events.iter().find_map(failure) {
+        Some(message) => Err(TeachError::Hardware(format!("{where_}: {message}"))),
+        None => Ok(()),
     }
-    Ok(())
+}
+
+/// What a script stops on: a bus failure, or a motion that ended in a fault.
+fn failure(event: &Event) -> Option<String> {
+    match event {
+        Event::BusError(message) => Some(message.clone()),
+        Event::MotionEnded {
+            outcome: Err(message),
+            ..
+        } => Some(message.clone()),
+        _ => None,
+    }
 }
 
 /// One line per step: the status, or the question the session now asks.
