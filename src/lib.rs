@@ -17,12 +17,11 @@
 //!   made by hand into keys; [`teach`] is the teach pendant; [`report`] writes text, JSON and
 //!   SVG.
 //!
-//! The command line lives in [`commands`]; `main.rs` only parses arguments and maps errors to
-//! exit codes.
+//! The command-line verbs belong to the binary (`src/commands/`), which uses this library as
+//! any other client would.
 
 pub mod atomic_file;
 pub mod bus;
-pub mod commands;
 pub mod curve;
 
 pub mod json;

@@ -1,7 +1,9 @@
 //! The `keypose` command line: parse arguments, run the verb, map the outcome to an exit code.
 
+mod commands;
+
 use clap::{Parser, Subcommand};
-use keypose::commands::{self, CommandError, Verdict};
+use commands::{CommandError, Verdict};
 use std::process::ExitCode;
 
 #[derive(Debug, Parser)]
@@ -54,11 +56,11 @@ enum Command {
     /// reproduce it within a tolerance.
     Record(commands::record::RecordArgs),
     /// Print the present pose (degrees; metres for prismatic joints) as JSON.
-    Read(commands::hardware::ReadArgs),
+    Read(commands::read::ReadArgs),
     /// Turn torque on (hold where the arm is) or off (limp) for all or some joints.
-    Torque(commands::hardware::TorqueArgs),
+    Torque(commands::torque::TorqueArgs),
     /// Find the servos on a port: ping every id, report ids and models as JSON.
-    Scan(commands::hardware::ScanArgs),
+    Scan(commands::scan::ScanArgs),
     /// List serial ports, with USB adapter details where the system gives them.
     Ports,
     /// Check this machine: serial ports, USB latency timers, the Python environment.
@@ -67,7 +69,7 @@ enum Command {
     ///
     /// Prints the device path as the first line, then serves until standard input closes or
     /// the process is terminated.
-    VirtualBus(commands::hardware::VirtualBusArgs),
+    VirtualBus(commands::virtual_bus::VirtualBusArgs),
 }
 
 fn main() -> ExitCode {
@@ -82,12 +84,12 @@ fn main() -> ExitCode {
         Command::Play(args) => commands::play::run(args),
         Command::Teach(args) => commands::teach::run(args),
         Command::Record(args) => commands::record::run(args),
-        Command::Read(args) => commands::hardware::read(args),
-        Command::Torque(args) => commands::hardware::torque(args),
-        Command::Scan(args) => commands::hardware::scan(args),
-        Command::Ports => commands::hardware::ports(),
-        Command::Doctor => commands::hardware::doctor(),
-        Command::VirtualBus(args) => commands::hardware::virtual_bus(args),
+        Command::Read(args) => commands::read::run(args),
+        Command::Torque(args) => commands::torque::run(args),
+        Command::Scan(args) => commands::scan::run(args),
+        Command::Ports => commands::ports::run(),
+        Command::Doctor => commands::doctor::run(),
+        Command::VirtualBus(args) => commands::virtual_bus::run(args),
     };
     let code = match result {
         Ok(verdict) => verdict.exit_code(),

@@ -1,8 +1,8 @@
 //! `keypose check`: the sampled curve against the robot's limits.
 
 use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
-use crate::plan::{check, Trajectory};
-use crate::report;
+use keypose::plan::{check, Trajectory};
+use keypose::report;
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct CheckArgs {

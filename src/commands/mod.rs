@@ -1,23 +1,30 @@
 //! The command-line verbs. Each takes its parsed arguments and returns a [`Verdict`] or a
 //! [`CommandError`]; `main.rs` turns those into exit codes.
 
+pub mod args;
 pub mod check;
-pub mod hardware;
+pub mod doctor;
 pub mod option_values;
 pub mod play;
 pub mod plot;
+pub mod ports;
+pub mod read;
 pub mod record;
 pub mod retime;
 pub mod sample;
+pub mod scan;
 pub mod sim;
 pub mod teach;
+pub mod torque;
+pub mod virtual_bus;
 
-use crate::curve::Interp;
-use crate::json::{InputError, Location};
-use crate::robot::{import_lerobot_calibration, ResolveError, Robot};
-use crate::sequence::Sequence;
+pub use args::{BusArgs, RobotArgs, SequenceInput};
+
+use keypose::json::{InputError, Location};
+use keypose::robot::{import_lerobot_calibration, ResolveError, Robot};
+use keypose::sequence::Sequence;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Whether `-v/--verbose` was given: commands then say which inputs they use.
@@ -86,52 +93,13 @@ impl CommandError {
     }
 }
 
-impl From<crate::bus::BusError> for CommandError {
-    fn from(e: crate::bus::BusError) -> Self {
+impl From<keypose::bus::BusError> for CommandError {
+    fn from(e: keypose::bus::BusError) -> Self {
         match e {
             // The servos are fine; the calibration is not theirs: bad input.
-            crate::bus::BusError::HomingOffset(_) => CommandError::Usage(e.to_string()),
+            keypose::bus::BusError::HomingOffset(_) => CommandError::Usage(e.to_string()),
             _ => CommandError::Hardware(e.to_string()),
         }
-    }
-}
-
-/// The inputs every sequence command takes.
-#[derive(Debug, Clone, clap::Args)]
-pub struct SequenceInput {
-    /// Sequence file (keypose-sequence/1 JSON).
-    pub sequence: PathBuf,
-    /// Robot to use instead of the one the sequence names: a built-in name (so101, koch, omx)
-    /// or a robot file.
-    #[arg(long, value_name = "NAME|FILE")]
-    pub robot: Option<String>,
-    /// LeRobot calibration file to apply to the robot's servo mapping and limits.
-    #[arg(long, value_name = "FILE")]
-    pub calibration: Option<PathBuf>,
-    /// Interpolation for segments without their own "interp", instead of the file's: try the same
-    /// keys in another mode.
-    #[arg(long, value_name = "MODE", value_parser = parse_interp)]
-    pub interpolation: Option<Interp>,
-}
-
-fn parse_interp(s: &str) -> Result<Interp, String> {
-    Interp::parse(s)
-        .ok_or_else(|| format!("expected one of step, linear, cubic, monotone, found {s:?}"))
-}
-
-impl SequenceInput {
-    /// Loads the sequence and its robot (with any calibration applied).
-    pub fn load(&self) -> Result<(Sequence, Robot), CommandError> {
-        let mut sequence = Sequence::load(&self.sequence)?;
-        if let Some(mode) = self.interpolation {
-            sequence.interpolation = mode;
-        }
-        let robot = match &self.robot {
-            Some(spec) => resolve_option_robot(spec)?,
-            None => resolve_sequence_robot(&sequence, &self.sequence)?,
-        };
-        let robot = finish_robot(robot, self.calibration.as_deref())?;
-        Ok((sequence, robot))
     }
 }
 
@@ -164,7 +132,7 @@ fn resolve_sequence_robot(sequence: &Sequence, sequence_path: &Path) -> Result<R
 /// Applies the calibration, then says which robot (and calibration) is in use under `-v`.
 fn finish_robot(mut robot: Robot, calibration: Option<&Path>) -> Result<Robot, CommandError> {
     if let Some(path) = calibration {
-        let text = crate::json::read_text(path)?;
+        let text = keypose::json::read_text(path)?;
         import_lerobot_calibration(&mut robot, &path.display().to_string(), &text)?;
     }
     if verbose() {
@@ -183,7 +151,7 @@ pub const MAX_SAMPLES: f64 = 5_000_000.0;
 /// Refuses a rate that would sample `trajectory` more than [`MAX_SAMPLES`] times.
 pub fn check_sample_budget(
     file: &str,
-    trajectory: &crate::plan::Trajectory,
+    trajectory: &keypose::plan::Trajectory,
     rate: f64,
 ) -> Result<(), CommandError> {
     let samples = trajectory.duration() * rate;
@@ -232,9 +200,9 @@ pub fn parse_rate(s: &str) -> Result<f64, String> {
 }
 
 /// Parses a control rate for clap (`play`, `record`): a finite number within
-/// [`crate::pacing::RATE_RANGE_HZ`].
+/// [`keypose::pacing::RATE_RANGE_HZ`].
 pub fn parse_control_rate(s: &str) -> Result<f64, String> {
-    let range = crate::pacing::RATE_RANGE_HZ;
+    let range = keypose::pacing::RATE_RANGE_HZ;
     match s.parse::<f64>() {
         Ok(rate) if range.contains(&rate) => Ok(rate),
         _ => Err(format!(
@@ -248,7 +216,7 @@ pub fn parse_control_rate(s: &str) -> Result<f64, String> {
 /// The rate a loop that drives servos runs at: `--rate`, or the robot's own control rate, which
 /// a robot file may set outside what the player can keep; checked before anything is opened.
 pub fn control_rate(rate: Option<f64>, robot: &Robot) -> Result<f64, CommandError> {
-    let range = crate::pacing::RATE_RANGE_HZ;
+    let range = keypose::pacing::RATE_RANGE_HZ;
     match rate {
         Some(rate) => Ok(rate),
         None if range.contains(&robot.control_hz) => Ok(robot.control_hz),
@@ -272,7 +240,7 @@ pub fn limit_check_rate(rate: Option<f64>, robot: &Robot) -> f64 {
 /// standard output (`keypose sample … | head`) is not an error.
 pub fn write_output(path: Option<&Path>, text: &str) -> Result<(), CommandError> {
     match path {
-        Some(path) => crate::atomic_file::write(path, text.as_bytes()).map_err(|source| {
+        Some(path) => keypose::atomic_file::write(path, text.as_bytes()).map_err(|source| {
             CommandError::Output {
                 path: path.display().to_string(),
                 source,
@@ -280,7 +248,7 @@ pub fn write_output(path: Option<&Path>, text: &str) -> Result<(), CommandError>
         }),
         None => {
             // Reports quote file text (key and joint names); a terminal must not run it.
-            let text = crate::terminal_text::escape_controls(text);
+            let text = keypose::terminal_text::escape_controls(text);
             let mut stdout = std::io::stdout().lock();
             match stdout
                 .write_all(text.as_bytes())

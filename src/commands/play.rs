@@ -1,12 +1,14 @@
 //! `keypose play`: stream a sequence to the servos.
 
-use super::hardware::BusArgs;
+use super::BusArgs;
 use super::{option_values, parse_control_rate, CommandError, SequenceInput, Verdict};
-use crate::plan::Loops;
-use crate::plan::{check_at_speed, Trajectory};
-use crate::player::{self, Outcome, PlayError, PlayOptions};
-use crate::report;
-use crate::terminal_text::escape_controls;
+use keypose::plan::Loops;
+use keypose::plan::{check_at_speed, Trajectory};
+use keypose::player::{self, Outcome, PlayError, PlayOptions};
+use keypose::report;
+use keypose::robot::Robot;
+use keypose::sequence::Sequence;
+use keypose::terminal_text::escape_controls;
 use std::path::PathBuf;
 
 #[derive(Debug, Clone, clap::Args)]
@@ -85,16 +87,7 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
             "--no-approach makes the arm jump to the first pose at full speed; add --i-accept-the-jump to confirm".into(),
         ));
     }
-    let from_key = match &args.from {
-        None => None,
-        Some(key) => Some(resolve_key(&trajectory, key).ok_or_else(|| {
-            CommandError::Usage(format!(
-                "--from {key:?}: no such key; expected an index 0…{} or one of: {}",
-                trajectory.key_times.len() - 1,
-                trajectory.key_labels.join(", ")
-            ))
-        })?),
-    };
+    let from_key = from_key(args, &trajectory)?;
     let rate = super::control_rate(args.rate, &robot)?;
     super::check_sample_budget(&sequence.file, &trajectory, rate)?;
 
@@ -123,42 +116,82 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
         max_stall: args.max_stall,
         ..PlayOptions::new(rate)
     };
-    let Some(port) = &args.bus.port else {
-        // No hardware: play in MuJoCo, with the same commands the servos would get.
-        if args.loops == Loops::Forever {
-            return Err(CommandError::Usage(
-                "--loop forever needs servos (--port); in simulation give a number of loops".into(),
-            ));
-        }
-        let result = super::sim::simulate(&sequence, &robot, &trajectory, &options, None)?;
-        print!(
-            "{}",
-            escape_controls(&super::sim::table(&sequence.file, &result))
-        );
-        return Ok(if result.verdict.passed() {
-            Verdict::Pass
-        } else {
-            Verdict::Fail
-        });
+    match &args.bus.port {
+        Some(port) => play_on_servos(args, port, &sequence, &robot, &trajectory, &options),
+        None => play_in_simulation(args, &sequence, &robot, &trajectory, &options),
+    }
+}
+
+/// `--from`: a key by index or name.
+fn from_key(args: &PlayArgs, trajectory: &Trajectory) -> Result<Option<usize>, CommandError> {
+    let Some(key) = &args.from else {
+        return Ok(None);
     };
-    let mut connection = args.bus.connect(&robot, port)?;
-    let stop = crate::stop::stop_on_signal();
+    let index = resolve_key(trajectory, key).ok_or_else(|| {
+        CommandError::Usage(format!(
+            "--from {key:?}: no such key; expected an index 0…{} or one of: {}",
+            trajectory.key_times.len() - 1,
+            trajectory.key_labels.join(", ")
+        ))
+    })?;
+    Ok(Some(index))
+}
+
+/// No hardware: play in MuJoCo, with the same commands the servos would get.
+fn play_in_simulation(
+    args: &PlayArgs,
+    sequence: &Sequence,
+    robot: &Robot,
+    trajectory: &Trajectory,
+    options: &PlayOptions,
+) -> Result<Verdict, CommandError> {
+    if args.loops == Loops::Forever {
+        return Err(CommandError::Usage(
+            "--loop forever needs servos (--port); in simulation give a number of loops".into(),
+        ));
+    }
+    let result = super::sim::simulate(sequence, robot, trajectory, options, None)?;
+    print!(
+        "{}",
+        escape_controls(&super::sim::table(&sequence.file, &result))
+    );
+    Ok(if result.verdict.passed() {
+        Verdict::Pass
+    } else {
+        Verdict::Fail
+    })
+}
+
+fn play_on_servos(
+    args: &PlayArgs,
+    port: &str,
+    sequence: &Sequence,
+    robot: &Robot,
+    trajectory: &Trajectory,
+    options: &PlayOptions,
+) -> Result<Verdict, CommandError> {
+    let mut connection = args.bus.connect(robot, port)?;
+    let stop = keypose::stop::stop_on_signal();
 
     if !args.quiet {
         eprintln!(
-            "playing {} on {} at {rate} Hz, speed {}",
+            "playing {} on {} at {} Hz, speed {}",
             sequence.file,
             connection.bus.describe(),
+            options.rate_hz,
             args.speed
         );
     }
-    match player::play(
-        connection.bus.as_mut(),
-        &robot,
-        &trajectory,
-        &options,
-        &stop,
-    ) {
+    let played = player::play(connection.bus.as_mut(), robot, trajectory, options, &stop);
+    conclude(args, played)
+}
+
+/// What the player's outcome means for the command line: only a finished playback passes.
+fn conclude(
+    args: &PlayArgs,
+    played: Result<(Outcome, player::Stats), PlayError>,
+) -> Result<Verdict, CommandError> {
+    match played {
         Ok((Outcome::Finished, stats)) => {
             if !args.quiet {
                 eprintln!(

@@ -1,8 +1,8 @@
 //! `keypose plot`: position and velocity of every joint as an SVG picture.
 
 use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
-use crate::plan::Trajectory;
-use crate::report;
+use keypose::plan::Trajectory;
+use keypose::report;
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, Clone, clap::Args)]

@@ -1,15 +1,18 @@
 //! `keypose record`: move the arm by hand with torque off, then keep the fewest keyframes that
 //! reproduce the motion within a tolerance.
 
-use super::hardware::{BusArgs, RobotArgs};
 use super::{joint_indices, option_values, parse_control_rate, CommandError, Verdict};
-use crate::curve::Interp;
-use crate::record::{
-    self, KeyframeOptions, Keyframes, RecordError, RecordOptions, Retimed, StopReason,
+use super::{BusArgs, RobotArgs};
+use keypose::bus::Connection;
+use keypose::curve::Interp;
+use keypose::player::StopSignal;
+use keypose::record::{
+    self, KeyframeOptions, Keyframes, RecordError, RecordOptions, Recording, Retimed, StopReason,
 };
-use crate::report;
-use crate::stop::StopSignal;
-use crate::terminal_text::escape_controls;
+use keypose::report;
+use keypose::robot::Robot;
+use keypose::sequence::Sequence;
+use keypose::terminal_text::escape_controls;
 use std::io::{BufRead, IsTerminal};
 use std::path::{Path, PathBuf};
 
@@ -90,34 +93,31 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
     }
     .load()?;
     let joints = joint_indices(&robot, &args.joints)?;
-    let port = args.bus.port.as_deref().ok_or_else(|| {
-        CommandError::Usage(
-            "--port is required: a serial port (see `keypose ports`) or \"virtual\"".into(),
-        )
-    })?;
+    let port = args.bus.required_port()?;
     // Refuse a place the file cannot go before the user spends minutes moving the arm.
     check_output_dir(&args.output)?;
     let rate = super::control_rate(args.rate, &robot)?;
+    // The connection stays open to the end, as the emulated servos of `--port virtual` do.
+    let (_connection, recording) = capture(args, &robot, joints, port, rate)?;
+    let (result, sequence) = fit_and_save(args, &robot, &recording, rate)?;
+    print_summary(&result, &args.output, args.calibration.is_some());
+    hint_at_linear(args, &result);
+    conclude(&recording, &result, &sequence, &robot)
+}
 
-    let mut connection = args.bus.connect(&robot, port)?;
-    let stop = crate::stop::stop_on_signal();
+/// Limps the joints and records until Enter, Ctrl-C or the duration; says what is missing.
+fn capture(
+    args: &RecordArgs,
+    robot: &Robot,
+    joints: Vec<usize>,
+    port: &str,
+    rate: f64,
+) -> Result<(Connection, Recording), CommandError> {
+    let mut connection = args.bus.connect(robot, port)?;
+    let stop = keypose::stop::stop_on_signal();
     watch_stdin(stop.clone(), args.duration.is_none());
-
-    let names: Vec<&str> = joints
-        .iter()
-        .map(|&j| robot.joints[j].name.as_str())
-        .collect();
     if !args.quiet {
-        eprintln!(
-            "recording {} on {} at {rate} Hz: torque is off on {}; move the arm by hand, then {}",
-            robot.name,
-            connection.bus.describe(),
-            names.join(", "),
-            match args.duration {
-                Some(d) => format!("wait {d} s (or press Enter)"),
-                None => "press Enter (or Ctrl-C)".into(),
-            }
-        );
+        announce(args, robot, &joints, &connection.bus.describe(), rate);
     }
     let options = RecordOptions {
         rate_hz: rate,
@@ -127,7 +127,7 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
         progress: !args.quiet && std::io::stderr().is_terminal(),
     };
     let recording =
-        record::record(connection.bus.as_mut(), &robot, &options, &stop).map_err(|e| match e {
+        record::record(connection.bus.as_mut(), robot, &options, &stop).map_err(|e| match e {
             RecordError::Fault { .. } => CommandError::Hardware(format!(
                 "recording stopped: {e}; the limp joints were asked to hold where they are"
             )),
@@ -140,7 +140,33 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
             record::MAX_SECONDS
         );
     }
+    Ok((connection, recording))
+}
 
+/// What is about to happen, and how to end it.
+fn announce(args: &RecordArgs, robot: &Robot, joints: &[usize], bus: &str, rate: f64) {
+    let names: Vec<&str> = joints
+        .iter()
+        .map(|&j| robot.joints[j].name.as_str())
+        .collect();
+    eprintln!(
+        "recording {} on {bus} at {rate} Hz: torque is off on {}; move the arm by hand, then {}",
+        robot.name,
+        names.join(", "),
+        match args.duration {
+            Some(d) => format!("wait {d} s (or press Enter)"),
+            None => "press Enter (or Ctrl-C)".into(),
+        }
+    );
+}
+
+/// The keyframes of `recording`, saved to `-o` under the robot's name as given.
+fn fit_and_save(
+    args: &RecordArgs,
+    robot: &Robot,
+    recording: &Recording,
+    rate: f64,
+) -> Result<(Keyframes, Sequence), CommandError> {
     if !args.quiet && recording.times.len() > LONG_RECORDING_SAMPLES {
         // Extraction grows with the length: a long recording takes seconds, so say what runs.
         eprintln!(
@@ -149,8 +175,8 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
         );
     }
     let result = record::keyframes(
-        &recording,
-        &robot,
+        recording,
+        robot,
         &KeyframeOptions {
             interpolation: args.interpolation,
             tolerance_deg: args.tolerance,
@@ -163,8 +189,12 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
     sequence.robot = robot_reference(&args.robot);
     sequence.file = args.output.display().to_string();
     sequence.save(&args.output)?;
+    Ok((result, sequence))
+}
 
-    print_summary(&result, &args.output, args.calibration.is_some());
+/// Linear keys that had to be slowed down much, or that still break the limits, would keep
+/// the recorded timing in a smooth mode.
+fn hint_at_linear(args: &RecordArgs, result: &Keyframes) {
     let slowed = result
         .retimed
         .as_ref()
@@ -174,13 +204,23 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
             "hint: a linear corner changes velocity within one control period, which the acceleration limits allow only when slow; monotone or cubic keep the recorded timing"
         );
     }
+}
+
+/// The file is saved either way; an arm that may still be limp is the worse news, then the
+/// limits the keys break.
+fn conclude(
+    recording: &Recording,
+    result: &Keyframes,
+    sequence: &Sequence,
+    robot: &Robot,
+) -> Result<Verdict, CommandError> {
     if let Some(e) = &recording.hold_error {
         return Err(CommandError::Hardware(format!(
             "the keyframes are saved, but the limp joints could not be made to hold again ({e}): the arm may be limp, support it"
         )));
     }
     if !result.check.passed() {
-        let text = report::check_text(&result.check, &sequence.file, &robot);
+        let text = report::check_text(&result.check, &sequence.file, robot);
         eprint!("{}", escape_controls(&text));
         eprintln!("the keyframes are saved, but they break the limits above");
         return Ok(Verdict::Fail);
@@ -208,7 +248,7 @@ fn check_output_dir(output: &Path) -> Result<(), CommandError> {
 /// so that `keypose check` finds the same robot from anywhere.
 fn robot_reference(spec: &str) -> String {
     let path = Path::new(spec);
-    if crate::robot::names_a_file(spec) {
+    if keypose::robot::names_a_file(spec) {
         if let Ok(absolute) = std::fs::canonicalize(path) {
             return absolute.display().to_string();
         }
@@ -220,7 +260,7 @@ fn robot_reference(spec: &str) -> String {
 /// may not be what the hand did there.
 fn warn_about_gaps(gaps: &record::SampleGaps, rate: f64) {
     let period = 1.0 / rate;
-    if gaps.missing() == 0 && gaps.longest <= crate::pacing::STALL_PERIODS * period {
+    if gaps.missing() == 0 && gaps.longest <= keypose::pacing::STALL_PERIODS * period {
         return;
     }
     eprintln!(

@@ -1,8 +1,8 @@
 //! `keypose retime`: stretch key times until velocity and acceleration limits hold.
 
 use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
-use crate::plan::{retime, LimitKind};
-use crate::terminal_text::escape_controls;
+use keypose::plan::{retime, LimitKind};
+use keypose::terminal_text::escape_controls;
 use std::path::PathBuf;
 
 #[derive(Debug, Clone, clap::Args)]
@@ -22,7 +22,7 @@ pub fn run(args: &RetimeArgs) -> Result<Verdict, CommandError> {
     let rate = super::limit_check_rate(args.rate, &robot);
     super::check_sample_budget(
         &sequence.file,
-        &crate::plan::Trajectory::build(&sequence, &robot)?,
+        &keypose::plan::Trajectory::build(&sequence, &robot)?,
         rate,
     )?;
     let outcome = retime(&sequence, &robot, rate)?;

@@ -1,8 +1,8 @@
 //! `keypose sample`: the trajectory at a fixed rate, as CSV or JSON.
 
 use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
-use crate::plan::Trajectory;
-use crate::robot::{JointKind, Robot};
+use keypose::plan::Trajectory;
+use keypose::robot::{JointKind, Robot};
 use serde_json::json;
 use std::fmt::Write;
 use std::path::PathBuf;

@@ -1,13 +1,13 @@
 //! `keypose sim`: play a sequence in MuJoCo and judge it. Also `keypose play` without `--port`.
 
 use super::{option_values, parse_rate, write_output, CommandError, SequenceInput, Verdict};
-use crate::plan::Trajectory;
-use crate::player::PlayOptions;
-use crate::robot::Robot;
-use crate::sequence::Sequence;
-use crate::sim::verdict::{self, KeyMark, Thresholds, Trace};
-use crate::sim::{self, SimError, Simulation};
-use crate::terminal_text::escape_controls;
+use keypose::plan::Trajectory;
+use keypose::player::PlayOptions;
+use keypose::robot::Robot;
+use keypose::sequence::Sequence;
+use keypose::sim::verdict::{self, KeyMark, Thresholds, Trace};
+use keypose::sim::{self, SimError, Simulation};
+use keypose::terminal_text::escape_controls;
 use serde_json::json;
 use std::fmt::Write as _;
 use std::io::Write as _;

@@ -1,10 +1,10 @@
 //! `keypose teach`: the key-by-key teaching session, in a terminal or driven by a key script.
 
-use super::hardware::BusArgs;
+use super::BusArgs;
 use super::{CommandError, SequenceInput, Verdict};
-use crate::robot::Robot;
-use crate::sequence::{KeyframeList, Sequence};
-use crate::teach::{self, Journal, Session, TeachError, TeachState};
+use keypose::robot::Robot;
+use keypose::sequence::{KeyframeList, Sequence};
+use keypose::teach::{self, Journal, Pending, Session, TeachError, TeachState};
 use std::io::{BufRead, BufReader, IsTerminal};
 use std::path::{Path, PathBuf};
 
@@ -47,51 +47,13 @@ pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
                 .into(),
         )
     })?;
-    let output = args
-        .output
-        .clone()
-        .or_else(|| args.sequence.clone())
-        .unwrap_or_else(|| PathBuf::from(DEFAULT_OUTPUT));
-    // The list comes from SEQ, else from the file w writes to if it exists already, so that a
-    // session never overwrites a file it has not shown.
-    let source = args
-        .sequence
-        .clone()
-        .or_else(|| Some(output.clone()))
-        .filter(|p| p.exists());
+    let (output, source) = target(args);
     let (list, robot) = load(args, source.as_deref())?;
     // Teach plays at the robot's own control rate: refuse one the player cannot keep now,
     // before the bus is opened, rather than at the first playback.
     super::control_rate(None, &robot)?;
-
-    // Without a cache directory the session still runs, unjournaled; the screen says so.
-    let journal = crate::python::PyConfig::from_env()
-        .ok()
-        .map(|config| Journal::for_target(&config.cache_dir, &output));
-    let pending = match &journal {
-        Some(journal) => journal.pending(&output).unwrap_or_else(|e| {
-            let message = e.to_string();
-            eprintln!(
-                "warning: the journal cannot be read, it is ignored: {}",
-                crate::terminal_text::escape_controls(&message)
-            );
-            None
-        }),
-        None => None,
-    };
-    let script = match &args.keys {
-        Some(path) => Some(open_script(path)?),
-        None => {
-            if !(std::io::stdin().is_terminal() && std::io::stdout().is_terminal()) {
-                return Err(CommandError::Usage(
-                    "keypose teach needs a terminal; to run it without one, give the keys with \
-                     --keys FILE (see --help)"
-                        .into(),
-                ));
-            }
-            None
-        }
-    };
+    let (journal, pending) = open_journal(&output);
+    let script = script_or_terminal(args)?;
 
     let connection = args.bus.connect(&robot, port)?;
     // Kept until the session ends: dropping it stops the emulated servos.
@@ -107,15 +69,7 @@ pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
         None if args.recover => eprintln!("teach: no journal to recover"),
         None => {}
     }
-    let start = state.start();
-    for event in teach::apply(&mut state, &mut session, start) {
-        if let teach::Event::BusError(message) = event {
-            return Err(CommandError::Hardware(format!(
-                "cannot hold the arm at the start: {message}"
-            )));
-        }
-    }
-
+    hold_at_start(&mut state, &mut session)?;
     let result = match script {
         Some(input) => teach::script::run(&mut state, &mut session, input, &mut std::io::stderr()),
         None => teach::ui::run(&mut state, &mut session),
@@ -125,6 +79,70 @@ pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
         TeachError::Terminal(_) | TeachError::Script(_) => CommandError::Usage(e.to_string()),
     })?;
     Ok(Verdict::Pass)
+}
+
+/// Where `w` writes, and the file the list comes from: SEQ, else the file `w` writes to if it
+/// exists already, so that a session never overwrites a file it has not shown.
+fn target(args: &TeachArgs) -> (PathBuf, Option<PathBuf>) {
+    let output = args
+        .output
+        .clone()
+        .or_else(|| args.sequence.clone())
+        .unwrap_or_else(|| PathBuf::from(DEFAULT_OUTPUT));
+    let source = args
+        .sequence
+        .clone()
+        .or_else(|| Some(output.clone()))
+        .filter(|p| p.exists());
+    (output, source)
+}
+
+/// The journal of `output` and the unsaved work it holds, if any. Without a cache directory
+/// the session still runs, unjournaled; the screen says so.
+fn open_journal(output: &Path) -> (Option<Journal>, Option<Pending>) {
+    let journal = keypose::python::PyConfig::from_env()
+        .ok()
+        .map(|config| Journal::for_target(&config.cache_dir, output));
+    let pending = match &journal {
+        Some(journal) => journal.pending(output).unwrap_or_else(|e| {
+            let message = e.to_string();
+            eprintln!(
+                "warning: the journal cannot be read, it is ignored: {}",
+                keypose::terminal_text::escape_controls(&message)
+            );
+            None
+        }),
+        None => None,
+    };
+    (journal, pending)
+}
+
+/// The `--keys` script, or `None` for the terminal UI, which needs a terminal on both ends.
+fn script_or_terminal(args: &TeachArgs) -> Result<Option<Box<dyn BufRead>>, CommandError> {
+    if let Some(path) = &args.keys {
+        return open_script(path).map(Some);
+    }
+    if !(std::io::stdin().is_terminal() && std::io::stdout().is_terminal()) {
+        return Err(CommandError::Usage(
+            "keypose teach needs a terminal; to run it without one, give the keys with \
+             --keys FILE (see --help)"
+                .into(),
+        ));
+    }
+    Ok(None)
+}
+
+/// The start's hold on every joint; a session that cannot hold the arm does not begin.
+fn hold_at_start(state: &mut TeachState, session: &mut Session) -> Result<(), CommandError> {
+    let start = state.start();
+    for event in teach::apply(state, session, start) {
+        if let teach::Event::BusError(message) = event {
+            return Err(CommandError::Hardware(format!(
+                "cannot hold the arm at the start: {message}"
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// The list to edit and the robot to teach.
@@ -154,6 +172,6 @@ fn open_script(path: &Path) -> Result<Box<dyn BufRead>, CommandError> {
     }
     // A regular file: a script is read line by line, and a device such as /dev/zero has no end
     // of line (`-` reads standard input, for a pipe).
-    let file = crate::json::input_file::open_regular(path)?;
+    let file = keypose::json::input_file::open_regular(path)?;
     Ok(Box::new(BufReader::new(file)))
 }

@@ -1,6 +1,7 @@
 //! Robot descriptions: the joint chain, limits, servo mapping and forward kinematics.
 
 mod builtin;
+mod gravity;
 mod lerobot;
 mod load;
 pub mod servo;

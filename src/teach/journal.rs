@@ -120,11 +120,12 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::sequence::{KeyValue, Keyframe};
 
-    fn one_key() -> Sequence {
+    /// A one-key list, also for the file executor's tests.
+    pub(crate) fn one_key() -> Sequence {
         let mut s = Sequence::new("so101");
         s.keyframes.push(Keyframe::new(vec![(
             "gripper".into(),

@@ -1,18 +1,26 @@
 //! The key-by-key teaching session: jog or limp the arm, capture keys, edit the list, play it,
 //! write it.
 //!
-//! Three layers, so that the rules are tested without a terminal or servos:
-//! - [`state`]: the [`TeachState`] machine — keys and bus events in; list edits, bus
-//!   [`Command`]s and screen state out;
-//! - [`session`]: carries out the commands on a [`crate::bus::ServoBus`], playback through the
-//!   player on its own thread;
+//! Three layers, so that the rules are tested without a terminal, servos or files:
+//! - [`state`]: the [`TeachState`] machine — keys and driver events in; list edits,
+//!   [`Command`]s ([`messages`]) and screen state out; [`motion`] plans what `space` and `y`
+//!   play, [`capture`] rounds a pose into a key, [`prompt`] holds the questions;
+//! - the drivers: [`session`] carries out the bus commands on a [`crate::bus::ServoBus`],
+//!   playback through the player on its own thread; [`files`] carries out the file ones;
 //! - the front ends: [`ui`] draws the state in a terminal (ratatui + crossterm) and maps key
-//!   presses; [`script`] feeds it the keys of a `--keys` file, for tests and demos.
+//!   presses; [`script`] feeds it the keys of a `--keys` file, for tests and demos; both word
+//!   things through [`format`].
 //!
 //! Every edit is journaled ([`journal`]) so a crash loses nothing.
 
+pub mod capture;
+pub mod files;
+pub mod format;
 pub mod journal;
 pub mod keys;
+pub mod messages;
+pub mod motion;
+pub mod prompt;
 pub mod script;
 pub mod session;
 pub mod state;
@@ -20,8 +28,10 @@ pub mod ui;
 
 pub use journal::{Journal, Pending};
 pub use keys::{help_text, Key, BINDINGS};
+pub use messages::{BusCommand, Command, Event, FileCommand};
+pub use prompt::Prompt;
 pub use session::{Session, SessionError};
-pub use state::{Command, Event, Prompt, TeachState};
+pub use state::TeachState;
 
 /// What ends a session early.
 #[derive(Debug, thiserror::Error)]
@@ -38,14 +48,21 @@ pub enum TeachError {
     Hardware(String),
 }
 
-/// Carries out `commands`, feeding every resulting event back into the state; returns the
-/// events for callers that judge them (the script stops on a bus failure).
+/// Carries out `commands` (bus ones on the session, file ones by [`files`]), feeding every
+/// resulting event back into the state and carrying out what the state asks in return (a
+/// write is followed by the journal's removal); returns the events for callers that judge
+/// them (the script stops on a bus failure).
 pub fn apply(state: &mut TeachState, session: &mut Session, commands: Vec<Command>) -> Vec<Event> {
+    let mut queue = std::collections::VecDeque::from(commands);
     let mut seen = Vec::new();
-    for command in commands {
-        for event in session.execute(command) {
+    while let Some(command) = queue.pop_front() {
+        let events = match command {
+            Command::Bus(command) => session.execute(command),
+            Command::File(command) => vec![files::execute(command)],
+        };
+        for event in events {
             seen.push(event.clone());
-            state.on_event(event);
+            queue.extend(state.on_event(event));
         }
     }
     seen
@@ -58,7 +75,8 @@ pub fn refresh(state: &mut TeachState, session: &mut Session) -> Option<Event> {
         Ok(None) => return None,
         Err(e) => Event::BusError(format!("cannot read the present pose: {e}")),
     };
-    state.on_event(event.clone());
+    let follow = state.on_event(event.clone());
+    apply(state, session, follow);
     Some(event)
 }
 

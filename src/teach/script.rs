@@ -6,9 +6,10 @@
 //! The script is strict where a terminal user would simply look again: a key sent while the
 //! session waits for an answer, or a bus failure, stops it with an error.
 
+use super::format;
 use super::keys::{parse_line, Key, Step};
-use super::state::Event;
-use super::{press, refresh, Session, TeachError, TeachState};
+use super::messages::Event;
+use super::{apply, press, refresh, Session, TeachError, TeachState};
 use std::io::{BufRead, Write};
 use std::time::Duration;
 
@@ -57,8 +58,13 @@ pub fn run(
             }
         }
     }
-    // The end of the script is the end of the session, as closing the terminal would be.
-    if let Some(question) = state.question() {
+    end(state, session)
+}
+
+/// The end of the script is the end of the session, as closing the terminal would be: an
+/// error while a question is open or work is unsaved, else a clean `q`.
+fn end(state: &mut TeachState, session: &mut Session) -> Result<(), TeachError> {
+    if let Some(question) = format::question(state) {
         return Err(TeachError::Script(format!(
             "the key script ended while the session asks: {question}"
         )));
@@ -72,8 +78,9 @@ pub fn run(
             "the key script ended with unsaved changes{journal}: end it with w (and q)"
         )));
     }
-    // Not dirty: a clean end, like `q`.
-    let _ = state.handle_key(Key::Char('q'));
+    // Not dirty: a clean end, like `q` (which removes the journal).
+    let commands = state.handle_key(Key::Char('q'));
+    apply(state, session, commands);
     Ok(())
 }
 
@@ -87,7 +94,7 @@ fn run_key(
         if !prompt.accepts(&key) {
             return Err(TeachError::Script(format!(
                 "{where_}: the session asks \"{}\"; expected an answer (yes or no)",
-                state.question().unwrap_or_default()
+                format::question(state).unwrap_or_default()
             )));
         }
     }
@@ -95,7 +102,8 @@ fn run_key(
     // Wait for the motion the key started, so the next step sees the arm at rest.
     if let Some(ended) = session.wait_motion()? {
         events.push(ended.clone());
-        state.on_event(ended);
+        let follow = state.on_event(ended);
+        events.extend(apply(state, session, follow));
     }
     let commanded = events.iter().any(|e| {
         matches!(
@@ -114,25 +122,27 @@ fn run_key(
         }
         refresh(state, session);
     }
-    for event in &events {
-        let failure = match event {
-            Event::BusError(message) => Some(message.clone()),
-            Event::MotionEnded {
-                outcome: Err(message),
-                ..
-            } => Some(message.clone()),
-            _ => None,
-        };
-        if let Some(message) = failure {
-            return Err(TeachError::Hardware(format!("{where_}: {message}")));
-        }
+    match events.iter().find_map(failure) {
+        Some(message) => Err(TeachError::Hardware(format!("{where_}: {message}"))),
+        None => Ok(()),
     }
-    Ok(())
+}
+
+/// What a script stops on: a bus failure, or a motion that ended in a fault.
+fn failure(event: &Event) -> Option<String> {
+    match event {
+        Event::BusError(message) => Some(message.clone()),
+        Event::MotionEnded {
+            outcome: Err(message),
+            ..
+        } => Some(message.clone()),
+        _ => None,
+    }
 }
 
 /// One line per step: the status, or the question the session now asks.
 fn show(echo: &mut impl Write, token: &str, state: &TeachState) {
-    let line = match state.question() {
+    let line = match format::question(state) {
         Some(question) => format!("teach: {token}: ? {question}"),
         None => {
             let status = state.status();

@@ -1,4 +1,4 @@
-//! Carries out the state machine's [`Command`]s on a [`ServoBus`] and reports [`Event`]s.
+//! Carries out the state machine's [`BusCommand`]s on a [`ServoBus`] and reports [`Event`]s.
 //!
 //! Playback inside the session: `space` (move to a key) and `y` (play) both run
 //! [`player::play`] — the same approach ramp, pacing, limit guard, fault handling and braking
@@ -8,7 +8,9 @@
 //! result. While the thread has it, the present pose shown is what the player itself read back,
 //! passed through a thin wrapper around the bus, so there is never a second user of the port.
 
-use super::state::{tidy, Command, Event, MotionPlan};
+use super::capture::tidy;
+use super::messages::{BusCommand, Event};
+use super::motion::MotionPlan;
 use crate::bus::{BusError, ServoBus};
 use crate::pacing::{Pacer, WallClock};
 use crate::plan::Approach;
@@ -157,13 +159,13 @@ impl Session {
     }
 
     /// Carries out one command; failures come back as [`Event::BusError`].
-    pub fn execute(&mut self, command: Command) -> Vec<Event> {
+    pub fn execute(&mut self, command: BusCommand) -> Vec<Event> {
         let result = match command {
-            Command::Torque { joints, on: true } => self.hold(joints),
-            Command::Torque { joints, on: false } => self.release(joints),
-            Command::Goals(goals) => self.send_goals(goals),
-            Command::Run(plan) => self.run(*plan),
-            Command::Stop => {
+            BusCommand::Torque { joints, on: true } => self.hold(joints),
+            BusCommand::Torque { joints, on: false } => self.release(joints),
+            BusCommand::Goals(goals) => self.send_goals(goals),
+            BusCommand::Run(plan) => self.run(*plan),
+            BusCommand::Stop => {
                 if let Some(motion) = &self.motion {
                     motion.stop.request();
                 }

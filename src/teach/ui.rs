@@ -5,9 +5,11 @@
 //! on every way out: a normal return, an error (a guard's `Drop`), and a panic (ratatui's
 //! `try_init` installs a hook that restores the terminal before the panic message prints).
 
+use super::format;
 use super::keys::{Key, BINDINGS};
-use super::state::{format_value, Activity, MotionKind, TeachState};
-use super::{press, refresh, Session, TeachError};
+use super::motion::MotionKind;
+use super::state::{Activity, TeachState};
+use super::{apply, press, refresh, Session, TeachError};
 use crate::sequence::KeyValue;
 use crate::terminal_text::escape_field;
 use ratatui::crossterm::event::{self, KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
@@ -54,7 +56,8 @@ pub fn run(state: &mut TeachState, session: &mut Session) -> Result<(), TeachErr
     let mut next_read = Instant::now();
     loop {
         if let Some(event) = session.poll()? {
-            state.on_event(event);
+            let follow = state.on_event(event);
+            apply(state, session, follow);
         }
         if Instant::now() >= next_read {
             refresh(state, session);
@@ -154,7 +157,7 @@ fn draw_joints(frame: &mut Frame, area: Rect, state: &TeachState) {
             _ => None,
         };
         let key_text = match key_value {
-            Some(KeyValue::Joint(v)) => format_value(joint, *v),
+            Some(KeyValue::Joint(v)) => format::value(joint, *v),
             Some(KeyValue::Transform(_)) => "transform".into(),
             None => "·".into(),
         };
@@ -166,7 +169,7 @@ fn draw_joints(frame: &mut Frame, area: Rect, state: &TeachState) {
         let marker = if j == state.selected() { "▶ " } else { "  " };
         let row = Row::new(vec![
             Cell::from(format!("{marker}{}", escape_field(&joint.name))),
-            Cell::from(format_value(joint, present)),
+            Cell::from(format::value(joint, present)),
             Cell::from(key_text),
             Cell::from(limit_bar(joint, present, key_number)),
             Cell::from(Span::styled(torque, torque_style)),
@@ -261,7 +264,7 @@ fn draw_keys(frame: &mut Frame, area: Rect, state: &TeachState) {
 }
 
 fn status_lines(state: &TeachState) -> Paragraph<'static> {
-    let first = match state.question() {
+    let first = match format::question(state) {
         Some(question) => Line::styled(
             format!("? {}", escape_field(&question.to_string())),
             Style::new().fg(Color::Yellow).add_modifier(Modifier::BOLD),

@@ -2,7 +2,8 @@
 //! played by `apply`, which confirms every command as the session driver would.
 
 use super::*;
-use crate::sequence::Ends;
+use crate::sequence::{Ends, KeyValue, Keyframe};
+use crate::teach::files;
 
 fn so101() -> Robot {
     Robot::builtin("so101").expect("built-in so101")
@@ -30,34 +31,45 @@ fn session(dir: &Path) -> TeachState {
     state
 }
 
-/// Confirms commands as a bus that does exactly what it is told (jogs arrive at once).
+/// Confirms bus commands as a bus that does exactly what it is told (jogs arrive at once), and
+/// carries out file commands for real, as the session's drivers would.
 fn apply(state: &mut TeachState, commands: Vec<Command>) -> Vec<Command> {
     for command in commands.clone() {
-        match command {
-            Command::Torque { joints, on: true } => {
-                let values = joints
-                    .iter()
-                    .map(|&j| tidy(&state.robot().joints[j], state.present()[j]))
-                    .collect();
-                state.on_event(Event::Held { joints, values });
-            }
-            Command::Torque { joints, on: false } => state.on_event(Event::Released { joints }),
-            Command::Goals(goals) => {
-                let mut present = state.present().to_vec();
-                for &(j, v) in &goals {
-                    present[j] = v;
-                }
-                state.on_event(Event::GoalsSent(goals));
-                state.on_event(Event::Reading(present));
-            }
-            Command::Run(plan) => state.on_event(Event::MotionStarted {
-                kind: plan.kind,
-                end_pose: plan.end_pose.clone(),
-            }),
-            Command::Stop => {}
+        let events = match command {
+            Command::Bus(command) => perfect_bus(state, command),
+            Command::File(command) => vec![files::execute(command)],
+        };
+        for event in events {
+            let follow = state.on_event(event);
+            apply(state, follow);
         }
     }
     commands
+}
+
+fn perfect_bus(state: &TeachState, command: BusCommand) -> Vec<Event> {
+    match command {
+        BusCommand::Torque { joints, on: true } => {
+            let values = joints
+                .iter()
+                .map(|&j| tidy(&state.robot().joints[j], state.present()[j]))
+                .collect();
+            vec![Event::Held { joints, values }]
+        }
+        BusCommand::Torque { joints, on: false } => vec![Event::Released { joints }],
+        BusCommand::Goals(goals) => {
+            let mut present = state.present().to_vec();
+            for &(j, v) in &goals {
+                present[j] = v;
+            }
+            vec![Event::GoalsSent(goals), Event::Reading(present)]
+        }
+        BusCommand::Run(plan) => vec![Event::MotionStarted {
+            kind: plan.kind,
+            end_pose: plan.end_pose.clone(),
+        }],
+        BusCommand::Stop => Vec::new(),
+    }
 }
 
 fn press(state: &mut TeachState, key: Key) -> Vec<Command> {
@@ -135,35 +147,13 @@ fn a_limp_joint_is_not_jogged() {
 }
 
 #[test]
-fn weight_bearing_joints_follow_the_geometry() {
-    // Horizontal axes with the arm beyond them carry weight; vertical pans, wrist rolls and
-    // grippers do not. The same joints the robots' documentation would name, on all three arms.
-    let expected: [(&str, &[bool]); 3] = [
-        ("so101", &[false, true, true, true, false, false]),
-        ("koch", &[false, true, true, true, false, false]),
-        ("omx", &[false, true, true, true, false]),
-    ];
-    for (name, bearing) in expected {
-        let robot = Robot::builtin(name).unwrap();
-        assert_eq!(weight_bearing(&robot, &robot.home), bearing, "{name}");
-    }
-    // Pitch the so101 wrist down (wrist flex -90°): the wrist roll axis is now vertical and
-    // still carries nothing; lift and elbow still do.
-    let robot = so101();
-    let mut pose = robot.home.clone();
-    pose[3] = -90.0;
-    let bearing = weight_bearing(&robot, &pose);
-    assert!(bearing[LIFT] && bearing[ELBOW] && !bearing[4]);
-}
-
-#[test]
 fn releasing_a_joint_that_carries_weight_asks_first() {
     let dir = tempfile::tempdir().unwrap();
     let mut state = session(dir.path());
     press(&mut state, Key::Down);
     assert!(press(&mut state, Key::Char('t')).is_empty(), "asks first");
     assert!(matches!(state.prompt(), Some(Prompt::Release { .. })));
-    assert!(state.question().unwrap().contains("shoulder_lift"));
+    assert!(format::question(&state).unwrap().contains("shoulder_lift"));
     // Another key does not answer; the question stays.
     assert!(press(&mut state, Key::Right).is_empty());
     assert!(state.prompt().is_some() && state.status().error);
@@ -171,7 +161,9 @@ fn releasing_a_joint_that_carries_weight_asks_first() {
     assert!(state.torque()[LIFT], "declined: torque stays on");
     press(&mut state, Key::Char('t'));
     let commands = press(&mut state, Key::Char('y'));
-    assert!(matches!(&commands[..], [Command::Torque { joints, on: false }] if joints == &[LIFT]));
+    assert!(
+        matches!(&commands[..], [Command::Bus(BusCommand::Torque { joints, on: false })] if joints == &[LIFT])
+    );
     assert!(!state.torque()[LIFT]);
 }
 
@@ -180,7 +172,7 @@ fn all_joints_release_together_after_one_question_and_hold_together() {
     let dir = tempfile::tempdir().unwrap();
     let mut state = session(dir.path());
     press(&mut state, Key::Char('T'));
-    let question = state.question().expect("asks");
+    let question = format::question(&state).expect("asks");
     assert!(
         question.contains("shoulder_lift, elbow_flex, wrist_flex") && !question.contains("pan"),
         "{question}"
@@ -193,7 +185,7 @@ fn all_joints_release_together_after_one_question_and_hold_together() {
     // Mixed: T holds the limp ones, the safe direction.
     let commands = press(&mut state, Key::Char('T'));
     assert!(
-        matches!(&commands[..], [Command::Torque { joints, on: true }] if joints == &[1, 2, 3, 4, 5])
+        matches!(&commands[..], [Command::Bus(BusCommand::Torque { joints, on: true })] if joints == &[1, 2, 3, 4, 5])
     );
     assert!(state.torque().iter().all(|&t| t));
 }
@@ -423,7 +415,7 @@ fn space_ramps_to_the_key_and_y_plays_from_it() {
     );
     press(&mut state, Key::Char('<'));
     let commands = press(&mut state, Key::Char(' '));
-    let [Command::Run(plan)] = &commands[..] else {
+    let [Command::Bus(BusCommand::Run(plan))] = &commands[..] else {
         panic!("expected a motion, got {commands:?}");
     };
     assert_eq!(plan.kind, MotionKind::ToKey(0));
@@ -438,9 +430,12 @@ fn space_ramps_to_the_key_and_y_plays_from_it() {
     assert!(!state.should_quit());
     assert!(matches!(
         &press(&mut state, Key::Char('y'))[..],
-        [Command::Stop]
+        [Command::Bus(BusCommand::Stop)]
     ));
-    assert!(matches!(&press(&mut state, Key::Esc)[..], [Command::Stop]));
+    assert!(matches!(
+        &press(&mut state, Key::Esc)[..],
+        [Command::Bus(BusCommand::Stop)]
+    ));
     assert!(state.status().text.contains("at once"));
     state.on_event(Event::MotionEnded {
         outcome: Ok(Outcome::Held),
@@ -450,7 +445,7 @@ fn space_ramps_to_the_key_and_y_plays_from_it() {
     assert_eq!(state.goals()[PAN], 12.0, "jogs go on from where it held");
 
     let commands = press(&mut state, Key::Char('y'));
-    let [Command::Run(plan)] = &commands[..] else {
+    let [Command::Bus(BusCommand::Run(plan))] = &commands[..] else {
         panic!("expected playback, got {commands:?}");
     };
     assert_eq!(plan.kind, MotionKind::Play { from: 0 });
@@ -506,7 +501,7 @@ fn moving_to_a_control_key_reaches_its_own_pose() {
         present,
     );
     let commands = state.handle_key(Key::Char(' '));
-    let [Command::Run(plan)] = &commands[..] else {
+    let [Command::Bus(BusCommand::Run(plan))] = &commands[..] else {
         panic!("expected a motion");
     };
     assert!(

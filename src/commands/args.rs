@@ -1,0 +1,105 @@
+//! The arguments several verbs share: where the servos are ([`BusArgs`]), which robot
+//! ([`RobotArgs`]), which sequence on which robot ([`SequenceInput`]).
+
+use super::{option_values, CommandError};
+use keypose::bus::{self, Driver};
+use keypose::curve::Interp;
+use keypose::robot::Robot;
+use keypose::sequence::Sequence;
+use std::path::PathBuf;
+
+/// Where the servos are.
+#[derive(Debug, Clone, clap::Args)]
+pub struct BusArgs {
+    /// Serial port (e.g. /dev/ttyUSB0, /dev/ttyACM0), or "virtual" for emulated servos on a
+    /// pseudo-terminal. `play` without a port plays in MuJoCo.
+    #[arg(long, value_name = "PATH|virtual")]
+    pub port: Option<String>,
+    /// Our own protocol code (native) or the vendor's Python SDK (sdk).
+    #[arg(long, value_enum, default_value_t = Driver::Native)]
+    pub driver: Driver,
+    /// Baud rate [default: the robot's].
+    #[arg(long, value_name = "BPS", value_parser = option_values::parse_baud, allow_negative_numbers = true)]
+    pub baud: Option<u32>,
+    /// Dynamixel: read with Fast Sync Read (one combined answer; not every model and firmware
+    /// supports it).
+    #[arg(long)]
+    pub fast_sync_read: bool,
+}
+
+impl BusArgs {
+    /// Opens the bus on `port` for `robot`.
+    pub fn connect(&self, robot: &Robot, port: &str) -> Result<bus::Connection, CommandError> {
+        let options = bus::BusOptions {
+            driver: self.driver,
+            baud: self.baud,
+            fast_sync_read: self.fast_sync_read,
+        };
+        Ok(bus::connect_with(robot, port, &options)?)
+    }
+
+    /// The port, for the commands that need one and cannot play elsewhere.
+    pub fn required_port(&self) -> Result<&str, CommandError> {
+        self.port.as_deref().ok_or_else(|| {
+            CommandError::Usage(
+                "--port is required: a serial port (see `keypose ports`) or \"virtual\"".into(),
+            )
+        })
+    }
+}
+
+/// A robot for commands without a sequence.
+#[derive(Debug, Clone, clap::Args)]
+pub struct RobotArgs {
+    /// A built-in robot (so101, koch, omx) or a robot file.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub robot: String,
+    /// LeRobot calibration file to apply.
+    #[arg(long, value_name = "FILE")]
+    pub calibration: Option<PathBuf>,
+}
+
+impl RobotArgs {
+    pub fn load(&self) -> Result<Robot, CommandError> {
+        super::load_robot(&self.robot, self.calibration.as_deref())
+    }
+}
+
+/// The inputs every sequence command takes.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SequenceInput {
+    /// Sequence file (keypose-sequence/1 JSON).
+    pub sequence: PathBuf,
+    /// Robot to use instead of the one the sequence names: a built-in name (so101, koch, omx)
+    /// or a robot file.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub robot: Option<String>,
+    /// LeRobot calibration file to apply to the robot's servo mapping and limits.
+    #[arg(long, value_name = "FILE")]
+    pub calibration: Option<PathBuf>,
+    /// Interpolation for segments without their own "interp", instead of the file's: try the same
+    /// keys in another mode.
+    #[arg(long, value_name = "MODE", value_parser = parse_interp)]
+    pub interpolation: Option<Interp>,
+}
+
+fn parse_interp(s: &str) -> Result<Interp, String> {
+    Interp::parse(s)
+        .ok_or_else(|| format!("expected one of step, linear, cubic, monotone, found {s:?}"))
+}
+
+impl SequenceInput {
+    /// Loads the sequence and its robot (with any calibration applied).
+    pub fn load(&self) -> Result<(Sequence, Robot), CommandError> {
+        let mut sequence = Sequence::load(&self.sequence)?;
+        if let Some(mode) = self.interpolation {
+            sequence.interpolation = mode;
+        }
+        let robot = match &self.robot {
+            Some(spec) => super::resolve_option_robot(spec)?,
+            None => super::resolve_sequence_robot(&sequence, &self.sequence)?,
+        };
+        let robot = super::finish_robot(robot, self.calibration.as_deref())?;
+        Ok((sequence, robot))
+    }
+}

@@ -1,0 +1,88 @@
+//! `keypose doctor`: what keypose finds on this machine, and what to fix.
+
+use super::{write_output, CommandError, Verdict};
+use keypose::bus;
+
+/// `keypose doctor`: what keypose finds on this machine, and what to fix.
+pub fn run() -> Result<Verdict, CommandError> {
+    let mut out = ports_report();
+    out.push_str(&latency_report());
+    out.push_str("python (vendor SDK bridge, simulation):\n");
+    out.push_str(&keypose::python::doctor_report());
+    out.push_str(&simulation_report());
+    write_output(None, &out)?;
+    Ok(Verdict::Pass)
+}
+
+fn ports_report() -> String {
+    let mut out = String::from("serial ports:\n");
+    let ports = bus::list_ports();
+    if ports.is_empty() {
+        out.push_str("  none found\n");
+    }
+    for p in &ports {
+        out.push_str(&format!("  {p}\n"));
+    }
+    out
+}
+
+/// FTDI adapters buffer reads for their latency timer (16 ms by default), which alone would
+/// make a 100 Hz loop miss its deadlines.
+fn latency_report() -> String {
+    let mut out = String::from("USB latency timers:\n");
+    let timers = bus::latency_timers();
+    if timers.is_empty() {
+        out.push_str("  no FTDI USB-serial adapters\n");
+    }
+    for (device, ms) in timers {
+        if ms >= 16 {
+            out.push_str(&format!(
+                "  WARNING {device}: latency_timer is {ms} ms, which adds up to {ms} ms to every read.\n    \
+                 Lower it: echo 1 | sudo tee /sys/bus/usb-serial/devices/{device}/latency_timer\n    \
+                 (permanently: a udev rule, ACTION==\"add\", SUBSYSTEM==\"usb-serial\", DRIVER==\"ftdi_sio\", ATTR{{latency_timer}}=\"1\")\n"
+            ));
+        } else {
+            out.push_str(&format!("  {device}: latency_timer {ms} ms (ok)\n"));
+        }
+    }
+    out
+}
+
+/// What the simulation harness reports when it starts: MuJoCo's version and the GL backend.
+/// Never builds the environment (that is for the first `sim`).
+fn simulation_report() -> String {
+    use keypose::python::{Harness, HarnessOptions, PyConfig};
+    let config = match PyConfig::from_env() {
+        Ok(c) => c,
+        Err(e) => return format!("  simulation: {e}\n"),
+    };
+    let python = match config.find_python() {
+        Ok(Some(env)) => env.python,
+        Ok(None) => {
+            return "  simulation: the environment is built on the first `keypose sim`\n".into()
+        }
+        Err(e) => return format!("  simulation: {e}\n"),
+    };
+    let started = config
+        .script_path(keypose::sim::HARNESS_SCRIPT)
+        .map_err(|e| e.to_string())
+        .and_then(|script| {
+            Harness::spawn(&python, &script, HarnessOptions::default()).map_err(|e| e.to_string())
+        });
+    match started {
+        Ok(harness) => {
+            let ready = harness.ready();
+            let field = |name: &str| ready[name].as_str().unwrap_or("?").to_string();
+            format!(
+                "  {}: ready: mujoco {}, numpy {}, MUJOCO_GL {}\n",
+                keypose::sim::HARNESS_SCRIPT,
+                field("mujoco"),
+                field("numpy"),
+                ready["gl"]
+                    .as_str()
+                    .unwrap_or("not set (egl is tried first, then osmesa)")
+            )
+        }
+        Err(e) => format!("  {}: does not start: {e}\n", keypose::sim::HARNESS_SCRIPT),
+    }
+}

@@ -1,0 +1,27 @@
+//! `keypose read`: the present pose as JSON.
+
+use super::{write_output, BusArgs, CommandError, RobotArgs, Verdict};
+use serde_json::json;
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct ReadArgs {
+    #[command(flatten)]
+    pub robot: RobotArgs,
+    #[command(flatten)]
+    pub bus: BusArgs,
+}
+
+/// `keypose read`: the present pose as JSON, in degrees (metres for prismatic joints).
+pub fn run(args: &ReadArgs) -> Result<Verdict, CommandError> {
+    let robot = args.robot.load()?;
+    let mut connection = args.bus.connect(&robot, args.bus.required_port()?)?;
+    let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
+    let ticks = connection.bus.read_positions(&ids)?;
+    let mut joints = serde_json::Map::new();
+    for (joint, tick) in robot.joints.iter().zip(&ticks) {
+        joints.insert(joint.name.clone(), json!(joint.servo.value(*tick)));
+    }
+    let out = json!({ "robot": robot.name, "joints": joints, "ticks": ticks });
+    write_output(None, &format!("{out}\n"))?;
+    Ok(Verdict::Pass)
+}

@@ -1,0 +1,205 @@
+//! `keypose virtual-bus`: emulated servos on a pseudo-terminal, with injected faults, homing
+//! offsets and a hand that moves the arm.
+
+use super::{option_values, CommandError, Verdict};
+use keypose::bus;
+use keypose::robot::Robot;
+use std::io::BufRead;
+use std::path::PathBuf;
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct VirtualBusArgs {
+    /// The robot whose servos to emulate (a built-in name or a robot file).
+    #[arg(long, value_name = "NAME|FILE")]
+    pub robot: String,
+    /// Inject a fault: ID:no-answer, ID:corrupt, ID:late=MS, ID:overload, ID:overheating,
+    /// ID:voltage, ID:encoder, ID:electrical; or "gone" (the port disappears). Repeatable.
+    #[arg(long, value_name = "FAULT", value_parser = parse_fault)]
+    pub fault: Vec<FaultSpec>,
+    /// Set a servo's Homing_Offset register (as a calibration tool would): ID:TICKS.
+    /// Repeatable.
+    #[arg(long, value_name = "ID:TICKS", value_parser = parse_homing_offset)]
+    pub homing_offset: Vec<(u8, i64)>,
+    /// Seconds after start at which the faults take effect.
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0, value_parser = option_values::parse_fault_after, allow_negative_numbers = true)]
+    pub fault_after: f64,
+    /// A hand that moves the arm along this sequence (for the emulated robot) once a servo is
+    /// told to go limp, as a user would for `keypose record`; servos with torque on resist it.
+    #[arg(long, value_name = "SEQ")]
+    pub hand: Option<PathBuf>,
+}
+
+/// A fault for the virtual bus, from the command line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FaultSpec {
+    Servo(u8, bus::virtual_bus::ServoFault),
+    PortGone,
+}
+
+fn parse_fault(s: &str) -> Result<FaultSpec, String> {
+    use bus::virtual_bus::ServoFault;
+    if s == "gone" {
+        return Ok(FaultSpec::PortGone);
+    }
+    let expected = || {
+        format!(
+            "expected ID:KIND (KIND: no-answer, corrupt, late=MS, overload, overheating, voltage, encoder, electrical) or \"gone\", found {s:?}"
+        )
+    };
+    let (id, kind) = s.split_once(':').ok_or_else(expected)?;
+    let id: u8 = id.parse().map_err(|_| expected())?;
+    let alarm = |set: fn(&mut bus::Alarms)| {
+        let mut alarms = bus::Alarms::default();
+        set(&mut alarms);
+        ServoFault::Alarm(alarms)
+    };
+    let fault = match kind {
+        "no-answer" => ServoFault::NoAnswer,
+        "corrupt" => ServoFault::CorruptChecksum,
+        "overload" => alarm(|a| a.overload = true),
+        "overheating" => alarm(|a| a.overheating = true),
+        "voltage" => alarm(|a| a.input_voltage = true),
+        "encoder" => alarm(|a| a.encoder = true),
+        "electrical" => alarm(|a| a.electrical = true),
+        late => {
+            let ms = late.strip_prefix("late=").ok_or_else(expected)?;
+            let ms = option_values::integer_in(
+                ms,
+                0..=option_values::MAX_LATE_MS,
+                "late=MS: milliseconds",
+            )?;
+            ServoFault::Late(std::time::Duration::from_millis(ms))
+        }
+    };
+    Ok(FaultSpec::Servo(id, fault))
+}
+
+fn parse_homing_offset(s: &str) -> Result<(u8, i64), String> {
+    let expected = || format!("expected ID:TICKS (e.g. 3:-1024), found {s:?}");
+    let (id, ticks) = s.split_once(':').ok_or_else(expected)?;
+    Ok((
+        id.parse().map_err(|_| expected())?,
+        ticks.parse().map_err(|_| expected())?,
+    ))
+}
+
+/// A hand moving every servo of `robot` along `trajectory` (from its start, in sequence time).
+fn start_hand(
+    bus: &bus::virtual_bus::VirtualBus,
+    robot: &Robot,
+    trajectory: keypose::plan::Trajectory,
+) -> bus::virtual_bus::Hand {
+    let ids = robot.joints.iter().map(|j| j.servo.id).collect();
+    let servos: Vec<_> = robot.joints.iter().map(|j| j.servo.clone()).collect();
+    let start = trajectory.start();
+    let duration = trajectory.duration();
+    let mut values = vec![0.0; servos.len()];
+    let path = move |t: f64, ticks: &mut [f64]| {
+        trajectory.sample_into(start + t, &mut values);
+        for ((tick, servo), &value) in ticks.iter_mut().zip(&servos).zip(&values) {
+            *tick = servo.tick_exact(value);
+        }
+    };
+    bus::virtual_bus::Hand::start(bus.clone(), ids, duration, Box::new(path))
+}
+
+/// `keypose virtual-bus`: emulated servos on a pseudo-terminal; the device path is the first
+/// line printed; serves until standard input closes or the process is terminated.
+pub fn run(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
+    let robot = super::load_robot(&args.robot, None)?;
+    check_fault_ids(&robot, &args.fault)?;
+    let hand_trajectory = match &args.hand {
+        Some(path) => {
+            let sequence = keypose::sequence::Sequence::load(path)?;
+            Some(keypose::plan::Trajectory::build(&sequence, &robot)?)
+        }
+        None => None,
+    };
+    let server = bus::virtual_bus::PtyServer::start(&robot)?;
+    set_homing_offsets(&server, &robot, &args.homing_offset)?;
+    let _hand = hand_trajectory.map(|trajectory| start_hand(server.bus(), &robot, trajectory));
+    println!("{}", server.path());
+    // Flush now: the parent reads the path to connect while this process keeps running.
+    let _ = std::io::Write::flush(&mut std::io::stdout());
+    if !args.fault.is_empty() {
+        inject_faults_after(&server, args.fault.clone(), args.fault_after);
+    }
+    wait_for_the_end();
+    drop(server);
+    Ok(Verdict::Pass)
+}
+
+/// Refuses a fault for a servo the robot does not have, before anything starts.
+fn check_fault_ids(robot: &Robot, faults: &[FaultSpec]) -> Result<(), CommandError> {
+    for fault in faults {
+        if let FaultSpec::Servo(id, _) = fault {
+            if !robot.joints.iter().any(|j| j.servo.id == *id) {
+                return Err(CommandError::Usage(format!(
+                    "--fault: {} has no servo {id}",
+                    robot.name
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn set_homing_offsets(
+    server: &bus::virtual_bus::PtyServer,
+    robot: &Robot,
+    offsets: &[(u8, i64)],
+) -> Result<(), CommandError> {
+    for &(id, ticks) in offsets {
+        match server.bus().lock().servo_mut(id) {
+            Some(servo) => servo.set_homing_offset(ticks),
+            None => {
+                return Err(CommandError::Usage(format!(
+                    "--homing-offset: {} has no servo {id}",
+                    robot.name
+                )))
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Sets the faults `seconds` from now, on a thread of their own so that serving goes on.
+fn inject_faults_after(server: &bus::virtual_bus::PtyServer, faults: Vec<FaultSpec>, seconds: f64) {
+    let virtual_bus = server.bus().clone();
+    let delay = std::time::Duration::from_secs_f64(seconds);
+    std::thread::spawn(move || {
+        std::thread::sleep(delay);
+        let mut servos = virtual_bus.lock();
+        for fault in faults {
+            match fault {
+                FaultSpec::Servo(id, f) => servos.set_fault(id, Some(f)),
+                FaultSpec::PortGone => servos.connected = false,
+            }
+        }
+    });
+}
+
+/// Blocks until standard input closes (the parent went away) or a signal arrives, checking
+/// every 20 ms so that a signal is acted on promptly.
+fn wait_for_the_end() {
+    let stop = keypose::stop::stop_on_signal();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let stdin = std::io::stdin();
+        for line in stdin.lock().lines() {
+            if line.is_err() {
+                break;
+            }
+        }
+        let _ = tx.send(());
+    });
+    loop {
+        if stop.count() > 0
+            || rx
+                .recv_timeout(std::time::Duration::from_millis(20))
+                .is_ok()
+        {
+            break;
+        }
+    }
+}

@@ -1,0 +1,178 @@
+//! The motions `space` and `y` ask for, planned from the list alone: pure functions, so what
+//! the arm would be sent is tested without servos or a session.
+
+use super::format;
+use crate::json::InputError;
+use crate::plan::{self, CheckReport, Trajectory};
+use crate::player::PlayOptions;
+use crate::robot::Robot;
+use crate::sequence::{KeyValue, Keyframe, Sequence};
+
+/// What a motion on the player's thread is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MotionKind {
+    /// `space`: to key `index`, with the approach ramp.
+    ToKey(usize),
+    /// `y`: the sequence from key `from`.
+    Play { from: usize },
+}
+
+/// A motion for the player: the approach ramp from the present pose, then `trajectory`.
+#[derive(Debug, Clone)]
+pub struct MotionPlan {
+    pub kind: MotionKind,
+    pub trajectory: Trajectory,
+    pub options: PlayOptions,
+    /// Where the arm is commanded at the end when the motion finishes.
+    pub end_pose: Vec<f64>,
+}
+
+/// Why `y` does not play.
+#[derive(Debug)]
+pub enum PlayRefusal {
+    /// The list does not build into a trajectory on this robot.
+    Unplayable(InputError),
+    /// At this speed the trajectory breaks the robot's limits, as `keypose play` would refuse.
+    Limits(CheckReport),
+}
+
+/// `space`: to key `index` of `sequence` by the player's approach ramp alone.
+///
+/// The target is the pose playback passes through at that key (joints the key does not name
+/// follow their own tracks), evaluated on the tracks so that control keys are reached too.
+pub fn to_key(robot: &Robot, sequence: &Sequence, index: usize) -> Result<MotionPlan, InputError> {
+    let trajectory = Trajectory::build(sequence, robot)?;
+    let time = sequence.key_time(index);
+    let pose: Vec<f64> = trajectory
+        .tracks()
+        .iter()
+        .zip(&robot.joints)
+        .map(|(track, joint)| track.sample(time).clamp(joint.limits.min, joint.limits.max))
+        .collect();
+    let mut target = Sequence::new(&robot.name);
+    target.file = format!("<{}>", format::key_label(sequence, index));
+    target.keyframes.push(Keyframe::new(
+        robot
+            .joints
+            .iter()
+            .zip(&pose)
+            .map(|(j, &v)| (j.name.clone(), KeyValue::Joint(v)))
+            .collect(),
+    ));
+    // One key: the player's approach ramp is the whole motion.
+    Ok(MotionPlan {
+        kind: MotionKind::ToKey(index),
+        trajectory: Trajectory::build(&target, robot)?,
+        options: PlayOptions {
+            progress: false,
+            ..PlayOptions::new(robot.control_hz)
+        },
+        end_pose: pose,
+    })
+}
+
+/// `y`: `sequence` from key `from` at `speed`, at the robot's control rate, refused (as
+/// `keypose play` refuses) when anything goes beyond the limits at that speed.
+pub fn play(
+    robot: &Robot,
+    sequence: &Sequence,
+    from: usize,
+    speed: f64,
+) -> Result<MotionPlan, PlayRefusal> {
+    let trajectory = Trajectory::build(sequence, robot).map_err(PlayRefusal::Unplayable)?;
+    let rate = robot.control_hz;
+    let report = plan::check_at_speed(&trajectory, robot, rate, speed);
+    if !report.violations.is_empty() {
+        return Err(PlayRefusal::Limits(report));
+    }
+    let end_pose = trajectory.sample(trajectory.end);
+    Ok(MotionPlan {
+        kind: MotionKind::Play { from },
+        trajectory,
+        options: PlayOptions {
+            speed,
+            from_key: Some(from),
+            progress: false,
+            ..PlayOptions::new(rate)
+        },
+        end_pose,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sequence::Ends;
+
+    fn pans(degrees: &[f64]) -> Sequence {
+        let mut sequence = Sequence::new("so101");
+        for &deg in degrees {
+            sequence.keyframes.push(Keyframe::new(vec![(
+                "shoulder_pan".into(),
+                KeyValue::Joint(deg),
+            )]));
+        }
+        sequence
+    }
+
+    #[test]
+    fn a_move_to_a_key_is_one_key_reached_by_the_approach_ramp() {
+        let robot = Robot::builtin("so101").unwrap();
+        let plan = to_key(&robot, &pans(&[0.0, 20.0, 40.0]), 1).unwrap();
+        assert_eq!(plan.kind, MotionKind::ToKey(1));
+        assert!(plan.options.approach && !plan.options.progress);
+        assert_eq!(plan.trajectory.key_times.len(), 1);
+        assert!(
+            (plan.end_pose[0] - 20.0).abs() < 1e-9,
+            "{:?}",
+            plan.end_pose
+        );
+        // Joints the key does not name stay where playback has them: home.
+        assert_eq!(&plan.end_pose[1..], &robot.home[1..]);
+    }
+
+    #[test]
+    fn a_control_key_is_reached_at_its_own_pose() {
+        let robot = Robot::builtin("so101").unwrap();
+        let mut sequence = pans(&[-20.0, 0.0, 10.0, 40.0]);
+        sequence.ends = Ends::Control;
+        let plan = to_key(&robot, &sequence, 0).unwrap();
+        assert!(
+            (plan.end_pose[0] + 20.0).abs() < 1e-9,
+            "{:?}",
+            plan.end_pose
+        );
+    }
+
+    #[test]
+    fn playback_starts_at_the_key_and_ends_at_the_last_pose() {
+        let robot = Robot::builtin("so101").unwrap();
+        let plan = play(&robot, &pans(&[0.0, 20.0]), 1, 1.5).unwrap();
+        assert_eq!(plan.kind, MotionKind::Play { from: 1 });
+        assert_eq!(plan.options.from_key, Some(1));
+        assert_eq!(plan.options.speed, 1.5);
+        assert_eq!(plan.options.rate_hz, robot.control_hz);
+        assert!((plan.end_pose[0] - 20.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn playback_beyond_the_limits_or_off_the_robot_is_refused() {
+        let robot = Robot::builtin("so101").unwrap();
+        let mut fast = pans(&[0.0, 90.0]);
+        // 90° in 0.1 s is far beyond 115°/s.
+        fast.key_interval = Some(0.1);
+        assert!(matches!(
+            play(&robot, &fast, 0, 1.0),
+            Err(PlayRefusal::Limits(report)) if !report.violations.is_empty()
+        ));
+        let mut unknown = Sequence::new("so101");
+        unknown
+            .keyframes
+            .push(Keyframe::new(vec![("joint9".into(), KeyValue::Joint(0.0))]));
+        assert!(matches!(
+            play(&robot, &unknown, 0, 1.0),
+            Err(PlayRefusal::Unplayable(_))
+        ));
+        assert!(to_key(&robot, &unknown, 0).is_err());
+    }
+}

@@ -1,0 +1,215 @@
+//! How the state takes what the drivers report: what the servos did and what the files did.
+//! Each handler only records what an event confirms.
+
+use super::*;
+
+impl TeachState {
+    /// Applies what a driver reports; returns what must follow (a loaded list is journaled, a
+    /// written one's journal removed).
+    pub fn on_event(&mut self, event: Event) -> Vec<Command> {
+        match event {
+            Event::Reading(values) => self.present = values,
+            Event::Held { joints, values } => self.held(joints, values),
+            Event::Released { joints } => self.released(joints),
+            Event::GoalsSent(goals) => self.goals_sent(goals),
+            Event::MotionStarted { kind, end_pose } => self.motion_started(kind, end_pose),
+            Event::MotionEnded {
+                outcome,
+                last_goals,
+            } => self.motion_ended(outcome, last_goals),
+            Event::BusError(message) => {
+                self.fail(message);
+            }
+            Event::Loaded { path, result } => return self.loaded(&path, result),
+            Event::Saved { path, result } => return self.saved(path, result),
+            Event::Journaled(result) => self.journaled(result),
+            Event::JournalCleared { why, result } => self.journal_cleared(why, result),
+        }
+        Vec::new()
+    }
+
+    // ----- what the servos did -----
+
+    fn held(&mut self, joints: Vec<usize>, values: Vec<f64>) {
+        for (&j, &v) in joints.iter().zip(&values) {
+            self.torque[j] = true;
+            self.goals[j] = v;
+        }
+        let hint = if joints.len() == self.robot.joints.len() {
+            " (arrows jog; t/T release torque to move the arm by hand)"
+        } else {
+            ""
+        };
+        self.info(format!("holding {}{hint}", self.names(&joints)));
+    }
+
+    fn released(&mut self, joints: Vec<usize>) {
+        for &j in &joints {
+            self.torque[j] = false;
+        }
+        self.info(format!(
+            "released {}: move by hand, then u or n captures the pose",
+            self.names(&joints)
+        ));
+    }
+
+    fn goals_sent(&mut self, goals: Vec<(usize, f64)>) {
+        for &(j, v) in &goals {
+            self.goals[j] = v;
+        }
+        if let Some(&(j, v)) = goals.last() {
+            let joint = &self.robot.joints[j];
+            self.info(format!("{} → {}", joint.name, format::value(joint, v)));
+        }
+    }
+
+    fn motion_started(&mut self, kind: MotionKind, end_pose: Vec<f64>) {
+        self.info(match kind {
+            MotionKind::ToKey(i) => {
+                format!("moving to {} (y or Esc stops)", self.key_label(i))
+            }
+            MotionKind::Play { from } => format!(
+                "playing from {} at speed {:.1} (y or Esc stops)",
+                self.key_label(from),
+                self.speed()
+            ),
+        });
+        self.activity = Activity::Moving {
+            kind,
+            end_pose,
+            stops: 0,
+        };
+    }
+
+    fn motion_ended(&mut self, outcome: Result<Outcome, String>, last_goals: Option<Vec<f64>>) {
+        let Activity::Moving { kind, end_pose, .. } =
+            std::mem::replace(&mut self.activity, Activity::Idle)
+        else {
+            return;
+        };
+        // The player turns torque on for every joint before it moves. After a fault that may
+        // not have happened (or a servo in shutdown dropped it), so the screen keeps what it
+        // knew rather than claim a hold.
+        if outcome.is_ok() {
+            self.torque.iter_mut().for_each(|t| *t = true);
+        }
+        let stopped_at = last_goals.as_deref().unwrap_or(&self.present);
+        self.goals = match outcome {
+            // The exact pose it was sent to, so that jogs from there stay on round values.
+            Ok(Outcome::Finished) => end_pose,
+            _ => self
+                .robot
+                .joints
+                .iter()
+                .zip(stopped_at)
+                .map(|(j, &v)| tidy(j, v))
+                .collect(),
+        };
+        match outcome {
+            Ok(Outcome::Finished) => self.info(match kind {
+                MotionKind::ToKey(i) => format!("at {}", self.key_label(i)),
+                MotionKind::Play { .. } => "played to the end; holding the last pose".into(),
+            }),
+            Ok(Outcome::Stopped) => {
+                self.info("stopped: the arm decelerated along its path and holds there")
+            }
+            Ok(Outcome::Held) => self.info("held at once where the arm was"),
+            Err(message) => {
+                self.fail(message);
+            }
+        }
+    }
+
+    // ----- what the files did -----
+
+    fn loaded(&mut self, path: &Path, result: Result<Sequence, String>) -> Vec<Command> {
+        let sequence = match result {
+            Ok(s) => s,
+            Err(e) => return self.fail(format!("cannot import: {e}")),
+        };
+        // What cannot be played on this robot is refused here rather than at `space` or `y`.
+        if let Err(e) = Trajectory::build(&sequence, &self.robot) {
+            return self.fail(format!("cannot import: {e}"));
+        }
+        let other_robot = if sequence.robot == self.robot.name {
+            String::new()
+        } else {
+            format!(" (it names robot {})", sequence.robot)
+        };
+        let keys = sequence.keyframes.len();
+        self.list = KeyframeList::new(sequence);
+        self.replaced = !same_file(path, &self.output);
+        self.info(format!(
+            "imported {} ({}){other_robot}",
+            path.display(),
+            format::count(keys)
+        ));
+        self.edited()
+    }
+
+    fn saved(&mut self, path: PathBuf, result: Result<(), String>) -> Vec<Command> {
+        if let Err(e) = result {
+            return self.fail(format!("not written: {e}"));
+        }
+        self.mark_written(&path);
+        self.replaced = false;
+        let mut commands = Vec::new();
+        if !same_file(&path, &self.output) {
+            // Save-as: the new file is the target from now on, and so is its journal.
+            if let Some(journal) = self.journal.take() {
+                self.journal = Some(journal.for_other_target(&path));
+                commands.extend(clear(journal, Clearing::Moved));
+            }
+            self.output = path.clone();
+        }
+        let verdict = self.check_note();
+        self.info(format!(
+            "wrote {} ({}); {verdict}",
+            path.display(),
+            format::count(self.list.len())
+        ));
+        if let Some(journal) = &self.journal {
+            commands.extend(clear(journal.clone(), Clearing::Written));
+        }
+        commands
+    }
+
+    /// What [`KeyframeList::save`] leaves once the driver has written the file: a clean list
+    /// that names it, on the same key.
+    fn mark_written(&mut self, path: &Path) {
+        let current = self.list.current_index();
+        let mut sequence = self.list.sequence().clone();
+        sequence.file = path.display().to_string();
+        self.list = KeyframeList::new(sequence);
+        self.list.select(current);
+    }
+
+    fn journaled(&mut self, result: Result<(), String>) {
+        let (Err(e), Some(journal)) = (result, &self.journal) else {
+            return;
+        };
+        let message = format!(
+            "{}; but the journal {} cannot be written ({e}): w saves your work",
+            self.status.text,
+            journal.path().display()
+        );
+        self.fail(message);
+    }
+
+    fn journal_cleared(&mut self, why: Clearing, result: Result<(), String>) {
+        let Err(e) = result else {
+            return;
+        };
+        match why {
+            Clearing::Written => self
+                .status
+                .text
+                .push_str(&format!(" (cannot remove the journal: {e})")),
+            Clearing::Moved => {}
+            Clearing::Quit => {
+                let message = format!("{}; cannot remove the journal: {e}", self.status.text);
+                self.fail(message);
+            }
+        }
+    }
+}
