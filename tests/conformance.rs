@@ -20,9 +20,9 @@
 //! and say why: they never skip.
 
 use keypose::bus::driver::NativeBus;
-use keypose::bus::dynamixel::{self, Dynamixel2};
-use keypose::bus::feetech::{self, Feetech};
-use keypose::bus::packet::{Decoded, Direction, Framing, Packet};
+use keypose::bus::protocol::dynamixel::{self, Dynamixel2};
+use keypose::bus::protocol::feetech::{self, Feetech};
+use keypose::bus::protocol::packet::{Decoded, Direction, Framing, Packet};
 use keypose::bus::registers::{self, Register};
 use keypose::bus::sdk::SdkBus;
 use keypose::bus::transport::SerialTransport;

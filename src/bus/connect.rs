@@ -124,9 +124,9 @@ pub fn scan(
             }
         };
         let max_id = if protocol == Protocol::Dynamixel2 {
-            super::dynamixel::MAX_DEVICE_ID
+            super::protocol::dynamixel::MAX_DEVICE_ID
         } else {
-            super::feetech::MAX_DEVICE_ID
+            super::protocol::feetech::MAX_DEVICE_ID
         };
         for id in 0..=max_id {
             match bus.ping(id) {

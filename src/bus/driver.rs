@@ -6,10 +6,11 @@
 //! other ids are skipped, corrupt packets are counted and the search goes on behind them.
 
 use super::echo::{Echoes, Front};
-use super::packet::{Decoded, Direction, Framing, Packet, PacketError};
+use super::protocol::packet::{Decoded, Direction, Framing, Packet, PacketError};
+use super::protocol::{dynamixel, feetech};
 use super::registers::{self, Register, RegisterTable};
 use super::transport::Transport;
-use super::{dynamixel, feetech, Alarms, BusError, Health, PingInfo, ServoBus};
+use super::{Alarms, BusError, Health, PingInfo, ServoBus};
 use crate::robot::{Protocol, ServoModel};
 use std::collections::HashMap;
 use std::time::{Duration, Instant};

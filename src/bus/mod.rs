@@ -10,12 +10,10 @@
 
 mod connect;
 pub mod driver;
-pub mod dynamixel;
 mod echo;
-pub mod feetech;
 pub mod homing;
-pub mod packet;
 pub mod ports;
+pub mod protocol;
 pub mod registers;
 pub mod sdk;
 pub mod transport;

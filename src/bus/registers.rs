@@ -6,7 +6,8 @@
 //! [`PositionEncoding`], the tick representation the robot description already defines, so a
 //! register and the joint mapping cannot disagree about a negative tick.
 
-use super::{dynamixel, feetech, Alarms};
+use super::protocol::{dynamixel, feetech};
+use super::Alarms;
 use crate::robot::{PositionEncoding, Protocol, ServoModel};
 
 /// The order of a register value's bytes in memory and on the wire.

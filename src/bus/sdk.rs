@@ -269,7 +269,7 @@ impl SdkBus {
                 if !self.dynamixel() {
                     return BusError::Alarm {
                         id,
-                        alarms: super::feetech::status_alarms(code),
+                        alarms: super::protocol::feetech::status_alarms(code),
                     };
                 }
                 if code & !DXL_ALERT != 0 {
@@ -281,7 +281,7 @@ impl SdkBus {
                 let alarms = if follow_alert {
                     self.read_reg_despite_alarms(id, DXL_HARDWARE_ERROR_STATUS)
                         .ok()
-                        .map(|bits| super::dynamixel::hardware_error_alarms(bits as u8))
+                        .map(|bits| super::protocol::dynamixel::hardware_error_alarms(bits as u8))
                 } else {
                     None
                 };
@@ -550,7 +550,7 @@ impl ServoBus for SdkBus {
                     voltage_v: registers::table(crate::robot::ServoModel::Xm430W350)
                         .voltage_v(i64::from(voltage)),
                     load_percent: self.dxl_load_percent(id, load)?,
-                    alarms: super::dynamixel::hardware_error_alarms(bits as u8),
+                    alarms: super::protocol::dynamixel::hardware_error_alarms(bits as u8),
                 }
             } else {
                 let bits = self.read_reg_despite_alarms(id, FT_STATUS)?;
@@ -567,7 +567,7 @@ impl ServoBus for SdkBus {
                     temperature_c: sts.temperature_c(i64::from(temperature)),
                     voltage_v: sts.voltage_v(i64::from(voltage)),
                     load_percent: sts.load_percent(load),
-                    alarms: super::feetech::status_alarms(bits as u8),
+                    alarms: super::protocol::feetech::status_alarms(bits as u8),
                 }
             };
             healths.push(health);

@@ -17,10 +17,11 @@ mod pty;
 pub use hand::Hand;
 pub use pty::PtyServer;
 
-use super::packet::{Decoded, Direction, Framing, Packet};
+use super::protocol::packet::{Decoded, Direction, Framing, Packet};
+use super::protocol::{dynamixel, feetech};
 use super::registers::{self, RegisterTable};
 use super::transport::Responder;
-use super::{dynamixel, feetech, Alarms};
+use super::Alarms;
 use crate::robot::{Protocol, Robot, ServoModel};
 use motion::Motion;
 use std::collections::HashMap;
@@ -606,7 +607,7 @@ impl Responder for VirtualBus {
 #[cfg(test)]
 mod log_tests {
     use super::*;
-    use crate::bus::packet::Framing;
+    use crate::bus::protocol::packet::Framing;
 
     #[test]
     fn the_received_log_keeps_the_latest_packets_within_its_capacity() {

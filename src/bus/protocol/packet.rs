@@ -8,7 +8,7 @@
 //! does not return [`Decoded::NeedMore`] removes at least one byte, so a caller that loops until
 //! `NeedMore` always terminates.
 
-use super::BusError;
+use crate::bus::BusError;
 use std::fmt;
 
 /// Which way a packet travels. Feetech instruction and status packets share one layout and can
