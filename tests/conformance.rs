@@ -20,8 +20,8 @@
 //! and say why: they never skip.
 
 use keypose::bus::driver::NativeBus;
-use keypose::bus::protocol::dynamixel::{self, Dynamixel2};
-use keypose::bus::protocol::feetech::{self, Feetech};
+use keypose::bus::protocol::codec;
+use keypose::bus::protocol::dynamixel::Dynamixel2;
 use keypose::bus::protocol::packet::{Decoded, Direction, Framing, Packet};
 use keypose::bus::registers::{self, Register};
 use keypose::bus::sdk::SdkBus;
@@ -760,90 +760,49 @@ impl Op {
 
     /// The bytes our codec builds for the operation.
     fn our_bytes(&self, protocol: Protocol, model: ServoModel) -> Vec<u8> {
+        let codec = codec(protocol);
+        let (framing, fields, instructions) =
+            (codec.framing(), codec.fields(), codec.instructions());
+        let broadcast = framing.broadcast_id();
         let table = registers::table(model);
         let encode = |item: Item, value: i64| {
             table
                 .encode(&item.register(model), value)
                 .expect("a value the register holds")
         };
+        let addr = |item: Item| item.register(model).address;
         let size = |item: Item| u16::from(item.register(model).size);
-        let short = |item: Item| {
-            item.register(model)
-                .short_address()
-                .expect("a one-byte Feetech address")
-        };
         let entries = |item: Item, values: &[(u8, i64)]| -> Vec<(u8, Vec<u8>)> {
             values
                 .iter()
                 .map(|&(id, value)| (id, encode(item, value)))
                 .collect()
         };
-        match protocol {
-            Protocol::Dynamixel2 => {
-                let framing = Dynamixel2;
-                let addr = |item: Item| item.register(model).address;
-                match self {
-                    Op::Ping(id) => framing.encode_instruction(*id, dynamixel::PING, &[]),
-                    Op::Read(id, item) => framing.encode_instruction(
-                        *id,
-                        dynamixel::READ,
-                        &dynamixel::read_params(addr(*item), size(*item)),
-                    ),
-                    Op::Write(id, item, value) => framing.encode_instruction(
-                        *id,
-                        dynamixel::WRITE,
-                        &dynamixel::write_params(addr(*item), &encode(*item, *value)),
-                    ),
-                    Op::SyncWrite(item, values) => framing.encode_instruction(
-                        dynamixel::BROADCAST_ID,
-                        dynamixel::SYNC_WRITE,
-                        &dynamixel::sync_write_params(
-                            addr(*item),
-                            size(*item),
-                            &entries(*item, values),
-                        )
-                        .expect("sync write parameters"),
-                    ),
-                    Op::SyncRead(item, ids) => framing.encode_instruction(
-                        dynamixel::BROADCAST_ID,
-                        dynamixel::SYNC_READ,
-                        &dynamixel::sync_read_params(addr(*item), size(*item), ids),
-                    ),
-                }
-            }
-            _ => {
-                let framing = Feetech;
-                let len = |item: Item| u8::try_from(size(item)).expect("a one-byte length");
-                match self {
-                    Op::Ping(id) => framing.encode_instruction(*id, feetech::PING, &[]),
-                    Op::Read(id, item) => framing.encode_instruction(
-                        *id,
-                        feetech::READ,
-                        &feetech::read_params(short(*item), len(*item)),
-                    ),
-                    Op::Write(id, item, value) => framing.encode_instruction(
-                        *id,
-                        feetech::WRITE,
-                        &feetech::write_params(short(*item), &encode(*item, *value)),
-                    ),
-                    Op::SyncWrite(item, values) => framing.encode_instruction(
-                        feetech::BROADCAST_ID,
-                        feetech::SYNC_WRITE,
-                        &feetech::sync_write_params(
-                            short(*item),
-                            len(*item),
-                            &entries(*item, values),
-                        )
-                        .expect("sync write parameters"),
-                    ),
-                    Op::SyncRead(item, ids) => framing.encode_instruction(
-                        feetech::BROADCAST_ID,
-                        feetech::SYNC_READ,
-                        &feetech::sync_read_params(short(*item), len(*item), ids),
-                    ),
-                }
-            }
-        }
+        let (id, instruction, params) = match self {
+            Op::Ping(id) => (*id, instructions.ping, Ok(Vec::new())),
+            Op::Read(id, item) => (
+                *id,
+                instructions.read,
+                fields.read(addr(*item), size(*item)),
+            ),
+            Op::Write(id, item, value) => (
+                *id,
+                instructions.write,
+                fields.write(addr(*item), &encode(*item, *value)),
+            ),
+            Op::SyncWrite(item, values) => (
+                broadcast,
+                instructions.sync_write,
+                fields.sync_write(addr(*item), size(*item), &entries(*item, values)),
+            ),
+            Op::SyncRead(item, ids) => (
+                broadcast,
+                instructions.sync_read.expect("a protocol with Sync Read"),
+                fields.sync_read(addr(*item), size(*item), ids),
+            ),
+        };
+        let params = params.expect("parameters that fit the protocol's fields");
+        framing.encode_instruction(id, instruction, &params)
     }
 
     /// Does the operation through our driver, when it is one the driver has: the `ServoBus`

@@ -123,11 +123,7 @@ pub fn scan(
                 Box::new(super::sdk::SdkBus::open(path, baud, protocol).map_err(BusError::from)?)
             }
         };
-        let max_id = if protocol == Protocol::Dynamixel2 {
-            super::protocol::dynamixel::MAX_DEVICE_ID
-        } else {
-            super::protocol::feetech::MAX_DEVICE_ID
-        };
+        let max_id = super::protocol::codec(protocol).max_device_id();
         for id in 0..=max_id {
             match bus.ping(id) {
                 Ok(info) => found.push((protocol, info)),

@@ -6,8 +6,8 @@
 //! other ids are skipped, corrupt packets are counted and the search goes on behind them.
 
 use super::echo::{Echoes, Front};
-use super::protocol::packet::{Decoded, Direction, Framing, Packet, PacketError};
-use super::protocol::{dynamixel, feetech};
+use super::protocol::packet::{Decoded, Direction, Packet, PacketError};
+use super::protocol::{codec, Codec, Instructions, Status};
 use super::registers::{self, Register, RegisterTable};
 use super::transport::Transport;
 use super::{Alarms, BusError, Health, PingInfo, ServoBus};
@@ -23,8 +23,7 @@ pub const DEFAULT_READ_RETRIES: u32 = 2;
 
 pub struct NativeBus {
     transport: Box<dyn Transport>,
-    protocol: Protocol,
-    framing: Box<dyn Framing + Send>,
+    codec: &'static dyn Codec,
     models: HashMap<u8, ServoModel>,
     pub timeout: Duration,
     pub read_retries: u32,
@@ -44,14 +43,9 @@ impl NativeBus {
         protocol: Protocol,
         servos: &[(u8, ServoModel)],
     ) -> NativeBus {
-        let framing: Box<dyn Framing + Send> = match protocol {
-            Protocol::Dynamixel2 => Box::new(dynamixel::Dynamixel2),
-            Protocol::FeetechSts | Protocol::FeetechScs => Box::new(feetech::Feetech),
-        };
         NativeBus {
             transport,
-            protocol,
-            framing,
+            codec: codec(protocol),
             models: servos.iter().copied().collect(),
             timeout: DEFAULT_TIMEOUT,
             read_retries: DEFAULT_READ_RETRIES,
@@ -93,7 +87,7 @@ impl NativeBus {
     }
 
     fn protocol_error(&self, e: impl std::fmt::Display) -> BusError {
-        BusError::Protocol(format!("{}: {e}", self.protocol.name()))
+        BusError::Protocol(format!("{}: {e}", self.codec.protocol().name()))
     }
 
     fn port_error(&self, source: std::io::Error) -> BusError {
@@ -103,55 +97,14 @@ impl NativeBus {
         }
     }
 
-    fn read_params(&self, address: u16, length: u16) -> Result<Vec<u8>, BusError> {
-        Ok(match self.protocol {
-            Protocol::Dynamixel2 => dynamixel::read_params(address, length),
-            _ => feetech::read_params(self.short(address)?, self.short(length)?),
-        })
-    }
-
-    fn write_params(&self, address: u16, data: &[u8]) -> Result<Vec<u8>, BusError> {
-        Ok(match self.protocol {
-            Protocol::Dynamixel2 => dynamixel::write_params(address, data),
-            _ => feetech::write_params(self.short(address)?, data),
-        })
-    }
-
-    fn sync_read_params(&self, address: u16, length: u16, ids: &[u8]) -> Result<Vec<u8>, BusError> {
-        Ok(match self.protocol {
-            Protocol::Dynamixel2 => dynamixel::sync_read_params(address, length, ids),
-            _ => feetech::sync_read_params(self.short(address)?, self.short(length)?, ids),
-        })
-    }
-
-    fn sync_write_params(
-        &self,
-        address: u16,
-        length: u16,
-        data: &[(u8, Vec<u8>)],
-    ) -> Result<Vec<u8>, BusError> {
-        match self.protocol {
-            Protocol::Dynamixel2 => dynamixel::sync_write_params(address, length, data),
-            _ => feetech::sync_write_params(self.short(address)?, self.short(length)?, data),
-        }
-        .map_err(|e| self.protocol_error(e))
-    }
-
-    fn short(&self, value: u16) -> Result<u8, BusError> {
-        u8::try_from(value)
-            .map_err(|_| self.protocol_error(format!("{value} does not fit one byte")))
-    }
-
-    fn sync_instructions(&self) -> (u8, u8) {
-        match self.protocol {
-            Protocol::Dynamixel2 => (dynamixel::SYNC_READ, dynamixel::SYNC_WRITE),
-            _ => (feetech::SYNC_READ, feetech::SYNC_WRITE),
-        }
+    fn instructions(&self) -> &'static Instructions {
+        self.codec.instructions()
     }
 
     fn send(&mut self, id: u8, instruction: u8, params: &[u8]) -> Result<(), BusError> {
         let bytes = self
-            .framing
+            .codec
+            .framing()
             .try_encode_instruction(id, instruction, params)
             .map_err(|e| self.protocol_error(e))?;
         // Anything still in the input is a late answer to an earlier, abandoned transaction (or
@@ -204,8 +157,10 @@ impl NativeBus {
                     Front::Undecided => break,
                     Front::Echo(mut bytes) => {
                         if copy_may_answer {
-                            if let Ok(Decoded::Packet(p)) =
-                                self.framing.decode(&mut bytes, Direction::FromServo)
+                            if let Ok(Decoded::Packet(p)) = self
+                                .codec
+                                .framing()
+                                .decode(&mut bytes, Direction::FromServo)
                             {
                                 own_copy = Some(p).filter(|p| p.id == id);
                             }
@@ -214,7 +169,11 @@ impl NativeBus {
                     }
                     Front::NotEcho => {}
                 }
-                match self.framing.decode(&mut self.rx, Direction::FromServo) {
+                match self
+                    .codec
+                    .framing()
+                    .decode(&mut self.rx, Direction::FromServo)
+                {
                     Ok(Decoded::Packet(packet))
                         if packet.id == id
                             && data_bytes.is_some_and(|n| packet.params.len() != n)
@@ -273,11 +232,20 @@ impl NativeBus {
     /// Dynamixel Hardware Error Status: one byte at the same address on every X-series model,
     /// so it can be read from a servo of unknown model (a scan).
     fn read_alarm_register(&mut self, id: u8) -> Result<Alarms, BusError> {
-        let params = self.read_params(dynamixel::HARDWARE_ERROR_STATUS, 1)?;
-        self.send(id, dynamixel::READ, &params)?;
-        let packet = self.receive_answer(id, Some(1))?;
+        let (register, bits) = self.codec.alarm_register();
+        let packet = self.read_register(id, register)?;
         let raw = packet.params.first().copied().unwrap_or(0);
-        Ok(dynamixel::hardware_error_alarms(raw))
+        Ok(bits.decode(raw))
+    }
+
+    /// One READ of `register` from servo `id`, its answer unchecked: the status byte is the
+    /// caller's to judge.
+    fn read_register(&mut self, id: u8, register: Register) -> Result<Packet, BusError> {
+        let size = u16::from(register.size);
+        let params = self.codec.fields().read(register.address, size);
+        let params = params.map_err(|e| self.protocol_error(e))?;
+        self.send(id, self.instructions().read, &params)?;
+        self.receive_answer(id, Some(usize::from(register.size)))
     }
 
     /// One instruction to one servo and its answer (with `data_bytes` of data, when given),
@@ -338,23 +306,23 @@ impl NativeBus {
             }
         };
         let mut blocks = Vec::with_capacity(ids.len());
-        if self.protocol == Protocol::FeetechScs {
-            // SCS servos do not answer Sync Read (PROTOCOLS.md §2.2).
+        let Some(sync_read) = self.instructions().sync_read else {
+            let read = self.instructions().read;
             for &id in ids {
-                let params = self.read_params(address, length)?;
-                let packet =
-                    self.transaction(id, feetech::READ, &params, Some(usize::from(length)))?;
+                let params = self.codec.fields().read(address, length);
+                let params = params.map_err(|e| self.protocol_error(e))?;
+                let packet = self.transaction(id, read, &params, Some(usize::from(length)))?;
                 check_length(&packet)?;
                 blocks.push(packet.params);
             }
             return Ok(blocks);
-        }
-        if self.fast_sync_read && self.protocol == Protocol::Dynamixel2 {
+        };
+        if self.fast_sync_read && self.codec.fast_sync_read().is_some() {
             return self.fast_sync_read_once(ids, address, length);
         }
-        let (sync_read, _) = self.sync_instructions();
-        let params = self.sync_read_params(address, length, ids)?;
-        let broadcast = self.framing.broadcast_id();
+        let params = self.codec.fields().sync_read(address, length, ids);
+        let params = params.map_err(|e| self.protocol_error(e))?;
+        let broadcast = self.codec.framing().broadcast_id();
         self.send(broadcast, sync_read, &params)?;
         // Each servo answers with its own status packet, in list order.
         let mut first_error = None;
@@ -379,11 +347,16 @@ impl NativeBus {
         address: u16,
         length: u16,
     ) -> Result<Vec<Vec<u8>>, BusError> {
-        let broadcast = self.framing.broadcast_id();
-        let params = dynamixel::sync_read_params(address, length, ids);
-        self.send(broadcast, dynamixel::FAST_SYNC_READ, &params)?;
+        let broadcast = self.codec.framing().broadcast_id();
+        let Some(fast) = self.codec.fast_sync_read() else {
+            return Err(self.protocol_error("the protocol has no fast sync read"));
+        };
+        let params = self.codec.fields().sync_read(address, length, ids);
+        let params = params.map_err(|e| self.protocol_error(e))?;
+        self.send(broadcast, fast.instruction(), &params)?;
         let packet = self.receive(broadcast)?;
-        let entries = dynamixel::parse_fast_sync_read(&packet, length)
+        let entries = fast
+            .parse(&packet, length)
             .map_err(|e| e.corrupt_answer(ids.first().copied().unwrap_or(broadcast)))?;
         // The split into blocks depends only on the length asked for, so check that the ids
         // that came back are the ones asked for, in order.
@@ -413,62 +386,46 @@ impl NativeBus {
     /// Dynamixel REBOOT: the only way to clear a hardware-error shutdown (PROTOCOLS.md §1.8).
     /// The servo comes back with torque off.
     pub fn reboot(&mut self, id: u8) -> Result<(), BusError> {
-        if self.protocol != Protocol::Dynamixel2 {
+        let Some(reboot) = self.instructions().reboot else {
             return Err(self.protocol_error("REBOOT is a Dynamixel instruction"));
-        }
-        self.send(id, dynamixel::REBOOT, &[])?;
+        };
+        self.send(id, reboot, &[])?;
         let packet = self.receive(id)?;
-        let status = dynamixel::StatusByte::parse(packet.error().unwrap_or(0));
-        status.refusal(id).map_or(Ok(()), Err)
+        match self.codec.status(packet.error().unwrap_or(0)) {
+            Status::Refused(reason) => Err(BusError::Refused { id, reason }),
+            _ => Ok(()),
+        }
     }
 
     /// Like [`Self::check_status`] without any bus traffic (inside a sync read, where other
     /// answers are still arriving); a Dynamixel alert is resolved afterwards.
     fn check_status_passive(&self, packet: &Packet) -> Result<(), BusError> {
-        let error = packet.error().unwrap_or(0);
         let id = packet.id;
-        match self.protocol {
-            Protocol::Dynamixel2 => {
-                let status = dynamixel::StatusByte::parse(error);
-                if let Some(refusal) = status.refusal(id) {
-                    return Err(refusal);
-                }
-                if status.alert {
-                    return Err(BusError::Alarm {
-                        id,
-                        alarms: Alarms::default(),
-                    });
-                }
-                Ok(())
-            }
-            _ => {
-                let alarms = feetech::status_alarms(error);
-                if alarms.any() {
-                    Err(BusError::Alarm { id, alarms })
-                } else {
-                    Ok(())
-                }
-            }
+        match self.codec.status(packet.error().unwrap_or(0)) {
+            Status::Done => Ok(()),
+            Status::Refused(reason) => Err(BusError::Refused { id, reason }),
+            Status::Alarms(alarms) => Err(BusError::Alarm { id, alarms }),
+            // Named by `resolve_alarm` once the bus is free for a register read.
+            Status::Alert => Err(BusError::Alarm {
+                id,
+                alarms: Alarms::default(),
+            }),
         }
     }
 
     /// Fills in which alarm an alert stands for, once the sync read is over.
     fn resolve_alarm(&mut self, error: BusError) -> BusError {
         match error {
-            BusError::Alarm { id, alarms }
-                if !alarms.any() && self.protocol == Protocol::Dynamixel2 =>
-            {
-                match self.read_alarm_register(id) {
-                    Ok(alarms) if alarms.any() => BusError::Alarm { id, alarms },
-                    _ => BusError::Alarm {
-                        id,
-                        alarms: Alarms {
-                            overload: true,
-                            ..Alarms::default()
-                        },
+            BusError::Alarm { id, alarms } if !alarms.any() => match self.read_alarm_register(id) {
+                Ok(alarms) if alarms.any() => BusError::Alarm { id, alarms },
+                _ => BusError::Alarm {
+                    id,
+                    alarms: Alarms {
+                        overload: true,
+                        ..Alarms::default()
                     },
-                }
-            }
+                },
+            },
             other => other,
         }
     }
@@ -504,63 +461,57 @@ impl NativeBus {
                     .map_err(|e| BusError::Protocol(format!("servo {id}: {e}")))
             })
             .collect::<Result<Vec<_>, _>>()?;
-        let (_, sync_write) = self.sync_instructions();
-        let params = self.sync_write_params(register.address, u16::from(register.size), &data)?;
-        let broadcast = self.framing.broadcast_id();
+        let sync_write = self.instructions().sync_write;
+        let params =
+            self.codec
+                .fields()
+                .sync_write(register.address, u16::from(register.size), &data);
+        let params = params.map_err(|e| self.protocol_error(e))?;
+        let broadcast = self.codec.framing().broadcast_id();
         self.send(broadcast, sync_write, &params)
     }
 }
 
 impl ServoBus for NativeBus {
     fn describe(&self) -> String {
-        format!("{} on {}", self.protocol.name(), self.transport.describe())
+        format!(
+            "{} on {}",
+            self.codec.protocol().name(),
+            self.transport.describe()
+        )
     }
 
     fn ping(&mut self, id: u8) -> Result<PingInfo, BusError> {
-        let ping = match self.protocol {
-            Protocol::Dynamixel2 => dynamixel::PING,
-            _ => feetech::PING,
-        };
+        let ping = self.instructions().ping;
         self.send(id, ping, &[])?;
-        let packet = self.collect_answer(id, None, true)?;
+        let copy_may_answer = self.codec.status_may_equal_instruction();
+        let packet = self.collect_answer(id, None, copy_may_answer)?;
         // A servo in alarm still answers: the alarms go into the answer, not into an error.
         let alarms = match self.check_status(&packet) {
             Ok(()) => Alarms::default(),
             Err(BusError::Alarm { alarms, .. }) => alarms,
             Err(e) => return Err(e),
         };
-        match self.protocol {
-            Protocol::Dynamixel2 => {
-                let info =
-                    dynamixel::parse_ping_answer(&packet).map_err(|e| BusError::Corrupt {
-                        id,
-                        detail: e.to_string(),
-                    })?;
-                Ok(PingInfo { alarms, ..info })
-            }
-            _ => {
-                // Feetech's ping answer carries no model: read the model number register (its
-                // answer carries the same alarm bits, already taken from the ping's).
-                let register = registers::table(ServoModel::Sts3215).model_number_register;
-                let params = self.read_params(register.address, u16::from(register.size))?;
-                self.send(id, feetech::READ, &params)?;
-                let packet = self.receive_answer(id, Some(usize::from(register.size)))?;
-                let order = registers::ByteOrder::of(self.protocol);
-                let model_number =
-                    register
-                        .decode(&packet.params, order)
-                        .map_err(|e| BusError::Corrupt {
-                            id,
-                            detail: e.to_string(),
-                        })? as u16;
-                Ok(PingInfo {
-                    id,
-                    model_number,
-                    firmware: None,
-                    alarms,
-                })
-            }
+        let answer = self.codec.ping_answer(&packet);
+        if let Some(info) = answer.map_err(|e| e.corrupt_answer(id))? {
+            return Ok(PingInfo { alarms, ..info });
         }
+        // The ping answer carries no model: read the model number register (its answer
+        // carries the same alarm bits, already taken from the ping's).
+        let register = self.codec.model_number_register();
+        let packet = self.read_register(id, register)?;
+        let model_number = register
+            .decode(&packet.params, self.codec.byte_order())
+            .map_err(|e| BusError::Corrupt {
+                id,
+                detail: e.to_string(),
+            })? as u16;
+        Ok(PingInfo {
+            id,
+            model_number,
+            firmware: None,
+            alarms,
+        })
     }
 
     fn read_positions(&mut self, ids: &[u8]) -> Result<Vec<i64>, BusError> {
@@ -579,17 +530,15 @@ impl ServoBus for NativeBus {
     fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError> {
         // One confirmed write per servo: torque is the one setting whose loss drops the arm or
         // leaves it stiff, so each servo must say it took it.
-        let write = match self.protocol {
-            Protocol::Dynamixel2 => dynamixel::WRITE,
-            _ => feetech::WRITE,
-        };
+        let write = self.instructions().write;
         for &id in ids {
             let table = self.table(id)?;
             let register = table.torque_enable;
             let data = table
                 .encode(&register, i64::from(on))
                 .map_err(|e| BusError::Protocol(e.to_string()))?;
-            let params = self.write_params(register.address, &data)?;
+            let params = self.codec.fields().write(register.address, &data);
+            let params = params.map_err(|e| self.protocol_error(e))?;
             self.transaction(id, write, &params, None)?;
         }
         Ok(())
@@ -669,14 +618,14 @@ mod tests {
     /// with 3 data bytes, a length no position read asks for. With `answer` false, only that.
     struct LateAnswerFirst {
         bus: VirtualBus,
-        framing: Box<dyn Framing + Send>,
+        codec: &'static dyn Codec,
         id: u8,
         answer: bool,
     }
 
     impl Responder for LateAnswerFirst {
         fn respond(&mut self, written: &[u8]) -> Vec<(Duration, Vec<u8>)> {
-            let stale = self.framing.encode_status(self.id, 0, &[0x11; 3]);
+            let stale = self.codec.framing().encode_status(self.id, 0, &[0x11; 3]);
             let mut out = vec![(Duration::ZERO, stale)];
             let answers = self.bus.lock().handle(written);
             if self.answer {
@@ -787,13 +736,9 @@ mod tests {
             let servos: Vec<_> = robot.servos();
             let ids: Vec<u8> = servos.iter().map(|(id, _)| *id).collect();
             let connect = |answer: bool| {
-                let framing: Box<dyn Framing + Send> = match robot.bus.protocol {
-                    Protocol::Dynamixel2 => Box::new(dynamixel::Dynamixel2),
-                    _ => Box::new(feetech::Feetech),
-                };
                 let responder = LateAnswerFirst {
                     bus: VirtualBus::new(VirtualServos::for_robot(&robot)),
-                    framing,
+                    codec: codec(robot.bus.protocol),
                     id: ids[0],
                     answer,
                 };
@@ -840,7 +785,10 @@ mod tests {
         assert_eq!(slow, fast);
         assert_eq!(fast[3], 1000);
         let last = virtual_bus.lock().received.last().cloned().unwrap();
-        assert_eq!(last.instruction_code(), Some(dynamixel::FAST_SYNC_READ));
+        assert_eq!(
+            last.instruction_code(),
+            Some(crate::bus::protocol::dynamixel::FAST_SYNC_READ)
+        );
     }
 
     #[test]

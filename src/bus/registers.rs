@@ -7,7 +7,7 @@
 //! register and the joint mapping cannot disagree about a negative tick.
 
 use super::protocol::{dynamixel, feetech};
-use super::Alarms;
+use super::{AlarmBits, Alarms};
 use crate::robot::{PositionEncoding, Protocol, ServoModel};
 
 /// The order of a register value's bytes in memory and on the wire.
@@ -22,10 +22,7 @@ pub enum ByteOrder {
 impl ByteOrder {
     /// The register order of a bus protocol.
     pub fn of(protocol: Protocol) -> ByteOrder {
-        match feetech::Series::from_protocol(protocol) {
-            Some(series) => series.byte_order(),
-            None => ByteOrder::Little,
-        }
+        super::protocol::codec(protocol).byte_order()
     }
 
     /// The low `size` bytes of `raw` (at most 4).
@@ -327,6 +324,17 @@ pub struct RegisterTable {
     pub goal_speed: Option<Register>,
     /// Feetech only: 0 lets EEPROM writes persist, 1 locks.
     pub lock: Option<Register>,
+    /// The bits of [`Self::hardware_error`].
+    pub alarm_bits: AlarmBits,
+    /// Registers below this address (EEPROM) are writable only with torque off: 64 on the X
+    /// series, 0 (no such lock) on the STS3215.
+    pub torque_locked_below: u16,
+    /// Whether an alarm switches the torque off until a reboot (X series Shutdown register,
+    /// factory default).
+    pub shuts_down_on_alarm: bool,
+    /// What the status return level register holds from the factory: 2 (answer every
+    /// instruction) on the X series, 1 on the STS3215.
+    pub factory_status_return_level: i64,
 }
 
 const fn unsigned(name: &'static str, address: u16, size: u8) -> Register {
@@ -371,6 +379,10 @@ const DXL_X: RegisterTable = RegisterTable {
     acceleration: None,
     goal_speed: None,
     lock: None,
+    alarm_bits: dynamixel::HARDWARE_ERROR_BITS,
+    torque_locked_below: 64,
+    shuts_down_on_alarm: true,
+    factory_status_return_level: 2,
 };
 
 /// XL330: "about 1 mA" per unit (e-Manual XL330-M077 control table, Current Limit and Goal
@@ -439,6 +451,10 @@ static STS3215: RegisterTable = RegisterTable {
     acceleration: Some(unsigned("Acceleration", 41, 1)),
     goal_speed: Some(sign_magnitude("Goal_Speed", 46, 15)),
     lock: Some(unsigned("Lock", 55, 1)),
+    alarm_bits: feetech::STATUS_BITS,
+    torque_locked_below: 0,
+    shuts_down_on_alarm: false,
+    factory_status_return_level: 1,
 };
 
 /// The control table of a model.
@@ -532,11 +548,7 @@ impl RegisterTable {
 
     /// The alarms in a [`Self::hardware_error`] value.
     pub fn alarms(&self, raw: u8) -> Alarms {
-        if self.is_dynamixel() {
-            dynamixel::hardware_error_alarms(raw)
-        } else {
-            feetech::status_alarms(raw)
-        }
+        self.alarm_bits.decode(raw)
     }
 
     /// Signed percentage of full load for a decoded [`Self::present_load`] value.

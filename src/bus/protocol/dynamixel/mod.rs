@@ -6,6 +6,7 @@
 //! Layouts are from the ROBOTIS e-Manual (Protocol 2.0) and the ROBOTIS Python SDK
 //! (`dynamixel_sdk`); see also docs/protocols.md. Multi-byte fields are little-endian.
 
+mod codec;
 mod crc;
 mod fast_sync_read;
 mod framing;
@@ -24,7 +25,8 @@ pub use status::{
 };
 pub use stuffing::{stuff, unstuff};
 
-use super::packet::{append_sync_entries, Packet, PacketError, PacketKind};
+use super::packet::{Packet, PacketError, PacketKind};
+use super::Fields;
 use crate::bus::PingInfo;
 
 pub const PING: u8 = 0x01;
@@ -60,41 +62,8 @@ pub const MAX_PACKET: usize = 1024;
 /// Header, reserved, id and the two length bytes.
 const PREFIX: usize = 7;
 
-/// READ parameters: address and length.
-pub fn read_params(address: u16, length: u16) -> Vec<u8> {
-    let mut params = Vec::with_capacity(4);
-    params.extend_from_slice(&address.to_le_bytes());
-    params.extend_from_slice(&length.to_le_bytes());
-    params
-}
-
-/// WRITE parameters: address, then the data.
-pub fn write_params(address: u16, data: &[u8]) -> Vec<u8> {
-    let mut params = Vec::with_capacity(2 + data.len());
-    params.extend_from_slice(&address.to_le_bytes());
-    params.extend_from_slice(data);
-    params
-}
-
-/// SYNC READ and FAST SYNC READ parameters (both share this layout): address, length, ids.
-/// Send to [`BROADCAST_ID`].
-pub fn sync_read_params(address: u16, length: u16, ids: &[u8]) -> Vec<u8> {
-    let mut params = read_params(address, length);
-    params.extend_from_slice(ids);
-    params
-}
-
-/// SYNC WRITE parameters: address, length, then each id with exactly `length` bytes of data.
-/// Send to [`BROADCAST_ID`].
-pub fn sync_write_params(
-    address: u16,
-    length: u16,
-    entries: &[(u8, Vec<u8>)],
-) -> Result<Vec<u8>, PacketError> {
-    let mut params = read_params(address, length);
-    append_sync_entries(&mut params, usize::from(length), entries)?;
-    Ok(params)
-}
+/// Addresses and lengths are two bytes, little-endian.
+pub const FIELDS: Fields = Fields::WIDE;
 
 /// Status parameters of a ping answer: model number and firmware version.
 pub fn ping_answer_params(model_number: u16, firmware: u8) -> Vec<u8> {

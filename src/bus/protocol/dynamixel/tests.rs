@@ -94,7 +94,7 @@ const STUFFED_WRITE: [u8; 17] = [
 fn negative_extended_position_is_stuffed() {
     let data = (-131073i32).to_le_bytes();
     assert_eq!(data, [0xFF, 0xFF, 0xFD, 0xFF]);
-    let bytes = Dynamixel2.encode_instruction(1, WRITE, &write_params(116, &data));
+    let bytes = Dynamixel2.encode_instruction(1, WRITE, &FIELDS.write(116, &data).unwrap());
     assert_eq!(bytes, STUFFED_WRITE);
     assert_eq!(crc_bitwise(&STUFFED_WRITE[..15]), 0xE523);
 }
@@ -254,18 +254,20 @@ fn ping_answer_layout() {
 
 #[test]
 fn param_builders() {
-    assert_eq!(read_params(132, 4), [0x84, 0x00, 0x04, 0x00]);
-    assert_eq!(write_params(64, &[1]), [0x40, 0x00, 0x01]);
+    assert_eq!(FIELDS.read(132, 4).unwrap(), [0x84, 0x00, 0x04, 0x00]);
+    assert_eq!(FIELDS.write(64, &[1]).unwrap(), [0x40, 0x00, 0x01]);
     assert_eq!(
-        sync_read_params(132, 4, &[1, 2]),
+        FIELDS.sync_read(132, 4, &[1, 2]).unwrap(),
         [0x84, 0x00, 0x04, 0x00, 1, 2]
     );
     assert_eq!(
-        sync_write_params(116, 4, &[(1, vec![0, 8, 0, 0]), (2, vec![0xFF; 4])]).unwrap(),
+        FIELDS
+            .sync_write(116, 4, &[(1, vec![0, 8, 0, 0]), (2, vec![0xFF; 4])])
+            .unwrap(),
         [0x74, 0x00, 0x04, 0x00, 1, 0, 8, 0, 0, 2, 0xFF, 0xFF, 0xFF, 0xFF]
     );
     assert_eq!(
-        sync_write_params(116, 4, &[(3, vec![0; 2])]),
+        FIELDS.sync_write(116, 4, &[(3, vec![0; 2])]),
         Err(PacketError::DataLength {
             id: 3,
             expected: 4,
@@ -278,7 +280,7 @@ fn param_builders() {
 fn sync_write_packet_size_matches_the_wire_budget() {
     // PROTOCOLS.md §3: goal positions of 6 servos in one sync write are 44 bytes.
     let entries: Vec<(u8, Vec<u8>)> = (1..=6).map(|id| (id, vec![0, 8, 0, 0])).collect();
-    let params = sync_write_params(116, 4, &entries).unwrap();
+    let params = FIELDS.sync_write(116, 4, &entries).unwrap();
     let bytes = Dynamixel2.encode_instruction(BROADCAST_ID, SYNC_WRITE, &params);
     assert_eq!(bytes.len(), 44);
 }

@@ -6,6 +6,7 @@
 //! see also docs/protocols.md. Packet fields are single bytes, so framing has no byte order;
 //! register values do, and it depends on the series ([`Series`]).
 
+mod codec;
 mod framing;
 mod status;
 #[cfg(test)]
@@ -17,9 +18,7 @@ pub use status::{
     ERR_VOLTAGE, STATUS_BITS,
 };
 
-use super::packet::{append_sync_entries, PacketError};
-use crate::bus::registers::ByteOrder;
-use crate::robot::Protocol;
+use super::Fields;
 
 pub const PING: u8 = 0x01;
 pub const READ: u8 = 0x02;
@@ -52,56 +51,10 @@ pub enum Series {
     Scs,
 }
 
-impl Series {
-    pub fn from_protocol(protocol: Protocol) -> Option<Series> {
-        match protocol {
-            Protocol::FeetechSts => Some(Series::StsSms),
-            Protocol::FeetechScs => Some(Series::Scs),
-            Protocol::Dynamixel2 => None,
-        }
-    }
+/// The STS/SMS codec.
+pub static STS: Series = Series::StsSms;
+/// The SCS codec.
+pub static SCS: Series = Series::Scs;
 
-    pub fn byte_order(self) -> ByteOrder {
-        match self {
-            Series::StsSms => ByteOrder::Little,
-            Series::Scs => ByteOrder::Big,
-        }
-    }
-
-    pub fn supports_sync_read(self) -> bool {
-        matches!(self, Series::StsSms)
-    }
-}
-
-/// READ parameters: address and length.
-pub fn read_params(address: u8, length: u8) -> Vec<u8> {
-    vec![address, length]
-}
-
-/// WRITE parameters: address, then the data (already in the series' byte order).
-pub fn write_params(address: u8, data: &[u8]) -> Vec<u8> {
-    let mut params = Vec::with_capacity(1 + data.len());
-    params.push(address);
-    params.extend_from_slice(data);
-    params
-}
-
-/// SYNC READ parameters: address, length, ids. Send to [`BROADCAST_ID`]; each servo answers
-/// with its own status packet.
-pub fn sync_read_params(address: u8, length: u8, ids: &[u8]) -> Vec<u8> {
-    let mut params = read_params(address, length);
-    params.extend_from_slice(ids);
-    params
-}
-
-/// SYNC WRITE parameters: address, length, then each id with exactly `length` bytes of data.
-/// Send to [`BROADCAST_ID`].
-pub fn sync_write_params(
-    address: u8,
-    length: u8,
-    entries: &[(u8, Vec<u8>)],
-) -> Result<Vec<u8>, PacketError> {
-    let mut params = read_params(address, length);
-    append_sync_entries(&mut params, usize::from(length), entries)?;
-    Ok(params)
-}
+/// Addresses and lengths are one byte.
+pub const FIELDS: Fields = Fields::NARROW;

@@ -1,7 +1,9 @@
 //! Feetech codec tests: hand-computed packets and properties.
 
 use super::*;
+use crate::bus::protocol::packet::PacketError;
 use crate::bus::protocol::packet::{Decoded, Direction, Framing, Packet};
+use crate::bus::protocol::{codec, Codec, Vendor};
 use crate::bus::registers::ByteOrder;
 use crate::bus::Alarms;
 use crate::robot::PositionEncoding;
@@ -35,7 +37,7 @@ fn goal_position_minus_100_hand_computed() {
     let data = (raw as u16).to_le_bytes();
     assert_eq!(data, [0x64, 0x80]);
     assert_eq!(
-        Feetech.encode_instruction(1, WRITE, &write_params(42, &data)),
+        Feetech.encode_instruction(1, WRITE, &FIELDS.write(42, &data).unwrap()),
         [0xFF, 0xFF, 0x01, 0x05, 0x03, 0x2A, 0x64, 0x80, 0xE8]
     );
 }
@@ -122,13 +124,18 @@ fn truncated_input_needs_more() {
 
 #[test]
 fn param_builders_and_limits() {
-    assert_eq!(read_params(56, 2), [56, 2]);
-    assert_eq!(sync_read_params(56, 2, &[1, 2, 3]), [56, 2, 1, 2, 3]);
+    assert_eq!(FIELDS.read(56, 2).unwrap(), [56, 2]);
     assert_eq!(
-        sync_write_params(42, 2, &[(1, vec![0x00, 0x08]), (2, vec![0x64, 0x80])]).unwrap(),
+        FIELDS.sync_read(56, 2, &[1, 2, 3]).unwrap(),
+        [56, 2, 1, 2, 3]
+    );
+    assert_eq!(
+        FIELDS
+            .sync_write(42, 2, &[(1, vec![0x00, 0x08]), (2, vec![0x64, 0x80])])
+            .unwrap(),
         [42, 2, 1, 0x00, 0x08, 2, 0x64, 0x80]
     );
-    assert!(sync_write_params(42, 2, &[(1, vec![0])]).is_err());
+    assert!(FIELDS.sync_write(42, 2, &[(1, vec![0])]).is_err());
     assert!(Feetech.try_encode_instruction(1, WRITE, &[0; 253]).is_ok());
     assert!(matches!(
         Feetech.try_encode_instruction(1, WRITE, &[0; 254]),
@@ -145,13 +152,13 @@ fn sync_packet_sizes_match_the_wire_budget() {
     let write = Feetech.encode_instruction(
         BROADCAST_ID,
         SYNC_WRITE,
-        &sync_write_params(42, 2, &entries).unwrap(),
+        &FIELDS.sync_write(42, 2, &entries).unwrap(),
     );
     assert_eq!(write.len(), 26);
     let read = Feetech.encode_instruction(
         BROADCAST_ID,
         SYNC_READ,
-        &sync_read_params(56, 2, &[1, 2, 3, 4, 5, 6]),
+        &FIELDS.sync_read(56, 2, &[1, 2, 3, 4, 5, 6]).unwrap(),
     );
     assert_eq!(read.len(), 14);
     assert_eq!(Feetech.encode_status(1, 0, &[0, 8]).len(), 8);
@@ -159,16 +166,11 @@ fn sync_packet_sizes_match_the_wire_budget() {
 
 #[test]
 fn series_byte_order() {
-    assert_eq!(
-        Series::from_protocol(Protocol::FeetechSts).map(Series::byte_order),
-        Some(ByteOrder::Little)
-    );
-    assert_eq!(
-        Series::from_protocol(Protocol::FeetechScs).map(Series::byte_order),
-        Some(ByteOrder::Big)
-    );
-    assert_eq!(Series::from_protocol(Protocol::Dynamixel2), None);
-    assert!(!Series::Scs.supports_sync_read());
+    assert_eq!(codec(Protocol::FeetechSts).byte_order(), ByteOrder::Little);
+    assert_eq!(codec(Protocol::FeetechScs).byte_order(), ByteOrder::Big);
+    assert_eq!(codec(Protocol::Dynamixel2).vendor(), Vendor::Dynamixel);
+    assert_eq!(codec(Protocol::FeetechSts).vendor(), Vendor::Feetech);
+    assert!(SCS.instructions().sync_read.is_none());
 }
 
 #[test]
