@@ -23,7 +23,7 @@ use keypose::bus::driver::NativeBus;
 use keypose::bus::protocol::codec;
 use keypose::bus::protocol::dynamixel::Dynamixel2;
 use keypose::bus::protocol::packet::{Decoded, Direction, Framing, Packet};
-use keypose::bus::registers::{self, Register};
+use keypose::bus::registers::Register;
 use keypose::bus::sdk::SdkBus;
 use keypose::bus::transport::SerialTransport;
 use keypose::bus::virtual_bus::{PtyServer, VirtualBus};
@@ -707,7 +707,7 @@ impl Item {
     }
 
     fn register(self, model: ServoModel) -> Register {
-        let table = registers::table(model);
+        let table = model.spec().table;
         match self {
             Item::TorqueEnable => table.torque_enable,
             Item::GoalPosition => table.goal_position,
@@ -764,7 +764,7 @@ impl Op {
         let (framing, fields, instructions) =
             (codec.framing(), codec.fields(), codec.instructions());
         let broadcast = framing.broadcast_id();
-        let table = registers::table(model);
+        let table = model.spec().table;
         let encode = |item: Item, value: i64| {
             table
                 .encode(&item.register(model), value)

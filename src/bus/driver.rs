@@ -58,7 +58,7 @@ impl NativeBus {
     fn table(&self, id: u8) -> Result<&'static RegisterTable, BusError> {
         self.models
             .get(&id)
-            .map(|&m| registers::table(m))
+            .map(|&m| m.spec().table)
             .ok_or_else(|| BusError::Protocol(format!("servo {id} is not part of this robot")))
     }
 

@@ -12,6 +12,7 @@ mod connect;
 pub mod driver;
 mod echo;
 pub mod homing;
+pub mod models;
 pub mod ports;
 pub mod protocol;
 pub mod registers;

@@ -319,7 +319,10 @@ impl SdkBus {
                     DXL_PRESENT_LOAD_OR_CURRENT.addr
                 ))
             })?;
-        Ok(registers::table(model).load_percent(i64::from(raw as u16 as i16)))
+        Ok(model
+            .spec()
+            .table
+            .load_percent(i64::from(raw as u16 as i16)))
     }
 }
 
@@ -520,7 +523,7 @@ impl ServoBus for SdkBus {
         servos
             .iter()
             .map(|&(id, model)| {
-                let table = registers::table(model);
+                let table = model.spec().table;
                 let register = table.homing_offset;
                 let raw = self.read_reg_despite_alarms(id, reg(register.address, register.size))?;
                 // The bridge gives the register as an unsigned number; its sign convention
@@ -547,7 +550,9 @@ impl ServoBus for SdkBus {
                     id,
                     temperature_c: f64::from(temperature),
                     // The same conversion as the native driver, from the register tables.
-                    voltage_v: registers::table(crate::robot::ServoModel::Xm430W350)
+                    voltage_v: crate::robot::ServoModel::Xm430W350
+                        .spec()
+                        .table
                         .voltage_v(i64::from(voltage)),
                     load_percent: self.dxl_load_percent(id, load)?,
                     alarms: super::protocol::dynamixel::hardware_error_alarms(bits as u8),
@@ -561,7 +566,7 @@ impl ServoBus for SdkBus {
                     sign_bit: FT_LOAD_SIGN_BIT,
                 }
                 .decode(load);
-                let sts = registers::table(crate::robot::ServoModel::Sts3215);
+                let sts = crate::robot::ServoModel::Sts3215.spec().table;
                 Health {
                     id,
                     temperature_c: sts.temperature_c(i64::from(temperature)),

@@ -61,7 +61,7 @@ pub struct VirtualServo {
 
 impl VirtualServo {
     fn new(id: u8, model: ServoModel, position: f64) -> VirtualServo {
-        let table = registers::table(model);
+        let table = model.spec().table;
         let mut servo = VirtualServo {
             id,
             model,
@@ -70,7 +70,10 @@ impl VirtualServo {
             fault: None,
             releases: 0,
         };
-        servo.store(table.model_number_register, i64::from(table.model_number));
+        servo.store(
+            table.model_number_register,
+            i64::from(model.spec().model_number),
+        );
         servo.store(table.id, i64::from(id));
         servo.store(table.status_return_level, table.factory_status_return_level);
         servo.store(table.present_voltage, SUPPLY_DECIVOLTS);
@@ -80,7 +83,7 @@ impl VirtualServo {
     }
 
     fn table(&self) -> &'static RegisterTable {
-        registers::table(self.model)
+        self.model.spec().table
     }
 
     /// Sets the Homing_Offset register, as a calibration tool writes it (the emulated servo
@@ -227,7 +230,7 @@ impl VirtualServos {
             servo.fault = fault;
             if let Some(ServoFault::Alarm(alarms)) = fault {
                 // X series shut the torque off on a hardware error (Shutdown register default).
-                if alarms.any() && registers::table(servo.model).shuts_down_on_alarm {
+                if alarms.any() && servo.model.spec().table.shuts_down_on_alarm {
                     servo.motion.set_torque(false);
                 }
             }
@@ -381,7 +384,7 @@ impl VirtualServos {
             };
             let params = self
                 .codec
-                .ping_answer_params(servo.table().model_number, FIRMWARE_VERSION);
+                .ping_answer_params(servo.model.spec().model_number, FIRMWARE_VERSION);
             out.extend(self.status(id, None, &params));
         }
         out
