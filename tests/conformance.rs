@@ -1095,6 +1095,49 @@ fn dynamixel_stuffing_ours_equals_the_sdks_stuffer_which_its_transmitter_skips()
 // ------------------------------------------------------------------------------------------
 // (c) SdkBus and NativeBus on the same virtual bus
 
+#[test]
+fn the_sdk_driver_converts_an_xl330_current_with_the_xl330_units() {
+    let _wire = one_at_a_time();
+    let robot = Robot::builtin("koch").expect("built-in robot");
+    let servos: Vec<(u8, ServoModel)> = robot.servos();
+    let (id, _) = *servos
+        .iter()
+        .find(|&&(_, model)| model == ServoModel::Xl330M288)
+        .expect("the koch arm has an XL330-M288");
+    let server = PtyServer::start(&robot).expect("virtual bus on a pseudo-terminal");
+    // −735 units of 1 mA are −50 % of the XL330's 1.47 A stall current; read with the XM430's
+    // 2.69 mA units and 2.3 A they would be −86 %.
+    server
+        .bus()
+        .lock()
+        .servo_mut(id)
+        .expect("the emulated XL330")
+        .set_present_load(-735);
+    let mut sdk = SdkBus::with_harness(
+        bridge(),
+        server.path(),
+        robot.bus.baud,
+        robot.bus.protocol,
+        &servos,
+    )
+    .unwrap_or_else(|e| panic!("SdkBus on {}: {e}", server.path()));
+    let health = sdk.read_health(&[id]).expect("SDK health");
+    assert!(
+        (health[0].load_percent + 50.0).abs() < 1e-9,
+        "{:?}",
+        health[0]
+    );
+    // The model comes from the robot description, not from asking the servo.
+    let pings = server
+        .bus()
+        .lock()
+        .received
+        .iter()
+        .filter(|p| p.instruction_code() == Some(0x01))
+        .count();
+    assert_eq!(pings, 0, "the SDK driver pinged to learn the model");
+}
+
 fn sdk_bus_and_native_bus_agree(robot_name: &str) {
     let _wire = one_at_a_time();
     let robot = Robot::builtin(robot_name).expect("built-in robot");
@@ -1107,7 +1150,7 @@ fn sdk_bus_and_native_bus_agree(robot_name: &str) {
     // The SDK opens the port first: it closes and reopens it while setting the baud rate, and
     // our driver opens it exclusively (TIOCEXCL), which would refuse that reopening to anyone
     // but root. Both then share the one device, one transaction at a time.
-    let mut sdk = SdkBus::with_harness(bridge(), server.path(), robot.bus.baud, protocol)
+    let mut sdk = SdkBus::with_harness(bridge(), server.path(), robot.bus.baud, protocol, &servos)
         .unwrap_or_else(|e| panic!("SdkBus on {}: {e}", server.path()));
     let transport = SerialTransport::open(server.path(), robot.bus.baud).expect("the pty");
     let mut native = NativeBus::new(Box::new(transport), protocol, &servos);

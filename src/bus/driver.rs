@@ -6,6 +6,7 @@
 //! other ids are skipped, corrupt packets are counted and the search goes on behind them.
 
 use super::echo::{Echoes, Front};
+use super::models::Servos;
 use super::protocol::packet::{Decoded, Direction, Packet, PacketError};
 use super::protocol::{codec, Codec, Instructions, Status};
 use super::registers::{self, Register, RegisterTable};
@@ -24,7 +25,7 @@ pub const DEFAULT_READ_RETRIES: u32 = 2;
 pub struct NativeBus {
     transport: Box<dyn Transport>,
     codec: &'static dyn Codec,
-    models: HashMap<u8, ServoModel>,
+    servos: Servos,
     pub timeout: Duration,
     pub read_retries: u32,
     /// Dynamixel: read with Fast Sync Read (0x8A, one combined answer) instead of Sync Read.
@@ -46,7 +47,7 @@ impl NativeBus {
         NativeBus {
             transport,
             codec: codec(protocol),
-            models: servos.iter().copied().collect(),
+            servos: Servos::new(servos),
             timeout: DEFAULT_TIMEOUT,
             read_retries: DEFAULT_READ_RETRIES,
             fast_sync_read: false,
@@ -56,34 +57,15 @@ impl NativeBus {
     }
 
     fn table(&self, id: u8) -> Result<&'static RegisterTable, BusError> {
-        self.models
-            .get(&id)
-            .map(|&m| m.spec().table)
-            .ok_or_else(|| BusError::Protocol(format!("servo {id} is not part of this robot")))
+        self.servos.table(id)
     }
 
-    /// The register of servo `id` picked by `pick`; all servos of one bus share one layout for
-    /// the registers used together, which `common_register` checks.
     fn common_register(
         &self,
         ids: &[u8],
         pick: fn(&RegisterTable) -> Register,
     ) -> Result<(Register, &'static RegisterTable), BusError> {
-        let first = *ids
-            .first()
-            .ok_or_else(|| BusError::Protocol("no servos given".into()))?;
-        let table = self.table(first)?;
-        let register = pick(table);
-        for &id in &ids[1..] {
-            let other = pick(self.table(id)?);
-            if other.address != register.address || other.size != register.size {
-                return Err(BusError::Protocol(format!(
-                    "servos {first} and {id} keep {} at different addresses; they cannot share a sync transfer",
-                    register.name
-                )));
-            }
-        }
-        Ok((register, table))
+        self.servos.common_register(ids, pick)
     }
 
     fn protocol_error(&self, e: impl std::fmt::Display) -> BusError {

@@ -10,7 +10,9 @@ mod tests;
 
 use super::protocol::{codec, Vendor};
 use super::registers::{Encoding, Register, RegisterTable};
+use super::BusError;
 use crate::robot::{Protocol, ServoModel};
+use std::collections::HashMap;
 
 /// The goal-position ranges of a model's position modes, in ticks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -61,6 +63,51 @@ pub fn model_from_number(protocol: Protocol, number: u16) -> Option<ServoModel> 
         let spec = m.spec();
         spec.speaks(protocol) && spec.model_number == number
     })
+}
+
+/// The servos of one bus by id: which table each one's registers are in.
+#[derive(Debug, Clone, Default)]
+pub struct Servos(HashMap<u8, ServoModel>);
+
+impl Servos {
+    pub fn new(servos: &[(u8, ServoModel)]) -> Servos {
+        Servos(servos.iter().copied().collect())
+    }
+
+    pub fn model(&self, id: u8) -> Result<ServoModel, BusError> {
+        self.0
+            .get(&id)
+            .copied()
+            .ok_or_else(|| BusError::Protocol(format!("servo {id} is not part of this robot")))
+    }
+
+    pub fn table(&self, id: u8) -> Result<&'static RegisterTable, BusError> {
+        self.model(id).map(|m| m.spec().table)
+    }
+
+    /// The register of the servos `ids` picked by `pick`, and the first one's table: a sync
+    /// transfer needs it at the same address and size on all of them, which is checked.
+    pub fn common_register(
+        &self,
+        ids: &[u8],
+        pick: fn(&RegisterTable) -> Register,
+    ) -> Result<(Register, &'static RegisterTable), BusError> {
+        let first = *ids
+            .first()
+            .ok_or_else(|| BusError::Protocol("no servos given".into()))?;
+        let table = self.table(first)?;
+        let register = pick(table);
+        for &id in &ids[1..] {
+            let other = pick(self.table(id)?);
+            if other.address != register.address || other.size != register.size {
+                return Err(BusError::Protocol(format!(
+                    "servos {first} and {id} keep {} at different addresses; they cannot share a sync transfer",
+                    register.name
+                )));
+            }
+        }
+        Ok((register, table))
+    }
 }
 
 const fn unsigned(name: &'static str, address: u16, size: u8) -> Register {

@@ -92,6 +92,12 @@ impl VirtualServo {
         self.store(self.table().homing_offset, ticks);
     }
 
+    /// Sets the Present Load (or Present Current) register, as a servo under load reports it;
+    /// the emulated motion does not model load, so the value stays until set again.
+    pub fn set_present_load(&mut self, value: i64) {
+        self.store(self.table().present_load, value);
+    }
+
     fn store(&mut self, register: registers::Register, value: i64) {
         if let Ok(bytes) = self.table().encode(&register, value) {
             let start = usize::from(register.address);
