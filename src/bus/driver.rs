@@ -11,7 +11,7 @@ use super::protocol::packet::{Decoded, Direction, Packet, PacketError};
 use super::protocol::{codec, Codec, Instructions, Status};
 use super::registers::{self, Register, RegisterTable};
 use super::transport::Transport;
-use super::{Alarms, BusError, Health, PingInfo, ServoBus};
+use super::{Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
 use crate::robot::{Protocol, ServoModel};
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
@@ -186,14 +186,10 @@ impl NativeBus {
                     return Ok(packet);
                 }
                 return Err(match (corrupt, stale, data_bytes) {
-                    (Some(e), _, _) => BusError::Corrupt {
-                        id,
-                        detail: e.to_string(),
-                    },
-                    (None, Some(found), Some(asked)) => BusError::Corrupt {
-                        id,
-                        detail: format!("{found} data bytes where {asked} were asked"),
-                    },
+                    (Some(e), _, _) => BusError::corrupt(id, e),
+                    (None, Some(found), Some(expected)) => {
+                        BusError::corrupt(id, CorruptAnswer::DataLength { expected, found })
+                    }
                     _ => BusError::Timeout {
                         id,
                         timeout_ms: self.timeout.as_millis() as u64,
@@ -278,13 +274,13 @@ impl NativeBus {
             if packet.params.len() == usize::from(length) {
                 Ok(())
             } else {
-                Err(BusError::Corrupt {
-                    id: packet.id,
-                    detail: format!(
-                        "{} data bytes where {length} were asked",
-                        packet.params.len()
-                    ),
-                })
+                Err(BusError::corrupt(
+                    packet.id,
+                    CorruptAnswer::DataLength {
+                        expected: usize::from(length),
+                        found: packet.params.len(),
+                    },
+                ))
             }
         };
         let mut blocks = Vec::with_capacity(ids.len());
@@ -345,10 +341,11 @@ impl NativeBus {
         let got: Vec<u8> = entries.iter().map(|e| e.id).collect();
         if got != ids {
             let missing = ids.iter().find(|id| !got.contains(id)).copied();
-            return Err(BusError::Corrupt {
-                id: missing.unwrap_or(broadcast),
-                detail: format!("fast sync read answered for ids {got:?} where {ids:?} were asked"),
-            });
+            let source = CorruptAnswer::Ids {
+                expected: ids.to_vec(),
+                found: got,
+            };
+            return Err(BusError::corrupt(missing.unwrap_or(broadcast), source));
         }
         let mut first_error = None;
         let mut blocks = Vec::with_capacity(entries.len());
@@ -484,10 +481,7 @@ impl ServoBus for NativeBus {
         let packet = self.read_register(id, register)?;
         let model_number = register
             .decode(&packet.params, self.codec.byte_order())
-            .map_err(|e| BusError::Corrupt {
-                id,
-                detail: e.to_string(),
-            })? as u16;
+            .map_err(|e| BusError::corrupt(id, e))? as u16;
         Ok(PingInfo {
             id,
             model_number,
@@ -553,10 +547,7 @@ impl ServoBus for NativeBus {
                 for register in group {
                     let value = register
                         .decode_in_block(block, start, table.byte_order)
-                        .map_err(|e| BusError::Corrupt {
-                            id,
-                            detail: e.to_string(),
-                        })?;
+                        .map_err(|e| BusError::corrupt(id, e))?;
                     slot.insert(register.name, value);
                 }
             }
@@ -736,7 +727,8 @@ mod tests {
             assert_eq!(connect(true).read_positions(&ids).unwrap(), home, "{name}");
             // Nothing but the late answer: reported as what it is, not as a silent timeout.
             match connect(false).read_positions(&ids) {
-                Err(BusError::Corrupt { id, detail }) => {
+                Err(BusError::Corrupt { id, source }) => {
+                    let detail = source.to_string();
                     assert_eq!(id, ids[0], "{name}");
                     assert!(detail.contains("3 data bytes"), "{name}: {detail}");
                 }

@@ -147,8 +147,12 @@ pub struct Health {
 pub enum BusError {
     #[error("servo {id}: no answer within {timeout_ms} ms")]
     Timeout { id: u8, timeout_ms: u64 },
-    #[error("servo {id}: corrupt answer ({detail})")]
-    Corrupt { id: u8, detail: String },
+    #[error("servo {id}: corrupt answer ({source})")]
+    Corrupt {
+        id: u8,
+        #[source]
+        source: CorruptAnswer,
+    },
     #[error("servo {id}: alarm: {alarms}")]
     Alarm { id: u8, alarms: Alarms },
     #[error("servo {id}: refused the instruction: {reason}")]
@@ -167,6 +171,14 @@ pub enum BusError {
 }
 
 impl BusError {
+    /// A damaged answer from servo `id`.
+    pub fn corrupt(id: u8, source: impl Into<CorruptAnswer>) -> BusError {
+        BusError::Corrupt {
+            id,
+            source: source.into(),
+        }
+    }
+
     /// The servo the error is about, when there is one.
     pub fn servo(&self) -> Option<u8> {
         match self {
@@ -178,6 +190,27 @@ impl BusError {
             BusError::Port { .. } | BusError::Protocol(_) => None,
         }
     }
+}
+
+/// What was wrong with a damaged answer.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CorruptAnswer {
+    /// The packet itself: checksum, length, layout.
+    #[error(transparent)]
+    Packet(#[from] protocol::packet::PacketError),
+    /// Its data does not decode as the register asked for.
+    #[error(transparent)]
+    Register(#[from] registers::RegisterError),
+    /// A well-formed answer with another amount of data than asked for: a late answer to an
+    /// earlier request, when nothing better came.
+    #[error("{found} data bytes where {expected} were asked")]
+    DataLength { expected: usize, found: usize },
+    /// A combined (fast sync read) answer for other servos than asked.
+    #[error("fast sync read answered for ids {found:?} where {expected:?} were asked")]
+    Ids { expected: Vec<u8>, found: Vec<u8> },
+    /// The vendor SDK's own account of a corrupt packet.
+    #[error("{0}")]
+    Sdk(String),
 }
 
 /// A bus of servos, addressed by id, positions in ticks.

@@ -389,10 +389,7 @@ impl RegisterTable {
         bytes: &[u8],
     ) -> Result<i64, super::BusError> {
         self.decode(register, bytes)
-            .map_err(|e| super::BusError::Corrupt {
-                id,
-                detail: e.to_string(),
-            })
+            .map_err(|e| super::BusError::corrupt(id, e))
     }
 
     /// The alarms in a [`Self::hardware_error`] value.

@@ -12,7 +12,7 @@
 use super::models::Servos;
 use super::protocol::{codec, Codec, Status, Vendor};
 use super::registers::{Register, RegisterTable};
-use super::{Alarms, BusError, Health, PingInfo, ServoBus};
+use super::{Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
 use crate::pyenv::{Harness, HarnessError, HarnessOptions, PyConfig};
 use crate::robot::{PositionEncoding, Protocol, ServoModel};
 use serde_json::{json, Value};
@@ -226,10 +226,9 @@ impl SdkBus {
                             .map(|ms| ms.round().max(0.0) as u64)
                             .unwrap_or(0),
                     },
-                    (Some("corrupt"), Some(id)) => BusError::Corrupt {
-                        id,
-                        detail: text("comm"),
-                    },
+                    (Some("corrupt"), Some(id)) => {
+                        BusError::corrupt(id, CorruptAnswer::Sdk(text("comm")))
+                    }
                     (Some("tx_fail"), _) => BusError::Port {
                         port: self.port.clone(),
                         source: io::Error::other(text("comm")),

@@ -166,10 +166,7 @@ impl PacketError {
     /// The bus error for a transaction whose answer from servo `awaited` was damaged. The id
     /// in the damaged bytes is not trusted: it may be the damaged byte.
     pub fn corrupt_answer(&self, awaited: u8) -> BusError {
-        BusError::Corrupt {
-            id: awaited,
-            detail: self.to_string(),
-        }
+        BusError::corrupt(awaited, self.clone())
     }
 }
 
@@ -353,7 +350,10 @@ mod tests {
         };
         assert!(matches!(
             e.corrupt_answer(3),
-            BusError::Corrupt { id: 3, ref detail } if detail.contains("checksum")
+            BusError::Corrupt {
+                id: 3,
+                source: crate::bus::CorruptAnswer::Packet(PacketError::Checksum { .. })
+            }
         ));
     }
 
