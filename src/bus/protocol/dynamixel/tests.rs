@@ -278,7 +278,7 @@ fn param_builders() {
 
 #[test]
 fn sync_write_packet_size_matches_the_wire_budget() {
-    // PROTOCOLS.md §3: goal positions of 6 servos in one sync write are 44 bytes.
+    // docs/protocols.md: goal positions of 6 servos in one sync write are 44 bytes.
     let entries: Vec<(u8, Vec<u8>)> = (1..=6).map(|id| (id, vec![0, 8, 0, 0])).collect();
     let params = FIELDS.sync_write(116, 4, &entries).unwrap();
     let bytes = Dynamixel2.encode_instruction(BROADCAST_ID, SYNC_WRITE, &params);
@@ -305,7 +305,7 @@ fn fast_sync_read_answer_layout() {
         },
     ];
     let bytes = encode_fast_sync_read(&entries).unwrap();
-    // 3 servos × (4 + 4) + INST = 25, the length of PROTOCOLS.md's "(data_length + 4) ×
+    // 3 servos × (4 + 4) + INST = 25, the length of the e-Manual's "(data_length + 4) ×
     // devices" plus the instruction byte; 7 + 25 bytes in all.
     assert_eq!(bytes[5..7], [25, 0]);
     assert_eq!(bytes.len(), 32);

@@ -146,7 +146,7 @@ fn param_builders_and_limits() {
 
 #[test]
 fn sync_packet_sizes_match_the_wire_budget() {
-    // PROTOCOLS.md §3: STS sync write of 6 goal positions = 26 bytes, sync read of 6 ids =
+    // docs/protocols.md: STS sync write of 6 goal positions = 26 bytes, sync read of 6 ids =
     // 14 bytes, status with 2 data bytes = 8 bytes.
     let entries: Vec<(u8, Vec<u8>)> = (1..=6).map(|id| (id, vec![0, 8])).collect();
     let write = Feetech.encode_instruction(
