@@ -226,6 +226,9 @@ struct Vendor {
     /// How a signed tick count sits in the position registers (§1.8 two's complement, §2.5
     /// sign-magnitude with the sign at bit 15).
     positions: PositionEncoding,
+    /// The ping answer carries the model number and firmware (Dynamixel); without them the
+    /// SDK reads the model number register after the PING (Feetech, §2.6).
+    ping_answer_identifies: bool,
 }
 
 const DYNAMIXEL: Vendor = Vendor {
@@ -242,6 +245,7 @@ const DYNAMIXEL: Vendor = Vendor {
     goal_position: Reg { addr: 116, len: 4 },
     present_position: Reg { addr: 132, len: 4 },
     positions: PositionEncoding::TwosComplement32,
+    ping_answer_identifies: true,
 };
 
 const FEETECH_STS: Vendor = Vendor {
@@ -258,6 +262,7 @@ const FEETECH_STS: Vendor = Vendor {
     goal_position: Reg { addr: 42, len: 2 },
     present_position: Reg { addr: 56, len: 2 },
     positions: PositionEncoding::SignMagnitude16 { sign_bit: 15 },
+    ping_answer_identifies: false,
 };
 
 impl Vendor {
@@ -301,7 +306,7 @@ impl Vendor {
     /// READ of the model number, because a Feetech ping answer carries no model (§2.6).
     fn ping_packets(&self, id: u8) -> Vec<Packet> {
         let mut packets = vec![self.ping_packet(id)];
-        if self.protocol != Protocol::Dynamixel2 {
+        if !self.ping_answer_identifies {
             packets.push(self.read_packet(id, self.model_number));
         }
         packets
@@ -419,10 +424,16 @@ fn expect_received(bus: &VirtualBus, expected: &[Packet], what: &str) -> Vec<(u8
 /// that the servos must move, and for STS including negative positions (sign-magnitude on the
 /// wire, in both directions: the SDK's write and the virtual servo's answer).
 fn single_goal(vendor: &Vendor, home: i64) -> i64 {
-    match vendor.protocol {
-        Protocol::Dynamixel2 => home + 300,
-        _ => -100,
+    if sign_magnitude(vendor.positions) {
+        -100
+    } else {
+        home + 300
     }
+}
+
+/// Whether negative positions are sign-magnitude on the wire: the case worth a negative goal.
+fn sign_magnitude(positions: PositionEncoding) -> bool {
+    matches!(positions, PositionEncoding::SignMagnitude16 { .. })
 }
 
 fn sync_goals(vendor: &Vendor, servos: &[ExpectedServo]) -> Vec<(u8, i64)> {
@@ -431,9 +442,9 @@ fn sync_goals(vendor: &Vendor, servos: &[ExpectedServo]) -> Vec<(u8, i64)> {
         .iter()
         .enumerate()
         .map(|(i, s)| {
-            let goal = match (vendor.protocol, i) {
-                (Protocol::FeetechSts, 0) => -150,
-                (Protocol::FeetechSts, 3) => -40,
+            let goal = match (sign_magnitude(vendor.positions), i) {
+                (true, 0) => -150,
+                (true, 3) => -40,
                 _ => s.home_tick + OFFSETS[i % OFFSETS.len()],
             };
             (s.id, goal)
@@ -463,9 +474,10 @@ fn sdk_against_the_virtual_bus(robot_name: &str, vendor: Vendor) {
             servo.id,
             servo.model
         );
-        match vendor.protocol {
-            Protocol::Dynamixel2 => assert!(reply["firmware"].is_u64(), "{reply}"),
-            _ => assert!(reply["firmware"].is_null(), "{reply}"),
+        if vendor.ping_answer_identifies {
+            assert!(reply["firmware"].is_u64(), "{reply}");
+        } else {
+            assert!(reply["firmware"].is_null(), "{reply}");
         }
         expect_received(&bus, &vendor.ping_packets(servo.id), "ping");
     }
@@ -647,14 +659,16 @@ impl Wire {
         self.slave.name().expect("the slave's device path")
     }
 
-    /// The length of the packet at the front of `bytes`, once its length field has arrived.
+    /// The length of the complete packet (with any garbage before it) at the front of
+    /// `bytes`, once it has all arrived.
     fn packet_length(&self, bytes: &[u8]) -> Option<usize> {
-        match self.protocol {
-            // FF FF FD 00 ID LEN_L LEN_H, then LEN bytes (§1.2).
-            Protocol::Dynamixel2 => (bytes.len() >= 7)
-                .then(|| 7 + usize::from(u16::from_le_bytes([bytes[5], bytes[6]]))),
-            // FF FF ID LEN, then LEN bytes (§2.1).
-            _ => (bytes.len() >= 4).then(|| 4 + usize::from(bytes[3])),
+        let mut rest = bytes.to_vec();
+        match codec(self.protocol)
+            .framing()
+            .decode(&mut rest, Direction::ToServo)
+        {
+            Ok(Decoded::Packet(_)) => Some(bytes.len() - rest.len()),
+            _ => None,
         }
     }
 
@@ -1202,10 +1216,12 @@ fn sdk_bus_and_native_bus_agree(robot_name: &str) {
     let goals_b: Vec<(u8, i64)> = goals_a
         .iter()
         .enumerate()
-        .map(|(i, &(id, g))| match (protocol, i) {
-            (Protocol::FeetechSts, 0) => (id, -100),
-            _ => (id, g - 2 * (g - home[i])),
-        })
+        .map(
+            |(i, &(id, g))| match (sign_magnitude(protocol.position_encoding()), i) {
+                (true, 0) => (id, -100),
+                _ => (id, g - 2 * (g - home[i])),
+            },
+        )
         .collect();
     native.write_goals(&goals_b).expect("native goals");
     let wanted: Vec<i64> = goals_b.iter().map(|&(_, g)| g).collect();
