@@ -2,11 +2,14 @@
 //! knowing the vendor, and its implementations — our own Dynamixel 2.0 and Feetech STS/SCS
 //! drivers over a serial port, the vendor SDKs through the Python bridge, and virtual servos.
 //!
-//! Layers, bottom up: `packet` (framing shared by both vendors), `dynamixel` and `feetech`
-//! (packet codecs, checksums, status errors), `registers` (per-model control tables and value
-//! encodings), `transport` (a serial port with deadlines and resynchronisation), `driver` (the
-//! native [`ServoBus`] over a transport), `virtual_bus` (emulated servos that answer the real
-//! protocols byte for byte), `sdk` (the vendor SDKs through the Python bridge).
+//! Layers, bottom up: `protocol` (one folder per vendor protocol behind the [`protocol::Codec`]
+//! trait: framing, instruction codes, parameter layouts, status bytes), `registers` (what a
+//! register is and how its values are encoded), `models` (one static description per servo
+//! model: number, control table, units, speeds), `transport` (a serial port with deadlines and
+//! resynchronisation), `driver` (the native [`ServoBus`] over a transport), `virtual_bus`
+//! (emulated servos that answer the real protocols byte for byte), `sdk` (the vendor SDKs
+//! through the Python bridge). Neither the driver nor the emulated servos ask which vendor they
+//! talk to: the codec and the model description answer for them.
 
 mod connect;
 pub mod driver;

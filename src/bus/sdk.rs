@@ -10,7 +10,7 @@
 //! wants a retry sees the typed error first.
 
 use super::models::Servos;
-use super::protocol::{codec, Codec, Status, Vendor};
+use super::protocol::{codec, Codec, Status};
 use super::registers::{Register, RegisterTable};
 use super::{Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
 use crate::pyenv::{Harness, HarnessError, HarnessOptions, PyConfig};
@@ -138,10 +138,7 @@ impl SdkBus {
     }
 
     fn sdk_name(&self) -> &'static str {
-        match self.codec.vendor() {
-            Vendor::Dynamixel => "dynamixel_sdk",
-            Vendor::Feetech => "scservo_sdk",
-        }
+        self.codec.vendor().sdk_module()
     }
 
     fn call(&mut self, request: Value, about: Option<u8>) -> Result<Value, BusError> {

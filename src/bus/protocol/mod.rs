@@ -40,6 +40,16 @@ pub enum Vendor {
     Feetech,
 }
 
+impl Vendor {
+    /// The vendor's Python SDK module, which `--driver sdk` drives through the bridge.
+    pub fn sdk_module(self) -> &'static str {
+        match self {
+            Vendor::Dynamixel => "dynamixel_sdk",
+            Vendor::Feetech => "scservo_sdk",
+        }
+    }
+}
+
 /// What a status packet's error byte says about the instruction it answers.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Status {
