@@ -64,12 +64,28 @@ impl Responder for LateEcho {
     }
 }
 
+/// A built-in robot, its servos and their ids.
+fn builtin(name: &str) -> (Robot, Vec<(u8, ServoModel)>, Vec<u8>) {
+    let robot = Robot::builtin(name).unwrap();
+    let servos = robot.servos();
+    let ids = servos.iter().map(|(id, _)| *id).collect();
+    (robot, servos, ids)
+}
+
+/// The ticks of the robot's home pose, where the emulated servos rest.
+fn home_ticks(robot: &Robot) -> Vec<i64> {
+    robot
+        .joints
+        .iter()
+        .zip(&robot.home)
+        .map(|(j, h)| j.servo.tick(*h).unwrap())
+        .collect()
+}
+
 #[test]
 fn a_late_echo_of_a_sync_write_is_not_taken_for_a_status() {
     for name in ["so101", "koch"] {
-        let robot = Robot::builtin(name).unwrap();
-        let servos: Vec<_> = robot.servos();
-        let ids: Vec<u8> = servos.iter().map(|(id, _)| *id).collect();
+        let (robot, servos, ids) = builtin(name);
         let responder = LateEcho {
             bus: VirtualBus::new(VirtualServos::for_robot(&robot)),
             late: None,
@@ -134,9 +150,7 @@ fn an_echoing_adapter_without_a_servo_times_out() {
 #[test]
 fn a_late_answer_to_an_earlier_request_is_skipped_by_its_length() {
     for name in ["so101", "koch"] {
-        let robot = Robot::builtin(name).unwrap();
-        let servos: Vec<_> = robot.servos();
-        let ids: Vec<u8> = servos.iter().map(|(id, _)| *id).collect();
+        let (robot, servos, ids) = builtin(name);
         let connect = |answer: bool| {
             let responder = LateAnswerFirst {
                 bus: VirtualBus::new(VirtualServos::for_robot(&robot)),
@@ -147,12 +161,7 @@ fn a_late_answer_to_an_earlier_request_is_skipped_by_its_length() {
             let transport = MemoryTransport::new(responder);
             NativeBus::new(Box::new(transport), robot.bus.protocol, &servos)
         };
-        let home: Vec<i64> = robot
-            .joints
-            .iter()
-            .zip(&robot.home)
-            .map(|(j, h)| j.servo.tick(*h).unwrap())
-            .collect();
+        let home = home_ticks(&robot);
         assert_eq!(connect(true).read_positions(&ids).unwrap(), home, "{name}");
         // Nothing but the late answer: reported as what it is, not as a silent timeout.
         match connect(false).read_positions(&ids) {
@@ -216,22 +225,15 @@ fn reboot_clears_a_shutdown() {
 #[test]
 fn an_echoing_adapter_is_heard_through() {
     for name in ["so101", "koch"] {
-        let robot = Robot::builtin(name).unwrap();
-        let servos: Vec<_> = robot.servos();
+        let (robot, servos, ids) = builtin(name);
         let virtual_bus = VirtualBus::new(VirtualServos::for_robot(&robot));
         let transport = MemoryTransport::new(Echoing(virtual_bus));
         let mut bus = NativeBus::new(Box::new(transport), robot.bus.protocol, &servos);
-        let ids: Vec<u8> = servos.iter().map(|(id, _)| *id).collect();
         // Without echo handling the STS READ echo would read as an angle-sensor alarm.
         let info = bus.ping(ids[0]).unwrap();
         assert_eq!(info.id, ids[0]);
         let positions = bus.read_positions(&ids).unwrap();
-        let home: Vec<i64> = robot
-            .joints
-            .iter()
-            .zip(&robot.home)
-            .map(|(j, h)| j.servo.tick(*h).unwrap())
-            .collect();
+        let home = home_ticks(&robot);
         assert_eq!(positions, home, "{name}");
         bus.set_torque(&ids, true).unwrap();
         assert!(bus
