@@ -5,7 +5,7 @@
 //! register and the joint mapping cannot disagree about a negative tick.
 
 use super::{AlarmBits, Alarms};
-use crate::robot::{PositionEncoding, Protocol};
+use crate::robot::PositionEncoding;
 
 /// The model tables once lived here; callers that look a model up by number still find it.
 pub use super::models::model_from_number;
@@ -20,11 +20,6 @@ pub enum ByteOrder {
 }
 
 impl ByteOrder {
-    /// The register order of a bus protocol.
-    pub fn of(protocol: Protocol) -> ByteOrder {
-        super::protocol::codec(protocol).byte_order()
-    }
-
     /// The low `size` bytes of `raw` (at most 4).
     pub fn to_bytes(self, raw: u32, size: u8) -> Vec<u8> {
         let size = usize::from(size.min(4));

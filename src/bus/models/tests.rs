@@ -156,9 +156,9 @@ fn goal_position_encoding_agrees_with_the_protocol() {
             t.goal_position.position_encoding(),
             Some(protocol.position_encoding())
         );
-        assert_eq!(t.byte_order, ByteOrder::of(protocol));
+        assert_eq!(t.byte_order, codec(protocol).byte_order());
     }
-    assert_eq!(ByteOrder::of(Protocol::FeetechScs), ByteOrder::Big);
+    assert_eq!(codec(Protocol::FeetechScs).byte_order(), ByteOrder::Big);
 }
 
 #[test]
@@ -217,4 +217,28 @@ fn block_decoding() {
         t.goal_position.decode(&[1], t.byte_order),
         Err(RegisterError::Size { .. })
     ));
+}
+
+#[test]
+fn the_codecs_find_the_model_number_and_alarms_where_every_table_keeps_them() {
+    // A scan reads both from a servo of unknown model, with the codec's registers.
+    for model in ServoModel::ALL {
+        let spec = model.spec();
+        for protocol in Protocol::ALL.into_iter().filter(|&p| spec.speaks(p)) {
+            let codec = codec(protocol);
+            assert_eq!(
+                codec.model_number_register(),
+                spec.table.model_number_register,
+                "{}",
+                spec.name
+            );
+            let (register, bits) = codec.alarm_register();
+            let table = spec.table.hardware_error;
+            assert_eq!(
+                (register.address, register.size),
+                (table.address, table.size)
+            );
+            assert_eq!(bits, spec.table.alarm_bits, "{}", spec.name);
+        }
+    }
 }
