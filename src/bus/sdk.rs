@@ -3,7 +3,8 @@
 //!
 //! The bridge moves raw register values; this side owns their meaning: signs through
 //! [`PositionEncoding`], units, alarm bits, and the mapping of the SDKs' communication results
-//! and status error bytes onto [`BusError`]. It exists to compare our own drivers with the
+//! and status error bytes onto [`BusError`]. Registers and units are each servo's own, from
+//! its model's description, as in the native driver. It exists to compare our own drivers with the
 //! vendors' code on the same servos, and as a fallback when ours misbehave.
 //!
 //! Reads are not retried here: the SDKs wait their own packet timeouts, and a caller that
@@ -419,9 +420,9 @@ impl ServoBus for SdkBus {
         }
         let reg = self.common_reg(ids, |t| t.present_position)?;
         let raws: Vec<u32> = if self.codec.instructions().sync_read.is_none() {
-            // SCS servos do not answer Sync Read. Alarm bits in the
-            // answers are let through, as a sync read (which never sees them) does on the other
-            // protocols: the position is valid, and alarms are read_health's to report.
+            // SCS servos do not answer Sync Read. Alarm bits in the answers are let through, as
+            // a sync read (which never sees them) does on the other protocols: the position is
+            // valid, and alarms are read_health's to report.
             ids.iter()
                 .map(|&id| self.read_reg_despite_alarms(id, reg))
                 .collect::<Result<_, _>>()?
