@@ -20,10 +20,10 @@
 //! and say why: they never skip.
 
 use keypose::bus::driver::NativeBus;
-use keypose::bus::dynamixel::{self, Dynamixel2};
-use keypose::bus::feetech::{self, Feetech};
-use keypose::bus::packet::{Decoded, Direction, Framing, Packet};
-use keypose::bus::registers::{self, Register};
+use keypose::bus::protocol::codec;
+use keypose::bus::protocol::dynamixel::Dynamixel2;
+use keypose::bus::protocol::packet::{Decoded, Direction, Framing, Packet};
+use keypose::bus::registers::Register;
 use keypose::bus::sdk::SdkBus;
 use keypose::bus::transport::SerialTransport;
 use keypose::bus::virtual_bus::{PtyServer, VirtualBus};
@@ -226,6 +226,9 @@ struct Vendor {
     /// How a signed tick count sits in the position registers (§1.8 two's complement, §2.5
     /// sign-magnitude with the sign at bit 15).
     positions: PositionEncoding,
+    /// The ping answer carries the model number and firmware (Dynamixel); without them the
+    /// SDK reads the model number register after the PING (Feetech, §2.6).
+    ping_answer_identifies: bool,
 }
 
 const DYNAMIXEL: Vendor = Vendor {
@@ -242,6 +245,7 @@ const DYNAMIXEL: Vendor = Vendor {
     goal_position: Reg { addr: 116, len: 4 },
     present_position: Reg { addr: 132, len: 4 },
     positions: PositionEncoding::TwosComplement32,
+    ping_answer_identifies: true,
 };
 
 const FEETECH_STS: Vendor = Vendor {
@@ -258,6 +262,7 @@ const FEETECH_STS: Vendor = Vendor {
     goal_position: Reg { addr: 42, len: 2 },
     present_position: Reg { addr: 56, len: 2 },
     positions: PositionEncoding::SignMagnitude16 { sign_bit: 15 },
+    ping_answer_identifies: false,
 };
 
 impl Vendor {
@@ -301,7 +306,7 @@ impl Vendor {
     /// READ of the model number, because a Feetech ping answer carries no model (§2.6).
     fn ping_packets(&self, id: u8) -> Vec<Packet> {
         let mut packets = vec![self.ping_packet(id)];
-        if self.protocol != Protocol::Dynamixel2 {
+        if !self.ping_answer_identifies {
             packets.push(self.read_packet(id, self.model_number));
         }
         packets
@@ -419,10 +424,16 @@ fn expect_received(bus: &VirtualBus, expected: &[Packet], what: &str) -> Vec<(u8
 /// that the servos must move, and for STS including negative positions (sign-magnitude on the
 /// wire, in both directions: the SDK's write and the virtual servo's answer).
 fn single_goal(vendor: &Vendor, home: i64) -> i64 {
-    match vendor.protocol {
-        Protocol::Dynamixel2 => home + 300,
-        _ => -100,
+    if sign_magnitude(vendor.positions) {
+        -100
+    } else {
+        home + 300
     }
+}
+
+/// Whether negative positions are sign-magnitude on the wire: the case worth a negative goal.
+fn sign_magnitude(positions: PositionEncoding) -> bool {
+    matches!(positions, PositionEncoding::SignMagnitude16 { .. })
 }
 
 fn sync_goals(vendor: &Vendor, servos: &[ExpectedServo]) -> Vec<(u8, i64)> {
@@ -431,9 +442,9 @@ fn sync_goals(vendor: &Vendor, servos: &[ExpectedServo]) -> Vec<(u8, i64)> {
         .iter()
         .enumerate()
         .map(|(i, s)| {
-            let goal = match (vendor.protocol, i) {
-                (Protocol::FeetechSts, 0) => -150,
-                (Protocol::FeetechSts, 3) => -40,
+            let goal = match (sign_magnitude(vendor.positions), i) {
+                (true, 0) => -150,
+                (true, 3) => -40,
                 _ => s.home_tick + OFFSETS[i % OFFSETS.len()],
             };
             (s.id, goal)
@@ -463,9 +474,10 @@ fn sdk_against_the_virtual_bus(robot_name: &str, vendor: Vendor) {
             servo.id,
             servo.model
         );
-        match vendor.protocol {
-            Protocol::Dynamixel2 => assert!(reply["firmware"].is_u64(), "{reply}"),
-            _ => assert!(reply["firmware"].is_null(), "{reply}"),
+        if vendor.ping_answer_identifies {
+            assert!(reply["firmware"].is_u64(), "{reply}");
+        } else {
+            assert!(reply["firmware"].is_null(), "{reply}");
         }
         expect_received(&bus, &vendor.ping_packets(servo.id), "ping");
     }
@@ -647,14 +659,16 @@ impl Wire {
         self.slave.name().expect("the slave's device path")
     }
 
-    /// The length of the packet at the front of `bytes`, once its length field has arrived.
+    /// The length of the complete packet (with any garbage before it) at the front of
+    /// `bytes`, once it has all arrived.
     fn packet_length(&self, bytes: &[u8]) -> Option<usize> {
-        match self.protocol {
-            // FF FF FD 00 ID LEN_L LEN_H, then LEN bytes (§1.2).
-            Protocol::Dynamixel2 => (bytes.len() >= 7)
-                .then(|| 7 + usize::from(u16::from_le_bytes([bytes[5], bytes[6]]))),
-            // FF FF ID LEN, then LEN bytes (§2.1).
-            _ => (bytes.len() >= 4).then(|| 4 + usize::from(bytes[3])),
+        let mut rest = bytes.to_vec();
+        match codec(self.protocol)
+            .framing()
+            .decode(&mut rest, Direction::ToServo)
+        {
+            Ok(Decoded::Packet(_)) => Some(bytes.len() - rest.len()),
+            _ => None,
         }
     }
 
@@ -707,7 +721,7 @@ impl Item {
     }
 
     fn register(self, model: ServoModel) -> Register {
-        let table = registers::table(model);
+        let table = model.spec().table;
         match self {
             Item::TorqueEnable => table.torque_enable,
             Item::GoalPosition => table.goal_position,
@@ -760,90 +774,49 @@ impl Op {
 
     /// The bytes our codec builds for the operation.
     fn our_bytes(&self, protocol: Protocol, model: ServoModel) -> Vec<u8> {
-        let table = registers::table(model);
+        let codec = codec(protocol);
+        let (framing, fields, instructions) =
+            (codec.framing(), codec.fields(), codec.instructions());
+        let broadcast = framing.broadcast_id();
+        let table = model.spec().table;
         let encode = |item: Item, value: i64| {
             table
                 .encode(&item.register(model), value)
                 .expect("a value the register holds")
         };
+        let addr = |item: Item| item.register(model).address;
         let size = |item: Item| u16::from(item.register(model).size);
-        let short = |item: Item| {
-            item.register(model)
-                .short_address()
-                .expect("a one-byte Feetech address")
-        };
         let entries = |item: Item, values: &[(u8, i64)]| -> Vec<(u8, Vec<u8>)> {
             values
                 .iter()
                 .map(|&(id, value)| (id, encode(item, value)))
                 .collect()
         };
-        match protocol {
-            Protocol::Dynamixel2 => {
-                let framing = Dynamixel2;
-                let addr = |item: Item| item.register(model).address;
-                match self {
-                    Op::Ping(id) => framing.encode_instruction(*id, dynamixel::PING, &[]),
-                    Op::Read(id, item) => framing.encode_instruction(
-                        *id,
-                        dynamixel::READ,
-                        &dynamixel::read_params(addr(*item), size(*item)),
-                    ),
-                    Op::Write(id, item, value) => framing.encode_instruction(
-                        *id,
-                        dynamixel::WRITE,
-                        &dynamixel::write_params(addr(*item), &encode(*item, *value)),
-                    ),
-                    Op::SyncWrite(item, values) => framing.encode_instruction(
-                        dynamixel::BROADCAST_ID,
-                        dynamixel::SYNC_WRITE,
-                        &dynamixel::sync_write_params(
-                            addr(*item),
-                            size(*item),
-                            &entries(*item, values),
-                        )
-                        .expect("sync write parameters"),
-                    ),
-                    Op::SyncRead(item, ids) => framing.encode_instruction(
-                        dynamixel::BROADCAST_ID,
-                        dynamixel::SYNC_READ,
-                        &dynamixel::sync_read_params(addr(*item), size(*item), ids),
-                    ),
-                }
-            }
-            _ => {
-                let framing = Feetech;
-                let len = |item: Item| u8::try_from(size(item)).expect("a one-byte length");
-                match self {
-                    Op::Ping(id) => framing.encode_instruction(*id, feetech::PING, &[]),
-                    Op::Read(id, item) => framing.encode_instruction(
-                        *id,
-                        feetech::READ,
-                        &feetech::read_params(short(*item), len(*item)),
-                    ),
-                    Op::Write(id, item, value) => framing.encode_instruction(
-                        *id,
-                        feetech::WRITE,
-                        &feetech::write_params(short(*item), &encode(*item, *value)),
-                    ),
-                    Op::SyncWrite(item, values) => framing.encode_instruction(
-                        feetech::BROADCAST_ID,
-                        feetech::SYNC_WRITE,
-                        &feetech::sync_write_params(
-                            short(*item),
-                            len(*item),
-                            &entries(*item, values),
-                        )
-                        .expect("sync write parameters"),
-                    ),
-                    Op::SyncRead(item, ids) => framing.encode_instruction(
-                        feetech::BROADCAST_ID,
-                        feetech::SYNC_READ,
-                        &feetech::sync_read_params(short(*item), len(*item), ids),
-                    ),
-                }
-            }
-        }
+        let (id, instruction, params) = match self {
+            Op::Ping(id) => (*id, instructions.ping, Ok(Vec::new())),
+            Op::Read(id, item) => (
+                *id,
+                instructions.read,
+                fields.read(addr(*item), size(*item)),
+            ),
+            Op::Write(id, item, value) => (
+                *id,
+                instructions.write,
+                fields.write(addr(*item), &encode(*item, *value)),
+            ),
+            Op::SyncWrite(item, values) => (
+                broadcast,
+                instructions.sync_write,
+                fields.sync_write(addr(*item), size(*item), &entries(*item, values)),
+            ),
+            Op::SyncRead(item, ids) => (
+                broadcast,
+                instructions.sync_read.expect("a protocol with Sync Read"),
+                fields.sync_read(addr(*item), size(*item), ids),
+            ),
+        };
+        let params = params.expect("parameters that fit the protocol's fields");
+        framing.encode_instruction(id, instruction, &params)
     }
 
     /// Does the operation through our driver, when it is one the driver has: the `ServoBus`
@@ -1136,6 +1109,49 @@ fn dynamixel_stuffing_ours_equals_the_sdks_stuffer_which_its_transmitter_skips()
 // ------------------------------------------------------------------------------------------
 // (c) SdkBus and NativeBus on the same virtual bus
 
+#[test]
+fn the_sdk_driver_converts_an_xl330_current_with_the_xl330_units() {
+    let _wire = one_at_a_time();
+    let robot = Robot::builtin("koch").expect("built-in robot");
+    let servos: Vec<(u8, ServoModel)> = robot.servos();
+    let (id, _) = *servos
+        .iter()
+        .find(|&&(_, model)| model == ServoModel::Xl330M288)
+        .expect("the koch arm has an XL330-M288");
+    let server = PtyServer::start(&robot).expect("virtual bus on a pseudo-terminal");
+    // −735 units of 1 mA are −50 % of the XL330's 1.47 A stall current; read with the XM430's
+    // 2.69 mA units and 2.3 A they would be −86 %.
+    server
+        .bus()
+        .lock()
+        .servo_mut(id)
+        .expect("the emulated XL330")
+        .set_present_load(-735);
+    let mut sdk = SdkBus::with_harness(
+        bridge(),
+        server.path(),
+        robot.bus.baud,
+        robot.bus.protocol,
+        &servos,
+    )
+    .unwrap_or_else(|e| panic!("SdkBus on {}: {e}", server.path()));
+    let health = sdk.read_health(&[id]).expect("SDK health");
+    assert!(
+        (health[0].load_percent + 50.0).abs() < 1e-9,
+        "{:?}",
+        health[0]
+    );
+    // The model comes from the robot description, not from asking the servo.
+    let pings = server
+        .bus()
+        .lock()
+        .received
+        .iter()
+        .filter(|p| p.instruction_code() == Some(0x01))
+        .count();
+    assert_eq!(pings, 0, "the SDK driver pinged to learn the model");
+}
+
 fn sdk_bus_and_native_bus_agree(robot_name: &str) {
     let _wire = one_at_a_time();
     let robot = Robot::builtin(robot_name).expect("built-in robot");
@@ -1148,7 +1164,7 @@ fn sdk_bus_and_native_bus_agree(robot_name: &str) {
     // The SDK opens the port first: it closes and reopens it while setting the baud rate, and
     // our driver opens it exclusively (TIOCEXCL), which would refuse that reopening to anyone
     // but root. Both then share the one device, one transaction at a time.
-    let mut sdk = SdkBus::with_harness(bridge(), server.path(), robot.bus.baud, protocol)
+    let mut sdk = SdkBus::with_harness(bridge(), server.path(), robot.bus.baud, protocol, &servos)
         .unwrap_or_else(|e| panic!("SdkBus on {}: {e}", server.path()));
     let transport = SerialTransport::open(server.path(), robot.bus.baud).expect("the pty");
     let mut native = NativeBus::new(Box::new(transport), protocol, &servos);
@@ -1200,10 +1216,12 @@ fn sdk_bus_and_native_bus_agree(robot_name: &str) {
     let goals_b: Vec<(u8, i64)> = goals_a
         .iter()
         .enumerate()
-        .map(|(i, &(id, g))| match (protocol, i) {
-            (Protocol::FeetechSts, 0) => (id, -100),
-            _ => (id, g - 2 * (g - home[i])),
-        })
+        .map(
+            |(i, &(id, g))| match (sign_magnitude(protocol.position_encoding()), i) {
+                (true, 0) => (id, -100),
+                _ => (id, g - 2 * (g - home[i])),
+            },
+        )
         .collect();
     native.write_goals(&goals_b).expect("native goals");
     let wanted: Vec<i64> = goals_b.iter().map(|&(_, g)| g).collect();

@@ -174,7 +174,7 @@ fn opening_a_missing_port_is_a_typed_error_that_names_it() {
         Protocol::FeetechSts,
         Protocol::FeetechScs,
     ] {
-        match SdkBus::with_harness(bridge(), port, 1_000_000, protocol) {
+        match SdkBus::with_harness(bridge(), port, 1_000_000, protocol, &[]) {
             Err(SdkError::Bus(BusError::Port {
                 port: named,
                 source,

@@ -80,9 +80,11 @@ pub fn connect_with(
                 &servos,
             ))
         }
-        Driver::Sdk => Box::new(
-            super::sdk::SdkBus::open(&path, baud, robot.bus.protocol).map_err(BusError::from)?,
-        ),
+        Driver::Sdk => {
+            let servos: Vec<_> = robot.servos();
+            let sdk = super::sdk::SdkBus::open(&path, baud, robot.bus.protocol, &servos);
+            Box::new(sdk.map_err(BusError::from)?)
+        }
     };
     let mut connection = Connection { bus, virtual_bus };
     // Before anything can move: the servos must hold the homing offsets the ticks assume.
@@ -120,14 +122,13 @@ pub fn scan(
                 Box::new(native)
             }
             Driver::Sdk => {
-                Box::new(super::sdk::SdkBus::open(path, baud, protocol).map_err(BusError::from)?)
+                // A scan only pings: no servo needs to be known.
+                Box::new(
+                    super::sdk::SdkBus::open(path, baud, protocol, &[]).map_err(BusError::from)?,
+                )
             }
         };
-        let max_id = if protocol == Protocol::Dynamixel2 {
-            super::dynamixel::MAX_DEVICE_ID
-        } else {
-            super::feetech::MAX_DEVICE_ID
-        };
+        let max_id = super::protocol::codec(protocol).max_device_id();
         for id in 0..=max_id {
             match bus.ping(id) {
                 Ok(info) => found.push((protocol, info)),

@@ -2,21 +2,23 @@
 //! knowing the vendor, and its implementations — our own Dynamixel 2.0 and Feetech STS/SCS
 //! drivers over a serial port, the vendor SDKs through the Python bridge, and virtual servos.
 //!
-//! Layers, bottom up: `packet` (framing shared by both vendors), `dynamixel` and `feetech`
-//! (packet codecs, checksums, status errors), `registers` (per-model control tables and value
-//! encodings), `transport` (a serial port with deadlines and resynchronisation), `driver` (the
-//! native [`ServoBus`] over a transport), `virtual_bus` (emulated servos that answer the real
-//! protocols byte for byte), `sdk` (the vendor SDKs through the Python bridge).
+//! Layers, bottom up: `protocol` (one folder per vendor protocol behind the [`protocol::Codec`]
+//! trait: framing, instruction codes, parameter layouts, status bytes), `registers` (what a
+//! register is and how its values are encoded), `models` (one static description per servo
+//! model: number, control table, units, speeds), `transport` (a serial port with deadlines and
+//! resynchronisation), `driver` (the native [`ServoBus`] over a transport), `virtual_bus`
+//! (emulated servos that answer the real protocols byte for byte), `sdk` (the vendor SDKs
+//! through the Python bridge). Neither the driver nor the emulated servos ask which vendor they
+//! talk to: the codec and the model description answer for them.
 
 mod connect;
 pub mod driver;
-pub mod dynamixel;
 mod echo;
 mod faults;
-pub mod feetech;
 pub mod homing;
-pub mod packet;
+pub mod models;
 pub mod ports;
+pub mod protocol;
 pub mod registers;
 pub mod sdk;
 pub mod transport;
@@ -150,8 +152,12 @@ pub struct Health {
 pub enum BusError {
     #[error("servo {id}: no answer within {timeout_ms} ms")]
     Timeout { id: u8, timeout_ms: u64 },
-    #[error("servo {id}: corrupt answer ({detail})")]
-    Corrupt { id: u8, detail: String },
+    #[error("servo {id}: corrupt answer ({source})")]
+    Corrupt {
+        id: u8,
+        #[source]
+        source: CorruptAnswer,
+    },
     #[error("servo {id}: alarm: {alarms}")]
     Alarm { id: u8, alarms: Alarms },
     #[error("servo {id}: refused the instruction: {reason}")]
@@ -170,6 +176,14 @@ pub enum BusError {
 }
 
 impl BusError {
+    /// A damaged answer from servo `id`.
+    pub fn corrupt(id: u8, source: impl Into<CorruptAnswer>) -> BusError {
+        BusError::Corrupt {
+            id,
+            source: source.into(),
+        }
+    }
+
     /// The servo the error is about, when there is one.
     pub fn servo(&self) -> Option<u8> {
         match self {
@@ -181,6 +195,27 @@ impl BusError {
             BusError::Port { .. } | BusError::Protocol(_) => None,
         }
     }
+}
+
+/// What was wrong with a damaged answer.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CorruptAnswer {
+    /// The packet itself: checksum, length, layout.
+    #[error(transparent)]
+    Packet(#[from] protocol::packet::PacketError),
+    /// Its data does not decode as the register asked for.
+    #[error(transparent)]
+    Register(#[from] registers::RegisterError),
+    /// A well-formed answer with another amount of data than asked for: a late answer to an
+    /// earlier request, when nothing better came.
+    #[error("{found} data bytes where {expected} were asked")]
+    DataLength { expected: usize, found: usize },
+    /// A combined (fast sync read) answer for other servos than asked.
+    #[error("fast sync read answered for ids {found:?} where {expected:?} were asked")]
+    Ids { expected: Vec<u8>, found: Vec<u8> },
+    /// The vendor SDK's own account of a corrupt packet.
+    #[error("{0}")]
+    Sdk(String),
 }
 
 /// A bus of servos, addressed by id, positions in ticks.

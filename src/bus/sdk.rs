@@ -3,63 +3,40 @@
 //!
 //! The bridge moves raw register values; this side owns their meaning: signs through
 //! [`PositionEncoding`], units, alarm bits, and the mapping of the SDKs' communication results
-//! and status error bytes onto [`BusError`]. It exists to compare our own drivers with the
+//! and status error bytes onto [`BusError`]. Registers and units are each servo's own, from
+//! its model's description, as in the native driver. It exists to compare our own drivers with the
 //! vendors' code on the same servos, and as a fallback when ours misbehave.
 //!
 //! Reads are not retried here: the SDKs wait their own packet timeouts, and a caller that
 //! wants a retry sees the typed error first.
 
-use super::{registers, BusError, Health, PingInfo, ServoBus};
+use super::models::Servos;
+use super::protocol::{codec, Codec, Status};
+use super::registers::{Register, RegisterTable};
+use super::{Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
 use crate::python::{Harness, HarnessError, HarnessOptions, PyConfig};
-use crate::robot::{PositionEncoding, Protocol};
+use crate::robot::{PositionEncoding, Protocol, ServoModel};
 use serde_json::{json, Value};
-use std::collections::HashMap;
 use std::io;
 
 /// The bridge script, as embedded by [`crate::python`].
 pub const BRIDGE_SCRIPT: &str = "sdk_bridge.py";
 
-/// A control-table register: address and size in bytes.
+/// A control-table register as the bridge takes it: address and size in bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Reg {
     addr: u16,
     len: u8,
 }
 
-const fn reg(addr: u16, len: u8) -> Reg {
-    Reg { addr, len }
+impl From<Register> for Reg {
+    fn from(register: Register) -> Reg {
+        Reg {
+            addr: register.address,
+            len: register.size,
+        }
+    }
 }
-
-// Dynamixel X series (XL330-M288, XL430-W250, XM430-W350): PROTOCOLS.md §1.8.
-const DXL_TORQUE_ENABLE: Reg = reg(64, 1);
-const DXL_HARDWARE_ERROR_STATUS: Reg = reg(70, 1);
-const DXL_GOAL_POSITION: Reg = reg(116, 4);
-/// Present Current on XL330 and XM430, Present Load (0.1 %) on XL430; signed.
-const DXL_PRESENT_LOAD_OR_CURRENT: Reg = reg(126, 2);
-const DXL_PRESENT_POSITION: Reg = reg(132, 4);
-/// 0.1 V per unit.
-const DXL_PRESENT_INPUT_VOLTAGE: Reg = reg(144, 2);
-/// °C.
-const DXL_PRESENT_TEMPERATURE: Reg = reg(146, 1);
-/// The Alert bit of a Dynamixel status packet's ERR byte (PROTOCOLS.md §1.4); the low seven
-/// bits are an error number, meaning the instruction was refused.
-const DXL_ALERT: u8 = 0x80;
-
-// Feetech STS3215: PROTOCOLS.md §2.6. The SCS series has the same addresses for these
-// (rustypot `src/servo/feetech/scs0009.rs`), with big-endian values.
-const FT_TORQUE_ENABLE: Reg = reg(40, 1);
-/// Sign-magnitude, sign bit 15 on STS; unsigned on SCS.
-const FT_GOAL_POSITION: Reg = reg(42, 2);
-const FT_PRESENT_POSITION: Reg = reg(56, 2);
-/// 0.1 % of duty, sign-magnitude with sign bit 10 (PROTOCOLS.md §2.5).
-const FT_PRESENT_LOAD: Reg = reg(60, 2);
-const FT_LOAD_SIGN_BIT: u8 = 10;
-/// 0.1 V per unit.
-const FT_PRESENT_VOLTAGE: Reg = reg(62, 1);
-/// °C.
-const FT_PRESENT_TEMPERATURE: Reg = reg(63, 1);
-/// Alarm bits, the layout of the status packet's ERR byte (PROTOCOLS.md §2.3).
-const FT_STATUS: Reg = reg(65, 1);
 
 /// Opening a bus through the SDKs: the Python side, or the bus itself.
 #[derive(Debug, thiserror::Error)]
@@ -83,18 +60,25 @@ impl From<SdkError> for BusError {
 #[derive(Debug)]
 pub struct SdkBus {
     harness: Harness,
-    protocol: Protocol,
+    codec: &'static dyn Codec,
     port: String,
     baud: u32,
-    /// Dynamixel model numbers seen by `ping`, to read register 126 as load or as current.
-    dxl_models: HashMap<u8, u16>,
+    /// The robot's servos: each one's values are converted with its own model's table.
+    servos: Servos,
 }
 
 impl SdkBus {
-    /// Opens `port` through the SDK of `protocol`, starting the bridge with the Python
-    /// environment from the process's variables (built on first use).
-    pub fn open(port: &str, baud: u32, protocol: Protocol) -> Result<SdkBus, SdkError> {
-        SdkBus::with_harness(Harness::start(BRIDGE_SCRIPT)?, port, baud, protocol)
+    /// Opens `port` through the SDK of `protocol` for the given servos (id, model), starting
+    /// the bridge with the Python environment from the process's variables (built on first
+    /// use). Ids not listed can only be pinged.
+    pub fn open(
+        port: &str,
+        baud: u32,
+        protocol: Protocol,
+        servos: &[(u8, ServoModel)],
+    ) -> Result<SdkBus, SdkError> {
+        let harness = Harness::start(BRIDGE_SCRIPT)?;
+        SdkBus::with_harness(harness, port, baud, protocol, servos)
     }
 
     /// As [`SdkBus::open`], with the Python environment of `config`.
@@ -103,9 +87,10 @@ impl SdkBus {
         port: &str,
         baud: u32,
         protocol: Protocol,
+        servos: &[(u8, ServoModel)],
     ) -> Result<SdkBus, SdkError> {
         let harness = Harness::start_in(config, BRIDGE_SCRIPT, HarnessOptions::default())?;
-        SdkBus::with_harness(harness, port, baud, protocol)
+        SdkBus::with_harness(harness, port, baud, protocol, servos)
     }
 
     /// Opens `port` through a bridge that is already running (and has no port open).
@@ -114,6 +99,7 @@ impl SdkBus {
         port: &str,
         baud: u32,
         protocol: Protocol,
+        servos: &[(u8, ServoModel)],
     ) -> Result<SdkBus, SdkError> {
         let request = json!({
             "op": "open",
@@ -132,15 +118,15 @@ impl SdkBus {
         }
         Ok(SdkBus {
             harness,
-            protocol,
+            codec: codec(protocol),
             port: port.to_string(),
             baud,
-            dxl_models: HashMap::new(),
+            servos: Servos::new(servos),
         })
     }
 
     pub fn protocol(&self) -> Protocol {
-        self.protocol
+        self.codec.protocol()
     }
 
     /// The bridge, for its ready line (SDK and Python versions) and its stderr.
@@ -149,19 +135,11 @@ impl SdkBus {
     }
 
     fn encoding(&self) -> PositionEncoding {
-        self.protocol.position_encoding()
-    }
-
-    fn dynamixel(&self) -> bool {
-        self.protocol == Protocol::Dynamixel2
+        self.protocol().position_encoding()
     }
 
     fn sdk_name(&self) -> &'static str {
-        if self.dynamixel() {
-            "dynamixel_sdk"
-        } else {
-            "scservo_sdk"
-        }
+        self.codec.vendor().sdk_module()
     }
 
     fn call(&mut self, request: Value, about: Option<u8>) -> Result<Value, BusError> {
@@ -184,8 +162,8 @@ impl SdkBus {
     }
 
     /// Whether the script's refusal is only the servo's alarm bits: the instruction was carried
-    /// out. Feetech's ERR byte holds alarms only (PROTOCOLS.md §2.3); on Dynamixel only the
-    /// Alert bit is an alarm, an error number is a refusal (§1.4).
+    /// out. The codec says which status bytes are refusals (none on Feetech, an error number on
+    /// Dynamixel).
     fn alarm_only(&self, error: &HarnessError) -> bool {
         let Some(reply) = error.reply() else {
             return false;
@@ -193,8 +171,8 @@ impl SdkBus {
         if reply.get("kind").and_then(Value::as_str) != Some("servo") {
             return false;
         }
-        match reply.get("servo_error_code").and_then(Value::as_u64) {
-            Some(code) => !self.dynamixel() || code & u64::from(!DXL_ALERT) == 0,
+        match servo_error_code(reply) {
+            Some(code) => !matches!(self.codec.status(code), Status::Refused(_)),
             None => false,
         }
     }
@@ -246,10 +224,9 @@ impl SdkBus {
                             .map(|ms| ms.round().max(0.0) as u64)
                             .unwrap_or(0),
                     },
-                    (Some("corrupt"), Some(id)) => BusError::Corrupt {
-                        id,
-                        detail: text("comm"),
-                    },
+                    (Some("corrupt"), Some(id)) => {
+                        BusError::corrupt(id, CorruptAnswer::Sdk(text("comm")))
+                    }
                     (Some("tx_fail"), _) => BusError::Port {
                         port: self.port.clone(),
                         source: io::Error::other(text("comm")),
@@ -258,30 +235,32 @@ impl SdkBus {
                 }
             }
             Some("servo") => {
-                let code = reply
-                    .get("servo_error_code")
-                    .and_then(Value::as_u64)
-                    .and_then(|code| u8::try_from(code).ok())
-                    .unwrap_or(0);
+                let code = servo_error_code(reply).unwrap_or(0);
                 let Some(id) = servo else {
                     return BusError::Protocol(format!("{}: {message}", self.sdk_name()));
                 };
-                if !self.dynamixel() {
-                    return BusError::Alarm {
-                        id,
-                        alarms: super::feetech::status_alarms(code),
-                    };
+                match self.codec.status(code) {
+                    Status::Refused(_) => {
+                        return BusError::Refused {
+                            id,
+                            reason: text("servo_error"),
+                        }
+                    }
+                    Status::Alarms(alarms) => return BusError::Alarm { id, alarms },
+                    // Only bits that stand for no alarm.
+                    Status::Done => {
+                        return BusError::Alarm {
+                            id,
+                            alarms: Alarms::default(),
+                        }
+                    }
+                    Status::Alert => {}
                 }
-                if code & !DXL_ALERT != 0 {
-                    return BusError::Refused {
-                        id,
-                        reason: text("servo_error"),
-                    };
-                }
+                let (register, bits) = self.codec.alarm_register();
                 let alarms = if follow_alert {
-                    self.read_reg_despite_alarms(id, DXL_HARDWARE_ERROR_STATUS)
+                    self.read_reg_despite_alarms(id, register.into())
                         .ok()
-                        .map(|bits| super::dynamixel::hardware_error_alarms(bits as u8))
+                        .map(|raw| bits.decode(raw as u8))
                 } else {
                     None
                 };
@@ -299,28 +278,48 @@ impl SdkBus {
         }
     }
 
-    fn dxl_model(&mut self, id: u8) -> Result<u16, BusError> {
-        if let Some(model) = self.dxl_models.get(&id) {
-            return Ok(*model);
-        }
-        Ok(self.ping(id)?.model_number)
+    /// One register of every servo in `ids`, as a bridge register: the robot's tables must
+    /// agree on it for a sync transfer.
+    fn common_reg(
+        &self,
+        ids: &[u8],
+        pick: fn(&RegisterTable) -> Register,
+    ) -> Result<Reg, BusError> {
+        self.servos
+            .common_register(ids, pick)
+            .map(|(register, _)| register.into())
     }
 
-    /// Register 126 as a signed percentage, the way the native driver reports it: a load in
-    /// 0.1 % on the XL430, a current as a share of the stall current on the XL330 and XM430
-    /// (the model's table in `registers`).
-    fn dxl_load_percent(&mut self, id: u8, raw: u32) -> Result<f64, BusError> {
-        let model_number = self.dxl_model(id)?;
-        let model =
-            registers::model_from_number(Protocol::Dynamixel2, model_number).ok_or_else(|| {
-                BusError::Protocol(format!(
-                    "servo {id}: Dynamixel model number {model_number} is not one keypose \
-                     knows, so its register {} cannot be read as a load",
-                    DXL_PRESENT_LOAD_OR_CURRENT.addr
-                ))
-            })?;
-        Ok(registers::table(model).load_percent(i64::from(raw as u16 as i16)))
+    /// The raw value of `register` of servo `id`, decoded with its table's encoding.
+    fn read_value(&mut self, id: u8, register: Register) -> Result<i64, BusError> {
+        let raw = self.read_reg_despite_alarms(id, register.into())?;
+        Ok(register.from_raw(raw))
     }
+
+    /// Health from the model's table: units (an XL330's current differs from an XM430's) and
+    /// alarm bits.
+    fn read_one_health(&mut self, id: u8) -> Result<Health, BusError> {
+        let table = self.servos.table(id)?;
+        let bits = self.read_value(id, table.hardware_error)?;
+        let load = self.read_value(id, table.present_load)?;
+        let voltage = self.read_value(id, table.present_voltage)?;
+        let temperature = self.read_value(id, table.present_temperature)?;
+        Ok(Health {
+            id,
+            temperature_c: table.temperature_c(temperature),
+            voltage_v: table.voltage_v(voltage),
+            load_percent: table.load_percent(load),
+            alarms: table.alarms(bits as u8),
+        })
+    }
+}
+
+/// The servo's status error byte in a failed reply.
+fn servo_error_code(reply: &Value) -> Option<u8> {
+    reply
+        .get("servo_error_code")
+        .and_then(Value::as_u64)
+        .and_then(|code| u8::try_from(code).ok())
 }
 
 fn read_request(id: u8, reg: Reg) -> Value {
@@ -372,7 +371,7 @@ impl ServoBus for SdkBus {
             .unwrap_or("unknown version");
         format!(
             "{} via {} {version} on {} at {}",
-            self.protocol.name(),
+            self.protocol().name(),
             self.sdk_name(),
             self.port,
             self.baud
@@ -384,12 +383,12 @@ impl ServoBus for SdkBus {
         // A servo with an alarm still answers a ping with what it is: the alarms go into the
         // answer, so they do not make the servo missing.
         let (found, alarms) = match self.harness.request(&request) {
-            Ok(reply) => (reply, super::Alarms::default()),
+            Ok(reply) => (reply, Alarms::default()),
             Err(error) => match self.alarm_only_value(&error) {
                 Some(found) => match self.bus_error(error, Some(id), true) {
                     BusError::Alarm { alarms, .. } => (found, alarms),
                     // The Alert bit whose alarms could not be read.
-                    _ => (found, super::Alarms::default()),
+                    _ => (found, Alarms::default()),
                 },
                 None => return Err(self.bus_error(error, Some(id), true)),
             },
@@ -407,9 +406,6 @@ impl ServoBus for SdkBus {
             .get("firmware")
             .and_then(Value::as_u64)
             .and_then(|firmware| u8::try_from(firmware).ok());
-        if self.dynamixel() {
-            self.dxl_models.insert(id, model_number);
-        }
         Ok(PingInfo {
             id,
             model_number,
@@ -422,15 +418,11 @@ impl ServoBus for SdkBus {
         if ids.is_empty() {
             return Ok(Vec::new());
         }
-        let reg = if self.dynamixel() {
-            DXL_PRESENT_POSITION
-        } else {
-            FT_PRESENT_POSITION
-        };
-        let raws: Vec<u32> = if self.protocol == Protocol::FeetechScs {
-            // SCS servos do not answer Sync Read (PROTOCOLS.md §2.2). Alarm bits in the
-            // answers are let through, as a sync read (which never sees them) does on the other
-            // protocols: the position is valid, and alarms are read_health's to report.
+        let reg = self.common_reg(ids, |t| t.present_position)?;
+        let raws: Vec<u32> = if self.codec.instructions().sync_read.is_none() {
+            // SCS servos do not answer Sync Read. Alarm bits in the answers are let through, as
+            // a sync read (which never sees them) does on the other protocols: the position is
+            // valid, and alarms are read_health's to report.
             ids.iter()
                 .map(|&id| self.read_reg_despite_alarms(id, reg))
                 .collect::<Result<_, _>>()?
@@ -461,11 +453,8 @@ impl ServoBus for SdkBus {
         if goals.is_empty() {
             return Ok(());
         }
-        let reg = if self.dynamixel() {
-            DXL_GOAL_POSITION
-        } else {
-            FT_GOAL_POSITION
-        };
+        let ids: Vec<u8> = goals.iter().map(|&(id, _)| id).collect();
+        let reg = self.common_reg(&ids, |t| t.goal_position)?;
         let encoding = self.encoding();
         let values = goals
             .iter()
@@ -484,13 +473,9 @@ impl ServoBus for SdkBus {
     }
 
     fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError> {
-        let reg = if self.dynamixel() {
-            DXL_TORQUE_ENABLE
-        } else {
-            FT_TORQUE_ENABLE
-        };
         let mut first_error = None;
         for &id in ids {
+            let reg = Reg::from(self.servos.table(id)?.torque_enable);
             // One confirmed write per servo rather than an unanswered sync write: torque is
             // the safety switch, and its failure must name the servo.
             let request = json!({
@@ -513,66 +498,17 @@ impl ServoBus for SdkBus {
         first_error.map_or(Ok(()), Err)
     }
 
-    fn read_homing_offsets(
-        &mut self,
-        servos: &[(u8, crate::robot::ServoModel)],
-    ) -> Result<Vec<i64>, BusError> {
+    fn read_homing_offsets(&mut self, servos: &[(u8, ServoModel)]) -> Result<Vec<i64>, BusError> {
+        // The bridge gives the register as an unsigned number; its sign convention
+        // (sign-magnitude on Feetech, two's complement on Dynamixel) is the table's.
         servos
             .iter()
-            .map(|&(id, model)| {
-                let table = registers::table(model);
-                let register = table.homing_offset;
-                let raw = self.read_reg_despite_alarms(id, reg(register.address, register.size))?;
-                // The bridge gives the register as an unsigned number; its sign convention
-                // (sign-magnitude on Feetech, two's complement on Dynamixel) is the table's.
-                let size = usize::from(register.size);
-                let bytes = match table.byte_order {
-                    registers::ByteOrder::Little => raw.to_le_bytes()[..size].to_vec(),
-                    registers::ByteOrder::Big => raw.to_be_bytes()[4 - size..].to_vec(),
-                };
-                table.decode_answer(id, &register, &bytes)
-            })
+            .map(|&(id, model)| self.read_value(id, model.spec().table.homing_offset))
             .collect()
     }
 
     fn read_health(&mut self, ids: &[u8]) -> Result<Vec<Health>, BusError> {
-        let mut healths = Vec::with_capacity(ids.len());
-        for &id in ids {
-            let health = if self.dynamixel() {
-                let bits = self.read_reg_despite_alarms(id, DXL_HARDWARE_ERROR_STATUS)?;
-                let load = self.read_reg_despite_alarms(id, DXL_PRESENT_LOAD_OR_CURRENT)?;
-                let voltage = self.read_reg_despite_alarms(id, DXL_PRESENT_INPUT_VOLTAGE)?;
-                let temperature = self.read_reg_despite_alarms(id, DXL_PRESENT_TEMPERATURE)?;
-                Health {
-                    id,
-                    temperature_c: f64::from(temperature),
-                    // The same conversion as the native driver, from the register tables.
-                    voltage_v: registers::table(crate::robot::ServoModel::Xm430W350)
-                        .voltage_v(i64::from(voltage)),
-                    load_percent: self.dxl_load_percent(id, load)?,
-                    alarms: super::dynamixel::hardware_error_alarms(bits as u8),
-                }
-            } else {
-                let bits = self.read_reg_despite_alarms(id, FT_STATUS)?;
-                let load = self.read_reg_despite_alarms(id, FT_PRESENT_LOAD)?;
-                let voltage = self.read_reg_despite_alarms(id, FT_PRESENT_VOLTAGE)?;
-                let temperature = self.read_reg_despite_alarms(id, FT_PRESENT_TEMPERATURE)?;
-                let load = PositionEncoding::SignMagnitude16 {
-                    sign_bit: FT_LOAD_SIGN_BIT,
-                }
-                .decode(load);
-                let sts = registers::table(crate::robot::ServoModel::Sts3215);
-                Health {
-                    id,
-                    temperature_c: sts.temperature_c(i64::from(temperature)),
-                    voltage_v: sts.voltage_v(i64::from(voltage)),
-                    load_percent: sts.load_percent(load),
-                    alarms: super::feetech::status_alarms(bits as u8),
-                }
-            };
-            healths.push(health);
-        }
-        Ok(healths)
+        ids.iter().map(|&id| self.read_one_health(id)).collect()
     }
 }
 

@@ -26,34 +26,22 @@ impl ServoModel {
         ServoModel::Xm430W350,
     ];
 
+    /// Everything known about the model: name, model number, control table, speeds.
+    pub fn spec(self) -> &'static crate::bus::models::ModelSpec {
+        crate::bus::models::spec(self)
+    }
+
     pub fn name(self) -> &'static str {
-        match self {
-            ServoModel::Sts3215 => "sts3215",
-            ServoModel::Xl330M288 => "xl330-m288",
-            ServoModel::Xl330M077 => "xl330-m077",
-            ServoModel::Xl430W250 => "xl430-w250",
-            ServoModel::Xm430W350 => "xm430-w350",
-        }
+        self.spec().name
     }
 
     pub fn parse(s: &str) -> Option<ServoModel> {
         ServoModel::ALL.into_iter().find(|m| m.name() == s)
     }
 
-    pub fn is_dynamixel(self) -> bool {
-        !matches!(self, ServoModel::Sts3215)
-    }
-
-    /// No-load speed at the supply these arms use, degrees per second (docs/robots.md §4): STS3215
-    /// 7.4 V on the SO-101's 5 V (≈34 rpm, derived), XL330 at 5 V, XL430 and XM430 at 12 V.
+    /// No-load speed at the supply these arms use, degrees per second.
     pub fn no_load_speed_deg_s(self) -> f64 {
-        match self {
-            ServoModel::Sts3215 => 200.0,
-            ServoModel::Xl330M288 => 618.0,
-            ServoModel::Xl330M077 => 2298.0,
-            ServoModel::Xl430W250 => 366.0,
-            ServoModel::Xm430W350 => 276.0,
-        }
+        self.spec().no_load_speed_deg_s
     }
 }
 

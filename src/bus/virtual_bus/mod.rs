@@ -17,10 +17,11 @@ mod pty;
 pub use hand::Hand;
 pub use pty::PtyServer;
 
-use super::packet::{Decoded, Direction, Framing, Packet};
+use super::protocol::packet::{Decoded, Direction, Packet};
+use super::protocol::{codec, Codec, FastSyncReadEntry, Refusal};
 use super::registers::{self, RegisterTable};
 use super::transport::Responder;
-use super::{dynamixel, feetech, Alarms};
+use super::Alarms;
 use crate::robot::{Protocol, Robot, ServoModel};
 use motion::Motion;
 use std::collections::HashMap;
@@ -60,7 +61,7 @@ pub struct VirtualServo {
 
 impl VirtualServo {
     fn new(id: u8, model: ServoModel, position: f64) -> VirtualServo {
-        let table = registers::table(model);
+        let table = model.spec().table;
         let mut servo = VirtualServo {
             id,
             model,
@@ -69,12 +70,12 @@ impl VirtualServo {
             fault: None,
             releases: 0,
         };
-        servo.store(table.model_number_register, i64::from(table.model_number));
-        servo.store(table.id, i64::from(id));
         servo.store(
-            table.status_return_level,
-            if table.is_dynamixel() { 2 } else { 1 },
+            table.model_number_register,
+            i64::from(model.spec().model_number),
         );
+        servo.store(table.id, i64::from(id));
+        servo.store(table.status_return_level, table.factory_status_return_level);
         servo.store(table.present_voltage, SUPPLY_DECIVOLTS);
         servo.store(table.present_temperature, ROOM_TEMPERATURE_C);
         servo.store(table.goal_position, position.round() as i64);
@@ -82,13 +83,19 @@ impl VirtualServo {
     }
 
     fn table(&self) -> &'static RegisterTable {
-        registers::table(self.model)
+        self.model.spec().table
     }
 
     /// Sets the Homing_Offset register, as a calibration tool writes it (the emulated servo
     /// reports it; its positions are emulated after the offset, as a real servo's are).
     pub fn set_homing_offset(&mut self, ticks: i64) {
         self.store(self.table().homing_offset, ticks);
+    }
+
+    /// Sets the Present Load (or Present Current) register, as a servo under load reports it;
+    /// the emulated motion does not model load, so the value stays until set again.
+    pub fn set_present_load(&mut self, value: i64) {
+        self.store(self.table().present_load, value);
     }
 
     fn store(&mut self, register: registers::Register, value: i64) {
@@ -124,25 +131,20 @@ impl VirtualServo {
         self.store(table.present_position, position);
         self.store(table.moving, i64::from(moving));
         self.store(table.torque_enable, i64::from(self.motion.torque));
-        let alarm_bits = if table.is_dynamixel() {
-            dynamixel::hardware_error_bits(&self.alarms())
-        } else {
-            feetech::status_bits(&self.alarms())
-        };
+        let alarm_bits = table.alarm_bits.encode(&self.alarms());
         self.store(table.hardware_error, i64::from(alarm_bits));
     }
 
     /// Applies a write to the control table, then acts on the registers that move the servo.
-    /// Returns a Dynamixel error number when the write is refused.
-    fn write(&mut self, address: usize, data: &[u8]) -> Result<(), dynamixel::ErrorNumber> {
+    /// Returns why the write is refused, if it is.
+    fn write(&mut self, address: usize, data: &[u8]) -> Result<(), Refusal> {
         let end = address + data.len();
         if end > MEMORY_SIZE {
-            return Err(dynamixel::ErrorNumber::DataLimit);
+            return Err(Refusal::DataLimit);
         }
         let table = self.table();
-        // X series: EEPROM (below 64) is writable only with torque off (PROTOCOLS.md §1.8).
-        if table.is_dynamixel() && address < 64 && self.motion.torque {
-            return Err(dynamixel::ErrorNumber::Access);
+        if address < usize::from(table.torque_locked_below) && self.motion.torque {
+            return Err(Refusal::Access);
         }
         self.memory[address..end].copy_from_slice(data);
         let touches =
@@ -153,7 +155,7 @@ impl VirtualServo {
                 self.releases += 1;
             }
             // A servo in shutdown keeps torque off until rebooted.
-            let shut_down = table.is_dynamixel() && self.alarms().any();
+            let shut_down = table.shuts_down_on_alarm && self.alarms().any();
             self.motion.set_torque(on && !shut_down);
         }
         if touches(table.goal_position) {
@@ -168,20 +170,6 @@ impl VirtualServo {
             .get(address..address + length)
             .map(<[u8]>::to_vec)
     }
-
-    /// The status error byte for an answer without a refusal.
-    fn status_byte(&self) -> u8 {
-        let alarms = self.alarms();
-        if self.table().is_dynamixel() {
-            if alarms.any() {
-                dynamixel::ALERT_BIT
-            } else {
-                0
-            }
-        } else {
-            feetech::status_bits(&alarms)
-        }
-    }
 }
 
 /// Instruction packets kept in [`VirtualServos::received`]: minutes of a 6-servo arm at 1 kHz,
@@ -190,8 +178,7 @@ pub const RECEIVED_LOG_CAPACITY: usize = 1_000_000;
 
 /// The emulated bus: servos, fault switches, and the record of received instructions.
 pub struct VirtualServos {
-    protocol: Protocol,
-    framing: Box<dyn Framing + Send>,
+    codec: &'static dyn Codec,
     pub servos: Vec<VirtualServo>,
     /// The instruction packets decoded, in order: at least the last `received_capacity` (the
     /// oldest are dropped in batches, so a push stays cheap).
@@ -228,13 +215,8 @@ impl VirtualServos {
     }
 
     pub fn new(protocol: Protocol, servos: Vec<VirtualServo>) -> VirtualServos {
-        let framing: Box<dyn Framing + Send> = match protocol {
-            Protocol::Dynamixel2 => Box::new(dynamixel::Dynamixel2),
-            _ => Box::new(feetech::Feetech),
-        };
         VirtualServos {
-            protocol,
-            framing,
+            codec: codec(protocol),
             servos,
             received: Vec::new(),
             received_capacity: RECEIVED_LOG_CAPACITY,
@@ -254,7 +236,7 @@ impl VirtualServos {
             servo.fault = fault;
             if let Some(ServoFault::Alarm(alarms)) = fault {
                 // X series shut the torque off on a hardware error (Shutdown register default).
-                if alarms.any() && registers::table(servo.model).is_dynamixel() {
+                if alarms.any() && servo.model.spec().table.shuts_down_on_alarm {
                     servo.motion.set_torque(false);
                 }
             }
@@ -300,38 +282,31 @@ impl VirtualServos {
         let Some(code) = packet.instruction_code() else {
             return Vec::new();
         };
-        let p = &packet.params;
-        let dxl = self.protocol == Protocol::Dynamixel2;
-        let (write, sync_write) = if dxl {
-            (dynamixel::WRITE, dynamixel::SYNC_WRITE)
-        } else {
-            (feetech::WRITE, feetech::SYNC_WRITE)
-        };
-        let header = if dxl { 2 } else { 1 };
-        let word = |bytes: &[u8]| -> usize {
-            if dxl {
-                usize::from(u16::from_le_bytes([bytes[0], bytes[1]]))
-            } else {
-                usize::from(bytes[0])
-            }
-        };
-        if code == write && p.len() > header {
-            return vec![(packet.id, word(p), p[header..].to_vec())];
+        let instructions = self.codec.instructions();
+        let fields = self.codec.fields();
+        if code == instructions.write {
+            return match fields.split(&packet.params) {
+                Some((address, data)) if !data.is_empty() => {
+                    vec![(packet.id, usize::from(address), data.to_vec())]
+                }
+                _ => Vec::new(),
+            };
         }
-        if code == sync_write && p.len() >= 2 * header {
-            let address = word(p);
-            let length = word(&p[header..]);
-            let entries = &p[2 * header..];
-            if length == 0 {
-                return Vec::new();
-            }
-            return entries
-                .chunks(1 + length)
-                .filter(|chunk| chunk.len() == 1 + length)
-                .map(|chunk| (chunk[0], address, chunk[1..].to_vec()))
-                .collect();
+        if code != instructions.sync_write {
+            return Vec::new();
         }
-        Vec::new()
+        let Some((address, length, entries)) = fields.split_read(&packet.params) else {
+            return Vec::new();
+        };
+        let length = usize::from(length);
+        if length == 0 {
+            return Vec::new();
+        }
+        entries
+            .chunks(1 + length)
+            .filter(|chunk| chunk.len() == 1 + length)
+            .map(|chunk| (chunk[0], usize::from(address), chunk[1..].to_vec()))
+            .collect()
     }
 
     /// Keeps `packet` in the log, dropping the oldest quarter of the capacity once it is
@@ -352,7 +327,11 @@ impl VirtualServos {
         self.rx.extend_from_slice(bytes);
         let mut answers = Vec::new();
         loop {
-            match self.framing.decode(&mut self.rx, Direction::ToServo) {
+            match self
+                .codec
+                .framing()
+                .decode(&mut self.rx, Direction::ToServo)
+            {
                 Ok(Decoded::Packet(packet)) => {
                     answers.extend(self.answer(&packet));
                     self.record(packet);
@@ -368,174 +347,145 @@ impl VirtualServos {
         let Some(code) = packet.instruction_code() else {
             return Vec::new();
         };
-        let broadcast = self.framing.broadcast_id();
-        let dxl = self.protocol == Protocol::Dynamixel2;
-        let header = if dxl { 2 } else { 1 };
-        let p = packet.params.clone();
-        let word = |bytes: &[u8]| -> Option<usize> {
-            if dxl {
-                Some(usize::from(u16::from_le_bytes([
-                    *bytes.first()?,
-                    *bytes.get(1)?,
-                ])))
-            } else {
-                bytes.first().map(|b| usize::from(*b))
-            }
-        };
-        let (ping, read, write, sync_read, sync_write) = if dxl {
-            (
-                dynamixel::PING,
-                dynamixel::READ,
-                dynamixel::WRITE,
-                dynamixel::SYNC_READ,
-                dynamixel::SYNC_WRITE,
-            )
-        } else {
-            (
-                feetech::PING,
-                feetech::READ,
-                feetech::WRITE,
-                feetech::SYNC_READ,
-                feetech::SYNC_WRITE,
-            )
-        };
-        let mut out = Vec::new();
+        let instructions = self.codec.instructions();
+        let fast_sync_read = self.codec.fast_sync_read().map(|f| f.instruction());
         match code {
-            c if c == ping => {
-                let ids: Vec<u8> = if packet.id == broadcast {
-                    self.servos.iter().map(|s| s.id).collect()
-                } else {
-                    vec![packet.id]
-                };
-                for id in ids {
-                    let params = match self.servos.iter().find(|s| s.id == id) {
-                        Some(s) if dxl => {
-                            dynamixel::ping_answer_params(s.table().model_number, FIRMWARE_VERSION)
-                        }
-                        Some(_) => Vec::new(),
-                        None => continue,
-                    };
-                    out.extend(self.status(id, None, &params));
-                }
+            c if c == instructions.ping => self.answer_ping(packet.id),
+            c if c == instructions.read && packet.id != self.broadcast() => {
+                self.answer_read(packet)
             }
-            c if c == read && packet.id != broadcast => {
-                let (Some(address), Some(length)) =
-                    (word(&p), word(p.get(header..).unwrap_or(&[])))
-                else {
-                    return self.status(packet.id, Some(dynamixel::ErrorNumber::DataLength), &[]);
-                };
-                let data = self.servo_mut(packet.id).map(|s| s.read(address, length));
-                match data {
-                    Some(Some(bytes)) => out.extend(self.status(packet.id, None, &bytes)),
-                    Some(None) => out.extend(self.status(
-                        packet.id,
-                        Some(dynamixel::ErrorNumber::DataLimit),
-                        &[],
-                    )),
-                    None => {}
-                }
-            }
-            c if c == write => {
-                for (id, address, data) in self.writes_in(packet) {
-                    if id == broadcast {
-                        // A broadcast write reaches every servo and none answers.
-                        for servo in &mut self.servos {
-                            let _ = servo.write(address, &data);
-                        }
-                        continue;
-                    }
-                    let result = match self.servo_mut(id) {
-                        Some(servo) => servo.write(address, &data),
-                        None => continue,
-                    };
-                    out.extend(self.status(id, result.err(), &[]));
-                }
-            }
-            c if c == sync_write => {
-                for (id, address, data) in self.writes_in(packet) {
-                    if let Some(servo) = self.servo_mut(id) {
-                        let _ = servo.write(address, &data);
-                    }
-                }
-            }
-            c if c == sync_read && self.protocol != Protocol::FeetechScs => {
-                let (Some(address), Some(length)) =
-                    (word(&p), word(p.get(header..).unwrap_or(&[])))
-                else {
-                    return out;
-                };
-                let ids = p.get(2 * header..).unwrap_or(&[]).to_vec();
-                for id in ids {
-                    if let Some(Some(bytes)) = self.servo_mut(id).map(|s| s.read(address, length)) {
-                        out.extend(self.status(id, None, &bytes));
-                    }
-                }
-            }
-            c if dxl && c == dynamixel::FAST_SYNC_READ => {
-                out.extend(self.fast_sync_read(&p));
-            }
-            c if dxl && c == dynamixel::REBOOT => {
+            c if c == instructions.write => self.apply_writes(packet, true),
+            c if c == instructions.sync_write => self.apply_writes(packet, false),
+            c if Some(c) == instructions.sync_read => self.answer_sync_read(&packet.params),
+            c if Some(c) == fast_sync_read => self.fast_sync_read(&packet.params),
+            c if Some(c) == instructions.reboot => {
                 if let Some(servo) = self.servo_mut(packet.id) {
                     servo.fault = None;
                     servo.motion.set_torque(false);
                 }
-                out.extend(self.status(packet.id, None, &[]));
+                self.status(packet.id, None, &[])
             }
-            _ => {
-                if packet.id != broadcast && dxl {
-                    out.extend(self.status(
-                        packet.id,
-                        Some(dynamixel::ErrorNumber::Instruction),
-                        &[],
-                    ));
+            _ if packet.id != self.broadcast() => {
+                self.status(packet.id, Some(Refusal::Instruction), &[])
+            }
+            _ => Vec::new(),
+        }
+    }
+
+    fn broadcast(&self) -> u8 {
+        self.codec.framing().broadcast_id()
+    }
+
+    /// Every servo answers a broadcast ping.
+    fn answer_ping(&self, id: u8) -> Vec<(Duration, Vec<u8>)> {
+        let ids: Vec<u8> = if id == self.broadcast() {
+            self.servos.iter().map(|s| s.id).collect()
+        } else {
+            vec![id]
+        };
+        let mut out = Vec::new();
+        for id in ids {
+            let Some(servo) = self.servos.iter().find(|s| s.id == id) else {
+                continue;
+            };
+            let params = self
+                .codec
+                .ping_answer_params(servo.model.spec().model_number, FIRMWARE_VERSION);
+            out.extend(self.status(id, None, &params));
+        }
+        out
+    }
+
+    fn answer_read(&mut self, packet: &Packet) -> Vec<(Duration, Vec<u8>)> {
+        let Some((address, length, _)) = self.codec.fields().split_read(&packet.params) else {
+            return self.status(packet.id, Some(Refusal::DataLength), &[]);
+        };
+        let data = self
+            .servo_mut(packet.id)
+            .map(|s| s.read(usize::from(address), usize::from(length)));
+        match data {
+            Some(Some(bytes)) => self.status(packet.id, None, &bytes),
+            Some(None) => self.status(packet.id, Some(Refusal::DataLimit), &[]),
+            None => Vec::new(),
+        }
+    }
+
+    /// A WRITE (`answered`: each addressed servo answers) or a SYNC WRITE (no answers).
+    fn apply_writes(&mut self, packet: &Packet, answered: bool) -> Vec<(Duration, Vec<u8>)> {
+        let broadcast = self.broadcast();
+        let mut out = Vec::new();
+        for (id, address, data) in self.writes_in(packet) {
+            if id == broadcast {
+                // A broadcast write reaches every servo and none answers.
+                for servo in &mut self.servos {
+                    let _ = servo.write(address, &data);
                 }
+                continue;
+            }
+            let result = match self.servo_mut(id) {
+                Some(servo) => servo.write(address, &data),
+                None => continue,
+            };
+            if answered {
+                out.extend(self.status(id, result.err(), &[]));
             }
         }
         out
     }
 
-    fn fast_sync_read(&mut self, p: &[u8]) -> Vec<(Duration, Vec<u8>)> {
-        if p.len() < 4 {
+    /// Each listed servo answers with its own status packet, in list order.
+    fn answer_sync_read(&mut self, params: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+        let Some((address, length, ids)) = self.codec.fields().split_read(params) else {
             return Vec::new();
+        };
+        let mut out = Vec::new();
+        for &id in ids {
+            let read = self
+                .servo_mut(id)
+                .and_then(|s| s.read(usize::from(address), usize::from(length)));
+            if let Some(bytes) = read {
+                out.extend(self.status(id, None, &bytes));
+            }
         }
-        let address = usize::from(u16::from_le_bytes([p[0], p[1]]));
-        let length = usize::from(u16::from_le_bytes([p[2], p[3]]));
+        out
+    }
+
+    fn fast_sync_read(&mut self, params: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+        let codec = self.codec;
+        let (Some(fast), Some((address, length, ids))) =
+            (codec.fast_sync_read(), codec.fields().split_read(params))
+        else {
+            return Vec::new();
+        };
         let mut entries = Vec::new();
-        for &id in &p[4..] {
+        for &id in ids {
             let Some(servo) = self.servo_mut(id) else {
                 continue;
             };
-            let Some(data) = servo.read(address, length) else {
+            let Some(data) = servo.read(usize::from(address), usize::from(length)) else {
                 continue;
             };
-            entries.push(dynamixel::FastSyncReadEntry {
-                id,
-                error: servo.status_byte(),
-                data,
-            });
+            let Some(error) = codec.status_byte(&servo.alarms(), None) else {
+                continue;
+            };
+            entries.push(FastSyncReadEntry { id, error, data });
         }
         // The combined answer is one whole packet from the broadcast id.
-        match dynamixel::encode_fast_sync_read(&entries) {
+        match fast.encode(&entries) {
             Ok(packet) => vec![(Duration::ZERO, packet)],
             Err(_) => Vec::new(),
         }
     }
 
     /// A status packet from servo `id`, shaped by its injected fault.
-    fn status(
-        &self,
-        id: u8,
-        refusal: Option<dynamixel::ErrorNumber>,
-        params: &[u8],
-    ) -> Vec<(Duration, Vec<u8>)> {
+    fn status(&self, id: u8, refusal: Option<Refusal>, params: &[u8]) -> Vec<(Duration, Vec<u8>)> {
         let Some(servo) = self.servos.iter().find(|s| s.id == id) else {
             return Vec::new();
         };
-        let mut error = servo.status_byte();
-        if let (Some(number), true) = (refusal, self.protocol == Protocol::Dynamixel2) {
-            error |= number.number();
-        }
-        let Ok(mut bytes) = self.framing.try_encode_status(id, error, params) else {
+        let Some(error) = self.codec.status_byte(&servo.alarms(), refusal) else {
+            return Vec::new();
+        };
+        let Ok(mut bytes) = self.codec.framing().try_encode_status(id, error, params) else {
             return Vec::new();
         };
         let mut delay = Duration::ZERO;
@@ -606,7 +556,8 @@ impl Responder for VirtualBus {
 #[cfg(test)]
 mod log_tests {
     use super::*;
-    use crate::bus::packet::Framing;
+    use crate::bus::protocol::dynamixel;
+    use crate::bus::protocol::packet::Framing;
 
     #[test]
     fn the_received_log_keeps_the_latest_packets_within_its_capacity() {

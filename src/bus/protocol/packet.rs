@@ -8,7 +8,7 @@
 //! does not return [`Decoded::NeedMore`] removes at least one byte, so a caller that loops until
 //! `NeedMore` always terminates.
 
-use super::BusError;
+use crate::bus::BusError;
 use std::fmt;
 
 /// Which way a packet travels. Feetech instruction and status packets share one layout and can
@@ -90,27 +90,6 @@ impl Packet {
     }
 }
 
-/// Appends the (id, data) entries of a sync write, each exactly `length` bytes: the layout both
-/// vendors share after their address and length fields.
-pub fn append_sync_entries(
-    params: &mut Vec<u8>,
-    length: usize,
-    entries: &[(u8, Vec<u8>)],
-) -> Result<(), PacketError> {
-    for (id, data) in entries {
-        if data.len() != length {
-            return Err(PacketError::DataLength {
-                id: *id,
-                expected: length,
-                found: data.len(),
-            });
-        }
-        params.push(*id);
-        params.extend_from_slice(data);
-    }
-    Ok(())
-}
-
 /// The outcome of one successful decoding step.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Decoded {
@@ -160,6 +139,9 @@ pub enum PacketError {
         expected: usize,
         found: usize,
     },
+    /// Encoding: an address or length does not fit the protocol's one-byte field (Feetech).
+    #[error("{value} does not fit a one-byte address or length field")]
+    FieldWidth { value: u16 },
     /// Encoding: the packet would not fit the length field or the receivers' buffers.
     #[error("packet for id {id}: {length} bytes of instruction and parameters exceed the limit of {max}")]
     TooLong { id: u8, length: usize, max: usize },
@@ -177,17 +159,14 @@ impl PacketError {
             | PacketError::Malformed { id, .. }
             | PacketError::DataLength { id, .. }
             | PacketError::TooLong { id, .. } => Some(*id),
-            PacketError::Reserved { .. } => None,
+            PacketError::Reserved { .. } | PacketError::FieldWidth { .. } => None,
         }
     }
 
     /// The bus error for a transaction whose answer from servo `awaited` was damaged. The id
     /// in the damaged bytes is not trusted: it may be the damaged byte.
     pub fn corrupt_answer(&self, awaited: u8) -> BusError {
-        BusError::Corrupt {
-            id: awaited,
-            detail: self.to_string(),
-        }
+        BusError::corrupt(awaited, self.clone())
     }
 }
 
@@ -371,7 +350,10 @@ mod tests {
         };
         assert!(matches!(
             e.corrupt_answer(3),
-            BusError::Corrupt { id: 3, ref detail } if detail.contains("checksum")
+            BusError::Corrupt {
+                id: 3,
+                source: crate::bus::CorruptAnswer::Packet(PacketError::Checksum { .. })
+            }
         ));
     }
 

@@ -1,0 +1,574 @@
+//! Our own [`ServoBus`] over a [`Transport`]: Dynamixel 2.0 or Feetech STS/SCS.
+//!
+//! One transaction at a time, half duplex: discard stale input, send, then collect answers until
+//! a deadline. Reads are retried a bounded number of times; writes never are. Echoes of our own
+//! packets (some half-duplex adapters loop the line back, see [`super::echo`]) and answers from
+//! other ids are skipped, corrupt packets are counted and the search goes on behind them.
+
+use super::echo::{Echoes, Front};
+use super::models::Servos;
+use super::protocol::packet::{Decoded, Direction, Packet, PacketError};
+use super::protocol::{codec, Codec, Instructions, Status};
+use super::registers::{self, Register, RegisterTable};
+use super::transport::Transport;
+use super::{Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
+use crate::robot::{Protocol, ServoModel};
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+/// How long to wait for one answer. Generous against the wire time of any packet here (under
+/// 1 ms at 1 Mbps) because a USB adapter adds its latency timer (up to 16 ms on FTDI).
+pub const DEFAULT_TIMEOUT: Duration = Duration::from_millis(40);
+/// Extra attempts for a read that got no valid answer.
+pub const DEFAULT_READ_RETRIES: u32 = 2;
+
+pub struct NativeBus {
+    transport: Box<dyn Transport>,
+    codec: &'static dyn Codec,
+    servos: Servos,
+    pub timeout: Duration,
+    pub read_retries: u32,
+    /// Dynamixel: read with Fast Sync Read (0x8A, one combined answer) instead of Sync Read.
+    /// Off by default: which models and firmware support it is unverified (docs/protocols.md).
+    pub fast_sync_read: bool,
+    rx: Vec<u8>,
+    /// Packets sent whose echo may still come back.
+    echoes: Echoes,
+}
+
+impl NativeBus {
+    /// A bus over `transport` for the given servos (id, model); ids not listed can only be
+    /// pinged.
+    pub fn new(
+        transport: Box<dyn Transport>,
+        protocol: Protocol,
+        servos: &[(u8, ServoModel)],
+    ) -> NativeBus {
+        NativeBus {
+            transport,
+            codec: codec(protocol),
+            servos: Servos::new(servos),
+            timeout: DEFAULT_TIMEOUT,
+            read_retries: DEFAULT_READ_RETRIES,
+            fast_sync_read: false,
+            rx: Vec::new(),
+            echoes: Echoes::default(),
+        }
+    }
+
+    fn table(&self, id: u8) -> Result<&'static RegisterTable, BusError> {
+        self.servos.table(id)
+    }
+
+    fn common_register(
+        &self,
+        ids: &[u8],
+        pick: fn(&RegisterTable) -> Register,
+    ) -> Result<(Register, &'static RegisterTable), BusError> {
+        self.servos.common_register(ids, pick)
+    }
+
+    fn protocol_error(&self, e: impl std::fmt::Display) -> BusError {
+        BusError::Protocol(format!("{}: {e}", self.codec.protocol().name()))
+    }
+
+    fn port_error(&self, source: std::io::Error) -> BusError {
+        BusError::Port {
+            port: self.transport.describe(),
+            source,
+        }
+    }
+
+    fn instructions(&self) -> &'static Instructions {
+        self.codec.instructions()
+    }
+
+    fn send(&mut self, id: u8, instruction: u8, params: &[u8]) -> Result<(), BusError> {
+        let bytes = self
+            .codec
+            .framing()
+            .try_encode_instruction(id, instruction, params)
+            .map_err(|e| self.protocol_error(e))?;
+        // Anything still in the input is a late answer to an earlier, abandoned transaction (or
+        // an echo, which `echoes` still expects if it comes later).
+        self.rx.clear();
+        self.transport
+            .discard_input()
+            .map_err(|e| self.port_error(e))?;
+        self.transport
+            .write_all(&bytes)
+            .map_err(|e| self.port_error(e))?;
+        self.echoes.sent(bytes);
+        Ok(())
+    }
+
+    /// The next status packet from `id`, or a timeout.
+    fn receive(&mut self, id: u8) -> Result<Packet, BusError> {
+        self.receive_answer(id, None)
+    }
+
+    /// The next status packet from `id` carrying `data_bytes` bytes (when given), or a timeout.
+    fn receive_answer(&mut self, id: u8, data_bytes: Option<usize>) -> Result<Packet, BusError> {
+        self.collect_answer(id, data_bytes, false)
+    }
+
+    /// The next status packet from `id` carrying `data_bytes` bytes (when given), or a timeout.
+    /// Status packets carry no request number, so a packet from the right servo with another
+    /// length and no error is a late answer to an earlier request (the input was cleared when
+    /// this one was sent, but a servo can answer after that): it is skipped, and named only if
+    /// nothing better comes.
+    ///
+    /// `copy_may_answer`: the answer can be byte for byte the request (a Feetech PING answered
+    /// with error byte 0x01, input voltage, is the PING itself). A copy of the request is then
+    /// an echo if anything else comes after it, and the answer if nothing does by the deadline:
+    /// an adapter without echo delivers only the answer.
+    fn collect_answer(
+        &mut self,
+        id: u8,
+        data_bytes: Option<usize>,
+        copy_may_answer: bool,
+    ) -> Result<Packet, BusError> {
+        let deadline = Instant::now() + self.timeout;
+        let mut corrupt: Option<PacketError> = None;
+        let mut stale: Option<usize> = None;
+        let mut own_copy: Option<Packet> = None;
+        let mut chunk = [0u8; 512];
+        loop {
+            loop {
+                match self.echoes.strip(&mut self.rx) {
+                    Front::Undecided => break,
+                    Front::Echo(mut bytes) => {
+                        if copy_may_answer {
+                            if let Ok(Decoded::Packet(p)) = self
+                                .codec
+                                .framing()
+                                .decode(&mut bytes, Direction::FromServo)
+                            {
+                                own_copy = Some(p).filter(|p| p.id == id);
+                            }
+                        }
+                        continue;
+                    }
+                    Front::NotEcho => {}
+                }
+                match self
+                    .codec
+                    .framing()
+                    .decode(&mut self.rx, Direction::FromServo)
+                {
+                    Ok(Decoded::Packet(packet))
+                        if packet.id == id
+                            && data_bytes.is_some_and(|n| packet.params.len() != n)
+                            && packet.error().unwrap_or(0) == 0 =>
+                    {
+                        stale = Some(packet.params.len());
+                    }
+                    Ok(Decoded::Packet(packet)) if packet.id == id => {
+                        self.echoes.answered();
+                        return Ok(packet);
+                    }
+                    // Another servo's late answer: not ours.
+                    Ok(Decoded::Packet(_)) => continue,
+                    Ok(Decoded::NeedMore) => break,
+                    // The echo of our own instruction on a looped-back line.
+                    Err(PacketError::Direction { .. }) => continue,
+                    Err(e) => corrupt = Some(e),
+                }
+            }
+            let n = self
+                .transport
+                .read_until(&mut chunk, deadline)
+                .map_err(|e| self.port_error(e))?;
+            if n == 0 {
+                // Anything else after the copy, even corrupt, shows the copy was an echo.
+                if let Some(packet) = own_copy.filter(|_| corrupt.is_none() && stale.is_none()) {
+                    self.echoes.answered();
+                    return Ok(packet);
+                }
+                return Err(match (corrupt, stale, data_bytes) {
+                    (Some(e), _, _) => BusError::corrupt(id, e),
+                    (None, Some(found), Some(expected)) => {
+                        BusError::corrupt(id, CorruptAnswer::DataLength { expected, found })
+                    }
+                    _ => BusError::Timeout {
+                        id,
+                        timeout_ms: self.timeout.as_millis() as u64,
+                    },
+                });
+            }
+            self.rx.extend_from_slice(&chunk[..n]);
+        }
+    }
+
+    /// Turns a status packet's error byte into an error, reading the alarm register when a
+    /// Dynamixel servo raises its alert bit.
+    fn check_status(&mut self, packet: &Packet) -> Result<(), BusError> {
+        self.check_status_passive(packet)
+            .map_err(|e| self.resolve_alarm(e))
+    }
+
+    /// Dynamixel Hardware Error Status: one byte at the same address on every X-series model,
+    /// so it can be read from a servo of unknown model (a scan).
+    fn read_alarm_register(&mut self, id: u8) -> Result<Alarms, BusError> {
+        let (register, bits) = self.codec.alarm_register();
+        let packet = self.read_register(id, register)?;
+        let raw = packet.params.first().copied().unwrap_or(0);
+        Ok(bits.decode(raw))
+    }
+
+    /// One READ of `register` from servo `id`, its answer unchecked: the status byte is the
+    /// caller's to judge.
+    fn read_register(&mut self, id: u8, register: Register) -> Result<Packet, BusError> {
+        let size = u16::from(register.size);
+        let params = self.codec.fields().read(register.address, size);
+        let params = params.map_err(|e| self.protocol_error(e))?;
+        self.send(id, self.instructions().read, &params)?;
+        self.receive_answer(id, Some(usize::from(register.size)))
+    }
+
+    /// One instruction to one servo and its answer (with `data_bytes` of data, when given),
+    /// checked.
+    fn transaction(
+        &mut self,
+        id: u8,
+        instruction: u8,
+        params: &[u8],
+        data_bytes: Option<usize>,
+    ) -> Result<Packet, BusError> {
+        self.send(id, instruction, params)?;
+        let packet = self.receive_answer(id, data_bytes)?;
+        self.check_status(&packet)?;
+        Ok(packet)
+    }
+
+    /// Reads `length` bytes at `address` from each servo, in the order of `ids`: one sync read
+    /// where the protocol has it, else one read per servo. Retried as a whole on failure.
+    fn read_block(
+        &mut self,
+        ids: &[u8],
+        address: u16,
+        length: u16,
+    ) -> Result<Vec<Vec<u8>>, BusError> {
+        // The first failure names the culprit: a late answer from one servo can make a retry
+        // time out on another, whose error would then mislead.
+        let mut first_failure = None;
+        for _ in 0..=self.read_retries {
+            match self.read_block_once(ids, address, length) {
+                Ok(blocks) => return Ok(blocks),
+                Err(e @ (BusError::Timeout { .. } | BusError::Corrupt { .. })) => {
+                    first_failure.get_or_insert(e);
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        Err(first_failure.unwrap_or_else(|| BusError::Protocol("read failed".into())))
+    }
+
+    fn read_block_once(
+        &mut self,
+        ids: &[u8],
+        address: u16,
+        length: u16,
+    ) -> Result<Vec<Vec<u8>>, BusError> {
+        let check_length = |packet: &Packet| {
+            if packet.params.len() == usize::from(length) {
+                Ok(())
+            } else {
+                Err(BusError::corrupt(
+                    packet.id,
+                    CorruptAnswer::DataLength {
+                        expected: usize::from(length),
+                        found: packet.params.len(),
+                    },
+                ))
+            }
+        };
+        let mut blocks = Vec::with_capacity(ids.len());
+        let Some(sync_read) = self.instructions().sync_read else {
+            let read = self.instructions().read;
+            for &id in ids {
+                let params = self.codec.fields().read(address, length);
+                let params = params.map_err(|e| self.protocol_error(e))?;
+                let packet = self.transaction(id, read, &params, Some(usize::from(length)))?;
+                check_length(&packet)?;
+                blocks.push(packet.params);
+            }
+            return Ok(blocks);
+        };
+        if self.fast_sync_read && self.codec.fast_sync_read().is_some() {
+            return self.fast_sync_read_once(ids, address, length);
+        }
+        let params = self.codec.fields().sync_read(address, length, ids);
+        let params = params.map_err(|e| self.protocol_error(e))?;
+        let broadcast = self.codec.framing().broadcast_id();
+        self.send(broadcast, sync_read, &params)?;
+        // Each servo answers with its own status packet, in list order.
+        let mut first_error = None;
+        for &id in ids {
+            let packet = self.receive_answer(id, Some(usize::from(length)))?;
+            if let Err(e) = self.check_status_passive(&packet) {
+                first_error.get_or_insert(e);
+            }
+            check_length(&packet)?;
+            blocks.push(packet.params);
+        }
+        match first_error {
+            Some(e) => Err(self.resolve_alarm(e)),
+            None => Ok(blocks),
+        }
+    }
+
+    /// Dynamixel Fast Sync Read: one answer from the broadcast id carrying every servo's block.
+    fn fast_sync_read_once(
+        &mut self,
+        ids: &[u8],
+        address: u16,
+        length: u16,
+    ) -> Result<Vec<Vec<u8>>, BusError> {
+        let broadcast = self.codec.framing().broadcast_id();
+        let Some(fast) = self.codec.fast_sync_read() else {
+            return Err(self.protocol_error("the protocol has no fast sync read"));
+        };
+        let params = self.codec.fields().sync_read(address, length, ids);
+        let params = params.map_err(|e| self.protocol_error(e))?;
+        self.send(broadcast, fast.instruction(), &params)?;
+        let packet = self.receive(broadcast)?;
+        let entries = fast
+            .parse(&packet, length)
+            .map_err(|e| e.corrupt_answer(ids.first().copied().unwrap_or(broadcast)))?;
+        // The split into blocks depends only on the length asked for, so check that the ids
+        // that came back are the ones asked for, in order.
+        let got: Vec<u8> = entries.iter().map(|e| e.id).collect();
+        if got != ids {
+            let missing = ids.iter().find(|id| !got.contains(id)).copied();
+            let source = CorruptAnswer::Ids {
+                expected: ids.to_vec(),
+                found: got,
+            };
+            return Err(BusError::corrupt(missing.unwrap_or(broadcast), source));
+        }
+        let mut first_error = None;
+        let mut blocks = Vec::with_capacity(entries.len());
+        for entry in entries {
+            let status = Packet::status(entry.id, entry.error, Vec::new());
+            if let Err(e) = self.check_status_passive(&status) {
+                first_error.get_or_insert(e);
+            }
+            blocks.push(entry.data);
+        }
+        match first_error {
+            Some(e) => Err(self.resolve_alarm(e)),
+            None => Ok(blocks),
+        }
+    }
+
+    /// Dynamixel REBOOT: the only way to clear a hardware-error shutdown (ROBOTIS e-Manual,
+    /// X series Shutdown register).
+    /// The servo comes back with torque off.
+    pub fn reboot(&mut self, id: u8) -> Result<(), BusError> {
+        let Some(reboot) = self.instructions().reboot else {
+            return Err(self.protocol_error("REBOOT is a Dynamixel instruction"));
+        };
+        self.send(id, reboot, &[])?;
+        let packet = self.receive(id)?;
+        match self.codec.status(packet.error().unwrap_or(0)) {
+            Status::Refused(reason) => Err(BusError::Refused { id, reason }),
+            _ => Ok(()),
+        }
+    }
+
+    /// Like [`Self::check_status`] without any bus traffic (inside a sync read, where other
+    /// answers are still arriving); a Dynamixel alert is resolved afterwards.
+    fn check_status_passive(&self, packet: &Packet) -> Result<(), BusError> {
+        let id = packet.id;
+        match self.codec.status(packet.error().unwrap_or(0)) {
+            Status::Done => Ok(()),
+            Status::Refused(reason) => Err(BusError::Refused { id, reason }),
+            Status::Alarms(alarms) => Err(BusError::Alarm { id, alarms }),
+            // Named by `resolve_alarm` once the bus is free for a register read.
+            Status::Alert => Err(BusError::Alarm {
+                id,
+                alarms: Alarms::default(),
+            }),
+        }
+    }
+
+    /// Fills in which alarm an alert stands for, once the sync read is over.
+    fn resolve_alarm(&mut self, error: BusError) -> BusError {
+        match error {
+            BusError::Alarm { id, alarms } if !alarms.any() => match self.read_alarm_register(id) {
+                Ok(alarms) if alarms.any() => BusError::Alarm { id, alarms },
+                _ => BusError::Alarm {
+                    id,
+                    alarms: Alarms {
+                        overload: true,
+                        ..Alarms::default()
+                    },
+                },
+            },
+            other => other,
+        }
+    }
+
+    /// Writes one value per servo into one register with a single sync write (no answer).
+    /// One register of every servo in `ids` (the same in all their tables), as values.
+    fn read_values(
+        &mut self,
+        ids: &[u8],
+        pick: fn(&RegisterTable) -> Register,
+    ) -> Result<Vec<i64>, BusError> {
+        let (register, table) = self.common_register(ids, pick)?;
+        let blocks = self.read_block(ids, register.address, u16::from(register.size))?;
+        ids.iter()
+            .zip(blocks)
+            .map(|(&id, bytes)| table.decode_answer(id, &register, &bytes))
+            .collect()
+    }
+
+    fn write_register(
+        &mut self,
+        values: &[(u8, i64)],
+        pick: fn(&RegisterTable) -> Register,
+    ) -> Result<(), BusError> {
+        let ids: Vec<u8> = values.iter().map(|(id, _)| *id).collect();
+        let (register, table) = self.common_register(&ids, pick)?;
+        let data = values
+            .iter()
+            .map(|&(id, value)| {
+                table
+                    .encode(&register, value)
+                    .map(|bytes| (id, bytes))
+                    .map_err(|e| BusError::Protocol(format!("servo {id}: {e}")))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let sync_write = self.instructions().sync_write;
+        let params =
+            self.codec
+                .fields()
+                .sync_write(register.address, u16::from(register.size), &data);
+        let params = params.map_err(|e| self.protocol_error(e))?;
+        let broadcast = self.codec.framing().broadcast_id();
+        self.send(broadcast, sync_write, &params)
+    }
+}
+
+impl ServoBus for NativeBus {
+    fn describe(&self) -> String {
+        format!(
+            "{} on {}",
+            self.codec.protocol().name(),
+            self.transport.describe()
+        )
+    }
+
+    fn ping(&mut self, id: u8) -> Result<PingInfo, BusError> {
+        let ping = self.instructions().ping;
+        self.send(id, ping, &[])?;
+        let copy_may_answer = self.codec.status_may_equal_instruction();
+        let packet = self.collect_answer(id, None, copy_may_answer)?;
+        // A servo in alarm still answers: the alarms go into the answer, not into an error.
+        let alarms = match self.check_status(&packet) {
+            Ok(()) => Alarms::default(),
+            Err(BusError::Alarm { alarms, .. }) => alarms,
+            Err(e) => return Err(e),
+        };
+        let answer = self.codec.ping_answer(&packet);
+        if let Some(info) = answer.map_err(|e| e.corrupt_answer(id))? {
+            return Ok(PingInfo { alarms, ..info });
+        }
+        // The ping answer carries no model: read the model number register (its answer
+        // carries the same alarm bits, already taken from the ping's).
+        let register = self.codec.model_number_register();
+        let packet = self.read_register(id, register)?;
+        let model_number = register
+            .decode(&packet.params, self.codec.byte_order())
+            .map_err(|e| BusError::corrupt(id, e))? as u16;
+        Ok(PingInfo {
+            id,
+            model_number,
+            firmware: None,
+            alarms,
+        })
+    }
+
+    fn read_positions(&mut self, ids: &[u8]) -> Result<Vec<i64>, BusError> {
+        self.read_values(ids, |t| t.present_position)
+    }
+
+    fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError> {
+        self.write_register(goals, |t| t.goal_position)
+    }
+
+    fn read_homing_offsets(&mut self, servos: &[(u8, ServoModel)]) -> Result<Vec<i64>, BusError> {
+        let ids: Vec<u8> = servos.iter().map(|(id, _)| *id).collect();
+        self.read_values(&ids, |t| t.homing_offset)
+    }
+
+    fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError> {
+        // One confirmed write per servo: torque is the one setting whose loss drops the arm or
+        // leaves it stiff, so each servo must say it took it.
+        let write = self.instructions().write;
+        for &id in ids {
+            let table = self.table(id)?;
+            let register = table.torque_enable;
+            let data = table
+                .encode(&register, i64::from(on))
+                .map_err(|e| BusError::Protocol(e.to_string()))?;
+            let params = self.codec.fields().write(register.address, &data);
+            let params = params.map_err(|e| self.protocol_error(e))?;
+            self.transaction(id, write, &params, None)?;
+        }
+        Ok(())
+    }
+
+    fn read_health(&mut self, ids: &[u8]) -> Result<Vec<Health>, BusError> {
+        let first = *ids
+            .first()
+            .ok_or_else(|| BusError::Protocol("no servos given".into()))?;
+        let table = self.table(first)?;
+        let registers = table.health_registers();
+        // Dynamixel keeps its alarm register (70) far from the others (126…146): two reads
+        // are shorter on the wire than one spanning both.
+        let groups: Vec<Vec<Register>> = match registers::span(&registers) {
+            Some((_, length)) if length > 32 => {
+                let (alarm, rest): (Vec<Register>, Vec<Register>) = registers
+                    .iter()
+                    .partition(|r| r.address == table.hardware_error.address);
+                vec![rest, alarm]
+            }
+            _ => vec![registers.to_vec()],
+        };
+        let mut values: Vec<HashMap<&'static str, i64>> = vec![HashMap::new(); ids.len()];
+        for group in &groups {
+            let Some((start, length)) = registers::span(group) else {
+                continue;
+            };
+            let blocks = self.read_block(ids, start, length)?;
+            for ((slot, block), &id) in values.iter_mut().zip(&blocks).zip(ids) {
+                for register in group {
+                    let value = register
+                        .decode_in_block(block, start, table.byte_order)
+                        .map_err(|e| BusError::corrupt(id, e))?;
+                    slot.insert(register.name, value);
+                }
+            }
+        }
+        Ok(ids
+            .iter()
+            .zip(values)
+            .map(|(&id, v)| {
+                let get = |r: Register| v.get(r.name).copied().unwrap_or(0);
+                Health {
+                    id,
+                    temperature_c: table.temperature_c(get(table.present_temperature)),
+                    voltage_v: table.voltage_v(get(table.present_voltage)),
+                    load_percent: table.load_percent(get(table.present_load)),
+                    alarms: table.alarms(get(table.hardware_error) as u8),
+                }
+            })
+            .collect())
+    }
+}
+
+#[cfg(test)]
+mod tests;

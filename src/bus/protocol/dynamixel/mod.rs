@@ -1,0 +1,96 @@
+//! Dynamixel Protocol 2.0: instruction codes, ids and limits, the ping answer, and the codec
+//! the driver and the emulated servos use (`codec`). The framing (`framing`) rests on the CRC
+//! (`crc`) and byte stuffing (`stuffing`); `fast_sync_read` is the one combined answer, `status`
+//! the status error byte and the Hardware Error Status register.
+//!
+//! Layouts are from the ROBOTIS e-Manual (Protocol 2.0) and the ROBOTIS Python SDK
+//! (`dynamixel_sdk`); see also docs/protocols.md. Multi-byte fields are little-endian.
+
+mod codec;
+mod crc;
+mod fast_sync_read;
+mod framing;
+mod status;
+mod stuffing;
+#[cfg(test)]
+mod tests;
+
+pub use crc::{crc16, crc16_update};
+pub use fast_sync_read::{encode_fast_sync_read, parse_fast_sync_read, FastSyncReadEntry};
+pub use framing::Dynamixel2;
+pub use status::{
+    hardware_error_alarms, hardware_error_bits, ErrorNumber, StatusByte, ALERT_BIT,
+    HARDWARE_ERROR_BITS, HARDWARE_ERROR_STATUS, HW_ELECTRICAL_SHOCK, HW_INPUT_VOLTAGE,
+    HW_MOTOR_ENCODER, HW_OVERHEATING, HW_OVERLOAD,
+};
+pub use stuffing::{stuff, unstuff};
+
+use super::packet::{Packet, PacketError, PacketKind};
+use super::Fields;
+use crate::bus::PingInfo;
+
+pub const PING: u8 = 0x01;
+pub const READ: u8 = 0x02;
+pub const WRITE: u8 = 0x03;
+pub const REG_WRITE: u8 = 0x04;
+pub const ACTION: u8 = 0x05;
+pub const FACTORY_RESET: u8 = 0x06;
+pub const REBOOT: u8 = 0x08;
+pub const CLEAR: u8 = 0x10;
+/// The instruction byte of every status packet.
+pub const STATUS: u8 = 0x55;
+pub const SYNC_READ: u8 = 0x82;
+pub const SYNC_WRITE: u8 = 0x83;
+pub const FAST_SYNC_READ: u8 = 0x8A;
+pub const BULK_READ: u8 = 0x92;
+pub const BULK_WRITE: u8 = 0x93;
+pub const FAST_BULK_READ: u8 = 0x9A;
+
+pub const BROADCAST_ID: u8 = 0xFE;
+/// Highest device id; 0xFD and 0xFF are never used so that they cannot look like a header.
+pub const MAX_DEVICE_ID: u8 = 0xFC;
+
+/// Header and reserved byte.
+pub const HEADER: [u8; 4] = [0xFF, 0xFF, 0xFD, 0x00];
+/// Largest length field accepted on receive: the ROBOTIS SDK's receive buffer
+/// (`RXPACKET_MAX_LEN`). A corrupted length beyond it must not make us wait for kilobytes.
+pub const MAX_LENGTH_FIELD: u16 = 1024;
+/// Largest whole packet we transmit: the ROBOTIS SDK's `TXPACKET_MAX_LEN`, so that nothing we
+/// send is bigger than what the reference implementation would send.
+pub const MAX_PACKET: usize = 1024;
+
+/// Header, reserved, id and the two length bytes.
+const PREFIX: usize = 7;
+
+/// Addresses and lengths are two bytes, little-endian.
+pub const FIELDS: Fields = Fields::WIDE;
+
+/// Status parameters of a ping answer: model number and firmware version.
+pub fn ping_answer_params(model_number: u16, firmware: u8) -> Vec<u8> {
+    let [lo, hi] = model_number.to_le_bytes();
+    vec![lo, hi, firmware]
+}
+
+/// The model number and firmware version in a ping answer.
+pub fn parse_ping_answer(packet: &Packet) -> Result<PingInfo, PacketError> {
+    match (packet.kind, packet.params.as_slice()) {
+        (PacketKind::Status { .. }, &[lo, hi, firmware]) => Ok(PingInfo {
+            id: packet.id,
+            model_number: u16::from_le_bytes([lo, hi]),
+            firmware: Some(firmware),
+            // Which alarms an Alert bit stands for takes a register read: the driver's part.
+            alarms: crate::bus::Alarms::default(),
+        }),
+        (PacketKind::Status { .. }, params) => Err(PacketError::Malformed {
+            id: packet.id,
+            detail: format!(
+                "a ping answer carries 3 bytes (model number, firmware), not {}",
+                params.len()
+            ),
+        }),
+        (PacketKind::Instruction(code), _) => Err(PacketError::Malformed {
+            id: packet.id,
+            detail: format!("instruction {code:#04x} where a ping answer was expected"),
+        }),
+    }
+}

@@ -1,0 +1,121 @@
+//! The status packet's ERR byte (alert bit and error number) and the X series Hardware Error
+//! Status register (ROBOTIS e-Manual, Protocol 2.0 "Status Packet" and the X series control
+//! tables, address 70).
+
+use crate::bus::{AlarmBits, Alarms, BusError};
+
+/// The error number in bits 6..0 of a status error byte.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum ErrorNumber {
+    #[error("result fail: the servo could not process the instruction")]
+    ResultFail,
+    #[error("instruction error: undefined instruction, or Action without Reg Write")]
+    Instruction,
+    #[error("CRC error: the servo received a corrupted packet")]
+    Crc,
+    #[error("data range error: the data is out of the register's range")]
+    DataRange,
+    #[error("data length error: the data is shorter than the register")]
+    DataLength,
+    #[error("data limit error: the data exceeds a limit register")]
+    DataLimit,
+    #[error("access error: the register is read-only, or EEPROM while torque is on")]
+    Access,
+    #[error("unknown error number {0:#04x}")]
+    Unknown(u8),
+}
+
+impl ErrorNumber {
+    /// `None` for 0 (no error).
+    pub fn from_number(number: u8) -> Option<ErrorNumber> {
+        Some(match number {
+            0 => return None,
+            1 => ErrorNumber::ResultFail,
+            2 => ErrorNumber::Instruction,
+            3 => ErrorNumber::Crc,
+            4 => ErrorNumber::DataRange,
+            5 => ErrorNumber::DataLength,
+            6 => ErrorNumber::DataLimit,
+            7 => ErrorNumber::Access,
+            other => ErrorNumber::Unknown(other),
+        })
+    }
+
+    pub fn number(self) -> u8 {
+        match self {
+            ErrorNumber::ResultFail => 1,
+            ErrorNumber::Instruction => 2,
+            ErrorNumber::Crc => 3,
+            ErrorNumber::DataRange => 4,
+            ErrorNumber::DataLength => 5,
+            ErrorNumber::DataLimit => 6,
+            ErrorNumber::Access => 7,
+            ErrorNumber::Unknown(n) => n,
+        }
+    }
+}
+
+/// A status packet's ERR byte.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct StatusByte {
+    /// The servo has a hardware error; read [`HARDWARE_ERROR_STATUS`] for which.
+    pub alert: bool,
+    /// Why the instruction was refused, if it was.
+    pub error: Option<ErrorNumber>,
+}
+
+pub const ALERT_BIT: u8 = 0x80;
+
+impl StatusByte {
+    pub fn parse(byte: u8) -> StatusByte {
+        StatusByte {
+            alert: byte & ALERT_BIT != 0,
+            error: ErrorNumber::from_number(byte & !ALERT_BIT),
+        }
+    }
+
+    pub fn to_byte(self) -> u8 {
+        let number = self.error.map_or(0, |e| e.number() & !ALERT_BIT);
+        if self.alert {
+            number | ALERT_BIT
+        } else {
+            number
+        }
+    }
+
+    /// The refusal as a bus error. The alert bit alone is not a refusal: the instruction was
+    /// carried out, and the cause is in the Hardware Error Status register.
+    pub fn refusal(self, id: u8) -> Option<BusError> {
+        self.error.map(|e| BusError::Refused {
+            id,
+            reason: e.to_string(),
+        })
+    }
+}
+
+/// Address of the X series Hardware Error Status register.
+pub const HARDWARE_ERROR_STATUS: u16 = 70;
+pub const HW_INPUT_VOLTAGE: u8 = 1 << 0;
+pub const HW_OVERHEATING: u8 = 1 << 2;
+pub const HW_MOTOR_ENCODER: u8 = 1 << 3;
+pub const HW_ELECTRICAL_SHOCK: u8 = 1 << 4;
+pub const HW_OVERLOAD: u8 = 1 << 5;
+
+/// Hardware Error Status bits (bits 1, 6 and 7 are unused).
+pub const HARDWARE_ERROR_BITS: AlarmBits = AlarmBits {
+    input_voltage: HW_INPUT_VOLTAGE,
+    overheating: HW_OVERHEATING,
+    encoder: HW_MOTOR_ENCODER,
+    electrical: HW_ELECTRICAL_SHOCK,
+    overload: HW_OVERLOAD,
+};
+
+/// The alarms in a Hardware Error Status value.
+pub fn hardware_error_alarms(bits: u8) -> Alarms {
+    HARDWARE_ERROR_BITS.decode(bits)
+}
+
+/// The Hardware Error Status value an emulated servo reports for `alarms`.
+pub fn hardware_error_bits(alarms: &Alarms) -> u8 {
+    HARDWARE_ERROR_BITS.encode(alarms)
+}
