@@ -7,7 +7,7 @@
 //!    for so101 (Feetech STS3215 ×6) and koch (Dynamixel X ×6). Native and SDK runs alternate,
 //!    [`REPS`] times each, and the median is reported, so both see the same machine load. Beside
 //!    them: the wire-time limit of the same traffic at 1 Mbps, computed from the packet sizes of
-//!    `/work/shared/PROTOCOLS.md` §3. The pseudo-terminal has no baud rate and the virtual servos
+//!    docs/protocols.md §3. The pseudo-terminal has no baud rate and the virtual servos
 //!    answer with no return delay, so the virtual figures measure software overhead only
 //!    (driver, kernel pty, the emulator thread, and for the SDK the Python bridge and its pipe).
 //! 2. Player jitter: the player streams a 10 s cubic on so101's shoulder_pan to the virtual bus
@@ -39,7 +39,7 @@ const WARMUP: Duration = Duration::from_millis(300);
 const ROBOTS: [&str; 2] = ["so101", "koch"];
 
 // ---------------------------------------------------------------------------------------------
-// Wire-time budget, PROTOCOLS.md §3 ("Wire-time budget (6 servos, 8N1 = 10 bits per byte)").
+// Wire-time budget, docs/protocols.md §3 ("Wire-time budget (6 servos, 8N1 = 10 bits per byte)").
 // No byte stuffing, no firmware time, no USB latency; the return delay time (RDT) is paid once
 // per answering servo.
 
@@ -464,7 +464,7 @@ fn main() {
         "virtual bus = emulated servos on a pseudo-terminal: no baud-rate limit and no return \
          delay, so cycles/s measure software overhead (driver + pty + emulator; for the SDK also \
          the Python bridge and its JSON-lines pipe, one round trip per write and per read), not \
-         wire time. The wire limits beside them are PROTOCOLS.md §3 at 1 Mbps."
+         wire time. The wire limits beside them are docs/protocols.md §3 at 1 Mbps."
     );
 
     println!("\n1. sync write (6 goals) + sync read (6 positions), {REPS}× {RUN:?} per driver, interleaved, median:");

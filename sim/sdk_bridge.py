@@ -108,7 +108,7 @@ class Bus:
             self.ph = sdk.PacketHandler(2.0)
             self.lobyte, self.hibyte = sdk.DXL_LOBYTE, sdk.DXL_HIBYTE
             self.loword, self.hiword = sdk.DXL_LOWORD, sdk.DXL_HIWORD
-            self.max_id = 252  # 253 and 255 cannot be ids, 254 is broadcast (PROTOCOLS.md §1.2)
+            self.max_id = 252  # 253 and 255 cannot be ids, 254 is broadcast (docs/protocols.md §1.2)
             self.max_addr = 0xFFFF
             self.end = None
         else:
@@ -119,7 +119,7 @@ class Bus:
             self.ph = sdk.PacketHandler(self.end)
             self.lobyte, self.hibyte = sdk.SCS_LOBYTE, sdk.SCS_HIBYTE
             self.loword, self.hiword = sdk.SCS_LOWORD, sdk.SCS_HIWORD
-            self.max_id = 253  # 254 is broadcast (PROTOCOLS.md §2.1)
+            self.max_id = 253  # 254 is broadcast (docs/protocols.md §2.1)
             self.max_addr = 0xFF
         self.sdk = sdk
         self.comm_kinds = {
@@ -226,7 +226,7 @@ class Bus:
         started = time.monotonic()
         if self.dynamixel:
             # The SDK's ping() builds this very packet but drops the firmware byte that the
-            # status packet carries (PROTOCOLS.md §1.7); txRxPacket is the SDK's own exchange.
+            # status packet carries (docs/protocols.md §1.7); txRxPacket is the SDK's own exchange.
             p2 = sys.modules[type(self.ph).__module__]
             tx = [0] * 10
             tx[p2.PKT_ID] = servo

@@ -11,7 +11,7 @@
 //! (c) `SdkBus` and `NativeBus` on the same virtual bus read the same positions, and a goal
 //!     written through one is read back through the other.
 //!
-//! The oracles are the published numbers (PROTOCOLS.md: model numbers, register addresses,
+//! The oracles are the published numbers (docs/protocols.md: model numbers, register addresses,
 //! the e-Manual ping example, the sign-magnitude example) and the robot files read as plain
 //! JSON, not keypose's own tables, so that a wrong table cannot vouch for itself.
 //!
@@ -130,7 +130,7 @@ fn assert_sdk_timeout(result: Result<Value, HarnessError>, request: &Value, serv
 // ------------------------------------------------------------------------------------------
 // Oracles: published facts and the robot files as plain JSON
 
-/// Model numbers as published (PROTOCOLS.md §1.8 from the ROBOTIS e-Manual, §2.6 from LeRobot
+/// Model numbers as published (docs/protocols.md §1.8 from the ROBOTIS e-Manual, §2.6 from LeRobot
 /// and rustypot for the STS3215), deliberately not taken from keypose's register tables.
 fn published_model_number(model: &str) -> u16 {
     match model {
@@ -200,14 +200,14 @@ fn the_oracle_reads_the_robot_files_as_documented() {
     }
 }
 
-/// A control-table register as PROTOCOLS.md gives it.
+/// A control-table register as docs/protocols.md gives it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Reg {
     addr: u16,
     len: u8,
 }
 
-/// What a test needs to know about a vendor's protocol, written down from PROTOCOLS.md.
+/// What a test needs to know about a vendor's protocol, written down from docs/protocols.md.
 #[derive(Debug, Clone, Copy)]
 struct Vendor {
     protocol: Protocol,
@@ -701,7 +701,7 @@ impl Wire {
     }
 }
 
-/// A register picked by its role: the SDK requests use the address from PROTOCOLS.md
+/// A register picked by its role: the SDK requests use the address from docs/protocols.md
 /// ([`Vendor`]), our codec the one from keypose's register table, so the comparison also
 /// checks the tables.
 #[derive(Debug, Clone, Copy)]
@@ -920,7 +920,7 @@ fn dynamixel_sdk_bytes_equal_ours() {
         Op::SyncWrite(Item::GoalPosition, goals),
         Op::SyncRead(Item::PresentPosition, ids),
     ];
-    // The e-Manual's own example (PROTOCOLS.md §1.2), CRC 0x4E19.
+    // The e-Manual's own example (docs/protocols.md §1.2), CRC 0x4E19.
     assert_eq!(
         ops[0].our_bytes(Protocol::Dynamixel2, ServoModel::Xl430W250),
         [0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x03, 0x00, 0x01, 0x19, 0x4E]
@@ -931,7 +931,7 @@ fn dynamixel_sdk_bytes_equal_ours() {
 #[test]
 fn feetech_sdk_bytes_equal_ours_with_negative_values() {
     let ids: Vec<u8> = (1..=6).collect();
-    // Negative goals are sign-magnitude with the sign at bit 15 (PROTOCOLS.md §2.5):
+    // Negative goals are sign-magnitude with the sign at bit 15 (docs/protocols.md §2.5):
     // −100 is 0x8064, −2047 is 0x87FF, −1 is 0x8001.
     let encoding = PositionEncoding::SignMagnitude16 { sign_bit: 15 };
     assert_eq!(encoding.encode(-100).ok(), Some(0x8064));
@@ -950,7 +950,7 @@ fn feetech_sdk_bytes_equal_ours_with_negative_values() {
         Op::SyncWrite(Item::GoalPosition, goals),
         Op::SyncRead(Item::PresentPosition, ids),
     ];
-    // rustypot's unit test `create_ping_packet` (PROTOCOLS.md §2.1).
+    // rustypot's unit test `create_ping_packet` (docs/protocols.md §2.1).
     assert_eq!(
         ops[0].our_bytes(Protocol::FeetechSts, ServoModel::Sts3215),
         [0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB]
@@ -1013,7 +1013,7 @@ fn decode_instruction(bytes: &[u8]) -> Packet {
 }
 
 /// −131073 = 0xFFFDFFFF goes on the wire as `FF FF FD FF`, which contains the header and must
-/// be stuffed (PROTOCOLS.md §1.5, e-Manual "Processing Order of Transmission").
+/// be stuffed (docs/protocols.md §1.5, e-Manual "Processing Order of Transmission").
 ///
 /// Our encoder stuffs it, and its bytes equal what dynamixel_sdk's own `addStuffing` makes of
 /// the packet. The SDK does not transmit that, though: its Python `txPacket` calls

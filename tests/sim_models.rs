@@ -6,7 +6,7 @@
 //!   own name;
 //! - MuJoCo's joint anchors and axes and the model's `tcp` site equal keypose's forward kinematics
 //!   to 1e-6 at q = 0, at home and at 50 seeded random poses within the limits;
-//! - at q = 0 the TCP is where ROBOTS.md measured it on the official models;
+//! - at q = 0 the TCP is where docs/robots.md measured it on the official models;
 //! - holding home or q = 0 touches nothing and sags less than 3 degrees;
 //! - pushing each arm into the floor, or folding it into itself, does make floor and self
 //!   contacts, so that a contact-free run means something.
@@ -31,7 +31,7 @@ const MAX_SAG_M: f64 = 0.001;
 
 struct Case {
     robot: &'static str,
-    /// TCP at q = 0 as ROBOTS.md (§1.3, §2.3, §3.3) measured it on the official models, metres;
+    /// TCP at q = 0 as docs/robots.md (§1.3, §2.3, §3.3) measured it on the official models, metres;
     /// given there to 0.01 mm (SO-101), 0.1 mm (Koch) and 0.1 mm (OpenMANIPULATOR-X).
     measured_tcp: [f64; 3],
     /// A pose (joint, value in the description's unit) that puts the arm through the floor.
@@ -393,7 +393,7 @@ fn the_tcp_at_zero_is_where_the_data_sheet_measured_it() {
         // The sheet rounds to 0.1 mm at worst.
         assert!(
             max_deviation(tcp, case.measured_tcp) <= 1e-4,
-            "{}: tcp at q = 0 is {tcp:?}, ROBOTS.md measured {:?}",
+            "{}: tcp at q = 0 is {tcp:?}, docs/robots.md measured {:?}",
             case.robot,
             case.measured_tcp
         );

@@ -68,7 +68,23 @@ pub const EXIT_INTERRUPTED: i32 = 130;
 pub enum CommandError {
     #[error(transparent)]
     Input(#[from] InputError),
-    /// The servos, the bus or the port failed.
+    /// The servos, the bus or the port failed (or, for a homing offset that is not the
+    /// calibration's, the input did).
+    #[error(transparent)]
+    Bus(#[from] keypose::bus::BusError),
+    #[error("playback stopped: {0}")]
+    Play(#[source] keypose::player::PlayError),
+    #[error("recording stopped: {0}; the limp joints were asked to hold where they are")]
+    RecordFault(#[source] keypose::record::RecordError),
+    #[error(transparent)]
+    Record(keypose::record::RecordError),
+    #[error("simulation: {0}")]
+    Sim(#[source] keypose::sim::SimError),
+    #[error(transparent)]
+    Model(keypose::sim::SimError),
+    #[error(transparent)]
+    Teach(keypose::teach::TeachError),
+    /// Something else about the servos, in words.
     #[error("{0}")]
     Hardware(String),
     /// A stop request ended the command (the arm holds where it stopped).
@@ -85,20 +101,26 @@ pub enum CommandError {
 
 impl CommandError {
     pub fn exit_code(&self) -> i32 {
+        use keypose::bus::BusError;
+        use keypose::player::PlayError;
+        use keypose::teach::TeachError;
         match self {
-            CommandError::Hardware(_) => EXIT_HARDWARE,
-            CommandError::Interrupted(_) => EXIT_INTERRUPTED,
-            _ => EXIT_BAD_INPUT,
-        }
-    }
-}
-
-impl From<keypose::bus::BusError> for CommandError {
-    fn from(e: keypose::bus::BusError) -> Self {
-        match e {
             // The servos are fine; the calibration is not theirs: bad input.
-            keypose::bus::BusError::HomingOffset(_) => CommandError::Usage(e.to_string()),
-            _ => CommandError::Hardware(e.to_string()),
+            CommandError::Bus(BusError::HomingOffset(_)) => EXIT_BAD_INPUT,
+            CommandError::Play(PlayError::Log { .. }) => EXIT_BAD_INPUT,
+            CommandError::Teach(TeachError::Terminal(_) | TeachError::Script(_)) => EXIT_BAD_INPUT,
+            CommandError::Bus(_)
+            | CommandError::Play(_)
+            | CommandError::RecordFault(_)
+            | CommandError::Sim(_)
+            | CommandError::Teach(_)
+            | CommandError::Hardware(_) => EXIT_HARDWARE,
+            CommandError::Interrupted(_) => EXIT_INTERRUPTED,
+            CommandError::Input(_)
+            | CommandError::Record(_)
+            | CommandError::Model(_)
+            | CommandError::Usage(_)
+            | CommandError::Output { .. } => EXIT_BAD_INPUT,
         }
     }
 }

@@ -216,7 +216,7 @@ fn conclude(
             ))
         }
         Err(e @ PlayError::Log { .. }) => Err(CommandError::Usage(e.to_string())),
-        Err(e) => Err(CommandError::Hardware(format!("playback stopped: {e}"))),
+        Err(e) => Err(CommandError::Play(e)),
     }
 }
 

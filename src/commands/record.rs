@@ -128,10 +128,8 @@ fn capture(
     };
     let recording =
         record::record(connection.bus.as_mut(), robot, &options, &stop).map_err(|e| match e {
-            RecordError::Fault { .. } => CommandError::Hardware(format!(
-                "recording stopped: {e}; the limp joints were asked to hold where they are"
-            )),
-            other => CommandError::Usage(other.to_string()),
+            RecordError::Fault { .. } => CommandError::RecordFault(e),
+            other => CommandError::Record(other),
         })?;
     warn_about_gaps(&recording.gaps, rate);
     if recording.stopped == StopReason::Longest && !args.quiet {
@@ -184,7 +182,7 @@ fn fit_and_save(
             check_rate_hz: rate,
         },
     )
-    .map_err(|e| CommandError::Usage(e.to_string()))?;
+    .map_err(CommandError::Record)?;
     let mut sequence = result.sequence.clone();
     sequence.robot = robot_reference(&args.robot);
     sequence.file = args.output.display().to_string();

@@ -52,8 +52,8 @@ pub struct Simulated {
 
 fn sim_error(e: SimError) -> CommandError {
     match e {
-        SimError::Model { .. } => CommandError::Usage(e.to_string()),
-        other => CommandError::Hardware(format!("simulation: {other}")),
+        SimError::Model { .. } => CommandError::Model(e),
+        other => CommandError::Sim(other),
     }
 }
 

@@ -4,7 +4,7 @@ use super::BusArgs;
 use super::{CommandError, SequenceInput, Verdict};
 use keypose::robot::Robot;
 use keypose::sequence::{KeyframeList, Sequence};
-use keypose::teach::{self, Journal, Pending, Session, TeachError, TeachState};
+use keypose::teach::{self, Journal, Pending, Session, TeachState};
 use std::io::{BufRead, BufReader, IsTerminal};
 use std::path::{Path, PathBuf};
 
@@ -74,10 +74,7 @@ pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
         Some(input) => teach::script::run(&mut state, &mut session, input, &mut std::io::stderr()),
         None => teach::ui::run(&mut state, &mut session),
     };
-    result.map_err(|e| match e {
-        TeachError::Session(_) | TeachError::Hardware(_) => CommandError::Hardware(e.to_string()),
-        TeachError::Terminal(_) | TeachError::Script(_) => CommandError::Usage(e.to_string()),
-    })?;
+    result.map_err(CommandError::Teach)?;
     Ok(Verdict::Pass)
 }
 
