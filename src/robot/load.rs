@@ -242,7 +242,7 @@ fn parse_servo(node: &Node, kind: JointKind, protocol: Protocol) -> Result<Servo
     let names: Vec<&str> = ServoModel::ALL.iter().map(|m| m.name()).collect();
     let model = ServoModel::parse(model_node.str("a servo model")?)
         .ok_or_else(|| model_node.expected(&format!("one of {}", names.join(", "))))?;
-    if !model.spec().speaks(protocol) {
+    if !model.speaks(protocol) {
         return Err(model_node.error(format!(
             "servo model {} does not speak the robot's bus protocol {}",
             model.name(),

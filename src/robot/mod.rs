@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 pub use builtin::BUILTIN_NAMES;
 pub use lerobot::{import_lerobot_calibration, CalibrationMismatch, CalibrationReport, IdMismatch};
-pub use servo::{PositionEncoding, Servo, ServoModel, TickError};
+pub use servo::{PositionEncoding, Servo, ServoModel, TickError, Vendor};
 
 pub const ROBOT_FORMAT: &str = "keypose-robot/1";
 
@@ -37,6 +37,14 @@ impl Protocol {
             Protocol::Dynamixel2 => "dynamixel-2",
             Protocol::FeetechSts => "feetech-sts",
             Protocol::FeetechScs => "feetech-scs",
+        }
+    }
+
+    /// Whose servos this protocol addresses (SCS and STS are both Feetech's).
+    pub fn vendor(self) -> Vendor {
+        match self {
+            Protocol::Dynamixel2 => Vendor::Dynamixel,
+            Protocol::FeetechSts | Protocol::FeetechScs => Vendor::Feetech,
         }
     }
 

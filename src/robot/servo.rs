@@ -17,6 +17,17 @@ pub enum ServoModel {
     Xm430W350,
 }
 
+/// Which vendor made a servo: whose protocol it speaks, whose model numbers and control tables
+/// it has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Vendor {
+    Dynamixel,
+    Feetech,
+}
+
+/// A servo model as a robot file names it. What the bus knows of each model (model number,
+/// control table, units, speeds, the ranges of its modes) is its `bus::models::ModelSpec`,
+/// reached through `ServoModel::spec`; a robot needs only its name and vendor.
 impl ServoModel {
     pub const ALL: [ServoModel; 5] = [
         ServoModel::Sts3215,
@@ -26,22 +37,31 @@ impl ServoModel {
         ServoModel::Xm430W350,
     ];
 
-    /// Everything known about the model: name, model number, control table, speeds.
-    pub fn spec(self) -> &'static crate::bus::models::ModelSpec {
-        crate::bus::models::spec(self)
-    }
-
+    /// The name robot files use.
     pub fn name(self) -> &'static str {
-        self.spec().name
+        match self {
+            ServoModel::Sts3215 => "sts3215",
+            ServoModel::Xl330M288 => "xl330-m288",
+            ServoModel::Xl330M077 => "xl330-m077",
+            ServoModel::Xl430W250 => "xl430-w250",
+            ServoModel::Xm430W350 => "xm430-w350",
+        }
     }
 
     pub fn parse(s: &str) -> Option<ServoModel> {
         ServoModel::ALL.into_iter().find(|m| m.name() == s)
     }
 
-    /// No-load speed at the supply these arms use, degrees per second.
-    pub fn no_load_speed_deg_s(self) -> f64 {
-        self.spec().no_load_speed_deg_s
+    pub fn vendor(self) -> Vendor {
+        match self {
+            ServoModel::Sts3215 => Vendor::Feetech,
+            _ => Vendor::Dynamixel,
+        }
+    }
+
+    /// Whether a bus of `protocol` can address this model.
+    pub fn speaks(self, protocol: super::Protocol) -> bool {
+        self.vendor() == protocol.vendor()
     }
 }
 

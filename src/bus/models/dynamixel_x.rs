@@ -5,7 +5,7 @@
 //! measures differs (current on XL330 and XM430, load on XL430).
 
 use super::{signed, unsigned, ModelSpec, Modes};
-use crate::bus::protocol::{dynamixel, Vendor};
+use crate::bus::protocol::dynamixel;
 use crate::bus::registers::{ByteOrder, LoadUnit, RegisterTable};
 use crate::robot::ServoModel;
 
@@ -79,8 +79,6 @@ static XM430_W350: RegisterTable = RegisterTable {
 /// the supplies these arms use.
 pub(super) static XL330_M288: ModelSpec = ModelSpec {
     model: ServoModel::Xl330M288,
-    name: "xl330-m288",
-    vendor: Vendor::Dynamixel,
     model_number: 1200,
     table: &DXL_X,
     no_load_speed_deg_s: 618.0,
@@ -89,7 +87,6 @@ pub(super) static XL330_M288: ModelSpec = ModelSpec {
 
 pub(super) static XL330_M077: ModelSpec = ModelSpec {
     model: ServoModel::Xl330M077,
-    name: "xl330-m077",
     model_number: 1190,
     no_load_speed_deg_s: 2298.0,
     ..XL330_M288
@@ -97,7 +94,6 @@ pub(super) static XL330_M077: ModelSpec = ModelSpec {
 
 pub(super) static XL430_W250_SPEC: ModelSpec = ModelSpec {
     model: ServoModel::Xl430W250,
-    name: "xl430-w250",
     model_number: 1060,
     table: &XL430_W250,
     no_load_speed_deg_s: 366.0,
@@ -106,7 +102,6 @@ pub(super) static XL430_W250_SPEC: ModelSpec = ModelSpec {
 
 pub(super) static XM430_W350_SPEC: ModelSpec = ModelSpec {
     model: ServoModel::Xm430W350,
-    name: "xm430-w350",
     model_number: 1020,
     table: &XM430_W350,
     no_load_speed_deg_s: 276.0,

@@ -8,7 +8,6 @@ mod sts3215;
 #[cfg(test)]
 mod tests;
 
-use super::protocol::{codec, Vendor};
 use super::registers::{Encoding, Register, RegisterTable};
 use super::BusError;
 use crate::robot::{Protocol, ServoModel};
@@ -27,9 +26,6 @@ pub struct Modes {
 #[derive(Debug, PartialEq)]
 pub struct ModelSpec {
     pub model: ServoModel,
-    /// The name robot files use.
-    pub name: &'static str,
-    pub vendor: Vendor,
     /// What the model number register (and a Dynamixel ping) reports.
     pub model_number: u16,
     pub table: &'static RegisterTable,
@@ -49,20 +45,25 @@ pub fn spec(model: ServoModel) -> &'static ModelSpec {
     }
 }
 
+impl ServoModel {
+    /// Everything the bus knows about the model: model number, control table, speeds.
+    pub fn spec(self) -> &'static ModelSpec {
+        spec(self)
+    }
+}
+
 impl ModelSpec {
-    /// Whether a bus of `protocol` can address this model.
-    pub fn speaks(&self, protocol: Protocol) -> bool {
-        codec(protocol).vendor() == self.vendor
+    pub fn name(&self) -> &'static str {
+        self.model.name()
     }
 }
 
 /// The supported model of a bus protocol with this model number. Model numbers are only
 /// unique within a vendor, so the protocol says which vendor's numbers to look in.
 pub fn model_from_number(protocol: Protocol, number: u16) -> Option<ServoModel> {
-    ServoModel::ALL.into_iter().find(|&m| {
-        let spec = m.spec();
-        spec.speaks(protocol) && spec.model_number == number
-    })
+    ServoModel::ALL
+        .into_iter()
+        .find(|&m| m.speaks(protocol) && m.spec().model_number == number)
 }
 
 /// The servos of one bus by id: which table each one's registers are in.

@@ -2,7 +2,7 @@
 //! rev. 220328, model number 777 as `scservo_sdk` and LeRobot read it.
 
 use super::{sign_magnitude, unsigned, ModelSpec, Modes};
-use crate::bus::protocol::{feetech, Vendor};
+use crate::bus::protocol::feetech;
 use crate::bus::registers::{ByteOrder, LoadUnit, RegisterTable};
 use crate::robot::ServoModel;
 
@@ -44,8 +44,6 @@ static STS3215_TABLE: RegisterTable = RegisterTable {
 /// and the speed scales with the supply.
 pub(super) static STS3215: ModelSpec = ModelSpec {
     model: ServoModel::Sts3215,
-    name: "sts3215",
-    vendor: Vendor::Feetech,
     model_number: 777,
     table: &STS3215_TABLE,
     no_load_speed_deg_s: 200.0,

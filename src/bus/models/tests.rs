@@ -1,7 +1,9 @@
 //! The model descriptions: hand-computed register values and the tables' consistency.
 
 use super::*;
+use crate::bus::protocol::codec;
 use crate::bus::registers::{span, ByteOrder, RegisterError};
+use crate::robot::Vendor;
 
 fn table(model: ServoModel) -> &'static RegisterTable {
     model.spec().table
@@ -12,7 +14,7 @@ fn model_number(model: ServoModel) -> u16 {
 }
 
 fn is_dynamixel(model: ServoModel) -> bool {
-    model.spec().vendor == Vendor::Dynamixel
+    model.vendor() == Vendor::Dynamixel
 }
 
 #[test]
@@ -119,7 +121,7 @@ fn tables_are_consistent() {
     for model in ServoModel::ALL {
         let t = table(model);
         assert_eq!(model.spec().model, model);
-        assert_eq!(ServoModel::parse(model.spec().name), Some(model));
+        assert_eq!(ServoModel::parse(model.name()), Some(model));
         let registers = t.registers();
         for pair in registers.windows(2) {
             assert!(
@@ -224,13 +226,13 @@ fn the_codecs_find_the_model_number_and_alarms_where_every_table_keeps_them() {
     // A scan reads both from a servo of unknown model, with the codec's registers.
     for model in ServoModel::ALL {
         let spec = model.spec();
-        for protocol in Protocol::ALL.into_iter().filter(|&p| spec.speaks(p)) {
+        for protocol in Protocol::ALL.into_iter().filter(|&p| spec.model.speaks(p)) {
             let codec = codec(protocol);
             assert_eq!(
                 codec.model_number_register(),
                 spec.table.model_number_register,
                 "{}",
-                spec.name
+                spec.name()
             );
             let (register, bits) = codec.alarm_register();
             let table = spec.table.hardware_error;
@@ -238,7 +240,7 @@ fn the_codecs_find_the_model_number_and_alarms_where_every_table_keeps_them() {
                 (register.address, register.size),
                 (table.address, table.size)
             );
-            assert_eq!(bits, spec.table.alarm_bits, "{}", spec.name);
+            assert_eq!(bits, spec.table.alarm_bits, "{}", spec.name());
         }
     }
 }

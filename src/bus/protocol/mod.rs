@@ -33,12 +33,7 @@ pub struct Instructions {
     pub reboot: Option<u8>,
 }
 
-/// Which vendor's model numbers and control tables a protocol addresses.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Vendor {
-    Dynamixel,
-    Feetech,
-}
+pub use crate::robot::Vendor;
 
 impl Vendor {
     /// The vendor's Python SDK module, which `--driver sdk` drives through the bridge.

@@ -26,7 +26,7 @@ impl Motion {
             position,
             goal: position,
             torque: false,
-            max_speed: model.no_load_speed_deg_s() * TICKS_PER_REVOLUTION / 360.0,
+            max_speed: model.spec().no_load_speed_deg_s * TICKS_PER_REVOLUTION / 360.0,
             last_update: Instant::now(),
         }
     }

@@ -15,7 +15,7 @@ impl Column<'_> {
 
     /// The servo's no-load speed, °/s.
     pub fn servo_speed_limit(&self) -> f64 {
-        self.joint.servo.model.no_load_speed_deg_s()
+        crate::bus::models::spec(self.joint.servo.model).no_load_speed_deg_s
     }
 
     /// The commanded speed at the servo between `row - 1` and `row`, when time advanced.
