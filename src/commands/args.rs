@@ -1,7 +1,7 @@
 //! The arguments several verbs share: where the servos are ([`BusArgs`]), which robot
 //! ([`RobotArgs`]), which sequence on which robot ([`SequenceInput`]).
 
-use super::{option_values, CommandError};
+use super::{option_values, CalibrationArgs, CommandError};
 use keypose::bus::{self, Driver};
 use keypose::curve::Interp;
 use keypose::robot::Robot;
@@ -51,17 +51,17 @@ impl BusArgs {
 /// A robot for commands without a sequence.
 #[derive(Debug, Clone, clap::Args)]
 pub struct RobotArgs {
-    /// A built-in robot (so101, koch, omx) or a robot file.
+    /// A built-in robot (so101, koch, omx), a LeRobot robot type (so101_follower,
+    /// so101_leader, koch_follower, koch_leader) or a robot file.
     #[arg(long, value_name = "NAME|FILE")]
     pub robot: String,
-    /// LeRobot calibration file to apply.
-    #[arg(long, value_name = "FILE")]
-    pub calibration: Option<PathBuf>,
+    #[command(flatten)]
+    pub calibration: CalibrationArgs,
 }
 
 impl RobotArgs {
     pub fn load(&self) -> Result<Robot, CommandError> {
-        super::load_robot(&self.robot, self.calibration.as_deref())
+        super::load_robot(&self.robot, &self.calibration)
     }
 }
 
@@ -70,13 +70,12 @@ impl RobotArgs {
 pub struct SequenceInput {
     /// Sequence file (keypose-sequence/1 JSON).
     pub sequence: PathBuf,
-    /// Robot to use instead of the one the sequence names: a built-in name (so101, koch, omx)
-    /// or a robot file.
+    /// Robot to use instead of the one the sequence names: a built-in name (so101, koch, omx),
+    /// a LeRobot robot type (so101_follower, koch_leader, …) or a robot file.
     #[arg(long, value_name = "NAME|FILE")]
     pub robot: Option<String>,
-    /// LeRobot calibration file to apply to the robot's servo mapping and limits.
-    #[arg(long, value_name = "FILE")]
-    pub calibration: Option<PathBuf>,
+    #[command(flatten)]
+    pub calibration: CalibrationArgs,
     /// Interpolation for segments without their own "interp", instead of the file's: try the same
     /// keys in another mode.
     #[arg(long, value_name = "MODE", value_parser = parse_interp)]
@@ -99,7 +98,7 @@ impl SequenceInput {
             Some(spec) => super::resolve_option_robot(spec)?,
             None => super::resolve_sequence_robot(&sequence, &self.sequence)?,
         };
-        let robot = super::finish_robot(robot, self.calibration.as_deref())?;
+        let robot = super::finish_robot(robot, &self.calibration)?;
         Ok((sequence, robot))
     }
 }

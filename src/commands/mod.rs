@@ -2,6 +2,7 @@
 //! [`CommandError`]; `main.rs` turns those into exit codes.
 
 pub mod args;
+pub mod calibration;
 pub mod check;
 pub mod doctor;
 pub mod option_values;
@@ -19,9 +20,10 @@ pub mod torque;
 pub mod virtual_bus;
 
 pub use args::{BusArgs, RobotArgs, SequenceInput};
+pub use calibration::CalibrationArgs;
 
 use keypose::json::{InputError, Location};
-use keypose::robot::{import_lerobot_calibration, ResolveError, Robot};
+use keypose::robot::{import_lerobot_calibration, LeRobotRole, ResolveError, Robot};
 use keypose::sequence::Sequence;
 use std::io::Write;
 use std::path::Path;
@@ -125,43 +127,56 @@ impl CommandError {
     }
 }
 
-/// The robot `--robot` names (a built-in name, or a path to a robot file), with a LeRobot
-/// calibration applied when given.
-pub fn load_robot(spec: &str, calibration: Option<&Path>) -> Result<Robot, CommandError> {
+/// The robot `--robot` names (a built-in name, a LeRobot type, or a path to a robot file), with
+/// a LeRobot calibration applied when asked for.
+pub fn load_robot(spec: &str, calibration: &CalibrationArgs) -> Result<Robot, CommandError> {
     finish_robot(resolve_option_robot(spec)?, calibration)
 }
 
 fn resolve_option_robot(spec: &str) -> Result<Robot, InputError> {
-    Robot::resolve(spec, None).map_err(|e| match e {
-        ResolveError::Unknown(unknown) => {
-            InputError::new("--robot", Location::File, unknown.to_string())
-        }
-        ResolveError::Input(e) => e,
-    })
+    Robot::resolve(spec, None)
+        .map_err(|e| resolve_error(e, |m| InputError::new("--robot", Location::File, m)))
 }
 
-/// The robot a sequence names: a built-in name, or a path to a robot file relative to the
-/// sequence.
+/// The robot a sequence names: a built-in name, a LeRobot type, or a path to a robot file
+/// relative to the sequence.
 fn resolve_sequence_robot(sequence: &Sequence, sequence_path: &Path) -> Result<Robot, InputError> {
-    Robot::resolve(&sequence.robot, sequence_path.parent()).map_err(|e| match e {
-        ResolveError::Unknown(unknown) => {
-            InputError::at_path(&sequence.file, "$.robot", unknown.to_string())
-        }
-        ResolveError::Input(e) => e,
-    })
+    Robot::resolve(&sequence.robot, sequence_path.parent())
+        .map_err(|e| resolve_error(e, |m| InputError::at_path(&sequence.file, "$.robot", m)))
 }
 
-/// Applies the calibration, then says which robot (and calibration) is in use under `-v`.
-fn finish_robot(mut robot: Robot, calibration: Option<&Path>) -> Result<Robot, CommandError> {
-    if let Some(path) = calibration {
-        let text = keypose::json::read_text(path)?;
-        import_lerobot_calibration(&mut robot, &path.display().to_string(), &text)?;
+/// A resolution error as input error: a robot file's own error as it is, a name's at `at`.
+fn resolve_error(error: ResolveError, at: impl Fn(String) -> InputError) -> InputError {
+    match error {
+        ResolveError::Input(e) => e,
+        named => at(named.to_string()),
+    }
+}
+
+/// Applies the calibration, then says which robot (and calibration) is in use: under `-v`, and
+/// always for what the user may not expect (a leader read as its follower, a calibration found
+/// by id).
+fn finish_robot(mut robot: Robot, calibration: &CalibrationArgs) -> Result<Robot, CommandError> {
+    let file = calibration.file_for(&robot)?;
+    if let Some(file) = &file {
+        let text = calibration::read(file)?;
+        import_lerobot_calibration(&mut robot, &file.path.display().to_string(), &text)?;
+    }
+    if let Some(lerobot) = robot.lerobot.filter(|t| t.role == LeRobotRole::Leader) {
+        eprintln!(
+            "note: {} is LeRobot's leader arm, read as the built-in {} (the follower's joints, \
+             servo ids and kinematics; its limits are the follower's)",
+            lerobot.name, lerobot.builtin
+        );
     }
     if verbose() {
-        eprintln!("robot {}: {}", robot.name, robot.source);
-        if let Some(path) = calibration {
-            eprintln!("calibration: {}", path.display());
-        }
+        let lerobot = robot
+            .lerobot
+            .map_or(String::new(), |t| format!(" (LeRobot {})", t.name));
+        eprintln!("robot {}: {}{lerobot}", robot.name, robot.source);
+    }
+    if let Some(file) = &file {
+        calibration::announce(file, verbose());
     }
     Ok(robot)
 }

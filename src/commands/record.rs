@@ -21,12 +21,12 @@ pub struct RecordArgs {
     /// Where to write the keyframes (keypose-sequence/1 JSON; replaced atomically).
     #[arg(short, long, value_name = "FILE")]
     pub output: PathBuf,
-    /// A built-in robot (so101, koch, omx) or a robot file.
+    /// A built-in robot (so101, koch, omx), a LeRobot robot type (so101_follower, so101_leader,
+    /// koch_follower, koch_leader) or a robot file.
     #[arg(long, value_name = "NAME|FILE", default_value = "so101")]
     pub robot: String,
-    /// LeRobot calibration file to apply.
-    #[arg(long, value_name = "FILE")]
-    pub calibration: Option<PathBuf>,
+    #[command(flatten)]
+    pub calibration: super::CalibrationArgs,
     #[command(flatten)]
     pub bus: BusArgs,
     /// Joints to record, comma-separated: their torque goes off. The others keep theirs and
@@ -100,7 +100,7 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
     // The connection stays open to the end, as the emulated servos of `--port virtual` do.
     let (_connection, recording) = capture(args, &robot, joints, port, rate)?;
     let (result, sequence) = fit_and_save(args, &robot, &recording, rate)?;
-    print_summary(&result, &args.output, args.calibration.is_some());
+    print_summary(&result, &args.output, args.calibration.given());
     hint_at_linear(args, &result);
     conclude(&recording, &result, &sequence, &robot)
 }
@@ -326,7 +326,7 @@ fn print_summary(result: &Keyframes, output: &Path, calibrated: bool) {
     }
     if calibrated {
         eprintln!(
-            "note: the file names the robot without the calibration; give the same --calibration to check and play it"
+            "note: the file names the robot without the calibration; give the same --calibration (or --robot-id) to check and play it"
         );
     }
     println!("wrote {}", output.display());

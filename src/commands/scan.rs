@@ -38,7 +38,7 @@ pub fn run(args: &ScanArgs) -> Result<Verdict, CommandError> {
         Some(p) => vec![p],
         None => vec![Protocol::Dynamixel2, Protocol::FeetechSts],
     };
-    let robot = super::load_robot(&args.robot, None)?;
+    let robot = super::load_robot(&args.robot, &super::CalibrationArgs::default())?;
     let found = bus::scan(&args.port, &robot, &protocols, args.baud, args.driver)?;
     let rows = servo_rows(&found);
     write_output(

@@ -18,13 +18,13 @@ pub const DEFAULT_ROBOT: &str = "so101";
 pub struct TeachArgs {
     /// Sequence file to edit; a new list when it does not exist yet (w creates it).
     pub sequence: Option<PathBuf>,
-    /// A built-in robot (so101, koch, omx) or a robot file [default: the sequence's robot, else
+    /// A built-in robot (so101, koch, omx), a LeRobot robot type (so101_follower, so101_leader,
+    /// koch_follower, koch_leader) or a robot file [default: the sequence's robot, else
     /// so101].
     #[arg(long, value_name = "NAME|FILE")]
     pub robot: Option<String>,
-    /// LeRobot calibration file to apply to the robot's servo mapping and limits.
-    #[arg(long, value_name = "FILE")]
-    pub calibration: Option<PathBuf>,
+    #[command(flatten)]
+    pub calibration: super::CalibrationArgs,
     #[command(flatten)]
     pub bus: BusArgs,
     /// Where w writes [default: SEQ, else taught.json].
@@ -156,7 +156,7 @@ fn load(args: &TeachArgs, source: Option<&Path>) -> Result<(KeyframeList, Robot)
     }
     let robot = super::load_robot(
         args.robot.as_deref().unwrap_or(DEFAULT_ROBOT),
-        args.calibration.as_deref(),
+        &args.calibration,
     )?;
     // The file names the robot by its name, which `keypose check` and `play` resolve as a
     // built-in.

@@ -106,7 +106,7 @@ fn start_hand(
 /// `keypose virtual-bus`: emulated servos on a pseudo-terminal; the device path is the first
 /// line printed; serves until standard input closes or the process is terminated.
 pub fn run(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
-    let robot = super::load_robot(&args.robot, None)?;
+    let robot = super::load_robot(&args.robot, &super::CalibrationArgs::default())?;
     check_fault_ids(&robot, &args.fault)?;
     let hand_trajectory = match &args.hand {
         Some(path) => {

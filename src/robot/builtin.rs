@@ -17,5 +17,6 @@ pub fn get(name: &str) -> Option<Robot> {
     // than panic in a user's hands.
     let mut robot = Robot::from_json(&format!("robots/{name}.json (built in)"), text).ok()?;
     robot.source = RobotSource::Builtin(name.to_string());
+    robot.lerobot = super::lerobot_names::follower_type_of(name);
     Some(robot)
 }

@@ -3,7 +3,8 @@
 //! LeRobot stores, per motor, `id`, `drive_mode`, `homing_offset`, `range_min` and `range_max`
 //! (raw Present Position ticks, read after the homing offset was written to the servo). Its
 //! degree normalisation centres each joint on the midpoint of the recorded range, so that
-//! midpoint becomes keypose's `zero_tick`. LeRobot divides by 4095 ticks per turn where the
+//! midpoint becomes keypose's `zero_tick`; its degrees never apply `drive_mode`
+//! ([`LEROBOT_DEGREES_DIRECTION`]). LeRobot divides by 4095 ticks per turn where the
 //! encoder has 4096; keypose keeps the true 4096, which differs from LeRobot's degrees by at most
 //! 1/4096 of the angle (0.04° at 160°).
 //!
@@ -24,6 +25,16 @@ const OLD_FORMAT_FIELDS: [&str; 6] = [
     "calib_mode",
     "motor_names",
 ];
+
+/// The sign of LeRobot's degrees against Present Position, whatever `drive_mode` says.
+/// LeRobot's `MotorNormMode.DEGREES` is `(raw − mid) · 360 / 4095` and reads no `drive_mode`
+/// on any vendor (S6 `motors_bus.py::_normalize` and `_unnormalize`, unchanged since the
+/// 2025-06 hardware API); `drive_mode` mirrors only the −100…100 and 0…100 modes, and only on
+/// Feetech (`apply_drive_mode = True` in `feetech.py`, `False` in `dynamixel.py`). On a
+/// Dynamixel servo, drive_mode 1 is the servo's own Drive Mode register (LeRobot's leader
+/// calibrations write it), so Present Position arrives already mirrored: reversing it here
+/// too would undo it. docs/robots.md §8.
+const LEROBOT_DEGREES_DIRECTION: f64 = 1.0;
 
 /// A joint whose calibration gives another servo id than the robot.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -120,8 +131,9 @@ pub fn import_lerobot_calibration(
         let id = node
             .require("id", "servo id")?
             .integer("servo id", 0, 252)? as u8;
-        let drive_node = node.require("drive_mode", "0 or 1")?;
-        let drive_mode = drive_node.integer("drive mode", 0, 1)?;
+        // Checked but not applied: see `LEROBOT_DEGREES_DIRECTION`.
+        node.require("drive_mode", "0 or 1")?
+            .integer("drive mode", 0, 1)?;
         let homing_offset = node
             .require("homing_offset", "the servo's homing offset")?
             .integer("ticks", -1_048_575, 1_048_575)?;
@@ -143,7 +155,7 @@ pub fn import_lerobot_calibration(
             });
         }
         joint.servo.zero_tick = (range_min + range_max) as f64 / 2.0;
-        joint.servo.direction = if drive_mode == 1 { -1.0 } else { 1.0 };
+        joint.servo.direction = LEROBOT_DEGREES_DIRECTION;
         joint.servo.homing_offset = Some(homing_offset);
         let a = joint.servo.value(range_min);
         let b = joint.servo.value(range_max);

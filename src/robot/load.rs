@@ -95,6 +95,7 @@ pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
         joints,
         tcp,
         home,
+        lerobot: None,
     })
 }
 

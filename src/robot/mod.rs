@@ -3,6 +3,7 @@
 mod builtin;
 mod gravity;
 mod lerobot;
+pub mod lerobot_names;
 mod load;
 pub mod servo;
 
@@ -14,6 +15,7 @@ use std::path::{Path, PathBuf};
 
 pub use builtin::BUILTIN_NAMES;
 pub use lerobot::{import_lerobot_calibration, CalibrationMismatch, CalibrationReport, IdMismatch};
+pub use lerobot_names::{LeRobotRole, LeRobotType, NotBuiltIn};
 pub use servo::{PositionEncoding, Servo, ServoModel, TickError, Vendor};
 
 pub const ROBOT_FORMAT: &str = "keypose-robot/1";
@@ -218,7 +220,7 @@ impl fmt::Display for RobotSource {
 
 /// A robot named as a built-in that does not exist.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown robot {spec:?}: expected a built-in robot ({}) or a robot file given as a path (containing a '/' or ending in .json, e.g. ./{spec})", BUILTIN_NAMES.join(", "))]
+#[error("unknown robot {spec:?}: expected a built-in robot ({}), a LeRobot robot type ({}) or a robot file given as a path (containing a '/' or ending in .json, e.g. ./{spec})", BUILTIN_NAMES.join(", "), lerobot_names::LEROBOT_TYPE_NAMES.join(", "))]
 pub struct UnknownRobot {
     pub spec: String,
 }
@@ -228,6 +230,8 @@ pub struct UnknownRobot {
 pub enum ResolveError {
     #[error(transparent)]
     Unknown(#[from] UnknownRobot),
+    #[error(transparent)]
+    NotBuiltIn(#[from] NotBuiltIn),
     #[error(transparent)]
     Input(#[from] InputError),
 }
@@ -253,6 +257,9 @@ pub struct Robot {
     pub tcp: Option<FixedFrame>,
     /// Home value of every joint, in joint order.
     pub home: Vec<f64>,
+    /// The LeRobot type this robot is (a built-in named the keypose way is its follower type),
+    /// which says where LeRobot keeps its calibrations; None for a robot file.
+    pub lerobot: Option<&'static LeRobotType>,
 }
 
 impl Robot {
@@ -272,8 +279,8 @@ impl Robot {
         builtin::get(name)
     }
 
-    /// A robot given as a built-in name or as a path to a robot file ([`names_a_file`]); a
-    /// relative path is taken relative to `base` when given (a sequence's directory).
+    /// A robot given as a built-in name, a LeRobot type name for a built-in
+    /// ([`lerobot_names::lerobot_type`]) or a path to a robot file ([`names_a_file`]); a relative path is taken relative to `base` when given (a sequence's directory).
     pub fn resolve(spec: &str, base: Option<&Path>) -> Result<Robot, ResolveError> {
         if names_a_file(spec) {
             let path = match base {
@@ -282,9 +289,17 @@ impl Robot {
             };
             return Ok(Robot::load(&path)?);
         }
-        Ok(Robot::builtin(spec).ok_or_else(|| UnknownRobot {
+        if let Some(robot) = Robot::builtin(spec) {
+            return Ok(robot);
+        }
+        let unknown = || UnknownRobot {
             spec: spec.to_string(),
-        })?)
+        };
+        let lerobot = lerobot_names::lerobot_type(spec).ok_or_else(unknown)??;
+        // The table names built-ins only, so this is found; refuse rather than panic if not.
+        let mut robot = Robot::builtin(lerobot.builtin).ok_or_else(unknown)?;
+        robot.lerobot = Some(lerobot);
+        Ok(robot)
     }
 
     pub fn joint_index(&self, name: &str) -> Option<usize> {
