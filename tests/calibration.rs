@@ -171,3 +171,97 @@ fn a_partial_calibration_on_the_command_line_is_bad_input() {
     );
     assert!(out.stdout.is_empty(), "{}", show(&out));
 }
+
+/// A whole calibration for the built-in `robot` (servo ids 1–6 in joint order, the whole turn
+/// recorded) with `joint` given `drive_mode` 1 and the recorded `range`.
+fn with_drive_mode_one(robot: &str, joint: &str, range: (i64, i64)) -> Robot {
+    let mut robot = Robot::builtin(robot).unwrap();
+    let entries: Vec<String> = robot
+        .joints
+        .iter()
+        .map(|j| {
+            let (drive_mode, (min, max)) = if j.name == joint {
+                (1, range)
+            } else {
+                (0, WHOLE_TURN)
+            };
+            format!(
+                r#""{}": {{"id": {}, "drive_mode": {drive_mode}, "homing_offset": 0, "range_min": {min}, "range_max": {max}}}"#,
+                j.name, j.servo.id
+            )
+        })
+        .collect();
+    let text = format!("{{{}}}", entries.join(","));
+    import_lerobot_calibration(&mut robot, "cal.json", &text).unwrap();
+    robot
+}
+
+/// LeRobot's degrees for `tick` and keypose's must agree in sign and differ by the 4096/4095
+/// scale only: keypose = LeRobot · 4095/4096, so by exactly 1/4096 of the angle.
+fn assert_agrees(robot: &Robot, joint: &str, cases: &[(i64, f64, f64)]) {
+    let joint = &robot.joints[robot.joint_index(joint).unwrap()];
+    for &(tick, lerobot, keypose) in cases {
+        let value = joint.servo.value(tick);
+        assert!(
+            (value - keypose).abs() < 1e-9,
+            "{} tick {tick}: {value} deg, expected {keypose}",
+            joint.name
+        );
+        assert!(
+            (value - lerobot).abs() <= lerobot.abs() / 4096.0 + 1e-12,
+            "{} tick {tick}: {value} deg is more than 1/4096 from LeRobot's {lerobot}",
+            joint.name
+        );
+    }
+}
+
+#[test]
+fn drive_mode_one_leaves_the_degrees_as_lerobot_computes_them_on_feetech_and_dynamixel() {
+    // LeRobot's MotorNormMode.DEGREES (motors_bus.py::_normalize): deg = (raw − mid) · 360/4095,
+    // with no drive_mode term on either vendor; keypose: (raw − mid) · 360/4096. Worked by hand.
+    // Feetech (SO-101 elbow_flex, an STS3215), recorded 1000 … 3000: mid 2000.
+    let so101 = with_drive_mode_one("so101", "elbow_flex", (1000, 3000));
+    assert_agrees(
+        &so101,
+        "elbow_flex",
+        &[
+            // −1000 · 360/4095 = −87.912087…; −1000 · 360/4096 = −87.890625.
+            (1000, -87.912_087_912_087_91, -87.890_625),
+            // −500 ticks: −43.956043…; −43.9453125.
+            (1500, -43.956_043_956_043_96, -43.945_312_5),
+            (2000, 0.0, 0.0),
+            (2500, 43.956_043_956_043_96, 43.945_312_5),
+        ],
+    );
+    // Dynamixel (Koch elbow_flex, an XL330-M288), recorded 1024 … 3072: mid 2048. The servo's
+    // Drive Mode register has already mirrored what it reports (LeRobot's leader calibration
+    // writes it), so the ticks read are LeRobot's raw values as they are.
+    let koch = with_drive_mode_one("koch", "elbow_flex", (1024, 3072));
+    assert_agrees(
+        &koch,
+        "elbow_flex",
+        &[
+            // −548 · 360/4095 = −48.175824…; −548 · 360/4096 = −48.1640625.
+            (1500, -48.175_824_175_824_18, -48.164_062_5),
+            // +552 ticks: 48.527472…; 48.515625.
+            (2600, 48.527_472_527_472_53, 48.515_625),
+        ],
+    );
+}
+
+#[test]
+fn keypose_degrees_are_lerobots_within_one_4096th_of_the_angle() {
+    // A whole turn recorded (0 … 4095): LeRobot's mid is 2047.5, and its ends are exactly
+    // ±2047.5 · 360/4095 = ±180°; keypose's ±2047.5 · 360/4096 = ±179.9560546875°, 0.0439° less.
+    let robot = with_drive_mode_one("so101", "elbow_flex", (1000, 3000));
+    assert_agrees(
+        &robot,
+        "wrist_roll",
+        &[
+            (0, -180.0, -179.956_054_687_5),
+            // 952.5 ticks: 83.736263…; 83.7158203125.
+            (3000, 83.736_263_736_263_74, 83.715_820_312_5),
+            (4095, 180.0, 179.956_054_687_5),
+        ],
+    );
+}

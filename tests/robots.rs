@@ -167,9 +167,11 @@ fn lerobot_calibration_sets_zero_at_the_range_midpoint() {
     assert_eq!(pan.servo.tick(0.0).unwrap(), 2025);
     assert_eq!(pan.servo.homing_offset, Some(-1470));
     assert_eq!(pan.limits.min, -110.0);
-    // elbow: midpoint 2000, reversed; ±1000 ticks = ±87.89°, narrower than ±96.83°.
+    // elbow: midpoint 2000; drive_mode 1 does not reverse it, since LeRobot's degrees never
+    // apply drive_mode (docs/robots.md §8): 10° is 10 · 4096/360 = 113.8 ticks above the
+    // midpoint. ±1000 ticks = ±87.89°, narrower than ±96.83°.
     let elbow = &robot.joints[2];
-    assert_eq!(elbow.servo.tick(10.0).unwrap(), 2000 - 114);
+    assert_eq!(elbow.servo.tick(10.0).unwrap(), 2000 + 114);
     let limit = 1000.0 * 360.0 / 4096.0;
     assert!((elbow.limits.max - limit).abs() < 1e-9 && (elbow.limits.min + limit).abs() < 1e-9);
     assert!(report

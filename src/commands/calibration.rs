@@ -91,7 +91,10 @@ fn missing_message(
     let shown: Vec<String> = candidates.iter().map(|p| p.display().to_string()).collect();
     let older = match shown.get(1..) {
         Some(rest) if !rest.is_empty() => {
-            format!(" and {} (where LeRobot before 2026-01 kept it)", rest.join(", "))
+            format!(
+                " and {} (where LeRobot before 2026-01 kept it)",
+                rest.join(", ")
+            )
         }
         _ => String::new(),
     };
