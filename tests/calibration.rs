@@ -3,8 +3,9 @@
 
 mod common;
 
-use common::{run, show, stderr};
+use common::{keypose, repo, run, show, stderr, stdout};
 use keypose::robot::{import_lerobot_calibration, Robot};
+use std::path::Path;
 
 /// One SO-101 motor entry as LeRobot writes it; the whole turn recorded unless `range` given.
 fn motor(name: &str, id: u8, range: (i64, i64)) -> String {
@@ -264,4 +265,242 @@ fn keypose_degrees_are_lerobots_within_one_4096th_of_the_angle() {
             (4095, 180.0, 179.956_054_687_5),
         ],
     );
+}
+
+/// `keypose ARGS` with LeRobot's calibration variables cleared and then `vars` set.
+fn run_with_env(args: &[&str], vars: &[(&str, &Path)]) -> std::process::Output {
+    let mut command = keypose();
+    for var in keypose::robot::lerobot_names::CALIBRATION_ENV_VARS {
+        command.env_remove(var);
+    }
+    command
+        .envs(vars.iter().copied())
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// A calibration of the built-in SO-101 whose shoulder_lift and elbow_flex midpoints are not
+/// the built-in's 2047, so it changes the ticks.
+fn so101_calibration() -> String {
+    calibration(&SO101_JOINTS, &|_, id| id, &|name| match name {
+        "shoulder_lift" => (900, 3300),
+        "elbow_flex" => (1100, 3000),
+        _ => WHOLE_TURN,
+    })
+}
+
+fn write_at(path: &Path, text: &str) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    std::fs::write(path, text).unwrap();
+}
+
+const NOD: &str = "sequences/so101_nod.json";
+
+#[test]
+fn robot_id_applies_exactly_what_the_same_file_given_by_path_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("cal");
+    let file = root.join("robots/so_follower/blue.json");
+    write_at(&file, &so101_calibration());
+    let nod = repo(NOD);
+    let ticks = |extra: &[&str]| {
+        let mut args = vec!["sample", nod.as_str(), "--units", "ticks"];
+        args.extend_from_slice(extra);
+        let out = run_with_env(&args, &[("HF_LEROBOT_CALIBRATION", &root)]);
+        assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+        out
+    };
+    let by_path = ticks(&["--calibration", file.to_str().unwrap()]);
+    let by_id = ticks(&["--robot-id", "blue"]);
+    let uncalibrated = ticks(&[]);
+    assert_eq!(stdout(&by_id), stdout(&by_path));
+    assert_ne!(
+        stdout(&by_id),
+        stdout(&uncalibrated),
+        "the calibration changes the ticks"
+    );
+    // The stderr line says which file was used, and from which LeRobot type and id.
+    let said = format!(
+        "calibration: {} (LeRobot so101_follower id \"blue\")",
+        file.display()
+    );
+    assert!(stderr(&by_id).contains(&said), "{}", show(&by_id));
+}
+
+#[test]
+fn robot_id_finds_the_root_as_lerobot_does_from_each_variable() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let below = "robots/so_follower/blue.json";
+    // Each variable alone, with where LeRobot's defaults put the file under it.
+    let cases: [(&str, String); 5] = [
+        ("HF_LEROBOT_CALIBRATION", format!("c/{below}")),
+        ("HF_LEROBOT_HOME", format!("lr/calibration/{below}")),
+        ("HF_HOME", format!("hf/lerobot/calibration/{below}")),
+        (
+            "XDG_CACHE_HOME",
+            format!("xdg/huggingface/lerobot/calibration/{below}"),
+        ),
+        (
+            "HOME",
+            format!("home/.cache/huggingface/lerobot/calibration/{below}"),
+        ),
+    ];
+    let value_of = |var: &str| {
+        d.join(match var {
+            "HF_LEROBOT_CALIBRATION" => "c",
+            "HF_LEROBOT_HOME" => "lr",
+            "HF_HOME" => "hf",
+            "XDG_CACHE_HOME" => "xdg",
+            _ => "home",
+        })
+    };
+    for (var, file) in &cases {
+        write_at(&d.join(file), &so101_calibration());
+        let value = value_of(var);
+        let out = run_with_env(
+            &["check", &repo(NOD), "--robot-id", "blue"],
+            &[(var, &value)],
+        );
+        assert_eq!(out.status.code(), Some(0), "{var}: {}", show(&out));
+        let used = d.join(file).display().to_string();
+        assert!(stderr(&out).contains(&used), "{var}: {}", show(&out));
+        std::fs::remove_file(d.join(file)).unwrap();
+    }
+    // HF_LEROBOT_CALIBRATION wins over the others when several are set.
+    write_at(&d.join(&cases[0].1), &so101_calibration());
+    write_at(&d.join(&cases[2].1), "not json");
+    let (c, hf) = (value_of("HF_LEROBOT_CALIBRATION"), value_of("HF_HOME"));
+    let out = run_with_env(
+        &["check", &repo(NOD), "--robot-id", "blue"],
+        &[("HF_HOME", &hf), ("HF_LEROBOT_CALIBRATION", &c)],
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+}
+
+#[test]
+fn robot_id_looks_where_lerobot_keeps_each_type() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().to_path_buf();
+    let check = |robot: &str| {
+        run_with_env(
+            &["check", &repo(NOD), "--robot", robot, "--robot-id", "arm"],
+            &[("HF_LEROBOT_CALIBRATION", &root)],
+        )
+    };
+    // A leader's calibration is a teleoperator's (LeRobot's teleoperator.py).
+    let leader = root.join("teleoperators/so_leader/arm.json");
+    write_at(&leader, &so101_calibration());
+    let out = check("so101_leader");
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    assert!(
+        stderr(&out).contains(&leader.display().to_string()),
+        "{}",
+        show(&out)
+    );
+    assert!(stderr(&out).contains("leader arm"), "{}", show(&out));
+    // Before LeRobot merged its SO classes (2026-01), the directory was the type's name; the
+    // current place wins when both exist.
+    let legacy = root.join("robots/so101_follower/arm.json");
+    write_at(&legacy, &so101_calibration());
+    let out = check("so101");
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    assert!(
+        stderr(&out).contains(&legacy.display().to_string()),
+        "{}",
+        show(&out)
+    );
+    let current = root.join("robots/so_follower/arm.json");
+    write_at(&current, &so101_calibration());
+    let out = check("so101_follower");
+    assert!(
+        stderr(&out).contains(&current.display().to_string()),
+        "{}",
+        show(&out)
+    );
+}
+
+#[test]
+fn a_missing_calibration_names_the_path_and_the_variables() {
+    let dir = tempfile::tempdir().unwrap();
+    let home = dir.path().to_path_buf();
+    let out = run_with_env(
+        &["check", &repo(NOD), "--robot-id", "blue"],
+        &[("HOME", &home)],
+    );
+    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+    let err = stderr(&out);
+    let looked_at =
+        home.join(".cache/huggingface/lerobot/calibration/robots/so_follower/blue.json");
+    for expected in [
+        looked_at.display().to_string().as_str(),
+        "robots/so101_follower/blue.json",
+        "HF_LEROBOT_CALIBRATION",
+        "HF_HOME",
+        "comes from HOME",
+        "lerobot-calibrate --robot.type=so101_follower --robot.id=blue",
+        "--calibration FILE",
+    ] {
+        assert!(err.contains(expected), "{expected:?} in {err}");
+    }
+    assert!(out.stdout.is_empty(), "{}", show(&out));
+}
+
+#[test]
+fn robot_id_misuse_is_a_usage_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().to_path_buf();
+    let cal = root.join("cal.json");
+    write_at(&cal, &so101_calibration());
+    let robot_file = root.join("so101.json");
+    std::fs::copy(repo("robots/so101.json"), &robot_file).unwrap();
+    let nod = repo(NOD);
+    let (cal, robot_file) = (cal.display().to_string(), robot_file.display().to_string());
+    let cases: [(Vec<&str>, &[&str]); 4] = [
+        (
+            vec!["--robot-id", "blue", "--calibration", &cal],
+            &["--robot-id", "--calibration", "cannot be used with"],
+        ),
+        (
+            vec!["--robot", &robot_file, "--robot-id", "blue"],
+            &["--robot-id", "no LeRobot robot type", "--calibration FILE"],
+        ),
+        (
+            vec!["--robot", "omx", "--robot-id", "blue"],
+            &["omx", "--calibration FILE"],
+        ),
+        (
+            vec!["--robot-id", "../blue"],
+            &["--robot-id", "without '/'"],
+        ),
+    ];
+    for (extra, expected) in cases {
+        let mut args = vec!["check", nod.as_str()];
+        args.extend(extra.iter().copied());
+        let out = run_with_env(&args, &[("HF_LEROBOT_CALIBRATION", &root)]);
+        assert_eq!(out.status.code(), Some(2), "{extra:?}: {}", show(&out));
+        for text in expected {
+            assert!(stderr(&out).contains(text), "{text:?} in {}", show(&out));
+        }
+    }
+    // Every command that takes --calibration takes --robot-id.
+    write_at(
+        &root.join("robots/so_follower/blue.json"),
+        &so101_calibration(),
+    );
+    for verb in [
+        vec!["read", "--robot", "so101", "--port", "virtual"],
+        vec!["torque", "off", "--robot", "so101", "--port", "virtual"],
+    ] {
+        let mut args = verb.clone();
+        args.extend(["--robot-id", "blue"]);
+        let out = run_with_env(&args, &[("HF_LEROBOT_CALIBRATION", &root)]);
+        assert_eq!(out.status.code(), Some(0), "{verb:?}: {}", show(&out));
+        assert!(
+            stderr(&out).contains("LeRobot so101_follower id"),
+            "{verb:?}: {}",
+            show(&out)
+        );
+    }
 }

@@ -140,3 +140,101 @@ fn verbose_says_which_robot_is_used() {
         show(&out)
     );
 }
+
+/// A slow move of shoulder_pan to 20°, inside every SO-101 and Koch limit, on `robot`.
+fn sequence_to_20(dir: &Path, robot: &str) -> String {
+    let path = dir.join(format!("pan_{robot}.json"));
+    std::fs::write(
+        &path,
+        format!(
+            r#"{{"format":"keypose-sequence/1","robot":"{robot}","keyframes":[
+              {{"time":0,"joints":{{"shoulder_pan":0}}}},{{"time":10,"joints":{{"shoulder_pan":20}}}}]}}"#
+        ),
+    )
+    .unwrap();
+    path.display().to_string()
+}
+
+#[test]
+fn lerobot_type_names_mean_the_built_ins() {
+    let cwd = tempfile::tempdir().unwrap();
+    for (lerobot, builtin, leader) in [
+        ("so101_follower", "so101", false),
+        ("so101_leader", "so101", true),
+        ("koch_follower", "koch", false),
+        ("koch_leader", "koch", true),
+    ] {
+        let in_sequence = sequence_to_20(cwd.path(), lerobot);
+        let on_command_line = sequence_to_20(cwd.path(), builtin);
+        for args in [
+            vec![in_sequence.as_str()],
+            vec![&on_command_line, "--robot", lerobot],
+        ] {
+            let (code, report, shown) = check_json(cwd.path(), &args);
+            assert_eq!(code, Some(0), "{lerobot}: {shown}");
+            assert_eq!(report["robot"], builtin, "{shown}");
+            assert_eq!(
+                report["robot_source"],
+                serde_json::json!({ "builtin": builtin })
+            );
+            assert!(shown.contains(&format!("(LeRobot {lerobot})")), "{shown}");
+            // A leader is read with its follower's description, and the user is told.
+            let note = format!("{lerobot} is LeRobot's leader arm, read as the built-in {builtin}");
+            assert_eq!(shown.contains(&note), leader, "{shown}");
+        }
+    }
+    // A leader can be read where a robot is given without a sequence.
+    let out = keypose()
+        .args(["read", "--robot", "so101_leader", "--port", "virtual"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+}
+
+#[test]
+fn lerobot_types_keypose_has_not_built_in_are_refused_with_the_reason() {
+    let cwd = tempfile::tempdir().unwrap();
+    let cases = [
+        ("so100_follower", "SO-100 is not built into keypose yet"),
+        ("so100_leader", "SO-100 is not built into keypose yet"),
+        ("omx_follower", "not the OpenMANIPULATOR-X"),
+        ("omx_leader", "not the OpenMANIPULATOR-X"),
+    ];
+    for (name, reason) in cases {
+        let sequence = sequence_to_20(cwd.path(), name);
+        let plain = sequence_to_20(cwd.path(), "so101");
+        for args in [vec![sequence.as_str()], vec![&plain, "--robot", name]] {
+            let (code, report, shown) = check_json(cwd.path(), &args);
+            assert_eq!(code, Some(2), "{name}: {shown}");
+            assert_eq!(report, Value::Null, "nothing checked: {shown}");
+            for expected in [reason, "robot file", name] {
+                assert!(shown.contains(expected), "{expected:?} in {shown}");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_planted_file_named_like_a_lerobot_type_is_ignored() {
+    let cwd = tempfile::tempdir().unwrap();
+    let beside = tempfile::tempdir().unwrap();
+    std::fs::write(cwd.path().join("so101_follower"), wide_so101()).unwrap();
+    std::fs::write(beside.path().join("so101_follower"), wide_so101()).unwrap();
+    let sequence = sequence_to_150(beside.path(), "so101_follower");
+    for args in [
+        vec![sequence.as_str()],
+        vec![&sequence, "--robot", "so101_follower"],
+    ] {
+        let (code, _, shown) = check_json(cwd.path(), &args);
+        // The built-in's ±110° limit applies: the 150° key is refused as bad input.
+        assert_eq!(code, Some(2), "{args:?}: {shown}");
+        assert!(shown.contains("expected -110 … 110 deg"), "{shown}");
+    }
+    // Named as a path, the file is read.
+    let (code, report, shown) = check_json(cwd.path(), &[&sequence, "--robot", "./so101_follower"]);
+    assert_eq!(code, Some(0), "{shown}");
+    assert_eq!(
+        report["robot_source"],
+        serde_json::json!({ "file": "./so101_follower" })
+    );
+}
