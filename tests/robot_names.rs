@@ -19,19 +19,30 @@ fn wide_so101() -> String {
     robot.to_string()
 }
 
-/// A slow move of shoulder_pan to 150°: inside the planted copy's limits, 40° past the
-/// built-in's (a key outside the limits is bad input, exit 2). `robot` is what the sequence's "robot" field says.
-fn sequence_to_150(dir: &Path, robot: &str) -> String {
-    let path = dir.join("pan.json");
+/// A slow move of shoulder_pan to `degrees`, written as `name` in `dir`; `robot` is what the
+/// sequence's "robot" field says.
+fn pan_sequence(dir: &Path, name: &str, robot: &str, degrees: f64) -> String {
+    let path = dir.join(name);
     std::fs::write(
         &path,
         format!(
             r#"{{"format":"keypose-sequence/1","robot":"{robot}","keyframes":[
-              {{"time":0,"joints":{{"shoulder_pan":0}}}},{{"time":10,"joints":{{"shoulder_pan":150}}}}]}}"#
+              {{"time":0,"joints":{{"shoulder_pan":0}}}},{{"time":10,"joints":{{"shoulder_pan":{degrees}}}}}]}}"#
         ),
     )
     .unwrap();
     path.display().to_string()
+}
+
+/// A move of shoulder_pan to 150°: inside the planted copy's limits, 40° past the built-in's
+/// (a key outside the limits is bad input, exit 2).
+fn sequence_to_150(dir: &Path, robot: &str) -> String {
+    pan_sequence(dir, "pan.json", robot, 150.0)
+}
+
+/// A move of shoulder_pan to 20°, inside every SO-101 and Koch limit.
+fn sequence_to_20(dir: &Path, robot: &str) -> String {
+    pan_sequence(dir, &format!("pan_{robot}.json"), robot, 20.0)
 }
 
 fn check_json(cwd: &Path, args: &[&str]) -> (Option<i32>, Value, String) {
@@ -47,17 +58,20 @@ fn check_json(cwd: &Path, args: &[&str]) -> (Option<i32>, Value, String) {
 
 #[test]
 fn a_planted_file_named_like_a_built_in_is_ignored() {
-    let cwd = tempfile::tempdir().unwrap();
-    let beside = tempfile::tempdir().unwrap();
-    std::fs::write(cwd.path().join("so101"), wide_so101()).unwrap();
-    std::fs::write(beside.path().join("so101"), wide_so101()).unwrap();
-    let sequence = sequence_to_150(beside.path(), "so101");
-    for args in [vec![sequence.as_str()], vec![&sequence, "--robot", "so101"]] {
-        let (code, _, shown) = check_json(cwd.path(), &args);
-        // The built-in's ±110° limit applies: the 150° key is refused as bad input.
-        assert_eq!(code, Some(2), "{args:?}: {shown}");
-        assert!(shown.contains("robot so101: built-in"), "{shown}");
-        assert!(shown.contains("expected -110 … 110 deg"), "{shown}");
+    // A built-in's name and a LeRobot type's name alike.
+    for name in ["so101", "so101_follower"] {
+        let cwd = tempfile::tempdir().unwrap();
+        let beside = tempfile::tempdir().unwrap();
+        std::fs::write(cwd.path().join(name), wide_so101()).unwrap();
+        std::fs::write(beside.path().join(name), wide_so101()).unwrap();
+        let sequence = sequence_to_150(beside.path(), name);
+        for args in [vec![sequence.as_str()], vec![&sequence, "--robot", name]] {
+            let (code, _, shown) = check_json(cwd.path(), &args);
+            // The built-in's ±110° limit applies: the 150° key is refused as bad input.
+            assert_eq!(code, Some(2), "{args:?}: {shown}");
+            assert!(shown.contains("robot so101: built-in"), "{shown}");
+            assert!(shown.contains("expected -110 … 110 deg"), "{shown}");
+        }
     }
 }
 
@@ -141,20 +155,6 @@ fn verbose_says_which_robot_is_used() {
     );
 }
 
-/// A slow move of shoulder_pan to 20°, inside every SO-101 and Koch limit, on `robot`.
-fn sequence_to_20(dir: &Path, robot: &str) -> String {
-    let path = dir.join(format!("pan_{robot}.json"));
-    std::fs::write(
-        &path,
-        format!(
-            r#"{{"format":"keypose-sequence/1","robot":"{robot}","keyframes":[
-              {{"time":0,"joints":{{"shoulder_pan":0}}}},{{"time":10,"joints":{{"shoulder_pan":20}}}}]}}"#
-        ),
-    )
-    .unwrap();
-    path.display().to_string()
-}
-
 #[test]
 fn lerobot_type_names_mean_the_built_ins() {
     let cwd = tempfile::tempdir().unwrap();
@@ -212,29 +212,4 @@ fn lerobot_types_keypose_has_not_built_in_are_refused_with_the_reason() {
             }
         }
     }
-}
-
-#[test]
-fn a_planted_file_named_like_a_lerobot_type_is_ignored() {
-    let cwd = tempfile::tempdir().unwrap();
-    let beside = tempfile::tempdir().unwrap();
-    std::fs::write(cwd.path().join("so101_follower"), wide_so101()).unwrap();
-    std::fs::write(beside.path().join("so101_follower"), wide_so101()).unwrap();
-    let sequence = sequence_to_150(beside.path(), "so101_follower");
-    for args in [
-        vec![sequence.as_str()],
-        vec![&sequence, "--robot", "so101_follower"],
-    ] {
-        let (code, _, shown) = check_json(cwd.path(), &args);
-        // The built-in's ±110° limit applies: the 150° key is refused as bad input.
-        assert_eq!(code, Some(2), "{args:?}: {shown}");
-        assert!(shown.contains("expected -110 … 110 deg"), "{shown}");
-    }
-    // Named as a path, the file is read.
-    let (code, report, shown) = check_json(cwd.path(), &[&sequence, "--robot", "./so101_follower"]);
-    assert_eq!(code, Some(0), "{shown}");
-    assert_eq!(
-        report["robot_source"],
-        serde_json::json!({ "file": "./so101_follower" })
-    );
 }
