@@ -7,7 +7,7 @@ use keypose::robot::lerobot_names::{
     calibration_candidates, calibration_root, CalibrationRoot, CALIBRATION_ENV_VARS,
 };
 use keypose::robot::{LeRobotRole, LeRobotType, Robot};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// The calibration options every command that loads a robot takes.
 #[derive(Debug, Clone, Default, clap::Args)]
@@ -16,8 +16,9 @@ pub struct CalibrationArgs {
     #[arg(long, value_name = "FILE", conflicts_with = "robot_id")]
     pub calibration: Option<PathBuf>,
     /// Apply the calibration LeRobot keeps for this arm (the --robot.id or --teleop.id it was
-    /// calibrated with): $HF_LEROBOT_CALIBRATION/robots/<type>/NAME.json, leaders under
-    /// teleoperators/ (README "LeRobot calibration").
+    /// calibrated with), where LeRobot keeps it: $HF_LEROBOT_CALIBRATION/robots/so_follower/NAME.json
+    /// for an SO-101, robots/koch_follower/ for a Koch, leaders under teleoperators/ (README
+    /// "LeRobot calibration").
     #[arg(long, value_name = "NAME")]
     pub robot_id: Option<String>,
 }
@@ -89,26 +90,25 @@ fn missing_message(
     candidates: &[PathBuf],
 ) -> String {
     let shown: Vec<String> = candidates.iter().map(|p| p.display().to_string()).collect();
-    let older = match shown.get(1..) {
-        Some(rest) if !rest.is_empty() => {
-            format!(
-                " and {} (where LeRobot before 2026-01 kept it)",
-                rest.join(", ")
-            )
-        }
-        _ => String::new(),
+    // The first place is the current LeRobot's; any others are where older versions wrote.
+    let looked_at = match shown.split_first() {
+        Some((current, [])) => current.clone(),
+        Some((current, older)) => format!(
+            "{current} and {} (where LeRobot before 2026-01 kept it)",
+            older.join(", ")
+        ),
+        None => root.dir.display().to_string(),
     };
     let option = match lerobot.role {
         LeRobotRole::Follower => "robot",
         LeRobotRole::Leader => "teleop",
     };
     format!(
-        "no LeRobot calibration for {} id {id:?}: looked at {}{older}; the directory {} comes from \
-         {} (LeRobot reads {} in that order, the first one set wins): calibrate with \
+        "no LeRobot calibration for {} id {id:?}: looked at {looked_at}; the directory {} comes \
+         from {} (LeRobot reads {} in that order, the first one set wins): calibrate with \
          `lerobot-calibrate --{option}.type={} --{option}.id={id}`, set HF_LEROBOT_CALIBRATION, or \
          give --calibration FILE",
         lerobot.name,
-        shown[0],
         root.dir.display(),
         root.decided_by,
         CALIBRATION_ENV_VARS.join(", "),
@@ -127,9 +127,4 @@ pub fn announce(file: &CalibrationFile, verbose: bool) {
         None if verbose => eprintln!("calibration: {}", file.path.display()),
         None => {}
     }
-}
-
-/// Reads a calibration's text.
-pub fn read(file: &CalibrationFile) -> Result<String, InputError> {
-    keypose::json::read_text(Path::new(&file.path))
 }

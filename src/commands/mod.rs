@@ -159,7 +159,7 @@ fn resolve_error(error: ResolveError, at: impl Fn(String) -> InputError) -> Inpu
 fn finish_robot(mut robot: Robot, calibration: &CalibrationArgs) -> Result<Robot, CommandError> {
     let file = calibration.file_for(&robot)?;
     if let Some(file) = &file {
-        let text = calibration::read(file)?;
+        let text = keypose::json::read_text(&file.path)?;
         import_lerobot_calibration(&mut robot, &file.path.display().to_string(), &text)?;
     }
     if let Some(lerobot) = robot.lerobot.filter(|t| t.role == LeRobotRole::Leader) {

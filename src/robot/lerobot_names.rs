@@ -77,32 +77,31 @@ pub enum NotBuiltIn {
     Omx { name: String, role: &'static str },
 }
 
-/// Every LeRobot type name keypose recognises, for messages.
-pub const LEROBOT_TYPE_NAMES: [&str; 8] = [
-    "so101_follower",
-    "so101_leader",
-    "koch_follower",
-    "koch_leader",
-    "so100_follower",
-    "so100_leader",
-    "omx_follower",
-    "omx_leader",
-];
+/// The LeRobot type names that resolve to a built-in, for messages.
+pub fn builtin_type_names() -> Vec<&'static str> {
+    TYPES.iter().map(|t| t.name).collect()
+}
 
 /// The built-in a LeRobot type name stands for; None when it is no LeRobot type keypose knows.
 pub fn lerobot_type(name: &str) -> Option<Result<&'static LeRobotType, NotBuiltIn>> {
     if let Some(known) = TYPES.iter().find(|t| t.name == name) {
         return Some(Ok(known));
     }
-    let role = match name.rsplit_once('_') {
-        Some((_, "follower")) => "follower",
-        Some((_, "leader")) => "leader",
-        _ => return None,
+    let role = if name.ends_with("_leader") {
+        "leader"
+    } else {
+        "follower"
     };
-    let name = name.to_string();
-    match name.split_once('_').map(|(arm, _)| arm) {
-        Some("so100") => Some(Err(NotBuiltIn::So100 { name, role })),
-        Some("omx") => Some(Err(NotBuiltIn::Omx { name, role })),
+    let name_owned = name.to_string();
+    match name {
+        "so100_follower" | "so100_leader" => Some(Err(NotBuiltIn::So100 {
+            name: name_owned,
+            role,
+        })),
+        "omx_follower" | "omx_leader" => Some(Err(NotBuiltIn::Omx {
+            name: name_owned,
+            role,
+        })),
         _ => None,
     }
 }

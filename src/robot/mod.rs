@@ -220,7 +220,7 @@ impl fmt::Display for RobotSource {
 
 /// A robot named as a built-in that does not exist.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown robot {spec:?}: expected a built-in robot ({}), a LeRobot robot type ({}) or a robot file given as a path (containing a '/' or ending in .json, e.g. ./{spec})", BUILTIN_NAMES.join(", "), lerobot_names::LEROBOT_TYPE_NAMES.join(", "))]
+#[error("unknown robot {spec:?}: expected a built-in robot ({}), a LeRobot robot type ({}) or a robot file given as a path (containing a '/' or ending in .json, e.g. ./{spec})", BUILTIN_NAMES.join(", "), lerobot_names::builtin_type_names().join(", "))]
 pub struct UnknownRobot {
     pub spec: String,
 }
