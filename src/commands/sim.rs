@@ -66,7 +66,9 @@ pub fn simulate(
     mjcf: Option<&Path>,
 ) -> Result<Simulated, CommandError> {
     let started = Instant::now();
-    let stream = sim::command_stream(robot, trajectory, &options.timeline(), options.rate_hz);
+    let thresholds = Thresholds::default();
+    let mut stream = sim::command_stream(robot, trajectory, &options.timeline(), options.rate_hz);
+    stream.hold_at_end(thresholds.settle_time, options.speed);
     let mut simulation = Simulation::start(robot, mjcf, None).map_err(sim_error)?;
     let chunk = ((CHUNK_SECONDS * stream.rate).round() as usize).max(1);
     let mut trace = Trace::default();
@@ -108,10 +110,11 @@ pub fn simulate(
         .filter(|((_, t), _)| **t >= trajectory.start && **t <= trajectory.end)
         .map(|((key, t), label)| KeyMark {
             label: label.clone(),
-            settle_from: t + key.hold,
+            time: *t,
+            hold: key.hold,
         })
         .collect();
-    let verdict = verdict::judge(robot, &trace, &keys, &Thresholds::default());
+    let verdict = verdict::judge(robot, &trace, &keys, &thresholds);
     Ok(Simulated {
         verdict,
         trace,
