@@ -2,15 +2,14 @@
 
 use super::{option_values, parse_rate, write_output, CommandError, SequenceInput, Verdict};
 use keypose::plan::Trajectory;
-use keypose::player::PlayOptions;
+use keypose::player::{print_progress_line, LogRow, PlayError, PlayOptions, PlaybackLog};
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
 use keypose::sim::verdict::{self, KeyMark, Thresholds, Trace};
-use keypose::sim::{self, SimError, Simulation};
+use keypose::sim::{self, CommandStream, SimError, Simulation};
 use keypose::terminal_text::escape_controls;
 use serde_json::json;
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -50,6 +49,34 @@ pub struct Simulated {
     pub wall_seconds: f64,
 }
 
+/// A log that cannot be written is the user's path to mend, as `play` on servos says.
+fn log_error(e: PlayError) -> CommandError {
+    CommandError::Usage(e.to_string())
+}
+
+/// The player's log of the simulated playback: the rows the player would have sent (not the
+/// hold after them that judges settling), each with the simulated position as its measurement.
+/// The simulation keeps the control rate exactly: no lateness, no stalls.
+fn write_log(
+    log: &mut PlaybackLog,
+    stream: &CommandStream,
+    trace: &Trace,
+) -> Result<(), PlayError> {
+    let rows = stream.played.min(trace.position.len());
+    for row in 0..rows {
+        log.row(&LogRow {
+            time: row as f64 / stream.rate,
+            phase: stream.phase[row],
+            sequence_time: stream.timeline_time[row],
+            commanded: &stream.rows[row],
+            measured: Some(&trace.position[row]),
+            lateness: 0.0,
+            stall: None,
+        })?;
+    }
+    log.finish()
+}
+
 fn sim_error(e: SimError) -> CommandError {
     match e {
         SimError::Model { .. } => CommandError::Model(e),
@@ -69,6 +96,11 @@ pub fn simulate(
     let thresholds = Thresholds::default();
     let mut stream = sim::command_stream(robot, trajectory, &options.timeline(), options.rate_hz);
     stream.hold_at_end(thresholds.settle_time, options.speed);
+    // Created before MuJoCo starts: a log that cannot be written is refused first.
+    let mut log = match &options.log {
+        Some(path) => Some(PlaybackLog::create(path, robot).map_err(log_error)?),
+        None => None,
+    };
     let mut simulation = Simulation::start(robot, mjcf, None).map_err(sim_error)?;
     let chunk = ((CHUNK_SECONDS * stream.rate).round() as usize).max(1);
     let mut trace = Trace::default();
@@ -82,17 +114,14 @@ pub fn simulate(
         let diverged = !part.divergence.is_empty();
         trace.extend(part);
         if options.progress {
-            let t = stream.sequence_time[end - 1].unwrap_or(trajectory.start);
-            let key = trajectory.segment_at(t);
-            eprint!(
-                "\rsimulating {:>7.2} / {:.2} s  key {}/{} {:<16}",
-                t,
-                trajectory.end,
-                key + 1,
-                trajectory.key_times.len(),
-                escape_controls(&trajectory.key_labels[key])
+            // The hold after the last cycle is the verdict's, not the playback's.
+            let row = end.min(stream.played).max(1) - 1;
+            print_progress_line(
+                stream.phase[row].name(),
+                stream.timeline_time[row],
+                &stream.loop_label[row],
+                trajectory,
             );
-            let _ = std::io::stderr().flush();
         }
         if diverged {
             break;
@@ -101,6 +130,9 @@ pub fn simulate(
     }
     if options.progress {
         eprintln!();
+    }
+    if let Some(log) = &mut log {
+        write_log(log, &stream, &trace).map_err(log_error)?;
     }
     let keys: Vec<KeyMark> = sequence
         .keyframes
