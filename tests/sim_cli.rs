@@ -403,3 +403,34 @@ fn play_in_simulation_writes_the_servo_log_and_plot_reads_it() {
         .count();
     assert_eq!(polylines, 18);
 }
+
+#[test]
+fn the_prismatic_gripper_is_shown_in_millimetres() {
+    let dir = tempfile::tempdir().unwrap();
+    // The OMX gripper (metres in files) opened 19 mm in 0.3 s: faster than it follows.
+    let seq = sequence(
+        dir.path(),
+        "grip.json",
+        "omx",
+        r#"{"time":0,"joints":{"gripper_left_joint":0}},
+           {"time":0.3,"hold":1,"joints":{"gripper_left_joint":0.019}},
+           {"time":1.6,"joints":{"gripper_left_joint":0}}"#,
+    );
+    let (code, json, all) = report(dir.path(), &seq, &[]);
+    assert_eq!(code, Some(1), "{all}");
+    // The README's bound while moving, 5 mm, in millimetres.
+    assert!(all.contains("exceeds 5.00 mm while moving"), "{all}");
+    // The report keeps the file's unit (metres); the table shows the same figure in mm.
+    let gripper = tracking(&json, "gripper_left_joint");
+    assert_eq!(gripper["unit"], "m");
+    let mm = gripper["max_error"].as_f64().unwrap() * 1000.0;
+    let row = all
+        .lines()
+        .find(|l| l.trim_start().starts_with("gripper_left_joint"))
+        .unwrap();
+    assert!(row.contains(&format!("{mm:.2} mm ")), "{row}");
+    // The prismatic actuator's force limit is in newtons.
+    if let Some(f) = findings_of(&json, "saturation").first() {
+        assert!(f["message"].as_str().unwrap().contains(" N)"), "{f}");
+    }
+}

@@ -318,20 +318,22 @@ pub fn table(file: &str, result: &Simulated) -> String {
         "joint", "max tracking error", "rms", "worst after settling", "servo speed °/s"
     );
     for t in &result.verdict.tracking {
+        let show = |value| verdict::shown(t.kind, value);
         let worst = t
             .settled
             .iter()
             .max_by(|a, b| a.2.total_cmp(&b.2))
-            .map(|(label, _, e)| format!("{e:.3} ({label})"))
+            .map(|(label, _, e)| format!("{} ({label})", show(*e).number()))
             .unwrap_or_else(|| "-".into());
+        let max = show(t.max_error);
         let _ = writeln!(
             out,
-            "  {:<18} {:>9.3} {:<3} @ {:>6.2} s {:>10.3} {:>22} {:>8.0} / {:<6.0}",
+            "  {:<18} {:>9} {:<3} @ {:>6.2} s {:>10} {:>22} {:>8.0} / {:<6.0}",
             t.joint,
-            t.max_error,
-            t.unit,
+            max.number(),
+            max.unit,
             t.max_error_time,
-            t.rms_error,
+            show(t.rms_error).number(),
             worst,
             t.peak_speed_servo_deg_s,
             t.servo_speed_limit_deg_s

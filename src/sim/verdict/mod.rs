@@ -20,7 +20,7 @@ pub use finding::{Finding, FindingKind};
 pub use tolerances::Thresholds;
 pub use units::{force_unit, shown, Shown};
 
-use crate::robot::Robot;
+use crate::robot::{JointKind, Robot};
 use column::Column;
 
 /// One simulated run, in joint units, one row per control cycle.
@@ -78,6 +78,8 @@ impl ContactKind {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Tracking {
     pub joint: String,
+    /// Revolute (degrees) or prismatic (metres): what [`shown`] needs to show its figures.
+    pub kind: JointKind,
     pub unit: &'static str,
     pub max_error: f64,
     pub max_error_time: f64,
@@ -180,6 +182,7 @@ fn judge_joint(
     findings.extend(saturation::check_saturation(column, t));
     Tracking {
         joint: column.joint.name.clone(),
+        kind: column.joint.kind,
         unit: column.joint.kind.unit(),
         max_error: errors.max,
         max_error_time: errors.max_time,
