@@ -150,6 +150,12 @@ fn play_in_simulation(
             "--loop forever needs servos (--port); in simulation give a number of loops".into(),
         ));
     }
+    if !args.quiet {
+        eprintln!(
+            "playing {} in MuJoCo (no --port) at {} Hz, speed {}",
+            sequence.file, options.rate_hz, args.speed
+        );
+    }
     let result = super::sim::simulate(sequence, robot, trajectory, options, None)?;
     print!(
         "{}",

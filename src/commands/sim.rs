@@ -2,15 +2,14 @@
 
 use super::{option_values, parse_rate, write_output, CommandError, SequenceInput, Verdict};
 use keypose::plan::Trajectory;
-use keypose::player::PlayOptions;
+use keypose::player::{print_progress_line, LogRow, PlayError, PlayOptions, PlaybackLog};
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
 use keypose::sim::verdict::{self, KeyMark, Thresholds, Trace};
-use keypose::sim::{self, SimError, Simulation};
+use keypose::sim::{self, CommandStream, SimError, Simulation};
 use keypose::terminal_text::escape_controls;
 use serde_json::json;
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -50,6 +49,34 @@ pub struct Simulated {
     pub wall_seconds: f64,
 }
 
+/// A log that cannot be written is the user's path to mend, as `play` on servos says.
+fn log_error(e: PlayError) -> CommandError {
+    CommandError::Usage(e.to_string())
+}
+
+/// The player's log of the simulated playback: the rows the player would have sent (not the
+/// hold after them that judges settling), each with the simulated position as its measurement.
+/// The simulation keeps the control rate exactly: no lateness, no stalls.
+fn write_log(
+    log: &mut PlaybackLog,
+    stream: &CommandStream,
+    trace: &Trace,
+) -> Result<(), PlayError> {
+    let rows = stream.played.min(trace.position.len());
+    for row in 0..rows {
+        log.row(&LogRow {
+            time: row as f64 / stream.rate,
+            phase: stream.phase[row],
+            sequence_time: stream.timeline_time[row],
+            commanded: &stream.rows[row],
+            measured: Some(&trace.position[row]),
+            lateness: 0.0,
+            stall: None,
+        })?;
+    }
+    log.finish()
+}
+
 fn sim_error(e: SimError) -> CommandError {
     match e {
         SimError::Model { .. } => CommandError::Model(e),
@@ -66,7 +93,14 @@ pub fn simulate(
     mjcf: Option<&Path>,
 ) -> Result<Simulated, CommandError> {
     let started = Instant::now();
-    let stream = sim::command_stream(robot, trajectory, &options.timeline(), options.rate_hz);
+    let thresholds = Thresholds::default();
+    let mut stream = sim::command_stream(robot, trajectory, &options.timeline(), options.rate_hz);
+    stream.hold_at_end(thresholds.settle_time, options.speed);
+    // Created before MuJoCo starts: a log that cannot be written is refused first.
+    let mut log = match &options.log {
+        Some(path) => Some(PlaybackLog::create(path, robot).map_err(log_error)?),
+        None => None,
+    };
     let mut simulation = Simulation::start(robot, mjcf, None).map_err(sim_error)?;
     let chunk = ((CHUNK_SECONDS * stream.rate).round() as usize).max(1);
     let mut trace = Trace::default();
@@ -80,17 +114,14 @@ pub fn simulate(
         let diverged = !part.divergence.is_empty();
         trace.extend(part);
         if options.progress {
-            let t = stream.sequence_time[end - 1].unwrap_or(trajectory.start);
-            let key = trajectory.segment_at(t);
-            eprint!(
-                "\rsimulating {:>7.2} / {:.2} s  key {}/{} {:<16}",
-                t,
-                trajectory.end,
-                key + 1,
-                trajectory.key_times.len(),
-                escape_controls(&trajectory.key_labels[key])
+            // The hold after the last cycle is the verdict's, not the playback's.
+            let row = end.min(stream.played).max(1) - 1;
+            print_progress_line(
+                stream.phase[row].name(),
+                stream.timeline_time[row],
+                &stream.loop_label[row],
+                trajectory,
             );
-            let _ = std::io::stderr().flush();
         }
         if diverged {
             break;
@@ -100,6 +131,9 @@ pub fn simulate(
     if options.progress {
         eprintln!();
     }
+    if let Some(log) = &mut log {
+        write_log(log, &stream, &trace).map_err(log_error)?;
+    }
     let keys: Vec<KeyMark> = sequence
         .keyframes
         .iter()
@@ -108,10 +142,11 @@ pub fn simulate(
         .filter(|((_, t), _)| **t >= trajectory.start && **t <= trajectory.end)
         .map(|((key, t), label)| KeyMark {
             label: label.clone(),
-            settle_from: t + key.hold,
+            time: *t,
+            hold: key.hold,
         })
         .collect();
-    let verdict = verdict::judge(robot, &trace, &keys, &Thresholds::default());
+    let verdict = verdict::judge(robot, &trace, &keys, &thresholds);
     Ok(Simulated {
         verdict,
         trace,
@@ -283,20 +318,22 @@ pub fn table(file: &str, result: &Simulated) -> String {
         "joint", "max tracking error", "rms", "worst after settling", "servo speed °/s"
     );
     for t in &result.verdict.tracking {
+        let show = |value| verdict::shown(t.kind, value);
         let worst = t
             .settled
             .iter()
             .max_by(|a, b| a.2.total_cmp(&b.2))
-            .map(|(label, _, e)| format!("{e:.3} ({label})"))
+            .map(|(label, _, e)| format!("{} ({label})", show(*e).number()))
             .unwrap_or_else(|| "-".into());
+        let max = show(t.max_error);
         let _ = writeln!(
             out,
-            "  {:<18} {:>9.3} {:<3} @ {:>6.2} s {:>10.3} {:>22} {:>8.0} / {:<6.0}",
+            "  {:<18} {:>9} {:<3} @ {:>6.2} s {:>10} {:>22} {:>8.0} / {:<6.0}",
             t.joint,
-            t.max_error,
-            t.unit,
+            max.number(),
+            max.unit,
             t.max_error_time,
-            t.rms_error,
+            show(t.rms_error).number(),
             worst,
             t.peak_speed_servo_deg_s,
             t.servo_speed_limit_deg_s

@@ -16,17 +16,19 @@
 mod guard;
 mod limiter;
 mod log;
+mod progress;
 mod run;
 
 pub use crate::pacing::{Clock, LatenessSummary, WallClock};
 pub use crate::stop::StopSignal;
 pub use guard::{GoalGuard, LimitBreach};
 pub use limiter::StepLimiter;
+pub use log::{PlaybackLog, Row as LogRow};
+pub use progress::print_progress_line;
 
 use crate::bus::{joint_prefix, BusError, ServoBus};
 use crate::plan::{Loops, Timeline, TimelineOptions, Trajectory};
 use crate::robot::Robot;
-use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -289,20 +291,10 @@ fn release_when_reached(
 }
 
 fn print_progress(timeline: &Timeline, trajectory: &Trajectory) {
-    let t = timeline.sequence_time();
-    let key = trajectory.segment_at(t);
-    let label = crate::terminal_text::escape_field(&trajectory.key_labels[key]);
-    let mut err = std::io::stderr().lock();
-    let _ = write!(
-        err,
-        "\r{:<9} {:>7.2} / {:.2} s  key {}/{} {:<16} loop {}   ",
+    print_progress_line(
         timeline.phase_name(),
-        t,
-        trajectory.end,
-        key + 1,
-        trajectory.key_times.len(),
-        label,
-        timeline.loop_label(),
+        timeline.sequence_time(),
+        &timeline.loop_label(),
+        trajectory,
     );
-    let _ = err.flush();
 }

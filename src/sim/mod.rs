@@ -60,6 +60,14 @@ pub struct CommandStream {
     pub rows: Vec<Vec<f64>>,
     /// Sequence time of each row; `None` during ramps.
     pub sequence_time: Vec<Option<f64>>,
+    /// The timeline's own sequence time of each row (during a ramp, where the ramp leads), as
+    /// the player logs it.
+    pub timeline_time: Vec<f64>,
+    pub phase: Vec<Phase>,
+    /// Which loop each row belongs to, as the player's progress line shows it ("2/3").
+    pub loop_label: Vec<String>,
+    /// Rows the player would send; any after them hold the final pose to judge settling.
+    pub played: usize,
 }
 
 /// The commands of playing `trajectory` from the robot's home pose with `options` at `rate` Hz.
@@ -71,23 +79,63 @@ pub fn command_stream(
 ) -> CommandStream {
     let initial = robot.home.clone();
     let mut timeline = Timeline::new(robot, trajectory, options, &initial);
-    let mut rows = Vec::new();
-    let mut sequence_time = Vec::new();
+    let mut stream = CommandStream {
+        rate,
+        initial: initial.clone(),
+        rows: Vec::new(),
+        sequence_time: Vec::new(),
+        timeline_time: Vec::new(),
+        phase: Vec::new(),
+        loop_label: Vec::new(),
+        played: 0,
+    };
     let mut pose = vec![0.0; robot.joints.len()];
     let dt = 1.0 / rate;
     while let Some(phase) = timeline.sample_into(&mut pose) {
-        rows.push(pose.clone());
-        sequence_time.push(match phase {
-            Phase::Approach | Phase::Return => None,
-            Phase::Play | Phase::Stopping | Phase::Resuming => Some(timeline.sequence_time()),
-        });
+        let tau = timeline.sequence_time();
+        stream.push(pose.clone(), phase, tau, timeline.loop_label());
         timeline.advance(dt);
     }
-    CommandStream {
-        rate,
-        initial,
-        rows,
-        sequence_time,
+    stream.played = stream.rows.len();
+    stream
+}
+
+impl CommandStream {
+    fn push(&mut self, pose: Vec<f64>, phase: Phase, tau: f64, loop_label: String) {
+        self.rows.push(pose);
+        self.sequence_time.push(match phase {
+            Phase::Approach | Phase::Return => None,
+            Phase::Play | Phase::Stopping | Phase::Resuming => Some(tau),
+        });
+        self.timeline_time.push(tau);
+        self.phase.push(phase);
+        self.loop_label.push(loop_label);
+    }
+
+    /// Holds the final pose `seconds` longer (sequence time running on at `speed`), as the
+    /// servos hold it after the player's last cycle, so that the last key is judged settled
+    /// too.
+    pub fn hold_at_end(&mut self, seconds: f64, speed: f64) {
+        let (Some(pose), Some(&tau), Some(label)) = (
+            self.rows.last().cloned(),
+            self.timeline_time.last(),
+            self.loop_label.last().cloned(),
+        ) else {
+            return;
+        };
+        // The player sends the final pose twice (its last cycle and once more): sequence time
+        // runs on from the first of them, one cycle per row.
+        let at_end = self
+            .timeline_time
+            .iter()
+            .rev()
+            .take_while(|&&t| (t - tau).abs() < 1e-9)
+            .count();
+        let cycles = (seconds * self.rate).ceil() as usize;
+        for k in 1..=cycles {
+            let t = tau + (at_end - 1 + k) as f64 * speed / self.rate;
+            self.push(pose.clone(), Phase::Play, t, label.clone());
+        }
     }
 }
 

@@ -22,6 +22,11 @@ impl Column<'_> {
         self.joint.kind == JointKind::Revolute
     }
 
+    /// `value` (this joint's unit) as a person reads it.
+    pub fn format_value(&self, value: f64) -> super::Shown {
+        super::shown(self.joint.kind, value)
+    }
+
     /// |position - commanded| at `row`.
     pub fn error(&self, row: usize) -> f64 {
         (self.trace.position[row][self.index] - self.trace.commanded[row][self.index]).abs()

@@ -14,11 +14,13 @@ mod saturation;
 mod speed;
 mod tolerances;
 mod tracking;
+mod units;
 
 pub use finding::{Finding, FindingKind};
 pub use tolerances::Thresholds;
+pub use units::{force_unit, shown, Shown};
 
-use crate::robot::Robot;
+use crate::robot::{JointKind, Robot};
 use column::Column;
 
 /// One simulated run, in joint units, one row per control cycle.
@@ -76,6 +78,8 @@ impl ContactKind {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Tracking {
     pub joint: String,
+    /// Revolute (degrees) or prismatic (metres): what [`shown`] needs to show its figures.
+    pub kind: JointKind,
     pub unit: &'static str,
     pub max_error: f64,
     pub max_error_time: f64,
@@ -98,12 +102,14 @@ impl Verdict {
     }
 }
 
-/// Key times and labels in sequence time, for settling checks.
+/// A key for the settling check, in sequence time.
 #[derive(Debug, Clone, PartialEq)]
 pub struct KeyMark {
     pub label: String,
-    /// When the arm should be at the key and still: the key time plus its hold.
-    pub settle_from: f64,
+    /// When the command reaches the key.
+    pub time: f64,
+    /// How long the sequence holds it, seconds.
+    pub hold: f64,
 }
 
 /// The verdict on `trace`: every check of every joint, then the run's contacts and divergence,
@@ -123,7 +129,39 @@ pub fn judge(robot: &Robot, trace: &Trace, keys: &[KeyMark], t: &Thresholds) -> 
     findings.extend(contacts::check_divergence(trace));
     // Stable: findings at the same time keep the order of the checks.
     findings.sort_by(|a, b| a.time.total_cmp(&b.time));
+    // The checks work on the simulation clock; a person reads the file's times.
+    for f in &mut findings {
+        f.time = trace.shown_time(f.time);
+    }
+    for figures in &mut tracking {
+        figures.max_error_time = trace.shown_time(figures.max_error_time);
+    }
     Verdict { tracking, findings }
+}
+
+impl Trace {
+    /// Simulation time `time` as the sequence file counts it: the sequence time of its row, or
+    /// during a ramp, the (negative) time left until the sequence starts or resumes.
+    pub fn shown_time(&self, time: f64) -> f64 {
+        if self.time.is_empty() {
+            return time;
+        }
+        let row = self
+            .time
+            .partition_point(|&t| t < time - 1e-9)
+            .min(self.time.len() - 1);
+        if let Some(s) = self.sequence_time[row] {
+            return s;
+        }
+        match (row..self.time.len()).find_map(|r| self.sequence_time[r].map(|s| (r, s))) {
+            Some((next, s)) => s - (self.time[next] - time),
+            // A ramp nothing follows: after the last sequence time.
+            None => (0..row)
+                .rev()
+                .find_map(|r| self.sequence_time[r].map(|s| s + (time - self.time[r])))
+                .unwrap_or(time),
+        }
+    }
 }
 
 /// One joint's checks, their findings added to `findings`, and its tracking figures.
@@ -144,6 +182,7 @@ fn judge_joint(
     findings.extend(saturation::check_saturation(column, t));
     Tracking {
         joint: column.joint.name.clone(),
+        kind: column.joint.kind,
         unit: column.joint.kind.unit(),
         max_error: errors.max,
         max_error_time: errors.max_time,
@@ -210,30 +249,95 @@ mod tests {
         assert_eq!(v.findings[0].time, 1.5);
     }
 
+    fn key(label: &str, time: f64, hold: f64) -> KeyMark {
+        KeyMark {
+            label: label.into(),
+            time,
+            hold,
+        }
+    }
+
     #[test]
-    fn an_arm_that_has_not_settled_half_a_second_after_a_key_fails() {
+    fn an_arm_that_has_not_settled_at_a_held_key_fails() {
         let robot = Robot::builtin("so101").unwrap();
         let mut trace = perfect(&robot);
-        // 5° off from t = 1.0 on; the key at 0.4 s settles by 0.9 s, so it is judged at 0.9 s
-        // (fine) and the key at 0.6 s at 1.1 s (5° off: fails).
+        // The command holds still throughout. 5° off from t = 1.0 on: key a (0.4 s, no hold) is
+        // judged 0.5 s after it, at 0.9 s (fine); key b (0.6 s, held 0.8 s) at the end of its
+        // hold, 1.4 s (5° off: fails).
         for row in 100..200 {
             trace.position[row][1] = 5.0;
         }
-        let keys = [
-            KeyMark {
-                label: "a".into(),
-                settle_from: 0.4,
-            },
-            KeyMark {
-                label: "b".into(),
-                settle_from: 0.6,
-            },
-        ];
+        let keys = [key("a", 0.4, 0.0), key("b", 0.6, 0.8)];
         let v = judge(&robot, &trace, &keys, &Thresholds::default());
         assert_eq!(kinds(&v), ["settling"]);
         assert!(v.findings[0].message.contains("key b"));
+        assert_eq!(v.findings[0].time, 1.4);
         assert_eq!(v.tracking[1].settled[0].2, 0.0);
         assert_eq!(v.tracking[1].settled[1].2, 5.0);
+    }
+
+    /// The so101 trace with the elbow commanded along a ramp of `rate` °/s from row `from` to
+    /// row `to` (then held), and following it `lag` degrees behind.
+    fn elbow_ramp(robot: &Robot, from: usize, to: usize, rate: f64, lag: f64) -> Trace {
+        let mut trace = perfect(robot);
+        for row in 0..trace.time.len() {
+            let moved = rate * (row.clamp(from, to) - from) as f64 / 100.0;
+            trace.commanded[row][2] = -moved;
+            trace.position[row][2] = -moved + lag;
+        }
+        trace
+    }
+
+    #[test]
+    fn lag_behind_a_moving_command_is_tracking_not_settling() {
+        let robot = Robot::builtin("so101").unwrap();
+        // Key #0 at 0 s, the command moves at 100 °/s from 0 s to 1.5 s (through key #0's settle
+        // point at 0.5 s) and the arm lags 5°: more than the 3° allowed once settled, less than
+        // the 15° allowed while moving. The command never rests at key #0, so it is not judged.
+        let trace = elbow_ramp(&robot, 0, 150, 100.0, 5.0);
+        let v = judge(
+            &robot,
+            &trace,
+            &[key("#0", 0.0, 0.0)],
+            &Thresholds::default(),
+        );
+        assert!(v.passed(), "{:?}", v.findings);
+        assert!(v.tracking[2].settled.is_empty());
+        assert_eq!(v.tracking[2].max_error, 5.0);
+    }
+
+    #[test]
+    fn an_arm_still_off_once_the_command_rests_fails_settling() {
+        let robot = Robot::builtin("so101").unwrap();
+        // The same move, ending at 1.0 s with the key #1 there; the arm stays 5° off after it.
+        // Judged 0.5 s after the command came to rest: 1.5 s.
+        let trace = elbow_ramp(&robot, 0, 100, 100.0, 5.0);
+        let keys = [key("#0", 0.0, 0.0), key("#1", 1.0, 0.0)];
+        let v = judge(&robot, &trace, &keys, &Thresholds::default());
+        assert_eq!(kinds(&v), ["settling"]);
+        assert!(
+            v.findings[0].message.contains("key #1"),
+            "{}",
+            v.findings[0].message
+        );
+        assert_eq!(v.findings[0].time, 1.5);
+    }
+
+    #[test]
+    fn times_are_sequence_times_and_the_approach_is_negative() {
+        let robot = Robot::builtin("so101").unwrap();
+        let mut trace = perfect(&robot);
+        // The first 0.5 s (50 rows) are the approach ramp: sequence time 0 starts at row 50.
+        for row in 0..200 {
+            trace.sequence_time[row] = (row >= 50).then(|| (row - 50) as f64 / 100.0);
+        }
+        trace.position[20][0] = 16.0; // 0.3 s before the sequence starts
+        trace.position[150][1] = 16.0; // sequence time 1.0 s
+        let v = judge(&robot, &trace, &[], &Thresholds::default());
+        let times: Vec<f64> = v.findings.iter().map(|f| f.time).collect();
+        assert_eq!(times.len(), 2);
+        assert!((times[0] + 0.3).abs() < 1e-9, "{times:?}");
+        assert!((times[1] - 1.0).abs() < 1e-9, "{times:?}");
     }
 
     #[test]

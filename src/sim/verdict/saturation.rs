@@ -16,7 +16,10 @@ pub(super) fn check_saturation(column: &Column, t: &Thresholds) -> Option<Findin
         column.finding_at(
             FindingKind::Saturation,
             start,
-            format!("actuator at its force limit ({limit}) for {seconds:.2} s"),
+            format!(
+                "actuator at its force limit ({limit:.2} {}) for {seconds:.2} s",
+                super::force_unit(column.joint.kind)
+            ),
         )
     })
 }

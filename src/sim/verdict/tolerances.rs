@@ -13,8 +13,13 @@ pub struct Thresholds {
     /// Error allowed once the arm has settled at a key, degrees / metres.
     pub settled_error_deg: f64,
     pub settled_error_m: f64,
-    /// How long after a key (or the end of its hold) the arm has to settle, seconds.
+    /// How long after the command comes to rest at a key the arm has to settle there, and how
+    /// long the command must rest for the key to be judged as settled, seconds.
     pub settle_time: f64,
+    /// A command that moves less than this over the settling window is at rest, degrees /
+    /// metres: well below the settled error allowed, well above float noise.
+    pub rest_deg: f64,
+    pub rest_m: f64,
     /// Saturation shorter than this is normal during fast moves, seconds.
     pub saturation_time: f64,
     /// Share of the force limit that counts as saturated.
@@ -31,6 +36,8 @@ impl Default for Thresholds {
             settled_error_deg: 3.0,
             settled_error_m: 0.002,
             settle_time: 0.5,
+            rest_deg: 0.05,
+            rest_m: 0.00005,
             saturation_time: 0.25,
             saturation_share: 0.98,
             contact_depth: 0.0005,
@@ -45,6 +52,15 @@ impl Thresholds {
             (self.max_error_deg, self.settled_error_deg)
         } else {
             (self.max_error_m, self.settled_error_m)
+        }
+    }
+
+    /// How far a command may move and still be at rest, for a revolute or a prismatic joint.
+    pub fn rest_allowed(&self, revolute: bool) -> f64 {
+        if revolute {
+            self.rest_deg
+        } else {
+            self.rest_m
         }
     }
 }
