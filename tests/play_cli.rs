@@ -219,6 +219,36 @@ fn a_sequence_beyond_the_limits_at_the_chosen_speed_is_refused_before_any_port_i
 }
 
 #[test]
+fn from_a_name_two_keys_share_is_refused_listing_both_indices() {
+    // so101_pick_place.json starts and ends at a key named "home": keys 0 and 9.
+    let out = run(&[
+        "play",
+        &repo("sequences/so101_pick_place.json"),
+        "--port",
+        "/dev/keypose-no-such-port",
+        "--from",
+        "home",
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(err.contains("--from \"home\""), "{err}");
+    assert!(
+        err.contains("2 keys have this name, at indices 0, 9"),
+        "{err}"
+    );
+    // A name one key has still starts there (the port is then the error).
+    let out = run(&[
+        "play",
+        &repo("sequences/so101_pick_place.json"),
+        "--port",
+        "/dev/keypose-no-such-port",
+        "--from",
+        "grasp",
+    ]);
+    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+}
+
+#[test]
 fn no_approach_needs_its_confirmation() {
     let out = run(&[
         "play",

@@ -124,17 +124,10 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
 
 /// `--from`: a key by index or name.
 fn from_key(args: &PlayArgs, trajectory: &Trajectory) -> Result<Option<usize>, CommandError> {
-    let Some(key) = &args.from else {
-        return Ok(None);
-    };
-    let index = resolve_key(trajectory, key).ok_or_else(|| {
-        CommandError::Usage(format!(
-            "--from {key:?}: no such key; expected an index 0…{} or one of: {}",
-            trajectory.key_times.len() - 1,
-            trajectory.key_labels.join(", ")
-        ))
-    })?;
-    Ok(Some(index))
+    match &args.from {
+        None => Ok(None),
+        Some(key) => resolve_key(trajectory, key).map(Some),
+    }
 }
 
 /// No hardware: play in MuJoCo, with the same commands the servos would get.
@@ -242,11 +235,31 @@ fn report_pacing(stats: &player::Stats) {
     }
 }
 
-/// A key by index or by name.
-fn resolve_key(trajectory: &Trajectory, key: &str) -> Option<usize> {
-    match key.parse::<usize>() {
-        Ok(i) if i < trajectory.key_times.len() => Some(i),
-        Ok(_) => None,
-        Err(_) => trajectory.key_labels.iter().position(|l| l == key),
+/// A key by index or by name. A name two keys share is refused: starting at either one would
+/// be a guess, and the two can be far apart in the sequence.
+fn resolve_key(trajectory: &Trajectory, key: &str) -> Result<usize, CommandError> {
+    let count = trajectory.key_times.len();
+    let named: Vec<usize> = match key.parse::<usize>() {
+        Ok(i) => (i < count).then_some(i).into_iter().collect(),
+        Err(_) => (0..count)
+            .filter(|&i| trajectory.key_labels[i] == key)
+            .collect(),
+    };
+    match named[..] {
+        [index] => Ok(index),
+        [] => Err(CommandError::Usage(format!(
+            "--from {key:?}: no such key; expected an index 0…{} or one of: {}",
+            count - 1,
+            trajectory.key_labels.join(", ")
+        ))),
+        _ => Err(CommandError::Usage(format!(
+            "--from {key:?}: {} keys have this name, at indices {}: give the index of the one to start at",
+            named.len(),
+            named
+                .iter()
+                .map(usize::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))),
     }
 }
