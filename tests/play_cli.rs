@@ -248,6 +248,89 @@ fn from_a_name_two_keys_share_is_refused_listing_both_indices() {
     assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
 }
 
+/// The first number after `prefix` in `text`.
+fn number_after(text: &str, prefix: &str) -> f64 {
+    let rest = &text[text
+        .find(prefix)
+        .unwrap_or_else(|| panic!("{prefix:?} in {text}"))
+        + prefix.len()..];
+    let end = rest
+        .find(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-'))
+        .unwrap_or(rest.len());
+    rest[..end].parse().unwrap()
+}
+
+#[test]
+fn a_refusal_at_speed_reports_the_robots_limits_and_the_servos_velocities() {
+    // elbow_flex 0 → 90° in 2 s, cubic: at speed 1 it peaks at 1.5·Δ/T = 67.5 °/s and
+    // 6·Δ/T² = 135 °/s², inside SO-101's 115 °/s and 344 °/s²; at speed 2 the servos would see
+    // twice the velocity (135 °/s) and four times the acceleration (540 °/s²).
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("slow.json");
+    std::fs::write(
+        &path,
+        r#"{"format":"keypose-sequence/1","robot":"so101","interpolation":"cubic","keyframes":[
+          {"time":0,"joints":{"elbow_flex":0}},{"time":2,"joints":{"elbow_flex":90}}]}"#,
+    )
+    .unwrap();
+    let out = run(&[
+        "play",
+        path.to_str().unwrap(),
+        "--port",
+        "/dev/keypose-no-such-port",
+        "--speed",
+        "2",
+    ]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    let err = stderr(&out);
+    let velocity = err.lines().find(|l| l.contains(" velocity ")).expect(&err);
+    assert!(velocity.contains("> limit 115.000 deg/s,"), "{velocity}");
+    let peak = number_after(velocity, "): ");
+    assert!((peak - 135.0).abs() < 0.01 * 135.0, "{velocity}");
+    let acceleration = err
+        .lines()
+        .find(|l| l.contains(" acceleration "))
+        .expect(&err);
+    assert!(
+        acceleration.contains("limit 344.000 deg/s²"),
+        "{acceleration}"
+    );
+    // The largest second difference on a 0.02 s grid (sequence time) falls one step inside.
+    let peak = number_after(acceleration, "): ").abs();
+    assert!((peak - 540.0).abs() < 0.03 * 540.0, "{acceleration}");
+    // The sampling rate is the control rate, as the servos get it.
+    assert!(err.contains("sampled at 100 Hz"), "{err}");
+}
+
+#[test]
+fn the_progress_line_reaches_the_last_key_and_the_summary_names_the_joint_and_unit() {
+    let out = run(&[
+        "play",
+        &repo("sequences/so101_nod.json"),
+        "--port",
+        "virtual",
+    ]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    // The last redraw of the progress line, at the end: all six keys passed, the last is "rest".
+    let last = err
+        .split('\r')
+        .filter(|l| l.contains(" key "))
+        .last()
+        .expect(&err);
+    assert!(last.contains("key 6/6 rest"), "{last:?}");
+    // wrist_flex swings 60° per key, three times as fast as any other joint: it lags most.
+    let done = err.lines().find(|l| l.starts_with("done:")).expect(&err);
+    let error = number_after(done, "largest tracking error ");
+    assert!(error > 0.0, "{done}");
+    assert!(
+        done.ends_with(&format!(
+            "largest tracking error {error:.2} deg (wrist_flex)"
+        )),
+        "{done}"
+    );
+}
+
 #[test]
 fn no_approach_needs_its_confirmation() {
     let out = run(&[

@@ -176,20 +176,23 @@ fn play_on_servos(
         );
     }
     let played = player::play(connection.bus.as_mut(), robot, trajectory, options, &stop);
-    conclude(args, played)
+    conclude(args, robot, played)
 }
 
 /// What the player's outcome means for the command line: only a finished playback passes.
 fn conclude(
     args: &PlayArgs,
+    robot: &Robot,
     played: Result<(Outcome, player::Stats), PlayError>,
 ) -> Result<Verdict, CommandError> {
     match played {
         Ok((Outcome::Finished, stats)) => {
             if !args.quiet {
                 eprintln!(
-                    "done: {} cycles, approach {:.2} s, largest tracking error {:.2}",
-                    stats.cycles, stats.approach_seconds, stats.max_tracking_error
+                    "done: {} cycles, approach {:.2} s, {}",
+                    stats.cycles,
+                    stats.approach_seconds,
+                    tracking_summary(robot, &stats)
                 );
             }
             report_pacing(&stats);
@@ -210,6 +213,22 @@ fn conclude(
         }
         Err(e @ PlayError::Log { .. }) => Err(CommandError::Usage(e.to_string())),
         Err(e) => Err(CommandError::Play(e)),
+    }
+}
+
+/// The largest tracking error with its unit and joint, or why there is none.
+fn tracking_summary(robot: &Robot, stats: &player::Stats) -> String {
+    match stats.tracking_error_joint {
+        Some(j) => {
+            let joint = &robot.joints[j];
+            format!(
+                "largest tracking error {:.2} {} ({})",
+                stats.max_tracking_error,
+                joint.kind.unit(),
+                escape_controls(&joint.name)
+            )
+        }
+        None => "no tracking error measured (no read-back)".into(),
     }
 }
 
