@@ -465,3 +465,116 @@ fn a_robot_whose_control_rate_the_player_cannot_keep_is_refused_before_teach_ope
         "{err}"
     );
 }
+
+#[test]
+fn retime_writes_key_times_in_seconds() {
+    // README: elbow_flex 0 → 90° in 0.5 s; a cubic over T peaks at 6·Δ/T², so 344 °/s² allows
+    // T ≥ √(6·90/344) = 1.2529 s, written as a time in seconds (not 1252.9 ms).
+    let (dir, path) = temp_sequence(
+        "fast.json",
+        &sequence(
+            r#"{"time":0,"joints":{"elbow_flex":0}},{"time":0.5,"joints":{"elbow_flex":90}}"#,
+        ),
+    );
+    let fixed = dir.path().join("fixed.json");
+    let out = keypose(&[
+        "retime",
+        path.to_str().unwrap(),
+        "-o",
+        fixed.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", common::show(&out));
+    let seq: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&fixed).unwrap()).unwrap();
+    let time = seq["keyframes"][1]["time"].as_f64().unwrap();
+    let expected = (6.0 * 90.0 / 344.0f64).sqrt();
+    assert!((time - expected).abs() < 1e-3, "{time} s vs {expected} s");
+}
+
+/// The help text of `--port` in `keypose COMMAND --help`.
+fn port_help(command: &[&str]) -> String {
+    let mut args = command.to_vec();
+    args.push("--help");
+    let out = keypose(&args);
+    assert_eq!(out.status.code(), Some(0), "{}", common::show(&out));
+    let help = common::stdout(&out);
+    let start = help.find("--port <").unwrap_or_else(|| panic!("{help}"));
+    let rest = &help[start..];
+    // The option's paragraph ends at the next option.
+    let end = rest[1..].find("\n      -").map_or(rest.len(), |e| e + 1);
+    rest[..end].to_string()
+}
+
+#[test]
+fn only_play_says_it_simulates_without_a_port() {
+    for command in [&["read"][..], &["torque", "on"], &["record"], &["teach"]] {
+        let help = port_help(command);
+        assert!(
+            !help.contains("MuJoCo") && !help.to_lowercase().contains("simulat"),
+            "{command:?}: {help}"
+        );
+    }
+    assert!(port_help(&["play"]).contains("without a port, play in MuJoCo"));
+}
+
+#[test]
+fn scan_shows_its_default_baud_once() {
+    let out = keypose(&["scan", "--help"]);
+    let help = common::stdout(&out);
+    let baud = &help[help.find("--baud").unwrap()..];
+    let baud = &baud[..baud[1..].find("\n      -").unwrap()];
+    assert_eq!(baud.matches("default").count(), 1, "{baud}");
+    assert_eq!(baud.matches("[default: 1000000]").count(), 1, "{baud}");
+}
+
+#[test]
+fn read_and_torque_default_to_so101_and_say_so() {
+    let out = keypose(&["read", "--port", "virtual"]);
+    assert_eq!(out.status.code(), Some(0), "{}", common::show(&out));
+    assert!(common::stderr(&out).contains("robot so101 (built-in)"));
+    let pose: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(pose["robot"], "so101");
+    let out = keypose(&["torque", "off", "--port", "virtual"]);
+    assert_eq!(out.status.code(), Some(0), "{}", common::show(&out));
+    let err = common::stderr(&out);
+    assert!(err.contains("robot so101 (built-in)"), "{err}");
+    // SO-101's six servos, ids 1–6.
+    assert!(
+        err.contains("torque off on servo(s) [1, 2, 3, 4, 5, 6]"),
+        "{err}"
+    );
+}
+
+#[test]
+fn example_descriptions_say_what_their_keys_do() {
+    let read = |name: &str| -> serde_json::Value {
+        let text = std::fs::read_to_string(repo(&format!("sequences/{name}.json"))).unwrap();
+        serde_json::from_str(&text).unwrap()
+    };
+    // A description may mention step segments only where a key has one.
+    for name in [
+        "so101_pick_place",
+        "so101_wave",
+        "so101_nod",
+        "koch_wave",
+        "omx_reach",
+    ] {
+        let seq = read(name);
+        let says_step = seq["description"]
+            .as_str()
+            .unwrap()
+            .contains("step segment");
+        let has_step = seq["keyframes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|k| k["interp"] == "step");
+        assert!(!says_step || has_step, "{name}: {}", seq["description"]);
+    }
+    // omx_reach's "turn" key is a rotation of 90° about z, (w, z) = (cos 45°, sin 45°): a
+    // quarter turn, not half a turn.
+    let seq = read("omx_reach");
+    let description = seq["description"].as_str().unwrap();
+    assert!(description.contains("quarter turn") && description.contains("90 deg"));
+    assert!(!description.contains("half a turn"), "{description}");
+}

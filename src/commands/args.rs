@@ -12,7 +12,7 @@ use std::path::PathBuf;
 #[derive(Debug, Clone, clap::Args)]
 pub struct BusArgs {
     /// Serial port (e.g. /dev/ttyUSB0, /dev/ttyACM0), or "virtual" for emulated servos on a
-    /// pseudo-terminal. `play` without a port plays in MuJoCo.
+    /// pseudo-terminal.
     #[arg(long, value_name = "PATH|virtual")]
     pub port: Option<String>,
     /// Our own protocol code (native) or the vendor's Python SDK (sdk).
@@ -52,7 +52,7 @@ impl BusArgs {
 #[derive(Debug, Clone, clap::Args)]
 pub struct RobotArgs {
     /// A built-in robot (so101, koch, omx) or a robot file.
-    #[arg(long, value_name = "NAME|FILE")]
+    #[arg(long, value_name = "NAME|FILE", default_value = super::DEFAULT_ROBOT)]
     pub robot: String,
     /// LeRobot calibration file to apply.
     #[arg(long, value_name = "FILE")]

@@ -12,6 +12,11 @@ use keypose::terminal_text::escape_controls;
 use std::path::PathBuf;
 
 #[derive(Debug, Clone, clap::Args)]
+// Only `play` simulates without a port: the other bus commands share the plain help.
+#[command(mut_arg("port", |port| port.help(
+    "Serial port (e.g. /dev/ttyUSB0, /dev/ttyACM0), or \"virtual\" for emulated servos on a \
+     pseudo-terminal; without a port, play in MuJoCo"
+)))]
 pub struct PlayArgs {
     #[command(flatten)]
     pub input: SequenceInput,

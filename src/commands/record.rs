@@ -22,7 +22,7 @@ pub struct RecordArgs {
     #[arg(short, long, value_name = "FILE")]
     pub output: PathBuf,
     /// A built-in robot (so101, koch, omx) or a robot file.
-    #[arg(long, value_name = "NAME|FILE", default_value = "so101")]
+    #[arg(long, value_name = "NAME|FILE", default_value = super::DEFAULT_ROBOT)]
     pub robot: String,
     /// LeRobot calibration file to apply.
     #[arg(long, value_name = "FILE")]
