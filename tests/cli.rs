@@ -578,3 +578,95 @@ fn example_descriptions_say_what_their_keys_do() {
     assert!(description.contains("quarter turn") && description.contains("90 deg"));
     assert!(!description.contains("half a turn"), "{description}");
 }
+
+/// The files the README's examples name that are not in the repository, as the README
+/// describes them.
+const README_FIXTURES: [(&str, &str); 2] = [
+    // "elbow_flex 0 → 90° in 0.5 s"
+    (
+        "fast.json",
+        r#"{"format":"keypose-sequence/1","robot":"so101","interpolation":"cubic","keyframes":[
+          {"time":0,"joints":{"elbow_flex":0}},{"time":0.5,"joints":{"elbow_flex":90}}]}"#,
+    ),
+    // Keys a, b, c, d at 0, 90, 95, 0° (t = 0, 2, 3, 5 s), all inside elbow_flex's 96.83°.
+    (
+        "overshoot.json",
+        r#"{"format":"keypose-sequence/1","robot":"so101","interpolation":"cubic","keyframes":[
+          {"name":"a","time":0,"joints":{"elbow_flex":0}},{"name":"b","time":2,"joints":{"elbow_flex":90}},
+          {"name":"c","time":3,"joints":{"elbow_flex":95}},{"name":"d","time":5,"joints":{"elbow_flex":0}}]}"#,
+    ),
+];
+
+/// Every `$ command` of the README's `console` blocks with the lines printed under it.
+fn readme_console_examples() -> Vec<(String, String)> {
+    let readme = std::fs::read_to_string(repo("README.md")).unwrap();
+    let mut examples: Vec<(String, String)> = Vec::new();
+    let mut in_console = false;
+    for line in readme.lines() {
+        match line {
+            "```console" => in_console = true,
+            "```" => in_console = false,
+            _ if !in_console => {}
+            _ => match line.strip_prefix("$ ") {
+                Some(command) => examples.push((command.to_string(), String::new())),
+                None => {
+                    let (_, output) = examples.last_mut().expect("output before a command");
+                    output.push_str(line);
+                    output.push('\n');
+                }
+            },
+        }
+    }
+    examples
+}
+
+/// Runs a README command line in `dir`: `keypose ARGS [| head -N]  # comment`. What it
+/// printed: standard output, then standard error.
+fn run_readme_command(command: &str, dir: &Path) -> String {
+    let command = command.split(" #").next().unwrap();
+    let (command, head) = match command.split_once(" | head -") {
+        Some((command, n)) => (command, Some(n.trim().parse::<usize>().unwrap())),
+        None => (command, None),
+    };
+    let args: Vec<&str> = command.split_whitespace().collect();
+    assert_eq!(args[0], "keypose", "{command}");
+    let out = common::keypose()
+        .args(&args[1..])
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    let stdout = common::stdout(&out);
+    let stdout: String = match head {
+        Some(n) => stdout.lines().take(n).map(|l| format!("{l}\n")).collect(),
+        None => stdout,
+    };
+    stdout + &common::stderr(&out)
+}
+
+#[test]
+fn the_readme_console_examples_print_what_the_commands_print() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in README_FIXTURES {
+        write(dir.path(), name, text);
+    }
+    std::os::unix::fs::symlink(repo("sequences"), dir.path().join("sequences")).unwrap();
+    let mut compared = Vec::new();
+    for (command, expected) in readme_console_examples() {
+        let verb = command.split_whitespace().nth(1).unwrap_or_default();
+        // Those need servos, MuJoCo or a playback log: not run here.
+        if ["play", "plot", "sim"].contains(&verb) {
+            continue;
+        }
+        let printed = run_readme_command(&command, dir.path());
+        let trimmed = |text: &str| -> Vec<String> {
+            text.lines().map(|l| l.trim_end().to_string()).collect()
+        };
+        assert_eq!(
+            trimmed(&printed),
+            trimmed(&expected),
+            "README example `{command}` printed:\n{printed}"
+        );
+        compared.push(verb.to_string());
+    }
+    assert_eq!(compared, ["check", "check", "sample", "retime"]);
+}
