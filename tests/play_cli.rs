@@ -323,11 +323,7 @@ fn the_progress_line_reaches_the_last_key_and_the_summary_names_the_joint_and_un
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(0), "{err}");
     // The last redraw of the progress line, at the end: all six keys passed, the last is "rest".
-    let last = err
-        .split('\r')
-        .filter(|l| l.contains(" key "))
-        .last()
-        .expect(&err);
+    let last = err.rsplit('\r').find(|l| l.contains(" key ")).expect(&err);
     assert!(last.contains("key 6/6 rest"), "{last:?}");
     // wrist_flex swings 60° per key, three times as fast as any other joint: it lags most.
     let done = err.lines().find(|l| l.starts_with("done:")).expect(&err);
