@@ -329,10 +329,22 @@ fn plot_writes_an_svg_with_every_joint() {
     assert_eq!(text.matches("<polyline").count(), 12);
 }
 
+/// `keypose retime PATH -o fixed.json` beside it: the output path and the run.
+fn retime_beside(path: &Path) -> (PathBuf, std::process::Output) {
+    let fixed = path.with_file_name("fixed.json");
+    let out = keypose(&[
+        "retime",
+        path.to_str().unwrap(),
+        "-o",
+        fixed.to_str().unwrap(),
+    ]);
+    (fixed, out)
+}
+
 #[test]
 fn retime_fixes_a_too_fast_sequence_and_leaves_a_sequence_that_checks() {
     // 90° in 0.5 s: a cubic peaks at 1.5·90/0.5 = 270°/s against so101's 115°/s.
-    let (dir, path) = temp_sequence(
+    let (_dir, path) = temp_sequence(
         "fast.json",
         &sequence(
             r#"{"time":0,"hold":0.2,"joints":{"elbow_flex":0}},{"time":0.7,"joints":{"elbow_flex":90}},{"time":1.5,"joints":{"elbow_flex":80}}"#,
@@ -342,13 +354,7 @@ fn retime_fixes_a_too_fast_sequence_and_leaves_a_sequence_that_checks() {
         keypose(&["check", path.to_str().unwrap()]).status.code(),
         Some(1)
     );
-    let fixed = dir.path().join("fixed.json");
-    let out = keypose(&[
-        "retime",
-        path.to_str().unwrap(),
-        "-o",
-        fixed.to_str().unwrap(),
-    ]);
+    let (fixed, out) = retime_beside(&path);
     assert_eq!(
         out.status.code(),
         Some(0),
@@ -470,19 +476,8 @@ fn a_robot_whose_control_rate_the_player_cannot_keep_is_refused_before_teach_ope
 fn retime_writes_key_times_in_seconds() {
     // README: elbow_flex 0 → 90° in 0.5 s; a cubic over T peaks at 6·Δ/T², so 344 °/s² allows
     // T ≥ √(6·90/344) = 1.2529 s, written as a time in seconds (not 1252.9 ms).
-    let (dir, path) = temp_sequence(
-        "fast.json",
-        &sequence(
-            r#"{"time":0,"joints":{"elbow_flex":0}},{"time":0.5,"joints":{"elbow_flex":90}}"#,
-        ),
-    );
-    let fixed = dir.path().join("fixed.json");
-    let out = keypose(&[
-        "retime",
-        path.to_str().unwrap(),
-        "-o",
-        fixed.to_str().unwrap(),
-    ]);
+    let (_dir, path) = temp_sequence("fast.json", README_FIXTURES[0].1);
+    let (fixed, out) = retime_beside(&path);
     assert_eq!(out.status.code(), Some(0), "{}", common::show(&out));
     let seq: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&fixed).unwrap()).unwrap();

@@ -196,12 +196,7 @@ fn ctrl_c_decelerates_and_holds_a_second_ctrl_c_holds_at_once() {
 
 #[test]
 fn a_missing_port_is_a_bus_error_and_nothing_plays() {
-    let out = run(&[
-        "play",
-        &repo("sequences/so101_nod.json"),
-        "--port",
-        "/dev/keypose-no-such-port",
-    ]);
+    let out = play_without_port(&repo("sequences/so101_nod.json"), &[]);
     assert_eq!(out.status.code(), Some(3));
     assert!(
         stderr(&out).contains("/dev/keypose-no-such-port"),
@@ -212,14 +207,7 @@ fn a_missing_port_is_a_bus_error_and_nothing_plays() {
 
 #[test]
 fn a_sequence_beyond_the_limits_at_the_chosen_speed_is_refused_before_any_port_is_opened() {
-    let out = run(&[
-        "play",
-        &repo("sequences/so101_nod.json"),
-        "--port",
-        "/dev/keypose-no-such-port",
-        "--speed",
-        "2",
-    ]);
+    let out = play_without_port(&repo("sequences/so101_nod.json"), &["--speed", "2"]);
     assert_eq!(out.status.code(), Some(1));
     assert!(
         stderr(&out).contains("refusing to play"),
@@ -228,17 +216,19 @@ fn a_sequence_beyond_the_limits_at_the_chosen_speed_is_refused_before_any_port_i
     );
 }
 
+/// `keypose play SEQUENCE --port <a missing port> ARGS`: anything refused before the port is
+/// opened exits with its own code, anything else meets the missing port (exit 3).
+fn play_without_port(sequence: &str, args: &[&str]) -> Output {
+    let mut all = vec!["play", sequence, "--port", "/dev/keypose-no-such-port"];
+    all.extend_from_slice(args);
+    run(&all)
+}
+
 #[test]
 fn from_a_name_two_keys_share_is_refused_listing_both_indices() {
     // so101_pick_place.json starts and ends at a key named "home": keys 0 and 9.
-    let out = run(&[
-        "play",
-        &repo("sequences/so101_pick_place.json"),
-        "--port",
-        "/dev/keypose-no-such-port",
-        "--from",
-        "home",
-    ]);
+    let pick_place = repo("sequences/so101_pick_place.json");
+    let out = play_without_port(&pick_place, &["--from", "home"]);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     let err = stderr(&out);
     assert!(err.contains("--from \"home\""), "{err}");
@@ -247,14 +237,7 @@ fn from_a_name_two_keys_share_is_refused_listing_both_indices() {
         "{err}"
     );
     // A name one key has still starts there (the port is then the error).
-    let out = run(&[
-        "play",
-        &repo("sequences/so101_pick_place.json"),
-        "--port",
-        "/dev/keypose-no-such-port",
-        "--from",
-        "grasp",
-    ]);
+    let out = play_without_port(&pick_place, &["--from", "grasp"]);
     assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
 }
 
@@ -283,14 +266,7 @@ fn a_refusal_at_speed_reports_the_robots_limits_and_the_servos_velocities() {
           {"time":0,"joints":{"elbow_flex":0}},{"time":2,"joints":{"elbow_flex":90}}]}"#,
     )
     .unwrap();
-    let out = run(&[
-        "play",
-        path.to_str().unwrap(),
-        "--port",
-        "/dev/keypose-no-such-port",
-        "--speed",
-        "2",
-    ]);
+    let out = play_without_port(path.to_str().unwrap(), &["--speed", "2"]);
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
     let err = stderr(&out);
     let velocity = err.lines().find(|l| l.contains(" velocity ")).expect(&err);
