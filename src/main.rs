@@ -95,11 +95,15 @@ fn main() -> ExitCode {
         Ok(verdict) => verdict.exit_code(),
         Err(error) => {
             // Messages quote file text (names, values): no escape sequence reaches the terminal.
-            let message = error.to_string();
-            eprintln!(
-                "error: {}",
-                keypose::terminal_text::escape_controls(&message)
-            );
+            let text = error.to_string();
+            let message = keypose::terminal_text::escape_controls(&text);
+            // A stop the user asked for is not an error: it is said plainly (exit 130 still
+            // tells a script that the command did not run to its end).
+            if matches!(error, CommandError::Interrupted(_)) {
+                eprintln!("{message}");
+            } else {
+                eprintln!("error: {message}");
+            }
             error.exit_code()
         }
     };

@@ -329,10 +329,22 @@ fn plot_writes_an_svg_with_every_joint() {
     assert_eq!(text.matches("<polyline").count(), 12);
 }
 
+/// `keypose retime PATH -o fixed.json` beside it: the output path and the run.
+fn retime_beside(path: &Path) -> (PathBuf, std::process::Output) {
+    let fixed = path.with_file_name("fixed.json");
+    let out = keypose(&[
+        "retime",
+        path.to_str().unwrap(),
+        "-o",
+        fixed.to_str().unwrap(),
+    ]);
+    (fixed, out)
+}
+
 #[test]
 fn retime_fixes_a_too_fast_sequence_and_leaves_a_sequence_that_checks() {
     // 90° in 0.5 s: a cubic peaks at 1.5·90/0.5 = 270°/s against so101's 115°/s.
-    let (dir, path) = temp_sequence(
+    let (_dir, path) = temp_sequence(
         "fast.json",
         &sequence(
             r#"{"time":0,"hold":0.2,"joints":{"elbow_flex":0}},{"time":0.7,"joints":{"elbow_flex":90}},{"time":1.5,"joints":{"elbow_flex":80}}"#,
@@ -342,13 +354,7 @@ fn retime_fixes_a_too_fast_sequence_and_leaves_a_sequence_that_checks() {
         keypose(&["check", path.to_str().unwrap()]).status.code(),
         Some(1)
     );
-    let fixed = dir.path().join("fixed.json");
-    let out = keypose(&[
-        "retime",
-        path.to_str().unwrap(),
-        "-o",
-        fixed.to_str().unwrap(),
-    ]);
+    let (fixed, out) = retime_beside(&path);
     assert_eq!(
         out.status.code(),
         Some(0),
@@ -464,4 +470,198 @@ fn a_robot_whose_control_rate_the_player_cannot_keep_is_refused_before_teach_ope
         err.contains("control_hz 2000 is outside the 10 … 1000 Hz"),
         "{err}"
     );
+}
+
+#[test]
+fn retime_writes_key_times_in_seconds() {
+    // README: elbow_flex 0 → 90° in 0.5 s; a cubic over T peaks at 6·Δ/T², so 344 °/s² allows
+    // T ≥ √(6·90/344) = 1.2529 s, written as a time in seconds (not 1252.9 ms).
+    let (_dir, path) = temp_sequence("fast.json", README_FIXTURES[0].1);
+    let (fixed, out) = retime_beside(&path);
+    assert_eq!(out.status.code(), Some(0), "{}", common::show(&out));
+    let seq: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&fixed).unwrap()).unwrap();
+    let time = seq["keyframes"][1]["time"].as_f64().unwrap();
+    let expected = (6.0 * 90.0 / 344.0f64).sqrt();
+    assert!((time - expected).abs() < 1e-3, "{time} s vs {expected} s");
+}
+
+/// The help text of `--port` in `keypose COMMAND --help`.
+fn port_help(command: &[&str]) -> String {
+    let mut args = command.to_vec();
+    args.push("--help");
+    let out = keypose(&args);
+    assert_eq!(out.status.code(), Some(0), "{}", common::show(&out));
+    let help = common::stdout(&out);
+    let start = help.find("--port <").unwrap_or_else(|| panic!("{help}"));
+    let rest = &help[start..];
+    // The option's paragraph ends at the next option.
+    let end = rest[1..].find("\n      -").map_or(rest.len(), |e| e + 1);
+    rest[..end].to_string()
+}
+
+#[test]
+fn only_play_says_it_simulates_without_a_port() {
+    for command in [&["read"][..], &["torque", "on"], &["record"], &["teach"]] {
+        let help = port_help(command);
+        assert!(
+            !help.contains("MuJoCo") && !help.to_lowercase().contains("simulat"),
+            "{command:?}: {help}"
+        );
+    }
+    assert!(port_help(&["play"]).contains("without a port, play in MuJoCo"));
+}
+
+#[test]
+fn scan_shows_its_default_baud_once() {
+    let out = keypose(&["scan", "--help"]);
+    let help = common::stdout(&out);
+    let baud = &help[help.find("--baud").unwrap()..];
+    let baud = &baud[..baud[1..].find("\n      -").unwrap()];
+    assert_eq!(baud.matches("default").count(), 1, "{baud}");
+    assert_eq!(baud.matches("[default: 1000000]").count(), 1, "{baud}");
+}
+
+#[test]
+fn read_and_torque_default_to_so101_and_say_so() {
+    let out = keypose(&["read", "--port", "virtual"]);
+    assert_eq!(out.status.code(), Some(0), "{}", common::show(&out));
+    assert!(common::stderr(&out).contains("robot so101 (built-in)"));
+    let pose: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(pose["robot"], "so101");
+    let out = keypose(&["torque", "off", "--port", "virtual"]);
+    assert_eq!(out.status.code(), Some(0), "{}", common::show(&out));
+    let err = common::stderr(&out);
+    assert!(err.contains("robot so101 (built-in)"), "{err}");
+    // SO-101's six servos, ids 1–6.
+    assert!(
+        err.contains("torque off on servo(s) [1, 2, 3, 4, 5, 6]"),
+        "{err}"
+    );
+}
+
+#[test]
+fn example_descriptions_say_what_their_keys_do() {
+    let read = |name: &str| -> serde_json::Value {
+        let text = std::fs::read_to_string(repo(&format!("sequences/{name}.json"))).unwrap();
+        serde_json::from_str(&text).unwrap()
+    };
+    // A description may mention step segments only where a key has one.
+    for name in [
+        "so101_pick_place",
+        "so101_wave",
+        "so101_nod",
+        "koch_wave",
+        "omx_reach",
+    ] {
+        let seq = read(name);
+        let says_step = seq["description"]
+            .as_str()
+            .unwrap()
+            .contains("step segment");
+        let has_step = seq["keyframes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|k| k["interp"] == "step");
+        assert!(!says_step || has_step, "{name}: {}", seq["description"]);
+    }
+    // omx_reach's "turn" key is a rotation of 90° about z, (w, z) = (cos 45°, sin 45°): a
+    // quarter turn, not half a turn.
+    let seq = read("omx_reach");
+    let description = seq["description"].as_str().unwrap();
+    assert!(description.contains("quarter turn") && description.contains("90 deg"));
+    assert!(!description.contains("half a turn"), "{description}");
+}
+
+/// The files the README's examples name that are not in the repository, as the README
+/// describes them.
+const README_FIXTURES: [(&str, &str); 2] = [
+    // "elbow_flex 0 → 90° in 0.5 s"
+    (
+        "fast.json",
+        r#"{"format":"keypose-sequence/1","robot":"so101","interpolation":"cubic","keyframes":[
+          {"time":0,"joints":{"elbow_flex":0}},{"time":0.5,"joints":{"elbow_flex":90}}]}"#,
+    ),
+    // Keys a, b, c, d at 0, 90, 95, 0° (t = 0, 2, 3, 5 s), all inside elbow_flex's 96.83°.
+    (
+        "overshoot.json",
+        r#"{"format":"keypose-sequence/1","robot":"so101","interpolation":"cubic","keyframes":[
+          {"name":"a","time":0,"joints":{"elbow_flex":0}},{"name":"b","time":2,"joints":{"elbow_flex":90}},
+          {"name":"c","time":3,"joints":{"elbow_flex":95}},{"name":"d","time":5,"joints":{"elbow_flex":0}}]}"#,
+    ),
+];
+
+/// Every `$ command` of the README's `console` blocks with the lines printed under it.
+fn readme_console_examples() -> Vec<(String, String)> {
+    let readme = std::fs::read_to_string(repo("README.md")).unwrap();
+    let mut examples: Vec<(String, String)> = Vec::new();
+    let mut in_console = false;
+    for line in readme.lines() {
+        match line {
+            "```console" => in_console = true,
+            "```" => in_console = false,
+            _ if !in_console => {}
+            _ => match line.strip_prefix("$ ") {
+                Some(command) => examples.push((command.to_string(), String::new())),
+                None => {
+                    let (_, output) = examples.last_mut().expect("output before a command");
+                    output.push_str(line);
+                    output.push('\n');
+                }
+            },
+        }
+    }
+    examples
+}
+
+/// Runs a README command line in `dir`: `keypose ARGS [| head -N]  # comment`. What it
+/// printed: standard output, then standard error.
+fn run_readme_command(command: &str, dir: &Path) -> String {
+    let command = command.split(" #").next().unwrap();
+    let (command, head) = match command.split_once(" | head -") {
+        Some((command, n)) => (command, Some(n.trim().parse::<usize>().unwrap())),
+        None => (command, None),
+    };
+    let args: Vec<&str> = command.split_whitespace().collect();
+    assert_eq!(args[0], "keypose", "{command}");
+    let out = common::keypose()
+        .args(&args[1..])
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    let stdout = common::stdout(&out);
+    let stdout: String = match head {
+        Some(n) => stdout.lines().take(n).map(|l| format!("{l}\n")).collect(),
+        None => stdout,
+    };
+    stdout + &common::stderr(&out)
+}
+
+#[test]
+fn the_readme_console_examples_print_what_the_commands_print() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in README_FIXTURES {
+        write(dir.path(), name, text);
+    }
+    std::os::unix::fs::symlink(repo("sequences"), dir.path().join("sequences")).unwrap();
+    let mut compared = Vec::new();
+    for (command, expected) in readme_console_examples() {
+        let verb = command.split_whitespace().nth(1).unwrap_or_default();
+        // Those need servos, MuJoCo or a playback log: not run here.
+        if ["play", "plot", "sim"].contains(&verb) {
+            continue;
+        }
+        let printed = run_readme_command(&command, dir.path());
+        let trimmed = |text: &str| -> Vec<String> {
+            text.lines().map(|l| l.trim_end().to_string()).collect()
+        };
+        assert_eq!(
+            trimmed(&printed),
+            trimmed(&expected),
+            "README example `{command}` printed:\n{printed}"
+        );
+        compared.push(verb.to_string());
+    }
+    assert_eq!(compared, ["check", "check", "sample", "retime"]);
 }

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{run, show, stderr, VirtualBusProcess};
+use common::{repo, run, show, stderr, VirtualBusProcess};
 use serde_json::{json, Value};
 
 /// (id, model, alarms) of every servo in a scan's JSON.
@@ -93,4 +93,51 @@ fn a_port_that_cannot_be_opened_is_a_hardware_error() {
     let out = run(&["scan", "--port", &missing, "--protocol", "feetech-sts"]);
     assert_eq!(out.status.code(), Some(3), "{}", show(&out));
     assert!(stderr(&out).contains(&missing), "{}", show(&out));
+}
+
+#[test]
+fn a_plain_file_or_dev_null_is_not_a_serial_port() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("notes.txt");
+    std::fs::write(&file, "not a port").unwrap();
+    let file = file.display().to_string();
+    let sequence = repo("sequences/so101_nod.json");
+    for port in [file.as_str(), "/dev/null"] {
+        for args in [
+            vec!["read", "--robot", "so101", "--port", port],
+            vec!["play", sequence.as_str(), "--port", port],
+            vec!["scan", "--port", port, "--protocol", "feetech-sts"],
+        ] {
+            let out = run(&args);
+            assert_eq!(out.status.code(), Some(3), "{args:?}: {}", show(&out));
+            let err = stderr(&out);
+            assert!(
+                err.contains(&format!("serial port {port}: not a serial port")),
+                "{args:?}: {err}"
+            );
+            assert!(!err.to_lowercase().contains("typewriter"), "{err}");
+        }
+    }
+}
+
+#[test]
+fn a_bus_where_nothing_answers_says_what_to_check() {
+    // Dynamixel servos do not answer the Feetech packets an SO-101 (1 Mbps) is spoken to with.
+    let server = VirtualBusProcess::start(&["--robot", "koch"]);
+    let sequence = repo("sequences/so101_nod.json");
+    for args in [
+        vec!["read", "--robot", "so101", "--port", &server.path],
+        vec!["torque", "off", "--robot", "so101", "--port", &server.path],
+        vec!["play", &sequence, "--port", &server.path],
+    ] {
+        let out = run(&args);
+        assert_eq!(out.status.code(), Some(3), "{args:?}: {}", show(&out));
+        assert!(
+            stderr(&out).contains(
+                "no answer from servo 1 at 1000000 baud: is the arm powered, is the id right? try `keypose scan`"
+            ),
+            "{args:?}: {}",
+            show(&out)
+        );
+    }
 }

@@ -87,9 +87,25 @@ pub fn connect_with(
         }
     };
     let mut connection = Connection { bus, virtual_bus };
+    probe(connection.bus.as_mut(), robot, baud)?;
     // Before anything can move: the servos must hold the homing offsets the ticks assume.
     super::homing::check_homing_offsets(connection.bus.as_mut(), robot)?;
     Ok(connection)
+}
+
+/// Pings the robot's first servo once the port is open, so that a bus where nothing answers
+/// (no power, another baud rate or protocol, other ids) is told as such, instead of surfacing
+/// as a timeout of whatever the command reads first.
+fn probe(bus: &mut dyn ServoBus, robot: &Robot, baud: u32) -> Result<(), BusError> {
+    let Some(first) = robot.joints.first() else {
+        return Ok(());
+    };
+    // Any answer, even an alarm or a damaged one, shows the bus is alive: the command then
+    // meets it as before.
+    match bus.ping(first.servo.id) {
+        Err(BusError::Timeout { id, .. }) => Err(BusError::Silent { id, baud }),
+        _ => Ok(()),
+    }
 }
 
 /// Pings every id with each protocol; returns who answered.

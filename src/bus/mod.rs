@@ -167,6 +167,10 @@ pub enum BusError {
         port: String,
         source: std::io::Error,
     },
+    /// The first servo did not answer when the bus was opened: nothing on the bus is talking,
+    /// which is a set-up problem far more often than a servo fault.
+    #[error("no answer from servo {id} at {baud} baud: is the arm powered, is the id right? try `keypose scan`")]
+    Silent { id: u8, baud: u32 },
     #[error("{0}")]
     Protocol(String),
     /// The servos hold other homing offsets than the description: not a fault of the bus but
@@ -190,7 +194,8 @@ impl BusError {
             BusError::Timeout { id, .. }
             | BusError::Corrupt { id, .. }
             | BusError::Alarm { id, .. }
-            | BusError::Refused { id, .. } => Some(*id),
+            | BusError::Refused { id, .. }
+            | BusError::Silent { id, .. } => Some(*id),
             BusError::HomingOffset(m) => m.mismatches.first().map(|m| m.servo),
             BusError::Port { .. } | BusError::Protocol(_) => None,
         }

@@ -26,7 +26,7 @@ impl SerialTransport {
         let port = serialport::new(path, baud)
             .timeout(Duration::from_millis(10))
             .open()
-            .map_err(io::Error::from)?;
+            .map_err(|e| not_a_serial_port(path).unwrap_or_else(|| io::Error::from(e)))?;
         Ok(Self {
             name: path.to_string(),
             baud,
@@ -37,6 +37,29 @@ impl SerialTransport {
     pub fn name(&self) -> &str {
         &self.name
     }
+}
+
+/// Why a path that failed to open as a serial port is no serial port at all, if it is not: the
+/// OS only says "Not a typewriter" (ENOTTY) when a plain file or /dev/null refuses the terminal
+/// settings. `None` for a terminal (or a path that cannot be inspected): its own error stands.
+fn not_a_serial_port(path: &str) -> Option<io::Error> {
+    use std::io::IsTerminal;
+    use std::os::unix::fs::FileTypeExt;
+    let kind = std::fs::metadata(path).ok()?.file_type();
+    let what = if kind.is_dir() {
+        "a directory"
+    } else if !kind.is_char_device() {
+        "a regular file"
+    } else if std::fs::File::open(path).ok()?.is_terminal() {
+        return None;
+    } else {
+        // A character device that is not a terminal, such as /dev/null.
+        "a device that is not a terminal"
+    };
+    Some(io::Error::new(
+        io::ErrorKind::InvalidInput,
+        format!("not a serial port ({what}): give the bus adapter's device, see `keypose ports`"),
+    ))
 }
 
 impl Transport for SerialTransport {

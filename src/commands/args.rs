@@ -12,7 +12,7 @@ use std::path::PathBuf;
 #[derive(Debug, Clone, clap::Args)]
 pub struct BusArgs {
     /// Serial port (e.g. /dev/ttyUSB0, /dev/ttyACM0), or "virtual" for emulated servos on a
-    /// pseudo-terminal. `play` without a port plays in MuJoCo.
+    /// pseudo-terminal.
     #[arg(long, value_name = "PATH|virtual")]
     pub port: Option<String>,
     /// Our own protocol code (native) or the vendor's Python SDK (sdk).
@@ -53,7 +53,7 @@ impl BusArgs {
 pub struct RobotArgs {
     /// A built-in robot (so101, koch, omx), a LeRobot robot type (so101_follower,
     /// so101_leader, koch_follower, koch_leader) or a robot file.
-    #[arg(long, value_name = "NAME|FILE")]
+    #[arg(long, value_name = "NAME|FILE", default_value = super::DEFAULT_ROBOT)]
     pub robot: String,
     #[command(flatten)]
     pub calibration: CalibrationArgs,

@@ -40,6 +40,19 @@ pub fn verbose() -> bool {
     VERBOSE.load(Ordering::Relaxed)
 }
 
+/// The robot of the commands that take no sequence (`read`, `torque`, `record`, `teach`,
+/// `scan --port virtual`) when `--robot` does not say: one rule for all of them.
+pub const DEFAULT_ROBOT: &str = "so101";
+
+/// Says on standard error which robot a command without a sequence drives, since the default
+/// may not be the arm on the port (`-v` already says it).
+pub fn announce_robot(robot: &Robot) {
+    if !verbose() {
+        let line = format!("robot {} ({})", robot.name, robot.source);
+        eprintln!("{}", keypose::terminal_text::escape_controls(&line));
+    }
+}
+
 /// Exit code for a failed check or simulation verdict.
 pub const EXIT_VERDICT_FAILED: i32 = 1;
 /// Exit code for bad input: files, arguments.

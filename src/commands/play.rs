@@ -12,6 +12,11 @@ use keypose::terminal_text::escape_controls;
 use std::path::PathBuf;
 
 #[derive(Debug, Clone, clap::Args)]
+// Only `play` simulates without a port: the other bus commands share the plain help.
+#[command(mut_arg("port", |port| port.help(
+    "Serial port (e.g. /dev/ttyUSB0, /dev/ttyACM0), or \"virtual\" for emulated servos on a \
+     pseudo-terminal; without a port, play in MuJoCo"
+)))]
 pub struct PlayArgs {
     #[command(flatten)]
     pub input: SequenceInput,
@@ -124,17 +129,10 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
 
 /// `--from`: a key by index or name.
 fn from_key(args: &PlayArgs, trajectory: &Trajectory) -> Result<Option<usize>, CommandError> {
-    let Some(key) = &args.from else {
-        return Ok(None);
-    };
-    let index = resolve_key(trajectory, key).ok_or_else(|| {
-        CommandError::Usage(format!(
-            "--from {key:?}: no such key; expected an index 0…{} or one of: {}",
-            trajectory.key_times.len() - 1,
-            trajectory.key_labels.join(", ")
-        ))
-    })?;
-    Ok(Some(index))
+    match &args.from {
+        None => Ok(None),
+        Some(key) => resolve_key(trajectory, key).map(Some),
+    }
 }
 
 /// No hardware: play in MuJoCo, with the same commands the servos would get.
@@ -189,20 +187,23 @@ fn play_on_servos(
         );
     }
     let played = player::play(connection.bus.as_mut(), robot, trajectory, options, &stop);
-    conclude(args, played)
+    conclude(args, robot, played)
 }
 
 /// What the player's outcome means for the command line: only a finished playback passes.
 fn conclude(
     args: &PlayArgs,
+    robot: &Robot,
     played: Result<(Outcome, player::Stats), PlayError>,
 ) -> Result<Verdict, CommandError> {
     match played {
         Ok((Outcome::Finished, stats)) => {
             if !args.quiet {
                 eprintln!(
-                    "done: {} cycles, approach {:.2} s, largest tracking error {:.2}",
-                    stats.cycles, stats.approach_seconds, stats.max_tracking_error
+                    "done: {} cycles, approach {:.2} s, {}",
+                    stats.cycles,
+                    stats.approach_seconds,
+                    tracking_summary(robot, &stats)
                 );
             }
             report_pacing(&stats);
@@ -223,6 +224,22 @@ fn conclude(
         }
         Err(e @ PlayError::Log { .. }) => Err(CommandError::Usage(e.to_string())),
         Err(e) => Err(CommandError::Play(e)),
+    }
+}
+
+/// The largest tracking error with its unit and joint, or why there is none.
+fn tracking_summary(robot: &Robot, stats: &player::Stats) -> String {
+    match stats.tracking_error_joint {
+        Some(j) => {
+            let joint = &robot.joints[j];
+            format!(
+                "largest tracking error {:.2} {} ({})",
+                stats.max_tracking_error,
+                joint.kind.unit(),
+                escape_controls(&joint.name)
+            )
+        }
+        None => "no tracking error measured (no read-back)".into(),
     }
 }
 
@@ -248,11 +265,31 @@ fn report_pacing(stats: &player::Stats) {
     }
 }
 
-/// A key by index or by name.
-fn resolve_key(trajectory: &Trajectory, key: &str) -> Option<usize> {
-    match key.parse::<usize>() {
-        Ok(i) if i < trajectory.key_times.len() => Some(i),
-        Ok(_) => None,
-        Err(_) => trajectory.key_labels.iter().position(|l| l == key),
+/// A key by index or by name. A name two keys share is refused: starting at either one would
+/// be a guess, and the two can be far apart in the sequence.
+fn resolve_key(trajectory: &Trajectory, key: &str) -> Result<usize, CommandError> {
+    let count = trajectory.key_times.len();
+    let named: Vec<usize> = match key.parse::<usize>() {
+        Ok(i) => (i < count).then_some(i).into_iter().collect(),
+        Err(_) => (0..count)
+            .filter(|&i| trajectory.key_labels[i] == key)
+            .collect(),
+    };
+    match named[..] {
+        [index] => Ok(index),
+        [] => Err(CommandError::Usage(format!(
+            "--from {key:?}: no such key; expected an index 0…{} or one of: {}",
+            count - 1,
+            trajectory.key_labels.join(", ")
+        ))),
+        _ => Err(CommandError::Usage(format!(
+            "--from {key:?}: {} keys have this name, at indices {}: give the index of the one to start at",
+            named.len(),
+            named
+                .iter()
+                .map(usize::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))),
     }
 }

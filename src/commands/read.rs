@@ -14,6 +14,7 @@ pub struct ReadArgs {
 /// `keypose read`: the present pose as JSON, in degrees (metres for prismatic joints).
 pub fn run(args: &ReadArgs) -> Result<Verdict, CommandError> {
     let robot = args.robot.load()?;
+    super::announce_robot(&robot);
     let mut connection = args.bus.connect(&robot, args.bus.required_port()?)?;
     let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
     let ticks = connection.bus.read_positions(&ids)?;

@@ -23,7 +23,7 @@ pub struct RecordArgs {
     pub output: PathBuf,
     /// A built-in robot (so101, koch, omx), a LeRobot robot type (so101_follower, so101_leader,
     /// koch_follower, koch_leader) or a robot file.
-    #[arg(long, value_name = "NAME|FILE", default_value = "so101")]
+    #[arg(long, value_name = "NAME|FILE", default_value = super::DEFAULT_ROBOT)]
     pub robot: String,
     #[command(flatten)]
     pub calibration: super::CalibrationArgs,

@@ -13,11 +13,11 @@ pub struct ScanArgs {
     /// Protocol to scan with [default: both Dynamixel 2.0 and Feetech STS].
     #[arg(long, value_parser = parse_protocol)]
     pub protocol: Option<Protocol>,
-    /// Baud rate [default: 1000000; X-series servos ship at 57600].
+    /// Baud rate (Feetech servos ship at 1000000, Dynamixel X-series at 57600).
     #[arg(long, value_name = "BPS", default_value_t = 1_000_000, value_parser = option_values::parse_baud, allow_negative_numbers = true)]
     pub baud: u32,
     /// With --port virtual: the robot whose servos to emulate.
-    #[arg(long, value_name = "NAME|FILE", default_value = "so101")]
+    #[arg(long, value_name = "NAME|FILE", default_value = super::DEFAULT_ROBOT)]
     pub robot: String,
     /// Our own protocol code (native) or the vendor's Python SDK (sdk).
     #[arg(long, value_enum, default_value_t = Driver::Native)]

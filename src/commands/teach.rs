@@ -10,8 +10,6 @@ use std::path::{Path, PathBuf};
 
 /// Where `w` writes when neither SEQ nor --output says.
 pub const DEFAULT_OUTPUT: &str = "taught.json";
-/// The robot of a new sequence when --robot does not say.
-pub const DEFAULT_ROBOT: &str = "so101";
 
 #[derive(Debug, Clone, clap::Args)]
 #[command(after_help = teach::help_text())]
@@ -155,7 +153,7 @@ fn load(args: &TeachArgs, source: Option<&Path>) -> Result<(KeyframeList, Robot)
         return Ok((KeyframeList::new(sequence), robot));
     }
     let robot = super::load_robot(
-        args.robot.as_deref().unwrap_or(DEFAULT_ROBOT),
+        args.robot.as_deref().unwrap_or(super::DEFAULT_ROBOT),
         &args.calibration,
     )?;
     // The file names the robot by its name, which `keypose check` and `play` resolve as a

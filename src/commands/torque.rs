@@ -27,6 +27,7 @@ pub struct TorqueArgs {
 /// `keypose torque on|off`.
 pub fn run(args: &TorqueArgs) -> Result<Verdict, CommandError> {
     let robot = args.robot.load()?;
+    super::announce_robot(&robot);
     let joints = super::joint_indices(&robot, &args.joints)?;
     let ids: Vec<u8> = joints.iter().map(|&j| robot.joints[j].servo.id).collect();
     let mut connection = args.bus.connect(&robot, args.bus.required_port()?)?;

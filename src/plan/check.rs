@@ -64,7 +64,11 @@ pub struct JointSummary {
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct CheckReport {
+    /// Control rate in Hz: samples are `speed / rate` seconds of sequence time apart.
     pub rate: f64,
+    /// Playback speed: 1 for a plain check. Velocities, accelerations and their limits are what
+    /// the servos see at this speed; times are the sequence's, so they point at its keys.
+    pub speed: f64,
     pub start: f64,
     pub end: f64,
     pub violations: Vec<Violation>,
@@ -203,6 +207,7 @@ pub fn check(trajectory: &Trajectory, robot: &Robot, rate: f64) -> CheckReport {
     violations.sort_by(|a, b| a.from.total_cmp(&b.from));
     CheckReport {
         rate,
+        speed: 1.0,
         start: trajectory.start,
         end: trajectory.end,
         violations,
@@ -212,7 +217,9 @@ pub fn check(trajectory: &Trajectory, robot: &Robot, rate: f64) -> CheckReport {
 
 /// Checks playback at `speed` with a control rate of `rate` Hz: velocities scale with the speed
 /// and accelerations with its square, so the unscaled trajectory is checked against the limits
-/// divided by them, differenced at the sequence time one control period covers.
+/// divided by them, differenced at the sequence time one control period covers. The report is
+/// then scaled back: it shows the robot's own limits and the velocities and accelerations the
+/// servos would be asked for, which is what a user compares with the robot file.
 pub fn check_at_speed(
     trajectory: &Trajectory,
     robot: &Robot,
@@ -224,7 +231,35 @@ pub fn check_at_speed(
         joint.limits.velocity /= speed;
         joint.limits.acceleration /= speed * speed;
     }
-    check(trajectory, &scaled, rate / speed)
+    let mut report = check(trajectory, &scaled, rate / speed);
+    to_wall_clock(&mut report, robot, rate, speed);
+    report
+}
+
+/// Rescales a report made in sequence time to the servos' time at `speed`, with the limits
+/// taken from `robot` itself (not rescaled twice, so they print as the file gives them).
+fn to_wall_clock(report: &mut CheckReport, robot: &Robot, rate: f64, speed: f64) {
+    report.rate = rate;
+    report.speed = speed;
+    for v in &mut report.violations {
+        let Some(joint) = robot.joints.iter().find(|j| j.name == v.joint) else {
+            continue;
+        };
+        let (factor, limit) = match v.kind {
+            LimitKind::Position => continue,
+            LimitKind::Velocity => (speed, joint.limits.velocity),
+            LimitKind::Acceleration => (speed * speed, joint.limits.acceleration),
+        };
+        v.peak *= factor;
+        v.limit = limit.copysign(v.limit);
+        v.excess = v.peak.abs() - limit;
+    }
+    for (summary, joint) in report.joints.iter_mut().zip(&robot.joints) {
+        summary.peak_velocity *= speed;
+        summary.velocity_limit = joint.limits.velocity;
+        summary.peak_acceleration *= speed * speed;
+        summary.acceleration_limit = joint.limits.acceleration;
+    }
 }
 
 /// Grid positions merged with the track's turning points inside the played window.

@@ -203,6 +203,14 @@ impl Trajectory {
             .min(last_segment)
     }
 
+    /// The last key at or before `t` (key 0 before the first): where playback has got to.
+    /// Unlike [`Trajectory::segment_at`] it reaches the last key once `t` does.
+    pub fn key_reached(&self, t: f64) -> usize {
+        self.key_times
+            .partition_point(|&k| k <= t)
+            .saturating_sub(1)
+    }
+
     /// "from → to" labels of segment `i`.
     pub fn segment_label(&self, i: usize) -> String {
         match self.key_labels.get(i + 1) {

@@ -138,11 +138,33 @@ pub struct Stats {
     /// Lateness, stalls and skipped deadlines.
     pub pacing: LatenessSummary,
     pub approach_seconds: f64,
+    /// The largest tracking error (measured − commanded), in the units of its joint.
     pub max_tracking_error: f64,
+    /// The joint it was on (robot order); None until a read-back has been compared.
+    pub tracking_error_joint: Option<usize>,
     /// Goals the step limiter had to change (none in ordinary playback), and by how much at
     /// most, in joint units.
     pub limited_goals: u64,
     pub largest_limiter_correction: f64,
+}
+
+impl Stats {
+    /// Takes in one read-back. Degrees and metres do not compare, so joints are compared by
+    /// their error as a share of their position slack (2° or 2 mm, what "reached" means).
+    fn track(&mut self, robot: &Robot, measured: &[f64], commanded: &[f64]) {
+        let share = |j: usize, error: f64| error / robot.joints[j].kind.position_slack();
+        for (j, (m, c)) in measured.iter().zip(commanded).enumerate() {
+            let error = (m - c).abs();
+            let larger = match self.tracking_error_joint {
+                Some(k) => share(j, error) > share(k, self.max_tracking_error),
+                None => true,
+            };
+            if larger {
+                self.max_tracking_error = error;
+                self.tracking_error_joint = Some(j);
+            }
+        }
+    }
 }
 
 /// Plays `trajectory` on the servos behind `bus`: measures the arm, holds it, turns torque on,

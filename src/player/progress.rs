@@ -7,7 +7,7 @@ use std::io::Write;
 /// Redraws the line on stderr: `phase` and the loop as the timeline names them, at sequence
 /// time `t`.
 pub fn print_progress_line(phase: &str, t: f64, loop_label: &str, trajectory: &Trajectory) {
-    let key = trajectory.segment_at(t);
+    let key = trajectory.key_reached(t);
     let label = crate::terminal_text::escape_field(&trajectory.key_labels[key]);
     let mut err = std::io::stderr().lock();
     let _ = write!(

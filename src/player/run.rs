@@ -219,12 +219,7 @@ impl<'a> Run<'a> {
                     .zip(&ticks)
                     .map(|(j, &t)| j.servo.value(t))
                     .collect();
-                let error = values
-                    .iter()
-                    .zip(&self.pose)
-                    .map(|(m, c)| (m - c).abs())
-                    .fold(0.0, f64::max);
-                self.stats.max_tracking_error = self.stats.max_tracking_error.max(error);
+                self.stats.track(self.robot, &values, &self.pose);
                 Ok(Some(values))
             }
             Err(e) => self.read_failed(e, elapsed).map(|()| None),

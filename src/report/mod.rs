@@ -16,6 +16,13 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
         "{sequence_file}: robot {} ({}), {:.3} s … {:.3} s, sampled at {} Hz",
         robot.name, robot.source, report.start, report.end, report.rate
     );
+    if report.speed != 1.0 {
+        let _ = writeln!(
+            out,
+            "at speed {}: velocities and accelerations as the servos would see them, against the robot's limits; times are the sequence's",
+            report.speed
+        );
+    }
     if report.passed() {
         let _ = writeln!(out, "ok: no limit violations");
     } else {
