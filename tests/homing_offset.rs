@@ -86,10 +86,11 @@ fn a_servo_holding_another_offset_is_refused_before_anything_is_written() {
         assert!(!message.contains("shoulder_pan"), "{name}: {message}");
         let received = server.bus().lock().received.clone();
         assert!(!received.is_empty(), "{name}: the registers were not read");
-        // READ 0x02 and SYNC READ 0x82 in both protocols; nothing else reached a servo.
+        // PING 0x01 (opening a bus checks that its first servo answers), READ 0x02 and SYNC
+        // READ 0x82 in both protocols: nothing that writes reached a servo.
         for packet in &received {
             let code = packet.instruction_code();
-            assert!(matches!(code, Some(0x02 | 0x82)), "{name}: sent {packet:?}");
+            assert!(matches!(code, Some(0x01 | 0x02 | 0x82)), "{name}: sent {packet:?}");
         }
     }
 }
