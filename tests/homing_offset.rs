@@ -90,7 +90,10 @@ fn a_servo_holding_another_offset_is_refused_before_anything_is_written() {
         // READ 0x82 in both protocols: nothing that writes reached a servo.
         for packet in &received {
             let code = packet.instruction_code();
-            assert!(matches!(code, Some(0x01 | 0x02 | 0x82)), "{name}: sent {packet:?}");
+            assert!(
+                matches!(code, Some(0x01 | 0x02 | 0x82)),
+                "{name}: sent {packet:?}"
+            );
         }
     }
 }
