@@ -158,9 +158,12 @@ fn field_question(state: &TeachState, field: Field) -> (String, &'static str) {
             };
             (
                 format!(
-                    "{} of {label} in{}, now {now} (limits {})",
+                    "{} of {label} in {}, now {now} (limits {})",
                     joint.name,
-                    unit(joint),
+                    match joint.kind {
+                        JointKind::Revolute => "degrees",
+                        JointKind::Prismatic => "mm",
+                    },
                     limits(joint)
                 ),
                 "set",

@@ -2,6 +2,7 @@
 //! played by `apply`, which confirms every command as the session driver would.
 
 use super::*;
+use crate::curve::Interp;
 use crate::sequence::{Ends, KeyValue, Keyframe};
 use crate::teach::files;
 
@@ -509,4 +510,228 @@ fn moving_to_a_control_key_reaches_its_own_pose() {
         "{:?}",
         plan.end_pose
     );
+}
+
+/// Types `text` into the open prompt and presses Enter.
+fn type_line(state: &mut TeachState, text: &str) -> Vec<Command> {
+    for c in text.chars() {
+        press(state, Key::Char(c));
+    }
+    press(state, Key::Enter)
+}
+
+fn key_name(state: &TeachState, index: usize) -> Option<&str> {
+    state.list().sequence().keyframes[index].name.as_deref()
+}
+
+#[test]
+fn a_key_is_named_renamed_and_unnamed_and_a_shared_name_is_warned_of() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press(&mut state, Key::Char('N'));
+    assert!(state.status().error, "no key to name yet");
+    assert!(state.prompt().is_none());
+
+    press_all(
+        &mut state,
+        &[Key::Char('n'), Key::Char('n'), Key::Char('<')],
+    );
+    press(&mut state, Key::Char('N'));
+    type_line(&mut state, "wave");
+    assert_eq!(key_name(&state, 0), Some("wave"));
+    assert_eq!(state.status().text, "named key 0 (wave)");
+    assert!(!state.status().error);
+    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    assert_eq!(journal.keyframes[0].name.as_deref(), Some("wave"));
+
+    // The prompt starts from the present name: two backspaces and "lk" make "walk".
+    press(&mut state, Key::Char('N'));
+    assert_eq!(
+        state.prompt(),
+        Some(&Prompt::Text {
+            field: Field::Name,
+            text: "wave".into()
+        })
+    );
+    press_all(&mut state, &[Key::Backspace, Key::Backspace]);
+    type_line(&mut state, "lk");
+    assert_eq!(key_name(&state, 0), Some("walk"));
+
+    // Esc leaves it.
+    press_all(&mut state, &[Key::Char('N'), Key::Char('x'), Key::Esc]);
+    assert_eq!(key_name(&state, 0), Some("walk"));
+    assert_eq!(state.status().text, "name unchanged");
+
+    // The same name on key 1 is kept, but warned of.
+    press(&mut state, Key::Char('>'));
+    press(&mut state, Key::Char('N'));
+    type_line(&mut state, "walk");
+    assert_eq!(key_name(&state, 1), Some("walk"));
+    assert!(state.status().error);
+    assert!(
+        state.status().text.contains("key 0 has this name too")
+            && state.status().text.contains("play --from walk"),
+        "{}",
+        state.status().text
+    );
+
+    // A number is an index to --from.
+    press(&mut state, Key::Char('N'));
+    for _ in 0..4 {
+        press(&mut state, Key::Backspace);
+    }
+    type_line(&mut state, "3");
+    assert!(state.status().error && state.status().text.contains("index"));
+
+    // An empty name clears it.
+    press(&mut state, Key::Char('N'));
+    press(&mut state, Key::Backspace);
+    type_line(&mut state, "  ");
+    assert_eq!(key_name(&state, 1), None);
+    assert_eq!(state.status().text, "key 1 has no name now");
+}
+
+#[test]
+fn a_hold_is_set_cleared_and_refused_when_it_reaches_the_next_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press(&mut state, Key::Char('h'));
+    assert!(state.status().error && state.prompt().is_none());
+
+    press_all(
+        &mut state,
+        &[Key::Char('n'), Key::Char('n'), Key::Char('<')],
+    );
+    press(&mut state, Key::Char('h'));
+    type_line(&mut state, "1.5");
+    assert_eq!(state.list().sequence().keyframes[0].hold, 1.5);
+    assert_eq!(state.status().text, "key 0 holds 1.5 s");
+    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    assert_eq!(journal.keyframes[0].hold, 1.5);
+
+    // Keys are 2 s apart: a 2 s hold leaves no time to move.
+    press(&mut state, Key::Char('h'));
+    type_line(&mut state, "2");
+    assert!(state.status().error);
+    assert_eq!(
+        state.status().text,
+        "a 2 s hold runs into key 1, 2.00 s later: hold unchanged"
+    );
+    for refused in ["-1", "soon", ""] {
+        press(&mut state, Key::Char('h'));
+        type_line(&mut state, refused);
+        assert!(state.status().error, "{refused:?} is refused");
+        assert_eq!(state.list().sequence().keyframes[0].hold, 1.5);
+    }
+
+    // A comma works as the decimal point; 0 clears.
+    press(&mut state, Key::Char('h'));
+    type_line(&mut state, "0,5");
+    assert_eq!(state.list().sequence().keyframes[0].hold, 0.5);
+    press(&mut state, Key::Char('h'));
+    type_line(&mut state, "0");
+    assert_eq!(state.list().sequence().keyframes[0].hold, 0.0);
+    assert_eq!(state.status().text, "key 0 holds no longer");
+}
+
+#[test]
+fn new_sequences_are_monotone_and_p_cycles_a_segment_through_the_modes() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    assert_eq!(state.list().sequence().interpolation, Interp::Monotone);
+    press(&mut state, Key::Char('p'));
+    assert!(state.status().error, "no key, no segment");
+
+    press_all(&mut state, &[Key::Char('n'), Key::Char('n')]);
+    press(&mut state, Key::Char('p'));
+    assert!(state.status().error, "the last key starts no segment");
+    assert_eq!(
+        state.status().text,
+        "key 1 is the last key: no segment follows it (n adds a key)"
+    );
+    assert_eq!(state.list().sequence().keyframes[1].interp, None);
+
+    press(&mut state, Key::Char('<'));
+    let mut seen = Vec::new();
+    for _ in 0..5 {
+        press(&mut state, Key::Char('p'));
+        seen.push(state.list().sequence().keyframes[0].interp);
+    }
+    // The default (monotone) is no override; after it the cycle starts again.
+    assert_eq!(
+        seen,
+        [
+            Some(Interp::Step),
+            Some(Interp::Linear),
+            Some(Interp::Cubic),
+            None,
+            Some(Interp::Step)
+        ]
+    );
+    assert_eq!(state.status().text, "key 0 → key 1: step");
+    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    assert_eq!(journal.keyframes[0].interp, Some(Interp::Step));
+}
+
+#[test]
+fn a_typed_value_is_kept_within_the_limits_and_the_arm_moves_there_by_the_ramp() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press(&mut state, Key::Char('v'));
+    assert!(state.status().error && state.prompt().is_none());
+
+    press(&mut state, Key::Char('n'));
+    press_all(&mut state, &[Key::Down, Key::Down]);
+    press(&mut state, Key::Char('v'));
+    assert!(
+        format::question(&state)
+            .unwrap()
+            .contains("elbow_flex of key 0 in degrees, now 0 (limits -96.83° … 96.83°)"),
+        "{:?}",
+        format::question(&state)
+    );
+    // Outside the limits: refused, naming them; the key keeps its value.
+    type_line(&mut state, "97");
+    assert_eq!(
+        state.status().text,
+        "97° is outside elbow_flex's limits -96.83° … 96.83°: unchanged"
+    );
+    press(&mut state, Key::Char('v'));
+    type_line(&mut state, "up");
+    assert!(state.status().error);
+    assert_eq!(key_values(&state, 0), [0.0; 6]);
+
+    // Inside: set, then with the arm held the question is whether to move it there.
+    press(&mut state, Key::Char('v'));
+    type_line(&mut state, "-45.5");
+    assert_eq!(key_values(&state, 0), [0.0, 0.0, -45.5, 0.0, 0.0, 0.0]);
+    assert_eq!(state.prompt(), Some(&Prompt::MoveThere));
+    assert_eq!(state.goals()[ELBOW], 0.0, "nothing moves before the answer");
+    let commands = press(&mut state, Key::Char('y'));
+    let [Command::Bus(BusCommand::Run(plan))] = &commands[..] else {
+        panic!("expected the ramp to the key, got {commands:?}");
+    };
+    assert_eq!(plan.kind, MotionKind::ToKey(0));
+    assert!(plan.options.approach, "the safe ramp, not a jump");
+    assert_eq!(plan.end_pose, [0.0, 0.0, -45.5, 0.0, 0.0, 0.0]);
+    state.on_event(Event::MotionEnded {
+        outcome: Ok(Outcome::Finished),
+        last_goals: None,
+    });
+
+    // Declined: the key changes, the arm does not.
+    press(&mut state, Key::Char('v'));
+    type_line(&mut state, "96.83");
+    assert!(press(&mut state, Key::Char('n')).is_empty());
+    assert_eq!(key_values(&state, 0)[ELBOW], 96.83);
+
+    // A limp arm is not offered the move.
+    press(&mut state, Key::Up);
+    press(&mut state, Key::Char('T'));
+    press(&mut state, Key::Char('y'));
+    press(&mut state, Key::Char('v'));
+    type_line(&mut state, "12");
+    assert!(state.prompt().is_none());
+    assert!(state.status().text.contains("once the arm is held"));
+    assert_eq!(key_values(&state, 0)[LIFT], 12.0);
 }
