@@ -520,24 +520,48 @@ fn type_line(state: &mut TeachState, text: &str) -> Vec<Command> {
     press(state, Key::Enter)
 }
 
+/// A session with two keys at home, 2 s apart, the first one current.
+fn two_keys_at_the_first(dir: &Path) -> TeachState {
+    let mut state = session(dir);
+    press_all(
+        &mut state,
+        &[Key::Char('n'), Key::Char('n'), Key::Char('<')],
+    );
+    state
+}
+
+/// `key` opens a prompt, `text` is typed into it and Enter accepts it.
+fn edit(state: &mut TeachState, key: char, text: &str) -> Vec<Command> {
+    press(state, Key::Char(key));
+    type_line(state, text)
+}
+
 fn key_name(state: &TeachState, index: usize) -> Option<&str> {
     state.list().sequence().keyframes[index].name.as_deref()
 }
 
 #[test]
-fn a_key_is_named_renamed_and_unnamed_and_a_shared_name_is_warned_of() {
+fn the_edits_of_a_key_are_refused_without_one() {
     let dir = tempfile::tempdir().unwrap();
     let mut state = session(dir.path());
-    press(&mut state, Key::Char('N'));
-    assert!(state.status().error, "no key to name yet");
-    assert!(state.prompt().is_none());
+    for key in ['N', 'h', 'p', 'v'] {
+        assert!(press(&mut state, Key::Char(key)).is_empty());
+        assert!(state.prompt().is_none(), "{key} opened a prompt");
+        assert_eq!(
+            state.status(),
+            &Status {
+                text: "no key yet: n adds one from the present pose".into(),
+                error: true
+            }
+        );
+    }
+}
 
-    press_all(
-        &mut state,
-        &[Key::Char('n'), Key::Char('n'), Key::Char('<')],
-    );
-    press(&mut state, Key::Char('N'));
-    type_line(&mut state, "wave");
+#[test]
+fn a_key_is_named_renamed_and_unnamed_and_a_shared_name_is_warned_of() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = two_keys_at_the_first(dir.path());
+    edit(&mut state, 'N', "wave");
     assert_eq!(key_name(&state, 0), Some("wave"));
     assert_eq!(state.status().text, "named key 0 (wave)");
     assert!(!state.status().error);
@@ -564,8 +588,7 @@ fn a_key_is_named_renamed_and_unnamed_and_a_shared_name_is_warned_of() {
 
     // The same name on key 1 is kept, but warned of.
     press(&mut state, Key::Char('>'));
-    press(&mut state, Key::Char('N'));
-    type_line(&mut state, "walk");
+    edit(&mut state, 'N', "walk");
     assert_eq!(key_name(&state, 1), Some("walk"));
     assert!(state.status().error);
     assert!(
@@ -594,42 +617,30 @@ fn a_key_is_named_renamed_and_unnamed_and_a_shared_name_is_warned_of() {
 #[test]
 fn a_hold_is_set_cleared_and_refused_when_it_reaches_the_next_key() {
     let dir = tempfile::tempdir().unwrap();
-    let mut state = session(dir.path());
-    press(&mut state, Key::Char('h'));
-    assert!(state.status().error && state.prompt().is_none());
-
-    press_all(
-        &mut state,
-        &[Key::Char('n'), Key::Char('n'), Key::Char('<')],
-    );
-    press(&mut state, Key::Char('h'));
-    type_line(&mut state, "1.5");
+    let mut state = two_keys_at_the_first(dir.path());
+    edit(&mut state, 'h', "1.5");
     assert_eq!(state.list().sequence().keyframes[0].hold, 1.5);
     assert_eq!(state.status().text, "key 0 holds 1.5 s");
     let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
     assert_eq!(journal.keyframes[0].hold, 1.5);
 
     // Keys are 2 s apart: a 2 s hold leaves no time to move.
-    press(&mut state, Key::Char('h'));
-    type_line(&mut state, "2");
+    edit(&mut state, 'h', "2");
     assert!(state.status().error);
     assert_eq!(
         state.status().text,
         "a 2 s hold runs into key 1, 2.00 s later: hold unchanged"
     );
     for refused in ["-1", "soon", ""] {
-        press(&mut state, Key::Char('h'));
-        type_line(&mut state, refused);
+        edit(&mut state, 'h', refused);
         assert!(state.status().error, "{refused:?} is refused");
         assert_eq!(state.list().sequence().keyframes[0].hold, 1.5);
     }
 
     // A comma works as the decimal point; 0 clears.
-    press(&mut state, Key::Char('h'));
-    type_line(&mut state, "0,5");
+    edit(&mut state, 'h', "0,5");
     assert_eq!(state.list().sequence().keyframes[0].hold, 0.5);
-    press(&mut state, Key::Char('h'));
-    type_line(&mut state, "0");
+    edit(&mut state, 'h', "0");
     assert_eq!(state.list().sequence().keyframes[0].hold, 0.0);
     assert_eq!(state.status().text, "key 0 holds no longer");
 }
@@ -639,9 +650,6 @@ fn new_sequences_are_monotone_and_p_cycles_a_segment_through_the_modes() {
     let dir = tempfile::tempdir().unwrap();
     let mut state = session(dir.path());
     assert_eq!(state.list().sequence().interpolation, Interp::Monotone);
-    press(&mut state, Key::Char('p'));
-    assert!(state.status().error, "no key, no segment");
-
     press_all(&mut state, &[Key::Char('n'), Key::Char('n')]);
     press(&mut state, Key::Char('p'));
     assert!(state.status().error, "the last key starts no segment");
@@ -677,9 +685,6 @@ fn new_sequences_are_monotone_and_p_cycles_a_segment_through_the_modes() {
 fn a_typed_value_is_kept_within_the_limits_and_the_arm_moves_there_by_the_ramp() {
     let dir = tempfile::tempdir().unwrap();
     let mut state = session(dir.path());
-    press(&mut state, Key::Char('v'));
-    assert!(state.status().error && state.prompt().is_none());
-
     press(&mut state, Key::Char('n'));
     press_all(&mut state, &[Key::Down, Key::Down]);
     press(&mut state, Key::Char('v'));
@@ -696,14 +701,12 @@ fn a_typed_value_is_kept_within_the_limits_and_the_arm_moves_there_by_the_ramp()
         state.status().text,
         "97° is outside elbow_flex's limits -96.83° … 96.83°: unchanged"
     );
-    press(&mut state, Key::Char('v'));
-    type_line(&mut state, "up");
+    edit(&mut state, 'v', "up");
     assert!(state.status().error);
     assert_eq!(key_values(&state, 0), [0.0; 6]);
 
     // Inside: set, then with the arm held the question is whether to move it there.
-    press(&mut state, Key::Char('v'));
-    type_line(&mut state, "-45.5");
+    edit(&mut state, 'v', "-45.5");
     assert_eq!(key_values(&state, 0), [0.0, 0.0, -45.5, 0.0, 0.0, 0.0]);
     assert_eq!(state.prompt(), Some(&Prompt::MoveThere));
     assert_eq!(state.goals()[ELBOW], 0.0, "nothing moves before the answer");
@@ -720,8 +723,7 @@ fn a_typed_value_is_kept_within_the_limits_and_the_arm_moves_there_by_the_ramp()
     });
 
     // Declined: the key changes, the arm does not.
-    press(&mut state, Key::Char('v'));
-    type_line(&mut state, "96.83");
+    edit(&mut state, 'v', "96.83");
     assert!(press(&mut state, Key::Char('n')).is_empty());
     assert_eq!(key_values(&state, 0)[ELBOW], 96.83);
 
@@ -729,8 +731,7 @@ fn a_typed_value_is_kept_within_the_limits_and_the_arm_moves_there_by_the_ramp()
     press(&mut state, Key::Up);
     press(&mut state, Key::Char('T'));
     press(&mut state, Key::Char('y'));
-    press(&mut state, Key::Char('v'));
-    type_line(&mut state, "12");
+    edit(&mut state, 'v', "12");
     assert!(state.prompt().is_none());
     assert!(state.status().text.contains("once the arm is held"));
     assert_eq!(key_values(&state, 0)[LIFT], 12.0);
