@@ -77,6 +77,7 @@ impl TeachState {
         }
         let index = self.list.current_index();
         if !self.list.set_hold(hold) {
+            // The hold is a valid number, so only the next key can have refused it.
             let gap =
                 self.list.sequence().key_time(index + 1) - self.list.sequence().key_time(index);
             return self.fail(format!(
@@ -149,14 +150,18 @@ impl TeachState {
         let shown_value = format::value(joint, value);
         self.list.set_value(&name, KeyValue::Joint(value));
         let label = self.key_label(self.list.current_index());
-        if self.torque.iter().all(|&t| t) && !self.is_moving() {
-            self.prompt = Some(Prompt::MoveThere);
-            self.info(format!("{label}: {name} {shown_value}"));
+        let held = self.torque.iter().all(|&t| t);
+        let later = if !held {
+            " (once the arm is held, space moves it there)"
+        } else if self.is_moving() {
+            " (once the arm stops, space moves it there)"
         } else {
-            self.info(format!(
-                "{label}: {name} {shown_value} (once the arm is held, space moves it there)"
-            ));
-        }
+            // Asked, not done: the arm may be far from the key, and the user is looking at
+            // the number, not at the arm.
+            self.prompt = Some(Prompt::MoveThere);
+            ""
+        };
+        self.info(format!("{label}: {name} {shown_value}{later}"));
         self.edited()
     }
 }
