@@ -32,6 +32,13 @@ fn session(dir: &Path) -> TeachState {
     state
 }
 
+/// A session on `sequence` without a journal, the arm at home (not yet held).
+fn unjournaled(sequence: Sequence, output: PathBuf) -> TeachState {
+    let robot = so101();
+    let present = robot.home.clone();
+    TeachState::new(robot, KeyframeList::new(sequence), output, None, present)
+}
+
 /// Confirms bus commands as a bus that does exactly what it is told (jogs arrive at once), and
 /// carries out file commands for real, as the session's drivers would.
 fn apply(state: &mut TeachState, commands: Vec<Command>) -> Vec<Command> {
@@ -258,15 +265,7 @@ fn timed_sequences_change_the_playback_speed_instead() {
     let mut key = Keyframe::new(vec![("gripper".into(), KeyValue::Joint(0.0))]);
     key.time = Some(0.0);
     sequence.keyframes.push(key);
-    let robot = so101();
-    let present = robot.home.clone();
-    let mut state = TeachState::new(
-        robot,
-        KeyframeList::new(sequence),
-        dir.path().join("t.json"),
-        None,
-        present,
-    );
+    let mut state = unjournaled(sequence, dir.path().join("t.json"));
     for _ in 0..5 {
         press(&mut state, Key::Char('+'));
     }
@@ -492,15 +491,7 @@ fn moving_to_a_control_key_reaches_its_own_pose() {
             KeyValue::Joint(deg),
         )]));
     }
-    let robot = so101();
-    let present = robot.home.clone();
-    let mut state = TeachState::new(
-        robot,
-        KeyframeList::new(sequence),
-        dir.path().join("c.json"),
-        None,
-        present,
-    );
+    let mut state = unjournaled(sequence, dir.path().join("c.json"));
     let commands = state.handle_key(Key::Char(' '));
     let [Command::Bus(BusCommand::Run(plan))] = &commands[..] else {
         panic!("expected a motion");
@@ -735,4 +726,22 @@ fn a_typed_value_is_kept_within_the_limits_and_the_arm_moves_there_by_the_ramp()
     assert!(state.prompt().is_none());
     assert!(state.status().text.contains("once the arm is held"));
     assert_eq!(key_values(&state, 0)[LIFT], 12.0);
+}
+
+#[test]
+fn a_joint_given_as_a_transform_is_not_typed_over() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut sequence = Sequence::new("so101");
+    sequence.keyframes.push(Keyframe::new(vec![(
+        "shoulder_pan".into(),
+        KeyValue::Transform(crate::pose::RigidTransform::IDENTITY),
+    )]));
+    let mut state = unjournaled(sequence, dir.path().join("tf.json"));
+    assert!(press(&mut state, Key::Char('v')).is_empty());
+    assert!(state.prompt().is_none());
+    assert_eq!(
+        state.status().text,
+        "key 0 gives shoulder_pan as a transform: edit it in the file"
+    );
+    assert!(!state.is_dirty());
 }
