@@ -1,6 +1,8 @@
 //! The keyframe-list editing API that the teach pendant drives, and the file round trip.
 
+use keypose::curve::Interp;
 use keypose::sequence::{KeyValue, KeyframeList, Sequence};
+use serde_json::json;
 
 fn pose(deg: f64) -> Vec<(String, KeyValue)> {
     vec![("elbow_flex".to_string(), KeyValue::Joint(deg))]
@@ -141,4 +143,32 @@ fn keys_written_out_of_order_load_sorted_and_save_sorted() {
         assert_eq!(a.time, b.time);
         assert_eq!(a.values, b.values);
     }
+}
+
+#[test]
+fn a_segment_mode_and_a_joint_value_are_set_on_the_current_key_and_written() {
+    let mut list = KeyframeList::new(Sequence::new("so101"));
+    assert!(!list.set_interp(Some(Interp::Step)), "no key yet");
+    assert!(!list.set_value("gripper", KeyValue::Joint(5.0)));
+    list.insert_after(pose(10.0));
+    list.insert_after(pose(20.0));
+    list.previous_key();
+    assert!(list.set_interp(Some(Interp::Linear)));
+    // Replaces the elbow, adds the gripper after it.
+    assert!(list.set_value("elbow_flex", KeyValue::Joint(-5.5)));
+    assert!(list.set_value("gripper", KeyValue::Joint(30.0)));
+    let written: serde_json::Value = serde_json::from_str(&list.sequence().to_json()).unwrap();
+    assert_eq!(
+        written,
+        json!({
+            "format": "keypose-sequence/1",
+            "robot": "so101",
+            "interpolation": "monotone",
+            "key_interval": 2.0,
+            "keyframes": [
+                {"interp": "linear", "joints": {"elbow_flex": -5.5, "gripper": 30.0}},
+                {"joints": {"elbow_flex": 20.0}}
+            ]
+        })
+    );
 }

@@ -73,8 +73,9 @@ fn a_scripted_session_builds_checks_and_plays_a_sequence() {
         # B: pan 25 (two big steps, five small)
         shift-right shift-right right right right right right n
         # C: lift 30; elbow to its limit 96.83 (the 11th step is refused there), then back
-        # 40° to 56.8 (a jog lands on tenths). A key at the limit would make the cubic
-        # overshoot it on the way to the next key, which check and y refuse.
+        # 40° to 56.8 (a jog lands on tenths). A key at the limit would make a cubic
+        # overshoot it on the way to the next key, which check and y refuse (the monotone
+        # default cannot, but the path stays the one a cubic needs).
         down shift-right shift-right shift-right
         down shift-right shift-right shift-right shift-right shift-right
              shift-right shift-right shift-right shift-right shift-right shift-right
@@ -115,7 +116,7 @@ fn a_scripted_session_builds_checks_and_plays_a_sequence() {
     let expected = json!({
         "format": "keypose-sequence/1",
         "robot": "so101",
-        "interpolation": "cubic",
+        "interpolation": "monotone",
         "key_interval": 2.1,
         "keyframes": [
             pose([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
@@ -141,6 +142,76 @@ fn a_scripted_session_builds_checks_and_plays_a_sequence() {
         .output()
         .unwrap();
     assert!(play.status.success(), "play failed:\n{}", stderr(&play));
+}
+
+/// The edits typed into prompts: a name (and the warning a shared one gets), a hold, the mode
+/// of a segment, a joint value typed in degrees and reached by the safe ramp — written, then
+/// accepted by `keypose check`.
+#[test]
+fn a_scripted_session_names_holds_interpolates_and_types_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = "\
+        # key 0 at home, key 1 with the pan at 20; back to key 0
+        n shift-right shift-right n <
+        # name key 0, hold it half a second, make its segment cubic (monotone → step → linear
+        # → cubic; linear's corners would break the acceleration limits)
+        N w a v e enter
+        h 0 . 5 enter
+        p p p
+        # elbow to 45 typed (97 is refused: beyond 96.83), and the arm moves there
+        down down v 9 7 enter
+        v 4 5 enter yes
+        # key 1: the same name is warned of, then it becomes reach
+        > N w a v e enter
+        N backspace backspace backspace backspace r e a c h enter
+        w q
+    ";
+    let out = teach(dir.path(), script, &[]);
+    let log = stderr(&out);
+    assert!(out.status.success(), "teach failed:\n{log}");
+    for expected in [
+        "named key 0 (wave)",
+        "key 0 (wave) holds 0.5 s",
+        "key 0 (wave) → key 1: cubic",
+        "97° is outside elbow_flex's limits -96.83° … 96.83°",
+        "at key 0 (wave)",
+        "key 0 has this name too",
+        "named key 1 (reach)",
+        "check passes",
+    ] {
+        assert!(log.contains(expected), "{expected:?} missing:\n{log}");
+    }
+
+    let expected = json!({
+        "format": "keypose-sequence/1",
+        "robot": "so101",
+        "interpolation": "monotone",
+        "key_interval": 2.0,
+        "keyframes": [
+            {
+                "name": "wave",
+                "hold": 0.5,
+                "interp": "cubic",
+                "joints": {
+                    "shoulder_pan": 0.0, "shoulder_lift": 0.0, "elbow_flex": 45.0,
+                    "wrist_flex": 0.0, "wrist_roll": 0.0, "gripper": 0.0
+                }
+            },
+            {
+                "name": "reach",
+                "joints": {
+                    "shoulder_pan": 20.0, "shoulder_lift": 0.0, "elbow_flex": 0.0,
+                    "wrist_flex": 0.0, "wrist_roll": 0.0, "gripper": 0.0
+                }
+            }
+        ]
+    });
+    assert_eq!(read_json(&dir.path().join("taught.json")), expected);
+    let check = keypose(dir.path())
+        .args(["check", "taught.json"])
+        .output()
+        .unwrap();
+    assert!(check.status.success(), "check failed:\n{}", stderr(&check));
 }
 
 /// A session killed after some edits loses nothing: the next one offers the journal, and a

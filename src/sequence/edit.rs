@@ -2,6 +2,7 @@
 //! every operation acts on it or moves it.
 
 use super::{KeyValue, Keyframe, Sequence};
+use crate::curve::Interp;
 use crate::json::InputError;
 use std::path::Path;
 
@@ -173,6 +174,17 @@ impl KeyframeList {
 
     pub fn set_name(&mut self, name: Option<String>) -> bool {
         self.edit_current(|k| k.name = name)
+    }
+
+    /// Sets the mode of the segment from the current key to the next; `None` follows the
+    /// sequence's.
+    pub fn set_interp(&mut self, interp: Option<Interp>) -> bool {
+        self.edit_current(|k| k.interp = interp)
+    }
+
+    /// Sets one joint's value in the current key (added if the key did not name the joint).
+    pub fn set_value(&mut self, joint: &str, value: KeyValue) -> bool {
+        self.edit_current(|k| k.set(joint, value))
     }
 
     /// Sets the current key's hold; refused when it would overrun the next key.

@@ -103,13 +103,14 @@ pub struct Sequence {
 }
 
 impl Sequence {
-    /// An empty sequence for `robot` with uniform spacing.
+    /// An empty sequence for `robot` with uniform spacing, interpolated `monotone`: unlike a
+    /// cubic it cannot overshoot a key taught next to a limit (as `record` uses it too).
     pub fn new(robot: &str) -> Self {
         Self {
             file: "<new>".into(),
             robot: robot.into(),
             description: None,
-            interpolation: Interp::Cubic,
+            interpolation: Interp::Monotone,
             ends: Ends::Played,
             key_interval: Some(DEFAULT_KEY_INTERVAL),
             keyframes: Vec::new(),

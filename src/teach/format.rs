@@ -2,11 +2,12 @@
 //! units, key labels, counts, the prompts' questions. Pure text, shared by the terminal UI,
 //! the key script's echo and the state's status line.
 
-use super::prompt::Prompt;
+use super::prompt::{Field, Prompt};
 use super::state::TeachState;
+use crate::curve::Interp;
 use crate::plan::CheckReport;
 use crate::robot::{Joint, JointKind, Robot};
-use crate::sequence::Sequence;
+use crate::sequence::{KeyValue, Sequence};
 
 /// A joint value for the screen and messages: degrees, or millimetres for prismatic joints.
 pub fn value(joint: &Joint, value: f64) -> String {
@@ -14,6 +15,43 @@ pub fn value(joint: &Joint, value: f64) -> String {
         JointKind::Revolute => format!("{value:.1}°"),
         JointKind::Prismatic => format!("{:.1} mm", value * 1000.0),
     }
+}
+
+/// The unit the screen gives a joint's values in.
+pub fn unit(joint: &Joint) -> &'static str {
+    match joint.kind {
+        JointKind::Revolute => "°",
+        JointKind::Prismatic => " mm",
+    }
+}
+
+/// A joint value as a number in the screen's unit: degrees, or millimetres (to the
+/// nanometre, so that 0.032 m reads 32 and not 32.000000000000004).
+pub fn screen_number(joint: &Joint, value: f64) -> f64 {
+    match joint.kind {
+        JointKind::Revolute => value,
+        JointKind::Prismatic => (value * 1e6).round() / 1e3,
+    }
+}
+
+/// A number typed in the screen's unit as the key holds it (degrees, metres). Dividing the
+/// typed millimetres gives the nearest double to the decimal, as the file should show it.
+pub fn from_screen(joint: &Joint, shown: f64) -> f64 {
+    match joint.kind {
+        JointKind::Revolute => shown,
+        JointKind::Prismatic => shown / 1000.0,
+    }
+}
+
+/// "-96.83° … 96.83°": the exact limits, so a refusal never names a rounded limit that the
+/// refused value seems to be inside.
+pub fn limits(joint: &Joint) -> String {
+    let unit = unit(joint);
+    format!(
+        "{}{unit} … {}{unit}",
+        screen_number(joint, joint.limits.min),
+        screen_number(joint, joint.limits.max)
+    )
 }
 
 /// "1 key", "3 keys".
@@ -35,6 +73,15 @@ pub fn key_label(sequence: &Sequence, index: usize) -> String {
         Some(name) => format!("key {index} ({name})"),
         None => format!("key {index}"),
     }
+}
+
+/// The mode of the segment from key `index`: its own, else the sequence's.
+pub fn segment_interp(sequence: &Sequence, index: usize) -> Interp {
+    sequence
+        .keyframes
+        .get(index)
+        .and_then(|key| key.interp)
+        .unwrap_or(sequence.interpolation)
 }
 
 /// The joints' names, or "all joints" when that is what they are.
@@ -79,16 +126,56 @@ pub fn question(state: &TeachState) -> Option<String> {
             "unsaved changes: replace the list with {}? (y/n)",
             path.display()
         ),
-        Prompt::ImportPath { text } => {
-            format!("import file: {text}▏ (Enter: import, Esc: cancel)")
+        Prompt::Text { field, text } => {
+            let (what, enter) = field_question(state, *field);
+            format!("{what}: {text}▏ (Enter: {enter}, Esc: cancel)")
         }
+        Prompt::MoveThere => format!(
+            "move the arm to {} now, by the safe ramp? (y/n)",
+            key_label(state.list().sequence(), state.list().current_index())
+        ),
     })
+}
+
+/// What a text prompt asks for, and what Enter does with it.
+fn field_question(state: &TeachState, field: Field) -> (String, &'static str) {
+    let sequence = state.list().sequence();
+    let index = state.list().current_index();
+    let label = key_label(sequence, index);
+    let key = sequence.keyframes.get(index);
+    match field {
+        Field::ImportPath => ("import file".into(), "import"),
+        Field::Name => (format!("name of {label} (empty: no name)"), "name it"),
+        Field::Hold => {
+            let now = key.map_or(0.0, |k| k.hold);
+            (format!("hold of {label} in s, now {now} (0: none)"), "set")
+        }
+        Field::Value(j) => {
+            let joint = &state.robot().joints[j];
+            let now = match key.and_then(|k| k.value(&joint.name)) {
+                Some(KeyValue::Joint(v)) => screen_number(joint, *v).to_string(),
+                _ => "not set".into(),
+            };
+            (
+                format!(
+                    "{} of {label} in {}, now {now} (limits {})",
+                    joint.name,
+                    match joint.kind {
+                        JointKind::Revolute => "degrees",
+                        JointKind::Prismatic => "mm",
+                    },
+                    limits(joint)
+                ),
+                "set",
+            )
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sequence::{KeyValue, Keyframe};
+    use crate::sequence::Keyframe;
 
     #[test]
     fn values_keys_and_joints_read_as_the_screen_shows_them() {

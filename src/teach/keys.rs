@@ -65,6 +65,26 @@ pub const BINDINGS: &[Binding] = &[
     bind("d", "delete", "delete the current key"),
     bind("> <", "next/prev", "next / previous key (also . and ,)"),
     bind("] [", "move key", "move the current key later / earlier"),
+    bind(
+        "N",
+        "name",
+        "name the current key (warns of a name another key has: play --from refuses it)",
+    ),
+    bind(
+        "h",
+        "hold",
+        "hold the current key for some seconds (typed; 0 clears it)",
+    ),
+    bind(
+        "p",
+        "interp",
+        "interpolation from the current key: step → linear → cubic → monotone",
+    ),
+    bind(
+        "v",
+        "type value",
+        "type the selected joint's value in the current key (then y moves the arm there)",
+    ),
     bind("i", "import", "import a sequence file (replaces the list)"),
     bind("w", "write", "write the sequence file"),
     bind("y", "play/stop", "play from the current key / stop"),
@@ -93,9 +113,9 @@ pub fn help_text() -> String {
     }
     text.push_str(
         "\nA --keys script holds tokens separated by spaces or lines (# starts a comment):\n  \
-         space u n d > < ] [ i w y + - t T q, up down left right shift-left shift-right,\n  \
-         enter esc backspace, yes no (answers), any single character (typed into a prompt),\n  \
-         import:PATH, write:PATH (paths without spaces), wait:500ms or wait:2s.\n  \
+         space u n d > < ] [ N h p v i w y + - t T q, up down left right shift-left shift-right,\n  \
+         enter esc backspace, yes no (answers), any single character (typed into a prompt;\n  \
+         space types a space there), import:PATH, write:PATH (paths without spaces), wait:500ms or wait:2s.\n  \
          Each step waits until the arm has reached its goal; `-` as the file reads standard \
          input.",
     );

@@ -17,8 +17,23 @@ pub enum Prompt {
     },
     /// Importing over unsaved changes.
     Replace { path: PathBuf },
-    /// `i`: the path to import, being typed.
-    ImportPath { text: String },
+    /// A line being typed: a path, a name or a number, by `field`.
+    Text { field: Field, text: String },
+    /// After a typed value, with the arm held: move it to the edited key now?
+    MoveThere,
+}
+
+/// What a [`Prompt::Text`] line is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Field {
+    /// `i`: the file to import.
+    ImportPath,
+    /// The current key's name (empty clears it).
+    Name,
+    /// The current key's hold, in seconds (0 clears it).
+    Hold,
+    /// The current key's value of joint `index`, in the unit the screen shows it in.
+    Value(usize),
 }
 
 impl Prompt {
@@ -26,7 +41,7 @@ impl Prompt {
     /// wrong, and is stopped rather than have the key swallowed).
     pub fn accepts(&self, key: &Key) -> bool {
         match self {
-            Prompt::ImportPath { .. } => matches!(
+            Prompt::Text { .. } => matches!(
                 key,
                 Key::Char(_) | Key::Backspace | Key::Enter | Key::Esc | Key::Interrupt
             ),
@@ -41,5 +56,27 @@ pub fn yes_no(key: &Key) -> Option<bool> {
         Key::Char('y' | 'Y') => Some(true),
         Key::Char('n' | 'N') | Key::Esc | Key::Interrupt => Some(false),
         _ => None,
+    }
+}
+
+/// A typed number: finite, with `,` taken as the decimal point some keyboards give.
+pub fn number(text: &str) -> Option<f64> {
+    let value: f64 = text.trim().replace(',', ".").parse().ok()?;
+    value.is_finite().then_some(value)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_are_finite_decimals() {
+        assert_eq!(number(" 1.5 "), Some(1.5));
+        assert_eq!(number("0,25"), Some(0.25));
+        assert_eq!(number("-3"), Some(-3.0));
+        assert_eq!(number("inf"), None);
+        assert_eq!(number("NaN"), None);
+        assert_eq!(number(""), None);
+        assert_eq!(number("1.2.3"), None);
     }
 }

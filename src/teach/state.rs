@@ -13,7 +13,7 @@ use super::journal::{Journal, Pending};
 use super::keys::Key;
 use super::messages::{BusCommand, Clearing, Command, Event, FileCommand};
 use super::motion::{self, MotionKind, PlayRefusal};
-use super::prompt::{yes_no, Prompt};
+use super::prompt::{yes_no, Field, Prompt};
 use crate::plan::{self, Trajectory};
 use crate::player::Outcome;
 use crate::robot::{JointKind, Robot};
@@ -209,14 +209,16 @@ impl TeachState {
             Key::Char(']') => self.move_key(1),
             Key::Char('[') => self.move_key(-1),
             Key::Char('i') => {
-                self.prompt = Some(Prompt::ImportPath {
-                    text: self.output.display().to_string(),
-                });
-                Vec::new()
+                let text = self.output.display().to_string();
+                self.ask(Field::ImportPath, text)
             }
             Key::Import(path) => self.import(path),
             Key::Char('w') => self.write(None),
             Key::Write(path) => self.write(Some(path)),
+            Key::Char('N') => self.ask_about_key(Field::Name),
+            Key::Char('h') => self.ask_about_key(Field::Hold),
+            Key::Char('v') => self.ask_about_key(Field::Value(self.selected)),
+            Key::Char('p') => self.cycle_interp(),
             Key::Char('y') => self.play_or_stop(),
             // `=` is `+` without shift on most layouts.
             Key::Char('+' | '=') => self.change_time(true),
@@ -240,8 +242,8 @@ impl TeachState {
     // ----- prompts -----
 
     fn answer(&mut self, prompt: Prompt, key: Key) -> Vec<Command> {
-        if let Prompt::ImportPath { text } = prompt {
-            return self.type_path(text, key);
+        if let Prompt::Text { field, text } = prompt {
+            return self.type_text(field, text, key);
         }
         match yes_no(&key) {
             Some(true) => self.confirm(prompt),
@@ -256,24 +258,39 @@ impl TeachState {
         }
     }
 
-    /// A key typed into the import path prompt.
-    fn type_path(&mut self, mut text: String, key: Key) -> Vec<Command> {
+    fn ask(&mut self, field: Field, text: String) -> Vec<Command> {
+        self.prompt = Some(Prompt::Text { field, text });
+        Vec::new()
+    }
+
+    /// A key typed into a text prompt: Enter hands the line to its field, Esc drops it.
+    fn type_text(&mut self, field: Field, mut text: String, key: Key) -> Vec<Command> {
         match key {
             Key::Char(c) => text.push(c),
             Key::Backspace => {
                 text.pop();
             }
-            Key::Enter if !text.trim().is_empty() => {
-                return self.import(PathBuf::from(text.trim()));
-            }
-            Key::Enter | Key::Esc | Key::Interrupt => {
-                self.info("import cancelled");
+            Key::Enter => return self.submit(field, text.trim()),
+            Key::Esc | Key::Interrupt => {
+                self.info(cancelled(field));
                 return Vec::new();
             }
             _ => {}
         }
-        self.prompt = Some(Prompt::ImportPath { text });
-        Vec::new()
+        self.ask(field, text)
+    }
+
+    fn submit(&mut self, field: Field, text: &str) -> Vec<Command> {
+        match field {
+            Field::ImportPath if text.is_empty() => {
+                self.info(cancelled(field));
+                Vec::new()
+            }
+            Field::ImportPath => self.import(PathBuf::from(text)),
+            Field::Name => self.name_key(text),
+            Field::Hold => self.hold_key(text),
+            Field::Value(joint) => self.type_value(joint, text),
+        }
     }
 
     fn confirm(&mut self, prompt: Prompt) -> Vec<Command> {
@@ -293,7 +310,8 @@ impl TeachState {
             Prompt::Quit => self.finish("quit without writing the changes"),
             Prompt::Release { joints, .. } => bus(BusCommand::Torque { joints, on: false }),
             Prompt::Replace { path } => file(FileCommand::Load(path)),
-            Prompt::ImportPath { .. } => Vec::new(),
+            Prompt::MoveThere => self.move_to_key(),
+            Prompt::Text { .. } => Vec::new(),
         }
     }
 
@@ -305,7 +323,9 @@ impl TeachState {
             }
             Prompt::Quit => self.info("not quitting"),
             Prompt::Release { .. } => self.info("torque stays on"),
-            Prompt::Replace { .. } | Prompt::ImportPath { .. } => self.info("import cancelled"),
+            Prompt::Replace { .. } => self.info("import cancelled"),
+            Prompt::MoveThere => self.info("the arm stays where it is; space moves it to the key"),
+            Prompt::Text { field, .. } => self.info(cancelled(field)),
         }
     }
 
@@ -563,13 +583,10 @@ impl TeachState {
         let n = self.robot.joints.len() as isize;
         self.selected = (self.selected as isize + delta).rem_euclid(n) as usize;
         let joint = &self.robot.joints[self.selected];
-        let unit = match joint.kind {
-            JointKind::Revolute => "°",
-            JointKind::Prismatic => " m",
-        };
         self.info(format!(
-            "{} selected (limits {}{unit} … {}{unit})",
-            joint.name, joint.limits.min, joint.limits.max
+            "{} selected (limits {})",
+            joint.name,
+            format::limits(joint)
         ));
         Vec::new()
     }
@@ -653,11 +670,16 @@ impl TeachState {
     }
 
     fn fail(&mut self, text: impl Into<String>) -> Vec<Command> {
+        self.warn(text);
+        Vec::new()
+    }
+
+    /// An error-coloured status for an edit that was made but deserves a second look.
+    fn warn(&mut self, text: impl Into<String>) {
         self.status = Status {
             text: text.into(),
             error: true,
         };
-        Vec::new()
     }
 }
 
@@ -673,11 +695,22 @@ fn clear(journal: Journal, why: Clearing) -> Vec<Command> {
     file(FileCommand::ClearJournal { journal, why })
 }
 
+/// What Esc on a text prompt leaves unchanged.
+fn cancelled(field: Field) -> &'static str {
+    match field {
+        Field::ImportPath => "import cancelled",
+        Field::Name => "name unchanged",
+        Field::Hold => "hold unchanged",
+        Field::Value(_) => "value unchanged",
+    }
+}
+
 fn same_file(a: &Path, b: &Path) -> bool {
     let absolute = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
     absolute(a) == absolute(b)
 }
 
+mod edits;
 mod reports;
 
 #[cfg(test)]

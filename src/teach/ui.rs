@@ -26,7 +26,7 @@ pub const READ_PERIOD: Duration = Duration::from_millis(50);
 /// Width of the limit bar, in cells.
 const BAR_WIDTH: usize = 21;
 /// Below this width the joint table and the key list are stacked instead of side by side.
-const SIDE_BY_SIDE_WIDTH: u16 = 110;
+const SIDE_BY_SIDE_WIDTH: u16 = 118;
 
 /// Exit code after SIGTERM or SIGHUP: the command line's code for an interruption.
 const EXIT_KILLED: i32 = 130;
@@ -112,7 +112,7 @@ pub fn draw(frame: &mut Frame, state: &TeachState, bus: &str) {
     frame.render_widget(title_line(state, bus), title);
 
     let [joints, keys] = if body.width >= SIDE_BY_SIDE_WIDTH {
-        Layout::horizontal([Constraint::Min(70), Constraint::Length(38)]).areas(body)
+        Layout::horizontal([Constraint::Min(70), Constraint::Length(46)]).areas(body)
     } else {
         let rows = state.robot().joints.len() as u16 + 3;
         Layout::vertical([Constraint::Length(rows), Constraint::Min(3)]).areas(body)
@@ -238,6 +238,7 @@ fn draw_keys(frame: &mut Frame, area: Rect, state: &TeachState) {
             } else {
                 String::new()
             }),
+            Cell::from(segment_mode(sequence, i)),
         ])
     });
     let table = Table::new(
@@ -247,20 +248,39 @@ fn draw_keys(frame: &mut Frame, area: Rect, state: &TeachState) {
             Constraint::Min(8),
             Constraint::Length(8),
             Constraint::Length(6),
+            Constraint::Length(9),
         ],
     )
     .header(
-        Row::new(vec!["#", "name", "time s", "hold"])
+        Row::new(vec!["#", "name", "time s", "hold", "to next"])
             .style(Style::new().add_modifier(Modifier::UNDERLINED)),
     )
     .row_highlight_style(Style::new().add_modifier(Modifier::REVERSED))
     .highlight_symbol("▶ ")
-    .block(Block::bordered().title(format!(" keys ({}) ", sequence.keyframes.len())));
+    // The default mode is named here, beside the segments that follow it.
+    .block(Block::bordered().title(format!(
+        " keys ({}), default {} ",
+        sequence.keyframes.len(),
+        sequence.interpolation.name()
+    )));
     let mut table_state = TableState::default();
     if !sequence.keyframes.is_empty() {
         table_state.select(Some(state.list().current_index()));
     }
     frame.render_stateful_widget(table, area, &mut table_state);
+}
+
+/// The mode of the segment from key `i` (none after the last key); `*` marks a key's own
+/// mode, the rest follow the default shown in the title.
+fn segment_mode(sequence: &crate::sequence::Sequence, i: usize) -> String {
+    if i + 1 >= sequence.keyframes.len() {
+        return String::new();
+    }
+    let mode = format::segment_interp(sequence, i).name();
+    match sequence.keyframes[i].interp {
+        Some(_) => format!("{mode}*"),
+        None => mode.to_string(),
+    }
 }
 
 fn status_lines(state: &TeachState) -> Paragraph<'static> {
@@ -366,6 +386,9 @@ mod tests {
             present,
         );
         let _ = state.handle_key(Key::Char('n'));
+        let _ = state.handle_key(Key::Char('n'));
+        let _ = state.handle_key(Key::Char('<'));
+        let _ = state.handle_key(Key::Char('p'));
         // The smallest usual terminal, and a wide one (side by side).
         for (width, height) in [(80, 24), (140, 30)] {
             let mut terminal = Terminal::new(TestBackend::new(width, height)).expect("terminal");
@@ -379,7 +402,15 @@ mod tests {
                 .iter()
                 .map(|c| c.symbol())
                 .collect();
-            for text in ["gripper", "limp", "new key 0", "jog 1°", "quit", "▶ 0"] {
+            for text in [
+                "gripper",
+                "limp",
+                "step",
+                "jog 1°",
+                "quit",
+                "▶ 0",
+                "default monotone",
+            ] {
                 assert!(screen.contains(text), "{text:?} missing at width {width}");
             }
         }

@@ -2,6 +2,7 @@
 //! played by `apply`, which confirms every command as the session driver would.
 
 use super::*;
+use crate::curve::Interp;
 use crate::sequence::{Ends, KeyValue, Keyframe};
 use crate::teach::files;
 
@@ -29,6 +30,13 @@ fn session(dir: &Path) -> TeachState {
     let start = state.start();
     apply(&mut state, start);
     state
+}
+
+/// A session on `sequence` without a journal, the arm at home (not yet held).
+fn unjournaled(sequence: Sequence, output: PathBuf) -> TeachState {
+    let robot = so101();
+    let present = robot.home.clone();
+    TeachState::new(robot, KeyframeList::new(sequence), output, None, present)
 }
 
 /// Confirms bus commands as a bus that does exactly what it is told (jogs arrive at once), and
@@ -257,15 +265,7 @@ fn timed_sequences_change_the_playback_speed_instead() {
     let mut key = Keyframe::new(vec![("gripper".into(), KeyValue::Joint(0.0))]);
     key.time = Some(0.0);
     sequence.keyframes.push(key);
-    let robot = so101();
-    let present = robot.home.clone();
-    let mut state = TeachState::new(
-        robot,
-        KeyframeList::new(sequence),
-        dir.path().join("t.json"),
-        None,
-        present,
-    );
+    let mut state = unjournaled(sequence, dir.path().join("t.json"));
     for _ in 0..5 {
         press(&mut state, Key::Char('+'));
     }
@@ -491,15 +491,7 @@ fn moving_to_a_control_key_reaches_its_own_pose() {
             KeyValue::Joint(deg),
         )]));
     }
-    let robot = so101();
-    let present = robot.home.clone();
-    let mut state = TeachState::new(
-        robot,
-        KeyframeList::new(sequence),
-        dir.path().join("c.json"),
-        None,
-        present,
-    );
+    let mut state = unjournaled(sequence, dir.path().join("c.json"));
     let commands = state.handle_key(Key::Char(' '));
     let [Command::Bus(BusCommand::Run(plan))] = &commands[..] else {
         panic!("expected a motion");
@@ -509,4 +501,247 @@ fn moving_to_a_control_key_reaches_its_own_pose() {
         "{:?}",
         plan.end_pose
     );
+}
+
+/// Types `text` into the open prompt and presses Enter.
+fn type_line(state: &mut TeachState, text: &str) -> Vec<Command> {
+    for c in text.chars() {
+        press(state, Key::Char(c));
+    }
+    press(state, Key::Enter)
+}
+
+/// A session with two keys at home, 2 s apart, the first one current.
+fn two_keys_at_the_first(dir: &Path) -> TeachState {
+    let mut state = session(dir);
+    press_all(
+        &mut state,
+        &[Key::Char('n'), Key::Char('n'), Key::Char('<')],
+    );
+    state
+}
+
+/// `key` opens a prompt, `text` is typed into it and Enter accepts it.
+fn edit(state: &mut TeachState, key: char, text: &str) -> Vec<Command> {
+    press(state, Key::Char(key));
+    type_line(state, text)
+}
+
+fn key_name(state: &TeachState, index: usize) -> Option<&str> {
+    state.list().sequence().keyframes[index].name.as_deref()
+}
+
+#[test]
+fn the_edits_of_a_key_are_refused_without_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    for key in ['N', 'h', 'p', 'v'] {
+        assert!(press(&mut state, Key::Char(key)).is_empty());
+        assert!(state.prompt().is_none(), "{key} opened a prompt");
+        assert_eq!(
+            state.status(),
+            &Status {
+                text: "no key yet: n adds one from the present pose".into(),
+                error: true
+            }
+        );
+    }
+}
+
+#[test]
+fn a_key_is_named_renamed_and_unnamed_and_a_shared_name_is_warned_of() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = two_keys_at_the_first(dir.path());
+    edit(&mut state, 'N', "wave");
+    assert_eq!(key_name(&state, 0), Some("wave"));
+    assert_eq!(state.status().text, "named key 0 (wave)");
+    assert!(!state.status().error);
+    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    assert_eq!(journal.keyframes[0].name.as_deref(), Some("wave"));
+
+    // The prompt starts from the present name: two backspaces and "lk" make "walk".
+    press(&mut state, Key::Char('N'));
+    assert_eq!(
+        state.prompt(),
+        Some(&Prompt::Text {
+            field: Field::Name,
+            text: "wave".into()
+        })
+    );
+    press_all(&mut state, &[Key::Backspace, Key::Backspace]);
+    type_line(&mut state, "lk");
+    assert_eq!(key_name(&state, 0), Some("walk"));
+
+    // Esc leaves it.
+    press_all(&mut state, &[Key::Char('N'), Key::Char('x'), Key::Esc]);
+    assert_eq!(key_name(&state, 0), Some("walk"));
+    assert_eq!(state.status().text, "name unchanged");
+
+    // The same name on key 1 is kept, but warned of.
+    press(&mut state, Key::Char('>'));
+    edit(&mut state, 'N', "walk");
+    assert_eq!(key_name(&state, 1), Some("walk"));
+    assert!(state.status().error);
+    assert!(
+        state.status().text.contains("key 0 has this name too")
+            && state.status().text.contains("play --from walk"),
+        "{}",
+        state.status().text
+    );
+
+    // A number is an index to --from.
+    press(&mut state, Key::Char('N'));
+    for _ in 0..4 {
+        press(&mut state, Key::Backspace);
+    }
+    type_line(&mut state, "3");
+    assert!(state.status().error && state.status().text.contains("index"));
+
+    // An empty name clears it.
+    press(&mut state, Key::Char('N'));
+    press(&mut state, Key::Backspace);
+    type_line(&mut state, "  ");
+    assert_eq!(key_name(&state, 1), None);
+    assert_eq!(state.status().text, "key 1 has no name now");
+}
+
+#[test]
+fn a_hold_is_set_cleared_and_refused_when_it_reaches_the_next_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = two_keys_at_the_first(dir.path());
+    edit(&mut state, 'h', "1.5");
+    assert_eq!(state.list().sequence().keyframes[0].hold, 1.5);
+    assert_eq!(state.status().text, "key 0 holds 1.5 s");
+    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    assert_eq!(journal.keyframes[0].hold, 1.5);
+
+    // Keys are 2 s apart: a 2 s hold leaves no time to move.
+    edit(&mut state, 'h', "2");
+    assert!(state.status().error);
+    assert_eq!(
+        state.status().text,
+        "a 2 s hold runs into key 1, 2.00 s later: hold unchanged"
+    );
+    for refused in ["-1", "soon", ""] {
+        edit(&mut state, 'h', refused);
+        assert!(state.status().error, "{refused:?} is refused");
+        assert_eq!(state.list().sequence().keyframes[0].hold, 1.5);
+    }
+
+    // A comma works as the decimal point; 0 clears.
+    edit(&mut state, 'h', "0,5");
+    assert_eq!(state.list().sequence().keyframes[0].hold, 0.5);
+    edit(&mut state, 'h', "0");
+    assert_eq!(state.list().sequence().keyframes[0].hold, 0.0);
+    assert_eq!(state.status().text, "key 0 holds no longer");
+}
+
+#[test]
+fn new_sequences_are_monotone_and_p_cycles_a_segment_through_the_modes() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    assert_eq!(state.list().sequence().interpolation, Interp::Monotone);
+    press_all(&mut state, &[Key::Char('n'), Key::Char('n')]);
+    press(&mut state, Key::Char('p'));
+    assert!(state.status().error, "the last key starts no segment");
+    assert_eq!(
+        state.status().text,
+        "key 1 is the last key: no segment follows it (n adds a key)"
+    );
+    assert_eq!(state.list().sequence().keyframes[1].interp, None);
+
+    press(&mut state, Key::Char('<'));
+    let mut seen = Vec::new();
+    for _ in 0..5 {
+        press(&mut state, Key::Char('p'));
+        seen.push(state.list().sequence().keyframes[0].interp);
+    }
+    // The default (monotone) is no override; after it the cycle starts again.
+    assert_eq!(
+        seen,
+        [
+            Some(Interp::Step),
+            Some(Interp::Linear),
+            Some(Interp::Cubic),
+            None,
+            Some(Interp::Step)
+        ]
+    );
+    assert_eq!(state.status().text, "key 0 → key 1: step");
+    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    assert_eq!(journal.keyframes[0].interp, Some(Interp::Step));
+}
+
+#[test]
+fn a_typed_value_is_kept_within_the_limits_and_the_arm_moves_there_by_the_ramp() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press(&mut state, Key::Char('n'));
+    press_all(&mut state, &[Key::Down, Key::Down]);
+    press(&mut state, Key::Char('v'));
+    assert!(
+        format::question(&state)
+            .unwrap()
+            .contains("elbow_flex of key 0 in degrees, now 0 (limits -96.83° … 96.83°)"),
+        "{:?}",
+        format::question(&state)
+    );
+    // Outside the limits: refused, naming them; the key keeps its value.
+    type_line(&mut state, "97");
+    assert_eq!(
+        state.status().text,
+        "97° is outside elbow_flex's limits -96.83° … 96.83°: unchanged"
+    );
+    edit(&mut state, 'v', "up");
+    assert!(state.status().error);
+    assert_eq!(key_values(&state, 0), [0.0; 6]);
+
+    // Inside: set, then with the arm held the question is whether to move it there.
+    edit(&mut state, 'v', "-45.5");
+    assert_eq!(key_values(&state, 0), [0.0, 0.0, -45.5, 0.0, 0.0, 0.0]);
+    assert_eq!(state.prompt(), Some(&Prompt::MoveThere));
+    assert_eq!(state.goals()[ELBOW], 0.0, "nothing moves before the answer");
+    let commands = press(&mut state, Key::Char('y'));
+    let [Command::Bus(BusCommand::Run(plan))] = &commands[..] else {
+        panic!("expected the ramp to the key, got {commands:?}");
+    };
+    assert_eq!(plan.kind, MotionKind::ToKey(0));
+    assert!(plan.options.approach, "the safe ramp, not a jump");
+    assert_eq!(plan.end_pose, [0.0, 0.0, -45.5, 0.0, 0.0, 0.0]);
+    state.on_event(Event::MotionEnded {
+        outcome: Ok(Outcome::Finished),
+        last_goals: None,
+    });
+
+    // Declined: the key changes, the arm does not.
+    edit(&mut state, 'v', "96.83");
+    assert!(press(&mut state, Key::Char('n')).is_empty());
+    assert_eq!(key_values(&state, 0)[ELBOW], 96.83);
+
+    // A limp arm is not offered the move.
+    press(&mut state, Key::Up);
+    press(&mut state, Key::Char('T'));
+    press(&mut state, Key::Char('y'));
+    edit(&mut state, 'v', "12");
+    assert!(state.prompt().is_none());
+    assert!(state.status().text.contains("once the arm is held"));
+    assert_eq!(key_values(&state, 0)[LIFT], 12.0);
+}
+
+#[test]
+fn a_joint_given_as_a_transform_is_not_typed_over() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut sequence = Sequence::new("so101");
+    sequence.keyframes.push(Keyframe::new(vec![(
+        "shoulder_pan".into(),
+        KeyValue::Transform(crate::pose::RigidTransform::IDENTITY),
+    )]));
+    let mut state = unjournaled(sequence, dir.path().join("tf.json"));
+    assert!(press(&mut state, Key::Char('v')).is_empty());
+    assert!(state.prompt().is_none());
+    assert_eq!(
+        state.status().text,
+        "key 0 gives shoulder_pan as a transform: edit it in the file"
+    );
+    assert!(!state.is_dirty());
 }

@@ -1,0 +1,167 @@
+//! The edits of the current key typed in or cycled: its name, its hold, the interpolation of
+//! the segment from it, and one joint's value. Each refusal leaves the key as it was.
+
+use super::*;
+use crate::curve::Interp;
+use crate::teach::prompt::number;
+
+impl TeachState {
+    /// Opens the text prompt for an edit of the current key; a name starts from the present
+    /// one (to correct a typo), numbers start empty (the question shows the present value).
+    pub(super) fn ask_about_key(&mut self, field: Field) -> Vec<Command> {
+        let Some(key) = self.list.show() else {
+            return self.fail("no key yet: n adds one from the present pose");
+        };
+        if let Field::Value(j) = field {
+            let joint = &self.robot.joints[j];
+            if let Some(KeyValue::Transform(_)) = key.value(&joint.name) {
+                return self.fail(format!(
+                    "{} gives {} as a transform: edit it in the file",
+                    self.key_label(self.list.current_index()),
+                    joint.name
+                ));
+            }
+        }
+        let text = match field {
+            Field::Name => key.name.clone().unwrap_or_default(),
+            _ => String::new(),
+        };
+        self.ask(field, text)
+    }
+
+    /// Names the current key (empty: no name). A name another key has is kept but warned
+    /// of, since `play --from NAME` refuses a name two keys share.
+    pub(super) fn name_key(&mut self, text: &str) -> Vec<Command> {
+        let index = self.list.current_index();
+        let name = (!text.is_empty()).then(|| text.to_string());
+        self.list.set_name(name);
+        let label = self.key_label(index);
+        match self.name_clash(index, text) {
+            Some(clash) => self.warn(format!("named {label}, but {clash}")),
+            None if text.is_empty() => self.info(format!("{label} has no name now")),
+            None => self.info(format!("named {label}")),
+        }
+        self.edited()
+    }
+
+    /// Why `name` would not pick key `index` out for `play --from`, if it would not.
+    fn name_clash(&self, index: usize, name: &str) -> Option<String> {
+        if name.is_empty() {
+            return None;
+        }
+        let others: Vec<String> = (self.list.sequence().keyframes.iter().enumerate())
+            .filter(|(i, key)| *i != index && key.name.as_deref() == Some(name))
+            .map(|(i, _)| i.to_string())
+            .collect();
+        if !others.is_empty() {
+            return Some(format!(
+                "key {} has this name too: play --from {name} refuses a name two keys share",
+                others.join(", ")
+            ));
+        }
+        name.parse::<usize>().is_ok().then(|| {
+            format!("play --from {name} reads a number as a key's index, not as this name")
+        })
+    }
+
+    /// Sets the current key's hold in seconds (0 clears it); refused when the hold would run
+    /// into the next key.
+    pub(super) fn hold_key(&mut self, text: &str) -> Vec<Command> {
+        let Some(hold) = number(text) else {
+            return self.fail(format!(
+                "{text:?} is not a number of seconds: hold unchanged"
+            ));
+        };
+        if hold < 0.0 {
+            return self.fail("a hold cannot be negative (0 clears it): hold unchanged");
+        }
+        let index = self.list.current_index();
+        if !self.list.set_hold(hold) {
+            // The hold is a valid number, so only the next key can have refused it.
+            let gap =
+                self.list.sequence().key_time(index + 1) - self.list.sequence().key_time(index);
+            return self.fail(format!(
+                "a {hold} s hold runs into key {}, {gap:.2} s later: hold unchanged",
+                index + 1
+            ));
+        }
+        let label = self.key_label(index);
+        if hold == 0.0 {
+            self.info(format!("{label} holds no longer"));
+        } else {
+            self.info(format!("{label} holds {hold} s"));
+        }
+        self.edited()
+    }
+
+    /// `p`: the next mode, in the order step → linear → cubic → monotone, for the segment from
+    /// the current key. The sequence's own mode is stored as no override, so the file names it
+    /// once and a later change of the default reaches the segment.
+    pub(super) fn cycle_interp(&mut self) -> Vec<Command> {
+        if self.list.is_empty() {
+            return self.fail("no key yet: n adds one from the present pose");
+        }
+        let index = self.list.current_index();
+        let label = self.key_label(index);
+        if index + 1 >= self.list.len() {
+            return self.fail(format!(
+                "{label} is the last key: no segment follows it (n adds a key)"
+            ));
+        }
+        let default = self.list.sequence().interpolation;
+        let now = format::segment_interp(self.list.sequence(), index);
+        let at = Interp::ALL.iter().position(|&m| m == now).unwrap_or(0);
+        let next = Interp::ALL[(at + 1) % Interp::ALL.len()];
+        self.list.set_interp((next != default).then_some(next));
+        let note = if next == default {
+            " (the sequence's default)"
+        } else {
+            ""
+        };
+        self.info(format!(
+            "{label} → key {}: {}{note}",
+            index + 1,
+            next.name()
+        ));
+        self.edited()
+    }
+
+    /// Sets joint `j` of the current key to a value typed in the screen's unit, refused
+    /// outside the joint's limits. With the arm held, offers to move it there by the safe
+    /// ramp of `space` rather than jump.
+    pub(super) fn type_value(&mut self, j: usize, text: &str) -> Vec<Command> {
+        let joint = &self.robot.joints[j];
+        let Some(shown) = number(text) else {
+            return self.fail(format!(
+                "{text:?} is not a number: {} unchanged",
+                joint.name
+            ));
+        };
+        let value = format::from_screen(joint, shown);
+        if !(joint.limits.min..=joint.limits.max).contains(&value) {
+            return self.fail(format!(
+                "{shown}{} is outside {}'s limits {}: unchanged",
+                format::unit(joint),
+                joint.name,
+                format::limits(joint)
+            ));
+        }
+        let name = joint.name.clone();
+        let shown_value = format::value(joint, value);
+        self.list.set_value(&name, KeyValue::Joint(value));
+        let label = self.key_label(self.list.current_index());
+        let held = self.torque.iter().all(|&t| t);
+        let later = if !held {
+            " (once the arm is held, space moves it there)"
+        } else if self.is_moving() {
+            " (once the arm stops, space moves it there)"
+        } else {
+            // Asked, not done: the arm may be far from the key, and the user is looking at
+            // the number, not at the arm.
+            self.prompt = Some(Prompt::MoveThere);
+            ""
+        };
+        self.info(format!("{label}: {name} {shown_value}{later}"));
+        self.edited()
+    }
+}
