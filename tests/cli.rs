@@ -155,7 +155,7 @@ fn an_empty_keyframe_list_is_refused() {
 fn unknown_robots_are_refused() {
     refused(
         r#"{"format":"keypose-sequence/1","robot":"so999","keyframes":[{"time":0,"joints":{"a":1}}]}"#,
-        r#"$.robot: unknown robot "so999": expected a built-in robot (so101, koch, omx)"#,
+        r#"$.robot: unknown robot "so999": expected a built-in robot (so101, so100, koch, omx)"#,
     );
     let out = keypose(&[
         "check",

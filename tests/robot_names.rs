@@ -106,7 +106,11 @@ fn an_unknown_bare_name_lists_the_built_ins() {
     for args in [vec![sequence.as_str()], vec![&sequence, "--robot", "so102"]] {
         let (code, _, shown) = check_json(cwd.path(), &args);
         assert_eq!(code, Some(2), "{shown}");
-        for expected in ["unknown robot \"so102\"", "so101, koch, omx", "./so102"] {
+        for expected in [
+            "unknown robot \"so102\"",
+            "so101, so100, koch, omx",
+            "./so102",
+        ] {
             assert!(shown.contains(expected), "{expected:?} in {shown}");
         }
         assert!(!shown.contains("panicked"), "{shown}");
@@ -161,6 +165,8 @@ fn lerobot_type_names_mean_the_built_ins() {
     for (lerobot, builtin, leader) in [
         ("so101_follower", "so101", false),
         ("so101_leader", "so101", true),
+        ("so100_follower", "so100", false),
+        ("so100_leader", "so100", true),
         ("koch_follower", "koch", false),
         ("koch_leader", "koch", true),
     ] {
@@ -195,8 +201,6 @@ fn lerobot_type_names_mean_the_built_ins() {
 fn lerobot_types_keypose_has_not_built_in_are_refused_with_the_reason() {
     let cwd = tempfile::tempdir().unwrap();
     let cases = [
-        ("so100_follower", "SO-100 is not built into keypose yet"),
-        ("so100_leader", "SO-100 is not built into keypose yet"),
         ("omx_follower", "not the OpenMANIPULATOR-X"),
         ("omx_leader", "not the OpenMANIPULATOR-X"),
     ];

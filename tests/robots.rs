@@ -50,6 +50,70 @@ fn so101_tcp_and_anchors_at_zero_match_mujoco() {
     }
 }
 
+/// Joint anchors, joint axes and TCP of the official SO-100 model, measured in MuJoCo from
+/// TheRobotStudio's `Simulation/SO100/so100.urdf` at official angles = middle of each range +
+/// the keypose angles given (docs/robots.md §11.3); the TCP is the official Menagerie pad
+/// midpoint carried on the same gripper frame (§11.2). Rounded to 0.01 mm and 1e-5.
+type Measured = ([f64; 6], [([f64; 3], [f64; 3]); 6], [f64; 3]);
+const SO100_MEASURED: [Measured; 3] = [
+    (
+        [0.0; 6],
+        [
+            ([0.0, -0.0452, 0.0165], [0.0, 0.00001, 1.0]),
+            ([0.0, -0.0758, 0.119], [1.0, 0.0, 0.0]),
+            ([0.0, -0.09814, 0.23283], [1.0, 0.0, 0.0]),
+            ([0.0, -0.23261, 0.24477], [1.0, 0.0, 0.0]),
+            ([0.0, -0.29221, 0.25251], [0.0, 0.99166, -0.12885]),
+            ([0.0, -0.3138, 0.27569], [-1.0, 0.0, -0.00002]),
+        ],
+        [0.0, -0.39276, 0.26558],
+    ),
+    (
+        [30.0, -25.0, 40.0, 20.0, -35.0, 10.0],
+        [
+            ([0.0, -0.0452, 0.0165], [0.0, 0.00001, 1.0]),
+            ([0.0153, -0.0717, 0.119], [0.86603, 0.5, 0.0]),
+            ([0.00137, -0.04757, 0.2316], [0.86603, 0.5, 0.0]),
+            ([0.06786, -0.16273, 0.20833], [0.86603, 0.5, 0.0]),
+            ([0.09449, -0.20886, 0.18049], [-0.44311, 0.7675, 0.46325]),
+            ([0.0991, -0.24002, 0.18385], [-0.84226, -0.17946, -0.50833]),
+        ],
+        [0.13942, -0.28669, 0.13352],
+    ),
+    (
+        [-60.0, 45.0, -50.0, -40.0, 70.0, -30.0],
+        [
+            ([0.0, -0.0452, 0.0165], [0.0, 0.00001, 1.0]),
+            ([-0.0265, -0.0605, 0.119], [0.5, -0.86603, 0.00001]),
+            ([-0.10989, -0.10864, 0.18369], [0.5, -0.86603, 0.00001]),
+            ([-0.225, -0.1751, 0.2073], [0.5, -0.86603, 0.00001]),
+            ([-0.25675, -0.19343, 0.25492], [0.52837, 0.30505, -0.79232]),
+            ([-0.25541, -0.21458, 0.27847], [0.47376, 0.66848, 0.5733]),
+        ],
+        [-0.31033, -0.22437, 0.33526],
+    ),
+];
+
+#[test]
+fn so100_anchors_axes_and_tcp_match_the_official_model_at_zero_and_two_poses() {
+    let robot = Robot::builtin("so100").unwrap();
+    for (q, joints, tcp) in SO100_MEASURED {
+        // 0.1 mm and 1e-4: the sheet's rounding plus the URDF's 5-digit pi/2.
+        let got = robot.tcp_position(&q);
+        assert!(close(got, tcp, 1e-4), "{q:?}: tcp {got:?} vs {tcp:?}");
+        for ((anchor, axis), (want_anchor, want_axis)) in robot.joint_axes(&q).iter().zip(joints) {
+            assert!(
+                close(*anchor, want_anchor, 1e-4),
+                "{q:?}: anchor {anchor:?} vs {want_anchor:?}"
+            );
+            assert!(
+                close(*axis, want_axis, 1e-4),
+                "{q:?}: axis {axis:?} vs {want_axis:?}"
+            );
+        }
+    }
+}
+
 #[test]
 fn koch_tcp_and_anchors_at_zero_match_mujoco() {
     let robot = Robot::builtin("koch").unwrap();

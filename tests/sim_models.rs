@@ -31,7 +31,7 @@ const MAX_SAG_M: f64 = 0.001;
 
 struct Case {
     robot: &'static str,
-    /// TCP at q = 0 as docs/robots.md (§1.3, §2.3, §3.3) measured it on the official models, metres;
+    /// TCP at q = 0 as docs/robots.md (§1.3, §11.3, §2.3, §3.3) measured it on the official models, metres;
     /// given there to 0.01 mm (SO-101), 0.1 mm (Koch) and 0.1 mm (OpenMANIPULATOR-X).
     measured_tcp: [f64; 3],
     /// A pose (joint, value in the description's unit) that puts the arm through the floor.
@@ -40,12 +40,18 @@ struct Case {
     into_itself: &'static [(&'static str, f64)],
 }
 
-const CASES: [Case; 3] = [
+const CASES: [Case; 4] = [
     Case {
         robot: "so101",
         measured_tcp: [0.39136, -0.00001, 0.22647],
         into_floor: &[("shoulder_lift", 99.0), ("elbow_flex", 30.0)],
         into_itself: &[("elbow_flex", 96.0), ("wrist_flex", 90.0)],
+    },
+    Case {
+        robot: "so100",
+        measured_tcp: [0.0, -0.39276, 0.26558],
+        into_floor: &[("shoulder_lift", 100.0)],
+        into_itself: &[("elbow_flex", 89.0), ("wrist_flex", 105.0)],
     },
     Case {
         robot: "koch",

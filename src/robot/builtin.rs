@@ -3,13 +3,14 @@
 use super::{Robot, RobotSource};
 
 /// (name, file text) of every built-in robot.
-const BUILTIN: [(&str, &str); 3] = [
+const BUILTIN: [(&str, &str); 4] = [
     ("so101", include_str!("../../robots/so101.json")),
+    ("so100", include_str!("../../robots/so100.json")),
     ("koch", include_str!("../../robots/koch.json")),
     ("omx", include_str!("../../robots/omx.json")),
 ];
 
-pub const BUILTIN_NAMES: [&str; 3] = ["so101", "koch", "omx"];
+pub const BUILTIN_NAMES: [&str; 4] = ["so101", "so100", "koch", "omx"];
 
 pub fn get(name: &str) -> Option<Robot> {
     let (_, text) = BUILTIN.iter().find(|(n, _)| *n == name)?;

@@ -32,7 +32,7 @@ pub struct LeRobotType {
     pub calibration_dirs: &'static [&'static str],
 }
 
-const TYPES: [LeRobotType; 4] = [
+const TYPES: [LeRobotType; 6] = [
     LeRobotType {
         name: "so101_follower",
         builtin: "so101",
@@ -44,6 +44,18 @@ const TYPES: [LeRobotType; 4] = [
         builtin: "so101",
         role: LeRobotRole::Leader,
         calibration_dirs: &["teleoperators/so_leader", "teleoperators/so101_leader"],
+    },
+    LeRobotType {
+        name: "so100_follower",
+        builtin: "so100",
+        role: LeRobotRole::Follower,
+        calibration_dirs: &["robots/so_follower", "robots/so100_follower"],
+    },
+    LeRobotType {
+        name: "so100_leader",
+        builtin: "so100",
+        role: LeRobotRole::Leader,
+        calibration_dirs: &["teleoperators/so_leader", "teleoperators/so100_leader"],
     },
     LeRobotType {
         name: "koch_follower",
@@ -62,12 +74,6 @@ const TYPES: [LeRobotType; 4] = [
 /// A LeRobot type whose arm keypose has not built in.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum NotBuiltIn {
-    #[error(
-        "{name:?} is LeRobot's SO-100 {role}; SO-100 is not built into keypose yet (its kinematics \
-         differ from the SO-101's and need the official SO-100 model): describe it in a robot \
-         file (README \"Robot: keypose-robot/1\") and give its path, e.g. --robot ./so100.json"
-    )]
-    So100 { name: String, role: &'static str },
     #[error(
         "{name:?} is LeRobot's OMX {role}, ROBOTIS's 6-servo OMX arm (IDs 11-16), not the \
          OpenMANIPULATOR-X that keypose's built-in \"omx\" describes (docs/robots.md §3); it is not \
@@ -94,10 +100,6 @@ pub fn lerobot_type(name: &str) -> Option<Result<&'static LeRobotType, NotBuiltI
     };
     let name_owned = name.to_string();
     match name {
-        "so100_follower" | "so100_leader" => Some(Err(NotBuiltIn::So100 {
-            name: name_owned,
-            role,
-        })),
         "omx_follower" | "omx_leader" => Some(Err(NotBuiltIn::Omx {
             name: name_owned,
             role,
@@ -272,10 +274,10 @@ mod tests {
             lerobot_type("koch_leader").unwrap().unwrap().builtin,
             "koch"
         );
-        assert!(matches!(
-            lerobot_type("so100_follower"),
-            Some(Err(NotBuiltIn::So100 { .. }))
-        ));
+        assert_eq!(
+            lerobot_type("so100_follower").unwrap().unwrap().builtin,
+            "so100"
+        );
         assert!(matches!(
             lerobot_type("omx_leader"),
             Some(Err(NotBuiltIn::Omx { .. }))

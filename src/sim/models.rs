@@ -6,8 +6,9 @@ use crate::json::{InputError, Location};
 use crate::python::PyConfig;
 use std::path::{Path, PathBuf};
 
-const MODELS: [(&str, &str); 3] = [
+const MODELS: [(&str, &str); 4] = [
     ("so101", include_str!("../../sim/models/so101.xml")),
+    ("so100", include_str!("../../sim/models/so100.xml")),
     ("koch", include_str!("../../sim/models/koch.xml")),
     ("omx", include_str!("../../sim/models/omx.xml")),
 ];
