@@ -51,7 +51,7 @@ impl BusArgs {
 /// A robot for commands without a sequence.
 #[derive(Debug, Clone, clap::Args)]
 pub struct RobotArgs {
-    /// A built-in robot (so101, koch, omx), a LeRobot robot type (so101_follower,
+    /// A built-in robot (so101, so100, koch, omx), a LeRobot robot type (so101_follower,
     /// so101_leader, koch_follower, koch_leader) or a robot file.
     #[arg(long, value_name = "NAME|FILE", default_value = super::DEFAULT_ROBOT)]
     pub robot: String,
@@ -70,7 +70,7 @@ impl RobotArgs {
 pub struct SequenceInput {
     /// Sequence file (keypose-sequence/1 JSON).
     pub sequence: PathBuf,
-    /// Robot to use instead of the one the sequence names: a built-in name (so101, koch, omx),
+    /// Robot to use instead of the one the sequence names: a built-in name (so101, so100, koch, omx),
     /// a LeRobot robot type (so101_follower, koch_leader, …) or a robot file.
     #[arg(long, value_name = "NAME|FILE")]
     pub robot: Option<String>,
