@@ -52,7 +52,7 @@ impl BusArgs {
 #[derive(Debug, Clone, clap::Args)]
 pub struct RobotArgs {
     /// A built-in robot (so101, so100, koch, omx), a LeRobot robot type (so101_follower,
-    /// so101_leader, koch_follower, koch_leader) or a robot file.
+    /// so100_follower, koch_follower and their leaders) or a robot file.
     #[arg(long, value_name = "NAME|FILE", default_value = super::DEFAULT_ROBOT)]
     pub robot: String,
     #[command(flatten)]

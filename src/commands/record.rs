@@ -21,8 +21,8 @@ pub struct RecordArgs {
     /// Where to write the keyframes (keypose-sequence/1 JSON; replaced atomically).
     #[arg(short, long, value_name = "FILE")]
     pub output: PathBuf,
-    /// A built-in robot (so101, so100, koch, omx), a LeRobot robot type (so101_follower, so100_follower,
-    /// koch_follower, koch_leader) or a robot file.
+    /// A built-in robot (so101, so100, koch, omx), a LeRobot robot type (so101_follower,
+    /// so100_follower, koch_follower and their leaders) or a robot file.
     #[arg(long, value_name = "NAME|FILE", default_value = super::DEFAULT_ROBOT)]
     pub robot: String,
     #[command(flatten)]

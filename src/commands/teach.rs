@@ -16,8 +16,8 @@ pub const DEFAULT_OUTPUT: &str = "taught.json";
 pub struct TeachArgs {
     /// Sequence file to edit; a new list when it does not exist yet (w creates it).
     pub sequence: Option<PathBuf>,
-    /// A built-in robot (so101, so100, koch, omx), a LeRobot robot type (so101_follower, so100_follower,
-    /// koch_follower, koch_leader) or a robot file [default: the sequence's robot, else
+    /// A built-in robot (so101, so100, koch, omx), a LeRobot robot type (so101_follower,
+    /// so100_follower, koch_follower and their leaders) or a robot file [default: the sequence's robot, else
     /// so101].
     #[arg(long, value_name = "NAME|FILE")]
     pub robot: Option<String>,
