@@ -36,6 +36,13 @@ pub struct PoseArgs {
 /// The step each joint is drawn at in the joint-directions picture, degrees.
 const DIRECTION_STEP_DEG: f64 = 30.0;
 
+/// The joint-directions camera: from the front-right (−y side) and well above, so that joints
+/// turning about a horizontal axis and the pan about the vertical one both show.
+const DIRECTIONS_CAMERA: sim::Camera = sim::Camera {
+    azimuth: 60.0,
+    elevation: -35.0,
+};
+
 /// A pose, checked: joint values in joint order and which of them were given.
 struct Pose {
     values: Vec<f64>,
@@ -329,7 +336,8 @@ fn draw_directions(
             JointKind::Prismatic => format!("{} +{:.0} mm", joint.name, step * 1000.0),
         });
     }
-    let gl = sim::render(robot, mjcf, &frames, &labels, path).map_err(sim_error)?;
+    let gl =
+        sim::render(robot, mjcf, &frames, &labels, path, &DIRECTIONS_CAMERA).map_err(sim_error)?;
     eprintln!(
         "{}: joint directions of {} ({} frames) drawn ({gl})",
         path.display(),

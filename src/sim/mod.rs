@@ -399,6 +399,24 @@ impl Trace {
     }
 }
 
+/// Where a render's camera looks from, degrees (MuJoCo's free camera: azimuth about +z,
+/// elevation negative from above); it always looks at the middle of every frame's arm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    pub azimuth: f64,
+    pub elevation: f64,
+}
+
+impl Default for Camera {
+    /// From the front-left and a little above (sim/PROTOCOL.md, render).
+    fn default() -> Self {
+        Camera {
+            azimuth: 135.0,
+            elevation: -20.0,
+        }
+    }
+}
+
 /// Renders `frames` (joint values) to `path` (.png contact sheet, .gif or .mp4), headless: EGL
 /// first, OSMesa if EGL cannot make a context.
 pub fn render(
@@ -407,6 +425,7 @@ pub fn render(
     frames: &[Vec<f64>],
     labels: &[String],
     path: &Path,
+    camera: &Camera,
 ) -> Result<String, SimError> {
     let mut failures = Vec::new();
     for gl in ["egl", "osmesa"] {
@@ -427,6 +446,8 @@ pub fn render(
             "height": 240,
             "fps": 25,
             "columns": 4,
+            "azimuth": camera.azimuth,
+            "elevation": camera.elevation,
         });
         match sim.request(&request) {
             Ok(reply) => return Ok(reply["gl"].as_str().unwrap_or(gl).to_string()),
