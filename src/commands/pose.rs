@@ -250,13 +250,10 @@ fn joint_line(joint: &Joint, value: f64, given: bool) -> String {
         JointKind::Revolute => 2,
         JointKind::Prismatic => 4,
     };
-    let limits = format!(
-        "{:.decimals$} … {:.decimals$} {unit}",
-        joint.limits.min, joint.limits.max
-    );
+    let (min, max) = (joint.limits.min, joint.limits.max);
     let origin = if given { "" } else { "  (home)" };
     format!(
-        "  {:<20} {value:>8.decimals$} {unit:<3} {limits:>26}{origin}",
+        "  {:<20} {value:>9.decimals$} {unit:<3}   {min:>9.decimals$} … {max:>8.decimals$} {unit:<3}{origin}",
         joint.name
     )
 }
