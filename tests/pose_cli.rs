@@ -191,3 +191,22 @@ fn the_committed_joint_direction_pictures_are_small_pngs() {
         assert_eq!(png_size(&path).0, 1280, "{}", path.display());
     }
 }
+
+/// The README's `keypose pose` sample is what the command prints, the model's path (which
+/// depends on the machine's cache) shown as `…/so101.xml`.
+#[test]
+fn the_readme_pose_sample_prints_what_the_command_prints() {
+    let readme = std::fs::read_to_string(common::repo("README.md")).unwrap();
+    let (_, after) = readme
+        .split_once("$ keypose pose elbow_flex=90")
+        .expect("the README shows keypose pose elbow_flex=90");
+    let (_, sample) = after.split_once('\n').unwrap();
+    let (sample, _) = sample.split_once("```").unwrap();
+    let out = keypose(&["pose", "elbow_flex=90"]);
+    let printed = common::stdout(&out);
+    let model = cache().join("sim/models/so101.xml");
+    let printed = printed.replace(&model.display().to_string(), "…/so101.xml");
+    let lines =
+        |text: &str| -> Vec<String> { text.lines().map(|l| l.trim_end().to_string()).collect() };
+    assert_eq!(lines(&printed), lines(sample), "{}", show(&out));
+}
