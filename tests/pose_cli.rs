@@ -4,23 +4,9 @@
 
 mod common;
 
-use common::show;
+use common::{png_size, run_sim as keypose, show, sim_cache as cache};
 use serde_json::Value;
-use std::path::{Path, PathBuf};
-use std::process::Output;
-
-fn keypose(args: &[&str]) -> Output {
-    common::keypose()
-        .args(args)
-        .env("KEYPOSE_CACHE", cache())
-        .output()
-        .expect("run keypose")
-}
-
-/// The Python environment sim_cli builds under target/ (the same one: built once).
-fn cache() -> PathBuf {
-    Path::new(env!("CARGO_TARGET_TMPDIR")).join("sim_cli_cache")
-}
+use std::path::PathBuf;
 
 /// `keypose pose ARGS --format json`: exit code and report.
 fn pose_json(args: &[&str]) -> (Option<i32>, Value) {
@@ -154,15 +140,6 @@ fn bad_assignments_are_bad_input() {
         );
         assert!(out.stdout.is_empty(), "{args:?}: {}", show(&out));
     }
-}
-
-/// Width and height from a PNG's IHDR chunk.
-fn png_size(path: &Path) -> (u32, u32) {
-    let bytes = std::fs::read(path).unwrap();
-    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "not a PNG");
-    let be =
-        |at: usize| u32::from_be_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
-    (be(16), be(20))
 }
 
 /// The joint-directions sheet: the zero pose and one tile per joint, 320 × 240 tiles in four
