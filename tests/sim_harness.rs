@@ -578,6 +578,16 @@ fn bad_requests_get_error_replies_and_the_harness_keeps_answering() {
             json!({"op": "render", "joints": ["shoulder"], "frames": [[0]], "path": "out.bmp"}),
             ".png",
         ),
+        (
+            json!({"op": "render", "joints": ["shoulder"], "frames": [[0]], "path": "out.png",
+                   "elevation": 95}),
+            "'elevation' must be between -90 and 90",
+        ),
+        (
+            json!({"op": "render", "joints": ["shoulder"], "frames": [[0]], "path": "out.png",
+                   "azimuth": "left"}),
+            "'azimuth' must be a finite number",
+        ),
     ];
     for (body, words) in cases {
         let reply = refused(&mut harness, body.clone());
