@@ -84,6 +84,28 @@ fn the_forearm_folded_down_into_the_floor_fails_naming_the_floor() {
     );
 }
 
+/// elbow_flex +96° and wrist_flex +95° fold the forearm down and the gripper on back under it,
+/// 191° from +x about +y (§1.3 axes): the wrist_flex axis lands at
+/// (0.09723 + 0.1349·cos 96° + 0.0052·sin 96°, ·, 0.22917 − 0.1349·sin 96° + 0.0052·cos 96°)
+/// = (0.0883, ·, 0.0945) and the TCP, (0.15923, −0.0079) from it turned by 191°, at
+/// (0.0883 − 0.1548, ·, 0.0945 + 0.0381) = (−0.0665, ·, 0.1326): behind the pan axis
+/// (x = 0.0388), through the shoulder, 13 cm above the floor. Only self-collisions, then.
+#[test]
+fn the_gripper_folded_back_into_the_shoulder_is_a_self_collision() {
+    let (code, report) = pose_json(&["elbow_flex=96", "wrist_flex=95"]);
+    assert_eq!(code, Some(1), "{report:#}");
+    assert_tool_at(&report, [-0.0665, -0.00001, 0.1326], 0.0005);
+    let contacts = report["contacts"].as_array().unwrap();
+    assert!(!contacts.is_empty(), "{report:#}");
+    assert!(contacts.iter().all(|c| c["kind"] == "self"), "{report:#}");
+    assert!(
+        contacts
+            .iter()
+            .any(|c| c["body1"] == "shoulder" || c["body2"] == "shoulder"),
+        "{report:#}"
+    );
+}
+
 /// OMX with joint1 at +90° (axis world +z through (0.012, 0, 0.017), §3.3) and the arm
 /// straightened (joint2 = joint3 = 0; joint4 and the gripper stay at home, 0): the q = 0 TCP
 /// (0.2860, 0, 0.2045) turns a quarter about that axis to (0.012, 0.274, 0.2045), the tool
