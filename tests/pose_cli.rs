@@ -178,6 +178,14 @@ fn directions_draw_the_zero_pose_and_each_joint() {
     let out = keypose(&["pose", "--directions", wrong.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2), "{}", show(&out));
     assert!(!wrong.exists());
+    let nowhere = dir.path().join("missing/so101.png");
+    let out = keypose(&["pose", "--directions", nowhere.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+    assert!(
+        common::stderr(&out).contains("does not exist"),
+        "{}",
+        show(&out)
+    );
 }
 
 /// The committed pictures exist for every built-in robot and stay small.

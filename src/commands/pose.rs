@@ -320,6 +320,18 @@ fn draw_directions(
             path.display()
         )));
     }
+    // An unwritable place is the user's to mend (exit 2), said before MuJoCo starts.
+    let directory = match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir,
+        _ => Path::new("."),
+    };
+    if !directory.is_dir() {
+        return Err(CommandError::Usage(format!(
+            "--directions {}: the directory {} does not exist",
+            path.display(),
+            directory.display()
+        )));
+    }
     let zero = vec![0.0; robot.joints.len()];
     let mut frames = vec![zero.clone()];
     let mut labels = vec!["zero pose".to_string()];
