@@ -10,6 +10,7 @@ is sim/PROTOCOL.md; in short:
     ping         {"op": "ping"} -> {"ok": true}
     load         {"op": "load", "mjcf": PATH}
     kinematics   {"op": "kinematics", "qpos": {JOINT: VALUE}, "sites": [SITE, ...]}
+    contacts     {"op": "contacts", "qpos": {JOINT: VALUE}}  (one pose, no dynamics)
     run          {"op": "run", "joints": [...], "control_hz": HZ, "initial": [...], "commands": [[...]]}
     render       {"op": "render", "frames": [[...]], "joints": [...], "labels": [...], "path": P,
                   "width": W, "height": H, "fps": F, "columns": C}
@@ -86,15 +87,17 @@ class Harness:
             return {}
         if op == "load":
             return self.load(req)
-        if op in ("kinematics", "run", "render"):
+        if op in ("kinematics", "contacts", "run", "render"):
             if self.model is None:
                 raise SimError("state", f"{op}: no model loaded (send 'load' first)")
             if op == "kinematics":
                 return self.model.kinematics(req)
+            if op == "contacts":
+                return self.sim.pose_contacts(self.model, req)
             if op == "run":
                 return self.sim.run(self.model, req)
             return self.renderer.render(self.model, req)
-        raise request_error(f"unknown op {json.dumps(op)} (known: ping, load, kinematics, run, render)")
+        raise request_error(f"unknown op {json.dumps(op)} (known: ping, load, kinematics, contacts, run, render)")
 
     def load(self, req):
         warnings = self.sim.warnings

@@ -131,6 +131,19 @@ class Model:
         for j, value in zip(joint_ids, values):
             data.qpos[m.jnt_qposadr[j]] = value
 
+    def set_request_qpos(self, data, req):
+        """Sets `data`'s qpos from a request's "qpos" object (joint: value); others at qpos0."""
+        qpos = member(req, "qpos")
+        if not isinstance(qpos, dict):
+            raise request_error(f"'qpos' must be an object of joint: value, not {json.dumps(qpos)[:200]}")
+        ids, values = [], []
+        for joint_name, value in qpos.items():
+            ids.append(self.joint(joint_name))
+            if not is_number(value):
+                raise request_error(f"qpos of {joint_name!r} must be a finite number, not {json.dumps(value)}")
+            values.append(float(value))
+        self.set_joints(data, ids, values)
+
     def describe(self):
         m = self.m
         joints = []
@@ -156,15 +169,7 @@ class Model:
         """Forward kinematics at the given joint values: joint anchors and axes, site positions."""
         model = self
         mujoco, m, data = self.mujoco, model.m, model.scratch
-        qpos = member(req, "qpos")
-        if not isinstance(qpos, dict):
-            raise request_error(f"'qpos' must be an object of joint: value, not {json.dumps(qpos)[:200]}")
-        ids, values = [], []
-        for joint_name, value in qpos.items():
-            ids.append(model.joint(joint_name))
-            if not is_number(value):
-                raise request_error(f"qpos of {joint_name!r} must be a finite number, not {json.dumps(value)}")
-            values.append(float(value))
+        model.set_request_qpos(data, req)
         sites = string_list(req, "sites", required=False, nonempty=False)
         if sites is None:
             sites = list(model.site_ids)
@@ -175,7 +180,6 @@ class Model:
                 known = ", ".join(model.site_ids) or "none"
                 raise request_error(f"site {site!r} is not in {model.path} (its sites: {known})")
             site_ids.append(s)
-        model.set_joints(data, ids, values)
         mujoco.mj_kinematics(m, data)
         anchors, axes = {}, {}
         for joint_name in model.joint_names:

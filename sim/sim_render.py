@@ -27,6 +27,10 @@ GL_PACKAGES = {
 RENDER_FORMATS = (".png", ".gif", ".mp4")
 
 MAX_IMAGE_SIDE = 8192
+# Where the camera looks from by default: front-left and a little above (degrees, MuJoCo's
+# free-camera azimuth and elevation).
+DEFAULT_AZIMUTH = 135.0
+DEFAULT_ELEVATION = -20.0
 
 
 def choose_gl():
@@ -113,6 +117,10 @@ class Renderer:
         height = integer(req, "height", 240, 16, MAX_IMAGE_SIDE)
         fps = number(req, "fps", 25, positive=True)
         columns = integer(req, "columns", 4, 1, 1000)
+        azimuth = number(req, "azimuth", DEFAULT_AZIMUTH)
+        elevation = number(req, "elevation", DEFAULT_ELEVATION)
+        if not -90.0 <= elevation <= 90.0:
+            raise request_error(f"'elevation' must be between -90 and 90 degrees, not {elevation:g}")
         if ext == ".mp4" and (width % 2 or height % 2):
             raise request_error(f"an MP4 (H.264, yuv420p) needs an even width and height, not {width}x{height}")
         directory = os.path.dirname(os.path.abspath(path))
@@ -121,6 +129,7 @@ class Renderer:
         return SimpleNamespace(
             joints=joints, frames=frames, labels=labels, path=path, ext=ext,
             width=width, height=height, fps=fps, columns=columns,
+            azimuth=azimuth, elevation=elevation,
         )
 
     def _images(self, model, r):
@@ -139,7 +148,7 @@ class Renderer:
                 model.set_joints(data, r.joints, row)
                 mujoco.mj_forward(m, data)
                 poses.append(data.qpos.copy())
-            camera = self._camera(model, poses, r.width, r.height)
+            camera = self._camera(model, poses, r)
             images = []
             for qpos in poses:
                 data.qpos[:] = qpos
@@ -150,8 +159,10 @@ class Renderer:
             renderer.close()
         return images
 
-    def _camera(self, model, poses, width, height):
-        """A fixed free camera, from the front-left and above, that sees every frame whole."""
+    def _camera(self, model, poses, r):
+        """A fixed free camera, by default from the front-left and above, that sees every frame
+        whole."""
+        width, height = r.width, r.height
         mujoco, np = self.mujoco, self.np
         m, data = model.m, model.scratch
         # Planes are infinite and would make the bounding box so; they are the floor anyway.
@@ -178,8 +189,8 @@ class Renderer:
         fovx = 2.0 * math.atan(math.tan(fovy / 2.0) * width / height)
         camera.lookat[:] = center
         camera.distance = 1.1 * radius / math.sin(min(fovx, fovy) / 2.0)
-        camera.azimuth = 135.0
-        camera.elevation = -20.0
+        camera.azimuth = r.azimuth
+        camera.elevation = r.elevation
         return camera
 
     def _gl_error(self, detail):

@@ -53,6 +53,24 @@ class Simulator:
         self.can_continue = rec.recorded == args.commands.shape[0]
         return self._run_reply(rec, wiring, args.steps_per_row)
 
+    def pose_contacts(self, model, req):
+        """The contacts of one pose, with no dynamics: qpos set, velocities zero, mj_forward.
+
+        mj_forward runs collision detection and the constraint solver once, so penetrations and
+        their forces are what the first physics step would meet; nothing moves. The scratch data
+        is used, so a run in progress can still be continued.
+        """
+        d = model.scratch
+        model.set_request_qpos(d, req)
+        d.qvel[:] = 0
+        d.ctrl[:] = 0
+        self.mujoco.mj_forward(model.m, d)
+        found = []
+        self._contacts(model, d, 0.0, found)
+        for contact in found:
+            del contact["time"]
+        return {"contacts": found}
+
     def _run_request(self, model, req):
         """The run request's joints, rate, reset flag, initial values and commands, checked."""
         np, m = self.np, model.m

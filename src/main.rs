@@ -55,6 +55,11 @@ enum Command {
     /// Record a motion made by hand (torque off), then turn it into the fewest keyframes that
     /// reproduce it within a tolerance.
     Record(commands::record::RecordArgs),
+    /// Where the tool is at a pose (joints not given at home), each joint against its limits,
+    /// and whether the arm there touches the floor or itself: exit code 1 when it does.
+    ///
+    /// `--directions FILE.png` draws the zero pose and each joint's positive direction instead.
+    Pose(commands::pose::PoseArgs),
     /// Print the present pose (degrees; metres for prismatic joints) as JSON.
     Read(commands::read::ReadArgs),
     /// Turn torque on (hold where the arm is) or off (limp) for all or some joints.
@@ -84,6 +89,7 @@ fn main() -> ExitCode {
         Command::Play(args) => commands::play::run(args),
         Command::Teach(args) => commands::teach::run(args),
         Command::Record(args) => commands::record::run(args),
+        Command::Pose(args) => commands::pose::run(args),
         Command::Read(args) => commands::read::run(args),
         Command::Torque(args) => commands::torque::run(args),
         Command::Scan(args) => commands::scan::run(args),

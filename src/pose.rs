@@ -164,9 +164,34 @@ pub fn quat_from_rpy(roll: f64, pitch: f64, yaw: f64) -> DQuat {
         .normalize()
 }
 
+/// URDF roll-pitch-yaw of a rotation, the inverse of [`quat_from_rpy`] (pitch in [−π/2, π/2]).
+pub fn rpy_from_quat(q: DQuat) -> (f64, f64, f64) {
+    // Intrinsic Z-Y-X angles are the URDF's extrinsic X-Y-Z ones: (yaw, pitch, roll).
+    let (yaw, pitch, roll) = q.normalize().to_euler(glam::EulerRot::ZYX);
+    (roll, pitch, yaw)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rpy_from_quat_inverts_quat_from_rpy() {
+        for (r, p, y) in [
+            (0.3, -0.4, 1.2),
+            (-2.0, 1.0, -3.0),
+            (0.0, 0.0, 0.0),
+            (3.0, 0.2, 0.1),
+        ] {
+            let (r2, p2, y2) = rpy_from_quat(quat_from_rpy(r, p, y));
+            assert!((r2 - r).abs() < 1e-12 && (p2 - p).abs() < 1e-12 && (y2 - y).abs() < 1e-12);
+        }
+        // Yaw alone: +90° about z takes +x to +y.
+        let (r, p, y) = rpy_from_quat(DQuat::from_rotation_z(std::f64::consts::FRAC_PI_2));
+        assert!(
+            r.abs() < 1e-12 && p.abs() < 1e-12 && (y - std::f64::consts::FRAC_PI_2).abs() < 1e-12
+        );
+    }
 
     #[test]
     fn unwrap_prefers_inside_limits_then_continuity() {

@@ -143,6 +143,15 @@ fn a_key_outside_a_limit_the_calibration_narrowed_says_so() {
         err.contains(&format!("narrowed by the calibration {cal}")),
         "{err}"
     );
+    // The same pose given to `keypose pose` is refused against the narrowed limits, before
+    // any simulation starts.
+    let out = run(&["pose", "elbow_flex=90", "--calibration", &cal]);
+    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+    let err = stderr(&out);
+    assert!(
+        err.contains("elbow_flex 90 deg is outside its limits -87.890625 … 87.890625 deg"),
+        "{err}"
+    );
 }
 
 #[test]

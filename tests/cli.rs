@@ -648,8 +648,9 @@ fn the_readme_console_examples_print_what_the_commands_print() {
     let mut compared = Vec::new();
     for (command, expected) in readme_console_examples() {
         let verb = command.split_whitespace().nth(1).unwrap_or_default();
-        // Those need servos, MuJoCo or a playback log: not run here.
-        if ["play", "plot", "sim"].contains(&verb) {
+        // Those need servos, MuJoCo or a playback log: not run here (tests/pose_cli.rs
+        // compares the `pose` sample).
+        if ["play", "plot", "sim", "pose"].contains(&verb) {
             continue;
         }
         let printed = run_readme_command(&command, dir.path());

@@ -6,21 +6,10 @@
 mod common;
 
 use common::repo;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Output;
 
-fn keypose(args: &[&str]) -> Output {
-    common::keypose()
-        .args(args)
-        .env("KEYPOSE_CACHE", cache())
-        .output()
-        .expect("run keypose")
-}
-
-/// One Python environment for this test binary, under target/ (built on first use).
-fn cache() -> PathBuf {
-    Path::new(env!("CARGO_TARGET_TMPDIR")).join("sim_cli_cache")
-}
+use common::{png_size, run_sim as keypose};
 
 fn text(out: &Output) -> String {
     format!(
@@ -179,15 +168,6 @@ fn play_without_a_port_simulates_with_progress_and_a_verdict() {
         all.contains("in MuJoCo (no --port)") && all.contains("loop 1/1") && all.contains("PASSED"),
         "{all}"
     );
-}
-
-/// Width and height from a PNG's IHDR chunk.
-fn png_size(path: &Path) -> (u32, u32) {
-    let bytes = std::fs::read(path).unwrap();
-    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "not a PNG");
-    let be =
-        |at: usize| u32::from_be_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
-    (be(16), be(20))
 }
 
 #[test]

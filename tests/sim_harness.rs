@@ -248,6 +248,46 @@ fn load_describes_the_model() {
     assert_eq!(reply["sites"], json!(["tip"]));
 }
 
+/// The `contacts` request at two poses worked out by hand: level (the arm 0.4 m up, nothing
+/// near the floor) and hanging straight down, where the tip capsule's end sphere reaches
+/// BASE_Z − L1 − L2 − radius = 0.4 − 0.5 − 0.02 = −0.12 m: 0.12 m into the floor, and the
+/// elbow end of that capsule (0.1 − 0.02 = 0.08 m up) and all of link1 stay clear.
+#[test]
+fn contacts_of_one_pose_are_found_without_dynamics() {
+    let mut harness = pendulum("egl");
+    let level = request(
+        &mut harness,
+        json!({"op": "contacts", "qpos": {"shoulder": 0.0, "elbow": 0.0}}),
+    );
+    assert_eq!(level["contacts"], json!([]), "{level}");
+    // A run, then a pose: the pose uses its own data, so the run can still be continued.
+    request(
+        &mut harness,
+        hold(&["shoulder", "elbow"], &[0.0, 0.0], &[0.0, 0.0], 5),
+    );
+    let down = request(
+        &mut harness,
+        json!({"op": "contacts", "qpos": {"shoulder": FRAC_PI_2}}),
+    );
+    let contacts = down["contacts"].as_array().expect("contacts");
+    assert_eq!(contacts.len(), 1, "{down}");
+    let c = &contacts[0];
+    assert_eq!(c["kind"], json!("floor"), "{down}");
+    let mut bodies = [c["body1"].as_str().unwrap(), c["body2"].as_str().unwrap()];
+    bodies.sort();
+    assert_eq!(bodies, ["link2", "world"], "{down}");
+    close(c["depth"].as_f64().unwrap(), 0.12, 1e-9, "depth");
+    assert!(c.get("time").is_none(), "{down}");
+    let mut more = hold(&["shoulder", "elbow"], &[0.0, 0.0], &[0.0, 0.0], 5);
+    more["reset"] = json!(false);
+    request(&mut harness, more);
+    let bad = refused(
+        &mut harness,
+        json!({"op": "contacts", "qpos": {"wrist": 0.1}}),
+    );
+    assert_eq!(bad["kind"], json!("request"), "{bad}");
+}
+
 #[test]
 fn kinematics_match_the_closed_form() {
     let mut harness = pendulum("egl");
@@ -537,6 +577,16 @@ fn bad_requests_get_error_replies_and_the_harness_keeps_answering() {
         (
             json!({"op": "render", "joints": ["shoulder"], "frames": [[0]], "path": "out.bmp"}),
             ".png",
+        ),
+        (
+            json!({"op": "render", "joints": ["shoulder"], "frames": [[0]], "path": "out.png",
+                   "elevation": 95}),
+            "'elevation' must be between -90 and 90",
+        ),
+        (
+            json!({"op": "render", "joints": ["shoulder"], "frames": [[0]], "path": "out.png",
+                   "azimuth": "left"}),
+            "'azimuth' must be a finite number",
         ),
     ];
     for (body, words) in cases {

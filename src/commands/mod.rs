@@ -9,6 +9,7 @@ pub mod option_values;
 pub mod play;
 pub mod plot;
 pub mod ports;
+pub mod pose;
 pub mod read;
 pub mod record;
 pub mod retime;

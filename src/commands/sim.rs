@@ -292,7 +292,8 @@ fn render(
 ) -> Result<(), CommandError> {
     let frames: Vec<Vec<f64>> = times.iter().map(|(t, _)| trajectory.sample(*t)).collect();
     let labels: Vec<String> = times.into_iter().map(|(_, l)| l).collect();
-    let gl = sim::render(robot, mjcf, &frames, &labels, path).map_err(sim_error)?;
+    let gl = sim::render(robot, mjcf, &frames, &labels, path, &sim::Camera::default())
+        .map_err(sim_error)?;
     eprintln!(
         "{}: rendered {} frame(s) of {} to {} ({gl})",
         sequence.file,

@@ -340,10 +340,16 @@ impl Robot {
     /// World position of the tool centre point (or of the last joint's frame when the robot
     /// defines no TCP).
     pub fn tcp_position(&self, values: &[f64]) -> DVec3 {
+        self.tcp_frame(values).t
+    }
+
+    /// World pose of the tool centre point frame (or of the last joint's frame when the robot
+    /// defines no TCP).
+    pub fn tcp_frame(&self, values: &[f64]) -> RigidTransform {
         let frames = self.joint_frames(values);
         match &self.tcp {
-            Some(tcp) => frames[tcp.parent].compose(&tcp.origin).t,
-            None => frames.last().map_or(DVec3::ZERO, |f| f.t),
+            Some(tcp) => frames[tcp.parent].compose(&tcp.origin),
+            None => frames.last().copied().unwrap_or(RigidTransform::IDENTITY),
         }
     }
 

@@ -303,25 +303,7 @@ impl Simulation {
         let qvel = matrix("qvel")?;
         let force = matrix("force")?;
         let limit = matrix("limit")?;
-        let contacts = reply["contacts"]
-            .as_array()
-            .map(|list| {
-                list.iter()
-                    .map(|c| Contact {
-                        time: c["time"].as_f64().unwrap_or(0.0),
-                        body1: c["body1"].as_str().unwrap_or("?").into(),
-                        body2: c["body2"].as_str().unwrap_or("?").into(),
-                        kind: match c["kind"].as_str() {
-                            Some("floor") => ContactKind::Floor,
-                            Some("self") => ContactKind::SelfCollision,
-                            _ => ContactKind::Environment,
-                        },
-                        depth: c["depth"].as_f64().unwrap_or(0.0).abs(),
-                        force: c["force"].as_f64().unwrap_or(0.0),
-                    })
-                    .collect()
-            })
-            .unwrap_or_default();
+        let contacts = contacts_of(&reply);
         let divergence = reply["divergence"]
             .as_array()
             .map(|list| {
@@ -355,6 +337,52 @@ impl Simulation {
     }
 }
 
+impl Simulation {
+    /// The contacts of the arm held still at `values` (joint units, joint order): MuJoCo's
+    /// collision check at that pose with no dynamics, every penetration however shallow
+    /// (which depth is a collision is the verdict's to say, [`verdict::Thresholds`]).
+    pub fn pose_contacts(
+        &mut self,
+        robot: &Robot,
+        values: &[f64],
+    ) -> Result<Vec<Contact>, SimError> {
+        let qpos: serde_json::Map<String, Value> = self
+            .joints
+            .iter()
+            .zip(to_model(robot, values))
+            .map(|(name, q)| (name.clone(), json!(q)))
+            .collect();
+        let reply = self.request(&json!({ "op": "contacts", "qpos": qpos }))?;
+        if !reply["contacts"].is_array() {
+            return Err(SimError::Reply("no contacts list".into()));
+        }
+        Ok(contacts_of(&reply))
+    }
+}
+
+/// The `contacts` list of a `run` or `contacts` reply (a pose's contacts have no time: 0).
+fn contacts_of(reply: &Value) -> Vec<Contact> {
+    reply["contacts"]
+        .as_array()
+        .map(|list| {
+            list.iter()
+                .map(|c| Contact {
+                    time: c["time"].as_f64().unwrap_or(0.0),
+                    body1: c["body1"].as_str().unwrap_or("?").into(),
+                    body2: c["body2"].as_str().unwrap_or("?").into(),
+                    kind: match c["kind"].as_str() {
+                        Some("floor") => ContactKind::Floor,
+                        Some("self") => ContactKind::SelfCollision,
+                        _ => ContactKind::Environment,
+                    },
+                    depth: c["depth"].as_f64().unwrap_or(0.0).abs(),
+                    force: c["force"].as_f64().unwrap_or(0.0),
+                })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
 impl Trace {
     /// Appends a later part of the same run.
     pub fn extend(&mut self, more: Trace) {
@@ -371,6 +399,24 @@ impl Trace {
     }
 }
 
+/// Where a render's camera looks from, degrees (MuJoCo's free camera: azimuth about +z,
+/// elevation negative from above); it always looks at the middle of every frame's arm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    pub azimuth: f64,
+    pub elevation: f64,
+}
+
+impl Default for Camera {
+    /// From the front-left and a little above (sim/PROTOCOL.md, render).
+    fn default() -> Self {
+        Camera {
+            azimuth: 135.0,
+            elevation: -20.0,
+        }
+    }
+}
+
 /// Renders `frames` (joint values) to `path` (.png contact sheet, .gif or .mp4), headless: EGL
 /// first, OSMesa if EGL cannot make a context.
 pub fn render(
@@ -379,6 +425,7 @@ pub fn render(
     frames: &[Vec<f64>],
     labels: &[String],
     path: &Path,
+    camera: &Camera,
 ) -> Result<String, SimError> {
     let mut failures = Vec::new();
     for gl in ["egl", "osmesa"] {
@@ -399,6 +446,8 @@ pub fn render(
             "height": 240,
             "fps": 25,
             "columns": 4,
+            "azimuth": camera.azimuth,
+            "elevation": camera.elevation,
         });
         match sim.request(&request) {
             Ok(reply) => return Ok(reply["gl"].as_str().unwrap_or(gl).to_string()),

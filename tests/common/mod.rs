@@ -14,6 +14,30 @@ pub fn run(args: &[&str]) -> Output {
     keypose().args(args).output().expect("run keypose")
 }
 
+/// The Python environment (with MuJoCo) the simulation suites share, under target/: built on
+/// first use, by whichever needs it first.
+pub fn sim_cache() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("sim_cli_cache")
+}
+
+/// Runs `keypose ARGS` to the end with the simulation suites' Python environment.
+pub fn run_sim(args: &[&str]) -> Output {
+    keypose()
+        .args(args)
+        .env("KEYPOSE_CACHE", sim_cache())
+        .output()
+        .expect("run keypose")
+}
+
+/// Width and height from a PNG's IHDR chunk.
+pub fn png_size(path: &std::path::Path) -> (u32, u32) {
+    let bytes = std::fs::read(path).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "not a PNG");
+    let be =
+        |at: usize| u32::from_be_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
+    (be(16), be(20))
+}
+
 /// A path inside the repository.
 pub fn repo(path: &str) -> String {
     format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))

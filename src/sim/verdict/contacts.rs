@@ -6,7 +6,7 @@
 use super::{Contact, ContactKind, Finding, FindingKind, Thresholds, Trace};
 
 pub(super) fn check_contacts(trace: &Trace, t: &Thresholds) -> Vec<Finding> {
-    deepest_per_pair(trace, t.contact_depth)
+    collisions(&trace.contacts, t)
         .into_iter()
         .map(|c| Finding {
             kind: match c.kind {
@@ -27,11 +27,11 @@ pub(super) fn check_contacts(trace: &Trace, t: &Thresholds) -> Vec<Finding> {
         .collect()
 }
 
-/// The deepest contact of each (kind, body, body) at least `min_depth` deep, in the order the
-/// pairs first touch.
-fn deepest_per_pair(trace: &Trace, min_depth: f64) -> Vec<&Contact> {
+/// The collisions among `contacts`: the deepest contact of each (kind, body, body) at least
+/// the thresholds' contact depth deep, in the order the pairs first touch.
+pub fn collisions<'a>(contacts: &'a [Contact], t: &Thresholds) -> Vec<&'a Contact> {
     let mut worst: Vec<&Contact> = Vec::new();
-    for c in trace.contacts.iter().filter(|c| c.depth >= min_depth) {
+    for c in contacts.iter().filter(|c| c.depth >= t.contact_depth) {
         match worst
             .iter_mut()
             .find(|w| w.kind == c.kind && w.body1 == c.body1 && w.body2 == c.body2)

@@ -16,6 +16,7 @@ mod tolerances;
 mod tracking;
 mod units;
 
+pub use contacts::collisions;
 pub use finding::{Finding, FindingKind};
 pub use tolerances::Thresholds;
 pub use units::{force_unit, shown, Shown};

@@ -1,0 +1,366 @@
+//! `keypose pose`: where the tool is at a pose, each joint against its limits, and whether the
+//! arm held there touches the floor or itself (MuJoCo's collision check, no dynamics). With
+//! `--directions FILE.png`, a picture of the robot's joint directions instead.
+
+use super::check::ReportFormat;
+use super::{write_output, CommandError, RobotArgs, Verdict};
+use keypose::pose::rpy_from_quat;
+use keypose::robot::{Joint, JointKind, Robot};
+use keypose::sim::verdict::{collisions, Contact, ContactKind, Thresholds};
+use keypose::sim::{self, SimError, Simulation};
+use serde_json::json;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct PoseArgs {
+    /// Joint values, e.g. elbow_flex=-30: degrees (metres for a prismatic joint). Joints not
+    /// given stay at the robot's home.
+    #[arg(value_name = "JOINT=VALUE")]
+    pub values: Vec<String>,
+    #[command(flatten)]
+    pub robot: RobotArgs,
+    /// Report format.
+    #[arg(long, value_enum, default_value_t = ReportFormat::Text)]
+    pub format: ReportFormat,
+    /// Another MJCF model for the collision check (its joint names must match the robot's).
+    #[arg(long, value_name = "FILE")]
+    pub mjcf: Option<PathBuf>,
+    /// Instead of checking a pose, draw the robot's joint directions to a PNG contact sheet:
+    /// the zero pose, then each joint alone at its positive step (+30°, or its upper limit if
+    /// nearer; a prismatic joint at its upper limit).
+    #[arg(long, value_name = "FILE.png", conflicts_with = "values")]
+    pub directions: Option<PathBuf>,
+}
+
+/// The step each joint is drawn at in the joint-directions picture, degrees.
+const DIRECTION_STEP_DEG: f64 = 30.0;
+
+/// The joint-directions camera: from the front-right (−y side) and well above, so that joints
+/// turning about a horizontal axis and the pan about the vertical one both show.
+const DIRECTIONS_CAMERA: sim::Camera = sim::Camera {
+    azimuth: 60.0,
+    elevation: -35.0,
+};
+
+/// A pose, checked: joint values in joint order and which of them were given.
+struct Pose {
+    values: Vec<f64>,
+    given: Vec<bool>,
+}
+
+pub fn run(args: &PoseArgs) -> Result<Verdict, CommandError> {
+    let robot = args.robot.load()?;
+    if let Some(mjcf) = &args.mjcf {
+        sim::check_mjcf_file(mjcf)?;
+    }
+    if let Some(path) = &args.directions {
+        return draw_directions(&robot, args.mjcf.as_deref(), path);
+    }
+    let pose = parse_pose(&robot, &args.values)?;
+    let mut simulation =
+        Simulation::start(&robot, args.mjcf.as_deref(), None).map_err(sim_error)?;
+    let contacts = simulation
+        .pose_contacts(&robot, &pose.values)
+        .map_err(sim_error)?;
+    let thresholds = Thresholds::default();
+    let touching = by_pair(collisions(&contacts, &thresholds));
+    let text = match args.format {
+        ReportFormat::Text => text_report(&robot, simulation.model(), &pose, &touching),
+        ReportFormat::Json => {
+            let report = json_report(&robot, simulation.model(), &pose, &touching, &thresholds);
+            format!("{report:#}\n")
+        }
+    };
+    write_output(None, &text)?;
+    Ok(if touching.is_empty() {
+        Verdict::Pass
+    } else {
+        Verdict::Fail
+    })
+}
+
+/// A model MuJoCo refuses is the user's to mend (exit 2); anything else is the simulation's.
+fn sim_error(e: SimError) -> CommandError {
+    match e {
+        SimError::Model { .. } => CommandError::Model(e),
+        other => CommandError::Sim(other),
+    }
+}
+
+/// The robot's home with the given `JOINT=VALUE`s applied, each inside its joint's limits.
+fn parse_pose(robot: &Robot, assignments: &[String]) -> Result<Pose, CommandError> {
+    let mut pose = Pose {
+        values: robot.home.clone(),
+        given: vec![false; robot.joints.len()],
+    };
+    for text in assignments {
+        let (index, value) = parse_assignment(robot, text)?;
+        if pose.given[index] {
+            return Err(CommandError::Usage(format!(
+                "{text:?}: joint {} is given twice",
+                robot.joints[index].name
+            )));
+        }
+        pose.values[index] = value;
+        pose.given[index] = true;
+    }
+    Ok(pose)
+}
+
+/// One `JOINT=VALUE`: the joint's index and a value inside its limits.
+fn parse_assignment(robot: &Robot, text: &str) -> Result<(usize, f64), CommandError> {
+    let usage = |why: String| CommandError::Usage(format!("{text:?}: {why}"));
+    let (name, value) = text
+        .split_once('=')
+        .ok_or_else(|| usage("expected JOINT=VALUE, e.g. elbow_flex=-30".into()))?;
+    let index = robot.joint_index(name.trim()).ok_or_else(|| {
+        usage(format!(
+            "robot {} has no joint {:?}; its joints are: {}",
+            robot.name,
+            name.trim(),
+            robot.joint_names().join(", ")
+        ))
+    })?;
+    let joint = &robot.joints[index];
+    let unit = joint.kind.unit();
+    let value: f64 = value
+        .trim()
+        .parse()
+        .ok()
+        .filter(|v: &f64| v.is_finite())
+        .ok_or_else(|| usage(format!("expected a number ({unit}) after '='")))?;
+    if !joint.limits.contains(value) {
+        return Err(usage(format!(
+            "{} {value} {unit} is outside its limits {} … {} {unit}",
+            joint.name, joint.limits.min, joint.limits.max
+        )));
+    }
+    Ok((index, value))
+}
+
+/// The tool frame at `values`: position (m) and URDF roll-pitch-yaw (degrees), base frame.
+fn tool(robot: &Robot, values: &[f64]) -> ([f64; 3], [f64; 3]) {
+    let frame = robot.tcp_frame(values);
+    let (roll, pitch, yaw) = rpy_from_quat(frame.r);
+    (
+        frame.t.to_array(),
+        [roll.to_degrees(), pitch.to_degrees(), yaw.to_degrees()],
+    )
+}
+
+/// What the tool frame is called in the report: the robot's `tcp`, or the last joint's frame.
+fn tool_name(robot: &Robot) -> String {
+    match (&robot.tcp, robot.joints.last()) {
+        (Some(_), _) => "tcp".into(),
+        (None, Some(last)) => format!("{} frame (the robot defines no tcp)", last.name),
+        (None, None) => "base".into(),
+    }
+}
+
+/// The deepest contact of each pair of bodies, whichever order MuJoCo named them in (a pose
+/// has no time order to keep): floor contacts first, then the deepest first.
+fn by_pair(found: Vec<&Contact>) -> Vec<&Contact> {
+    let mut kept: Vec<&Contact> = Vec::new();
+    for c in found {
+        let same = |k: &&Contact| {
+            k.kind == c.kind
+                && ((k.body1 == c.body1 && k.body2 == c.body2)
+                    || (k.body1 == c.body2 && k.body2 == c.body1))
+        };
+        match kept.iter_mut().find(|k| same(k)) {
+            Some(k) if k.depth < c.depth => *k = c,
+            Some(_) => {}
+            None => kept.push(c),
+        }
+    }
+    kept.sort_by(|a, b| {
+        (b.kind == ContactKind::Floor)
+            .cmp(&(a.kind == ContactKind::Floor))
+            .then(b.depth.total_cmp(&a.depth))
+    });
+    kept
+}
+
+/// The body of a floor contact that is the robot's (the floor is the world body's).
+fn robot_body(contact: &Contact) -> &str {
+    if contact.body1 == "world" {
+        &contact.body2
+    } else {
+        &contact.body1
+    }
+}
+
+/// One collision in words, naming both bodies (the floor as "the floor").
+fn describe(contact: &Contact) -> String {
+    let depth = contact.depth * 1000.0;
+    match contact.kind {
+        ContactKind::Floor => {
+            format!(
+                "{} touches the floor, {depth:.1} mm deep",
+                robot_body(contact)
+            )
+        }
+        ContactKind::SelfCollision => format!(
+            "{} touches {} (self-collision), {depth:.1} mm deep",
+            contact.body1, contact.body2
+        ),
+        ContactKind::Environment => format!(
+            "{} touches {}, {depth:.1} mm deep",
+            contact.body1, contact.body2
+        ),
+    }
+}
+
+fn text_report(robot: &Robot, model: &str, pose: &Pose, touching: &[&Contact]) -> String {
+    let mut out = String::new();
+    let ([x, y, z], [roll, pitch, yaw]) = tool(robot, &pose.values);
+    let _ = writeln!(
+        out,
+        "robot {} ({}), model {model}",
+        robot.name, robot.source
+    );
+    let _ = writeln!(
+        out,
+        "tool ({}) in the base frame: x {x:.4}  y {y:.4}  z {z:.4} m; roll {roll:.1}  pitch {pitch:.1}  yaw {yaw:.1} deg",
+        tool_name(robot)
+    );
+    let _ = writeln!(out, "  {:<20} {:>12} {:>26}", "joint", "value", "limits");
+    for ((joint, value), given) in robot.joints.iter().zip(&pose.values).zip(&pose.given) {
+        let _ = writeln!(out, "{}", joint_line(joint, *value, *given));
+    }
+    if touching.is_empty() {
+        let _ = writeln!(
+            out,
+            "clear: nothing touches the floor or the arm itself (no contact deeper than {:.1} mm)",
+            Thresholds::default().contact_depth * 1000.0
+        );
+    } else {
+        let _ = writeln!(out, "TOUCHES: {} contact(s)", touching.len());
+        for contact in touching {
+            let _ = writeln!(out, "  {}", describe(contact));
+        }
+    }
+    out
+}
+
+fn joint_line(joint: &Joint, value: f64, given: bool) -> String {
+    let unit = joint.kind.unit();
+    let decimals = match joint.kind {
+        JointKind::Revolute => 2,
+        JointKind::Prismatic => 4,
+    };
+    let (min, max) = (joint.limits.min, joint.limits.max);
+    let origin = if given { "" } else { "  (home)" };
+    format!(
+        "  {:<20} {value:>9.decimals$} {unit:<3}   {min:>9.decimals$} … {max:>8.decimals$} {unit:<3}{origin}",
+        joint.name
+    )
+}
+
+fn json_report(
+    robot: &Robot,
+    model: &str,
+    pose: &Pose,
+    touching: &[&Contact],
+    thresholds: &Thresholds,
+) -> serde_json::Value {
+    let (position, rpy) = tool(robot, &pose.values);
+    let joints: Vec<_> = robot
+        .joints
+        .iter()
+        .zip(&pose.values)
+        .zip(&pose.given)
+        .map(|((joint, value), given)| {
+            json!({
+                "name": joint.name,
+                "value": value,
+                "unit": joint.kind.unit(),
+                "min": joint.limits.min,
+                "max": joint.limits.max,
+                "given": given,
+            })
+        })
+        .collect();
+    let contacts: Vec<_> = touching
+        .iter()
+        .map(|c| {
+            json!({
+                "kind": c.kind.name(),
+                "body1": c.body1,
+                "body2": c.body2,
+                "depth_m": c.depth,
+                "message": describe(c),
+            })
+        })
+        .collect();
+    json!({
+        "robot": robot.name,
+        "model": model,
+        "tool": {"frame": tool_name(robot), "position_m": position, "rpy_deg": rpy},
+        "joints": joints,
+        "clear": touching.is_empty(),
+        "contact_depth_m": thresholds.contact_depth,
+        "contacts": contacts,
+    })
+}
+
+/// The joint-directions picture: the zero pose, then each joint alone at its positive step.
+fn draw_directions(
+    robot: &Robot,
+    mjcf: Option<&Path>,
+    path: &Path,
+) -> Result<Verdict, CommandError> {
+    if !path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+    {
+        return Err(CommandError::Usage(format!(
+            "--directions {}: expected a .png file",
+            path.display()
+        )));
+    }
+    // An unwritable place is the user's to mend (exit 2), said before MuJoCo starts.
+    let directory = match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir,
+        _ => Path::new("."),
+    };
+    if !directory.is_dir() {
+        return Err(CommandError::Usage(format!(
+            "--directions {}: the directory {} does not exist",
+            path.display(),
+            directory.display()
+        )));
+    }
+    let zero = vec![0.0; robot.joints.len()];
+    let mut frames = vec![zero.clone()];
+    let mut labels = vec!["zero pose".to_string()];
+    for (index, joint) in robot.joints.iter().enumerate() {
+        let step = positive_step(joint);
+        let mut frame = zero.clone();
+        frame[index] = step;
+        frames.push(frame);
+        labels.push(match joint.kind {
+            JointKind::Revolute => format!("{} +{step:.0} deg", joint.name),
+            JointKind::Prismatic => format!("{} +{:.0} mm", joint.name, step * 1000.0),
+        });
+    }
+    let gl =
+        sim::render(robot, mjcf, &frames, &labels, path, &DIRECTIONS_CAMERA).map_err(sim_error)?;
+    eprintln!(
+        "{}: joint directions of {} ({} frames) drawn ({gl})",
+        path.display(),
+        robot.name,
+        frames.len()
+    );
+    Ok(Verdict::Pass)
+}
+
+/// How far a joint is moved from zero to show its positive direction: +30° (or the upper
+/// limit if nearer), a prismatic joint its whole positive travel (millimetres would not show).
+fn positive_step(joint: &Joint) -> f64 {
+    match joint.kind {
+        JointKind::Revolute => DIRECTION_STEP_DEG.min(joint.limits.max),
+        JointKind::Prismatic => joint.limits.max,
+    }
+}
