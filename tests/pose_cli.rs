@@ -191,7 +191,7 @@ fn directions_draw_the_zero_pose_and_each_joint() {
 /// The committed pictures exist for every built-in robot and stay small.
 #[test]
 fn the_committed_joint_direction_pictures_are_small_pngs() {
-    for robot in ["so101", "koch", "omx"] {
+    for robot in ["so101", "so100", "koch", "omx"] {
         let path = PathBuf::from(common::repo(&format!("docs/joint-directions-{robot}.png")));
         let size = std::fs::metadata(&path).unwrap().len();
         assert!(size < 200_000, "{}: {size} bytes", path.display());
