@@ -423,21 +423,31 @@ const SUDDEN_START: &str =
 fn a_rate_below_the_control_rate_does_not_hide_a_violation() {
     let (_dir, path) = temp_sequence("sudden.json", &sequence_in("linear", SUDDEN_START));
     let path = path.to_str().unwrap();
-    for rate in ["1", "10", "100"] {
+    // A rate too coarse to mean anything is refused outright.
+    for rate in ["0.001", "1", "-5"] {
+        let out = keypose(&["check", path, "--rate", rate]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "--rate {rate}: {err}");
+        assert!(
+            err.contains("expected a rate from 10 to 100000 Hz"),
+            "{err}"
+        );
+    }
+    for rate in ["10", "50", "100"] {
         let out = keypose(&["check", path, "--rate", rate]);
         let text = String::from_utf8_lossy(&out.stdout);
         assert_eq!(out.status.code(), Some(1), "--rate {rate}: {text}");
         assert!(text.contains("acceleration"), "--rate {rate}: {text}");
         assert!(text.contains("sampled at 100 Hz"), "--rate {rate}: {text}");
     }
-    // retime stretches the segment at the control rate even when asked for 1 Hz.
-    let out = keypose(&["retime", path, "--rate", "1"]);
+    // retime stretches the segment at the control rate even when asked for 10 Hz.
+    let out = keypose(&["retime", path, "--rate", "10"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("segment 0"), "{err}");
     // plot draws the curves at least at the control rate: 1 s at 100 Hz is 101 points.
     let dir = tempfile::tempdir().unwrap();
     let svg = dir.path().join("sudden.svg");
-    let out = keypose(&["plot", path, "--rate", "1", "-o", svg.to_str().unwrap()]);
+    let out = keypose(&["plot", path, "--rate", "10", "-o", svg.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(0));
     let text = std::fs::read_to_string(&svg).unwrap();
     let points = text

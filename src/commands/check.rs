@@ -1,6 +1,6 @@
 //! `keypose check`: the sampled curve against the robot's limits.
 
-use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
+use super::{parse_check_rate, write_output, CommandError, SequenceInput, Verdict};
 use keypose::plan::{check, Trajectory};
 use keypose::report;
 
@@ -10,7 +10,7 @@ pub struct CheckArgs {
     pub input: SequenceInput,
     /// Rate at which velocity and acceleration are differenced [default: the robot's control
     /// rate]; a lower rate is raised to the control rate, which would otherwise hide violations.
-    #[arg(long, value_name = "HZ", value_parser = parse_rate)]
+    #[arg(long, value_name = "HZ", value_parser = parse_check_rate, allow_negative_numbers = true)]
     pub rate: Option<f64>,
     /// Report format.
     #[arg(long, value_enum, default_value_t = ReportFormat::Text)]

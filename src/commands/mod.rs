@@ -236,6 +236,19 @@ pub fn joint_indices(robot: &Robot, names: &[String]) -> Result<Vec<usize>, Comm
     Ok(indices)
 }
 
+/// Parses the rate of a limit check (`check`, `retime`, `plot`): at least the lowest control
+/// rate, since a check on a coarser grid would only ever be raised to the control rate, and
+/// at most 100 kHz.
+pub fn parse_check_rate(s: &str) -> Result<f64, String> {
+    let lowest = *keypose::pacing::RATE_RANGE_HZ.start();
+    match parse_rate(s) {
+        Ok(rate) if rate >= lowest => Ok(rate),
+        _ => Err(format!(
+            "expected a rate from {lowest} to 100000 Hz (the limits are checked at least at the robot's control rate), found {s:?}"
+        )),
+    }
+}
+
 /// Parses a rate in Hz for clap: a finite number above 0 and at most 100 kHz.
 pub fn parse_rate(s: &str) -> Result<f64, String> {
     let rate: f64 = s

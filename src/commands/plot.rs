@@ -1,6 +1,6 @@
 //! `keypose plot`: position and velocity of every joint as an SVG picture.
 
-use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
+use super::{parse_check_rate, write_output, CommandError, SequenceInput, Verdict};
 use keypose::plan::Trajectory;
 use keypose::report;
 use std::path::{Path, PathBuf};
@@ -20,7 +20,7 @@ pub struct PlotArgs {
     pub log: Option<PathBuf>,
     /// Sampling rate of the drawn curves; never below the robot's control rate, so the velocity
     /// drawn is the one the servos will be asked for.
-    #[arg(long, value_name = "HZ", default_value = "200", value_parser = parse_rate)]
+    #[arg(long, value_name = "HZ", default_value = "200", value_parser = parse_check_rate, allow_negative_numbers = true)]
     pub rate: f64,
 }
 

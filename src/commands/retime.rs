@@ -1,6 +1,6 @@
 //! `keypose retime`: stretch key times until velocity and acceleration limits hold.
 
-use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
+use super::{parse_check_rate, write_output, CommandError, SequenceInput, Verdict};
 use keypose::plan::{retime, LimitKind};
 use keypose::terminal_text::escape_controls;
 use std::path::PathBuf;
@@ -13,7 +13,7 @@ pub struct RetimeArgs {
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
     /// Rate at which limits are checked [default: the robot's control rate]; never below it.
-    #[arg(long, value_name = "HZ", value_parser = parse_rate)]
+    #[arg(long, value_name = "HZ", value_parser = parse_check_rate, allow_negative_numbers = true)]
     pub rate: Option<f64>,
 }
 
