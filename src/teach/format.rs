@@ -17,6 +17,36 @@ pub fn value(joint: &Joint, value: f64) -> String {
     }
 }
 
+/// A joint value with, on a joint whose calibration recorded a range, where it is on that range
+/// as LeRobot's 0…100 scale counts it: LeRobot users know their gripper in percent.
+pub fn value_and_percent(joint: &Joint, v: f64) -> String {
+    match joint.calibrated_range {
+        Some(range) => format!("{} {:.0}%", value(joint, v), range.percent(v)),
+        None => value(joint, v),
+    }
+}
+
+/// The joint value a key gives, when it gives a number or a percent it can be resolved from.
+pub fn key_number(joint: &Joint, key: &KeyValue) -> Option<f64> {
+    match *key {
+        KeyValue::Joint(v) => Some(v),
+        KeyValue::Percent(p) => joint.calibrated_range.map(|range| range.value(p)),
+        KeyValue::Transform(_) => None,
+    }
+}
+
+/// A key's value as the joint table shows it: a percent as written, with its degrees when the
+/// calibration says where they are.
+pub fn key_text(joint: &Joint, key: &KeyValue) -> String {
+    match (key, key_number(joint, key)) {
+        (KeyValue::Transform(_), _) => "transform".into(),
+        (KeyValue::Percent(p), Some(v)) => format!("{p}% {}", value(joint, v)),
+        (KeyValue::Percent(p), None) => format!("{p}% uncal."),
+        (KeyValue::Joint(_), Some(v)) => value_and_percent(joint, v),
+        (KeyValue::Joint(v), None) => value(joint, *v),
+    }
+}
+
 /// The unit the screen gives a joint's values in.
 pub fn unit(joint: &Joint) -> &'static str {
     match joint.kind {
@@ -154,6 +184,7 @@ fn field_question(state: &TeachState, field: Field) -> (String, &'static str) {
             let joint = &state.robot().joints[j];
             let now = match key.and_then(|k| k.value(&joint.name)) {
                 Some(KeyValue::Joint(v)) => screen_number(joint, *v).to_string(),
+                Some(KeyValue::Percent(p)) => format!("{p}%"),
                 _ => "not set".into(),
             };
             (
