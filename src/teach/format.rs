@@ -222,4 +222,24 @@ mod tests {
         assert_eq!(joint_list(&robot, &[1, 2]), "shoulder_lift, elbow_flex");
         assert_eq!(joint_list(&robot, &[0, 1, 2, 3, 4, 5]), "all joints");
     }
+
+    #[test]
+    fn a_calibrated_joint_shows_its_percent_beside_the_degrees() {
+        let robot = Robot::builtin("so101").unwrap();
+        let mut gripper = robot.joints[5].clone();
+        assert_eq!(value_and_percent(&gripper, -8.79), "-8.8°");
+        assert_eq!(key_text(&gripper, &KeyValue::Percent(40.0)), "40% uncal.");
+        // A recorded range of ±43.9453125° (ticks 2000 … 3000 about 2500): -8.7890625° is
+        // 35.15625° above the low end, 40 % of 87.890625°.
+        gripper.calibrated_range = Some(crate::robot::CalibratedRange {
+            at_0: -43.9453125,
+            at_100: 43.9453125,
+        });
+        assert_eq!(value_and_percent(&gripper, -8.7890625), "-8.8° 40%");
+        assert_eq!(key_text(&gripper, &KeyValue::Percent(40.0)), "40% -8.8°");
+        assert_eq!(
+            key_text(&gripper, &KeyValue::Joint(-8.7890625)),
+            "-8.8° 40%"
+        );
+    }
 }
