@@ -166,15 +166,7 @@ fn a_partial_calibration_on_the_command_line_is_bad_input() {
     )
     .unwrap();
     let cal = cal.display().to_string();
-    let out = run(&[
-        "read",
-        "--robot",
-        "so101",
-        "--port",
-        "virtual",
-        "--calibration",
-        &cal,
-    ]);
+    let out = read_so101("virtual", &cal);
     assert_eq!(out.status.code(), Some(2), "{}", show(&out));
     assert!(
         stderr(&out).contains(&cal) && stderr(&out).contains("shoulder_pan"),
@@ -182,6 +174,19 @@ fn a_partial_calibration_on_the_command_line_is_bad_input() {
         show(&out)
     );
     assert!(out.stdout.is_empty(), "{}", show(&out));
+}
+
+/// `keypose read` of the SO-101 on `port` with the calibration file `cal`.
+fn read_so101(port: &str, cal: &str) -> std::process::Output {
+    run(&[
+        "read",
+        "--robot",
+        "so101",
+        "--port",
+        port,
+        "--calibration",
+        cal,
+    ])
 }
 
 /// A whole calibration for the built-in `robot` (servo ids 1–6 in joint order, the whole turn
@@ -639,15 +644,7 @@ fn read_gives_each_calibrated_joint_in_percent_of_its_recorded_range() {
     let cal = dir.path().join("cal.json");
     std::fs::write(&cal, gripper_2000_3000()).unwrap();
     let cal = cal.display().to_string();
-    let out = run(&[
-        "read",
-        "--robot",
-        "so101",
-        "--port",
-        &server.path,
-        "--calibration",
-        &cal,
-    ]);
+    let out = read_so101(&server.path, &cal);
     assert_eq!(out.status.code(), Some(0), "{}", show(&out));
     let pose: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(pose["ticks"][5], 2047);
