@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{keypose, repo, run, show, stderr, stdout};
+use common::{keypose, repo, run, show, stderr, stdout, SO101_JOINTS};
 use keypose::plan::Trajectory;
 use keypose::robot::{import_lerobot_calibration, Robot};
 use keypose::sequence::Sequence;
@@ -16,15 +16,6 @@ fn motor(name: &str, id: u8, range: (i64, i64)) -> String {
         range.0, range.1
     )
 }
-
-const SO101_JOINTS: [&str; 6] = [
-    "shoulder_pan",
-    "shoulder_lift",
-    "elbow_flex",
-    "wrist_flex",
-    "wrist_roll",
-    "gripper",
-];
 
 /// A calibration for the built-in SO-101 (servo ids 1–6 in joint order), with `id_of` and
 /// `range_of` overriding single entries and only the joints in `joints`.
