@@ -3,8 +3,10 @@
 
 mod common;
 
-use common::{keypose, repo, run, show, stderr, stdout};
+use common::{keypose, repo, run, show, stderr, stdout, SO101_JOINTS};
+use keypose::plan::Trajectory;
 use keypose::robot::{import_lerobot_calibration, Robot};
+use keypose::sequence::Sequence;
 use std::path::Path;
 
 /// One SO-101 motor entry as LeRobot writes it; the whole turn recorded unless `range` given.
@@ -14,15 +16,6 @@ fn motor(name: &str, id: u8, range: (i64, i64)) -> String {
         range.0, range.1
     )
 }
-
-const SO101_JOINTS: [&str; 6] = [
-    "shoulder_pan",
-    "shoulder_lift",
-    "elbow_flex",
-    "wrist_flex",
-    "wrist_roll",
-    "gripper",
-];
 
 /// A calibration for the built-in SO-101 (servo ids 1–6 in joint order), with `id_of` and
 /// `range_of` overriding single entries and only the joints in `joints`.
@@ -164,15 +157,7 @@ fn a_partial_calibration_on_the_command_line_is_bad_input() {
     )
     .unwrap();
     let cal = cal.display().to_string();
-    let out = run(&[
-        "read",
-        "--robot",
-        "so101",
-        "--port",
-        "virtual",
-        "--calibration",
-        &cal,
-    ]);
+    let out = read_so101("virtual", &cal);
     assert_eq!(out.status.code(), Some(2), "{}", show(&out));
     assert!(
         stderr(&out).contains(&cal) && stderr(&out).contains("shoulder_pan"),
@@ -180,6 +165,19 @@ fn a_partial_calibration_on_the_command_line_is_bad_input() {
         show(&out)
     );
     assert!(out.stdout.is_empty(), "{}", show(&out));
+}
+
+/// `keypose read` of the SO-101 on `port` with the calibration file `cal`.
+fn read_so101(port: &str, cal: &str) -> std::process::Output {
+    run(&[
+        "read",
+        "--robot",
+        "so101",
+        "--port",
+        port,
+        "--calibration",
+        cal,
+    ])
 }
 
 /// A whole calibration for the built-in `robot` (servo ids 1–6 in joint order, the whole turn
@@ -512,4 +510,142 @@ fn robot_id_misuse_is_a_usage_error() {
             show(&out)
         );
     }
+}
+
+/// The SO-101 with the gripper recorded over ticks 2000 … 3000 (drive_mode 0), the other
+/// joints over the whole turn.
+fn gripper_2000_3000() -> String {
+    calibration(&SO101_JOINTS, &|_, id| id, &|name| {
+        if name == "gripper" {
+            (2000, 3000)
+        } else {
+            WHOLE_TURN
+        }
+    })
+}
+
+/// The gripper's value in a one-key sequence giving it as `percent`.
+fn gripper_at(robot: &Robot, percent: &str) -> Result<f64, String> {
+    let text = format!(
+        r#"{{"format":"keypose-sequence/1","robot":"so101","keyframes":[
+          {{"time":0,"joints":{{"gripper":"{percent}"}}}}]}}"#
+    );
+    let sequence = Sequence::from_json("grip.json", &text).map_err(|e| e.to_string())?;
+    let trajectory = Trajectory::build(&sequence, robot).map_err(|e| e.to_string())?;
+    let gripper = robot.joint_index("gripper").unwrap();
+    Ok(trajectory.sample(0.0)[gripper])
+}
+
+#[test]
+fn a_percent_of_the_grippers_recorded_range_is_the_degrees_worked_by_hand() {
+    let robot = import(&gripper_2000_3000()).unwrap();
+    // LeRobot's 0…100 (motors_bus.py::_normalize, RANGE_0_100): 40 % is tick
+    // 2000 + 0.40 · 1000 = 2400. keypose's zero is the range's middle, 2500, at 360/4096° a tick:
+    // (2400 − 2500) · 0.087890625 = −8.7890625°.
+    assert_eq!(gripper_at(&robot, "40%").unwrap(), -8.7890625);
+    // 100 %: tick 3000, 500 ticks above the middle = 43.9453125°, the narrowed upper limit.
+    assert_eq!(gripper_at(&robot, "100%").unwrap(), 43.9453125);
+    // 0 % is tick 2000, −43.9453125°: below the robot's own −10° limit, which stays.
+    let err = gripper_at(&robot, "0%").unwrap_err();
+    assert!(err.contains("outside the limits of gripper"), "{err}");
+}
+
+#[test]
+fn drive_mode_one_mirrors_the_percent_on_feetech_only_as_lerobot_does() {
+    // Feetech (SO-101 STS3215), drive_mode 1: LeRobot reads 100 − (raw − 2000)/1000 · 100, so
+    // 40 % is raw 2600: (2600 − 2500) · 360/4096 = +8.7890625°.
+    let so101 = with_drive_mode_one("so101", "gripper", (2000, 3000));
+    assert_eq!(gripper_at(&so101, "40%").unwrap(), 8.7890625);
+    // Dynamixel (Koch XL330, 4096 ticks): apply_drive_mode is False, no mirroring: raw 2400,
+    // (2400 − 2500) · 360/4096 = −8.7890625° (inside the Koch gripper's −91.67 … 1.83°).
+    let koch = with_drive_mode_one("koch", "gripper", (2000, 3000));
+    let text = r#"{"format":"keypose-sequence/1","robot":"koch","keyframes":[
+          {"time":0,"joints":{"gripper":"40%"}}]}"#;
+    let sequence = Sequence::from_json("grip.json", text).unwrap();
+    let trajectory = Trajectory::build(&sequence, &koch).unwrap();
+    let gripper = koch.joint_index("gripper").unwrap();
+    assert_eq!(trajectory.sample(0.0)[gripper], -8.7890625);
+}
+
+#[test]
+fn a_percent_outside_0_to_100_or_malformed_is_bad_input() {
+    let robot = import(&gripper_2000_3000()).unwrap();
+    for bad in ["140%", "-5%", "40", "forty%", "NaN%"] {
+        let err = gripper_at(&robot, bad).unwrap_err();
+        assert!(
+            err.contains("grip.json") && err.contains("$.keyframes[0].joints.gripper"),
+            "{bad}: {err}"
+        );
+    }
+    assert!(gripper_at(&robot, "140%")
+        .unwrap_err()
+        .contains("0% to 100%"));
+}
+
+#[test]
+fn a_saved_sequence_keeps_the_percent_as_written() {
+    let text = r#"{"format":"keypose-sequence/1","robot":"so101","keyframes":[
+          {"time":0,"joints":{"gripper":"40%","elbow_flex":10}}]}"#;
+    let saved = Sequence::from_json("grip.json", text).unwrap().to_json();
+    let saved: serde_json::Value = serde_json::from_str(&saved).unwrap();
+    let joints = &saved["keyframes"][0]["joints"];
+    assert_eq!(joints["gripper"], "40%", "{saved}");
+    assert_eq!(joints["elbow_flex"], 10.0, "{saved}");
+}
+
+/// A sequence file giving the gripper as 40 % and then 60 %.
+fn percent_sequence(dir: &Path) -> String {
+    let seq = dir.join("grip.json");
+    std::fs::write(
+        &seq,
+        r#"{"format":"keypose-sequence/1","robot":"so101","keyframes":[
+          {"time":0,"joints":{"gripper":"40%"}},{"time":10,"joints":{"gripper":"60%"}}]}"#,
+    )
+    .unwrap();
+    seq.display().to_string()
+}
+
+#[test]
+fn a_percent_without_a_calibration_names_the_file_the_key_and_the_fix() {
+    let dir = tempfile::tempdir().unwrap();
+    let seq = percent_sequence(dir.path());
+    let out = run(&["check", &seq]);
+    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+    let err = stderr(&out);
+    for part in [
+        seq.as_str(),
+        "$.keyframes[0].joints.gripper",
+        "no calibration",
+        "--calibration",
+        "--robot-id",
+    ] {
+        assert!(err.contains(part), "{part:?} missing: {err}");
+    }
+    let cal = dir.path().join("cal.json");
+    std::fs::write(&cal, gripper_2000_3000()).unwrap();
+    let out = run(&["check", &seq, "--calibration", &cal.display().to_string()]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+}
+
+#[test]
+fn read_gives_each_calibrated_joint_in_percent_of_its_recorded_range() {
+    // The emulated SO-101 rests at its uncalibrated home: tick 2047 on every servo.
+    let server = common::VirtualBusProcess::start(&["--robot", "so101"]);
+    let dir = tempfile::tempdir().unwrap();
+    let cal = dir.path().join("cal.json");
+    std::fs::write(&cal, gripper_2000_3000()).unwrap();
+    let cal = cal.display().to_string();
+    let out = read_so101(&server.path, &cal);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let pose: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(pose["ticks"][5], 2047);
+    // (2047 − 2000) / (3000 − 2000) · 100 = 4.7 %; whole-turn joints: 2047 / 4095 · 100.
+    let gripper = pose["percent"]["gripper"].as_f64().unwrap();
+    assert!((gripper - 4.7).abs() < 1e-9, "{pose}");
+    let pan = pose["percent"]["shoulder_pan"].as_f64().unwrap();
+    assert!((pan - 2047.0 / 4095.0 * 100.0).abs() < 1e-9, "{pose}");
+    // Without a calibration there is no range to count percent on.
+    let out = run(&["read", "--robot", "so101", "--port", &server.path]);
+    let pose: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(pose.get("percent").is_none(), "{pose}");
 }

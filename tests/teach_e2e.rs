@@ -4,6 +4,9 @@
 //! known by hand. Each script step waits until the arm has arrived, so nothing here depends on
 //! timing.
 
+mod common;
+
+use common::SO101_JOINTS;
 use serde_json::{json, Value};
 use std::io::{BufRead, BufReader, Write};
 use std::path::Path;
@@ -36,18 +39,8 @@ fn read_json(path: &Path) -> Value {
     serde_json::from_str(&text).expect("valid JSON")
 }
 
-/// so101 joints in order: shoulder_pan, shoulder_lift, elbow_flex, wrist_flex, wrist_roll,
-/// gripper.
 fn pose(values: [f64; 6]) -> Value {
-    let names = [
-        "shoulder_pan",
-        "shoulder_lift",
-        "elbow_flex",
-        "wrist_flex",
-        "wrist_roll",
-        "gripper",
-    ];
-    let joints: serde_json::Map<String, Value> = names
+    let joints: serde_json::Map<String, Value> = SO101_JOINTS
         .iter()
         .zip(values)
         .map(|(n, v)| (n.to_string(), json!(v)))
@@ -349,4 +342,43 @@ fn bad_invocations_are_refused_with_exit_code_2() {
     for binding in ["space", "shift", "import:PATH", "quit (asks"] {
         assert!(text.contains(binding), "--help lacks {binding:?}:\n{text}");
     }
+}
+
+/// A key giving the gripper in percent of the calibrated range is saved back as written when
+/// another field of it is edited: teach does not turn "40%" into degrees behind the user's back.
+#[test]
+fn a_percent_key_is_saved_as_written() {
+    let dir = tempfile::tempdir().unwrap();
+    // The gripper recorded over ticks 2000 … 3000, the other joints over the whole turn.
+    let entries: Vec<String> = (1..)
+        .zip(SO101_JOINTS)
+        .map(|(id, name)| {
+            let (min, max) = if name == "gripper" { (2000, 3000) } else { (0, 4095) };
+            format!(
+                r#""{name}": {{"id": {id}, "drive_mode": 0, "homing_offset": 0, "range_min": {min}, "range_max": {max}}}"#
+            )
+        })
+        .collect();
+    std::fs::write(
+        dir.path().join("cal.json"),
+        format!("{{{}}}", entries.join(",")),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("grip.json"),
+        r#"{"format":"keypose-sequence/1","robot":"so101","keyframes":[
+          {"time":0,"joints":{"gripper":"40%","elbow_flex":10}}]}"#,
+    )
+    .unwrap();
+    let out = teach(
+        dir.path(),
+        "N g r i p enter\nw q\n",
+        &["grip.json", "-o", "out.json", "--calibration", "cal.json"],
+    );
+    assert!(out.status.success(), "teach failed:\n{}", stderr(&out));
+    let saved = read_json(&dir.path().join("out.json"));
+    let key = &saved["keyframes"][0];
+    assert_eq!(key["name"], "grip", "{saved}");
+    assert_eq!(key["joints"]["gripper"], "40%", "{saved}");
+    assert_eq!(key["joints"]["elbow_flex"], 10.0, "{saved}");
 }

@@ -11,7 +11,8 @@ pub struct ReadArgs {
     pub bus: BusArgs,
 }
 
-/// `keypose read`: the present pose as JSON, in degrees (metres for prismatic joints).
+/// `keypose read`: the present pose as JSON, in degrees (metres for prismatic joints), and in
+/// percent of the calibrated range for joints a LeRobot calibration recorded one for.
 pub fn run(args: &ReadArgs) -> Result<Verdict, CommandError> {
     let robot = args.robot.load()?;
     super::announce_robot(&robot);
@@ -19,10 +20,19 @@ pub fn run(args: &ReadArgs) -> Result<Verdict, CommandError> {
     let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
     let ticks = connection.bus.read_positions(&ids)?;
     let mut joints = serde_json::Map::new();
+    // Joints whose calibration recorded a range, also as LeRobot's 0…100 of it.
+    let mut percent = serde_json::Map::new();
     for (joint, tick) in robot.joints.iter().zip(&ticks) {
-        joints.insert(joint.name.clone(), json!(joint.servo.value(*tick)));
+        let value = joint.servo.value(*tick);
+        joints.insert(joint.name.clone(), json!(value));
+        if let Some(range) = joint.calibrated_range {
+            percent.insert(joint.name.clone(), json!(range.percent(value)));
+        }
     }
-    let out = json!({ "robot": robot.name, "joints": joints, "ticks": ticks });
+    let mut out = json!({ "robot": robot.name, "joints": joints, "ticks": ticks });
+    if !percent.is_empty() {
+        out["percent"] = serde_json::Value::Object(percent);
+    }
     write_output(None, &format!("{out}\n"))?;
     Ok(Verdict::Pass)
 }

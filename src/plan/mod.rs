@@ -251,7 +251,7 @@ fn format_value(v: f64, kind: JointKind) -> String {
 
 fn value_path(sequence: &Sequence, index: usize, joint: &str, value: &KeyValue) -> String {
     let field = match value {
-        KeyValue::Joint(_) => "joints",
+        KeyValue::Joint(_) | KeyValue::Percent(_) => "joints",
         KeyValue::Transform(_) => "transforms",
     };
     let simple = joint
@@ -277,11 +277,29 @@ fn curve_error(sequence: &Sequence, error: CurveError) -> InputError {
 fn joint_value(joint: &Joint, value: &KeyValue, reference: f64) -> Result<f64, String> {
     match *value {
         KeyValue::Joint(v) => Ok(v),
+        KeyValue::Percent(p) => percent_value(joint, p),
         KeyValue::Transform(tf) => match joint.kind {
             JointKind::Revolute => revolute_angle(joint, &tf, reference),
             JointKind::Prismatic => prismatic_offset(joint, &tf),
         },
     }
+}
+
+/// The joint value at `percent` of the range its LeRobot calibration recorded: only a
+/// calibration says where 0 % and 100 % are, so without one a percent means nothing.
+fn percent_value(joint: &Joint, percent: f64) -> Result<f64, String> {
+    joint
+        .calibrated_range
+        .map(|range| range.value(percent))
+        .ok_or_else(|| {
+            format!(
+                "{percent}% of {name}'s calibrated range, but {name} has no calibration: a \
+                 percent needs the arm's LeRobot calibration (--calibration FILE or --robot-id \
+                 NAME); without one give a number ({})",
+                joint.kind.unit(),
+                name = joint.name
+            )
+        })
 }
 
 fn revolute_angle(joint: &Joint, tf: &RigidTransform, reference: f64) -> Result<f64, String> {

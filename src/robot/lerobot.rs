@@ -12,7 +12,7 @@
 //! gives that joint. A partial file or other ids mean it was made for another arm or another
 //! wiring, and applying it would move servos by another arm's offsets.
 
-use super::{LimitsOrigin, Robot};
+use super::{CalibratedRange, Joint, LimitsOrigin, Robot, Vendor};
 use crate::json::{self, InputError, Node};
 
 /// The top-level arrays of LeRobot's old calibration format (one array per field, indexed by
@@ -35,6 +35,28 @@ const OLD_FORMAT_FIELDS: [&str; 6] = [
 /// calibrations write it), so Present Position arrives already mirrored: reversing it here
 /// too would undo it. docs/robots.md §8.
 const LEROBOT_DEGREES_DIRECTION: f64 = 1.0;
+
+/// The recorded range as LeRobot's 0…100 scale maps it, in keypose's values of `joint` (its
+/// servo mapping already set from this calibration). LeRobot's `MotorNormMode.RANGE_0_100`
+/// (S6 `motors_bus.py::_normalize`): `(raw − range_min) / (range_max − range_min) · 100`,
+/// then `100 − x` when `apply_drive_mode and drive_mode`, which only Feetech applies: a
+/// Dynamixel's drive_mode 1 has mirrored the ticks in the servo already.
+fn calibrated_range(
+    joint: &Joint,
+    range_min: i64,
+    range_max: i64,
+    drive_mode_one: bool,
+) -> CalibratedRange {
+    let (at_0, at_100) = (joint.servo.value(range_min), joint.servo.value(range_max));
+    if drive_mode_one && joint.servo.model.vendor() == Vendor::Feetech {
+        CalibratedRange {
+            at_0: at_100,
+            at_100: at_0,
+        }
+    } else {
+        CalibratedRange { at_0, at_100 }
+    }
+}
 
 /// A joint whose calibration gives another servo id than the robot.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -131,8 +153,9 @@ pub fn import_lerobot_calibration(
         let id = node
             .require("id", "servo id")?
             .integer("servo id", 0, 252)? as u8;
-        // Checked but not applied: see `LEROBOT_DEGREES_DIRECTION`.
-        node.require("drive_mode", "0 or 1")?
+        // Not applied to the degrees (see `LEROBOT_DEGREES_DIRECTION`), only to the 0…100 scale.
+        let drive_mode = node
+            .require("drive_mode", "0 or 1")?
             .integer("drive mode", 0, 1)?;
         let homing_offset = node
             .require("homing_offset", "the servo's homing offset")?
@@ -157,9 +180,9 @@ pub fn import_lerobot_calibration(
         joint.servo.zero_tick = (range_min + range_max) as f64 / 2.0;
         joint.servo.direction = LEROBOT_DEGREES_DIRECTION;
         joint.servo.homing_offset = Some(homing_offset);
-        let a = joint.servo.value(range_min);
-        let b = joint.servo.value(range_max);
-        let (low, high) = (a.min(b), a.max(b));
+        let range = calibrated_range(joint, range_min, range_max, drive_mode == 1);
+        joint.calibrated_range = Some(range);
+        let (low, high) = (range.at_0.min(range.at_100), range.at_0.max(range.at_100));
         let min = joint.limits.min.max(low);
         let max = joint.limits.max.min(high);
         if min >= max {

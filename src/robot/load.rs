@@ -153,6 +153,7 @@ fn parse_joint(node: &Node, protocol: Protocol) -> Result<Joint, InputError> {
         limits,
         limits_origin: super::LimitsOrigin::Robot,
         servo,
+        calibrated_range: None,
     })
 }
 

@@ -138,6 +138,31 @@ pub struct Joint {
     pub limits: Limits,
     pub limits_origin: LimitsOrigin,
     pub servo: Servo,
+    /// The range a LeRobot calibration recorded, in the joint's unit; None without one.
+    pub calibrated_range: Option<CalibratedRange>,
+}
+
+/// A calibration's recorded range as LeRobot's 0…100 scale (`MotorNormMode.RANGE_0_100`) sees
+/// it, in the joint's unit: the value at 0 % and the value at 100 %. LeRobot puts 0 at
+/// range_min and 100 at range_max, mirrored (`100 − x`) when it applies `drive_mode` 1 (on
+/// Feetech only): keeping the two ends rather than low and high carries that mirroring.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CalibratedRange {
+    pub at_0: f64,
+    pub at_100: f64,
+}
+
+impl CalibratedRange {
+    /// The joint value at `percent` of the range (0 … 100, not checked here).
+    pub fn value(&self, percent: f64) -> f64 {
+        self.at_0 + percent / 100.0 * (self.at_100 - self.at_0)
+    }
+
+    /// Where `value` is on the range, in percent; outside 0 … 100 past its ends (LeRobot
+    /// clamps there, keypose shows how far past they are).
+    pub fn percent(&self, value: f64) -> f64 {
+        (value - self.at_0) / (self.at_100 - self.at_0) * 100.0
+    }
 }
 
 impl Joint {

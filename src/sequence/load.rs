@@ -234,8 +234,8 @@ fn parse_keyframe(node: &Node) -> Result<Keyframe, InputError> {
     }
     if let Some(joints) = node.get("joints") {
         for (name, value) in joints.entries()? {
-            let v = value.number("degrees, or metres for a prismatic joint")?;
-            key.values.push((name.to_string(), KeyValue::Joint(v)));
+            key.values
+                .push((name.to_string(), parse_joint_value(&value)?));
         }
     }
     if let Some(transforms) = node.get("transforms") {
@@ -256,6 +256,25 @@ fn parse_keyframe(node: &Node) -> Result<Keyframe, InputError> {
         ));
     }
     Ok(key)
+}
+
+/// A joint's value in "joints": a number (degrees, metres for a prismatic joint), or a percent
+/// of the calibrated range as a string such as "40%".
+fn parse_joint_value(node: &Node) -> Result<KeyValue, InputError> {
+    const EXPECTED: &str =
+        "degrees (metres for a prismatic joint), or a percent of the calibrated range such as \"40%\"";
+    let Some(text) = node.value.as_str() else {
+        return Ok(KeyValue::Joint(node.number(EXPECTED)?));
+    };
+    let percent = text
+        .strip_suffix('%')
+        .and_then(|n| n.trim().parse::<f64>().ok())
+        .filter(|p| p.is_finite())
+        .ok_or_else(|| node.expected(EXPECTED))?;
+    if !(0.0..=100.0).contains(&percent) {
+        return Err(node.expected("a percent of the calibrated range from 0% to 100%"));
+    }
+    Ok(KeyValue::Percent(percent))
 }
 
 fn parse_transform(node: &Node) -> Result<RigidTransform, InputError> {

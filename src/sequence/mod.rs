@@ -33,6 +33,10 @@ pub enum Ends {
 pub enum KeyValue {
     /// Degrees for a revolute joint, metres for a prismatic one.
     Joint(f64),
+    /// Percent (0 … 100) of the range a LeRobot calibration recorded, as LeRobot's 0…100 scale
+    /// counts it; written `"40%"`. Resolved to a joint value once the calibrated robot is known
+    /// (`Trajectory::build`), and saved back as written.
+    Percent(f64),
     /// The joint's rigid transform relative to its zero pose.
     Transform(RigidTransform),
 }

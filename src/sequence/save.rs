@@ -41,6 +41,9 @@ pub(super) fn to_json(sequence: &Sequence) -> String {
                     KeyValue::Joint(v) => {
                         joints.insert(name.clone(), json!(v));
                     }
+                    KeyValue::Percent(p) => {
+                        joints.insert(name.clone(), json!(format!("{p}%")));
+                    }
                     KeyValue::Transform(tf) => {
                         let mut t = Map::new();
                         if tf.t != glam::DVec3::ZERO {

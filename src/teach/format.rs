@@ -17,6 +17,36 @@ pub fn value(joint: &Joint, value: f64) -> String {
     }
 }
 
+/// A joint value with, on a joint whose calibration recorded a range, where it is on that range
+/// as LeRobot's 0…100 scale counts it: LeRobot users know their gripper in percent.
+pub fn value_and_percent(joint: &Joint, v: f64) -> String {
+    match joint.calibrated_range {
+        Some(range) => format!("{} {:.0}%", value(joint, v), range.percent(v)),
+        None => value(joint, v),
+    }
+}
+
+/// The joint value a key gives, when it gives a number or a percent it can be resolved from.
+pub fn key_number(joint: &Joint, key: &KeyValue) -> Option<f64> {
+    match *key {
+        KeyValue::Joint(v) => Some(v),
+        KeyValue::Percent(p) => joint.calibrated_range.map(|range| range.value(p)),
+        KeyValue::Transform(_) => None,
+    }
+}
+
+/// A key's value as the joint table shows it: a percent as written, with its degrees when the
+/// calibration says where they are.
+pub fn key_text(joint: &Joint, key: &KeyValue) -> String {
+    match (key, key_number(joint, key)) {
+        (KeyValue::Transform(_), _) => "transform".into(),
+        (KeyValue::Percent(p), Some(v)) => format!("{p}% {}", value(joint, v)),
+        (KeyValue::Percent(p), None) => format!("{p}% uncal."),
+        (KeyValue::Joint(_), Some(v)) => value_and_percent(joint, v),
+        (KeyValue::Joint(v), None) => value(joint, *v),
+    }
+}
+
 /// The unit the screen gives a joint's values in.
 pub fn unit(joint: &Joint) -> &'static str {
     match joint.kind {
@@ -154,6 +184,7 @@ fn field_question(state: &TeachState, field: Field) -> (String, &'static str) {
             let joint = &state.robot().joints[j];
             let now = match key.and_then(|k| k.value(&joint.name)) {
                 Some(KeyValue::Joint(v)) => screen_number(joint, *v).to_string(),
+                Some(KeyValue::Percent(p)) => format!("{p}%"),
                 _ => "not set".into(),
             };
             (
@@ -190,5 +221,25 @@ mod tests {
         assert_eq!(key_label(&sequence, 1), "key 1");
         assert_eq!(joint_list(&robot, &[1, 2]), "shoulder_lift, elbow_flex");
         assert_eq!(joint_list(&robot, &[0, 1, 2, 3, 4, 5]), "all joints");
+    }
+
+    #[test]
+    fn a_calibrated_joint_shows_its_percent_beside_the_degrees() {
+        let robot = Robot::builtin("so101").unwrap();
+        let mut gripper = robot.joints[5].clone();
+        assert_eq!(value_and_percent(&gripper, -8.79), "-8.8°");
+        assert_eq!(key_text(&gripper, &KeyValue::Percent(40.0)), "40% uncal.");
+        // A recorded range of ±43.9453125° (ticks 2000 … 3000 about 2500): -8.7890625° is
+        // 35.15625° above the low end, 40 % of 87.890625°.
+        gripper.calibrated_range = Some(crate::robot::CalibratedRange {
+            at_0: -43.9453125,
+            at_100: 43.9453125,
+        });
+        assert_eq!(value_and_percent(&gripper, -8.7890625), "-8.8° 40%");
+        assert_eq!(key_text(&gripper, &KeyValue::Percent(40.0)), "40% -8.8°");
+        assert_eq!(
+            key_text(&gripper, &KeyValue::Joint(-8.7890625)),
+            "-8.8° 40%"
+        );
     }
 }

@@ -10,7 +10,6 @@ use super::keys::{Key, BINDINGS};
 use super::motion::MotionKind;
 use super::state::{Activity, TeachState};
 use super::{apply, press, refresh, Session, TeachError};
-use crate::sequence::KeyValue;
 use crate::terminal_text::escape_field;
 use ratatui::crossterm::event::{self, KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
@@ -152,15 +151,8 @@ fn draw_joints(frame: &mut Frame, area: Rect, state: &TeachState) {
     let rows = robot.joints.iter().enumerate().map(|(j, joint)| {
         let present = state.present().get(j).copied().unwrap_or(f64::NAN);
         let key_value = key.and_then(|k| k.value(&joint.name));
-        let key_number = match key_value {
-            Some(KeyValue::Joint(v)) => Some(*v),
-            _ => None,
-        };
-        let key_text = match key_value {
-            Some(KeyValue::Joint(v)) => format::value(joint, *v),
-            Some(KeyValue::Transform(_)) => "transform".into(),
-            None => "·".into(),
-        };
+        let key_number = key_value.and_then(|v| format::key_number(joint, v));
+        let key_text = key_value.map_or("·".into(), |v| format::key_text(joint, v));
         let (torque, torque_style) = if state.torque()[j] {
             ("hold", Style::new().fg(Color::Green))
         } else {
@@ -169,7 +161,7 @@ fn draw_joints(frame: &mut Frame, area: Rect, state: &TeachState) {
         let marker = if j == state.selected() { "▶ " } else { "  " };
         let row = Row::new(vec![
             Cell::from(format!("{marker}{}", escape_field(&joint.name))),
-            Cell::from(format::value(joint, present)),
+            Cell::from(format::value_and_percent(joint, present)),
             Cell::from(key_text),
             Cell::from(limit_bar(joint, present, key_number)),
             Cell::from(Span::styled(torque, torque_style)),
@@ -185,8 +177,9 @@ fn draw_joints(frame: &mut Frame, area: Rect, state: &TeachState) {
         rows,
         [
             Constraint::Length(18),
-            Constraint::Length(10),
-            Constraint::Length(10),
+            // "-87.9° 100%": degrees with the percent of a calibrated range beside them.
+            Constraint::Length(12),
+            Constraint::Length(12),
             Constraint::Length(BAR_WIDTH as u16 + 2),
             Constraint::Length(5),
             Constraint::Length(5),

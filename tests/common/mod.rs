@@ -5,6 +5,16 @@
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Output, Stdio};
 
+/// The built-in SO-101's joints in chain order (servo ids 1 … 6).
+pub const SO101_JOINTS: [&str; 6] = [
+    "shoulder_pan",
+    "shoulder_lift",
+    "elbow_flex",
+    "wrist_flex",
+    "wrist_roll",
+    "gripper",
+];
+
 pub fn keypose() -> Command {
     Command::new(env!("CARGO_BIN_EXE_keypose"))
 }

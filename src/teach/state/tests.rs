@@ -97,7 +97,9 @@ fn key_values(state: &TeachState, index: usize) -> Vec<f64> {
         .iter()
         .map(|(_, v)| match v {
             KeyValue::Joint(x) => *x,
-            KeyValue::Transform(_) => panic!("a captured key holds joint values"),
+            KeyValue::Transform(_) | KeyValue::Percent(_) => {
+                panic!("a captured key holds joint values")
+            }
         })
         .collect()
 }
