@@ -676,3 +676,17 @@ fn the_readme_console_examples_print_what_the_commands_print() {
     }
     assert_eq!(compared, ["check", "check", "sample", "retime"]);
 }
+
+#[test]
+fn the_check_report_shows_a_prismatic_gripper_in_millimetres() {
+    // omx_reach opens the gripper by a translation of 0.015 m along its axis.
+    let out = keypose(&["check", &repo("sequences/omx_reach.json")]);
+    assert_eq!(out.status.code(), Some(0));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let row = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("gripper_left_joint"))
+        .unwrap_or_else(|| panic!("{text}"));
+    assert!(row.contains("0.00 …   15.00 mm"), "{row}");
+    assert!(row.contains(" mm/s ") && row.contains(" mm/s²"), "{row}");
+}

@@ -2,6 +2,7 @@
 
 pub mod log;
 pub mod plot;
+pub mod units;
 
 use crate::plan::{CheckReport, LimitKind, Sampled, Trajectory};
 use crate::robot::{Robot, RobotSource};
@@ -32,7 +33,8 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
             report.violations.len()
         );
         for v in &report.violations {
-            let unit = per_unit(v.unit, v.kind);
+            let (scale, shown_unit) = units::display_scale(v.unit);
+            let unit = per_unit(shown_unit, v.kind);
             let relation = if v.peak > v.limit { ">" } else { "<" };
             let bound = match (v.kind, v.peak > v.limit) {
                 (LimitKind::Position, true) => "max",
@@ -49,9 +51,9 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
                 v.peak_time,
                 v.from,
                 v.to,
-                v.peak,
-                v.limit,
-                v.excess
+                v.peak * scale,
+                v.limit * scale,
+                v.excess * scale
             );
         }
     }
@@ -61,18 +63,19 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
         "joint", "range", "peak velocity", "peak acceleration"
     );
     for j in &report.joints {
+        let (scale, unit) = units::display_scale(j.unit);
         let _ = writeln!(
             out,
             "  {:<14} {:>9.2} … {:>7.2} {:<3} {:>8.1} {:<6} ({:>4.0} %) {:>9.1} {:<7} ({:>4.0} %)",
             j.joint,
-            j.min_position,
-            j.max_position,
-            j.unit,
-            j.peak_velocity,
-            per_unit(j.unit, LimitKind::Velocity),
+            j.min_position * scale,
+            j.max_position * scale,
+            unit,
+            j.peak_velocity * scale,
+            per_unit(unit, LimitKind::Velocity),
             100.0 * j.peak_velocity / j.velocity_limit,
-            j.peak_acceleration,
-            per_unit(j.unit, LimitKind::Acceleration),
+            j.peak_acceleration * scale,
+            per_unit(unit, LimitKind::Acceleration),
             100.0 * j.peak_acceleration / j.acceleration_limit,
         );
     }

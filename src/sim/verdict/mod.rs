@@ -14,12 +14,11 @@ mod saturation;
 mod speed;
 mod tolerances;
 mod tracking;
-mod units;
 
+pub use crate::report::units::{force_unit, shown, Shown};
 pub use contacts::collisions;
 pub use finding::{Finding, FindingKind};
 pub use tolerances::Thresholds;
-pub use units::{force_unit, shown, Shown};
 
 use crate::robot::{JointKind, Robot};
 use column::Column;

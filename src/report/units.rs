@@ -3,7 +3,8 @@
 //! millimetres, and metres at three decimals would print 0.000 for most of its errors), N·m for
 //! a revolute actuator's torque and N for a prismatic one's force.
 //!
-//! Knows nothing about what the values mean.
+//! Shared by the check report and the simulation's verdict. Knows nothing about what the values
+//! mean.
 
 use crate::robot::JointKind;
 use std::fmt;
@@ -30,6 +31,15 @@ pub fn shown(kind: JointKind, value: f64) -> Shown {
             unit: "mm",
             decimals: 2,
         },
+    }
+}
+
+/// The factor and unit a person reads values in the file unit `unit` with ("m" → mm, the rest
+/// as they are): for reports that know a joint's unit but not its kind.
+pub fn display_scale(unit: &'static str) -> (f64, &'static str) {
+    match unit {
+        "m" => (1000.0, "mm"),
+        other => (1.0, other),
     }
 }
 
