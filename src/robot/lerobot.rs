@@ -124,15 +124,8 @@ pub fn import_lerobot_calibration(
         narrowed: Vec::new(),
     };
     let entries = root.entries()?;
-    let old_fields: Vec<String> = entries
-        .iter()
-        .filter(|(name, node)| OLD_FORMAT_FIELDS.contains(name) && node.value.is_array())
-        .map(|(name, _)| name.to_string())
-        .collect();
-    if !old_fields.is_empty() {
-        return Err(whole_file(CalibrationMismatch::OldFormat {
-            fields: old_fields,
-        }));
+    if let Some(old) = old_format(&entries) {
+        return Err(whole_file(old));
     }
     let mut mismatches = Vec::new();
     for (motor, node) in &entries {
@@ -143,61 +136,17 @@ pub fn import_lerobot_calibration(
                 robot.joint_names().join(", ")
             )));
         };
-        node.only_fields(&[
-            "id",
-            "drive_mode",
-            "homing_offset",
-            "range_min",
-            "range_max",
-        ])?;
-        let id = node
-            .require("id", "servo id")?
-            .integer("servo id", 0, 252)? as u8;
-        // Not applied to the degrees (see `LEROBOT_DEGREES_DIRECTION`), only to the 0…100 scale.
-        let drive_mode = node
-            .require("drive_mode", "0 or 1")?
-            .integer("drive mode", 0, 1)?;
-        let homing_offset = node
-            .require("homing_offset", "the servo's homing offset")?
-            .integer("ticks", -1_048_575, 1_048_575)?;
-        let range_min = node
-            .require("range_min", "lowest recorded tick")?
-            .integer("ticks", -1_048_575, 1_048_575)?;
-        let range_max_node = node.require("range_max", "highest recorded tick")?;
-        let range_max = range_max_node.integer("ticks", -1_048_575, 1_048_575)?;
-        if range_max <= range_min {
-            return Err(range_max_node.expected(&format!("a tick above range_min ({range_min})")));
-        }
-
+        let motor = read_motor(node)?;
         let joint = &mut robot.joints[index];
-        if id != joint.servo.id {
+        if motor.id != joint.servo.id {
             mismatches.push(IdMismatch {
                 joint: joint.name.clone(),
-                calibration_id: id,
+                calibration_id: motor.id,
                 robot_id: joint.servo.id,
             });
         }
-        joint.servo.zero_tick = (range_min + range_max) as f64 / 2.0;
-        joint.servo.direction = LEROBOT_DEGREES_DIRECTION;
-        joint.servo.homing_offset = Some(homing_offset);
-        let range = calibrated_range(joint, range_min, range_max, drive_mode == 1);
-        joint.calibrated_range = Some(range);
-        let (low, high) = (range.at_0.min(range.at_100), range.at_0.max(range.at_100));
-        let min = joint.limits.min.max(low);
-        let max = joint.limits.max.min(high);
-        if min >= max {
-            return Err(node.error(format!(
-                "the recorded range ({low:.2} … {high:.2}) does not overlap the joint's limits ({} … {})",
-                joint.limits.min, joint.limits.max
-            )));
-        }
-        if min != joint.limits.min || max != joint.limits.max {
-            joint.limits.min = min;
-            joint.limits.max = max;
-            joint.limits_origin = LimitsOrigin::Calibration {
-                file: file.to_string(),
-            };
-            report.narrowed.push((joint.name.clone(), min, max));
+        if let Some(narrowed) = apply_motor(joint, &motor, file, node)? {
+            report.narrowed.push(narrowed);
         }
         report.calibrated.push(joint.name.clone());
     }
@@ -207,21 +156,118 @@ pub fn import_lerobot_calibration(
             mismatches,
         }));
     }
-    let missing: Vec<String> = robot
-        .joints
-        .iter()
-        .filter(|j| !report.calibrated.contains(&j.name))
-        .map(|j| j.name.clone())
-        .collect();
-    if !missing.is_empty() {
-        return Err(whole_file(CalibrationMismatch::MissingJoints {
-            robot: robot.name.clone(),
-            missing,
-            expected: robot.joint_names().iter().map(|n| n.to_string()).collect(),
-        }));
+    if let Some(missing) = missing_joints(robot, &report.calibrated) {
+        return Err(whole_file(missing));
     }
     for (joint, home) in robot.joints.iter().zip(robot.home.iter_mut()) {
         *home = home.clamp(joint.limits.min, joint.limits.max);
     }
     Ok(report)
+}
+
+/// One motor's entry of a calibration file, as LeRobot writes it.
+struct MotorCalibration {
+    id: u8,
+    drive_mode: i64,
+    homing_offset: i64,
+    range_min: i64,
+    range_max: i64,
+}
+
+/// LeRobot's old format kept each field as a top-level array: recognised, to say so.
+fn old_format(entries: &[(&str, Node)]) -> Option<CalibrationMismatch> {
+    let fields: Vec<String> = entries
+        .iter()
+        .filter(|(name, node)| OLD_FORMAT_FIELDS.contains(name) && node.value.is_array())
+        .map(|(name, _)| name.to_string())
+        .collect();
+    (!fields.is_empty()).then_some(CalibrationMismatch::OldFormat { fields })
+}
+
+fn read_motor(node: &Node) -> Result<MotorCalibration, InputError> {
+    node.only_fields(&[
+        "id",
+        "drive_mode",
+        "homing_offset",
+        "range_min",
+        "range_max",
+    ])?;
+    let id = node
+        .require("id", "servo id")?
+        .integer("servo id", 0, 252)? as u8;
+    // Not applied to the degrees (see `LEROBOT_DEGREES_DIRECTION`), only to the 0…100 scale.
+    let drive_mode = node
+        .require("drive_mode", "0 or 1")?
+        .integer("drive mode", 0, 1)?;
+    let homing_offset = node
+        .require("homing_offset", "the servo's homing offset")?
+        .integer("ticks", -1_048_575, 1_048_575)?;
+    let range_min = node
+        .require("range_min", "lowest recorded tick")?
+        .integer("ticks", -1_048_575, 1_048_575)?;
+    let range_max_node = node.require("range_max", "highest recorded tick")?;
+    let range_max = range_max_node.integer("ticks", -1_048_575, 1_048_575)?;
+    if range_max <= range_min {
+        return Err(range_max_node.expected(&format!("a tick above range_min ({range_min})")));
+    }
+    Ok(MotorCalibration {
+        id,
+        drive_mode,
+        homing_offset,
+        range_min,
+        range_max,
+    })
+}
+
+/// Centres the joint's zero on the recorded range (where LeRobot's degrees are 0), keeps the
+/// range for percentages, and narrows the limits to it; returns the narrowed limits, if any.
+fn apply_motor(
+    joint: &mut Joint,
+    motor: &MotorCalibration,
+    file: &str,
+    node: &Node,
+) -> Result<Option<(String, f64, f64)>, InputError> {
+    joint.servo.zero_tick = (motor.range_min + motor.range_max) as f64 / 2.0;
+    joint.servo.direction = LEROBOT_DEGREES_DIRECTION;
+    joint.servo.homing_offset = Some(motor.homing_offset);
+    let range = calibrated_range(
+        joint,
+        motor.range_min,
+        motor.range_max,
+        motor.drive_mode == 1,
+    );
+    joint.calibrated_range = Some(range);
+    let (low, high) = (range.at_0.min(range.at_100), range.at_0.max(range.at_100));
+    let min = joint.limits.min.max(low);
+    let max = joint.limits.max.min(high);
+    if min >= max {
+        return Err(node.error(format!(
+            "the recorded range ({low:.2} … {high:.2}) does not overlap the joint's limits ({} … {})",
+            joint.limits.min, joint.limits.max
+        )));
+    }
+    if min == joint.limits.min && max == joint.limits.max {
+        return Ok(None);
+    }
+    joint.limits.min = min;
+    joint.limits.max = max;
+    joint.limits_origin = LimitsOrigin::Calibration {
+        file: file.to_string(),
+    };
+    Ok(Some((joint.name.clone(), min, max)))
+}
+
+/// The joints a calibration must cover but does not: every joint of the robot.
+fn missing_joints(robot: &Robot, calibrated: &[String]) -> Option<CalibrationMismatch> {
+    let missing: Vec<String> = robot
+        .joints
+        .iter()
+        .filter(|j| !calibrated.contains(&j.name))
+        .map(|j| j.name.clone())
+        .collect();
+    (!missing.is_empty()).then(|| CalibrationMismatch::MissingJoints {
+        robot: robot.name.clone(),
+        missing,
+        expected: robot.joint_names().iter().map(|n| n.to_string()).collect(),
+    })
 }
