@@ -43,28 +43,50 @@ pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputEr
         Some(n) => parse_interp(&n)?,
         None => Interp::Cubic,
     };
-    let ends = match root.get("ends") {
-        None => Ends::Played,
-        Some(n) => match n.value.as_str() {
-            Some("played") => Ends::Played,
-            Some("control") => Ends::Control,
-            _ => return Err(n.expected("\"played\" or \"control\"")),
-        },
-    };
+    let ends = parse_ends(&root)?;
     let interval_node = root.get("key_interval");
-    let key_interval = match &interval_node {
-        Some(n) => {
-            let x = n.number("seconds")?;
-            if x < MIN_GAP {
-                return Err(n.expected(&format!("a key interval of at least {MIN_GAP} s")));
-            }
-            Some(x)
-        }
-        None => None,
-    };
-
+    let key_interval = parse_key_interval(interval_node.as_ref())?;
     let frames_node = root.require("keyframes", "the list of keys")?;
     let items = frames_node.items()?;
+    let mut keyframes = parse_keyframes(&frames_node, &items)?;
+    let key_interval = settle_timing(&mut keyframes, &items, key_interval, interval_node.as_ref())?;
+    let sequence = Sequence {
+        file: file.to_string(),
+        robot,
+        description,
+        interpolation,
+        ends,
+        key_interval,
+        keyframes,
+    };
+    validate_keys(&sequence)?;
+    Ok(sequence)
+}
+
+fn parse_ends(root: &Node) -> Result<Ends, InputError> {
+    match root.get("ends") {
+        None => Ok(Ends::Played),
+        Some(n) => match n.value.as_str() {
+            Some("played") => Ok(Ends::Played),
+            Some("control") => Ok(Ends::Control),
+            _ => Err(n.expected("\"played\" or \"control\"")),
+        },
+    }
+}
+
+fn parse_key_interval(node: Option<&Node>) -> Result<Option<f64>, InputError> {
+    let Some(n) = node else {
+        return Ok(None);
+    };
+    let x = n.number("seconds")?;
+    if x < MIN_GAP {
+        return Err(n.expected(&format!("a key interval of at least {MIN_GAP} s")));
+    }
+    Ok(Some(x))
+}
+
+/// Every key, numbered by its place in the file (for messages), at most [`MAX_KEYFRAMES`].
+fn parse_keyframes(frames_node: &Node, items: &[Node]) -> Result<Vec<Keyframe>, InputError> {
     if items.is_empty() {
         return Err(frames_node.expected("at least one keyframe"));
     }
@@ -80,7 +102,17 @@ pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputEr
         key.source_index = Some(index);
         keyframes.push(key);
     }
+    Ok(keyframes)
+}
 
+/// Either every key has a time (then they are sorted by it and `key_interval` has no use) or
+/// none has (then they are `key_interval` apart); returns the interval in force.
+fn settle_timing(
+    keyframes: &mut [Keyframe],
+    items: &[Node],
+    key_interval: Option<f64>,
+    interval_node: Option<&Node>,
+) -> Result<Option<f64>, InputError> {
     let timed = keyframes.iter().filter(|k| k.time.is_some()).count();
     if timed != 0 && timed != keyframes.len() {
         let odd = keyframes
@@ -93,35 +125,22 @@ pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputEr
             keyframes.len()
         )));
     }
-    let key_interval = if timed == 0 {
-        Some(key_interval.unwrap_or(DEFAULT_KEY_INTERVAL))
-    } else {
-        if let Some(n) = &interval_node {
-            return Err(n.error(
-                "key_interval spaces untimed keys, but every key here has a time; remove one of them",
-            ));
-        }
-        // Keys may be written in any order; stable, so equal times stay in file order and are
-        // then reported as duplicates.
-        keyframes.sort_by(|a, b| {
-            a.time
-                .partial_cmp(&b.time)
-                .unwrap_or(std::cmp::Ordering::Equal)
-        });
-        None
-    };
-
-    let sequence = Sequence {
-        file: file.to_string(),
-        robot,
-        description,
-        interpolation,
-        ends,
-        key_interval,
-        keyframes,
-    };
-    validate_keys(&sequence)?;
-    Ok(sequence)
+    if timed == 0 {
+        return Ok(Some(key_interval.unwrap_or(DEFAULT_KEY_INTERVAL)));
+    }
+    if let Some(n) = interval_node {
+        return Err(n.error(
+            "key_interval spaces untimed keys, but every key here has a time; remove one of them",
+        ));
+    }
+    // Keys may be written in any order; stable, so equal times stay in file order and are then
+    // reported as duplicates.
+    keyframes.sort_by(|a, b| {
+        a.time
+            .partial_cmp(&b.time)
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    Ok(None)
 }
 
 /// Rules on key times and holds that hold for any robot.
