@@ -115,6 +115,16 @@ pub enum CommandError {
     },
 }
 
+/// A model MuJoCo refuses is the user's to mend (exit 2); anything else is the simulation's.
+impl From<keypose::sim::SimError> for CommandError {
+    fn from(e: keypose::sim::SimError) -> Self {
+        match e {
+            keypose::sim::SimError::Model { .. } => CommandError::Model(e),
+            other => CommandError::Sim(other),
+        }
+    }
+}
+
 impl CommandError {
     pub fn exit_code(&self) -> i32 {
         use keypose::bus::BusError;

@@ -7,7 +7,7 @@ use super::{write_output, CommandError, RobotArgs, Verdict};
 use keypose::pose::rpy_from_quat;
 use keypose::robot::{Joint, JointKind, Robot};
 use keypose::sim::verdict::{collisions, Contact, ContactKind, Thresholds};
-use keypose::sim::{self, SimError, Simulation};
+use keypose::sim::{self, Simulation};
 use serde_json::json;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -58,13 +58,10 @@ pub fn run(args: &PoseArgs) -> Result<Verdict, CommandError> {
         return draw_directions(&robot, args.mjcf.as_deref(), path);
     }
     let pose = parse_pose(&robot, &args.values)?;
-    let mut simulation =
-        Simulation::start(&robot, args.mjcf.as_deref(), None).map_err(sim_error)?;
-    let contacts = simulation
-        .pose_contacts(&robot, &pose.values)
-        .map_err(sim_error)?;
+    let mut simulation = Simulation::start(&robot, args.mjcf.as_deref(), None)?;
+    let contacts = simulation.pose_contacts(&robot, &pose.values)?;
     let thresholds = Thresholds::default();
-    let touching = by_pair(collisions(&contacts, &thresholds));
+    let touching = floor_first(collisions(&contacts, &thresholds));
     let text = match args.format {
         ReportFormat::Text => text_report(&robot, simulation.model(), &pose, &touching),
         ReportFormat::Json => {
@@ -78,14 +75,6 @@ pub fn run(args: &PoseArgs) -> Result<Verdict, CommandError> {
     } else {
         Verdict::Fail
     })
-}
-
-/// A model MuJoCo refuses is the user's to mend (exit 2); anything else is the simulation's.
-fn sim_error(e: SimError) -> CommandError {
-    match e {
-        SimError::Model { .. } => CommandError::Model(e),
-        other => CommandError::Sim(other),
-    }
 }
 
 /// The robot's home with the given `JOINT=VALUE`s applied, each inside its joint's limits.
@@ -158,28 +147,14 @@ fn tool_name(robot: &Robot) -> String {
     }
 }
 
-/// The deepest contact of each pair of bodies, whichever order MuJoCo named them in (a pose
-/// has no time order to keep): floor contacts first, then the deepest first.
-fn by_pair(found: Vec<&Contact>) -> Vec<&Contact> {
-    let mut kept: Vec<&Contact> = Vec::new();
-    for c in found {
-        let same = |k: &&Contact| {
-            k.kind == c.kind
-                && ((k.body1 == c.body1 && k.body2 == c.body2)
-                    || (k.body1 == c.body2 && k.body2 == c.body1))
-        };
-        match kept.iter_mut().find(|k| same(k)) {
-            Some(k) if k.depth < c.depth => *k = c,
-            Some(_) => {}
-            None => kept.push(c),
-        }
-    }
-    kept.sort_by(|a, b| {
+/// Floor contacts first, then the deepest first (a pose has no time order to keep).
+fn floor_first(mut found: Vec<&Contact>) -> Vec<&Contact> {
+    found.sort_by(|a, b| {
         (b.kind == ContactKind::Floor)
             .cmp(&(a.kind == ContactKind::Floor))
             .then(b.depth.total_cmp(&a.depth))
     });
-    kept
+    found
 }
 
 /// The body of a floor contact that is the robot's (the floor is the world body's).
@@ -345,8 +320,7 @@ fn draw_directions(
             JointKind::Prismatic => format!("{} +{:.0} mm", joint.name, step * 1000.0),
         });
     }
-    let gl =
-        sim::render(robot, mjcf, &frames, &labels, path, &DIRECTIONS_CAMERA).map_err(sim_error)?;
+    let gl = sim::render(robot, mjcf, &frames, &labels, path, &DIRECTIONS_CAMERA)?;
     eprintln!(
         "{}: joint directions of {} ({} frames) drawn ({gl})",
         path.display(),

@@ -6,7 +6,7 @@ use keypose::player::{print_progress_line, LogRow, PlayError, PlayOptions, Playb
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
 use keypose::sim::verdict::{self, KeyMark, Thresholds, Trace};
-use keypose::sim::{self, CommandStream, SimError, Simulation};
+use keypose::sim::{self, CommandStream, Simulation};
 use keypose::terminal_text::escape_controls;
 use serde_json::json;
 use std::fmt::Write as _;
@@ -77,13 +77,6 @@ fn write_log(
     log.finish()
 }
 
-fn sim_error(e: SimError) -> CommandError {
-    match e {
-        SimError::Model { .. } => CommandError::Model(e),
-        other => CommandError::Sim(other),
-    }
-}
-
 /// Runs `trajectory` in MuJoCo as the player would play it with `options`.
 pub fn simulate(
     sequence: &Sequence,
@@ -101,16 +94,14 @@ pub fn simulate(
         Some(path) => Some(PlaybackLog::create(path, robot).map_err(log_error)?),
         None => None,
     };
-    let mut simulation = Simulation::start(robot, mjcf, None).map_err(sim_error)?;
+    let mut simulation = Simulation::start(robot, mjcf, None)?;
     let chunk = ((CHUNK_SECONDS * stream.rate).round() as usize).max(1);
     let mut trace = Trace::default();
     let total = stream.rows.len();
     let mut start = 0;
     while start < total {
         let end = (start + chunk).min(total);
-        let part = simulation
-            .run(robot, &stream, start..end, start == 0)
-            .map_err(sim_error)?;
+        let part = simulation.run(robot, &stream, start..end, start == 0)?;
         let diverged = !part.divergence.is_empty();
         trace.extend(part);
         if options.progress {
@@ -292,8 +283,7 @@ fn render(
 ) -> Result<(), CommandError> {
     let frames: Vec<Vec<f64>> = times.iter().map(|(t, _)| trajectory.sample(*t)).collect();
     let labels: Vec<String> = times.into_iter().map(|(_, l)| l).collect();
-    let gl = sim::render(robot, mjcf, &frames, &labels, path, &sim::Camera::default())
-        .map_err(sim_error)?;
+    let gl = sim::render(robot, mjcf, &frames, &labels, path, &sim::Camera::default())?;
     eprintln!(
         "{}: rendered {} frame(s) of {} to {} ({gl})",
         sequence.file,

@@ -46,6 +46,16 @@ impl CycleStart {
     pub fn stalled(&self, period: f64) -> bool {
         self.gap > STALL_PERIODS * period
     }
+
+    /// The share of the path rate the arm really followed since the previous cycle: after a
+    /// stall its goal was held for the whole gap, so `period / gap`; otherwise all of it.
+    pub fn followed_share(&self, period: f64) -> f64 {
+        if self.stalled(period) {
+            period / self.gap
+        } else {
+            1.0
+        }
+    }
 }
 
 /// Lateness over a whole playback: summary figures over every cycle, and the lateness of the

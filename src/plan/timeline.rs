@@ -223,12 +223,10 @@ impl<'a> Timeline<'a> {
         self.phase()
     }
 
-    /// The last goal was held for `gap` seconds instead of one `period`: the path was followed
-    /// at `period / gap` of the rate, and resumes from there.
-    pub fn after_stall(&mut self, period: f64, gap: f64) {
-        if gap > period {
-            self.rate.factor *= period / gap;
-        }
+    /// The last goal was held through a stall: the path was followed at `share` of the rate
+    /// (`period / gap`), and resumes from there.
+    pub fn after_stall(&mut self, share: f64) {
+        self.rate.factor *= share;
     }
 
     /// Moves on by `dt` seconds of wall-clock time.

@@ -15,7 +15,6 @@
 //! - the step stays within `v·T` of zero and within `a·T²` of the reference;
 //! - from the new goal, decelerating by `a·T²` per period, the joint stops inside its limits.
 
-use crate::pacing::STALL_PERIODS;
 use crate::robot::Robot;
 
 /// Relative slack for floating-point noise: a step this close to a bound is within it.
@@ -32,7 +31,6 @@ struct JointLimit {
 #[derive(Debug, Clone)]
 pub struct StepLimiter {
     limits: Vec<JointLimit>,
-    period: f64,
     last: Vec<f64>,
     last_step: Vec<f64>,
     /// Goals the limiter changed, and the largest change, in joint units.
@@ -55,7 +53,6 @@ impl StepLimiter {
             .collect();
         Self {
             limits,
-            period,
             last: held.to_vec(),
             last_step: vec![0.0; held.len()],
             engaged: 0,
@@ -63,16 +60,13 @@ impl StepLimiter {
         }
     }
 
-    /// Saturates `goal` in place for a write `gap` seconds after the previous one.
-    pub fn limit(&mut self, goal: &mut [f64], gap: f64) {
-        let held = if gap > STALL_PERIODS * self.period {
-            self.period / gap
-        } else {
-            1.0
-        };
+    /// Saturates `goal` in place for a write after the previous one, `followed` being the
+    /// share of the path rate the arm really followed in between
+    /// ([`crate::pacing::CycleStart::followed_share`]: 1, or `period / gap` after a stall).
+    pub fn limit(&mut self, goal: &mut [f64], followed: f64) {
         let mut changed = false;
         for (j, limit) in self.limits.iter().enumerate() {
-            let reference = self.last_step[j] * held;
+            let reference = self.last_step[j] * followed;
             let wanted = goal[j] - self.last[j];
             // Clamped into the position limits too: the bands' slack for rounding noise must
             // not carry a goal past a limit it is braking towards.
@@ -143,7 +137,7 @@ mod tests {
         let (_, mut limiter) = so101_limiter(0.01);
         // 344 °/s² over 10 ms: 0.0344° of step change per period is allowed.
         let mut goal = vec![0.03, 0.0, -0.03, 0.0, 0.0, 0.0];
-        limiter.limit(&mut goal, 0.01);
+        limiter.limit(&mut goal, 1.0);
         assert_eq!(goal, vec![0.03, 0.0, -0.03, 0.0, 0.0, 0.0]);
         assert_eq!(limiter.engaged, 0);
     }
@@ -152,7 +146,7 @@ mod tests {
     fn a_jump_is_cut_to_one_acceleration_step_from_rest() {
         let (_, mut limiter) = so101_limiter(0.01);
         let mut goal = vec![10.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-        limiter.limit(&mut goal, 0.01);
+        limiter.limit(&mut goal, 1.0);
         // From rest: a·T² = 344 · 0.01² = 0.0344°.
         assert!((goal[0] - 0.0344).abs() < 1e-8, "{}", goal[0]);
         assert_eq!(limiter.engaged, 1);
@@ -166,7 +160,7 @@ mod tests {
         for _ in 0..40 {
             let before = goal[0];
             goal[0] = before + 5.0; // asks for 500 °/s
-            limiter.limit(&mut goal, 0.01);
+            limiter.limit(&mut goal, 1.0);
             steps.push(goal[0] - before);
         }
         // 115 °/s · 10 ms = 1.15° per period, reached after 1.15 / 0.0344 ≈ 34 periods.
@@ -181,13 +175,13 @@ mod tests {
         let mut goal = vec![0.0; 6];
         for k in 1..=40 {
             goal[0] = 1.0 * k as f64; // 100 °/s, built up within the limits below
-            limiter.limit(&mut goal, 0.01);
+            limiter.limit(&mut goal, 1.0);
         }
         let before = goal[0];
         let cruising = limiter.last_step[0];
         // Half a second without a write: the reference is cruising · 0.01 / 0.5.
         goal[0] = before + cruising;
-        limiter.limit(&mut goal, 0.5);
+        limiter.limit(&mut goal, 0.01 / 0.5);
         let step = goal[0] - before;
         let reference = cruising * 0.01 / 0.5;
         assert!(
@@ -204,7 +198,7 @@ mod tests {
         let mut peak: f64 = 0.0;
         for _ in 0..2000 {
             goal[0] = 1000.0; // far past the limit
-            limiter.limit(&mut goal, 0.01);
+            limiter.limit(&mut goal, 1.0);
             peak = peak.max(goal[0]);
         }
         assert!(peak <= max + 1e-9, "{peak} past {max}");
@@ -226,7 +220,7 @@ mod tests {
         limiter.last_step[0] = at(n + 1) - at(n + 2);
         for k in (0..=n).rev() {
             goal[0] = at(k);
-            limiter.limit(&mut goal, 0.01);
+            limiter.limit(&mut goal, 1.0);
         }
         assert_eq!(
             limiter.engaged, 0,

@@ -228,13 +228,7 @@ pub fn play_with_clock(
 
 /// The present pose in joint values, clamped into the limits when it is only just outside.
 fn measured_pose(bus: &mut dyn ServoBus, robot: &Robot, ids: &[u8]) -> Result<Vec<f64>, BusError> {
-    let ticks = bus.read_positions(ids)?;
-    Ok(robot
-        .joints
-        .iter()
-        .zip(ticks)
-        .map(|(j, t)| j.servo.value(t))
-        .collect())
+    Ok(robot.values_of(&bus.read_positions(ids)?))
 }
 
 /// Checks a measured start pose and clamps it into the limits (for the ramp's first goal).
@@ -272,10 +266,10 @@ fn hold_here(
 ) -> Result<(), BusError> {
     let here = match bus.read_positions(ids) {
         Ok(ticks) => robot
-            .joints
+            .values_of(&ticks)
             .iter()
-            .zip(ticks)
-            .map(|(j, t)| j.servo.value(t).clamp(j.limits.min, j.limits.max))
+            .zip(&robot.joints)
+            .map(|(v, j)| v.clamp(j.limits.min, j.limits.max))
             .collect(),
         Err(_) => last_goal.to_vec(),
     };

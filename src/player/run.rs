@@ -133,7 +133,7 @@ impl<'a> Run<'a> {
                 Outcome::Finished
             }));
         };
-        self.command(start.gap, elapsed)?;
+        self.command(start.followed_share(self.period), elapsed)?;
         let measured = self.read_back(elapsed)?;
         self.check_health(elapsed)?;
         self.record(
@@ -150,7 +150,7 @@ impl<'a> Run<'a> {
     /// The last goal was held for the whole gap: resume from the rate really followed, and
     /// brake to a stop when the stall was beyond the bound.
     fn after_stall(&mut self, start: &CycleStart, elapsed: f64) {
-        self.timeline.after_stall(self.period, start.gap);
+        self.timeline.after_stall(start.followed_share(self.period));
         let held = start.gap - self.period;
         if held > self.options.max_stall && self.stall_fault.is_none() {
             self.stall_fault = Some(PlayError::Stall {
@@ -189,8 +189,8 @@ impl<'a> Run<'a> {
     }
 
     /// The pose of this cycle, through the step limiter and the position guard, to the servos.
-    fn command(&mut self, gap: f64, elapsed: f64) -> Result<(), PlayError> {
-        self.limiter.limit(&mut self.pose, gap);
+    fn command(&mut self, followed: f64, elapsed: f64) -> Result<(), PlayError> {
+        self.limiter.limit(&mut self.pose, followed);
         let goals = self.guard.goals(&self.pose)?;
         self.bus
             .write_goals(&goals)
@@ -212,13 +212,7 @@ impl<'a> Run<'a> {
         match self.bus.read_positions(&self.ids) {
             Ok(ticks) => {
                 self.reads.succeeded();
-                let values: Vec<f64> = self
-                    .robot
-                    .joints
-                    .iter()
-                    .zip(&ticks)
-                    .map(|(j, &t)| j.servo.value(t))
-                    .collect();
+                let values = self.robot.values_of(&ticks);
                 self.stats.track(self.robot, &values, &self.pose);
                 Ok(Some(values))
             }

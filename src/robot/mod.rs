@@ -339,6 +339,15 @@ impl Robot {
             .collect()
     }
 
+    /// Joint values (degrees or metres) of servo positions read in joint order.
+    pub fn values_of(&self, ticks: &[i64]) -> Vec<f64> {
+        self.joints
+            .iter()
+            .zip(ticks)
+            .map(|(j, &t)| j.servo.value(t))
+            .collect()
+    }
+
     /// The name of the joint driven by servo `id`.
     pub fn joint_of_servo(&self, id: u8) -> Option<&str> {
         self.joints

@@ -142,12 +142,7 @@ impl Session {
     }
 
     fn values(&self, ticks: &[i64]) -> Vec<f64> {
-        self.robot
-            .joints
-            .iter()
-            .zip(ticks)
-            .map(|(j, &t)| j.servo.value(t))
-            .collect()
+        self.robot.values_of(ticks)
     }
 
     fn bus_mut(&mut self) -> Result<&mut Box<dyn ServoBus>, BusError> {

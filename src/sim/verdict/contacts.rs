@@ -27,14 +27,15 @@ pub(super) fn check_contacts(trace: &Trace, t: &Thresholds) -> Vec<Finding> {
         .collect()
 }
 
-/// The collisions among `contacts`: the deepest contact of each (kind, body, body) at least
-/// the thresholds' contact depth deep, in the order the pairs first touch.
+/// The collisions among `contacts`: the deepest contact of each kind and pair of bodies (in
+/// whichever order MuJoCo names them) at least the thresholds' contact depth deep, in the order
+/// the pairs first touch.
 pub fn collisions<'a>(contacts: &'a [Contact], t: &Thresholds) -> Vec<&'a Contact> {
     let mut worst: Vec<&Contact> = Vec::new();
     for c in contacts.iter().filter(|c| c.depth >= t.contact_depth) {
         match worst
             .iter_mut()
-            .find(|w| w.kind == c.kind && w.body1 == c.body1 && w.body2 == c.body2)
+            .find(|w| w.kind == c.kind && w.same_bodies(c))
         {
             Some(w) if w.depth < c.depth => *w = c,
             Some(_) => {}

@@ -57,6 +57,14 @@ pub struct Contact {
     pub force: f64,
 }
 
+impl Contact {
+    /// Whether `other` is between the same two bodies, named in either order.
+    pub fn same_bodies(&self, other: &Contact) -> bool {
+        (self.body1 == other.body1 && self.body2 == other.body2)
+            || (self.body1 == other.body2 && self.body2 == other.body1)
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ContactKind {
     Floor,
