@@ -4,9 +4,10 @@
 //! page and `_data/dxl_x_info.yml`). The four share one control table; only what address 126
 //! measures differs (current on XL330 and XM430, load on XL430).
 
+use super::item::{eeprom, live, ram, read_only, writable, Area, Default, Item};
 use super::{signed, unsigned, ModelSpec, Modes};
 use crate::bus::protocol::dynamixel;
-use crate::bus::registers::{ByteOrder, LoadUnit, RegisterTable};
+use crate::bus::registers::{ByteOrder, LoadUnit, Register, RegisterTable};
 use crate::robot::ServoModel;
 
 /// Operating Mode 3 spans one turn; Extended Position Control Mode (4) ±256 turns.
@@ -83,6 +84,9 @@ pub(super) static XL330_M288: ModelSpec = ModelSpec {
     table: &DXL_X,
     no_load_speed_deg_s: 618.0,
     modes: X_SERIES_MODES,
+    items: &XL330_ITEMS,
+    extra_items: &XL330_EXTRA_ITEMS,
+    operating_modes: &[0, 1, 3, 4, 5, 16],
 };
 
 pub(super) static XL330_M077: ModelSpec = ModelSpec {
@@ -97,6 +101,10 @@ pub(super) static XL430_W250_SPEC: ModelSpec = ModelSpec {
     model_number: 1060,
     table: &XL430_W250,
     no_load_speed_deg_s: 366.0,
+    items: &XL430_ITEMS,
+    extra_items: &XL430_EXTRA_ITEMS,
+    // No current control (0) nor current-based position control (5) on the XL430.
+    operating_modes: &[1, 3, 4, 16],
     ..XL330_M288
 };
 
@@ -105,5 +113,229 @@ pub(super) static XM430_W350_SPEC: ModelSpec = ModelSpec {
     model_number: 1020,
     table: &XM430_W350,
     no_load_speed_deg_s: 276.0,
+    items: &XM430_ITEMS,
+    extra_items: &XM430_EXTRA_ITEMS,
     ..XL330_M288
 };
+
+/// What the X-series control tables of the supported models differ in (ROBOTIS e-Manual,
+/// each model's EEPROM and RAM tables: initial value and range columns).
+struct XFactory {
+    load: Register,
+    baud_rate_max: i64,
+    drive_mode_max: i64,
+    protocol_types: (i64, i64),
+    temperature_limit: i64,
+    max_voltage: i64,
+    min_voltage: i64,
+    voltage_range: (i64, i64),
+    velocity_limit: i64,
+    velocity_limit_max: i64,
+    shutdown: i64,
+    /// Velocity I, velocity P, position D, position P.
+    gains: [i64; 4],
+}
+
+/// The ROBOTIS X-series firmware version the emulated servos report (register 6 and the ping
+/// answer). Any version from 45 on has every item emulated here; 52 is one that shipped.
+pub const FIRMWARE_VERSION: i64 = 52;
+
+/// Goal positions in the extended and current-based position modes, ±256 turns.
+const EXTENDED_RANGE: (i64, i64) = (-1_048_575, 1_048_575);
+const GAIN: (i64, i64) = (0, 16_383);
+const PWM_LIMIT: i64 = 885;
+
+/// The items the four models share, at the same addresses; [`XL330_EXTRA_ITEMS`] and its
+/// siblings hold the rest.
+const fn x_series(f: XFactory) -> [Item; 50] {
+    use Area::{Eeprom, Ram};
+    let position = (0, 4095);
+    let [velocity_i, velocity_p, position_d, position_p] = f.gains;
+    [
+        read_only(unsigned("Model_Number", 0, 2), Eeprom, Default::Live),
+        read_only(
+            unsigned("Model_Information", 2, 4),
+            Eeprom,
+            Default::Value(0),
+        ),
+        read_only(
+            unsigned("Firmware_Version", 6, 1),
+            Eeprom,
+            Default::Value(FIRMWARE_VERSION),
+        ),
+        eeprom("ID", 7, 1, 1, (0, 252)),
+        eeprom("Baud_Rate", 8, 1, 1, (0, f.baud_rate_max)),
+        eeprom("Return_Delay_Time", 9, 1, 250, (0, 254)),
+        eeprom("Drive_Mode", 10, 1, 0, (0, f.drive_mode_max)),
+        // Which of 0…16 a model has is `ModelSpec::operating_modes`.
+        eeprom("Operating_Mode", 11, 1, 3, (0, 16)),
+        // 255 (from the factory) switches the secondary id off.
+        eeprom("Secondary_ID", 12, 1, 255, (0, 255)),
+        eeprom("Protocol_Type", 13, 1, 2, f.protocol_types),
+        writable(
+            signed("Homing_Offset", 20, 4),
+            Eeprom,
+            Default::Value(0),
+            (-1_044_479, 1_044_479),
+        ),
+        eeprom("Moving_Threshold", 24, 4, 10, (0, 1023)),
+        eeprom("Temperature_Limit", 31, 1, f.temperature_limit, (0, 100)),
+        eeprom("Max_Voltage_Limit", 32, 2, f.max_voltage, f.voltage_range),
+        eeprom("Min_Voltage_Limit", 34, 2, f.min_voltage, f.voltage_range),
+        eeprom("PWM_Limit", 36, 2, PWM_LIMIT, (0, PWM_LIMIT)),
+        eeprom(
+            "Velocity_Limit",
+            44,
+            4,
+            f.velocity_limit,
+            (0, f.velocity_limit_max),
+        ),
+        eeprom("Max_Position_Limit", 48, 4, 4095, position),
+        eeprom("Min_Position_Limit", 52, 4, 0, position),
+        eeprom("Shutdown", 63, 1, f.shutdown, (0, 255)),
+        ram("Torque_Enable", 64, 1, 0, (0, 1)),
+        ram("LED", 65, 1, 0, (0, 1)),
+        ram("Status_Return_Level", 68, 1, 2, (0, 2)),
+        read_only(
+            unsigned("Registered_Instruction", 69, 1),
+            Ram,
+            Default::Value(0),
+        ),
+        read_only(
+            unsigned("Hardware_Error_Status", dynamixel::HARDWARE_ERROR_STATUS, 1),
+            Ram,
+            Default::Live,
+        ),
+        ram("Velocity_I_Gain", 76, 2, velocity_i, GAIN),
+        ram("Velocity_P_Gain", 78, 2, velocity_p, GAIN),
+        ram("Position_D_Gain", 80, 2, position_d, GAIN),
+        ram("Position_I_Gain", 82, 2, 0, GAIN),
+        ram("Position_P_Gain", 84, 2, position_p, GAIN),
+        ram("Feedforward_2nd_Gain", 88, 2, 0, GAIN),
+        ram("Feedforward_1st_Gain", 90, 2, 0, GAIN),
+        // The table gives 1–127; 0 (the factory value) switches the watchdog off.
+        ram("Bus_Watchdog", 98, 1, 0, (0, 127)),
+        writable(
+            signed("Goal_PWM", 100, 2),
+            Ram,
+            Default::Value(PWM_LIMIT),
+            (-PWM_LIMIT, PWM_LIMIT),
+        ),
+        writable(
+            signed("Goal_Velocity", 104, 4),
+            Ram,
+            Default::Value(0),
+            (-f.velocity_limit, f.velocity_limit),
+        ),
+        ram("Profile_Acceleration", 108, 4, 0, (0, 32_767)),
+        ram("Profile_Velocity", 112, 4, 0, (0, 32_767)),
+        // In position mode the limits (48, 52) bound it; the servo clamps to them.
+        writable(
+            signed("Goal_Position", 116, 4),
+            Ram,
+            Default::Live,
+            EXTENDED_RANGE,
+        ),
+        live("Realtime_Tick", 120, 2),
+        live("Moving", 122, 1),
+        live("Moving_Status", 123, 1),
+        read_only(signed("Present_PWM", 124, 2), Ram, Default::Live),
+        read_only(f.load, Ram, Default::Live),
+        read_only(signed("Present_Velocity", 128, 4), Ram, Default::Live),
+        read_only(signed("Present_Position", 132, 4), Ram, Default::Live),
+        read_only(signed("Velocity_Trajectory", 136, 4), Ram, Default::Live),
+        read_only(signed("Position_Trajectory", 140, 4), Ram, Default::Live),
+        live("Present_Input_Voltage", 144, 2),
+        live("Present_Temperature", 146, 1),
+        read_only(unsigned("Backup_Ready", 147, 1), Ram, Default::Value(0)),
+    ]
+}
+
+/// XL430-W250 (e-Manual `xl430-w250.md`).
+static XL430_ITEMS: [Item; 50] = x_series(XFactory {
+    load: signed("Present_Load", 126, 2),
+    baud_rate_max: 7,
+    drive_mode_max: 13,
+    protocol_types: (1, 2),
+    temperature_limit: 72,
+    max_voltage: 140,
+    min_voltage: 60,
+    voltage_range: (60, 140),
+    velocity_limit: 265,
+    velocity_limit_max: 1023,
+    shutdown: 52,
+    gains: [1000, 100, 4000, 640],
+});
+
+static XL430_EXTRA_ITEMS: [Item; 1] = [eeprom("Startup_Configuration", 60, 1, 0, (0, 3))];
+
+/// XL330-M288 (e-Manual `xl330-m288.md`); the XL330-M077 is taken to have the same table.
+static XL330_ITEMS: [Item; 50] = x_series(XFactory {
+    load: signed("Present_Current", 126, 2),
+    baud_rate_max: 6,
+    drive_mode_max: 5,
+    protocol_types: (2, 22),
+    temperature_limit: 70,
+    max_voltage: 70,
+    min_voltage: 35,
+    voltage_range: (31, 70),
+    velocity_limit: 445,
+    velocity_limit_max: 2047,
+    shutdown: 53,
+    gains: [1600, 180, 0, 400],
+});
+
+const XL330_CURRENT_LIMIT: i64 = 1750;
+
+static XL330_EXTRA_ITEMS: [Item; 4] = [
+    eeprom(
+        "Current_Limit",
+        38,
+        2,
+        XL330_CURRENT_LIMIT,
+        (0, XL330_CURRENT_LIMIT),
+    ),
+    eeprom("Startup_Configuration", 60, 1, 0, (0, 3)),
+    eeprom("PWM_Slope", 62, 1, 140, (1, 255)),
+    goal_current(XL330_CURRENT_LIMIT),
+];
+
+/// XM430-W350 (e-Manual `xm430-w350.md`, whose tables have no range column: the ranges are
+/// the XL430's, the same X430 family).
+static XM430_ITEMS: [Item; 50] = x_series(XFactory {
+    load: signed("Present_Current", 126, 2),
+    baud_rate_max: 7,
+    drive_mode_max: 13,
+    protocol_types: (1, 2),
+    temperature_limit: 80,
+    max_voltage: 160,
+    min_voltage: 95,
+    voltage_range: (95, 160),
+    velocity_limit: 350,
+    velocity_limit_max: 1023,
+    shutdown: 52,
+    gains: [1920, 100, 0, 800],
+});
+
+const XM430_CURRENT_LIMIT: i64 = 1193;
+
+static XM430_EXTRA_ITEMS: [Item; 2] = [
+    eeprom(
+        "Current_Limit",
+        38,
+        2,
+        XM430_CURRENT_LIMIT,
+        (0, XM430_CURRENT_LIMIT),
+    ),
+    goal_current(XM430_CURRENT_LIMIT),
+];
+
+/// Goal Current (102): within ±Current Limit, which it is reset to on a mode change.
+const fn goal_current(limit: i64) -> Item {
+    writable(
+        signed("Goal_Current", 102, 2),
+        Area::Ram,
+        Default::Value(limit),
+        (-limit, limit),
+    )
+}

@@ -4,6 +4,7 @@
 //! [`ServoModel::spec`]. A new model is one more file here and one arm in [`spec`].
 
 mod dynamixel_x;
+pub mod item;
 mod sts3215;
 #[cfg(test)]
 mod tests;
@@ -32,6 +33,12 @@ pub struct ModelSpec {
     /// At the supply voltage the supported arms use, degrees per second.
     pub no_load_speed_deg_s: f64,
     pub modes: Modes,
+    /// The full control table (what the manual lists), in address order, with
+    /// [`Self::extra_items`] the items only some models of a family have.
+    pub items: &'static [item::Item],
+    pub extra_items: &'static [item::Item],
+    /// The values of the operating mode register the model has.
+    pub operating_modes: &'static [i64],
 }
 
 /// The description of `model`.
@@ -56,7 +63,20 @@ impl ModelSpec {
     pub fn name(&self) -> &'static str {
         self.model.name()
     }
+
+    /// Every item of the model's control table.
+    pub fn all_items(&self) -> impl Iterator<Item = &'static item::Item> {
+        self.items.iter().chain(self.extra_items)
+    }
+
+    /// The control-table item called `name`.
+    pub fn item(&self, name: &str) -> Option<&'static item::Item> {
+        item::find(self.items, name).or_else(|| item::find(self.extra_items, name))
+    }
 }
+
+pub use dynamixel_x::FIRMWARE_VERSION as DYNAMIXEL_FIRMWARE_VERSION;
+pub use sts3215::{FIRMWARE as STS3215_FIRMWARE, TORQUE_RECALIBRATE};
 
 /// The supported model of a bus protocol with this model number. Model numbers are only
 /// unique within a vendor, so the protocol says which vendor's numbers to look in.

@@ -31,6 +31,9 @@ pub struct Instructions {
     pub sync_write: u8,
     /// Dynamixel only: the one way to clear a hardware-error shutdown.
     pub reboot: Option<u8>,
+    /// Dynamixel only: one instruction reading or writing a different span of each servo.
+    pub bulk_read: Option<u8>,
+    pub bulk_write: Option<u8>,
 }
 
 pub use crate::robot::Vendor;
@@ -67,6 +70,8 @@ pub enum Refusal {
     DataLength,
     /// An access beyond its control table.
     DataLimit,
+    /// A value outside the register's range (or a mode the model does not have).
+    DataRange,
     /// A write to a register it does not allow now (EEPROM with torque on).
     Access,
 }

@@ -5,7 +5,8 @@
 //! told to go limp (a torque-off write, as `record` sends when it starts) and from then on
 //! pushes every one of them along the path at about 1 kHz. A servo with torque on resists the
 //! hand (its shaft stays where its goal holds it), as a real one does. At the end of the path
-//! the hand lets go: the servos stay where it left them.
+//! the hand lets go: the servos stay where it left them. Paths are in Present Position ticks
+//! (after each servo's homing offset).
 
 use super::VirtualBus;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -69,7 +70,7 @@ fn push(bus: &VirtualBus, ids: &[u8], ticks: &[f64]) {
     let mut servos = bus.lock();
     for (&id, &tick) in ids.iter().zip(ticks) {
         if let Some(servo) = servos.servo_mut(id) {
-            servo.motion.push_to(tick);
+            servo.push_to(tick);
         }
     }
 }

@@ -13,23 +13,24 @@
 mod hand;
 pub mod motion;
 mod pty;
+mod servo;
 
 pub use hand::Hand;
 pub use pty::PtyServer;
+pub use servo::VirtualServo;
 
+use super::protocol::dynamixel;
 use super::protocol::packet::{Decoded, Direction, Packet};
 use super::protocol::{codec, Codec, FastSyncReadEntry, Refusal};
-use super::registers::{self, RegisterTable};
 use super::transport::Responder;
 use super::Alarms;
-use crate::robot::{Protocol, Robot, ServoModel};
-use motion::Motion;
+use crate::robot::{Protocol, Robot};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
 /// Size of each emulated control table; every register of the supported models lies below.
-const MEMORY_SIZE: usize = 256;
+pub(crate) const MEMORY_SIZE: usize = 256;
 /// Supply voltage reported by emulated servos, tenths of a volt.
 const SUPPLY_DECIVOLTS: i64 = 120;
 const ROOM_TEMPERATURE_C: i64 = 30;
@@ -46,130 +47,6 @@ pub enum ServoFault {
     /// The servo raises these alarms (Dynamixel: alert bit + Hardware Error Status, and torque
     /// shuts off; Feetech: the status error bits).
     Alarm(Alarms),
-}
-
-#[derive(Debug, Clone)]
-pub struct VirtualServo {
-    pub id: u8,
-    pub model: ServoModel,
-    pub motion: Motion,
-    memory: Vec<u8>,
-    pub fault: Option<ServoFault>,
-    /// Writes of 0 to the torque-enable register so far: someone asked the servo to go limp.
-    pub releases: u32,
-}
-
-impl VirtualServo {
-    fn new(id: u8, model: ServoModel, position: f64) -> VirtualServo {
-        let table = model.spec().table;
-        let mut servo = VirtualServo {
-            id,
-            model,
-            motion: Motion::new(model, position),
-            memory: vec![0; MEMORY_SIZE],
-            fault: None,
-            releases: 0,
-        };
-        servo.store(
-            table.model_number_register,
-            i64::from(model.spec().model_number),
-        );
-        servo.store(table.id, i64::from(id));
-        servo.store(table.status_return_level, table.factory_status_return_level);
-        servo.store(table.present_voltage, SUPPLY_DECIVOLTS);
-        servo.store(table.present_temperature, ROOM_TEMPERATURE_C);
-        servo.store(table.goal_position, position.round() as i64);
-        servo
-    }
-
-    fn table(&self) -> &'static RegisterTable {
-        self.model.spec().table
-    }
-
-    /// Sets the Homing_Offset register, as a calibration tool writes it (the emulated servo
-    /// reports it; its positions are emulated after the offset, as a real servo's are).
-    pub fn set_homing_offset(&mut self, ticks: i64) {
-        self.store(self.table().homing_offset, ticks);
-    }
-
-    /// Sets the Present Load (or Present Current) register, as a servo under load reports it;
-    /// the emulated motion does not model load, so the value stays until set again.
-    pub fn set_present_load(&mut self, value: i64) {
-        self.store(self.table().present_load, value);
-    }
-
-    fn store(&mut self, register: registers::Register, value: i64) {
-        if let Ok(bytes) = self.table().encode(&register, value) {
-            let start = usize::from(register.address);
-            self.memory[start..start + bytes.len()].copy_from_slice(&bytes);
-        }
-    }
-
-    fn load(&self, register: registers::Register) -> i64 {
-        let start = usize::from(register.address);
-        self.table()
-            .decode(
-                &register,
-                &self.memory[start..start + usize::from(register.size)],
-            )
-            .unwrap_or(0)
-    }
-
-    fn alarms(&self) -> Alarms {
-        match self.fault {
-            Some(ServoFault::Alarm(alarms)) => alarms,
-            _ => Alarms::default(),
-        }
-    }
-
-    /// Brings the present-value registers up to date with the motion.
-    fn refresh(&mut self) {
-        self.motion.update();
-        let table = self.table();
-        let position = self.motion.position.round() as i64;
-        let moving = (self.motion.goal - self.motion.position).abs() > 0.5 && self.motion.torque;
-        self.store(table.present_position, position);
-        self.store(table.moving, i64::from(moving));
-        self.store(table.torque_enable, i64::from(self.motion.torque));
-        let alarm_bits = table.alarm_bits.encode(&self.alarms());
-        self.store(table.hardware_error, i64::from(alarm_bits));
-    }
-
-    /// Applies a write to the control table, then acts on the registers that move the servo.
-    /// Returns why the write is refused, if it is.
-    fn write(&mut self, address: usize, data: &[u8]) -> Result<(), Refusal> {
-        let end = address + data.len();
-        if end > MEMORY_SIZE {
-            return Err(Refusal::DataLimit);
-        }
-        let table = self.table();
-        if address < usize::from(table.torque_locked_below) && self.motion.torque {
-            return Err(Refusal::Access);
-        }
-        self.memory[address..end].copy_from_slice(data);
-        let touches =
-            |r: registers::Register| usize::from(r.address) < end && usize::from(r.end()) > address;
-        if touches(table.torque_enable) {
-            let on = self.load(table.torque_enable) != 0;
-            if !on {
-                self.releases += 1;
-            }
-            // A servo in shutdown keeps torque off until rebooted.
-            let shut_down = table.shuts_down_on_alarm && self.alarms().any();
-            self.motion.set_torque(on && !shut_down);
-        }
-        if touches(table.goal_position) {
-            self.motion.set_goal(self.load(table.goal_position) as f64);
-        }
-        Ok(())
-    }
-
-    fn read(&mut self, address: usize, length: usize) -> Option<Vec<u8>> {
-        self.refresh();
-        self.memory
-            .get(address..address + length)
-            .map(<[u8]>::to_vec)
-    }
 }
 
 /// Instruction packets kept in [`VirtualServos::received`]: minutes of a 6-servo arm at 1 kHz,
@@ -196,22 +73,25 @@ pub struct VirtualServos {
 
 impl VirtualServos {
     /// The servos of `robot`, resting at its home pose with torque off, holding the homing
-    /// offsets the robot (or its calibration) gives: the arm it describes.
+    /// offsets the robot (or its calibration) gives: the arm it describes. Each shaft is placed
+    /// so that Present Position, through the offset, reads the home tick.
     pub fn for_robot(robot: &Robot) -> VirtualServos {
         let servos = robot
             .joints
             .iter()
             .zip(&robot.home)
-            .map(|(joint, &home)| {
-                let tick = joint.servo.tick_exact(home);
-                let mut servo = VirtualServo::new(joint.servo.id, joint.servo.model, tick);
-                if let Some(offset) = joint.servo.homing_offset {
-                    servo.set_homing_offset(offset);
-                }
-                servo
-            })
+            .map(|(joint, &home)| servo_for_joint(joint, home))
             .collect();
         VirtualServos::new(robot.bus.protocol, servos)
+    }
+
+    /// How long servo `id` waits before it answers (its Return_Delay_Time register; nothing on
+    /// the STS3215, where the register has no function).
+    pub fn return_delay(&self, id: u8) -> Option<Duration> {
+        self.servos
+            .iter()
+            .find(|s| s.id == id)
+            .map(VirtualServo::return_delay)
     }
 
     pub fn new(protocol: Protocol, servos: Vec<VirtualServo>) -> VirtualServos {
@@ -243,14 +123,12 @@ impl VirtualServos {
         }
     }
 
-    /// Present positions (ticks), as the servos would report them now.
+    /// Present positions (ticks, after the homing offsets), as the servos would report them
+    /// now.
     pub fn positions(&mut self) -> HashMap<u8, f64> {
         self.servos
             .iter_mut()
-            .map(|s| {
-                s.motion.update();
-                (s.id, s.motion.position)
-            })
+            .map(|s| (s.id, s.present_position()))
             .collect()
     }
 
@@ -291,6 +169,13 @@ impl VirtualServos {
                 }
                 _ => Vec::new(),
             };
+        }
+        if Some(code) == instructions.bulk_write {
+            return dynamixel::parse_bulk_write(&packet.params)
+                .unwrap_or_default()
+                .into_iter()
+                .map(|w| (w.id, usize::from(w.address), w.data))
+                .collect();
         }
         if code != instructions.sync_write {
             return Vec::new();
@@ -356,6 +241,8 @@ impl VirtualServos {
             }
             c if c == instructions.write => self.apply_writes(packet, true),
             c if c == instructions.sync_write => self.apply_writes(packet, false),
+            c if Some(c) == instructions.bulk_write => self.apply_writes(packet, false),
+            c if Some(c) == instructions.bulk_read => self.answer_bulk_read(&packet.params),
             c if Some(c) == instructions.sync_read => self.answer_sync_read(&packet.params),
             c if Some(c) == fast_sync_read => self.fast_sync_read(&packet.params),
             c if Some(c) == instructions.reboot => {
@@ -450,6 +337,25 @@ impl VirtualServos {
         out
     }
 
+    /// Each listed servo answers with its own span, in list order (Protocol 2.0 Bulk Read).
+    fn answer_bulk_read(&mut self, params: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+        let Some(entries) = dynamixel::parse_bulk_read(params) else {
+            return Vec::new();
+        };
+        let mut out = Vec::new();
+        for entry in entries {
+            let read = self
+                .servo_mut(entry.id)
+                .map(|s| s.read(usize::from(entry.address), usize::from(entry.length)));
+            match read {
+                Some(Some(bytes)) => out.extend(self.status(entry.id, None, &bytes)),
+                Some(None) => out.extend(self.status(entry.id, Some(Refusal::DataLimit), &[])),
+                None => {}
+            }
+        }
+        out
+    }
+
     fn fast_sync_read(&mut self, params: &[u8]) -> Vec<(Duration, Vec<u8>)> {
         let codec = self.codec;
         let (Some(fast), Some((address, length, ids))) =
@@ -503,8 +409,34 @@ impl VirtualServos {
     }
 }
 
-/// Firmware version reported in Dynamixel ping answers.
-const FIRMWARE_VERSION: u8 = 52;
+/// Firmware version reported in Dynamixel ping answers, as register 6 holds it.
+const FIRMWARE_VERSION: u8 = super::models::DYNAMIXEL_FIRMWARE_VERSION as u8;
+
+/// The servo of `joint` at joint value `home`. A Dynamixel servo is put in extended position
+/// mode (4) when the joint's ticks leave one turn or its offset exceeds what position mode
+/// accepts (±1024): the way LeRobot configures the Koch arm, and the only way such a joint
+/// works on a real servo.
+fn servo_for_joint(joint: &crate::robot::Joint, home: f64) -> VirtualServo {
+    let servo_spec = &joint.servo;
+    let tick = servo_spec.tick_exact(home);
+    let mut servo = VirtualServo::new(servo_spec.id, servo_spec.model, tick);
+    let offset = servo_spec.homing_offset.unwrap_or(0);
+    if let Some(offset) = servo_spec.homing_offset {
+        servo.set_homing_offset(offset);
+    }
+    let ticks = [joint.limits.min, joint.limits.max, home].map(|v| servo_spec.tick_exact(v));
+    let one_turn = ticks.iter().all(|t| (0.0..=4095.0).contains(t));
+    if servo_spec.model.vendor() == crate::robot::Vendor::Dynamixel
+        && (!one_turn || offset.abs() > 1024)
+    {
+        servo.set_operating_mode(EXTENDED_POSITION_MODE);
+    }
+    servo.place_at(tick);
+    servo
+}
+
+/// Dynamixel Extended Position Control Mode (Operating Mode 4).
+const EXTENDED_POSITION_MODE: i64 = 4;
 
 impl Responder for VirtualServos {
     fn respond(&mut self, written: &[u8]) -> Vec<(Duration, Vec<u8>)> {

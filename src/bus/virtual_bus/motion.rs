@@ -1,6 +1,8 @@
 //! How a virtual servo moves: towards its goal while torque is on, at most at its model's
 //! no-load speed, with the proportional approach of a position servo near the goal (so it lags
-//! its goal as a real one does); where it is pushed while torque is off.
+//! its goal as a real one does); where it is pushed while torque is off. A [`Profile`] (the
+//! servo's profile or speed/acceleration registers) bounds the speed further and limits the
+//! acceleration, braking in time to stop at the goal.
 
 use crate::robot::{servo::TICKS_PER_REVOLUTION, ServoModel};
 use std::time::Instant;
@@ -8,6 +10,45 @@ use std::time::Instant;
 /// Time constant of the proportional approach, seconds: a hobby servo's position loop settles
 /// a small error in a few tens of milliseconds.
 const TIME_CONSTANT: f64 = 0.03;
+/// Longest integration step, seconds: an acceleration bound needs small steps, and a servo is
+/// read at arbitrary intervals.
+const MAX_STEP: f64 = 0.001;
+
+/// Bounds on a move, ticks per second and per second²; `None` is no bound beyond the motor's.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Profile {
+    pub max_speed: Option<f64>,
+    pub acceleration: Option<f64>,
+}
+
+impl Profile {
+    /// A speed and an acceleration bound, 0 meaning none (as the registers say).
+    pub fn bounded(speed: f64, acceleration: f64) -> Profile {
+        let positive = |v: f64| (v > 0.0).then_some(v);
+        Profile {
+            max_speed: positive(speed),
+            acceleration: positive(acceleration),
+        }
+    }
+
+    /// A time-based profile (Dynamixel Drive Mode bit 2): the move of `distance` ticks takes
+    /// `total` seconds, accelerating for `accelerating` seconds (at most half of it) and
+    /// braking as long; 0 s total is no profile. The trapezoid's top speed is
+    /// distance / (total − accelerating).
+    pub fn timed(distance: f64, total: f64, accelerating: f64) -> Profile {
+        if total <= 0.0 {
+            return Profile::default();
+        }
+        let accelerating = accelerating.clamp(0.0, total / 2.0);
+        let speed = distance / (total - accelerating);
+        let acceleration = if accelerating > 0.0 {
+            speed / accelerating
+        } else {
+            0.0
+        };
+        Profile::bounded(speed.max(f64::MIN_POSITIVE), acceleration)
+    }
+}
 
 #[derive(Debug, Clone)]
 pub struct Motion {
@@ -15,6 +56,9 @@ pub struct Motion {
     pub position: f64,
     pub goal: f64,
     pub torque: bool,
+    /// Ticks per second, signed.
+    pub velocity: f64,
+    pub profile: Profile,
     /// Ticks per second.
     max_speed: f64,
     last_update: Instant,
@@ -26,6 +70,8 @@ impl Motion {
             position,
             goal: position,
             torque: false,
+            velocity: 0.0,
+            profile: Profile::default(),
             max_speed: model.spec().no_load_speed_deg_s * TICKS_PER_REVOLUTION / 360.0,
             last_update: Instant::now(),
         }
@@ -39,16 +85,45 @@ impl Motion {
         self.step(dt);
     }
 
-    /// Advances the motion by `dt` seconds.
+    /// Advances the motion by `dt` seconds, in steps of at most [`MAX_STEP`].
     pub fn step(&mut self, dt: f64) {
-        if !self.torque || dt <= 0.0 {
+        if !self.torque {
+            self.velocity = 0.0;
             return;
         }
+        if dt <= 0.0 || (self.goal == self.position && self.velocity == 0.0) {
+            return;
+        }
+        let steps = (dt / MAX_STEP).ceil().min(1e7);
+        let h = dt / steps;
+        for _ in 0..steps as u64 {
+            self.step_once(h);
+        }
+    }
+
+    fn step_once(&mut self, dt: f64) {
         let error = self.goal - self.position;
-        // Exact solution of the proportional approach over dt, capped at the no-load speed.
+        // Exact solution of the proportional approach over dt, capped at the no-load speed
+        // and the profile's speed.
         let proportional = error * (1.0 - (-dt / TIME_CONSTANT).exp());
-        let cap = self.max_speed * dt;
-        self.position += proportional.clamp(-cap, cap);
+        let cap = self
+            .profile
+            .max_speed
+            .map_or(self.max_speed, |v| v.min(self.max_speed));
+        let mut velocity = (proportional / dt).clamp(-cap, cap);
+        if let Some(a) = self.profile.acceleration {
+            // No faster than it can stop from at the goal, and no faster a change than `a`.
+            let braking = (2.0 * a * error.abs()).sqrt();
+            velocity = velocity.clamp(-braking, braking);
+            velocity = velocity.clamp(self.velocity - a * dt, self.velocity + a * dt);
+        }
+        self.velocity = velocity;
+        self.position += velocity * dt;
+        if (self.goal - self.position).abs() < 1e-6 && self.velocity.abs() < 1e-6 {
+            // Settled: stop integrating a vanishing error.
+            self.position = self.goal;
+            self.velocity = 0.0;
+        }
     }
 
     /// Moves the output shaft by hand: it stays there while torque is off.
@@ -64,13 +139,20 @@ impl Motion {
         if on && !self.torque {
             // Torque on holds where the shaft is, not at a stale goal.
             self.goal = self.position;
+            self.velocity = 0.0;
         }
         self.torque = on;
     }
 
     pub fn set_goal(&mut self, goal: f64) {
+        self.set_goal_with(goal, Profile::default());
+    }
+
+    /// A new goal, reached within `profile`'s bounds.
+    pub fn set_goal_with(&mut self, goal: f64, profile: Profile) {
         self.update();
         self.goal = goal;
+        self.profile = profile;
     }
 }
 

@@ -2,9 +2,9 @@
 
 use super::{
     encode_fast_sync_read, parse_fast_sync_read, parse_ping_answer, ping_answer_params, Dynamixel2,
-    ErrorNumber, FastSyncReadEntry, StatusByte, ALERT_BIT, FAST_SYNC_READ, FIELDS,
-    HARDWARE_ERROR_BITS, HARDWARE_ERROR_STATUS, MAX_DEVICE_ID, PING, READ, REBOOT, SYNC_READ,
-    SYNC_WRITE, WRITE,
+    ErrorNumber, FastSyncReadEntry, StatusByte, ALERT_BIT, BULK_READ, BULK_WRITE, FAST_SYNC_READ,
+    FIELDS, HARDWARE_ERROR_BITS, HARDWARE_ERROR_STATUS, MAX_DEVICE_ID, PING, READ, REBOOT,
+    SYNC_READ, SYNC_WRITE, WRITE,
 };
 use crate::bus::protocol::packet::{Framing, Packet, PacketError};
 use crate::bus::protocol::{Codec, FastSyncRead, Fields, Instructions, Refusal, Status, Vendor};
@@ -19,6 +19,8 @@ static INSTRUCTIONS: Instructions = Instructions {
     sync_read: Some(SYNC_READ),
     sync_write: SYNC_WRITE,
     reboot: Some(REBOOT),
+    bulk_read: Some(BULK_READ),
+    bulk_write: Some(BULK_WRITE),
 };
 
 impl Codec for Dynamixel2 {
@@ -107,6 +109,7 @@ fn error_number(refusal: Refusal) -> ErrorNumber {
         Refusal::Instruction => ErrorNumber::Instruction,
         Refusal::DataLength => ErrorNumber::DataLength,
         Refusal::DataLimit => ErrorNumber::DataLimit,
+        Refusal::DataRange => ErrorNumber::DataRange,
         Refusal::Access => ErrorNumber::Access,
     }
 }

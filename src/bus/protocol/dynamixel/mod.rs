@@ -1,11 +1,13 @@
 //! Dynamixel Protocol 2.0: instruction codes, ids and limits, the ping answer, and the codec
 //! the driver and the emulated servos use (`codec`). The framing (`framing`) rests on the CRC
-//! (`crc`) and byte stuffing (`stuffing`); `fast_sync_read` is the one combined answer, `status`
+//! (`crc`) and byte stuffing (`stuffing`); `fast_sync_read` is the one combined answer, `bulk`
+//! the Bulk Read and Bulk Write parameters, `status`
 //! the status error byte and the Hardware Error Status register.
 //!
 //! Layouts are from the ROBOTIS e-Manual (Protocol 2.0) and the ROBOTIS Python SDK
 //! (`dynamixel_sdk`); see also docs/protocols.md. Multi-byte fields are little-endian.
 
+mod bulk;
 mod codec;
 mod crc;
 mod fast_sync_read;
@@ -15,6 +17,9 @@ mod stuffing;
 #[cfg(test)]
 mod tests;
 
+pub use bulk::{
+    encode_bulk_read, encode_bulk_write, parse_bulk_read, parse_bulk_write, BulkRead, BulkWrite,
+};
 pub use crc::{crc16, crc16_update};
 pub use fast_sync_read::{encode_fast_sync_read, parse_fast_sync_read, FastSyncReadEntry};
 pub use framing::Dynamixel2;

@@ -17,6 +17,8 @@ static STS_INSTRUCTIONS: Instructions = Instructions {
     sync_read: Some(SYNC_READ),
     sync_write: SYNC_WRITE,
     reboot: None,
+    bulk_read: None,
+    bulk_write: None,
 };
 
 /// SCS servos do not answer Sync Read (Feetech protocol manual; `scservo_sdk` offers it only
