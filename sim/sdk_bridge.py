@@ -20,6 +20,8 @@ to requests it stopped waiting for):
     {"op": "write", "id": ID, "addr": A, "len": L, "value": RAW}
     {"op": "sync_read", "addr": A, "len": L, "ids": [ID, ...]}   -> {"values": [RAW, ...]}
     {"op": "sync_write", "addr": A, "len": L, "values": [[ID, RAW], ...]}
+    {"op": "bulk_read", "reads": [[ID, A, L], ...]}             -> {"values": [RAW, ...]}
+    {"op": "bulk_write", "writes": [[ID, A, L, RAW], ...]}      (Dynamixel only, both)
     {"op": "close"}
 
 Values are raw unsigned register contents; signs (two's complement on Dynamixel,
@@ -318,6 +320,52 @@ class Bus:
         return {}
 
 
+    def _bulk_entries(self, req, name, width):
+        entries = field(req, name, list)
+        if not entries:
+            raise BridgeError("request", f"'{name}' is empty")
+        if not self.dynamixel:
+            raise BridgeError("unsupported", f"{self.protocol} has no bulk instructions")
+        parsed = []
+        for entry in entries:
+            if not isinstance(entry, list) or len(entry) != width:
+                raise BridgeError("request", f"each of '{name}' must have {width} numbers, not {json.dumps(entry)}")
+            servo = integer_in("a bulk id", entry[0], 0, self.max_id)
+            addr = integer_in(f"servo {servo}'s address", entry[1], 0, self.max_addr)
+            length = integer_in(f"servo {servo}'s length", entry[2], 1, 4)
+            parsed.append((servo, addr, length, *entry[3:]))
+        return parsed
+
+    def bulk_read(self, req):
+        # GroupBulkRead: one request, one status packet per servo (docs/protocols.md §1.7).
+        reads = self._bulk_entries(req, "reads", 3)
+        group = self.sdk.GroupBulkRead(self.port, self.ph)
+        for servo, addr, length in reads:
+            if not group.addParam(servo, addr, length):
+                raise BridgeError("request", f"servo {servo} appears twice in 'reads'")
+        started = time.monotonic()
+        result = group.txRxPacket()
+        self._check(None, started, result)
+        values = []
+        for servo, addr, length in reads:
+            if not group.isAvailable(servo, addr, length):
+                raise BridgeError("comm", f"servo {servo}: no data in the bulk read answer", comm=None, comm_kind="corrupt", comm_code=None, servo=servo)
+            values.append(group.getData(servo, addr, length))
+        return {"values": values}
+
+    def bulk_write(self, req):
+        writes = self._bulk_entries(req, "writes", 4)
+        group = self.sdk.GroupBulkWrite(self.port, self.ph)
+        for servo, addr, length, value in writes:
+            value = integer_in(f"servo {servo}'s value", value, 0, (1 << (8 * length)) - 1)
+            if not group.addParam(servo, addr, length, self._split(value, length)):
+                raise BridgeError("request", f"servo {servo} appears twice in 'writes'")
+        started = time.monotonic()
+        result = group.txPacket()
+        self._check(None, started, result)
+        return {}
+
+
 class Bridge:
     def __init__(self, dxl, scs):
         self.dxl = dxl
@@ -336,7 +384,7 @@ class Bridge:
                 self.bus.close()
                 self.bus = None
             return {}
-        if op in ("ping", "read", "write", "sync_read", "sync_write"):
+        if op in ("ping", "read", "write", "sync_read", "sync_write", "bulk_read", "bulk_write"):
             if self.bus is None:
                 raise BridgeError("state", f"{op}: no port is open (send 'open' first)")
             return getattr(self.bus, op)(req)

@@ -362,6 +362,19 @@ fn sync_read_request(reg: Reg, ids: &[u8]) -> Value {
 // ------------------------------------------------------------------------------------------
 // Small helpers
 
+/// A Feetech STS servo reports negative positions only in multi-turn mode, both angle limits
+/// 0 (FT-MEM addresses 9 and 11); in position mode it clamps goals to 0…4095 and reports one
+/// turn. The negative goals these tests send need that mode.
+fn allow_negative_positions(bus: &VirtualBus) {
+    for servo in &mut bus.lock().servos {
+        if servo.model == ServoModel::Sts3215 {
+            for limit in ["Min_Position_Limit", "Max_Position_Limit"] {
+                servo.set(limit, 0).expect("angle limits are writable");
+            }
+        }
+    }
+}
+
 fn hex(bytes: &[u8]) -> String {
     bytes
         .iter()
@@ -460,6 +473,7 @@ fn sdk_against_the_virtual_bus(robot_name: &str, vendor: Vendor) {
     let ids: Vec<u8> = expected.iter().map(|s| s.id).collect();
     let server = PtyServer::start(&robot).expect("virtual bus on a pseudo-terminal");
     let bus = server.bus().clone();
+    allow_negative_positions(&bus);
     let mut sdk = bridge_on(server.path(), robot.bus.baud, vendor.protocol);
     expect_received(&bus, &[], "opening the port");
 
@@ -1161,6 +1175,7 @@ fn sdk_bus_and_native_bus_agree(robot_name: &str) {
     let home: Vec<i64> = expected.iter().map(|s| s.home_tick).collect();
     let servos: Vec<(u8, ServoModel)> = robot.servos();
     let server = PtyServer::start(&robot).expect("virtual bus on a pseudo-terminal");
+    allow_negative_positions(server.bus());
     // The SDK opens the port first: it closes and reopens it while setting the baud rate, and
     // our driver opens it exclusively (TIOCEXCL), which would refuse that reopening to anyone
     // but root. Both then share the one device, one transaction at a time.

@@ -51,7 +51,7 @@ pub struct VirtualServo {
 
 impl VirtualServo {
     /// A servo fresh from the factory but for its id, whose Present Position reads `present`.
-    pub(super) fn new(id: u8, model: ServoModel, present: f64) -> VirtualServo {
+    pub fn new(id: u8, model: ServoModel, present: f64) -> VirtualServo {
         let mut servo = VirtualServo {
             id,
             model,
@@ -134,6 +134,18 @@ impl VirtualServo {
             .map_or(0, |item| self.load(item.register))
     }
 
+    /// Writes `value` to the item `name` as a Write instruction would: with the servo's checks
+    /// and effects. `Err` names what the servo would answer; an unknown item is a data-limit
+    /// refusal.
+    pub fn set(&mut self, name: &str, value: i64) -> Result<(), Refusal> {
+        let item = self.spec().item(name).ok_or(Refusal::DataLimit)?;
+        let bytes = self
+            .table()
+            .encode(&item.register, value)
+            .map_err(|_| Refusal::DataRange)?;
+        self.write(usize::from(item.register.address), &bytes)
+    }
+
     /// How long the servo waits before answering: Return_Delay_Time × 2 µs on Dynamixel;
     /// none on the STS3215, whose memory table says the register has no function there.
     pub fn return_delay(&self) -> Duration {
@@ -208,9 +220,14 @@ impl VirtualServo {
         }
     }
 
-    /// Feetech reports one turn in position mode.
+    /// Whether both position limits are 0: Feetech multi-turn, where positions leave one turn.
+    fn multi_turn(&self) -> bool {
+        self.value("Min_Position_Limit") == 0 && self.value("Max_Position_Limit") == 0
+    }
+
+    /// Feetech reports one turn in (single-turn) position mode.
     fn wrap(&self, ticks: f64) -> f64 {
-        if !self.is_dynamixel() && self.in_position_mode() {
+        if !self.is_dynamixel() && self.in_position_mode() && !self.multi_turn() {
             ticks.rem_euclid(TICKS_PER_TURN)
         } else {
             ticks
@@ -377,13 +394,12 @@ impl VirtualServo {
         self.motion.set_goal_with(target, profile);
     }
 
-    /// Position limits bound goals in (single-turn) position mode only; on the STS3215 both
-    /// limits 0 select multi-turn mode, where they do not.
+    /// Position limits bound goals in (single-turn) position mode only; both limits 0 select
+    /// multi-turn mode on the STS3215 (and leave no range on Dynamixel: not clamped either).
     fn within_limits(&self, goal: f64) -> f64 {
         let min = self.value("Min_Position_Limit") as f64;
         let max = self.value("Max_Position_Limit") as f64;
-        let multi_turn = min == 0.0 && max == 0.0;
-        if !self.in_position_mode() || multi_turn || min > max {
+        if !self.in_position_mode() || self.multi_turn() || min > max {
             return goal;
         }
         goal.clamp(min, max)
