@@ -244,3 +244,79 @@ fn the_codecs_find_the_model_number_and_alarms_where_every_table_keeps_them() {
         }
     }
 }
+
+#[test]
+fn the_driver_registers_are_items_of_the_full_table() {
+    // The registers the drivers use and the full control table cannot disagree: same name,
+    // address, size and encoding.
+    for model in ServoModel::ALL {
+        let spec = model.spec();
+        for register in spec.table.registers() {
+            let item = spec
+                .item(register.name)
+                .unwrap_or_else(|| panic!("{}: no item {}", spec.name(), register.name));
+            assert_eq!(item.register, register, "{}", spec.name());
+        }
+    }
+}
+
+#[test]
+fn full_tables_are_ordered_without_overlaps_and_hold_their_defaults() {
+    use item::Default;
+    for model in ServoModel::ALL {
+        let spec = model.spec();
+        let mut items: Vec<_> = spec.all_items().collect();
+        items.sort_by_key(|i| i.register.address);
+        for pair in items.windows(2) {
+            assert!(
+                pair[0].register.end() <= pair[1].register.address,
+                "{}: {} overlaps {}",
+                spec.name(),
+                pair[0].name(),
+                pair[1].name()
+            );
+        }
+        for item in &items {
+            let (min, max) = item.register.range();
+            if let Default::Value(value) = item.default {
+                assert!((min..=max).contains(&value), "{}", item.name());
+            }
+            assert!(usize::from(item.register.end()) <= 256, "{}", item.name());
+        }
+        let mode = spec.item(spec.table.operating_mode.name).unwrap();
+        let factory = match mode.default {
+            Default::Value(v) => v,
+            Default::Live => panic!("operating mode has a factory value"),
+        };
+        assert!(spec.operating_modes.contains(&factory), "{}", spec.name());
+        for name in ["Min_Position_Limit", "Max_Position_Limit"] {
+            assert!(spec.item(name).is_some(), "{}: {name}", spec.name());
+        }
+    }
+}
+
+#[test]
+fn published_factory_values() {
+    use item::Default::Value;
+    // ROBOTIS e-Manual initial values; FT-MEM for the STS3215.
+    let expected = [
+        (ServoModel::Xl430W250, "Return_Delay_Time", 250),
+        (ServoModel::Xl430W250, "Operating_Mode", 3),
+        (ServoModel::Xl430W250, "Max_Position_Limit", 4095),
+        (ServoModel::Xl430W250, "Velocity_Limit", 265),
+        (ServoModel::Xm430W350, "Position_P_Gain", 800),
+        (ServoModel::Xm430W350, "Current_Limit", 1193),
+        (ServoModel::Xl330M288, "Current_Limit", 1750),
+        (ServoModel::Sts3215, "Max_Position_Limit", 4095),
+        (ServoModel::Sts3215, "P_Coefficient", 32),
+        (ServoModel::Sts3215, "Max_Torque_Limit", 1000),
+        (ServoModel::Sts3215, "Return_Delay_Time", 250),
+    ];
+    for (model, name, value) in expected {
+        let item = model.spec().item(name).unwrap();
+        assert_eq!(item.default, Value(value), "{} {name}", model.name());
+    }
+    assert!(ServoModel::Xl430W250.spec().item("Current_Limit").is_none());
+    assert!(!ServoModel::Xl430W250.spec().operating_modes.contains(&5));
+    assert!(ServoModel::Xm430W350.spec().operating_modes.contains(&5));
+}

@@ -14,6 +14,8 @@ mod hand;
 pub mod motion;
 mod pty;
 mod servo;
+#[cfg(test)]
+mod servo_tests;
 
 pub use hand::Hand;
 pub use pty::PtyServer;

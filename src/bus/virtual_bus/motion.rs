@@ -171,6 +171,33 @@ mod tests {
     }
 
     #[test]
+    fn time_based_profile_is_a_trapezoid_of_the_given_times() {
+        // 1000 ticks in 1 s, 0.25 s accelerating: top speed 1000 / 0.75 = 1333.3 ticks/s,
+        // reached in 0.25 s: 5333.3 ticks/s² (e-Manual: t1 = Profile Acceleration, t3 =
+        // Profile Velocity in time-based mode).
+        let p = Profile::timed(1000.0, 1.0, 0.25);
+        assert!((p.max_speed.unwrap() - 1000.0 / 0.75).abs() < 1e-9);
+        assert!((p.acceleration.unwrap() - 1000.0 / 0.75 / 0.25).abs() < 1e-9);
+        // Acceleration time is at most half the move; 0 s total is no profile.
+        let half = Profile::timed(1000.0, 1.0, 0.9);
+        assert!((half.max_speed.unwrap() - 2000.0).abs() < 1e-9);
+        assert_eq!(Profile::timed(1000.0, 0.0, 0.1), Profile::default());
+    }
+
+    #[test]
+    fn an_acceleration_bound_ramps_the_speed() {
+        // 1000 ticks/s², from rest: after 0.1 s at most 100 ticks/s and 0.5 · 1000 · 0.1² = 5
+        // ticks travelled.
+        let mut m = Motion::new(ServoModel::Xm430W350, 0.0);
+        m.set_torque(true);
+        m.goal = 4000.0;
+        m.profile = Profile::bounded(0.0, 1000.0);
+        m.step(0.1);
+        assert!(m.velocity <= 100.0 + 1e-9, "{}", m.velocity);
+        assert!((m.position - 5.0).abs() < 0.1, "{}", m.position);
+    }
+
+    #[test]
     fn without_torque_it_stays_where_it_is_pushed() {
         let mut m = Motion::new(ServoModel::Sts3215, 2048.0);
         m.goal = 3000.0;
