@@ -488,6 +488,43 @@ impl<V: Interpolant> Track<V> {
 }
 
 impl Track<f64> {
+    /// The slope (per second) at `t`: the derivative of the segment moving there, from the
+    /// right at a key (where a linear corner or a step changes it), 0 at rest (before the first
+    /// key, in a hold, after the last key, on a step).
+    pub fn rate_at(&self, t: f64) -> f64 {
+        match self.place(t) {
+            Place::Moving(i, f) if self.modes[i] != Interp::Step => self.segment_rate(i, f),
+            _ => 0.0,
+        }
+    }
+
+    /// The slope just before `t` (the limit from the left): where it differs from
+    /// [`Track::rate_at`] the curve turns a corner at `t`.
+    pub fn rate_before(&self, t: f64) -> f64 {
+        // The segment from key i to key i + 1 with times[i] < t <= times[i + 1].
+        let next = self.times.partition_point(|&k| k < t);
+        if next == 0 || next >= self.times.len() {
+            return 0.0;
+        }
+        let i = next - 1;
+        if t <= self.move_start[i] || self.modes[i] == Interp::Step {
+            return 0.0;
+        }
+        let f = ((t - self.move_start[i]) * self.inv_duration[i]).clamp(0.0, 1.0);
+        self.segment_rate(i, f)
+    }
+
+    /// d/dt of segment `i` at fraction `f`: d/df of c0 + c1 f + c2 f² + c3 f³, over its duration.
+    fn segment_rate(&self, i: usize, f: f64) -> f64 {
+        let c = &self.segments[i];
+        (c[1] + f * (2.0 * c[2] + f * 3.0 * c[3])) * self.inv_duration[i]
+    }
+
+    /// When segment `i` starts moving (its key's time plus hold).
+    pub fn move_start(&self, i: usize) -> f64 {
+        self.move_start[i]
+    }
+
     /// Turning points inside moving segments, as (time, value): where a cubic overshoots, its
     /// peak lies here, usually between any two samples of a fixed grid.
     pub fn turning_points(&self) -> Vec<(f64, f64)> {
