@@ -2,7 +2,7 @@
 //! format: a ROS 2 JointTrajectory or a play_motion2 motion.
 
 use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
-use keypose::interop::{play_motion2, ros2};
+use keypose::interop::{c_export, play_motion2, ros2};
 use keypose::plan::{check, Trajectory};
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
@@ -17,6 +17,18 @@ pub enum ExportFormat {
     /// A play_motion2 motion (parameter YAML): positions sampled at --rate.
     #[command(name = "play_motion2")]
     PlayMotion2(PlayMotion2Args),
+    /// A C header for the stand-alone player (players/c/): per-piece cubics in servo ticks
+    /// (Q16.16 fixed point), servo ids and tick limits.
+    C(CArgs),
+}
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct CArgs {
+    #[command(flatten)]
+    pub input: SequenceInput,
+    /// Output header (replaced atomically).
+    #[arg(short, long, value_name = "FILE.h")]
+    pub output: PathBuf,
 }
 
 #[derive(Debug, Clone, clap::Args)]
@@ -76,6 +88,21 @@ pub fn run(format: &ExportFormat) -> Result<Verdict, CommandError> {
                 play_motion2::motion_yaml(&trajectory, &robot, args.rate, &name, &description);
             write_output(Some(&args.output), &text)?;
             println!("wrote {} (motion {name})", args.output.display());
+            Ok(Verdict::Pass)
+        }
+        ExportFormat::C(args) => {
+            let Some((sequence, robot, trajectory)) = checked(&args.input)? else {
+                return Ok(Verdict::Fail);
+            };
+            let text = c_export::header(&trajectory, &robot, &sequence.file)
+                .map_err(|e| CommandError::Usage(format!("{}: {e}", sequence.file)))?;
+            write_output(Some(&args.output), &text)?;
+            println!(
+                "wrote {} ({} pieces, {:.3} s; play it with players/c/keypose_player.c)",
+                args.output.display(),
+                c_export::pieces(&trajectory, &robot).len(),
+                trajectory.duration()
+            );
             Ok(Verdict::Pass)
         }
     }

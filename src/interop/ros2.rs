@@ -89,15 +89,8 @@ pub fn joint_trajectory(
 /// Every joint's key times and hold ends, a point one period before every corner, and the
 /// played window's ends; sorted, each once, within the window.
 pub fn point_times(trajectory: &Trajectory, corner_rate: f64) -> Vec<f64> {
-    let (start, end) = (trajectory.start, trajectory.end);
     let period = 1.0 / corner_rate;
-    let mut times = vec![start, end];
-    for track in trajectory.tracks() {
-        for (i, &t) in track.times().iter().enumerate() {
-            times.push(t);
-            times.push(track.move_start(i));
-        }
-    }
+    let mut times = breakpoints(trajectory);
     let corners: Vec<f64> = times
         .iter()
         .copied()
@@ -105,6 +98,24 @@ pub fn point_times(trajectory: &Trajectory, corner_rate: f64) -> Vec<f64> {
         .map(|t| t - period)
         .collect();
     times.extend(corners);
+    sorted_within(trajectory, times)
+}
+
+/// Every joint's key times and hold ends and the played window's ends, sorted, each once,
+/// within the window: between two of them every joint's curve is one polynomial.
+pub fn breakpoints(trajectory: &Trajectory) -> Vec<f64> {
+    let mut times = vec![trajectory.start, trajectory.end];
+    for track in trajectory.tracks() {
+        for (i, &t) in track.times().iter().enumerate() {
+            times.push(t);
+            times.push(track.move_start(i));
+        }
+    }
+    sorted_within(trajectory, times)
+}
+
+fn sorted_within(trajectory: &Trajectory, mut times: Vec<f64>) -> Vec<f64> {
+    let (start, end) = (trajectory.start, trajectory.end);
     times.retain(|t| (start..=end).contains(t));
     times.sort_by(f64::total_cmp);
     times.dedup_by(|later, earlier| *later - *earlier < SAME_TIME);
