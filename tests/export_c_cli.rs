@@ -109,3 +109,120 @@ fn the_approach_eases_in_to_the_first_pose_within_the_limits() {
     }
     assert!(approach.windows(2).all(|w| w[1][1] >= w[0][1]));
 }
+
+/// Prints the Sync Write packets keypose_bus.c builds for ids 1, 2 and the ticks given.
+const PACKETS_MAIN: &str = r#"
+#include <stdio.h>
+#include <stdlib.h>
+#include "keypose_bus.h"
+static void show(const uint8_t *b, size_t n) { for (size_t i = 0; i < n; i++) printf("%02X", b[i]); printf("\n"); }
+int main(int argc, char **argv) {
+    uint8_t ids[2] = {1, 2}; int32_t ticks[2] = {atoi(argv[1]), atoi(argv[2])}; uint8_t out[64];
+    (void)argc;
+    show(out, kp_feetech_sync_write(ids, ticks, 2, out, sizeof out));
+    show(out, kp_dynamixel_sync_write(ids, ticks, 2, out, sizeof out));
+    return 0;
+}
+"#;
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02X}")).collect()
+}
+
+#[test]
+fn the_example_firmwares_sync_writes_are_the_protocols_bytes() {
+    use keypose::bus::protocol::codec;
+    use keypose::robot::Protocol;
+    let dir = tempfile::tempdir().unwrap();
+    let players = repo("players/c");
+    let main = dir.path().join("packets.c");
+    std::fs::write(&main, PACKETS_MAIN).unwrap();
+    let program = dir.path().join("packets");
+    let gcc = Command::new("gcc")
+        .args(["-std=c99", "-Wall", "-Wextra", "-Werror", "-I", &players])
+        .arg(&main)
+        .arg(format!("{players}/keypose_bus.c"))
+        .arg("-o")
+        .arg(&program)
+        .output()
+        .expect("gcc");
+    assert!(
+        gcc.status.success(),
+        "{}",
+        String::from_utf8_lossy(&gcc.stderr)
+    );
+    // 2047 and 1024; then −131073 = 0xFFFDFFFF, whose little-endian bytes FF FF FD FF make
+    // Dynamixel's header pattern and must be stuffed.
+    for (a, b) in [(2047i32, 1024i32), (-131073, 5)] {
+        let out = Command::new(&program)
+            .args([a.to_string(), b.to_string()])
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout).into_owned();
+        let lines: Vec<&str> = text.lines().collect();
+        // The layouts of docs/protocols.md, framed by keypose's own codecs (checksum, CRC,
+        // stuffing), which tests/conformance.rs holds to the vendor SDKs' bytes.
+        let sts = |t: i32| -> [u8; 2] {
+            let raw = if t < 0 {
+                0x8000 | (-t as u16 & 0x7FFF)
+            } else {
+                t as u16
+            };
+            raw.to_le_bytes()
+        };
+        let mut sts_params = vec![42, 2, 1];
+        sts_params.extend(sts(a));
+        sts_params.push(2);
+        sts_params.extend(sts(b));
+        let mut dxl_params = vec![116, 0, 4, 0, 1];
+        dxl_params.extend(a.to_le_bytes());
+        dxl_params.push(2);
+        dxl_params.extend(b.to_le_bytes());
+        let sts_bytes =
+            codec(Protocol::FeetechSts)
+                .framing()
+                .encode_instruction(0xFE, 0x83, &sts_params);
+        let dxl_bytes =
+            codec(Protocol::Dynamixel2)
+                .framing()
+                .encode_instruction(0xFE, 0x83, &dxl_params);
+        if a >= 0 {
+            assert_eq!(lines[0], hex(&sts_bytes), "Feetech STS");
+        }
+        assert_eq!(lines[1], hex(&dxl_bytes), "Dynamixel 2.0");
+    }
+    // The example firmware compiles against an exported header (the board's functions are its
+    // own: compiled, not linked).
+    let header_dir = tempfile::tempdir().unwrap();
+    let out = run(&[
+        "export",
+        "c",
+        &repo("sequences/koch_wave.json"),
+        "-o",
+        header_dir.path().join("seq.h").to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let gcc = Command::new("gcc")
+        .args([
+            "-std=c99",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-DKP_DYNAMIXEL",
+            "-c",
+            "-I",
+            &players,
+            "-I",
+        ])
+        .arg(header_dir.path())
+        .arg(format!("{players}/example_main.c"))
+        .arg("-o")
+        .arg(header_dir.path().join("example.o"))
+        .output()
+        .expect("gcc");
+    assert!(
+        gcc.status.success(),
+        "{}",
+        String::from_utf8_lossy(&gcc.stderr)
+    );
+}
