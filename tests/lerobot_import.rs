@@ -206,6 +206,20 @@ fn degree_episodes_from_list_columns_become_few_keys_within_tolerance() {
     let check = run_sim(&["check", out.to_str().unwrap()]);
     assert_eq!(check.status.code(), Some(0), "{}", show(&check));
 
+    // Played straight from the dataset on emulated servos: imported in memory, checked, ramped.
+    let played = run_sim(&[
+        "play",
+        "--lerobot",
+        dir.to_str().unwrap(),
+        "--episode",
+        "1",
+        "--port",
+        "virtual",
+        "-q",
+    ]);
+    assert_eq!(played.status.code(), Some(0), "{}", show(&played));
+    assert!(stderr(&played).contains("samples →"), "{}", show(&played));
+
     let missing = import(&dir, &tmp.path().join("x.json"), &["--episode", "7"]);
     assert_eq!(missing.status.code(), Some(2), "{}", show(&missing));
     assert!(

@@ -19,21 +19,16 @@ pub enum ImportFormat {
     Lerobot(LeRobotArgs),
 }
 
-/// The dataset options `import lerobot` and `play --lerobot` share.
+/// The dataset options `import lerobot` and `play --lerobot` share (the robot, calibration and
+/// interpolation options are each command's own).
 #[derive(Debug, Clone, clap::Args)]
 pub struct EpisodeArgs {
     /// The episode (its episode_index).
     #[arg(long, value_name = "N")]
-    pub episode: u64,
+    pub episode: Option<u64>,
     /// Which feature to read: the commanded positions or the measured ones.
     #[arg(long, value_name = "FEATURE", default_value = "action", value_parser = ["action", "observation.state"])]
     pub field: String,
-    /// The robot instead of the dataset's robot_type: a built-in name, a LeRobot type or a
-    /// robot file.
-    #[arg(long, value_name = "NAME|FILE")]
-    pub robot: Option<String>,
-    #[command(flatten)]
-    pub calibration: CalibrationArgs,
     /// Units of the joints other than the gripper: degrees (LeRobot's use_degrees=True) or
     /// range (−100…100 of the calibrated range; needs the calibration) [default: degrees, or
     /// as the values show].
@@ -45,17 +40,33 @@ pub struct EpisodeArgs {
     /// Largest deviation for prismatic joints, metres.
     #[arg(long, value_name = "M", default_value = "0.001", value_parser = parse_tolerance_m, allow_negative_numbers = true)]
     pub tolerance_m: f64,
-    /// Interpolation of the keys (step is refused: it jumps).
-    #[arg(long, value_name = "MODE", default_value = "monotone", value_parser = parse_mode)]
+}
+
+/// Where the robot comes from and how the keys interpolate.
+#[derive(Debug, Clone, Copy)]
+pub struct RobotChoice<'a> {
+    /// `--robot`; else the dataset's robot_type.
+    pub robot: Option<&'a str>,
+    pub calibration: &'a CalibrationArgs,
     pub interpolation: Interp,
 }
 
 #[derive(Debug, Clone, clap::Args)]
+#[command(mut_arg("episode", |a| a.required(true)))]
 pub struct LeRobotArgs {
     /// The dataset folder.
     pub dir: PathBuf,
     #[command(flatten)]
     pub episode: EpisodeArgs,
+    /// The robot instead of the dataset's robot_type: a built-in name, a LeRobot type or a
+    /// robot file.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub robot: Option<String>,
+    #[command(flatten)]
+    pub calibration: CalibrationArgs,
+    /// Interpolation of the keys (step is refused: it jumps).
+    #[arg(long, value_name = "MODE", default_value = "monotone", value_parser = parse_mode)]
+    pub interpolation: Interp,
     /// Where to write the keyframes (keypose-sequence/1 JSON; replaced atomically).
     #[arg(short, long, value_name = "FILE")]
     pub output: PathBuf,
@@ -77,7 +88,12 @@ pub fn run(format: &ImportFormat) -> Result<Verdict, CommandError> {
 
 fn run_lerobot(args: &LeRobotArgs) -> Result<Verdict, CommandError> {
     check_output_dir(&args.output)?;
-    let (imported, robot, spec) = import_episode(&args.dir, &args.episode)?;
+    let choice = RobotChoice {
+        robot: args.robot.as_deref(),
+        calibration: &args.calibration,
+        interpolation: args.interpolation,
+    };
+    let (imported, robot, spec) = import_episode(&args.dir, &args.episode, choice)?;
     let mut sequence = imported.keyframes.sequence.clone();
     sequence.robot = robot_reference(&spec);
     sequence.file = args.output.display().to_string();
@@ -87,17 +103,13 @@ fn run_lerobot(args: &LeRobotArgs) -> Result<Verdict, CommandError> {
     }
     println!(
         "episode {} of {} ({}, {} column, {} units)",
-        args.episode.episode,
+        args.episode.episode.unwrap_or_default(),
         args.dir.display(),
         imported.data_file,
         imported.column_type,
         imported.units.name()
     );
-    print_summary(
-        &imported.keyframes,
-        &args.output,
-        args.episode.calibration.given(),
-    );
+    print_summary(&imported.keyframes, &args.output, args.calibration.given());
     if !imported.keyframes.check.passed() {
         let text = keypose::report::check_text(&imported.keyframes.check, &sequence.file, &robot);
         eprint!("{}", escape_controls(&text));
@@ -112,18 +124,31 @@ fn run_lerobot(args: &LeRobotArgs) -> Result<Verdict, CommandError> {
 pub fn import_episode(
     dir: &Path,
     args: &EpisodeArgs,
+    choice: RobotChoice,
 ) -> Result<(Imported, Robot, String), CommandError> {
+    let episode = args
+        .episode
+        .ok_or_else(|| CommandError::Usage("--episode N is required with a dataset".into()))?;
     let info = DatasetInfo::read(dir).map_err(CommandError::LeRobot)?;
     let names = info.names(&args.field).map_err(CommandError::LeRobot)?;
     lerobot::refuse_two_arms(&info, &args.field, &names).map_err(CommandError::LeRobot)?;
-    let spec = robot_spec(&info, args)?;
-    let robot = super::load_robot(&spec, &args.calibration)?;
+    let spec = match (choice.robot, &info.robot_type) {
+        (Some(spec), _) => spec.to_string(),
+        (None, Some(robot_type)) => robot_type.clone(),
+        (None, None) => {
+            return Err(CommandError::Usage(format!(
+                "{}: no robot_type: give --robot",
+                info.file
+            )))
+        }
+    };
+    let robot = super::load_robot(&spec, choice.calibration)?;
     let options = ImportOptions {
-        episode: args.episode,
+        episode,
         field: args.field.clone(),
         units: args.units,
         keyframes: KeyframeOptions {
-            interpolation: args.interpolation,
+            interpolation: choice.interpolation,
             tolerance_deg: args.tolerance,
             tolerance_m: args.tolerance_m,
             check_rate_hz: robot.control_hz,
@@ -131,15 +156,4 @@ pub fn import_episode(
     };
     let imported = lerobot::import(dir, &info, &robot, &options).map_err(CommandError::LeRobot)?;
     Ok((imported, robot, spec))
-}
-
-fn robot_spec(info: &DatasetInfo, args: &EpisodeArgs) -> Result<String, CommandError> {
-    match (&args.robot, &info.robot_type) {
-        (Some(spec), _) => Ok(spec.clone()),
-        (None, Some(robot_type)) => Ok(robot_type.clone()),
-        (None, None) => Err(CommandError::Usage(format!(
-            "{}: no robot_type: give --robot",
-            info.file
-        ))),
-    }
 }
