@@ -62,50 +62,55 @@ pub struct PlayMotion2Args {
 
 pub fn run(format: &ExportFormat) -> Result<Verdict, CommandError> {
     match format {
-        ExportFormat::Ros2(args) => {
-            let Some((sequence, robot, trajectory)) = checked(&args.input)? else {
-                return Ok(Verdict::Fail);
-            };
-            super::check_sample_budget(&sequence.file, &trajectory, args.corner_rate)?;
-            let message = ros2::joint_trajectory(&trajectory, &robot, args.corner_rate);
-            write_output(Some(&args.output), &ros2::to_yaml(&message))?;
-            println!(
-                "wrote {} ({} points, {:.3} s)",
-                args.output.display(),
-                message.points.len(),
-                trajectory.duration()
-            );
-            Ok(Verdict::Pass)
-        }
-        ExportFormat::PlayMotion2(args) => {
-            let Some((sequence, robot, trajectory)) = checked(&args.input)? else {
-                return Ok(Verdict::Fail);
-            };
-            super::check_sample_budget(&sequence.file, &trajectory, args.rate)?;
-            let name = motion_name(args);
-            let description = sequence.description.clone().unwrap_or_default();
-            let text =
-                play_motion2::motion_yaml(&trajectory, &robot, args.rate, &name, &description);
-            write_output(Some(&args.output), &text)?;
-            println!("wrote {} (motion {name})", args.output.display());
-            Ok(Verdict::Pass)
-        }
-        ExportFormat::C(args) => {
-            let Some((sequence, robot, trajectory)) = checked(&args.input)? else {
-                return Ok(Verdict::Fail);
-            };
-            let text = c_export::header(&trajectory, &robot, &sequence.file)
-                .map_err(|e| CommandError::Usage(format!("{}: {e}", sequence.file)))?;
-            write_output(Some(&args.output), &text)?;
-            println!(
-                "wrote {} ({} pieces, {:.3} s; play it with players/c/keypose_player.c)",
-                args.output.display(),
-                c_export::pieces(&trajectory, &robot).len(),
-                trajectory.duration()
-            );
-            Ok(Verdict::Pass)
-        }
+        ExportFormat::Ros2(args) => export_ros2(args),
+        ExportFormat::PlayMotion2(args) => export_play_motion2(args),
+        ExportFormat::C(args) => export_c(args),
     }
+}
+
+fn export_ros2(args: &Ros2Args) -> Result<Verdict, CommandError> {
+    let Some((sequence, robot, trajectory)) = checked(&args.input)? else {
+        return Ok(Verdict::Fail);
+    };
+    super::check_sample_budget(&sequence.file, &trajectory, args.corner_rate)?;
+    let message = ros2::joint_trajectory(&trajectory, &robot, args.corner_rate);
+    write_output(Some(&args.output), &ros2::to_yaml(&message))?;
+    println!(
+        "wrote {} ({} points, {:.3} s)",
+        args.output.display(),
+        message.points.len(),
+        trajectory.duration()
+    );
+    Ok(Verdict::Pass)
+}
+
+fn export_play_motion2(args: &PlayMotion2Args) -> Result<Verdict, CommandError> {
+    let Some((sequence, robot, trajectory)) = checked(&args.input)? else {
+        return Ok(Verdict::Fail);
+    };
+    super::check_sample_budget(&sequence.file, &trajectory, args.rate)?;
+    let name = motion_name(args);
+    let description = sequence.description.clone().unwrap_or_default();
+    let text = play_motion2::motion_yaml(&trajectory, &robot, args.rate, &name, &description);
+    write_output(Some(&args.output), &text)?;
+    println!("wrote {} (motion {name})", args.output.display());
+    Ok(Verdict::Pass)
+}
+
+fn export_c(args: &CArgs) -> Result<Verdict, CommandError> {
+    let Some((sequence, robot, trajectory)) = checked(&args.input)? else {
+        return Ok(Verdict::Fail);
+    };
+    let text = c_export::header(&trajectory, &robot, &sequence.file)
+        .map_err(|e| CommandError::Usage(format!("{}: {e}", sequence.file)))?;
+    write_output(Some(&args.output), &text)?;
+    println!(
+        "wrote {} ({} pieces, {:.3} s; play it with players/c/keypose_player.c)",
+        args.output.display(),
+        c_export::pieces(&trajectory, &robot).len(),
+        trajectory.duration()
+    );
+    Ok(Verdict::Pass)
 }
 
 /// The sequence, its robot and trajectory when it passes the limit check at the robot's control
