@@ -36,6 +36,7 @@ from harness_io import (
     handle_line,
     ignore_sigint,
     integer_in,
+    is_integer,
     interpreter,
     member,
     not_ready,
@@ -78,7 +79,7 @@ class Reader:
         row, known = self.find_episode(root, number)
         try:
             relative = template.format(chunk_index=row["data/chunk_index"], file_index=row["data/file_index"])
-        except (KeyError, IndexError, ValueError) as e:
+        except (KeyError, IndexError, ValueError, TypeError) as e:
             raise dataset_error(f"meta/info.json: data_path {template!r} cannot be filled in: {e}")
         first, last = row["dataset_from_index"], row["dataset_to_index"]
         table = self.read(os.path.join(root, relative), relative)
@@ -108,11 +109,18 @@ class Reader:
                 raise dataset_error(f"{relative}: lacks column(s) {', '.join(missing)}; expected {', '.join(EPISODE_COLUMNS)}")
             columns = {c: table.column(c).to_pylist() for c in EPISODE_COLUMNS}
             for i, index in enumerate(columns["episode_index"]):
-                known.append(index)
+                if is_integer(index):
+                    known.append(index)
                 if index == number and found is None:
                     found = {c: columns[c][i] for c in EPISODE_COLUMNS}
         if found is None:
             raise dataset_error(f"episode {number} is not in meta/episodes", episodes=sorted(known))
+        bad = [c for c in EPISODE_COLUMNS if not is_integer(found[c]) or found[c] < 0]
+        if bad or found["dataset_to_index"] < found["dataset_from_index"]:
+            raise dataset_error(
+                f"meta/episodes: episode {number} has {', '.join(f'{c} = {found[c]!r}' for c in EPISODE_COLUMNS)}; "
+                "expected whole numbers from 0, dataset_to_index at least dataset_from_index"
+            )
         return found, sorted(known)
 
     def read(self, path, relative):

@@ -22,11 +22,19 @@ const TOLERANCE: f64 = 1.0;
 /// speed (about 130 °/s) that moves the curve by up to 0.07°.
 const TIME_SNAP_SLACK: f64 = 0.07;
 
+/// keypose's Python environment (with pyarrow), built once for the tests of this file.
 fn python() -> PathBuf {
-    keypose::python::PyConfig::with_cache_dir(sim_cache())
-        .ensure_python()
-        .unwrap_or_else(|e| panic!("keypose's Python environment (with pyarrow) is needed: {e}"))
-        .python
+    static PYTHON: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    PYTHON
+        .get_or_init(|| {
+            keypose::python::PyConfig::with_cache_dir(sim_cache())
+                .ensure_python()
+                .unwrap_or_else(|e| {
+                    panic!("keypose's Python environment (with pyarrow) is needed: {e}")
+                })
+                .python
+        })
+        .clone()
 }
 
 /// Writes a dataset at `root` from `episodes` (rows of values per frame) with `names`.
