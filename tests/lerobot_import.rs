@@ -364,4 +364,17 @@ fn bimanual_and_older_datasets_are_refused_with_the_reason() {
         "{}",
         show(&result)
     );
+    // A v3.0 info.json with a bad frame rate: the file and the JSON path are named.
+    std::fs::write(
+        old.join("meta/info.json"),
+        r#"{"codebase_version": "v3.0", "fps": -30, "features": {}}"#,
+    )
+    .unwrap();
+    let result = import(&old, &out, &["--episode", "0"]);
+    assert_eq!(result.status.code(), Some(2), "{}", show(&result));
+    assert!(
+        stderr(&result).contains("info.json: $.fps: expected frames per second above 0"),
+        "{}",
+        show(&result)
+    );
 }
