@@ -722,6 +722,34 @@ mod tests {
     }
 
     #[test]
+    fn slopes_after_and_before_a_time() {
+        // 0 → 10 linear over 2 s, then a hold of 1 s, then 10 → 4 linear over 1 s.
+        let keys = [
+            TrackKey::new(0.0, 0.0, Interp::Linear),
+            TrackKey::new(2.0, 10.0, Interp::Linear).with_hold(1.0),
+            TrackKey::new(4.0, 4.0, Interp::Linear),
+        ];
+        let track = Track::new(&keys).unwrap();
+        assert_eq!(track.rate_at(1.0), 5.0);
+        assert_eq!(track.rate_before(2.0), 5.0, "arriving at the key");
+        assert_eq!(track.rate_at(2.0), 0.0, "held");
+        assert_eq!(track.rate_before(3.0), 0.0, "the hold's end");
+        assert_eq!(track.rate_at(3.0), -6.0);
+        assert_eq!(track.rate_before(4.0), -6.0);
+        assert_eq!(track.rate_at(4.0), 0.0, "after the last key");
+        assert_eq!(track.rate_before(0.0), 0.0, "before the first");
+        // A cubic's slope at an inner key is its key rate from both sides: (10 − 0)/(4 − 0).
+        let cubic = Track::new(&[
+            TrackKey::new(0.0, 0.0, Interp::Cubic),
+            TrackKey::new(2.0, 5.0, Interp::Cubic),
+            TrackKey::new(4.0, 10.0, Interp::Cubic),
+        ])
+        .unwrap();
+        assert!((cubic.rate_at(2.0) - 2.5).abs() < 1e-12);
+        assert!((cubic.rate_before(2.0) - 2.5).abs() < 1e-12);
+    }
+
+    #[test]
     fn invalid_keys_are_rejected() {
         let k = |t: f64| TrackKey::new(t, 0.0, Interp::Cubic);
         assert_eq!(Track::<f64>::new(&[]).unwrap_err(), CurveError::Empty);

@@ -179,3 +179,15 @@ pub fn sec_nanosec(t: f64) -> (i64, u32) {
         total.rem_euclid(1_000_000_000) as u32,
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn durations_split_into_whole_seconds_and_nanoseconds() {
+        assert_eq!(sec_nanosec(0.0), (0, 0));
+        assert_eq!(sec_nanosec(1.2), (1, 200_000_000));
+        assert_eq!(sec_nanosec(2.999_999_999_6), (3, 0));
+    }
+}
