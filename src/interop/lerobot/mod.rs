@@ -131,6 +131,14 @@ pub fn map_names(
             })?;
         columns.push(Some(index));
     }
+    if columns.iter().all(Option::is_none) {
+        return Err(LeRobotError::NoJoints {
+            file: info.file.clone(),
+            field: field.to_string(),
+            robot: robot.name.clone(),
+            names: names.join(", "),
+        });
+    }
     Ok(columns)
 }
 
@@ -167,18 +175,7 @@ pub fn import(
     let columns = map_names(info, &options.field, &names, robot)?;
     let rows = read_episode(dir, info, options.episode, &options.field)?;
     check_widths(dir, &rows, names.len())?;
-    let (recording, units, notices) =
-        recording(info, robot, &columns, &rows, options).map_err(|e| match e {
-            LeRobotError::NoJoints {
-                file, field, robot, ..
-            } => LeRobotError::NoJoints {
-                file,
-                field,
-                robot,
-                names: names.join(", "),
-            },
-            other => other,
-        })?;
+    let (recording, units, notices) = recording(info, robot, &columns, &rows, options)?;
     let mut keyframes = record::keyframes(&recording, robot, &options.keyframes)?;
     keyframes.sequence.description = Some(format!(
         "LeRobot dataset {}, episode {}, {}: {} frames → {} keys within {}°",
@@ -250,14 +247,6 @@ fn recording(
         notices.extend(notice);
         values[j] = rows.values.iter().map(|r| conversion.apply(r[c])).collect();
         recorded[j] = true;
-    }
-    if !recorded.iter().any(|&r| r) {
-        return Err(LeRobotError::NoJoints {
-            file: info.file.clone(),
-            field: options.field.clone(),
-            robot: robot.name.clone(),
-            names: String::new(),
-        });
     }
     let times = frame_times(info, rows);
     Ok((
