@@ -488,6 +488,43 @@ impl<V: Interpolant> Track<V> {
 }
 
 impl Track<f64> {
+    /// The slope (per second) at `t`: the derivative of the segment moving there, from the
+    /// right at a key (where a linear corner or a step changes it), 0 at rest (before the first
+    /// key, in a hold, after the last key, on a step).
+    pub fn rate_at(&self, t: f64) -> f64 {
+        match self.place(t) {
+            Place::Moving(i, f) if self.modes[i] != Interp::Step => self.segment_rate(i, f),
+            _ => 0.0,
+        }
+    }
+
+    /// The slope just before `t` (the limit from the left): where it differs from
+    /// [`Track::rate_at`] the curve turns a corner at `t`.
+    pub fn rate_before(&self, t: f64) -> f64 {
+        // The segment from key i to key i + 1 with times[i] < t <= times[i + 1].
+        let next = self.times.partition_point(|&k| k < t);
+        if next == 0 || next >= self.times.len() {
+            return 0.0;
+        }
+        let i = next - 1;
+        if t <= self.move_start[i] || self.modes[i] == Interp::Step {
+            return 0.0;
+        }
+        let f = ((t - self.move_start[i]) * self.inv_duration[i]).clamp(0.0, 1.0);
+        self.segment_rate(i, f)
+    }
+
+    /// d/dt of segment `i` at fraction `f`: d/df of c0 + c1 f + c2 f² + c3 f³, over its duration.
+    fn segment_rate(&self, i: usize, f: f64) -> f64 {
+        let c = &self.segments[i];
+        (c[1] + f * (2.0 * c[2] + f * 3.0 * c[3])) * self.inv_duration[i]
+    }
+
+    /// When segment `i` starts moving (its key's time plus hold).
+    pub fn move_start(&self, i: usize) -> f64 {
+        self.move_start[i]
+    }
+
     /// Turning points inside moving segments, as (time, value): where a cubic overshoots, its
     /// peak lies here, usually between any two samples of a fixed grid.
     pub fn turning_points(&self) -> Vec<(f64, f64)> {
@@ -682,6 +719,34 @@ mod tests {
         let track = Track::new(&keys).unwrap();
         assert_eq!(track.sample(0.9), 0.0);
         assert!((track.sample(1.5) - 5.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn slopes_after_and_before_a_time() {
+        // 0 → 10 linear over 2 s, then a hold of 1 s, then 10 → 4 linear over 1 s.
+        let keys = [
+            TrackKey::new(0.0, 0.0, Interp::Linear),
+            TrackKey::new(2.0, 10.0, Interp::Linear).with_hold(1.0),
+            TrackKey::new(4.0, 4.0, Interp::Linear),
+        ];
+        let track = Track::new(&keys).unwrap();
+        assert_eq!(track.rate_at(1.0), 5.0);
+        assert_eq!(track.rate_before(2.0), 5.0, "arriving at the key");
+        assert_eq!(track.rate_at(2.0), 0.0, "held");
+        assert_eq!(track.rate_before(3.0), 0.0, "the hold's end");
+        assert_eq!(track.rate_at(3.0), -6.0);
+        assert_eq!(track.rate_before(4.0), -6.0);
+        assert_eq!(track.rate_at(4.0), 0.0, "after the last key");
+        assert_eq!(track.rate_before(0.0), 0.0, "before the first");
+        // A cubic's slope at an inner key is its key rate from both sides: (10 − 0)/(4 − 0).
+        let cubic = Track::new(&[
+            TrackKey::new(0.0, 0.0, Interp::Cubic),
+            TrackKey::new(2.0, 5.0, Interp::Cubic),
+            TrackKey::new(4.0, 10.0, Interp::Cubic),
+        ])
+        .unwrap();
+        assert!((cubic.rate_at(2.0) - 2.5).abs() < 1e-12);
+        assert!((cubic.rate_before(2.0) - 2.5).abs() < 1e-12);
     }
 
     #[test]

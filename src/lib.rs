@@ -23,6 +23,7 @@
 pub mod atomic_file;
 pub mod bus;
 pub mod curve;
+pub mod interop;
 
 pub mod json;
 pub mod pacing;

@@ -55,6 +55,12 @@ enum Command {
     /// Record a motion made by hand (torque off), then turn it into the fewest keyframes that
     /// reproduce it within a tolerance.
     Record(commands::record::RecordArgs),
+    /// Turn motion from elsewhere into a sequence: `import lerobot DIR --episode N -o SEQ.json`.
+    #[command(subcommand)]
+    Import(commands::import::ImportFormat),
+    /// Write a sequence for elsewhere: a ROS 2 JointTrajectory, a play_motion2 motion.
+    #[command(subcommand)]
+    Export(commands::export::ExportFormat),
     /// Where the tool is at a pose (joints not given at home), each joint against its limits,
     /// and whether the arm there touches the floor or itself: exit code 1 when it does.
     ///
@@ -89,6 +95,8 @@ fn main() -> ExitCode {
         Command::Play(args) => commands::play::run(args),
         Command::Teach(args) => commands::teach::run(args),
         Command::Record(args) => commands::record::run(args),
+        Command::Import(format) => commands::import::run(format),
+        Command::Export(format) => commands::export::run(format),
         Command::Pose(args) => commands::pose::run(args),
         Command::Read(args) => commands::read::run(args),
         Command::Torque(args) => commands::torque::run(args),

@@ -7,7 +7,7 @@ use keypose::bus;
 pub fn run() -> Result<Verdict, CommandError> {
     let mut out = ports_report();
     out.push_str(&latency_report());
-    out.push_str("python (vendor SDK bridge, simulation):\n");
+    out.push_str("python (vendor SDK bridge, dataset reader, simulation):\n");
     out.push_str(&keypose::python::doctor_report());
     out.push_str(&simulation_report());
     write_output(None, &out)?;

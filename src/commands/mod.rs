@@ -5,6 +5,8 @@ pub mod args;
 pub mod calibration;
 pub mod check;
 pub mod doctor;
+pub mod export;
+pub mod import;
 pub mod option_values;
 pub mod play;
 pub mod plot;
@@ -100,6 +102,8 @@ pub enum CommandError {
     Model(keypose::sim::SimError),
     #[error(transparent)]
     Teach(keypose::teach::TeachError),
+    #[error(transparent)]
+    LeRobot(keypose::interop::lerobot::LeRobotError),
     /// Something else about the servos, in words.
     #[error("{0}")]
     Hardware(String),
@@ -142,6 +146,8 @@ impl CommandError {
             | CommandError::Teach(_)
             | CommandError::Hardware(_) => EXIT_HARDWARE,
             CommandError::Interrupted(_) => EXIT_INTERRUPTED,
+            CommandError::LeRobot(e) if e.is_bad_input() => EXIT_BAD_INPUT,
+            CommandError::LeRobot(_) => EXIT_HARDWARE,
             CommandError::Input(_)
             | CommandError::Record(_)
             | CommandError::Model(_)

@@ -13,6 +13,9 @@ use std::path::PathBuf;
 
 #[derive(Debug, Clone, clap::Args)]
 // Only `play` simulates without a port: the other bus commands share the plain help.
+// A dataset episode (--lerobot) stands in for the sequence file.
+#[command(mut_arg("sequence", |a| a.required(false).default_value(NO_SEQUENCE).hide_default_value(true)))]
+#[command(mut_arg("episode", |a| a.requires("lerobot")))]
 #[command(mut_arg("port", |port| port.help(
     "Serial port (e.g. /dev/ttyUSB0, /dev/ttyACM0), or \"virtual\" for emulated servos on a \
      pseudo-terminal; without a port, play in MuJoCo"
@@ -22,6 +25,12 @@ pub struct PlayArgs {
     pub input: SequenceInput,
     #[command(flatten)]
     pub bus: BusArgs,
+    /// Play episode --episode of this LeRobotDataset v3.0 folder instead of a sequence file:
+    /// imported in memory (as `keypose import lerobot`), then checked and ramped as any other.
+    #[arg(long, value_name = "DIR", requires = "episode")]
+    pub lerobot: Option<PathBuf>,
+    #[command(flatten)]
+    pub dataset: super::import::EpisodeArgs,
     /// Control rate, 10 to 1000 Hz [default: the robot's control_hz].
     #[arg(long, value_name = "HZ", value_parser = parse_control_rate, allow_negative_numbers = true)]
     pub rate: Option<f64>,
@@ -85,7 +94,7 @@ fn parse_loops(s: &str) -> Result<Loops, String> {
 }
 
 pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
-    let (sequence, robot) = args.input.load()?;
+    let (sequence, robot) = load(args)?;
     let trajectory = Trajectory::build(&sequence, &robot)?;
     if args.no_approach && !args.i_accept_the_jump {
         return Err(CommandError::Usage(
@@ -125,6 +134,50 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
         Some(port) => play_on_servos(args, port, &sequence, &robot, &trajectory, &options),
         None => play_in_simulation(args, &sequence, &robot, &trajectory, &options),
     }
+}
+
+/// What the sequence argument holds when none is given (clap's derive needs a value): no
+/// file is named so.
+const NO_SEQUENCE: &str = "<no sequence file>";
+
+/// The sequence file, or the dataset episode imported in memory.
+fn load(args: &PlayArgs) -> Result<(Sequence, Robot), CommandError> {
+    let given = args.input.sequence.as_os_str() != NO_SEQUENCE;
+    let Some(dir) = &args.lerobot else {
+        if !given {
+            return Err(CommandError::Usage(
+                "a sequence file is required (or --lerobot DIR --episode N)".into(),
+            ));
+        }
+        return args.input.load();
+    };
+    if given {
+        return Err(CommandError::Usage(format!(
+            "{}: give a sequence file or --lerobot, not both",
+            args.input.sequence.display()
+        )));
+    }
+    let interpolation = match args.input.interpolation {
+        Some(mode) => super::record::parse_mode(mode.name()).map_err(CommandError::Usage)?,
+        None => keypose::curve::Interp::Monotone,
+    };
+    let choice = super::import::RobotChoice {
+        robot: args.input.robot.as_deref(),
+        calibration: &args.input.calibration,
+        interpolation,
+    };
+    let (imported, robot, _) = super::import::import_episode(dir, &args.dataset, choice)?;
+    for notice in &imported.notices {
+        eprintln!("{}", escape_controls(notice));
+    }
+    eprintln!("{}", escape_controls(&imported.keyframes.summary()));
+    let mut sequence = imported.keyframes.sequence;
+    sequence.file = format!(
+        "{} episode {}",
+        dir.display(),
+        args.dataset.episode.unwrap_or_default()
+    );
+    Ok((sequence, robot))
 }
 
 /// `--from`: a key by index or name.

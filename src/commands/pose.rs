@@ -54,11 +54,12 @@ pub fn run(args: &PoseArgs) -> Result<Verdict, CommandError> {
     if let Some(mjcf) = &args.mjcf {
         sim::check_mjcf_file(mjcf)?;
     }
+    let model = args.mjcf.as_deref().map(sim::MjcfModel::new);
     if let Some(path) = &args.directions {
-        return draw_directions(&robot, args.mjcf.as_deref(), path);
+        return draw_directions(&robot, model.as_ref(), path);
     }
     let pose = parse_pose(&robot, &args.values)?;
-    let mut simulation = Simulation::start(&robot, args.mjcf.as_deref(), None)?;
+    let mut simulation = Simulation::start(&robot, model.as_ref(), None)?;
     let contacts = simulation.pose_contacts(&robot, &pose.values)?;
     let thresholds = Thresholds::default();
     let touching = floor_first(collisions(&contacts, &thresholds));
@@ -283,7 +284,7 @@ fn json_report(
 /// The joint-directions picture: the zero pose, then each joint alone at its positive step.
 fn draw_directions(
     robot: &Robot,
-    mjcf: Option<&Path>,
+    mjcf: Option<&sim::MjcfModel>,
     path: &Path,
 ) -> Result<Verdict, CommandError> {
     if !path

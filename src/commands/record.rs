@@ -61,15 +61,15 @@ const LONG_RECORDING_SAMPLES: usize = 3000;
 const LINEAR_HINT_STRETCH: f64 = 1.25;
 
 /// Tolerances above a turn (or a metre) are not tolerances: the whole motion is within them.
-fn parse_tolerance(s: &str) -> Result<f64, String> {
+pub(super) fn parse_tolerance(s: &str) -> Result<f64, String> {
     option_values::positive_up_to(s, 360.0, "a tolerance in degrees")
 }
 
-fn parse_tolerance_m(s: &str) -> Result<f64, String> {
+pub(super) fn parse_tolerance_m(s: &str) -> Result<f64, String> {
     option_values::positive_up_to(s, 1.0, "a tolerance in metres")
 }
 
-fn parse_mode(s: &str) -> Result<Interp, String> {
+pub(super) fn parse_mode(s: &str) -> Result<Interp, String> {
     match Interp::parse(s) {
         Some(Interp::Step) => Err(
             "step jumps between keys, which no limit check passes; expected linear, cubic or monotone"
@@ -226,7 +226,7 @@ fn conclude(
     Ok(Verdict::Pass)
 }
 
-fn check_output_dir(output: &Path) -> Result<(), CommandError> {
+pub(super) fn check_output_dir(output: &Path) -> Result<(), CommandError> {
     let dir = match output.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
@@ -244,7 +244,7 @@ fn check_output_dir(output: &Path) -> Result<(), CommandError> {
 
 /// What the sequence's "robot" says: a built-in name as given, a robot file as an absolute path,
 /// so that `keypose check` finds the same robot from anywhere.
-fn robot_reference(spec: &str) -> String {
+pub(super) fn robot_reference(spec: &str) -> String {
     let path = Path::new(spec);
     if keypose::robot::names_a_file(spec) {
         if let Ok(absolute) = std::fs::canonicalize(path) {
@@ -289,7 +289,7 @@ fn watch_stdin(stop: StopSignal, warn_on_eof: bool) {
     });
 }
 
-fn print_summary(result: &Keyframes, output: &Path, calibrated: bool) {
+pub(super) fn print_summary(result: &Keyframes, output: &Path, calibrated: bool) {
     println!("{}", escape_controls(&result.summary()));
     for c in &result.clamps {
         eprintln!(

@@ -21,6 +21,12 @@ pub struct SimArgs {
     /// robot's), e.g. the arm maker's official mesh model.
     #[arg(long, value_name = "FILE")]
     pub mjcf: Option<PathBuf>,
+    /// With --mjcf: the model's names of the robot's joints, as ROBOT=MODEL pairs
+    /// (shoulder_pan=base_rotation,…), a keypose-joint-map/1 file, or a shipped map:
+    /// menagerie-koch (MuJoCo Menagerie's low_cost_robot_arm), robotis-omx (ROBOTIS's
+    /// OpenMANIPULATOR-X model).
+    #[arg(long, value_name = "NAME|FILE|A=B,…", requires = "mjcf")]
+    pub joint_map: Option<String>,
     /// Write the measurements and the verdict as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,
@@ -83,7 +89,7 @@ pub fn simulate(
     robot: &Robot,
     trajectory: &Trajectory,
     options: &PlayOptions,
-    mjcf: Option<&Path>,
+    mjcf: Option<&sim::MjcfModel>,
 ) -> Result<Simulated, CommandError> {
     let started = Instant::now();
     let thresholds = Thresholds::default();
@@ -164,29 +170,33 @@ pub fn run(args: &SimArgs) -> Result<Verdict, CommandError> {
         }
         None => None,
     };
-    if let Some(path) = &args.mjcf {
-        sim::check_mjcf_file(path)?;
-    }
+    let model = match &args.mjcf {
+        Some(path) => {
+            sim::check_mjcf_file(path)?;
+            let joint_map = match &args.joint_map {
+                Some(spec) => sim::JointMap::parse(spec, &robot)?,
+                None => sim::JointMap::default(),
+            };
+            Some(sim::MjcfModel {
+                path: path.clone(),
+                joint_map,
+            })
+        }
+        None => None,
+    };
     super::check_sample_budget(&sequence.file, &trajectory, rate / args.speed)?;
     let options = PlayOptions {
         speed: args.speed,
         ..PlayOptions::new(rate)
     };
-    let result = simulate(
-        &sequence,
-        &robot,
-        &trajectory,
-        &options,
-        args.mjcf.as_deref(),
-    )?;
+    let result = simulate(&sequence, &robot, &trajectory, &options, model.as_ref())?;
     print!("{}", escape_controls(&table(&sequence.file, &result)));
     if let Some(path) = &args.report {
         let report = report_json(&sequence.file, &robot, &result);
         write_output(Some(path), &format!("{report:#}\n"))?;
     }
     if let (Some(path), Some(times)) = (&args.render, render_times) {
-        let mjcf = args.mjcf.as_deref();
-        render(mjcf, times, &sequence, &robot, &trajectory, path)?;
+        render(model.as_ref(), times, &sequence, &robot, &trajectory, path)?;
     }
     Ok(if result.verdict.passed() {
         Verdict::Pass
@@ -274,7 +284,7 @@ fn render_times(
 }
 
 fn render(
-    mjcf: Option<&Path>,
+    mjcf: Option<&sim::MjcfModel>,
     times: Vec<(f64, String)>,
     sequence: &Sequence,
     robot: &Robot,

@@ -59,7 +59,8 @@ pub fn python_report(build: bool) -> PythonReport {
     }
 }
 
-/// The Python side of `config`, started for real (the SDK bridge's ready line) when possible.
+/// The Python side of `config`, started for real (the SDK bridge's and the dataset reader's
+/// ready lines) when possible.
 pub fn python_report_for(config: &PyConfig, build: bool) -> PythonReport {
     let mut report = PythonReport::default();
     report
@@ -81,9 +82,12 @@ pub fn python_report_for(config: &PyConfig, build: bool) -> PythonReport {
             report
                 .lines
                 .push(format!("interpreter: {}", env.python.display()));
-            match Harness::start_in(config, "sdk_bridge.py", HarnessOptions::default()) {
-                Ok(harness) => describe_ready(&mut report, harness.script(), harness.ready()),
-                Err(error) => report.problems.push(error.to_string()),
+            // The SDK bridge, and the dataset reader (pyarrow) of `import lerobot`.
+            for script in ["sdk_bridge.py", "dataset_reader.py"] {
+                match Harness::start_in(config, script, HarnessOptions::default()) {
+                    Ok(harness) => describe_ready(&mut report, harness.script(), harness.ready()),
+                    Err(error) => report.problems.push(error.to_string()),
+                }
             }
         }
         Ok(None) => {}

@@ -13,6 +13,10 @@ use std::path::PathBuf;
 const SCRIPTS: &[(&str, &str)] = &[
     ("sdk_bridge.py", include_str!("../../sim/sdk_bridge.py")),
     ("sim_harness.py", include_str!("../../sim/sim_harness.py")),
+    (
+        "dataset_reader.py",
+        include_str!("../../sim/dataset_reader.py"),
+    ),
 ];
 
 /// Modules the harness scripts import, written beside them (all of them before any script

@@ -4,9 +4,11 @@
 //! (approach ramp from the pose the arm rests in, the control rate, loops, speed), the same
 //! joint values. The harness only measures; [`verdict`] decides.
 
+pub mod joint_map;
 mod models;
 pub mod verdict;
 
+pub use joint_map::{JointMap, MjcfModel};
 pub use models::{check_mjcf_file, model_path};
 
 use crate::plan::Trajectory;
@@ -175,10 +177,10 @@ pub struct Simulation {
 
 impl Simulation {
     /// Starts the harness (building the Python environment on first use) and loads the robot's
-    /// model, or `mjcf` when given (its joint names must match the robot's).
+    /// model, or `mjcf` when given (its joints named as the robot's, through its joint map).
     pub fn start(
         robot: &Robot,
-        mjcf: Option<&Path>,
+        mjcf: Option<&MjcfModel>,
         gl: Option<&str>,
     ) -> Result<Simulation, SimError> {
         let config = PyConfig::from_env()?;
@@ -192,14 +194,20 @@ impl Simulation {
         }
         let harness = Harness::start_in(&config, HARNESS_SCRIPT, options)?;
         let path: PathBuf = match mjcf {
-            Some(p) => p.to_path_buf(),
+            Some(m) => m.path.clone(),
             None => model_path(&config, &robot.name)?,
         };
+        let no_map = JointMap::default();
+        let map = mjcf.map_or(&no_map, |m| &m.joint_map);
         let model = path.display().to_string();
         let mut sim = Simulation {
             harness,
             model: model.clone(),
-            joints: robot.joints.iter().map(|j| j.name.clone()).collect(),
+            joints: robot
+                .joints
+                .iter()
+                .map(|j| map.model_name(&j.name).to_string())
+                .collect(),
             force_limits: Vec::new(),
             timestep: 0.0,
         };
@@ -421,7 +429,7 @@ impl Default for Camera {
 /// first, OSMesa if EGL cannot make a context.
 pub fn render(
     robot: &Robot,
-    mjcf: Option<&Path>,
+    mjcf: Option<&MjcfModel>,
     frames: &[Vec<f64>],
     labels: &[String],
     path: &Path,

@@ -1,0 +1,157 @@
+//! `keypose export`: a sequence, checked against the robot's limits, in another program's
+//! format: a ROS 2 JointTrajectory or a play_motion2 motion.
+
+use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
+use keypose::interop::{c_export, play_motion2, ros2};
+use keypose::plan::{check, Trajectory};
+use keypose::robot::Robot;
+use keypose::sequence::Sequence;
+use keypose::terminal_text::escape_controls;
+use std::path::PathBuf;
+
+#[derive(Debug, Clone, clap::Subcommand)]
+pub enum ExportFormat {
+    /// A trajectory_msgs/msg/JointTrajectory as YAML: positions (rad, m) and velocities at
+    /// every key, holds as two points, step and linear segments densified.
+    Ros2(Ros2Args),
+    /// A play_motion2 motion (parameter YAML): positions sampled at --rate.
+    #[command(name = "play_motion2")]
+    PlayMotion2(PlayMotion2Args),
+    /// A C header for the stand-alone player (players/c/): per-piece cubics in servo ticks
+    /// (Q16.16 fixed point), servo ids and tick limits.
+    C(CArgs),
+}
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct CArgs {
+    #[command(flatten)]
+    pub input: SequenceInput,
+    /// Output header (replaced atomically).
+    #[arg(short, long, value_name = "FILE.h")]
+    pub output: PathBuf,
+}
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct Ros2Args {
+    #[command(flatten)]
+    pub input: SequenceInput,
+    /// A corner (linear segments meeting, a hold next to a linear segment, a step) is
+    /// approached over one period at this rate: the controller's cubic cannot turn it at a
+    /// point.
+    #[arg(long, value_name = "HZ", default_value = "100", value_parser = parse_rate)]
+    pub corner_rate: f64,
+    /// Output file (replaced atomically).
+    #[arg(short, long, value_name = "FILE.yaml")]
+    pub output: PathBuf,
+}
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct PlayMotion2Args {
+    #[command(flatten)]
+    pub input: SequenceInput,
+    /// Samples per second (play_motion2 carries positions only).
+    #[arg(long, value_name = "HZ", default_value = "20", value_parser = parse_rate)]
+    pub rate: f64,
+    /// The motion's name [default: the sequence file's name].
+    #[arg(long, value_name = "NAME")]
+    pub name: Option<String>,
+    /// Output file (replaced atomically).
+    #[arg(short, long, value_name = "FILE.yaml")]
+    pub output: PathBuf,
+}
+
+pub fn run(format: &ExportFormat) -> Result<Verdict, CommandError> {
+    match format {
+        ExportFormat::Ros2(args) => export_ros2(args),
+        ExportFormat::PlayMotion2(args) => export_play_motion2(args),
+        ExportFormat::C(args) => export_c(args),
+    }
+}
+
+fn export_ros2(args: &Ros2Args) -> Result<Verdict, CommandError> {
+    let Some((sequence, robot, trajectory)) = checked(&args.input)? else {
+        return Ok(Verdict::Fail);
+    };
+    super::check_sample_budget(&sequence.file, &trajectory, args.corner_rate)?;
+    let message = ros2::joint_trajectory(&trajectory, &robot, args.corner_rate);
+    write_output(Some(&args.output), &ros2::to_yaml(&message))?;
+    println!(
+        "wrote {} ({} points, {:.3} s)",
+        args.output.display(),
+        message.points.len(),
+        trajectory.duration()
+    );
+    Ok(Verdict::Pass)
+}
+
+fn export_play_motion2(args: &PlayMotion2Args) -> Result<Verdict, CommandError> {
+    let Some((sequence, robot, trajectory)) = checked(&args.input)? else {
+        return Ok(Verdict::Fail);
+    };
+    super::check_sample_budget(&sequence.file, &trajectory, args.rate)?;
+    let name = motion_name(args);
+    let description = sequence.description.clone().unwrap_or_default();
+    let text = play_motion2::motion_yaml(&trajectory, &robot, args.rate, &name, &description);
+    write_output(Some(&args.output), &text)?;
+    println!("wrote {} (motion {name})", args.output.display());
+    Ok(Verdict::Pass)
+}
+
+fn export_c(args: &CArgs) -> Result<Verdict, CommandError> {
+    let Some((sequence, robot, trajectory)) = checked(&args.input)? else {
+        return Ok(Verdict::Fail);
+    };
+    let text = c_export::header(&trajectory, &robot, &sequence.file)
+        .map_err(|e| CommandError::Usage(format!("{}: {e}", sequence.file)))?;
+    write_output(Some(&args.output), &text)?;
+    println!(
+        "wrote {} ({} pieces, {:.3} s; play it with players/c/keypose_player.c)",
+        args.output.display(),
+        c_export::pieces(&trajectory, &robot).len(),
+        trajectory.duration()
+    );
+    Ok(Verdict::Pass)
+}
+
+/// The sequence, its robot and trajectory when it passes the limit check at the robot's control
+/// rate; else the report on stderr and `None`: nothing is written that the arm may not do.
+fn checked(input: &SequenceInput) -> Result<Option<(Sequence, Robot, Trajectory)>, CommandError> {
+    let (sequence, robot) = input.load()?;
+    let trajectory = Trajectory::build(&sequence, &robot)?;
+    let report = check(&trajectory, &robot, robot.control_hz);
+    if !report.passed() {
+        let text = keypose::report::check_text(&report, &sequence.file, &robot);
+        eprint!("{}", escape_controls(&text));
+        eprintln!(
+            "refusing to export: the sequence breaks the limits above (try `keypose retime`)"
+        );
+        return Ok(None);
+    }
+    Ok(Some((sequence, robot, trajectory)))
+}
+
+/// A YAML key of letters, digits and underscores.
+fn motion_name(args: &PlayMotion2Args) -> String {
+    let raw = args.name.clone().unwrap_or_else(|| {
+        args.input
+            .sequence
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "motion".into())
+    });
+    let name: String = raw
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if name.is_empty() {
+        "motion".into()
+    } else {
+        name
+    }
+}

@@ -1,0 +1,104 @@
+//! `meta/info.json` of a LeRobotDataset: the codebase version, the frame rate, the robot type,
+//! where the data files are and the names of a feature's values (docs/interop.md §1).
+
+use super::LeRobotError;
+use crate::json::{self, Node};
+use std::path::Path;
+
+/// The only layout keypose reads: LeRobot's `CODEBASE_VERSION` since the v3.0 release.
+pub const SUPPORTED_VERSION: &str = "v3.0";
+/// LeRobot's default data file template (`DEFAULT_DATA_PATH`), for an info.json without one.
+pub const DEFAULT_DATA_PATH: &str = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet";
+
+/// What keypose needs from `meta/info.json`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DatasetInfo {
+    /// The file read, for messages.
+    pub file: String,
+    pub fps: f64,
+    pub robot_type: Option<String>,
+    pub data_path: String,
+    pub total_episodes: Option<u64>,
+    features: serde_json::Value,
+}
+
+impl DatasetInfo {
+    /// Reads `DIR/meta/info.json`, refusing any codebase version but v3.0.
+    pub fn read(dir: &Path) -> Result<DatasetInfo, LeRobotError> {
+        let path = dir.join("meta").join("info.json");
+        let file = path.display().to_string();
+        let text = json::read_text(&path)?;
+        let value = json::parse(&file, &text)?;
+        let root = Node::root(&file, &value);
+        let version = root.require("codebase_version", "the dataset's version")?;
+        let found = version.str("a version such as \"v3.0\"")?;
+        if found != SUPPORTED_VERSION {
+            return Err(LeRobotError::Version {
+                file: file.clone(),
+                found: found.to_string(),
+            });
+        }
+        let fps_node = root.require("fps", "frames per second")?;
+        let fps = fps_node.number("frames per second")?;
+        if !(fps.is_finite() && fps > 0.0 && fps <= 10_000.0) {
+            return Err(fps_node
+                .expected("frames per second above 0 and at most 10000")
+                .into());
+        }
+        let robot_type = match root.get("robot_type").map(|n| n.value.clone()) {
+            Some(serde_json::Value::String(s)) => Some(s),
+            _ => None,
+        };
+        let data_path = match root.get("data_path") {
+            Some(node) => node.str("a file name template")?.to_string(),
+            None => DEFAULT_DATA_PATH.to_string(),
+        };
+        let total_episodes = match root.get("total_episodes") {
+            Some(node) => Some(node.integer("a count of episodes", 0, i64::MAX)? as u64),
+            None => None,
+        };
+        let features = root.require("features", "the dataset's features")?;
+        features.object()?;
+        let features = features.value.clone();
+        Ok(DatasetInfo {
+            features,
+            file: file.clone(),
+            fps,
+            robot_type,
+            data_path,
+            total_episodes,
+        })
+    }
+
+    /// The names of `field`'s values (`features.<field>.names`), as LeRobot writes them
+    /// (`shoulder_pan.pos`, …).
+    pub fn names(&self, field: &str) -> Result<Vec<String>, LeRobotError> {
+        let root = Node::root(&self.file, &self.features);
+        let Some(feature) = root.get(field) else {
+            let known: Vec<&str> = self
+                .features
+                .as_object()
+                .map(|m| m.keys().map(String::as_str).collect())
+                .unwrap_or_default();
+            return Err(json::InputError::at_path(
+                &self.file,
+                "$.features",
+                format!(
+                    "no feature {field:?}; the dataset has: {}",
+                    known.join(", ")
+                ),
+            )
+            .into());
+        };
+        let names = feature.require("names", "the names of the feature's values")?;
+        let items = names.items()?;
+        let mut out = Vec::with_capacity(items.len());
+        for item in &items {
+            out.push(
+                item.str("a value name such as \"shoulder_pan.pos\"")?
+                    .to_string(),
+            );
+        }
+        Ok(out)
+    }
+}

@@ -1,0 +1,9 @@
+//! Motion in and out of keypose's own formats: LeRobot dataset episodes in ([`lerobot`]);
+//! ROS 2 `JointTrajectory` ([`ros2`]) and play_motion2 motions ([`play_motion2`]) out, written
+//! as YAML ([`yaml`]). Knows nothing about servos: everything here is joint values over time.
+
+pub mod c_export;
+pub mod lerobot;
+pub mod play_motion2;
+pub mod ros2;
+mod yaml;

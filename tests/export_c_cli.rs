@@ -1,0 +1,228 @@
+//! `keypose export c` and the reference player in players/c/, compiled on the host with gcc and
+//! run: the ticks it computes at the control rate against `keypose sample --units ticks`
+//! (±1 tick: the player rounds its fixed-point cubic, keypose its f64 curve), and its approach
+//! against the robot's limits. Without gcc these tests fail.
+
+mod common;
+
+use common::{repo, run, show, stdout};
+use keypose::robot::Robot;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// Compiles the player with the header exported from `sequence`; returns the program.
+fn build_player(sequence: &str, dir: &Path) -> PathBuf {
+    let header = dir.join("seq.h");
+    let out = run(&["export", "c", sequence, "-o", header.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let program = dir.join("player");
+    let players = repo("players/c");
+    let gcc = Command::new("gcc")
+        .args([
+            "-std=c99", "-Wall", "-Wextra", "-Werror", "-O2", "-I", &players, "-include",
+        ])
+        .arg(&header)
+        .arg(format!("{players}/host_dump.c"))
+        .arg(format!("{players}/keypose_player.c"))
+        .args(["-lm", "-o"])
+        .arg(&program)
+        .output()
+        .expect("gcc is needed to build the C player");
+    assert!(
+        gcc.status.success(),
+        "gcc: {}",
+        String::from_utf8_lossy(&gcc.stderr)
+    );
+    program
+}
+
+fn rows(text: &str) -> Vec<Vec<f64>> {
+    text.lines()
+        .filter(|l| !l.starts_with("time"))
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect()
+}
+
+fn player_rows(program: &Path, args: &[&str]) -> Vec<Vec<f64>> {
+    let out = Command::new(program).args(args).output().unwrap();
+    assert!(out.status.success());
+    rows(&String::from_utf8_lossy(&out.stdout))
+}
+
+fn assert_same_ticks(sequence: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let program = build_player(sequence, dir.path());
+    let played = player_rows(&program, &["100"]);
+    let sampled = run(&["sample", sequence, "--units", "ticks", "--rate", "100"]);
+    assert_eq!(sampled.status.code(), Some(0), "{}", show(&sampled));
+    let expected = rows(&stdout(&sampled));
+    assert_eq!(played.len(), expected.len(), "{sequence}: rows");
+    for (p, e) in played.iter().zip(&expected) {
+        for j in 1..e.len() {
+            assert!(
+                (p[j] - e[j]).abs() <= 1.0,
+                "{sequence}: t = {}, joint {}: player {}, keypose {}",
+                e[0],
+                j - 1,
+                p[j],
+                e[j]
+            );
+        }
+    }
+}
+
+#[test]
+fn the_players_ticks_are_keyposes_within_one_tick() {
+    // Feetech with holds and partial keys; Dynamixel; a prismatic gripper in ticks.
+    assert_same_ticks(&repo("sequences/so101_pick_place.json"));
+    assert_same_ticks(&repo("sequences/koch_wave.json"));
+    assert_same_ticks(&repo("sequences/omx_reach.json"));
+}
+
+#[test]
+fn the_approach_eases_in_to_the_first_pose_within_the_limits() {
+    let dir = tempfile::tempdir().unwrap();
+    let sequence = repo("sequences/so101_nod.json");
+    let program = build_player(&sequence, dir.path());
+    // From 600 ticks away on shoulder_pan and 300 the other way on elbow_flex.
+    let rate = 100.0;
+    let approach = player_rows(&program, &["100", "1447,2047,2347,2047,2047,2047"]);
+    let first = &player_rows(&program, &["100"])[0];
+    let last = approach.last().unwrap();
+    assert_eq!(
+        &last[1..],
+        &first[1..],
+        "the approach ends at the first pose"
+    );
+    assert_eq!(approach[0][1], 1447.0, "it starts where the arm is");
+    // The SO-101's limits in ticks per second (4096 ticks a turn): every step within the
+    // speed limit, the pan rising without ever going back (a smoothstep is monotone).
+    let robot = Robot::builtin("so101").unwrap();
+    for (j, joint) in robot.joints.iter().enumerate() {
+        let max_step = joint.limits.velocity * 4096.0 / 360.0 / rate;
+        for w in approach.windows(2) {
+            assert!(
+                (w[1][j + 1] - w[0][j + 1]).abs() <= max_step + 1.0,
+                "joint {j}: step beyond {max_step} ticks"
+            );
+        }
+    }
+    assert!(approach.windows(2).all(|w| w[1][1] >= w[0][1]));
+}
+
+/// Prints the Sync Write packets keypose_bus.c builds for ids 1, 2 and the ticks given.
+const PACKETS_MAIN: &str = r#"
+#include <stdio.h>
+#include <stdlib.h>
+#include "keypose_bus.h"
+static void show(const uint8_t *b, size_t n) { for (size_t i = 0; i < n; i++) printf("%02X", b[i]); printf("\n"); }
+int main(int argc, char **argv) {
+    uint8_t ids[2] = {1, 2}; int32_t ticks[2] = {atoi(argv[1]), atoi(argv[2])}; uint8_t out[64];
+    (void)argc;
+    show(out, kp_feetech_sync_write(ids, ticks, 2, out, sizeof out));
+    show(out, kp_dynamixel_sync_write(ids, ticks, 2, out, sizeof out));
+    return 0;
+}
+"#;
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02X}")).collect()
+}
+
+#[test]
+fn the_example_firmwares_sync_writes_are_the_protocols_bytes() {
+    use keypose::bus::protocol::codec;
+    use keypose::robot::Protocol;
+    let dir = tempfile::tempdir().unwrap();
+    let players = repo("players/c");
+    let main = dir.path().join("packets.c");
+    std::fs::write(&main, PACKETS_MAIN).unwrap();
+    let program = dir.path().join("packets");
+    let gcc = Command::new("gcc")
+        .args(["-std=c99", "-Wall", "-Wextra", "-Werror", "-I", &players])
+        .arg(&main)
+        .arg(format!("{players}/keypose_bus.c"))
+        .arg("-o")
+        .arg(&program)
+        .output()
+        .expect("gcc");
+    assert!(
+        gcc.status.success(),
+        "{}",
+        String::from_utf8_lossy(&gcc.stderr)
+    );
+    // 2047 and 1024; then −131073 = 0xFFFDFFFF, whose little-endian bytes FF FF FD FF make
+    // Dynamixel's header pattern and must be stuffed.
+    for (a, b) in [(2047i32, 1024i32), (-131073, 5)] {
+        let out = Command::new(&program)
+            .args([a.to_string(), b.to_string()])
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout).into_owned();
+        let lines: Vec<&str> = text.lines().collect();
+        // The layouts of docs/protocols.md, framed by keypose's own codecs (checksum, CRC,
+        // stuffing), which tests/conformance.rs holds to the vendor SDKs' bytes.
+        let sts = |t: i32| -> [u8; 2] {
+            let raw = if t < 0 {
+                0x8000 | (-t as u16 & 0x7FFF)
+            } else {
+                t as u16
+            };
+            raw.to_le_bytes()
+        };
+        let mut sts_params = vec![42, 2, 1];
+        sts_params.extend(sts(a));
+        sts_params.push(2);
+        sts_params.extend(sts(b));
+        let mut dxl_params = vec![116, 0, 4, 0, 1];
+        dxl_params.extend(a.to_le_bytes());
+        dxl_params.push(2);
+        dxl_params.extend(b.to_le_bytes());
+        let sts_bytes =
+            codec(Protocol::FeetechSts)
+                .framing()
+                .encode_instruction(0xFE, 0x83, &sts_params);
+        let dxl_bytes =
+            codec(Protocol::Dynamixel2)
+                .framing()
+                .encode_instruction(0xFE, 0x83, &dxl_params);
+        if a >= 0 {
+            assert_eq!(lines[0], hex(&sts_bytes), "Feetech STS");
+        }
+        assert_eq!(lines[1], hex(&dxl_bytes), "Dynamixel 2.0");
+    }
+    // The example firmware compiles against an exported header (the board's functions are its
+    // own: compiled, not linked).
+    let header_dir = tempfile::tempdir().unwrap();
+    let out = run(&[
+        "export",
+        "c",
+        &repo("sequences/koch_wave.json"),
+        "-o",
+        header_dir.path().join("seq.h").to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let gcc = Command::new("gcc")
+        .args([
+            "-std=c99",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-DKP_DYNAMIXEL",
+            "-c",
+            "-I",
+            &players,
+            "-I",
+        ])
+        .arg(header_dir.path())
+        .arg(format!("{players}/example_main.c"))
+        .arg("-o")
+        .arg(header_dir.path().join("example.o"))
+        .output()
+        .expect("gcc");
+    assert!(
+        gcc.status.success(),
+        "{}",
+        String::from_utf8_lossy(&gcc.stderr)
+    );
+}

@@ -1,0 +1,380 @@
+//! `keypose import lerobot` against LeRobotDataset v3.0 folders that the tests write with
+//! pyarrow (tests/data/make_lerobot_dataset.py, in keypose's own Python environment) from known
+//! motions: the frames are the oracle. Without python3 3.11+ or PyPI the environment cannot be
+//! built and these tests fail.
+
+mod common;
+
+use common::{repo, run_sim, show, sim_cache, stderr, stdout, SO101_JOINTS};
+use keypose::plan::{check, Trajectory};
+use keypose::robot::Robot;
+use keypose::sequence::Sequence;
+use serde_json::json;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+const FPS: f64 = 30.0;
+/// Tolerance asked for, degrees.
+const TOLERANCE: f64 = 1.0;
+/// Key times are whole milliseconds while frames are k/30 s apart: the curve is judged at the
+/// frames' own times, up to 0.5 ms from the nearest key time; at the test motions' largest
+/// speed (about 130 °/s) that moves the curve by up to 0.07°.
+const TIME_SNAP_SLACK: f64 = 0.07;
+
+/// keypose's Python environment (with pyarrow), built once for the tests of this file.
+fn python() -> PathBuf {
+    static PYTHON: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    PYTHON
+        .get_or_init(|| {
+            keypose::python::PyConfig::with_cache_dir(sim_cache())
+                .ensure_python()
+                .unwrap_or_else(|e| {
+                    panic!("keypose's Python environment (with pyarrow) is needed: {e}")
+                })
+                .python
+        })
+        .clone()
+}
+
+/// Writes a dataset at `root` from `episodes` (rows of values per frame) with `names`.
+fn write_dataset(
+    root: &Path,
+    version: &str,
+    names: &[String],
+    column: &str,
+    episodes: &[(u32, Vec<Vec<f64>>)],
+) {
+    let spec = json!({
+        "root": root,
+        "version": version,
+        "robot_type": "so101_follower",
+        "fps": FPS,
+        "names": names,
+        "column": column,
+        "episodes": episodes.iter().map(|(file, values)| json!({"file_index": file, "values": values})).collect::<Vec<_>>(),
+    });
+    let mut child = Command::new(python())
+        .arg(repo("tests/data/make_lerobot_dataset.py"))
+        .stdin(Stdio::piped())
+        .spawn()
+        .expect("start the dataset writer");
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(spec.to_string().as_bytes())
+        .unwrap();
+    assert!(child.wait().unwrap().success(), "the dataset writer failed");
+}
+
+fn pos_names(joints: &[&str]) -> Vec<String> {
+    joints.iter().map(|j| format!("{j}.pos")).collect()
+}
+
+/// A smooth motion of the SO-101's six joints in degrees (gripper in %), from rest to rest
+/// (a recorded motion starts and ends still; one that did not would have to be retimed, since
+/// playback starts from rest): per joint `a · (1 − cos wt)/2 + b · sin² wt` with w = 2π/seconds,
+/// whose velocity is 0 at both ends, and `amplitude` as wrist_roll's a (beyond 100 it can only be
+/// degrees). Largest acceleration `a·w²/2 + 2·b·w²`: 66 + 22 °/s² for 120 and 10 over 6 s, well
+/// within the SO-101's 344 °/s².
+fn motion(seconds: f64, amplitude: f64) -> Vec<Vec<f64>> {
+    let frames = (seconds * FPS) as usize + 1;
+    let w = std::f64::consts::TAU / seconds;
+    let shape =
+        |a: f64, b: f64, t: f64| a * (1.0 - (w * t).cos()) / 2.0 + b * (w * t).sin().powi(2);
+    (0..frames)
+        .map(|k| {
+            let t = k as f64 / FPS;
+            vec![
+                shape(40.0, 10.0, t),
+                shape(-30.0, 15.0, t),
+                shape(25.0, -10.0, t),
+                shape(-20.0, 20.0, t),
+                shape(amplitude, 10.0, t),
+                50.0 + shape(30.0, 10.0, t),
+            ]
+        })
+        .collect()
+}
+
+/// The sequence written by an import, its robot (with `calibration`) and the largest deviation
+/// of its curve from `expected` (joint values per frame at k/FPS), per joint.
+fn deviations(
+    sequence: &Path,
+    calibration: Option<&Path>,
+    expected: &[Vec<f64>],
+) -> (usize, Vec<f64>, bool) {
+    let sequence = Sequence::load(sequence).unwrap();
+    let mut robot = Robot::builtin("so101").unwrap();
+    if let Some(path) = calibration {
+        let text = std::fs::read_to_string(path).unwrap();
+        keypose::robot::import_lerobot_calibration(&mut robot, "cal.json", &text).unwrap();
+    }
+    let trajectory = Trajectory::build(&sequence, &robot).unwrap();
+    let mut worst = vec![0.0f64; robot.joints.len()];
+    for (k, row) in expected.iter().enumerate() {
+        let at = trajectory.sample(k as f64 / FPS);
+        for (j, (&want, got)) in row.iter().zip(at).enumerate() {
+            worst[j] = worst[j].max((want - got).abs());
+        }
+    }
+    let passed = check(&trajectory, &robot, robot.control_hz).passed();
+    (sequence.keyframes.len(), worst, passed)
+}
+
+fn import(dir: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "import",
+        "lerobot",
+        dir.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    run_sim(&args)
+}
+
+#[test]
+fn degree_episodes_from_list_columns_become_few_keys_within_tolerance() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("ds");
+    let (small, large) = (motion(6.0, 60.0), motion(6.0, 120.0));
+    // Three episodes over two data files; the one imported is alone in the second.
+    write_dataset(
+        &dir,
+        "v3.0",
+        &pos_names(&SO101_JOINTS),
+        "list",
+        &[
+            (0, small.clone()),
+            (0, motion(3.0, 10.0)),
+            (1, large.clone()),
+        ],
+    );
+
+    let out = tmp.path().join("two.json");
+    let result = import(&dir, &out, &["--episode", "2"]);
+    assert_eq!(result.status.code(), Some(0), "{}", show(&result));
+    assert!(
+        stdout(&result).contains("data/chunk-000/file-001.parquet"),
+        "{}",
+        show(&result)
+    );
+    // wrist_roll reaches 120: only degrees can, so the tool does not have to guess.
+    assert!(
+        !stderr(&result).contains("may be degrees"),
+        "{}",
+        show(&result)
+    );
+    // Gripper in % without a calibration: mapped onto its limits, and said.
+    assert!(
+        stderr(&result).contains("gripper is in 0…100 %"),
+        "{}",
+        show(&result)
+    );
+    // The gripper's % onto the built-in limits −10 … 100: −10 + p · 1.1.
+    let expected: Vec<Vec<f64>> = large
+        .iter()
+        .map(|r| {
+            let mut r = r.clone();
+            r[5] = -10.0 + r[5] * 1.1;
+            r
+        })
+        .collect();
+    let (keys, worst, passed) = deviations(&out, None, &expected);
+    assert!(
+        keys * 5 < expected.len(),
+        "{keys} keys for {} frames",
+        expected.len()
+    );
+    for (j, w) in worst.iter().enumerate() {
+        assert!(
+            *w <= TOLERANCE + TIME_SNAP_SLACK,
+            "{}: {w}°",
+            SO101_JOINTS[j]
+        );
+    }
+    assert!(passed, "the imported sequence must pass the limit check");
+
+    // Every value of episode 0 is within ±100: the tool cannot tell and says so.
+    let out0 = tmp.path().join("zero.json");
+    let result = import(
+        &dir,
+        &out0,
+        &["--episode", "0", "--field", "observation.state"],
+    );
+    assert_eq!(result.status.code(), Some(0), "{}", show(&result));
+    assert!(
+        stderr(&result).contains("may be degrees or LeRobot's −100…100"),
+        "{}",
+        show(&result)
+    );
+
+    let check = run_sim(&["check", out.to_str().unwrap()]);
+    assert_eq!(check.status.code(), Some(0), "{}", show(&check));
+
+    // Played straight from the dataset on emulated servos: imported in memory, checked, ramped.
+    let played = run_sim(&[
+        "play",
+        "--lerobot",
+        dir.to_str().unwrap(),
+        "--episode",
+        "1",
+        "--port",
+        "virtual",
+        "-q",
+    ]);
+    assert_eq!(played.status.code(), Some(0), "{}", show(&played));
+    assert!(stderr(&played).contains("samples →"), "{}", show(&played));
+
+    let missing = import(&dir, &tmp.path().join("x.json"), &["--episode", "7"]);
+    assert_eq!(missing.status.code(), Some(2), "{}", show(&missing));
+    assert!(
+        stderr(&missing).contains("episode 7 is not in meta/episodes"),
+        "{}",
+        show(&missing)
+    );
+    assert!(!tmp.path().join("x.json").exists());
+}
+
+/// A calibration with every joint's recorded range 1024 … 3072 (drive_mode 0). Hand-derived:
+/// the middle, 2048, is 0°, and keypose's degrees are (raw − 2048) · 360/4096. LeRobot's
+/// −100…100 puts 1024 at −100 and 3072 at +100, so v ↦ raw = 2048 + v · 10.24 ↦ 0.9 · v
+/// degrees; its gripper 0…100 % puts 0 at 1024: p ↦ (p − 50) · 1.8 degrees.
+fn calibration(path: &Path) {
+    let entries: serde_json::Map<String, serde_json::Value> = SO101_JOINTS
+        .iter()
+        .enumerate()
+        .map(|(i, j)| {
+            (j.to_string(), json!({"id": i + 1, "drive_mode": 0, "homing_offset": 0, "range_min": 1024, "range_max": 3072}))
+        })
+        .collect();
+    std::fs::write(path, serde_json::Value::Object(entries).to_string()).unwrap();
+}
+
+#[test]
+fn range_normalised_episode_from_fixed_size_lists_needs_and_uses_the_calibration() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("ds");
+    // In degrees: within ±80 so that the calibrated range (±90°) holds them.
+    let degrees = motion(6.0, 60.0);
+    let normalised: Vec<Vec<f64>> = degrees
+        .iter()
+        .map(|r| {
+            let mut v: Vec<f64> = r.iter().map(|d| d / 0.9).collect();
+            v[5] = r[5]; // gripper %: stays
+            v
+        })
+        .collect();
+    write_dataset(
+        &dir,
+        "v3.0",
+        &pos_names(&SO101_JOINTS),
+        "fixed",
+        &[(0, normalised)],
+    );
+    let cal = tmp.path().join("cal.json");
+    calibration(&cal);
+
+    let out = tmp.path().join("range.json");
+    let refused = import(&dir, &out, &["--episode", "0", "--units", "range"]);
+    assert_eq!(refused.status.code(), Some(2), "{}", show(&refused));
+    assert!(
+        stderr(&refused).contains("need the arm's calibration"),
+        "{}",
+        show(&refused)
+    );
+
+    let result = import(
+        &dir,
+        &out,
+        &[
+            "--episode",
+            "0",
+            "--units",
+            "range",
+            "--calibration",
+            cal.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(result.status.code(), Some(0), "{}", show(&result));
+    assert!(
+        stdout(&result).contains("fixed_size_list"),
+        "{}",
+        show(&result)
+    );
+    let expected: Vec<Vec<f64>> = degrees
+        .iter()
+        .map(|r| {
+            let mut r = r.clone();
+            r[5] = (r[5] - 50.0) * 1.8;
+            r
+        })
+        .collect();
+    let (keys, worst, passed) = deviations(&out, Some(&cal), &expected);
+    assert!(
+        keys * 5 < expected.len(),
+        "{keys} keys for {} frames",
+        expected.len()
+    );
+    for (j, w) in worst.iter().enumerate() {
+        assert!(
+            *w <= TOLERANCE + TIME_SNAP_SLACK,
+            "{}: {w}°",
+            SO101_JOINTS[j]
+        );
+    }
+    assert!(passed);
+}
+
+#[test]
+fn bimanual_and_older_datasets_are_refused_with_the_reason() {
+    let tmp = tempfile::tempdir().unwrap();
+    let two = tmp.path().join("bi");
+    let names: Vec<String> = ["left_", "right_"]
+        .iter()
+        .flat_map(|side| SO101_JOINTS.iter().map(move |j| format!("{side}{j}.pos")))
+        .collect();
+    let rows: Vec<Vec<f64>> = vec![vec![0.0; 12]; 10];
+    write_dataset(&two, "v3.0", &names, "list", &[(0, rows)]);
+    let out = tmp.path().join("bi.json");
+    let result = import(&two, &out, &["--episode", "0"]);
+    assert_eq!(result.status.code(), Some(2), "{}", show(&result));
+    assert!(
+        stderr(&result).contains("two-arm sequence, which keypose does not support yet"),
+        "{}",
+        show(&result)
+    );
+    assert!(!out.exists());
+
+    // A v2.1 info.json: refused before any parquet file is opened.
+    let old = tmp.path().join("old");
+    std::fs::create_dir_all(old.join("meta")).unwrap();
+    std::fs::write(
+        old.join("meta/info.json"),
+        r#"{"codebase_version": "v2.1", "fps": 30, "features": {}}"#,
+    )
+    .unwrap();
+    let result = import(&old, &out, &["--episode", "0"]);
+    assert_eq!(result.status.code(), Some(2), "{}", show(&result));
+    assert!(
+        stderr(&result)
+            .contains("codebase_version is \"v2.1\"; keypose reads LeRobotDataset v3.0 only"),
+        "{}",
+        show(&result)
+    );
+    // A v3.0 info.json with a bad frame rate: the file and the JSON path are named.
+    std::fs::write(
+        old.join("meta/info.json"),
+        r#"{"codebase_version": "v3.0", "fps": -30, "features": {}}"#,
+    )
+    .unwrap();
+    let result = import(&old, &out, &["--episode", "0"]);
+    assert_eq!(result.status.code(), Some(2), "{}", show(&result));
+    assert!(
+        stderr(&result).contains("info.json: $.fps: expected frames per second above 0"),
+        "{}",
+        show(&result)
+    );
+}
