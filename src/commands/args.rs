@@ -29,6 +29,27 @@ pub struct BusArgs {
     pub wire: WireArgs,
 }
 
+/// `--realtime` for the commands that run a control loop.
+#[derive(Debug, Clone, clap::Args)]
+pub struct RealtimeArgs {
+    /// Run the control loop under SCHED_FIFO with memory locked, where permitted (otherwise a
+    /// one-line notice, and the ordinary scheduler); see `keypose doctor`.
+    #[arg(long)]
+    pub realtime: bool,
+}
+
+impl RealtimeArgs {
+    /// Enters real-time scheduling for the calling thread when asked; threads started before
+    /// (the virtual bus's server, the signal handler) keep the ordinary scheduler.
+    pub fn enter(&self) {
+        if self.realtime {
+            for notice in keypose::pacing::realtime::enter().notices() {
+                eprintln!("{notice}");
+            }
+        }
+    }
+}
+
 /// How emulated servos (port "virtual", `keypose virtual-bus`) time their wire.
 #[derive(Debug, Clone, clap::Args)]
 pub struct WireArgs {

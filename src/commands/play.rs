@@ -60,6 +60,13 @@ pub struct PlayArgs {
     /// run: a stall) is a fault: the arm brakes to rest along its path and keypose exits 3.
     #[arg(long, value_name = "MS", default_value = "250", value_parser = parse_max_stall, allow_negative_numbers = true)]
     pub max_stall: f64,
+    #[command(flatten)]
+    pub realtime: super::RealtimeArgs,
+    /// Write each joint's acceleration limit into the servos' own motion profile (STS
+    /// Acceleration, Dynamixel Profile_Acceleration) so they smooth between streamed goals;
+    /// the previous values are restored afterwards, however playback ends.
+    #[arg(long)]
+    pub servo_profile: bool,
 }
 
 /// `--max-stall` in milliseconds, returned in seconds.
@@ -176,6 +183,7 @@ fn play_on_servos(
 ) -> Result<Verdict, CommandError> {
     let mut connection = args.bus.connect(robot, port)?;
     let stop = keypose::stop::stop_on_signal();
+    args.realtime.enter();
 
     if !args.quiet {
         eprintln!(

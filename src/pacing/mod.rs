@@ -9,6 +9,7 @@
 //! from the rate the arm actually followed during the stall.
 
 mod clock;
+pub mod machine;
 pub mod precise;
 pub mod realtime;
 

@@ -112,6 +112,9 @@ fn soft_limit(resource: libc::__rlimit_resource_t) -> Option<libc::rlim_t> {
     (unsafe { libc::getrlimit(resource, &mut limit) } == 0).then_some(limit.rlim_cur)
 }
 
+/// The value of an unlimited resource limit.
+pub const UNLIMITED: u64 = libc::RLIM_INFINITY;
+
 /// The soft RLIMIT_RTPRIO: the highest real-time priority an unprivileged process may take.
 pub fn rtprio_limit() -> Option<u64> {
     soft_limit(libc::RLIMIT_RTPRIO)
