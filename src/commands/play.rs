@@ -126,6 +126,7 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
         log: args.log.clone(),
         progress: !args.quiet,
         max_stall: args.max_stall,
+        servo_profile: args.servo_profile,
         ..PlayOptions::new(rate)
     };
     match &args.bus.port {
@@ -231,6 +232,9 @@ fn conclude(
             ))
         }
         Err(e @ PlayError::Log { .. }) => Err(CommandError::Usage(e.to_string())),
+        Err(e @ PlayError::ServoProfile(player::ServoProfileError::Units(_))) => {
+            Err(CommandError::Usage(e.to_string()))
+        }
         Err(e) => Err(CommandError::Play(e)),
     }
 }
