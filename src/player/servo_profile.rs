@@ -10,13 +10,14 @@ use crate::bus::profile::{settings_for, ProfileError, Setting};
 use crate::bus::{BusError, ServoBus};
 use crate::robot::Robot;
 
-/// The values found in one profile register before playback: (id, value) per servo.
-type Saved = (Setting, Vec<(u8, i64)>);
+/// One profile register's values, (id, value) per servo: the values found before playback, or
+/// the ones to write.
+type Values = (Setting, Vec<(u8, i64)>);
 
 pub struct ProfileGuard<'a> {
     bus: &'a mut dyn ServoBus,
     /// What to write back, in the order it was written; empty once restored.
-    saved: Vec<Saved>,
+    saved: Vec<Values>,
 }
 
 /// Why the profile could not be set up or put back.
@@ -85,8 +86,8 @@ impl Drop for ProfileGuard<'_> {
 
 /// Each setting with the value every servo gets, grouped by setting (one sync write each), in
 /// joint order.
-fn wanted_settings(robot: &Robot) -> Result<Vec<(Setting, Vec<(u8, i64)>)>, ProfileError> {
-    let mut grouped: Vec<(Setting, Vec<(u8, i64)>)> = Vec::new();
+fn wanted_settings(robot: &Robot) -> Result<Vec<Values>, ProfileError> {
+    let mut grouped: Vec<Values> = Vec::new();
     for joint in &robot.joints {
         for (setting, value) in settings_for(joint)? {
             match grouped.iter_mut().find(|(s, _)| *s == setting) {
