@@ -28,7 +28,7 @@ fn trajectory(robot: &Robot) -> Trajectory {
         robot.name
     );
     let sequence = Sequence::from_json("tilt.json", &json).unwrap();
-    Trajectory::build(&sequence, &robot).unwrap()
+    Trajectory::build(&sequence, robot).unwrap()
 }
 
 /// Every sync write to `address` the servos received, as (id, value) lists, in order.
