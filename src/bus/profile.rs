@@ -91,8 +91,7 @@ pub fn settings_for(joint: &Joint) -> Result<Vec<(Setting, i64)>, ProfileError> 
             )])
         }
         Vendor::Dynamixel => {
-            let accel_unit = DXL_ACCELERATION_UNIT_REV_MIN2 * TICKS_PER_REV / 3600.0;
-            let vel_unit = DXL_VELOCITY_UNIT_REV_MIN * TICKS_PER_REV / 60.0;
+            let (accel_unit, vel_unit) = (dxl_acceleration_unit(), dxl_velocity_unit());
             let acceleration = units(
                 joint,
                 "acceleration",
@@ -118,6 +117,37 @@ pub fn settings_for(joint: &Joint) -> Result<Vec<(Setting, i64)>, ProfileError> 
             ])
         }
     }
+}
+
+/// What the servo will really apply for `joint` once [`settings_for`] is written, in joint
+/// units: (acceleration limit per s², velocity limit per s if the servo has one), from the
+/// rounded register values. The simulation models these, so its verdict reflects the rounding.
+pub fn applied_limits(joint: &Joint) -> Result<(f64, Option<f64>), ProfileError> {
+    let per_tick = joint.servo.units_per_tick.abs();
+    let mut acceleration = 0.0;
+    let mut velocity = None;
+    for (setting, value) in settings_for(joint)? {
+        match setting {
+            Setting::Acceleration => acceleration = value as f64 * STS_ACCELERATION_UNIT * per_tick,
+            Setting::ProfileAcceleration => {
+                acceleration = value as f64 * dxl_acceleration_unit() * per_tick
+            }
+            Setting::ProfileVelocity => {
+                velocity = Some(value as f64 * dxl_velocity_unit() * per_tick)
+            }
+        }
+    }
+    Ok((acceleration, velocity))
+}
+
+/// Dynamixel Profile_Acceleration's unit in ticks/s².
+fn dxl_acceleration_unit() -> f64 {
+    DXL_ACCELERATION_UNIT_REV_MIN2 * TICKS_PER_REV / 3600.0
+}
+
+/// Dynamixel Profile_Velocity's unit in ticks/s.
+fn dxl_velocity_unit() -> f64 {
+    DXL_VELOCITY_UNIT_REV_MIN * TICKS_PER_REV / 60.0
 }
 
 /// `limit` (joint units per second, or per second squared) in register units of `unit_ticks`
