@@ -390,7 +390,7 @@ impl VirtualServos {
     /// How long servo `id` waits before answering, from its Return_Delay_Time register:
     /// Dynamixel counts 2 µs a unit; Feetech STS servos ignore the register (Feetech's
     /// memory table gives the address no function on STS).
-    fn return_delay(&self, id: u8) -> Option<Duration> {
+    pub fn return_delay(&self, id: u8) -> Option<Duration> {
         let servo = self.servos.iter().find(|s| s.id == id)?;
         match servo.model.vendor() {
             crate::robot::Vendor::Dynamixel => {
