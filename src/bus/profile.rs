@@ -5,9 +5,9 @@
 //! - Feetech STS3215 **Acceleration** (41, 1 byte): 100 steps/s² per unit, 0–254; 0 = no limit.
 //! - Dynamixel X **Profile_Acceleration** (108, 4 bytes): 214.577 rev/min² per unit in the
 //!   velocity-based profile (Drive Mode bit 2 clear, the factory setting); 0 = no limit.
-//! - Dynamixel X **Profile_Velocity** (112, 4 bytes): 0.229 rev/min per unit; 0 = no limit. The
-//!   e-Manual's profile table makes the profile a step (acceleration ignored) while it is 0, so
-//!   it is written too.
+//! - Dynamixel X **Profile_Velocity** (112, 4 bytes): 0.229 rev/min per unit. The e-Manual's
+//!   profile table: while it is 0 no profile is used at all (a step instruction, the
+//!   acceleration ignored), so it is written too.
 //!
 //! A joint limit becomes register units **rounded down**: the servo then never accelerates (or
 //! moves) faster than the joint's limit allows, at the price of lagging a goal stream that uses
