@@ -175,3 +175,33 @@ fn units(
         unit,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::robot::Robot;
+
+    #[test]
+    fn a_limit_below_one_register_unit_is_refused_rather_than_written_as_no_limit() {
+        // STS: one unit = 100 steps/s² = 100 · 360/4096 = 8.789 °/s²; 5 °/s² is below it.
+        let mut robot = Robot::builtin("so101").unwrap();
+        robot.joints[0].limits.acceleration = 5.0;
+        let error = settings_for(&robot.joints[0]).unwrap_err();
+        assert_eq!(error.register, "Acceleration");
+        assert!((error.unit_value - 8.789).abs() < 1e-3, "{error}");
+    }
+
+    #[test]
+    fn the_simulated_profile_is_the_rounded_register_value_in_joint_units() {
+        // so101: 344 °/s² → 39 units → 39 · 100 · 360/4096 = 342.77 °/s², no velocity register.
+        let robot = Robot::builtin("so101").unwrap();
+        let (a, v) = applied_limits(&robot.joints[0]).unwrap();
+        assert!((a - 342.773).abs() < 1e-3, "{a}");
+        assert_eq!(v, None);
+        // koch shoulder_pan (XL430): 32 · 21.4577 = 686.65 °/s²; 160 · 1.374 = 219.84 °/s.
+        let koch = Robot::builtin("koch").unwrap();
+        let (a, v) = applied_limits(&koch.joints[0]).unwrap();
+        assert!((a - 686.65).abs() < 1e-2, "{a}");
+        assert!((v.unwrap() - 219.84).abs() < 1e-2, "{v:?}");
+    }
+}

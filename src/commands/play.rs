@@ -99,6 +99,11 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
             "--no-approach makes the arm jump to the first pose at full speed; add --i-accept-the-jump to confirm".into(),
         ));
     }
+    if args.servo_profile && args.bus.driver == keypose::bus::Driver::Sdk {
+        return Err(CommandError::Usage(
+            "--servo-profile needs --driver native: the vendor-SDK bridge does not reach the profile registers".into(),
+        ));
+    }
     let from_key = from_key(args, &trajectory)?;
     let rate = super::control_rate(args.rate, &robot)?;
     super::check_sample_budget(&sequence.file, &trajectory, rate)?;

@@ -170,3 +170,72 @@ mod tests {
         );
     }
 }
+
+#[cfg(test)]
+mod exchange_tests {
+    use super::super::VirtualServos;
+    use crate::bus::protocol::codec;
+    use crate::robot::{Protocol, Robot};
+    use std::time::Duration;
+
+    /// A Feetech packet: FF FF, id, length (parameters + 2), instruction, parameters, checksum
+    /// = the inverted low byte of the sum from id to the last parameter (docs/protocols.md §2.1).
+    fn feetech(id: u8, instruction: u8, params: &[u8]) -> Vec<u8> {
+        let mut body = vec![id, params.len() as u8 + 2, instruction];
+        body.extend_from_slice(params);
+        let sum: u32 = body.iter().map(|&b| u32::from(b)).sum();
+        let mut packet = vec![0xFF, 0xFF];
+        packet.extend_from_slice(&body);
+        packet.push(!(sum as u8));
+        packet
+    }
+
+    #[test]
+    fn a_sync_write_and_sync_read_arriving_together_are_timed_packet_by_packet() {
+        let robot = Robot::builtin("so101").unwrap();
+        let mut servos = VirtualServos::for_robot(&robot);
+        // Sync write (0x83) of Goal_Position (42, 2 bytes) = 2048 to ids 1…6: 26 bytes; sync
+        // read (0x82) of Present_Position (56, 2 bytes) from ids 1…6: 14 bytes.
+        let mut write_params = vec![42, 2];
+        for id in 1..=6u8 {
+            write_params.extend_from_slice(&[id, 0x00, 0x08]);
+        }
+        let mut bytes = feetech(0xFE, 0x83, &write_params);
+        bytes.extend(feetech(0xFE, 0x82, &[56, 2, 1, 2, 3, 4, 5, 6]));
+        assert_eq!(bytes.len(), 26 + 14);
+        let exchanges = servos.exchanges(&bytes);
+        assert_eq!(exchanges.len(), 2);
+        assert_eq!(exchanges[0].request_bytes, 26);
+        assert!(exchanges[0].answers.is_empty());
+        assert_eq!(exchanges[1].request_bytes, 14);
+        let answers = &exchanges[1].answers;
+        // Six 8-byte status packets, none delayed: the STS3215 has no return delay.
+        assert_eq!(answers.len(), 6);
+        assert!(answers
+            .iter()
+            .all(|a| a.bytes.len() == 8 && a.return_delay.is_zero()));
+    }
+
+    #[test]
+    fn a_dynamixel_servo_answers_after_its_return_delay_register() {
+        let robot = Robot::builtin("koch").unwrap();
+        let mut servos = VirtualServos::for_robot(&robot);
+        let framing = codec(Protocol::Dynamixel2).framing();
+        // WRITE (0x03) Return_Delay_Time (address 9, 1 byte) = 250 on servo 1: 250 × 2 µs.
+        servos.exchanges(&framing.encode_instruction(1, 0x03, &[9, 0, 250]));
+        // SYNC READ (0x82) of Present_Position (132, 4 bytes) from ids 1…6: 10 + 4 + 6 = 20
+        // bytes; each answer 11 + 4 = 15 bytes.
+        let read = framing.encode_instruction(0xFE, 0x82, &[132, 0, 4, 0, 1, 2, 3, 4, 5, 6]);
+        let exchanges = servos.exchanges(&read);
+        assert_eq!(exchanges[0].request_bytes, 20);
+        let delays: Vec<Duration> = exchanges[0]
+            .answers
+            .iter()
+            .map(|a| a.return_delay)
+            .collect();
+        let mut expected = vec![Duration::ZERO; 6];
+        expected[0] = Duration::from_micros(500);
+        assert_eq!(delays, expected);
+        assert!(exchanges[0].answers.iter().all(|a| a.bytes.len() == 15));
+    }
+}
