@@ -335,6 +335,24 @@ fn ports_and_doctor_run_on_a_machine_without_adapters() {
 }
 
 #[test]
+fn a_usb_latency_beyond_the_ftdi_timer_range_is_refused_before_anything_opens() {
+    // The FTDI latency timer takes 0…255 ms; 300 is bad input: exit 2, naming the option.
+    let out = keypose()
+        .args([
+            "play",
+            &repo("sequences/so101_nod.json"),
+            "--port",
+            "virtual",
+        ])
+        .args(["--usb-latency", "300"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("--usb-latency"), "{}", stderr(&out));
+    assert!(stderr(&out).contains("0 to 255 ms"), "{}", stderr(&out));
+}
+
+#[test]
 fn doctor_reports_the_governors_the_sysfs_files_hold_and_how_to_tune_the_adapter() {
     let out = keypose().arg("doctor").output().unwrap();
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
