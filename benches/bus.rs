@@ -487,10 +487,11 @@ fn bus_cycles(name: &str) -> VendorResult {
 // ---------------------------------------------------------------------------------------------
 // 3. Software cost without I/O.
 
-/// Answers the driver's sync read at once with canned status packets (encoded once, up front)
-/// and its sync write with nothing: the driver's own encoding and decoding is all that runs.
+/// Answers the driver's sync read at once with canned status packets (encoded once, up front,
+/// handed over as one chunk) and its sync write with nothing: the driver's own encoding and
+/// decoding is nearly all that runs.
 struct Canned {
-    answers: Vec<Vec<u8>>,
+    answers: Vec<u8>,
     /// The driver writes the sync write, then the sync read: every second write is answered.
     writes: u64,
 }
@@ -501,10 +502,7 @@ impl keypose::bus::transport::Responder for Canned {
         if self.writes % 2 == 1 {
             return Vec::new();
         }
-        self.answers
-            .iter()
-            .map(|a| (Duration::ZERO, a.clone()))
-            .collect()
+        vec![(Duration::ZERO, self.answers.clone())]
     }
 }
 
@@ -541,7 +539,10 @@ fn software_cost(name: &str) -> Result<f64, String> {
                 .map_err(|e| e.to_string())
         })
         .collect::<Result<Vec<_>, String>>()?;
-    let transport = keypose::bus::transport::MemoryTransport::new(Canned { answers, writes: 0 });
+    let transport = keypose::bus::transport::MemoryTransport::new(Canned {
+        answers: answers.concat(),
+        writes: 0,
+    });
     let servos = robot.servos();
     let mut bus =
         keypose::bus::driver::NativeBus::new(Box::new(transport), robot.bus.protocol, &servos);
