@@ -173,3 +173,29 @@ fn koch_gets_profile_velocity_and_acceleration_and_both_are_restored_after_a_fau
         vec![0; 6]
     );
 }
+
+#[test]
+fn a_stop_request_ends_playback_with_the_old_values_back() {
+    // Two requests already pending (Ctrl-C twice): the first cycle holds at once.
+    let robot = Robot::builtin("so101").unwrap();
+    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
+    let ids = ids(&robot);
+    let before: Vec<(u8, i64)> = ids.iter().map(|&id| (id, 200)).collect();
+    bus.write_setting(&before, Setting::Acceleration).unwrap();
+    let stop = StopSignal::default();
+    stop.request();
+    stop.request();
+    let mut options = PlayOptions::new(100.0);
+    options.servo_profile = true;
+    let (outcome, _) = play(&mut bus, &robot, &trajectory(&robot), &options, &stop).unwrap();
+    assert_eq!(outcome, Outcome::Held);
+    let during: Vec<(u8, i64)> = ids.iter().map(|&id| (id, 39)).collect();
+    assert_eq!(
+        sync_writes_to(&virtual_bus, 41, false),
+        [before.clone(), during, before]
+    );
+    assert_eq!(
+        bus.read_setting(&ids, Setting::Acceleration).unwrap(),
+        vec![200; 6]
+    );
+}
