@@ -1,28 +1,34 @@
-//! Servo-bus benchmark on the virtual bus: emulated servos served on a pseudo-terminal, reached
-//! through the same serial code as a USB adapter.
+//! Servo-bus benchmark on the wire-timed virtual bus: emulated servos served on a
+//! pseudo-terminal, reached through the same serial code as a USB adapter, answering when the
+//! real wire would (bytes at the robot's baud rate, 10 bits a byte, each servo's return delay;
+//! no USB latency), see docs/protocols.md §3.
 //!
 //! 1. Bus cycles: one sync write of 6 goal positions + one sync read of 6 present positions,
-//!    per second, through keypose's native driver and through the vendor SDK bridge
-//!    (`--driver sdk`: dynamixel_sdk / scservo_sdk in a Python process spoken to in JSON lines),
-//!    for so101 (Feetech STS3215 ×6) and koch (Dynamixel X ×6). Native and SDK runs alternate,
-//!    [`REPS`] times each, and the median is reported, so both see the same machine load. Beside
-//!    them: the wire-time limit of the same traffic at 1 Mbps, computed from the packet sizes of
-//!    docs/protocols.md §3. The pseudo-terminal has no baud rate and the virtual servos
-//!    answer with no return delay, so the virtual figures measure software overhead only
-//!    (driver, kernel pty, the emulator thread, and for the SDK the Python bridge and its pipe).
-//! 2. Player jitter: the player streams a 10 s cubic on so101's shoulder_pan to the virtual bus
-//!    with the native driver at 100 Hz and 500 Hz; from `Stats.pacing.lateness` (each cycle's start
-//!    against its absolute deadline) come p50, p99 and max, and the achieved mean period. The
-//!    approach ramp (≥ 0.5 s) that precedes the sequence is included. At 500 Hz the run is made
-//!    with a read-back every cycle and with one every 5th cycle.
+//!    per second, for so101 (Feetech STS3215 ×6) and koch (Dynamixel X ×6), through keypose's
+//!    native driver, through the vendor SDK bridge (`--driver sdk`: dynamixel_sdk / scservo_sdk
+//!    in a Python process spoken to in JSON lines), and through the `rustypot` crate driving the
+//!    same virtual bus. The drivers alternate, [`REPS`] times each, and the median is reported,
+//!    so all see the same machine load. Beside them: the wire limit of the same traffic, from
+//!    the packet sizes of docs/protocols.md §3 and the servos' return delay, and each driver's
+//!    share of it: 100 % is the wire's pace, the rest is software (driver, kernel pty,
+//!    emulator thread).
+//! 2. Player lateness: the player streams a 10 s cubic on so101's shoulder_pan to the
+//!    wire-timed virtual bus with the native driver at 100 Hz and 500 Hz; from
+//!    `Stats.pacing.lateness` (each cycle's start against its absolute deadline) come p50, p99
+//!    and max, and the achieved mean period. The approach ramp (≥ 0.5 s) that precedes the
+//!    sequence is included. At 500 Hz the run is made with a read-back every cycle and with one
+//!    every 5th cycle.
+//! 3. Software cost: CPU time per cycle of the native driver's encode + decode (sync write of 6
+//!    goals, sync read of 6 positions) over an in-memory transport that answers with canned
+//!    status packets at once: no I/O, no emulator.
 //!
 //! `cargo bench --bench bus` prints a compact table on lines starting with `summary:`. Nothing is
 //! asserted about timing. The SDK bridge needs python3 (3.11+, with venv) and PyPI the first
 //! time: its environment is built in `target/tmp/bench_bus_cache` unless `KEYPOSE_CACHE` or
 //! `KEYPOSE_PYTHON` is set. Without it the SDK figures say why they are missing.
 
-use keypose::bus::virtual_bus::PtyServer;
-use keypose::bus::{connect, BusError, Connection, Driver, ServoBus};
+use keypose::bus::virtual_bus::{PtyServer, WireTiming};
+use keypose::bus::{connect, Connection, Driver, ServoBus};
 use keypose::plan::Trajectory;
 use keypose::player::{play, Outcome, PlayOptions, StopSignal};
 use keypose::robot::{Protocol, Robot};
@@ -43,9 +49,6 @@ const ROBOTS: [&str; 2] = ["so101", "koch"];
 // No byte stuffing, no firmware time, no USB latency; the return delay time (RDT) is paid once
 // per answering servo.
 
-/// 8N1: 10 bits per byte; at 1 Mbps one byte takes 10 µs.
-const BITS_PER_BYTE: f64 = 10.0;
-const BAUD: f64 = 1_000_000.0;
 const SERVOS: usize = 6;
 
 /// Packet sizes in bytes for a 6-servo sync write + sync read of positions (§3 table).
@@ -54,11 +57,14 @@ struct Traffic {
     sync_write: usize,
     sync_read_instruction: usize,
     status_each: usize,
+    /// The robot's baud rate.
+    wire: WireTiming,
 }
 
 impl Traffic {
-    fn of(protocol: Protocol) -> Traffic {
-        match protocol {
+    fn of(robot: &Robot) -> Traffic {
+        let wire = WireTiming::at(robot.bus.baud);
+        match robot.bus.protocol {
             Protocol::Dynamixel2 => Traffic {
                 name: "DXL",
                 // Sync Write, Goal Position (4 B) ×6: 8 + 4 + 6·5 + 2 = 44.
@@ -67,6 +73,7 @@ impl Traffic {
                 sync_read_instruction: 8 + 4 + SERVOS + 2,
                 // Status packet with 4 data bytes: 15 (×6 = 90).
                 status_each: 15,
+                wire,
             },
             _ => Traffic {
                 name: "STS",
@@ -76,6 +83,7 @@ impl Traffic {
                 sync_read_instruction: 2 + 1 + 1 + 1 + 2 + SERVOS + 1,
                 // Status packet with 2 data bytes: 8 (×6 = 48).
                 status_each: 8,
+                wire,
             },
         }
     }
@@ -84,16 +92,23 @@ impl Traffic {
         self.sync_write + self.sync_read_instruction + SERVOS * self.status_each
     }
 
-    /// Wire time of one cycle at 1 Mbps, seconds, with the return delay `rdt` per servo.
+    /// Wire time of one cycle, seconds, with the return delay `rdt` per servo.
     fn cycle_seconds(&self, rdt: f64) -> f64 {
-        self.bytes() as f64 * BITS_PER_BYTE / BAUD + SERVOS as f64 * rdt
+        self.wire.bytes_time(self.bytes()).as_secs_f64() + SERVOS as f64 * rdt
     }
 
     /// The most cycles per second the wire allows (§3: DXL ≤ 650 Hz at RDT 0, ≤ 220 Hz at
-    /// RDT 500 µs; STS ≤ 1140 Hz at RDT 0, ≤ 258 Hz at RDT 500 µs — §3 rounds to 2–3 digits).
+    /// RDT 500 µs; STS ≤ 1140 Hz at RDT 0 — §3 rounds to 2–3 digits).
     fn limit_hz(&self, rdt: f64) -> f64 {
         1.0 / self.cycle_seconds(rdt)
     }
+}
+
+/// The return delay the emulated servos of `robot` apply (the same for all, seconds).
+fn virtual_return_delay(robot: &Robot) -> f64 {
+    let servos = keypose::bus::virtual_bus::VirtualServos::for_robot(robot);
+    let first = robot.joints[0].servo.id;
+    servos.return_delay(first).map_or(0.0, |d| d.as_secs_f64())
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -163,23 +178,29 @@ fn load_average() -> String {
 // ---------------------------------------------------------------------------------------------
 // 1. Bus cycles.
 
-/// One driver's connection with the virtual servos it talks to.
-struct Link {
-    /// Declared before the server so the client closes the port first.
-    connection: Connection,
-    _server: PtyServer,
-    ids: Vec<u8>,
-    goals: Vec<(u8, i64)>,
-    warmed_up: bool,
-    errors: u64,
-    first_error: Option<String>,
+/// Which code drives the bus.
+#[derive(Clone, Copy, PartialEq)]
+enum Contender {
+    Keypose(Driver),
+    Rustypot,
 }
 
-impl Link {
-    fn open(robot: &Robot, driver: Driver) -> Result<Link, String> {
-        let server = PtyServer::start(robot).map_err(|e| e.to_string())?;
-        let mut connection =
-            connect(robot, server.path(), driver, None).map_err(|e| e.to_string())?;
+/// One bus cycle (sync write of the goals, sync read of the positions) by one driver.
+trait Cycler {
+    fn cycle(&mut self) -> Result<(), String>;
+    fn describe(&self) -> String;
+}
+
+/// keypose's native driver or the SDK bridge, through [`connect`].
+struct KeyposeCycler {
+    connection: Connection,
+    ids: Vec<u8>,
+    goals: Vec<(u8, i64)>,
+}
+
+impl KeyposeCycler {
+    fn open(robot: &Robot, path: &str, driver: Driver) -> Result<KeyposeCycler, String> {
+        let mut connection = connect(robot, path, driver, None).map_err(|e| e.to_string())?;
         let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
         // Goals are where the servos are: the cycles move nothing, only the traffic counts.
         let ticks = connection
@@ -187,22 +208,124 @@ impl Link {
             .read_positions(&ids)
             .map_err(|e| format!("first read: {e}"))?;
         let goals = ids.iter().copied().zip(ticks).collect();
-        Ok(Link {
+        Ok(KeyposeCycler {
             connection,
-            _server: server,
             ids,
             goals,
+        })
+    }
+}
+
+impl Cycler for KeyposeCycler {
+    fn cycle(&mut self) -> Result<(), String> {
+        let bus: &mut dyn ServoBus = self.connection.bus.as_mut();
+        bus.write_goals(&self.goals).map_err(|e| e.to_string())?;
+        bus.read_positions(&self.ids).map_err(|e| e.to_string())?;
+        Ok(())
+    }
+
+    fn describe(&self) -> String {
+        self.connection.bus.describe()
+    }
+}
+
+/// The `rustypot` crate (Pollen Robotics) on the same pseudo-terminal: its protocol handler
+/// (v1 framing for Feetech STS, v2 for Dynamixel) with raw sync write and sync read.
+struct RustypotCycler {
+    port: Box<dyn serialport::SerialPort>,
+    io: rustypot::DynamixelProtocolHandler,
+    ids: Vec<u8>,
+    goal_address: u8,
+    present_address: u8,
+    size: u8,
+    goals: Vec<Vec<u8>>,
+    describe: String,
+}
+
+impl RustypotCycler {
+    fn open(robot: &Robot, path: &str) -> Result<RustypotCycler, String> {
+        let port = serialport::new(path, robot.bus.baud)
+            .timeout(Duration::from_millis(50))
+            .open()
+            .map_err(|e| e.to_string())?;
+        let table = robot.joints[0].servo.model.spec().table;
+        let (goal, present) = (table.goal_position, table.present_position);
+        let io = match robot.bus.protocol {
+            Protocol::Dynamixel2 => rustypot::DynamixelProtocolHandler::v2(),
+            _ => rustypot::DynamixelProtocolHandler::v1(),
+        };
+        let address = |a: u16| u8::try_from(a).map_err(|_| format!("address {a} beyond u8"));
+        let mut cycler = RustypotCycler {
+            port,
+            io,
+            ids: robot.joints.iter().map(|j| j.servo.id).collect(),
+            goal_address: address(goal.address)?,
+            present_address: address(present.address)?,
+            size: present.size,
+            goals: Vec::new(),
+            describe: format!("rustypot on {path} at {}", robot.bus.baud),
+        };
+        // Goals are where the servos are, as bytes read back.
+        cycler.goals = cycler.read()?;
+        Ok(cycler)
+    }
+
+    fn read(&mut self) -> Result<Vec<Vec<u8>>, String> {
+        self.io
+            .sync_read(
+                self.port.as_mut(),
+                &self.ids,
+                self.present_address,
+                self.size,
+            )
+            .map_err(|e| e.to_string())
+    }
+}
+
+impl Cycler for RustypotCycler {
+    fn cycle(&mut self) -> Result<(), String> {
+        self.io
+            .sync_write(
+                self.port.as_mut(),
+                &self.ids,
+                self.goal_address,
+                &self.goals,
+            )
+            .map_err(|e| e.to_string())?;
+        self.read().map(|_| ())
+    }
+
+    fn describe(&self) -> String {
+        self.describe.clone()
+    }
+}
+
+/// One driver's connection with the virtual servos it talks to.
+struct Link {
+    /// Declared before the server so the client closes the port first.
+    cycler: Box<dyn Cycler>,
+    _server: PtyServer,
+    warmed_up: bool,
+    errors: u64,
+    first_error: Option<String>,
+}
+
+impl Link {
+    fn open(robot: &Robot, contender: Contender) -> Result<Link, String> {
+        let server = PtyServer::start(robot).map_err(|e| e.to_string())?;
+        let cycler: Box<dyn Cycler> = match contender {
+            Contender::Keypose(driver) => {
+                Box::new(KeyposeCycler::open(robot, server.path(), driver)?)
+            }
+            Contender::Rustypot => Box::new(RustypotCycler::open(robot, server.path())?),
+        };
+        Ok(Link {
+            cycler,
+            _server: server,
             warmed_up: false,
             errors: 0,
             first_error: None,
         })
-    }
-
-    fn cycle(&mut self) -> Result<(), BusError> {
-        let bus: &mut dyn ServoBus = self.connection.bus.as_mut();
-        bus.write_goals(&self.goals)?;
-        bus.read_positions(&self.ids)?;
-        Ok(())
     }
 
     /// Cycles for `length`; returns cycles per second and every successful cycle's duration.
@@ -218,11 +341,11 @@ impl Link {
         let mut cycles = 0u64;
         loop {
             let before = Instant::now();
-            match self.cycle() {
+            match self.cycler.cycle() {
                 Ok(()) => durations.push(before.elapsed().as_secs_f64()),
                 Err(e) => {
                     self.errors += 1;
-                    self.first_error.get_or_insert_with(|| e.to_string());
+                    self.first_error.get_or_insert(e);
                 }
             }
             cycles += 1;
@@ -285,18 +408,57 @@ impl DriverResult {
 struct VendorResult {
     robot: String,
     traffic: Traffic,
+    /// The emulated servos' return delay, seconds.
+    rdt: f64,
     native: DriverResult,
     sdk: DriverResult,
+    rustypot: DriverResult,
     /// CPU steal during the timed runs.
     steal: String,
 }
 
+/// One contender's link and what its runs measured.
+struct Runs {
+    link: Result<Link, String>,
+    reps: Vec<f64>,
+    durations: Vec<f64>,
+}
+
+impl Runs {
+    fn run(&mut self) {
+        if let Ok(link) = self.link.as_mut() {
+            let (rate, durations) = link.run(RUN);
+            self.reps.push(rate);
+            self.durations.extend(durations);
+        }
+    }
+
+    fn finish(self) -> DriverResult {
+        match self.link {
+            Ok(link) => DriverResult {
+                rate: Ok(median(&self.reps)),
+                reps: self.reps,
+                durations: self.durations,
+                errors: link.errors,
+                first_error: link.first_error.clone(),
+                describe: link.cycler.describe(),
+            },
+            Err(reason) => DriverResult::missing(reason),
+        }
+    }
+}
+
 fn bus_cycles(name: &str) -> VendorResult {
     let robot = Robot::builtin(name).expect("a built-in robot");
-    let traffic = Traffic::of(robot.bus.protocol);
-    let mut native = Link::open(&robot, Driver::Native);
+    let traffic = Traffic::of(&robot);
+    let open = |contender| Runs {
+        link: Link::open(&robot, contender),
+        reps: Vec::new(),
+        durations: Vec::new(),
+    };
+    let mut native = open(Contender::Keypose(Driver::Native));
     let opening = Instant::now();
-    let mut sdk = Link::open(&robot, Driver::Sdk);
+    let mut sdk = open(Contender::Keypose(Driver::Sdk));
     let sdk_open_seconds = opening.elapsed().as_secs_f64();
     if sdk_open_seconds > 2.0 {
         println!(
@@ -304,41 +466,106 @@ fn bus_cycles(name: &str) -> VendorResult {
              was built or checked first)"
         );
     }
-    let mut native_reps = Vec::new();
-    let mut sdk_reps = Vec::new();
-    let mut native_durations = Vec::new();
-    let mut sdk_durations = Vec::new();
+    let mut rustypot = open(Contender::Rustypot);
     let cpu_before = cpu_ticks();
     for _ in 0..REPS {
-        if let Ok(link) = native.as_mut() {
-            let (rate, durations) = link.run(RUN);
-            native_reps.push(rate);
-            native_durations.extend(durations);
-        }
-        if let Ok(link) = sdk.as_mut() {
-            let (rate, durations) = link.run(RUN);
-            sdk_reps.push(rate);
-            sdk_durations.extend(durations);
-        }
+        native.run();
+        sdk.run();
+        rustypot.run();
     }
-    let finish = |link: Result<Link, String>, reps: Vec<f64>, durations: Vec<f64>| match link {
-        Ok(link) => DriverResult {
-            rate: Ok(median(&reps)),
-            reps,
-            durations,
-            errors: link.errors,
-            first_error: link.first_error.clone(),
-            describe: link.connection.bus.describe(),
-        },
-        Err(reason) => DriverResult::missing(reason),
-    };
     VendorResult {
         robot: name.to_string(),
         traffic,
-        native: finish(native, native_reps, native_durations),
-        sdk: finish(sdk, sdk_reps, sdk_durations),
+        rdt: virtual_return_delay(&robot),
+        native: native.finish(),
+        sdk: sdk.finish(),
+        rustypot: rustypot.finish(),
         steal: steal_since(cpu_before),
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// 3. Software cost without I/O.
+
+/// Answers the driver's sync read at once with canned status packets (encoded once, up front,
+/// handed over as one chunk) and its sync write with nothing: the driver's own encoding and
+/// decoding is nearly all that runs.
+struct Canned {
+    answers: Vec<u8>,
+    /// The driver writes the sync write, then the sync read: every second write is answered.
+    writes: u64,
+}
+
+impl keypose::bus::transport::Responder for Canned {
+    fn respond(&mut self, _written: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+        self.writes += 1;
+        if self.writes % 2 == 1 {
+            return Vec::new();
+        }
+        vec![(Duration::ZERO, self.answers.clone())]
+    }
+}
+
+/// CPU time of this thread, seconds.
+fn thread_cpu_seconds() -> f64 {
+    let mut t = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `t` is a valid, writable timespec.
+    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) };
+    t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
+}
+
+/// CPU microseconds per cycle (sync write of 6 goals + sync read of 6 positions) of the native
+/// driver over [`Canned`], median of 5 runs of 20 000 cycles.
+fn software_cost(name: &str) -> Result<f64, String> {
+    use keypose::bus::protocol::codec;
+    let robot = Robot::builtin(name).ok_or_else(|| format!("no built-in robot {name}"))?;
+    let framing = codec(robot.bus.protocol).framing();
+    let table = robot.joints[0].servo.model.spec().table;
+    let size = usize::from(table.present_position.size);
+    // Each servo answers with its position at 2048 ticks (any value decodes the same way).
+    let answers = robot
+        .joints
+        .iter()
+        .map(|j| {
+            let data = table
+                .encode(&table.present_position, 2048)
+                .map_err(|e| e.to_string())?;
+            debug_assert_eq!(data.len(), size);
+            framing
+                .try_encode_status(j.servo.id, 0, &data)
+                .map_err(|e| e.to_string())
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    let transport = keypose::bus::transport::MemoryTransport::new(Canned {
+        answers: answers.concat(),
+        writes: 0,
+    });
+    let servos = robot.servos();
+    let mut bus =
+        keypose::bus::driver::NativeBus::new(Box::new(transport), robot.bus.protocol, &servos);
+    let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
+    let goals: Vec<(u8, i64)> = ids.iter().map(|&id| (id, 2048)).collect();
+    let mut cycle = || -> Result<(), String> {
+        bus.write_goals(&goals).map_err(|e| e.to_string())?;
+        bus.read_positions(&ids).map_err(|e| e.to_string())?;
+        Ok(())
+    };
+    for _ in 0..2000 {
+        cycle()?;
+    }
+    const CYCLES: usize = 20_000;
+    let mut runs = Vec::new();
+    for _ in 0..5 {
+        let before = thread_cpu_seconds();
+        for _ in 0..CYCLES {
+            cycle()?;
+        }
+        runs.push((thread_cpu_seconds() - before) / CYCLES as f64 * 1e6);
+    }
+    Ok(median(&runs))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -461,10 +688,11 @@ fn main() {
     let load_before = load_average();
     println!("bus benchmark: load average at start {load_before}");
     println!(
-        "virtual bus = emulated servos on a pseudo-terminal: no baud-rate limit and no return \
-         delay, so cycles/s measure software overhead (driver + pty + emulator; for the SDK also \
-         the Python bridge and its JSON-lines pipe, one round trip per write and per read), not \
-         wire time. The wire limits beside them are docs/protocols.md §3 at 1 Mbps."
+        "virtual bus = emulated servos on a pseudo-terminal, wire-timed: answers come when the \
+         wire would deliver them (bytes at the robot's baud rate, return delays, no USB \
+         latency). A driver's share of the wire limit is wire time / its cycle time; the rest \
+         is software (driver + pty + emulator; for the SDK also the Python bridge and its \
+         JSON-lines pipe)."
     );
 
     println!("\n1. sync write (6 goals) + sync read (6 positions), {REPS}× {RUN:?} per driver, interleaved, median:");
@@ -474,23 +702,19 @@ fn main() {
         let result = bus_cycles(name);
         result.native.print("native");
         result.sdk.print("sdk");
+        result.rustypot.print("rustypot");
         let t = &result.traffic;
         println!(
-            "  wire at 1 Mbps: {} B/cycle ({} write + {} read instruction + 6×{} status) → \
-             RDT 0: {:.0} µs ≤ {:.0} Hz; RDT 500 µs: {:.0} µs ≤ {:.0} Hz{}",
+            "  wire at {} baud: {} B/cycle ({} write + {} read instruction + 6×{} status) + 6 × \
+             RDT {:.0} µs → {:.0} µs ≤ {:.0} Hz",
+            t.wire.baud,
             t.bytes(),
             t.sync_write,
             t.sync_read_instruction,
             t.status_each,
-            t.cycle_seconds(0.0) * 1e6,
-            t.limit_hz(0.0).floor(),
-            t.cycle_seconds(500e-6) * 1e6,
-            t.limit_hz(500e-6).floor(),
-            if t.name == "STS" {
-                " (STS return-delay behaviour UNVERIFIED, §3)"
-            } else {
-                ""
-            }
+            result.rdt * 1e6,
+            t.cycle_seconds(result.rdt) * 1e6,
+            t.limit_hz(result.rdt).floor(),
         );
         println!("  CPU steal during the timed runs: {}", result.steal);
         vendors.push(result);
@@ -525,6 +749,18 @@ fn main() {
         }
     }
 
+    println!("\n3. CPU time per cycle of the native driver's encode + decode, no I/O (median of 5 × 20 000 cycles):");
+    let costs: Vec<(&str, Result<f64, String>)> = ROBOTS
+        .iter()
+        .map(|&name| (name, software_cost(name)))
+        .collect();
+    for (name, cost) in &costs {
+        match cost {
+            Ok(us) => println!("  {name}: {us:.2} µs"),
+            Err(e) => println!("  {name}: failed: {e}"),
+        }
+    }
+
     let load_after = load_average();
     println!(
         "\nload average at start {load_before}, at end {load_after}; bench took {:.1} s",
@@ -534,35 +770,50 @@ fn main() {
     // The table for the README.
     println!();
     println!(
-        "summary: | virtual bus (pty, 6 servos) | native cycles/s | SDK cycles/s | native/SDK \
-         | wire limit at 1 Mbps, RDT 0 | RDT 500 µs | CPU steal |"
+        "summary: | wire-timed virtual bus (pty, 6 servos) | wire limit | native cycles/s (share \
+         of the limit; median cycle, wire share of it) | rustypot | SDK | CPU steal |"
     );
-    println!("summary: |---|---|---|---|---|---|---|");
+    println!("summary: |---|---|---|---|---|---|");
     for v in &vendors {
-        let rate = |r: &Result<f64, String>| match r {
-            Ok(rate) => format!("{rate:.0}"),
+        let limit = v.traffic.limit_hz(v.rdt);
+        let wire = v.traffic.cycle_seconds(v.rdt);
+        // Cycles/s as a share of the limit (what a run achieved, tail latencies included), and
+        // the wire time as a share of the median cycle (the cost of a typical cycle).
+        let rate = |d: &DriverResult| match &d.rate {
+            Ok(rate) => {
+                let mut sorted = d.durations.clone();
+                sorted.sort_by(f64::total_cmp);
+                format!(
+                    "{rate:.0} ({:.1} %; median cycle {:.0} µs, {:.1} %)",
+                    100.0 * rate / limit,
+                    quantile(&sorted, 0.5) * 1e6,
+                    100.0 * wire / quantile(&sorted, 0.5)
+                )
+            }
             Err(_) => "n/a".into(),
         };
-        let ratio = match (&v.native.rate, &v.sdk.rate) {
-            (Ok(n), Ok(s)) => format!("{:.1}×", n / s),
-            _ => "n/a".into(),
-        };
         println!(
-            "summary: | {} ({} sync write + sync read) | {} | {} | {} | ≤ {:.0} Hz | ≤ {:.0} Hz \
-             | {} |",
+            "summary: | {} ({} at {} baud, RDT {:.0} µs) | ≤ {:.0} Hz | {} | {} | {} | {} |",
             v.robot,
             v.traffic.name,
-            rate(&v.native.rate),
-            rate(&v.sdk.rate),
-            ratio,
-            v.traffic.limit_hz(0.0).floor(),
-            v.traffic.limit_hz(500e-6).floor(),
+            v.traffic.wire.baud,
+            v.rdt * 1e6,
+            limit.floor(),
+            rate(&v.native),
+            rate(&v.rustypot),
+            rate(&v.sdk),
             v.steal,
         );
     }
     println!("summary: ");
+    for (name, cost) in &costs {
+        if let Ok(us) = cost {
+            println!("summary: encode + decode, native driver, {name}: {us:.2} µs CPU per cycle");
+        }
+    }
+    println!("summary: ");
     println!(
-        "summary: | player, so101, native, pty | cycles | lateness p50 | p99 | max | mean period \
+        "summary: | player, so101, native, wire-timed pty | cycles | lateness p50 | p99 | max | mean period \
          | cycles > 1 period late | CPU steal |"
     );
     println!("summary: |---|---|---|---|---|---|---|---|");
@@ -583,8 +834,8 @@ fn main() {
         }
     }
     println!(
-        "summary: pty has no baud-rate limit and the virtual servos no return delay: cycles/s \
-         are software overhead, not wire time. Cycles include the ≥ 0.5 s approach ramp. Load \
-         average {load_before} → {load_after}."
+        "summary: the virtual bus takes the wire's time at the robot's baud rate with the \
+         servos' return delay; 100 % of the limit is the wire's own pace. Player cycles include \
+         the ≥ 0.5 s approach ramp. Load average {load_before} → {load_after}."
     );
 }

@@ -10,6 +10,7 @@ import time
 from types import SimpleNamespace
 
 from harness_io import member
+from sim_profile import ServoProfile, profile_limits
 from sim_requests import SimError, matrix, number, request_error, string_list, vector
 
 # Decimals kept in a run's trace.
@@ -23,6 +24,8 @@ class Simulator:
         self.mujoco = mujoco
         self.np = np
         self.can_continue = False
+        # The servo-side profile of the last run (--servo-profile), carried on by a continued run.
+        self.profile = None
         self.warnings = []
         # Without a handler MuJoCo writes MUJOCO_LOG.TXT into the current directory, which is
         # the user's; the warnings are reported in replies instead.
@@ -46,9 +49,10 @@ class Simulator:
         del self.warnings[:]
         if args.reset:
             self._reset(model, wiring, args.initial)
+        profile = self._profile(model, wiring, args)
         # Only a run that ends in a state worth continuing may be continued.
         self.can_continue = False
-        rec = self._record(model, wiring, args.commands, args.steps_per_row)
+        rec = self._record(model, wiring, args.commands, args.steps_per_row, profile)
         self._cut_at_non_finite(model, rec)
         self.can_continue = rec.recorded == args.commands.shape[0]
         return self._run_reply(rec, wiring, args.steps_per_row)
@@ -92,7 +96,20 @@ class Simulator:
         if reset or "initial" in req:
             initial = np.array(vector(member(req, "initial"), len(joints), "'initial'"), dtype=float)
         commands = matrix(np, req, "commands", len(joints), nonempty=False)
-        return SimpleNamespace(joints=joints, steps_per_row=steps_per_row, reset=reset, initial=initial, commands=commands)
+        limits = profile_limits(np, req, len(joints))
+        return SimpleNamespace(joints=joints, steps_per_row=steps_per_row, reset=reset, initial=initial, commands=commands, profile_limits=limits)
+
+    def _profile(self, model, wiring, args):
+        """The servo-side profile of this run (None without one): started at rest where the
+        joints are after a reset, carried on from the previous run's when continuing."""
+        if args.profile_limits is None:
+            self.profile = None
+            return None
+        if args.reset or self.profile is None:
+            acceleration, velocity = args.profile_limits
+            position = model.data.qpos[wiring.qadr]
+            self.profile = ServoProfile(self.np, acceleration, velocity, position)
+        return self.profile
 
     def _wiring(self, model, joints):
         """Where the listed joints' commands go and where their state and forces are read.
@@ -133,7 +150,7 @@ class Simulator:
         d.ctrl[wiring.ctrl_idx] = initial[wiring.driven_columns] * wiring.gears
         mujoco.mj_forward(m, d)
 
-    def _record(self, model, wiring, commands, steps_per_row):
+    def _record(self, model, wiring, commands, steps_per_row, profile=None):
         """Steps the physics row by row, recording each row's end state until the last row or
         a fatal warning."""
         mujoco, np, m, d = self.mujoco, self.np, model.m, model.data
@@ -162,9 +179,17 @@ class Simulator:
         recorded = rows
         steps = 0
         started = time.perf_counter()
+        dt = m.opt.timestep
+        ctrl_idx, columns, gears = wiring.ctrl_idx, wiring.driven_columns, wiring.gears
         for r in range(rows):
             ctrl[:] = ctrl_rows[r]
-            mj_step(m, d, steps_per_row)
+            if profile is None:
+                mj_step(m, d, steps_per_row)
+            else:
+                # The servos' own profile between goals: a new actuator target every step.
+                for _ in range(steps_per_row):
+                    ctrl[ctrl_idx] = profile.step(commands[r], dt)[columns] * gears
+                    mj_step(m, d, 1)
             steps += steps_per_row
             now = d.time
             # MuJoCo checks qpos, qvel and qacc for NaN and huge values in every step and

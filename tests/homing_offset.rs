@@ -42,6 +42,7 @@ fn open(robot: &Robot, port: &str) -> Result<bus::Connection, BusError> {
         driver: Driver::Native,
         baud: None,
         fast_sync_read: false,
+        ..BusOptions::default()
     };
     bus::connect_with(robot, port, &options)
 }

@@ -338,6 +338,61 @@ fn ports_and_doctor_run_on_a_machine_without_adapters() {
 }
 
 #[test]
+fn a_usb_latency_beyond_the_ftdi_timer_range_is_refused_before_anything_opens() {
+    // The FTDI latency timer takes 0…255 ms; 300 is bad input: exit 2, naming the option.
+    let out = keypose()
+        .args([
+            "play",
+            &repo("sequences/so101_nod.json"),
+            "--port",
+            "virtual",
+        ])
+        .args(["--usb-latency", "300"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("--usb-latency"), "{}", stderr(&out));
+    assert!(stderr(&out).contains("0 to 255 ms"), "{}", stderr(&out));
+}
+
+#[test]
+fn doctor_reports_the_governors_the_sysfs_files_hold_and_how_to_tune_the_adapter() {
+    let out = keypose().arg("doctor").output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    // The governor files, read here independently of keypose.
+    let mut governors = Vec::new();
+    for entry in std::fs::read_dir("/sys/devices/system/cpu")
+        .unwrap()
+        .flatten()
+    {
+        let file = entry.path().join("cpufreq/scaling_governor");
+        if let Ok(governor) = std::fs::read_to_string(&file) {
+            let cpu = entry.file_name().to_string_lossy().into_owned();
+            governors.push(format!("{cpu}: scaling_governor {}", governor.trim()));
+        }
+    }
+    if governors.is_empty() {
+        assert!(
+            text.contains("CPU frequency scaling:\n  not exposed"),
+            "{text}"
+        );
+    }
+    for line in &governors {
+        assert!(text.contains(line.as_str()), "{line} missing from:\n{text}");
+    }
+    // The udev rule that sets an FTDI adapter's latency timer to 1 ms (ftdi_sio's sysfs
+    // attribute), and whether SCHED_FIFO is available.
+    assert!(
+        text.contains(r#"DRIVER=="ftdi_sio", ATTR{latency_timer}="1""#),
+        "{text}"
+    );
+    assert!(
+        text.contains("SCHED_FIFO: permitted") || text.contains("SCHED_FIFO: refused"),
+        "{text}"
+    );
+}
+
+#[test]
 fn a_playback_log_overlays_on_its_sequence_and_a_broken_log_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("nod.csv");

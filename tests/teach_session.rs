@@ -18,6 +18,7 @@ fn open(robot: &Robot) -> (Option<PtyServer>, Session) {
             driver: Driver::Native,
             baud: None,
             fast_sync_read: false,
+            ..BusOptions::default()
         },
     )
     .expect("virtual bus");

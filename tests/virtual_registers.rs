@@ -5,7 +5,7 @@
 //! (FT-MEM), see docs/protocols.md §1.8 and §2.6; the LeRobot flows follow LeRobot's
 //! `_get_half_turn_homings` and `record_ranges_of_motion`.
 
-use keypose::bus::virtual_bus::{PtyServer, VirtualBus, VirtualServo, VirtualServos};
+use keypose::bus::virtual_bus::{PtyServer, VirtualBus, VirtualServo, VirtualServos, WireTiming};
 use keypose::python::{Harness, HarnessError, HarnessOptions, PyConfig};
 use keypose::robot::{Protocol, ServoModel};
 use serde_json::{json, Value};
@@ -75,7 +75,9 @@ fn factory_bus(protocol: Protocol, servos: &[(u8, ServoModel, f64)]) -> (PtyServ
         .map(|&(id, model, actual)| VirtualServo::new(id, model, actual))
         .collect();
     let bus = VirtualBus::new(VirtualServos::new(protocol, servos));
-    let server = PtyServer::serve(bus).expect("virtual bus on a pseudo-terminal");
+    // Timed as the real wire at the SDK's 1 Mbps, factory return delays included.
+    let wire = Some(WireTiming::at(1_000_000));
+    let server = PtyServer::serve(bus, wire).expect("virtual bus on a pseudo-terminal");
     let sdk = Sdk(bridge_on(server.path(), protocol));
     (server, sdk)
 }

@@ -2,9 +2,10 @@
 
 use super::driver::NativeBus;
 use super::transport::SerialTransport;
-use super::virtual_bus::PtyServer;
+use super::virtual_bus::{PtyServer, WireTiming};
 use super::{BusError, PingInfo, ServoBus};
 use crate::robot::{Protocol, Robot};
+use std::time::Duration;
 
 /// Which code speaks the protocol.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -33,6 +34,35 @@ pub struct BusOptions {
     pub baud: Option<u32>,
     /// Dynamixel, native driver: read with Fast Sync Read.
     pub fast_sync_read: bool,
+    /// Port "virtual": the emulated bus takes the real wire's time (at the baud rate, with
+    /// return delays) instead of answering at once.
+    pub wire_timing: bool,
+    /// Port "virtual", with wire timing: the USB adapter latency to emulate.
+    pub usb_latency: Duration,
+}
+
+impl Default for BusOptions {
+    /// The native driver at the robot's baud rate, on a wire-timed virtual bus without
+    /// adapter latency.
+    fn default() -> Self {
+        BusOptions {
+            driver: Driver::Native,
+            baud: None,
+            fast_sync_read: false,
+            wire_timing: true,
+            usb_latency: Duration::ZERO,
+        }
+    }
+}
+
+impl BusOptions {
+    /// How a virtual bus opened with these options times its wire at `baud`.
+    pub fn virtual_wire(&self, baud: u32) -> Option<WireTiming> {
+        self.wire_timing.then_some(WireTiming {
+            baud,
+            usb_latency: self.usb_latency,
+        })
+    }
 }
 
 /// Opens `robot`'s bus on `port` ("virtual" serves emulated servos on a pseudo-terminal and
@@ -49,7 +79,7 @@ pub fn connect(
         &BusOptions {
             driver,
             baud,
-            fast_sync_read: false,
+            ..BusOptions::default()
         },
     )
 }
@@ -61,7 +91,7 @@ pub fn connect_with(
 ) -> Result<Connection, BusError> {
     let (driver, baud) = (options.driver, options.baud.unwrap_or(robot.bus.baud));
     let (path, virtual_bus) = if port == VIRTUAL_PORT {
-        let server = PtyServer::start(robot)?;
+        let server = PtyServer::start_timed(robot, options.virtual_wire(baud))?;
         (server.path().to_string(), Some(server))
     } else {
         (port.to_string(), None)
@@ -117,7 +147,7 @@ pub fn scan(
     driver: Driver,
 ) -> Result<Vec<(Protocol, PingInfo)>, BusError> {
     let server = if port == VIRTUAL_PORT {
-        Some(PtyServer::start(robot)?)
+        Some(PtyServer::start_timed(robot, Some(WireTiming::at(baud)))?)
     } else {
         None
     };

@@ -18,6 +18,7 @@ mod faults;
 pub mod homing;
 pub mod models;
 pub mod ports;
+pub mod profile;
 pub mod protocol;
 pub mod registers;
 pub mod sdk;
@@ -242,4 +243,31 @@ pub trait ServoBus: Send {
         &mut self,
         servos: &[(u8, crate::robot::ServoModel)],
     ) -> Result<Vec<i64>, BusError>;
+    /// One profile register of each servo in `ids`, raw register values, in order. Drivers
+    /// that cannot read it say so (the vendor-SDK bridge does not carry these registers).
+    fn read_setting(
+        &mut self,
+        ids: &[u8],
+        setting: profile::Setting,
+    ) -> Result<Vec<i64>, BusError> {
+        let _ = ids;
+        Err(setting_unsupported(&self.describe(), setting))
+    }
+    /// Writes one profile register of each servo, (id, raw value), and reads it back to
+    /// confirm: a profile setting that silently did not arrive would go unnoticed otherwise.
+    fn write_setting(
+        &mut self,
+        values: &[(u8, i64)],
+        setting: profile::Setting,
+    ) -> Result<(), BusError> {
+        let _ = values;
+        Err(setting_unsupported(&self.describe(), setting))
+    }
+}
+
+fn setting_unsupported(bus: &str, setting: profile::Setting) -> BusError {
+    BusError::Protocol(format!(
+        "{bus}: this driver does not reach the {} register (use --driver native)",
+        setting.name()
+    ))
 }

@@ -25,6 +25,52 @@ pub struct BusArgs {
     /// supports it).
     #[arg(long)]
     pub fast_sync_read: bool,
+    #[command(flatten)]
+    pub wire: WireArgs,
+}
+
+/// `--realtime` for the commands that run a control loop.
+#[derive(Debug, Clone, clap::Args)]
+pub struct RealtimeArgs {
+    /// Run the control loop under SCHED_FIFO with memory locked, where permitted (otherwise a
+    /// one-line notice, and the ordinary scheduler); see `keypose doctor`.
+    #[arg(long)]
+    pub realtime: bool,
+}
+
+impl RealtimeArgs {
+    /// Enters real-time scheduling for the calling thread when asked; threads started before
+    /// (the virtual bus's server, the signal handler) keep the ordinary scheduler.
+    pub fn enter(&self) {
+        if self.realtime {
+            for notice in keypose::pacing::realtime::enter().notices() {
+                eprintln!("{notice}");
+            }
+        }
+    }
+}
+
+/// How emulated servos (port "virtual", `keypose virtual-bus`) time their wire.
+#[derive(Debug, Clone, clap::Args)]
+pub struct WireArgs {
+    /// Virtual bus: answer at once instead of taking the real wire's time (bytes at the baud
+    /// rate, return delays).
+    #[arg(long)]
+    pub no_wire_timing: bool,
+    /// Virtual bus: emulate a USB adapter's latency, milliseconds (FTDI's default 16, 1 when
+    /// tuned).
+    #[arg(long, value_name = "MS", default_value = "0", value_parser = option_values::parse_usb_latency, allow_negative_numbers = true)]
+    pub usb_latency: std::time::Duration,
+}
+
+impl WireArgs {
+    /// The wire timing at `baud`, or `None` for answers at once.
+    pub fn timing(&self, baud: u32) -> Option<bus::virtual_bus::WireTiming> {
+        (!self.no_wire_timing).then_some(bus::virtual_bus::WireTiming {
+            baud,
+            usb_latency: self.usb_latency,
+        })
+    }
 }
 
 impl BusArgs {
@@ -34,6 +80,8 @@ impl BusArgs {
             driver: self.driver,
             baud: self.baud,
             fast_sync_read: self.fast_sync_read,
+            wire_timing: !self.wire.no_wire_timing,
+            usb_latency: self.wire.usb_latency,
         };
         Ok(bus::connect_with(robot, port, &options)?)
     }

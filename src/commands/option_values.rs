@@ -64,6 +64,12 @@ pub fn parse_fault_after(s: &str) -> Result<f64, String> {
 }
 
 /// `--baud`.
+/// `--usb-latency`: milliseconds of adapter latency, 0 to 255 (the FTDI latency timer's range).
+pub fn parse_usb_latency(s: &str) -> Result<std::time::Duration, String> {
+    number_in(s, 0.0..=255.0, "a latency from 0 to 255 ms")
+        .map(|ms| std::time::Duration::from_secs_f64(ms / 1000.0))
+}
+
 pub fn parse_baud(s: &str) -> Result<u32, String> {
     integer_in(s, 1..=u64::from(MAX_BAUD), "a baud rate").map(|n| n as u32)
 }

@@ -69,6 +69,13 @@ pub struct PlayArgs {
     /// run: a stall) is a fault: the arm brakes to rest along its path and keypose exits 3.
     #[arg(long, value_name = "MS", default_value = "250", value_parser = parse_max_stall, allow_negative_numbers = true)]
     pub max_stall: f64,
+    #[command(flatten)]
+    pub realtime: super::RealtimeArgs,
+    /// Write each joint's acceleration limit into the servos' own motion profile (STS
+    /// Acceleration, Dynamixel Profile_Acceleration) so they smooth between streamed goals;
+    /// the previous values are restored afterwards, however playback ends.
+    #[arg(long)]
+    pub servo_profile: bool,
 }
 
 /// `--max-stall` in milliseconds, returned in seconds.
@@ -101,6 +108,11 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
             "--no-approach makes the arm jump to the first pose at full speed; add --i-accept-the-jump to confirm".into(),
         ));
     }
+    if args.servo_profile && args.bus.driver == keypose::bus::Driver::Sdk {
+        return Err(CommandError::Usage(
+            "--servo-profile needs --driver native: the vendor-SDK bridge does not reach the profile registers".into(),
+        ));
+    }
     let from_key = from_key(args, &trajectory)?;
     let rate = super::control_rate(args.rate, &robot)?;
     super::check_sample_budget(&sequence.file, &trajectory, rate)?;
@@ -128,6 +140,7 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
         log: args.log.clone(),
         progress: !args.quiet,
         max_stall: args.max_stall,
+        servo_profile: args.servo_profile,
         ..PlayOptions::new(rate)
     };
     match &args.bus.port {
@@ -229,6 +242,7 @@ fn play_on_servos(
 ) -> Result<Verdict, CommandError> {
     let mut connection = args.bus.connect(robot, port)?;
     let stop = keypose::stop::stop_on_signal();
+    args.realtime.enter();
 
     if !args.quiet {
         eprintln!(
@@ -276,6 +290,9 @@ fn conclude(
             ))
         }
         Err(e @ PlayError::Log { .. }) => Err(CommandError::Usage(e.to_string())),
+        Err(e @ PlayError::ServoProfile(player::ServoProfileError::Units(_))) => {
+            Err(CommandError::Usage(e.to_string()))
+        }
         Err(e) => Err(CommandError::Play(e)),
     }
 }

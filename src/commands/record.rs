@@ -53,6 +53,8 @@ pub struct RecordArgs {
     /// No progress line.
     #[arg(long, short)]
     pub quiet: bool,
+    #[command(flatten)]
+    pub realtime: super::RealtimeArgs,
 }
 
 /// Recordings longer than this (samples) announce the extraction, which then takes a while.
@@ -116,6 +118,7 @@ fn capture(
     let mut connection = args.bus.connect(robot, port)?;
     let stop = keypose::stop::stop_on_signal();
     watch_stdin(stop.clone(), args.duration.is_none());
+    args.realtime.enter();
     if !args.quiet {
         announce(args, robot, &joints, &connection.bus.describe(), rate);
     }

@@ -42,6 +42,10 @@ pub struct SimArgs {
     /// Time scale, as for `play`.
     #[arg(long, value_name = "F", default_value = "1", value_parser = option_values::parse_speed, allow_negative_numbers = true)]
     pub speed: f64,
+    /// Model the servos' own motion profile as `play --servo-profile` sets it (each servo
+    /// follows its goal within the joint's acceleration limit, in the register's units).
+    #[arg(long)]
+    pub servo_profile: bool,
 }
 
 /// Simulated seconds per request, so a progress line can follow a long run.
@@ -101,6 +105,11 @@ pub fn simulate(
         None => None,
     };
     let mut simulation = Simulation::start(robot, mjcf, None)?;
+    if options.servo_profile {
+        simulation
+            .model_servo_profile(robot)
+            .map_err(|e| CommandError::Usage(e.to_string()))?;
+    }
     let chunk = ((CHUNK_SECONDS * stream.rate).round() as usize).max(1);
     let mut trace = Trace::default();
     let total = stream.rows.len();
@@ -187,6 +196,7 @@ pub fn run(args: &SimArgs) -> Result<Verdict, CommandError> {
     super::check_sample_budget(&sequence.file, &trajectory, rate / args.speed)?;
     let options = PlayOptions {
         speed: args.speed,
+        servo_profile: args.servo_profile,
         ..PlayOptions::new(rate)
     };
     let result = simulate(&sequence, &robot, &trajectory, &options, model.as_ref())?;

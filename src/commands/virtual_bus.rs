@@ -27,6 +27,11 @@ pub struct VirtualBusArgs {
     /// told to go limp, as a user would for `keypose record`; servos with torque on resist it.
     #[arg(long, value_name = "SEQ")]
     pub hand: Option<PathBuf>,
+    /// The baud rate whose wire time to take [default: the robot's].
+    #[arg(long, value_name = "BPS", value_parser = option_values::parse_baud, allow_negative_numbers = true)]
+    pub baud: Option<u32>,
+    #[command(flatten)]
+    pub wire: super::WireArgs,
 }
 
 /// A fault for the virtual bus, from the command line.
@@ -115,7 +120,10 @@ pub fn run(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
         }
         None => None,
     };
-    let server = bus::virtual_bus::PtyServer::start(&robot)?;
+    let server = bus::virtual_bus::PtyServer::start_timed(
+        &robot,
+        args.wire.timing(args.baud.unwrap_or(robot.bus.baud)),
+    )?;
     set_homing_offsets(&server, &robot, &args.homing_offset)?;
     let _hand = hand_trajectory.map(|trajectory| start_hand(server.bus(), &robot, trajectory));
     println!("{}", server.path());

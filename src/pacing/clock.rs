@@ -16,6 +16,10 @@ pub trait Clock: Send + Sync {
     fn sleep_until(&self, deadline: Duration, stop: &StopSignal, seen: u32);
 }
 
+/// How long before a deadline [`WallClock`] leaves the interruptible wait for the precise sleep:
+/// a stop request in that stretch waits for the deadline, at most this long.
+const PRECISE_LAST: Duration = Duration::from_millis(2);
+
 /// The monotonic wall clock, waking early on a stop request.
 #[derive(Debug, Clone, Copy)]
 pub struct WallClock {
@@ -44,13 +48,21 @@ impl Clock for WallClock {
     fn sleep_until(&self, deadline: Duration, stop: &StopSignal, seen: u32) {
         // `checked_add` keeps an absurd deadline from panicking; such a wait is then only
         // ended by a stop request, which is still acted on at once.
-        match self.epoch.checked_add(deadline) {
-            Some(at) => {
-                stop.wait_until(at, seen);
-            }
-            None => {
-                stop.wait_for(Duration::from_secs(3600), seen);
+        let Some(at) = self.epoch.checked_add(deadline) else {
+            stop.wait_for(Duration::from_secs(3600), seen);
+            return;
+        };
+        // On the stop signal's condition variable until shortly before the deadline, so that
+        // a stop request wakes the wait at once; the condition variable's wake-up is too
+        // coarse for the deadline itself, so the last stretch is the precise sleep.
+        if let Some(coarse_until) = at.checked_sub(PRECISE_LAST) {
+            if Instant::now() < coarse_until && stop.wait_until(coarse_until, seen) > seen {
+                return;
             }
         }
+        if stop.count() > seen {
+            return;
+        }
+        super::precise::sleep_until(at);
     }
 }

@@ -9,6 +9,9 @@
 //! from the rate the arm actually followed during the stall.
 
 mod clock;
+pub mod machine;
+pub mod precise;
+pub mod realtime;
 
 pub use clock::{Clock, WallClock};
 

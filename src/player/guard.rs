@@ -26,22 +26,33 @@ impl<'a> GoalGuard<'a> {
     }
 
     pub fn goals(&self, values: &[f64]) -> Result<Vec<(u8, i64)>, LimitBreach> {
-        self.robot
-            .joints
-            .iter()
-            .zip(values)
-            .map(|(joint, &value)| {
-                let breach = || LimitBreach {
-                    joint: joint.name.clone(),
-                    value,
-                    min: joint.limits.min,
-                    max: joint.limits.max,
-                };
-                joint
-                    .goal_tick(value)
-                    .map(|tick| (joint.servo.id, tick))
-                    .map_err(|_| breach())
-            })
-            .collect()
+        let mut goals = Vec::with_capacity(values.len());
+        self.goals_into(values, &mut goals)?;
+        Ok(goals)
+    }
+
+    /// [`GoalGuard::goals`] into a buffer the caller keeps from cycle to cycle (no allocation
+    /// once it has grown to the robot's size). On a breach the buffer holds no goals.
+    pub fn goals_into(
+        &self,
+        values: &[f64],
+        goals: &mut Vec<(u8, i64)>,
+    ) -> Result<(), LimitBreach> {
+        goals.clear();
+        for (joint, &value) in self.robot.joints.iter().zip(values) {
+            match joint.goal_tick(value) {
+                Ok(tick) => goals.push((joint.servo.id, tick)),
+                Err(_) => {
+                    goals.clear();
+                    return Err(LimitBreach {
+                        joint: joint.name.clone(),
+                        value,
+                        min: joint.limits.min,
+                        max: joint.limits.max,
+                    });
+                }
+            }
+        }
+        Ok(())
     }
 }

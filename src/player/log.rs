@@ -11,14 +11,24 @@
 //! (finished, stopped, a fault: [`PlaybackLog`] commits when dropped), so `--log` equal to an
 //! earlier log never leaves a torn file. A process killed outright leaves no log, only a
 //! temporary that the next write of the same log removes.
+//!
+//! The rows are formatted and written on a thread of their own, so the control thread only
+//! copies a few numbers into a preallocated record and passes it on: a slow disk or a
+//! buffer flush never delays a cycle. Records come back to the control thread for reuse.
 
 use super::PlayError;
 use crate::atomic_file::{AtomicFile, Privacy};
 use crate::plan::Phase;
 use crate::robot::Robot;
 use std::fmt::Write as _;
-use std::io::{BufWriter, Write};
+use std::io::{self, BufWriter, Write};
 use std::path::Path;
+use std::sync::mpsc::{self, Receiver, SyncSender};
+use std::thread::JoinHandle;
+
+/// Records in flight between the control thread and the writer: seconds of cycles at 1 kHz,
+/// allocated once. Only a writer that far behind makes the control thread wait.
+const IN_FLIGHT: usize = 4096;
 
 /// One cycle of the log.
 pub struct Row<'a> {
@@ -32,91 +42,177 @@ pub struct Row<'a> {
     pub stall: Option<f64>,
 }
 
+/// A [`Row`] copied for the writer thread.
+struct Record {
+    time: f64,
+    phase: Phase,
+    sequence_time: f64,
+    commanded: Vec<f64>,
+    /// Valid when `measured_now`: the buffer is kept for the next measured row.
+    measured: Vec<f64>,
+    measured_now: bool,
+    lateness: f64,
+    stall: Option<f64>,
+}
+
+impl Record {
+    fn empty(joints: usize) -> Record {
+        Record {
+            time: 0.0,
+            phase: Phase::Play,
+            sequence_time: 0.0,
+            commanded: Vec::with_capacity(joints),
+            measured: Vec::with_capacity(joints),
+            measured_now: false,
+            lateness: 0.0,
+            stall: None,
+        }
+    }
+
+    /// Takes in `row`, reusing this record's buffers.
+    fn fill(&mut self, row: &Row) {
+        self.time = row.time;
+        self.phase = row.phase;
+        self.sequence_time = row.sequence_time;
+        self.lateness = row.lateness;
+        self.stall = row.stall;
+        self.commanded.clear();
+        self.commanded.extend_from_slice(row.commanded);
+        self.measured.clear();
+        self.measured
+            .extend_from_slice(row.measured.unwrap_or_default());
+        self.measured_now = row.measured.is_some();
+    }
+}
+
 pub struct PlaybackLog {
     path: String,
-    /// `None` once committed.
-    out: Option<BufWriter<AtomicFile>>,
-    line: String,
+    /// `None` once finished.
+    records: Option<SyncSender<Record>>,
+    spare: Receiver<Record>,
+    writer: Option<JoinHandle<io::Result<BufWriter<AtomicFile>>>>,
+    joints: usize,
 }
 
 impl PlaybackLog {
     pub fn create(path: &Path, robot: &Robot) -> Result<Self, PlayError> {
         let label = path.display().to_string();
-        let file = AtomicFile::create(path, Privacy::Shared).map_err(|source| PlayError::Log {
+        let log_error = |source| PlayError::Log {
             path: label.clone(),
             source,
-        })?;
-        let mut log = Self {
-            path: label,
-            out: Some(BufWriter::new(file)),
-            line: String::new(),
         };
-        let mut header = String::from("time,phase,sequence_time");
-        for suffix in ["cmd", "meas"] {
-            for joint in &robot.joints {
-                let _ = write!(header, ",{}_{suffix}", joint.name);
-            }
+        let file = AtomicFile::create(path, Privacy::Shared).map_err(log_error)?;
+        let mut out = BufWriter::new(file);
+        out.write_all(header(robot).as_bytes()).map_err(log_error)?;
+        let joints = robot.joints.len();
+        let (records, inbox) = mpsc::sync_channel(IN_FLIGHT);
+        let (give_back, spare) = mpsc::sync_channel(IN_FLIGHT);
+        for _ in 0..IN_FLIGHT {
+            let _ = give_back.try_send(Record::empty(joints));
         }
-        header.push_str(",lateness_ms,stall_ms\n");
-        log.write(&header)?;
-        Ok(log)
+        let writer = std::thread::Builder::new()
+            .name("playback log".into())
+            .spawn(move || write_records(out, &inbox, &give_back))
+            .map_err(log_error)?;
+        Ok(Self {
+            path: label,
+            records: Some(records),
+            spare,
+            writer: Some(writer),
+            joints,
+        })
     }
 
+    /// Hands the row to the writer thread. A write that already failed is reported here.
     pub fn row(&mut self, row: &Row) -> Result<(), PlayError> {
-        let mut line = std::mem::take(&mut self.line);
-        line.clear();
-        let _ = write!(
-            line,
-            "{:.6},{},{:.6}",
-            row.time,
-            row.phase.name(),
-            row.sequence_time
-        );
-        for v in row.commanded {
-            let _ = write!(line, ",{v:.6}");
-        }
-        for i in 0..row.commanded.len() {
-            match row.measured {
-                Some(m) => {
-                    let _ = write!(line, ",{:.6}", m[i]);
-                }
-                None => line.push(','),
-            }
-        }
-        let _ = write!(line, ",{:.3},", row.lateness * 1000.0);
-        if let Some(stall) = row.stall {
-            let _ = write!(line, "{:.3}", stall * 1000.0);
-        }
-        line.push('\n');
-        let result = self.write(&line);
-        self.line = line;
-        result
-    }
-
-    /// Puts the log in place of the target.
-    pub fn finish(&mut self) -> Result<(), PlayError> {
-        let Some(out) = self.out.take() else {
+        let Some(records) = &self.records else {
             return Ok(());
         };
-        out.into_inner()
-            .map_err(|e| e.into_error())
+        let mut record = self
+            .spare
+            .try_recv()
+            .unwrap_or_else(|_| Record::empty(self.joints));
+        record.fill(row);
+        if records.send(record).is_err() {
+            // The writer stopped on an error: finishing reports it.
+            return self.finish();
+        }
+        Ok(())
+    }
+
+    /// Waits for the writer, then puts the log in place of the target.
+    pub fn finish(&mut self) -> Result<(), PlayError> {
+        self.records = None;
+        let Some(writer) = self.writer.take() else {
+            return Ok(());
+        };
+        let written = writer
+            .join()
+            .unwrap_or_else(|_| Err(io::Error::other("the log writer panicked")));
+        written
+            .and_then(|out| out.into_inner().map_err(|e| e.into_error()))
             .and_then(AtomicFile::commit)
             .map_err(|source| PlayError::Log {
                 path: self.path.clone(),
                 source,
             })
     }
+}
 
-    fn write(&mut self, text: &str) -> Result<(), PlayError> {
-        let Some(out) = &mut self.out else {
-            return Ok(());
-        };
-        out.write_all(text.as_bytes())
-            .map_err(|source| PlayError::Log {
-                path: self.path.clone(),
-                source,
-            })
+fn header(robot: &Robot) -> String {
+    let mut header = String::from("time,phase,sequence_time");
+    for suffix in ["cmd", "meas"] {
+        for joint in &robot.joints {
+            let _ = write!(header, ",{}_{suffix}", joint.name);
+        }
     }
+    header.push_str(",lateness_ms,stall_ms\n");
+    header
+}
+
+/// The writer thread: formats and writes each record until the sender is gone, returning each
+/// record for reuse; stops at the first write error.
+fn write_records(
+    mut out: BufWriter<AtomicFile>,
+    inbox: &Receiver<Record>,
+    give_back: &SyncSender<Record>,
+) -> io::Result<BufWriter<AtomicFile>> {
+    // Started by a real-time control thread, this thread would inherit its priority.
+    crate::pacing::realtime::leave();
+    let mut line = String::new();
+    for record in inbox {
+        line.clear();
+        format_row(&mut line, &record);
+        out.write_all(line.as_bytes())?;
+        let _ = give_back.try_send(record);
+    }
+    Ok(out)
+}
+
+fn format_row(line: &mut String, row: &Record) {
+    let _ = write!(
+        line,
+        "{:.6},{},{:.6}",
+        row.time,
+        row.phase.name(),
+        row.sequence_time
+    );
+    for v in &row.commanded {
+        let _ = write!(line, ",{v:.6}");
+    }
+    for i in 0..row.commanded.len() {
+        match row.measured.get(i).filter(|_| row.measured_now) {
+            Some(m) => {
+                let _ = write!(line, ",{m:.6}");
+            }
+            None => line.push(','),
+        }
+    }
+    let _ = write!(line, ",{:.3},", row.lateness * 1000.0);
+    if let Some(stall) = row.stall {
+        let _ = write!(line, "{:.3}", stall * 1000.0);
+    }
+    line.push('\n');
 }
 
 impl Drop for PlaybackLog {

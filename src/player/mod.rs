@@ -18,6 +18,7 @@ mod limiter;
 mod log;
 mod progress;
 mod run;
+mod servo_profile;
 
 pub use crate::pacing::{Clock, LatenessSummary, WallClock};
 pub use crate::stop::StopSignal;
@@ -25,6 +26,7 @@ pub use guard::{GoalGuard, LimitBreach};
 pub use limiter::StepLimiter;
 pub use log::{PlaybackLog, Row as LogRow};
 pub use progress::print_progress_line;
+pub use servo_profile::{ProfileGuard, ServoProfileError};
 
 use crate::bus::{joint_prefix, BusError, ServoBus};
 use crate::plan::{Loops, Timeline, TimelineOptions, Trajectory};
@@ -56,6 +58,9 @@ pub struct PlayOptions {
     pub progress: bool,
     /// A goal held this much longer than one period (seconds) is a fault: brake, then stop.
     pub max_stall: f64,
+    /// Write the joints' limits into the servos' own motion profile for the playback, and put
+    /// the previous values back afterwards ([`ProfileGuard`]).
+    pub servo_profile: bool,
 }
 
 impl PlayOptions {
@@ -84,6 +89,7 @@ impl PlayOptions {
             log: None,
             progress: false,
             max_stall: DEFAULT_MAX_STALL,
+            servo_profile: false,
         }
     }
 }
@@ -124,6 +130,8 @@ pub enum PlayError {
         bound: f64,
         at: f64,
     },
+    #[error(transparent)]
+    ServoProfile(#[from] ServoProfileError),
     #[error("cannot write log {path}: {source}")]
     Log {
         path: String,
@@ -214,6 +222,33 @@ pub fn play(
 
 /// [`play`] on a given clock (tests make it stall).
 pub fn play_with_clock(
+    bus: &mut dyn ServoBus,
+    robot: &Robot,
+    trajectory: &Trajectory,
+    options: &PlayOptions,
+    stop: &StopSignal,
+    clock: &dyn Clock,
+) -> Result<(Outcome, Stats), PlayError> {
+    if !options.servo_profile {
+        return stream(bus, robot, trajectory, options, stop, clock);
+    }
+    let mut profile = ProfileGuard::apply(bus, robot)?;
+    let played = stream(profile.bus(), robot, trajectory, options, stop, clock);
+    let restored = profile.restore().map_err(ServoProfileError::Restore);
+    match (played, restored) {
+        (Ok(result), Ok(())) => Ok(result),
+        (Ok(_), Err(e)) => Err(e.into()),
+        (Err(e), Ok(())) => Err(e),
+        // The playback's own error is the one to report; the lost profile is said too.
+        (Err(e), Err(restore)) => {
+            eprintln!("warning: {restore}");
+            Err(e)
+        }
+    }
+}
+
+/// The playback itself: start, cycles, finish.
+fn stream(
     bus: &mut dyn ServoBus,
     robot: &Robot,
     trajectory: &Trajectory,

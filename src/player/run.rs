@@ -33,6 +33,8 @@ pub(super) struct Run<'a> {
     /// Clock time playback began, seconds.
     t0: f64,
     pose: Vec<f64>,
+    /// This cycle's goals, (id, tick): allocated once.
+    goals: Vec<(u8, i64)>,
     last_goal: Vec<f64>,
     reads: ReadStreak,
     stops_seen: u32,
@@ -78,6 +80,7 @@ impl<'a> Run<'a> {
             t0: clock.now().as_secs_f64(),
             limiter: StepLimiter::new(robot, period, &measured),
             pose: vec![0.0; robot.joints.len()],
+            goals: Vec::with_capacity(robot.joints.len()),
             last_goal: measured,
             bus,
             robot,
@@ -191,9 +194,9 @@ impl<'a> Run<'a> {
     /// The pose of this cycle, through the step limiter and the position guard, to the servos.
     fn command(&mut self, followed: f64, elapsed: f64) -> Result<(), PlayError> {
         self.limiter.limit(&mut self.pose, followed);
-        let goals = self.guard.goals(&self.pose)?;
+        self.guard.goals_into(&self.pose, &mut self.goals)?;
         self.bus
-            .write_goals(&goals)
+            .write_goals(&self.goals)
             .map_err(|e| fault(self.robot, e, elapsed))?;
         self.last_goal.copy_from_slice(&self.pose);
         Ok(())

@@ -27,6 +27,7 @@ const SUPPORT: &[(&str, &str)] = &[
     ("sim_requests.py", include_str!("../../sim/sim_requests.py")),
     ("sim_model.py", include_str!("../../sim/sim_model.py")),
     ("sim_run.py", include_str!("../../sim/sim_run.py")),
+    ("sim_profile.py", include_str!("../../sim/sim_profile.py")),
     ("sim_render.py", include_str!("../../sim/sim_render.py")),
     ("sim_images.py", include_str!("../../sim/sim_images.py")),
 ];

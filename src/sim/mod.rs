@@ -147,11 +147,16 @@ fn to_model(robot: &Robot, values: &[f64]) -> Vec<f64> {
         .joints
         .iter()
         .zip(values)
-        .map(|(j, v)| match j.kind {
-            JointKind::Revolute => v.to_radians(),
-            JointKind::Prismatic => *v,
-        })
+        .map(|(j, &v)| to_model_one(j, v))
         .collect()
+}
+
+/// One joint's value (or rate) in the model's units: radians or metres.
+fn to_model_one(joint: &crate::robot::Joint, value: f64) -> f64 {
+    match joint.kind {
+        JointKind::Revolute => value.to_radians(),
+        JointKind::Prismatic => value,
+    }
 }
 
 fn from_model(robot: &Robot, values: &[f64]) -> Vec<f64> {
@@ -173,6 +178,8 @@ pub struct Simulation {
     joints: Vec<String>,
     force_limits: Vec<Option<f64>>,
     pub timestep: f64,
+    /// The servos' own profile to model (`--servo-profile`): the "profile" of every run.
+    servo_profile: Option<Value>,
 }
 
 impl Simulation {
@@ -210,6 +217,7 @@ impl Simulation {
                 .collect(),
             force_limits: Vec::new(),
             timestep: 0.0,
+            servo_profile: None,
         };
         let reply = sim
             .request(&json!({ "op": "load", "mjcf": model }))
@@ -258,6 +266,32 @@ impl Simulation {
         &self.model
     }
 
+    /// Models the servos' own profile from now on, as `play --servo-profile` sets it
+    /// ([`crate::bus::profile::applied_limits`]): each servo follows its goal within these
+    /// acceleration and velocity limits.
+    pub fn model_servo_profile(
+        &mut self,
+        robot: &Robot,
+    ) -> Result<(), crate::bus::profile::ProfileError> {
+        let limits = robot
+            .joints
+            .iter()
+            .map(crate::bus::profile::applied_limits)
+            .collect::<Result<Vec<_>, _>>()?;
+        let accelerations: Vec<f64> = limits.iter().map(|(a, _)| *a).collect();
+        // Rates convert like positions: to_model only scales.
+        let velocities: Vec<Option<f64>> = limits
+            .iter()
+            .zip(&robot.joints)
+            .map(|((_, v), joint)| v.map(|v| to_model_one(joint, v)))
+            .collect();
+        self.servo_profile = Some(json!({
+            "acceleration": to_model(robot, &accelerations),
+            "velocity": velocities,
+        }));
+        Ok(())
+    }
+
     pub fn harness(&self) -> &Harness {
         &self.harness
     }
@@ -279,14 +313,18 @@ impl Simulation {
             .iter()
             .map(|r| to_model(robot, r))
             .collect();
-        let reply = self.request(&json!({
+        let mut request = json!({
             "op": "run",
             "joints": self.joints,
             "control_hz": stream.rate,
             "initial": to_model(robot, &stream.initial),
             "reset": reset,
             "commands": commands,
-        }))?;
+        });
+        if let Some(profile) = &self.servo_profile {
+            request["profile"] = profile.clone();
+        }
+        let reply = self.request(&request)?;
         let trace = &reply["trace"];
         let matrix = |name: &str| -> Result<Vec<Vec<f64>>, SimError> {
             trace[name]

@@ -79,6 +79,20 @@ impl ServoBus for ObservedBus {
     ) -> Result<Vec<i64>, BusError> {
         self.inner.read_homing_offsets(servos)
     }
+    fn read_setting(
+        &mut self,
+        ids: &[u8],
+        setting: crate::bus::profile::Setting,
+    ) -> Result<Vec<i64>, BusError> {
+        self.inner.read_setting(ids, setting)
+    }
+    fn write_setting(
+        &mut self,
+        values: &[(u8, i64)],
+        setting: crate::bus::profile::Setting,
+    ) -> Result<(), BusError> {
+        self.inner.write_setting(values, setting)
+    }
 }
 
 type MotionResult = (Box<dyn ServoBus>, Result<Outcome, PlayError>);

@@ -11,7 +11,7 @@ use super::protocol::packet::{Decoded, Direction, Packet, PacketError};
 use super::protocol::{codec, Codec, Instructions, Status};
 use super::registers::{self, Register, RegisterTable};
 use super::transport::Transport;
-use super::{Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
+use super::{profile, Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
 use crate::robot::{Protocol, ServoModel};
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
@@ -418,6 +418,15 @@ impl NativeBus {
         pick: fn(&RegisterTable) -> Register,
     ) -> Result<Vec<i64>, BusError> {
         let (register, table) = self.common_register(ids, pick)?;
+        self.read_register_values(ids, register, table)
+    }
+
+    fn read_register_values(
+        &mut self,
+        ids: &[u8],
+        register: Register,
+        table: &'static RegisterTable,
+    ) -> Result<Vec<i64>, BusError> {
         let blocks = self.read_block(ids, register.address, u16::from(register.size))?;
         ids.iter()
             .zip(blocks)
@@ -432,6 +441,15 @@ impl NativeBus {
     ) -> Result<(), BusError> {
         let ids: Vec<u8> = values.iter().map(|(id, _)| *id).collect();
         let (register, table) = self.common_register(&ids, pick)?;
+        self.write_register_values(values, register, table)
+    }
+
+    fn write_register_values(
+        &mut self,
+        values: &[(u8, i64)],
+        register: Register,
+        table: &'static RegisterTable,
+    ) -> Result<(), BusError> {
         let data = values
             .iter()
             .map(|&(id, value)| {
@@ -449,6 +467,35 @@ impl NativeBus {
         let params = params.map_err(|e| self.protocol_error(e))?;
         let broadcast = self.codec.framing().broadcast_id();
         self.send(broadcast, sync_write, &params)
+    }
+
+    /// The register of `setting` shared by every servo in `ids`, or why there is none.
+    fn setting_register(
+        &self,
+        ids: &[u8],
+        setting: profile::Setting,
+    ) -> Result<(Register, &'static RegisterTable), BusError> {
+        let mut found: Option<(Register, &'static RegisterTable)> = None;
+        for &id in ids {
+            let table = self.table(id)?;
+            let register = setting.register(table).ok_or_else(|| {
+                BusError::Protocol(format!("servo {id} has no {} register", setting.name()))
+            })?;
+            match found {
+                Some((first, _))
+                    if first.address != register.address || first.size != register.size =>
+                {
+                    return Err(BusError::Protocol(format!(
+                        "servos {:?} keep {} at different addresses",
+                        ids,
+                        setting.name()
+                    )))
+                }
+                Some(_) => {}
+                None => found = Some((register, table)),
+            }
+        }
+        found.ok_or_else(|| BusError::Protocol("no servos given".into()))
     }
 }
 
@@ -502,6 +549,37 @@ impl ServoBus for NativeBus {
     fn read_homing_offsets(&mut self, servos: &[(u8, ServoModel)]) -> Result<Vec<i64>, BusError> {
         let ids: Vec<u8> = servos.iter().map(|(id, _)| *id).collect();
         self.read_values(&ids, |t| t.homing_offset)
+    }
+
+    fn read_setting(
+        &mut self,
+        ids: &[u8],
+        setting: profile::Setting,
+    ) -> Result<Vec<i64>, BusError> {
+        let (register, table) = self.setting_register(ids, setting)?;
+        self.read_register_values(ids, register, table)
+    }
+
+    fn write_setting(
+        &mut self,
+        values: &[(u8, i64)],
+        setting: profile::Setting,
+    ) -> Result<(), BusError> {
+        let ids: Vec<u8> = values.iter().map(|(id, _)| *id).collect();
+        let (register, table) = self.setting_register(&ids, setting)?;
+        self.write_register_values(values, register, table)?;
+        let read = self.read_register_values(&ids, register, table)?;
+        match values
+            .iter()
+            .zip(&read)
+            .find(|((_, want), got)| want != *got)
+        {
+            Some(((id, want), got)) => Err(BusError::Protocol(format!(
+                "servo {id}: {} reads {got} after writing {want}",
+                setting.name()
+            ))),
+            None => Ok(()),
+        }
     }
 
     fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError> {

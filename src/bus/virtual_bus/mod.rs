@@ -16,10 +16,12 @@ mod pty;
 mod servo;
 #[cfg(test)]
 mod servo_tests;
+pub mod wire;
 
 pub use hand::Hand;
 pub use pty::PtyServer;
 pub use servo::VirtualServo;
+pub use wire::WireTiming;
 
 use super::protocol::dynamixel;
 use super::protocol::packet::{Decoded, Direction, Packet};
@@ -211,23 +213,63 @@ impl VirtualServos {
 
     /// Decodes what arrived and answers each instruction.
     pub fn handle(&mut self, bytes: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+        self.exchanges(bytes)
+            .into_iter()
+            .flat_map(|exchange| exchange.answers)
+            .map(|answer| (answer.extra_delay, answer.bytes))
+            .collect()
+    }
+
+    /// Like [`VirtualServos::handle`], instruction by instruction, with the bytes each took on
+    /// the line and each answering servo's return delay: what [`wire::Wire`] times.
+    pub fn exchanges(&mut self, bytes: &[u8]) -> Vec<wire::Exchange> {
         self.rx.extend_from_slice(bytes);
-        let mut answers = Vec::new();
+        let mut exchanges = Vec::new();
+        // Bytes still buffered from before belong to the packet they complete.
+        let mut pending = self.rx.len() - bytes.len();
         loop {
+            let before = self.rx.len();
             match self
                 .codec
                 .framing()
                 .decode(&mut self.rx, Direction::ToServo)
             {
                 Ok(Decoded::Packet(packet)) => {
-                    answers.extend(self.answer(&packet));
+                    let answers = self.answer(&packet);
+                    exchanges.push(wire::Exchange {
+                        request_bytes: before - self.rx.len() + std::mem::take(&mut pending),
+                        answers: answers
+                            .into_iter()
+                            .map(|(extra_delay, bytes)| wire::Answer {
+                                return_delay: self.answer_return_delay(&bytes),
+                                extra_delay,
+                                bytes,
+                            })
+                            .collect(),
+                    });
                     self.record(packet);
                 }
                 Ok(Decoded::NeedMore) => break,
                 Err(_) => self.corrupt_packets += 1,
             }
         }
-        answers
+        exchanges
+    }
+
+    /// The return delay of the servo that sent `answer` (its id read back from the bytes,
+    /// damaged or not); zero for an answer no single servo sent (Fast Sync Read's).
+    fn answer_return_delay(&self, answer: &[u8]) -> Duration {
+        let id = match self
+            .codec
+            .framing()
+            .decode(&mut answer.to_vec(), Direction::FromServo)
+        {
+            Ok(Decoded::Packet(packet)) => Some(packet.id),
+            Ok(Decoded::NeedMore) => None,
+            Err(e) => e.id(),
+        };
+        id.and_then(|id| self.return_delay(id))
+            .unwrap_or(Duration::ZERO)
     }
 
     fn answer(&mut self, packet: &Packet) -> Vec<(Duration, Vec<u8>)> {

@@ -1,7 +1,13 @@
 //! Serving a virtual bus on a pseudo-terminal, so clients reach it through a real serial port
 //! path — our driver via `serialport`, the vendor SDKs via pyserial — with the code path of a
 //! USB adapter.
+//!
+//! By default the server takes the time the real wire would ([`super::wire`]): an answer is
+//! written to the pseudo-terminal no earlier than the instruction's last byte would have
+//! arrived at the robot's baud rate, plus each answering servo's return delay and its own
+//! bytes' time, plus the adapter latency asked for. Without wire timing it answers at once.
 
+use super::wire::{Wire, WireTiming};
 use super::{VirtualBus, VirtualServos};
 use crate::bus::BusError;
 use crate::robot::Robot;
@@ -10,7 +16,7 @@ use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// A running pty server; dropping it stops the server and removes the device.
 pub struct PtyServer {
@@ -24,12 +30,18 @@ pub struct PtyServer {
 }
 
 impl PtyServer {
-    /// Emulates `robot`'s servos at its home pose.
+    /// Emulates `robot`'s servos at its home pose, on a wire timed at the robot's baud rate.
     pub fn start(robot: &Robot) -> Result<PtyServer, BusError> {
-        PtyServer::serve(VirtualBus::new(VirtualServos::for_robot(robot)))
+        PtyServer::start_timed(robot, Some(WireTiming::at(robot.bus.baud)))
     }
 
-    pub fn serve(bus: VirtualBus) -> Result<PtyServer, BusError> {
+    /// Emulates `robot`'s servos at its home pose on a wire timed as `wire` says (`None`:
+    /// answers come at once, only software time).
+    pub fn start_timed(robot: &Robot, wire: Option<WireTiming>) -> Result<PtyServer, BusError> {
+        PtyServer::serve(VirtualBus::new(VirtualServos::for_robot(robot)), wire)
+    }
+
+    pub fn serve(bus: VirtualBus, wire: Option<WireTiming>) -> Result<PtyServer, BusError> {
         let port_error = |source: std::io::Error| BusError::Port {
             port: "pseudo-terminal".into(),
             source,
@@ -45,7 +57,8 @@ impl PtyServer {
         let thread = {
             let stop = stop.clone();
             let bus = bus.clone();
-            std::thread::spawn(move || serve_loop(&mut master, &bus, &stop))
+            let mut wire = wire.map(Wire::new);
+            std::thread::spawn(move || serve_loop(&mut master, &bus, &stop, wire.as_mut()))
         };
         Ok(PtyServer {
             path,
@@ -66,7 +79,12 @@ impl PtyServer {
     }
 }
 
-fn serve_loop(master: &mut TTYPort, bus: &VirtualBus, stop: &AtomicBool) {
+fn serve_loop(
+    master: &mut TTYPort,
+    bus: &VirtualBus,
+    stop: &AtomicBool,
+    mut wire: Option<&mut Wire>,
+) {
     let mut buf = [0u8; 1024];
     while !stop.load(Ordering::Relaxed) {
         if !bus.lock().connected {
@@ -83,20 +101,46 @@ fn serve_loop(master: &mut TTYPort, bus: &VirtualBus, stop: &AtomicBool) {
                 continue;
             }
         };
-        let answers = bus.lock().handle(&buf[..n]);
-        for (delay, bytes) in answers {
-            if !delay.is_zero() {
-                std::thread::sleep(delay);
-            }
-            if master
-                .write_all(&bytes)
-                .and_then(|_| master.flush())
-                .is_err()
-            {
-                break;
-            }
+        // A client that hung up mid-answer: serve the next one.
+        let _ = match wire.as_deref_mut() {
+            Some(wire) => answer_timed(master, bus, wire, &buf[..n]),
+            None => answer_at_once(master, bus, &buf[..n]),
+        };
+    }
+}
+
+/// The old behaviour: each answer after its injected delay only.
+fn answer_at_once(master: &mut TTYPort, bus: &VirtualBus, bytes: &[u8]) -> std::io::Result<()> {
+    let answers = bus.lock().handle(bytes);
+    for (delay, bytes) in answers {
+        if !delay.is_zero() {
+            std::thread::sleep(delay);
+        }
+        master.write_all(&bytes).and_then(|_| master.flush())?;
+    }
+    Ok(())
+}
+
+/// Each answer when the wire would have delivered it.
+fn answer_timed(
+    master: &mut TTYPort,
+    bus: &VirtualBus,
+    wire: &mut Wire,
+    bytes: &[u8],
+) -> std::io::Result<()> {
+    // The client wrote these bytes just now (a pseudo-terminal passes them on at once).
+    let written_at = Instant::now();
+    let exchanges = bus.lock().exchanges(bytes);
+    for exchange in exchanges {
+        let readable = wire.schedule(written_at, &exchange);
+        for (answer, at) in exchange.answers.iter().zip(readable) {
+            crate::pacing::precise::sleep_until(at);
+            master
+                .write_all(&answer.bytes)
+                .and_then(|_| master.flush())?;
         }
     }
+    Ok(())
 }
 
 impl Drop for PtyServer {

@@ -1,0 +1,117 @@
+//! Waking at a deadline to within a few microseconds: an absolute sleep on the monotonic clock
+//! (`clock_nanosleep` with `TIMER_ABSTIME`), then a short spin.
+//!
+//! A relative sleep (`std::thread::sleep`) measures its duration from whenever the thread got
+//! to call it, so the time spent before the call adds to every wait; an absolute sleep names
+//! the instant itself. Even so the kernel wakes a sleeping thread late, by its timer slack
+//! (50 µs for an ordinary thread) plus the scheduling delay, so the last [`SPIN`] before the
+//! deadline is spent polling the clock instead of sleeping.
+
+use std::cell::Cell;
+use std::time::{Duration, Instant};
+
+/// The stretch before a deadline that is spun rather than slept.
+pub const SPIN: Duration = Duration::from_micros(50);
+
+/// Sleeps until `deadline`, waking within a few microseconds of it.
+pub fn sleep_until(deadline: Instant) {
+    reduce_timer_slack();
+    if let Some(spin_from) = deadline.checked_sub(SPIN) {
+        if Instant::now() < spin_from {
+            sleep_absolute(spin_from);
+        }
+    }
+    while Instant::now() < deadline {
+        std::hint::spin_loop();
+    }
+}
+
+/// `clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME)` until `deadline` (restarted after a
+/// signal). `Instant` reads the same clock on Linux, but exposes no timespec, so the deadline
+/// is carried over as an offset from a reading of both clocks taken together.
+fn sleep_absolute(deadline: Instant) {
+    let Some(target) = monotonic_timespec_of(deadline) else {
+        std::thread::sleep(deadline.saturating_duration_since(Instant::now()));
+        return;
+    };
+    loop {
+        // SAFETY: `target` is a valid timespec; the remaining-time pointer may be null for an
+        // absolute sleep.
+        let rc = unsafe {
+            libc::clock_nanosleep(
+                libc::CLOCK_MONOTONIC,
+                libc::TIMER_ABSTIME,
+                &target,
+                std::ptr::null_mut(),
+            )
+        };
+        if rc != libc::EINTR {
+            return;
+        }
+    }
+}
+
+/// `deadline` as a CLOCK_MONOTONIC timespec.
+fn monotonic_timespec_of(deadline: Instant) -> Option<libc::timespec> {
+    let mut now = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `now` is a valid, writable timespec.
+    if unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut now) } != 0 {
+        return None;
+    }
+    let ahead = deadline.saturating_duration_since(Instant::now());
+    let nanos = i128::from(now.tv_nsec) + ahead.subsec_nanos() as i128;
+    let seconds = i128::from(now.tv_sec) + ahead.as_secs() as i128 + nanos / 1_000_000_000;
+    Some(libc::timespec {
+        tv_sec: libc::time_t::try_from(seconds).ok()?,
+        tv_nsec: (nanos % 1_000_000_000) as libc::c_long,
+    })
+}
+
+thread_local! {
+    static SLACK_REDUCED: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Asks the kernel to wake this thread's timers without slack (1 ns instead of 50 µs), once per
+/// thread; a refusal only leaves the default slack, which the spin absorbs.
+fn reduce_timer_slack() {
+    SLACK_REDUCED.with(|done| {
+        if !done.replace(true) {
+            // SAFETY: PR_SET_TIMERSLACK takes one integer argument and affects this thread only.
+            unsafe {
+                libc::prctl(libc::PR_SET_TIMERSLACK, 1 as libc::c_ulong, 0, 0, 0);
+            }
+        }
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_deadline_converts_to_the_monotonic_clock_it_lies_on() {
+        // Two seconds ahead of now, as a timespec: compared with a clock_gettime reading taken
+        // right after, the difference is two seconds less the time between the two readings.
+        let deadline = Instant::now() + Duration::from_secs(2);
+        let target = monotonic_timespec_of(deadline).unwrap();
+        let mut now = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut now) };
+        let ahead =
+            (target.tv_sec - now.tv_sec) as f64 + (target.tv_nsec - now.tv_nsec) as f64 * 1e-9;
+        assert!((0.0..=2.0).contains(&ahead) && ahead > 1.0, "{ahead}");
+        assert!((0..1_000_000_000).contains(&target.tv_nsec));
+    }
+
+    #[test]
+    fn sleeping_until_a_past_deadline_returns_without_waiting_for_anything() {
+        // Not a timing check: a deadline already passed must not block (the loop ends).
+        sleep_until(Instant::now() - Duration::from_millis(1));
+        sleep_until(Instant::now());
+    }
+}

@@ -1,0 +1,100 @@
+//! `--servo-profile`: the joints' limits written into the servos' own motion profile for the
+//! playback, and the values found there put back afterwards, however the playback ends.
+//!
+//! [`ProfileGuard`] reads and remembers the profile registers, writes the limits
+//! ([`crate::bus::profile::settings_for`]), and lends the bus to the playback; it restores the
+//! remembered values when told to ([`ProfileGuard::restore`], which reports a failure) or,
+//! failing that, when dropped: after an error return or a panic too.
+
+use crate::bus::profile::{settings_for, ProfileError, Setting};
+use crate::bus::{BusError, ServoBus};
+use crate::robot::Robot;
+
+/// One profile register's values, (id, value) per servo: the values found before playback, or
+/// the ones to write.
+type Values = (Setting, Vec<(u8, i64)>);
+
+pub struct ProfileGuard<'a> {
+    bus: &'a mut dyn ServoBus,
+    /// What to write back, in the order it was written; empty once restored.
+    saved: Vec<Values>,
+}
+
+/// Why the profile could not be set up or put back.
+#[derive(Debug, thiserror::Error)]
+pub enum ServoProfileError {
+    /// A joint limit the servo's register cannot express (nothing was written).
+    #[error(transparent)]
+    Units(#[from] ProfileError),
+    #[error("--servo-profile: {0}")]
+    Setup(#[from] BusError),
+    #[error("--servo-profile: the servos' previous profile could not be restored: {0}")]
+    Restore(BusError),
+}
+
+impl<'a> ProfileGuard<'a> {
+    /// Converts every joint's limits first (nothing is written when one cannot be expressed),
+    /// then reads the present values, then writes the new ones; a failure part-way restores
+    /// what was already written.
+    pub fn apply(
+        bus: &'a mut dyn ServoBus,
+        robot: &Robot,
+    ) -> Result<ProfileGuard<'a>, ServoProfileError> {
+        let wanted = wanted_settings(robot)?;
+        let mut guard = ProfileGuard {
+            bus,
+            saved: Vec::new(),
+        };
+        for (setting, values) in wanted {
+            let ids: Vec<u8> = values.iter().map(|(id, _)| *id).collect();
+            let before = guard.bus.read_setting(&ids, setting)?;
+            guard
+                .saved
+                .push((setting, ids.into_iter().zip(before).collect()));
+            // On an error here the guard is dropped, which restores what was saved so far.
+            guard.bus.write_setting(&values, setting)?;
+        }
+        Ok(guard)
+    }
+
+    /// The bus, for the playback.
+    pub fn bus(&mut self) -> &mut dyn ServoBus {
+        &mut *self.bus
+    }
+
+    /// Writes the remembered values back (the last written first).
+    pub fn restore(&mut self) -> Result<(), BusError> {
+        let mut first_error = None;
+        while let Some((setting, values)) = self.saved.pop() {
+            if let Err(e) = self.bus.write_setting(&values, setting) {
+                first_error.get_or_insert(e);
+            }
+        }
+        first_error.map_or(Ok(()), Err)
+    }
+}
+
+impl Drop for ProfileGuard<'_> {
+    fn drop(&mut self) {
+        if !self.saved.is_empty() {
+            if let Err(e) = self.restore() {
+                eprintln!("warning: --servo-profile: the servos' previous profile could not be restored: {e}");
+            }
+        }
+    }
+}
+
+/// Each setting with the value every servo gets, grouped by setting (one sync write each), in
+/// joint order.
+fn wanted_settings(robot: &Robot) -> Result<Vec<Values>, ProfileError> {
+    let mut grouped: Vec<Values> = Vec::new();
+    for joint in &robot.joints {
+        for (setting, value) in settings_for(joint)? {
+            match grouped.iter_mut().find(|(s, _)| *s == setting) {
+                Some((_, values)) => values.push((joint.servo.id, value)),
+                None => grouped.push((setting, vec![(joint.servo.id, value)])),
+            }
+        }
+    }
+    Ok(grouped)
+}
