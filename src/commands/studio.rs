@@ -1,0 +1,44 @@
+//! `keypose studio`: the teaching session in the browser, with the arm in 3D. The session is
+//! opened as `keypose teach` opens it ([`super::teach::open`]); the page is a second front
+//! end to the same state machine.
+
+use super::teach::{self, SessionArgs};
+use super::{CommandError, Verdict};
+use keypose::studio::Studio;
+use std::io::Write;
+use std::net::SocketAddr;
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct StudioArgs {
+    #[command(flatten)]
+    pub session: SessionArgs,
+    /// Address to serve the page on; port 0 picks a free one. Anything but a loopback address
+    /// lets other machines reach the studio (with the token).
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:0")]
+    pub listen: SocketAddr,
+}
+
+pub fn run(args: &StudioArgs) -> Result<Verdict, CommandError> {
+    let listen = |_: &keypose::robot::Robot| {
+        Studio::listen(args.listen).map_err(|e| CommandError::Usage(e.to_string()))
+    };
+    let (mut opened, studio) = teach::open(&args.session, listen)?;
+    // The URL is the first line of standard output, flushed at once: scripts and tests read
+    // it from there.
+    let mut stdout = std::io::stdout().lock();
+    writeln!(stdout, "{}", studio.url())
+        .and_then(|_| stdout.flush())
+        .map_err(|e| CommandError::Output {
+            path: "standard output".into(),
+            source: e,
+        })?;
+    drop(stdout);
+    eprintln!("studio: open the URL above in a browser; Ctrl-C stops the arm and ends the studio");
+    studio
+        .run(&mut opened.state, &mut opened.session)
+        .map_err(|e| match e {
+            keypose::studio::StudioError::Teach(e) => CommandError::Teach(e),
+            other => CommandError::Hardware(other.to_string()),
+        })?;
+    Ok(Verdict::Pass)
+}
