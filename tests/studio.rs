@@ -126,6 +126,19 @@ fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
     // to the nearest tick, 228, which reads back as 228 · 360 / 4096 = 20.0390625°.
     let drawn = results["drawnPan"].as_f64().unwrap();
     assert!((drawn - 20.0390625).abs() < 1e-9, "{drawn}");
+    // The page's scene graph (MJCF bodies) puts the tool where keypose's forward kinematics
+    // (the robot description) does, to the micrometre, at every pose tried.
+    for pose in results["tcp"].as_array().unwrap() {
+        let drawn: Vec<f64> = serde_json::from_value(pose["drawn"].clone()).unwrap();
+        let computed: Vec<f64> = serde_json::from_value(pose["computed"].clone()).unwrap();
+        let gap = drawn
+            .iter()
+            .zip(&computed)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        assert!(gap < 1e-6, "drawn {drawn:?}, computed {computed:?}");
+    }
     // The timeline's drag moved key 1 from 2 s to 3 s.
     let times: Vec<f64> = serde_json::from_value(results["keyTimes"].clone()).unwrap();
     assert_eq!(times, [0.0, 3.0]);

@@ -8,6 +8,9 @@ import http from 'node:http';
 import { inflateSync } from 'node:zlib';
 
 const [url, artifacts] = process.argv.slice(2);
+// A hang guard, not a timing check: a step that never happens fails the run instead of
+// holding CI.
+setTimeout(() => fail('no result after 300 s'), 300000).unref();
 const target = new URL(url);
 const token = target.searchParams.get('token');
 
@@ -116,6 +119,14 @@ try {
   const png = await a.locator('#view').screenshot();
   results.colours = pngColours(png);
   results.drawnPan = await a.evaluate(() => window.studio.view.jointAngle('shoulder_pan'));
+  // The tool where the page draws it (its scene graph, built from the MJCF bodies) and where
+  // keypose computes it (forward kinematics of the robot description), at three poses.
+  results.tcp = [];
+  for (const keys of [[], ['down', 'shift-left', 'shift-left', 'shift-left'], ['down', 'shift-right', 'shift-right', 'down', 'shift-left']]) {
+    for (const key of keys) await a.evaluate(k => window.studio.send({ key: k }), key);
+    await a.waitForTimeout(300);
+    results.tcp.push(await a.evaluate(() => ({ drawn: window.studio.view.tcpPosition(), computed: window.studio.snapshot.tcp })));
+  }
   await a.screenshot({ path: join(artifacts, 'studio.png') });
 
   // ----- the timeline: the keys' curves and a drag of key 1 from 2 s to 3 s -----
@@ -128,14 +139,15 @@ try {
 
   // ----- a jog's goal to the first frame that shows the arm moving (the session ramps a jog
   // before it reads again, as in the terminal) -----
-  await a.keyboard.press('ArrowUp');
+  await a.evaluate(() => window.studio.send({ key: 'select-joint:0' }));
   const jogs = [];
   for (let i = 0; i < 5; i++) {
     jogs.push(await a.evaluate(() => new Promise(resolve => {
       const view = window.studio.view, before = view.jointAngle('shoulder_pan'), t0 = performance.now();
       window.studio.send({ key: 'right' });
       const check = () => (Math.abs(view.jointAngle('shoulder_pan') - before) > 1e-6
-        ? resolve(performance.now() - t0) : requestAnimationFrame(check));
+        ? resolve(performance.now() - t0)
+        : performance.now() - t0 > 10000 ? resolve(null) : requestAnimationFrame(check));
       requestAnimationFrame(check);
     })));
     await waitFor(() => window.studio.snapshot.status.text.includes('shoulder_pan'));

@@ -202,6 +202,14 @@ export class ArmView {
 
   showAxes(on) { for (const a of this.arm.axes) a.visible = on; this.dirty = true; }
 
+  // Where the drawn tool centre point is, in the robot's base frame (metres).
+  tcpPosition() {
+    if (!this.arm.tcp) return null;
+    this.scene.updateMatrixWorld(true);
+    const p = this.arm.tcp.getWorldPosition(new THREE.Vector3());
+    return [p.x, p.y, p.z];
+  }
+
   // The drawn rotation of a joint, for tests and the latency figure.
   jointAngle(name) {
     const joint = this.arm.joints.get(name);
