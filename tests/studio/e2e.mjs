@@ -204,5 +204,13 @@ try {
 } finally {
   await browser.close();
 }
+// Median, 90th percentile and worst of each measured series, for the README.
+const summary = xs => {
+  const s = xs.filter(x => x !== null).sort((a, b) => a - b);
+  const at = q => Math.round(s[Math.min(s.length - 1, Math.floor(q * s.length))]);
+  return s.length ? { n: s.length, median: at(0.5), p90: at(0.9), max: at(1) } : null;
+};
+results.summary = Object.fromEntries(['jogToFrameMs', 'playSnapshotIntervalsMs', 'playSnapshotToArrivalMs', 'playSnapshotToFrameMs']
+  .map(k => [k, summary(results[k] || [])]));
 writeFileSync(join(artifacts, 'results.json'), JSON.stringify(results, null, 1));
 console.log(JSON.stringify(results));
