@@ -4,7 +4,10 @@
 
 use super::teach::{self, SessionArgs};
 use super::{CommandError, Verdict};
-use keypose::studio::Studio;
+use keypose::plan::Trajectory;
+use keypose::player::PlayOptions;
+use keypose::studio::{Simulator, Studio};
+use serde_json::json;
 use std::io::Write;
 use std::net::SocketAddr;
 
@@ -35,10 +38,38 @@ pub fn run(args: &StudioArgs) -> Result<Verdict, CommandError> {
     drop(stdout);
     eprintln!("studio: open the URL above in a browser; Ctrl-C stops the arm and ends the studio");
     studio
-        .run(&mut opened.state, &mut opened.session)
+        .run(&mut opened.state, &mut opened.session, Some(simulator()))
         .map_err(|e| match e {
             keypose::studio::StudioError::Teach(e) => CommandError::Teach(e),
             other => CommandError::Hardware(other.to_string()),
         })?;
     Ok(Verdict::Pass)
+}
+
+/// Most trace rows sent to the page: a minute at the highest control rate is far fewer.
+const MAX_TRACE_ROWS: usize = 20_000;
+
+/// `keypose sim` for the page: the list played in MuJoCo at the robot's control rate, the
+/// report `sim --report` writes, and the measured trace to replay on the 3D arm.
+fn simulator() -> Simulator {
+    Box::new(|sequence, robot| {
+        let trajectory = Trajectory::build(sequence, robot).map_err(|e| e.to_string())?;
+        let options = PlayOptions::new(robot.control_hz);
+        let result = super::sim::simulate(sequence, robot, &trajectory, &options, None)
+            .map_err(|e| e.to_string())?;
+        let trace = &result.trace;
+        let rows = trace
+            .time
+            .len()
+            .min(trace.position.len())
+            .min(MAX_TRACE_ROWS);
+        Ok(json!({
+            "report": super::sim::report_json(&sequence.file, robot, &result),
+            "trace": {
+                "time": &trace.time[..rows],
+                "sequence_time": &trace.sequence_time[..rows.min(trace.sequence_time.len())],
+                "position": &trace.position[..rows],
+            },
+        }))
+    })
 }

@@ -21,6 +21,14 @@ pub mod timeline;
 use std::net::SocketAddr;
 use std::sync::Arc;
 
+/// Plays a sequence in simulation for the page (`POST /api/simulate`): the verdict and the
+/// trace as JSON, or why it could not run. Given by the binary, which owns `keypose sim`.
+pub type Simulator = Box<
+    dyn Fn(&crate::sequence::Sequence, &crate::robot::Robot) -> Result<serde_json::Value, String>
+        + Send
+        + Sync,
+>;
+
 /// The studio's server, listening; [`Studio::run`] then drives the session.
 pub struct Studio {
     http: tiny_http::Server,
@@ -65,6 +73,7 @@ impl Studio {
         self,
         state: &mut crate::teach::TeachState,
         session: &mut crate::teach::Session,
+        simulator: Option<Simulator>,
     ) -> Result<(), StudioError> {
         let hub = Arc::new(engine::Hub::default());
         let (inputs, received) = std::sync::mpsc::channel();
@@ -72,7 +81,9 @@ impl Studio {
         crate::stop::on_signal(move || {
             let _ = interrupts.send(engine::Input::Interrupt);
         });
-        let context = server::Context::new(self.guard, hub.clone(), inputs, state.robot().clone());
+        let mut context =
+            server::Context::new(self.guard, hub.clone(), inputs, state.robot().clone());
+        context.simulator = simulator;
         server::spawn(self.http, context);
         engine::run(state, session, &hub, received)?;
         Ok(())

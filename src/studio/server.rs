@@ -35,6 +35,9 @@ pub struct Context {
     pub robot: Robot,
     /// `GET /api/robot`, built once.
     pub robot_model: String,
+    /// `POST /api/simulate`, when the binary gives one; one run at a time.
+    pub simulator: Option<super::Simulator>,
+    simulating: std::sync::Mutex<()>,
     streams: AtomicUsize,
 }
 
@@ -47,6 +50,8 @@ impl Context {
             inputs,
             robot,
             robot_model,
+            simulator: None,
+            simulating: std::sync::Mutex::new(()),
             streams: AtomicUsize::new(0),
         }
     }
@@ -137,6 +142,7 @@ fn handle(request: Request, context: &Context) {
             respond(request, json_response(200, &json!({"released": true})))
         }
         (Method::Post, "/api/key") => key(request, context, client),
+        (Method::Post, "/api/simulate") => simulate(request, context, client),
         _ => respond(
             request,
             json_response(404, &json!({"error": format!("no route {path}")})),
@@ -177,6 +183,35 @@ fn key(mut request: Request, context: &Context, client: Option<String>) {
         Ok(()) => match answer.recv_timeout(ACTION_TIMEOUT) {
             Ok(status) => json_response(200, &json!({"status": status})),
             Err(_) => json_response(503, &json!({"error": "the session did not answer"})),
+        },
+    };
+    respond(request, response)
+}
+
+/// `POST /api/simulate`: the list as it is now, played in MuJoCo (seconds to a minute); the
+/// arm is not involved, but only the controller may start it (it takes the machine).
+fn simulate(request: Request, context: &Context, client: Option<String>) {
+    let checked = context
+        .hub
+        .lease()
+        .check(client.as_deref().unwrap_or(""), Instant::now());
+    if let Err(refusal) = checked {
+        return respond(request, control_refused(&refusal));
+    }
+    let Some(simulator) = &context.simulator else {
+        let error = json!({"error": "this studio cannot simulate"});
+        return respond(request, json_response(501, &error));
+    };
+    let Ok(_running) = context.simulating.try_lock() else {
+        let error = json!({"error": "a simulation is running already"});
+        return respond(request, json_response(409, &error));
+    };
+    let sequence = context.hub.published().sequence.clone();
+    let response = match sequence.filter(|s| !s.keyframes.is_empty()) {
+        None => json_response(400, &json!({"error": "no keys to simulate: n adds one"})),
+        Some(sequence) => match simulator(&sequence, &context.robot) {
+            Ok(value) => json_response(200, &value),
+            Err(message) => json_response(422, &json!({"error": message})),
         },
     };
     respond(request, response)

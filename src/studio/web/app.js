@@ -200,6 +200,40 @@ function refreshTimeline(s) {
   }, 100);
 }
 
+// ----- simulation: the list played in MuJoCo, the trace replayed on the ghost -----
+
+$('simulate').onclick = async () => {
+  $('simulation').textContent = 'simulating in MuJoCo…';
+  const { ok, answer } = await api('/api/simulate', {});
+  if (!ok) { $('simulation').textContent = answer.error || 'the simulation failed'; return; }
+  studio.simulation = answer;
+  const report = answer.report, trace = answer.trace;
+  // A finding's run time, as the sequence time the timeline shows (none during the ramp).
+  const sequenceTime = t => {
+    const i = trace.time.findIndex(x => x >= t);
+    return i < 0 ? null : trace.sequence_time[i];
+  };
+  const findings = report.findings.map(f => ({ ...f, at: sequenceTime(f.time) }));
+  timeline.setSimFindings(findings);
+  $('simulation').textContent = `simulation (${report.model}): ${report.passed ? 'passes' : 'FAILS'}` +
+    findings.map(f => ` · ${f.kind} ${f.joint || ''} at ${f.time.toFixed(2)} s: ${f.message}`).join('');
+  replay(trace);
+};
+
+// The trace at its own pace on the ghost; the live arm goes on following the servos.
+function replay(trace) {
+  const start = performance.now();
+  const step = () => {
+    const t = (performance.now() - start) / 1000;
+    let i = trace.time.findIndex(x => x >= t);
+    if (i < 0) { ghostOverride = null; if (studio.snapshot) render(studio.snapshot); return; }
+    ghostOverride = trace.position[i];
+    studio.view.setGhost(ghostOverride);
+    requestAnimationFrame(step);
+  };
+  requestAnimationFrame(step);
+}
+
 // ----- start: the robot, then the stream -----
 
 async function start() {

@@ -21,6 +21,12 @@ export class Timeline {
     canvas.addEventListener('pointerup', e => this.up(e));
   }
 
+  // The simulation's findings, at sequence times: marked on their joint's row (or all rows).
+  setSimFindings(findings) {
+    this.simFindings = findings.filter(f => f.at !== null && f.at !== undefined);
+    this.draw();
+  }
+
   set(data, keys) {
     this.data = data;
     this.keys = keys;
@@ -116,6 +122,11 @@ export class Timeline {
       g.fillStyle = 'rgba(255,60,60,0.35)';
       const x0 = this.x(f.from), x1 = Math.max(this.x(f.to), x0 + 2);
       g.fillRect(x0, top, x1 - x0, h);
+    }
+    for (const f of (this.simFindings || []).filter(f => !f.joint || f.joint === j.name)) {
+      const x = this.x(f.at);
+      g.fillStyle = '#ff7043';
+      g.beginPath(); g.moveTo(x - 5, top); g.lineTo(x + 5, top); g.lineTo(x, top + 8); g.fill();
     }
     this.curve(d.times, j.velocities.map(v => (v / (j.velocity_limit || 1)) * (hi - lo) / 2 + (hi + lo) / 2), y, '#c0a060', [3, 3]);
     this.curve(d.times, j.positions, y, '#4fc3f7', []);
