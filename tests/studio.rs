@@ -163,3 +163,44 @@ fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
         "{results}"
     );
 }
+
+/// No browser needed: without `--port` the studio does not start (exit 2, saying why), and
+/// Ctrl-C ends a running one with exit 130, the arm held, unsaved keys left in the journal.
+#[test]
+fn the_studio_needs_a_port_and_ctrl_c_ends_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let keypose = || {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_keypose"));
+        command
+            .current_dir(dir.path())
+            .env("KEYPOSE_CACHE", dir.path().join("cache"));
+        command
+    };
+    let out = keypose().args(["studio", "new.json"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--port is required"));
+
+    let mut child = keypose()
+        .args(["studio", "--port", "virtual", "new.json"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut url = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut url)
+        .unwrap();
+    // 127.0.0.1, a port the system chose, and 32 random bytes in hex.
+    let token = url.trim().rsplit_once("/?token=").unwrap().1.to_string();
+    assert_eq!(token.len(), 64, "{url}");
+    assert!(token.chars().all(|c| c.is_ascii_hexdigit()));
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(130));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("ended by Ctrl-C"));
+    assert!(!dir.path().join("new.json").exists(), "nothing was written");
+}

@@ -6,6 +6,7 @@ use super::teach::{self, SessionArgs};
 use super::{CommandError, Verdict};
 use keypose::plan::Trajectory;
 use keypose::player::PlayOptions;
+use keypose::studio::engine::Ended;
 use keypose::studio::{Simulator, Studio};
 use serde_json::json;
 use std::io::Write;
@@ -37,13 +38,30 @@ pub fn run(args: &StudioArgs) -> Result<Verdict, CommandError> {
         })?;
     drop(stdout);
     eprintln!("studio: open the URL above in a browser; Ctrl-C stops the arm and ends the studio");
-    studio
+    let ended = studio
         .run(&mut opened.state, &mut opened.session, Some(simulator()))
         .map_err(|e| match e {
             keypose::studio::StudioError::Teach(e) => CommandError::Teach(e),
             other => CommandError::Hardware(other.to_string()),
         })?;
-    Ok(Verdict::Pass)
+    let status = opened.state.status().text.clone();
+    match ended {
+        Ended::Quit => {
+            eprintln!(
+                "studio: {}",
+                keypose::terminal_text::escape_controls(&status)
+            );
+            Ok(Verdict::Pass)
+        }
+        Ended::Interrupted => Err(CommandError::Interrupted(format!(
+            "studio ended by Ctrl-C; the arm holds where it is{}",
+            if opened.state.is_dirty() && opened.state.journal().is_some() {
+                " (unsaved changes stay in the journal: the next studio or teach of this file offers them)"
+            } else {
+                ""
+            }
+        ))),
+    }
 }
 
 /// Most trace rows sent to the page: a minute at the highest control rate is far fewer.

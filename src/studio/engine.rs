@@ -125,13 +125,22 @@ fn unix_ms() -> f64 {
         .map_or(0.0, |d| d.as_secs_f64() * 1000.0)
 }
 
+/// How a studio session ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ended {
+    /// The page quit it (`q`).
+    Quit,
+    /// Ctrl-C (or SIGTERM, SIGHUP) in the terminal, once the arm was at rest.
+    Interrupted,
+}
+
 /// Runs the session until the page quits it (`q`) or Ctrl-C ends it with the arm at rest.
 pub fn run(
     state: &mut TeachState,
     session: &mut Session,
     hub: &Hub,
     inputs: Receiver<Input>,
-) -> Result<(), TeachError> {
+) -> Result<Ended, TeachError> {
     let bus = session.describe().to_string();
     let mut next_read = Instant::now();
     let mut interrupted = false;
@@ -144,13 +153,23 @@ pub fn run(
             teach::refresh(state, session);
             next_read = Instant::now() + READ_PERIOD;
         }
-        if hub.lease().take_lost() {
+        // A controller that went silent (no heartbeat, no broken stream to tell) is let go
+        // here, whether or not any page asks for anything.
+        let lost = {
+            let mut lease = hub.lease();
+            lease.expire(Instant::now());
+            lease.take_lost()
+        };
+        if lost {
             let stop = state.soft_stop();
             teach::apply(state, session, stop);
         }
         hub.publish(state, &bus);
-        if state.should_quit() || (interrupted && !state.is_moving()) {
-            break Ok(());
+        if state.should_quit() {
+            break Ok(Ended::Quit);
+        }
+        if interrupted && !state.is_moving() {
+            break Ok(Ended::Interrupted);
         }
         let timeout = next_read.saturating_duration_since(Instant::now());
         match inputs.recv_timeout(timeout) {
@@ -166,7 +185,7 @@ pub fn run(
                 interrupt(state, session);
             }
             Err(RecvTimeoutError::Timeout) => {}
-            Err(RecvTimeoutError::Disconnected) => break Ok(()),
+            Err(RecvTimeoutError::Disconnected) => break Ok(Ended::Quit),
         }
     };
     hub.end();
@@ -181,8 +200,8 @@ fn act(state: &mut TeachState, session: &mut Session, action: Action) {
         Action::Stop => interrupt(state, session),
         Action::Line(text) => {
             let Some(teach::Prompt::Text { text: now, .. }) = state.prompt() else {
-                // Not asked for: the page was behind. Said rather than typed as keys.
-                state.handle_key(Key::Esc);
+                // Not asked for (the page was behind): typed as keys, the line would run as
+                // commands, so it is dropped.
                 return;
             };
             let typed = now.chars().count();

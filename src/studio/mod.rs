@@ -74,7 +74,7 @@ impl Studio {
         state: &mut crate::teach::TeachState,
         session: &mut crate::teach::Session,
         simulator: Option<Simulator>,
-    ) -> Result<(), StudioError> {
+    ) -> Result<engine::Ended, StudioError> {
         let hub = Arc::new(engine::Hub::default());
         let (inputs, received) = std::sync::mpsc::channel();
         let interrupts = inputs.clone();
@@ -85,7 +85,6 @@ impl Studio {
             server::Context::new(self.guard, hub.clone(), inputs, state.robot().clone());
         context.simulator = simulator;
         server::spawn(self.http, context);
-        engine::run(state, session, &hub, received)?;
-        Ok(())
+        Ok(engine::run(state, session, &hub, received)?)
     }
 }

@@ -349,3 +349,34 @@ fn with_headers<R: Read>(response: Response<R>, kind: &str) -> Response<R> {
         }
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::teach::Key;
+
+    #[test]
+    fn urls_split_into_path_and_parameters() {
+        let (path, params) = split_url("/api/events?token=ab12&client=page-1");
+        assert_eq!(path, "/api/events");
+        assert_eq!(param(&params, "token"), Some("ab12"));
+        assert_eq!(param(&params, "client"), Some("page-1"));
+        assert_eq!(param(&params, "other"), None);
+        assert_eq!(split_url("/").0, "/");
+    }
+
+    #[test]
+    fn a_body_is_a_key_a_line_or_the_stop_button() {
+        assert_eq!(
+            parse_action(&json!({"key": "u"})),
+            Ok(Action::Key(Key::Char('u')))
+        );
+        assert_eq!(parse_action(&json!({"key": "stop"})), Ok(Action::Stop));
+        assert_eq!(
+            parse_action(&json!({"line": "wave"})),
+            Ok(Action::Line("wave".into()))
+        );
+        assert!(parse_action(&json!({"key": "write:/tmp/x.json"})).is_err());
+        assert!(parse_action(&json!({"keys": "u"})).is_err());
+    }
+}
