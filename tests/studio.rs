@@ -68,6 +68,11 @@ fn pose(values: [f64; 6]) -> Value {
     json!({ "joints": joints })
 }
 
+fn named(name: &str, mut key: Value) -> Value {
+    key["name"] = json!(name);
+    key
+}
+
 #[test]
 fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
     require_browser_tools();
@@ -108,7 +113,7 @@ fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
 
     assert_eq!(results["errors"], json!([]), "the page ran without errors");
     // n at home; shift-right twice (+20° pan), n; down, right three times (+3° lift), u;
-    // n then d (a key added and deleted); w.
+    // N and "wave" typed in the page's box; n then d (a key added and deleted); w.
     let written: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("taught.json")).unwrap())
             .unwrap();
@@ -116,7 +121,7 @@ fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
         written["keyframes"],
         json!([
             pose([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
-            pose([20.0, 3.0, 0.0, 0.0, 0.0, 0.0])
+            named("wave", pose([20.0, 3.0, 0.0, 0.0, 0.0, 0.0]))
         ])
     );
     assert_eq!(written["key_interval"], json!(2.0));

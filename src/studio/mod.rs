@@ -53,6 +53,14 @@ impl Studio {
             addr: addr.to_string(),
             message,
         };
+        if addr.ip().is_unspecified() {
+            // Every request's Host must name the server, and "any address" names none.
+            return Err(listen_error(
+                "give the address of one interface (such as 192.168.1.5:8080), not \
+                 0.0.0.0 or ::, so that requests can be checked against it"
+                    .into(),
+            ));
+        }
         let http = tiny_http::Server::http(addr).map_err(|e| listen_error(e.to_string()))?;
         let bound = http
             .server_addr()

@@ -105,6 +105,12 @@ try {
   await waitFor(() => Math.abs(window.studio.snapshot.joints[1].present - 3) < 0.1);
   await press('u');
   await waitFor(() => window.studio.snapshot.keys[1].values[1] === 3);
+  // A prompt answered in the page's box: N opens it, the box takes the name, Enter sets it.
+  await press('Shift+N');
+  await waitFor(() => window.studio.snapshot.prompt && window.studio.snapshot.prompt.kind === 'text');
+  await a.fill('#answer', 'wave');
+  await a.press('#answer', 'Enter');
+  await waitFor(() => window.studio.snapshot.keys[1].name === 'wave');
   await press('n');
   await waitFor(() => window.studio.snapshot.keys.length === 3);
   await press('d');
