@@ -145,24 +145,10 @@ pub fn run(
     let mut next_read = Instant::now();
     let mut interrupted = false;
     let result = loop {
-        if let Some(event) = session.poll()? {
-            let follow = state.on_event(event);
-            teach::apply(state, session, follow);
-        }
+        follow_the_drivers(state, session, hub)?;
         if Instant::now() >= next_read {
             teach::refresh(state, session);
             next_read = Instant::now() + READ_PERIOD;
-        }
-        // A controller that went silent (no heartbeat, no broken stream to tell) is let go
-        // here, whether or not any page asks for anything.
-        let lost = {
-            let mut lease = hub.lease();
-            lease.expire(Instant::now());
-            lease.take_lost()
-        };
-        if lost {
-            let stop = state.soft_stop();
-            teach::apply(state, session, stop);
         }
         hub.publish(state, &bus);
         if state.should_quit() {
@@ -190,6 +176,30 @@ pub fn run(
     };
     hub.end();
     result
+}
+
+/// What happens between keys: a finished motion's end, and the soft stop when the
+/// controlling page is gone — also one that went silent (no heartbeat, no broken stream to
+/// tell), let go here whether or not any page asks for anything.
+fn follow_the_drivers(
+    state: &mut TeachState,
+    session: &mut Session,
+    hub: &Hub,
+) -> Result<(), TeachError> {
+    if let Some(event) = session.poll()? {
+        let follow = state.on_event(event);
+        teach::apply(state, session, follow);
+    }
+    let lost = {
+        let mut lease = hub.lease();
+        lease.expire(Instant::now());
+        lease.take_lost()
+    };
+    if lost {
+        let stop = state.soft_stop();
+        teach::apply(state, session, stop);
+    }
+    Ok(())
 }
 
 fn act(state: &mut TeachState, session: &mut Session, action: Action) {

@@ -114,6 +114,11 @@ fn handle(request: Request, context: &Context) {
     let client = header(&request, CLIENT_HEADER)
         .or_else(|| param(&params, "client"))
         .map(str::to_string);
+    route(request, context, path, client);
+}
+
+/// A request that passed the guard, to its handler.
+fn route(request: Request, context: &Context, path: &str, client: Option<String>) {
     let method = request.method().clone();
     match (method, path) {
         (Method::Get, "/") => {

@@ -206,6 +206,10 @@ try {
   await a.close();
   await b.waitForFunction(() => window.studio.snapshot.activity.kind === 'idle', null, { timeout: 15000 });
   results.afterClose = await b.evaluate(() => window.studio.snapshot.status.text);
+  // The watcher may take control now that nobody holds it, and its keys then count.
+  await b.click('#take');
+  await b.waitForFunction(() => window.studio.controller);
+  results.takenOver = await b.evaluate(() => window.studio.press('>'));
   results.errors = errors.concat(errorsB);
 } finally {
   await browser.close();

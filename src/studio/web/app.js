@@ -169,7 +169,11 @@ $('joints').addEventListener('click', e => {
 
 function renderPrompt(prompt) {
   $('prompt').hidden = !prompt;
-  if (!prompt) return;
+  if (!prompt) {
+    // The keys are the page's again, not the closed box's.
+    if (document.activeElement === $('answer')) $('answer').blur();
+    return;
+  }
   $('question').textContent = prompt.kind === 'text' ? prompt.question.replace(/:[^:]*▏.*$/, '') : prompt.question;
   $('textanswer').hidden = prompt.kind !== 'text';
   $('yesno').hidden = prompt.kind !== 'yesno';
