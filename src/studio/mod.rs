@@ -33,6 +33,8 @@ pub type Simulator = Box<
 pub struct Studio {
     http: tiny_http::Server,
     guard: auth::Guard,
+    inputs: std::sync::mpsc::Sender<engine::Input>,
+    received: std::sync::mpsc::Receiver<engine::Input>,
 }
 
 /// Why the studio did not start.
@@ -67,7 +69,19 @@ impl Studio {
             .to_ip()
             .ok_or_else(|| listen_error("not an IP address".into()))?;
         let guard = auth::Guard::new(auth::new_token().map_err(StudioError::Token)?, bound);
-        Ok(Studio { http, guard })
+        // Ctrl-C is the studio's from now on (before the URL is printed, so that whoever
+        // reads it can stop the studio): it waits in the channel until the engine runs.
+        let (inputs, received) = std::sync::mpsc::channel();
+        let interrupts = inputs.clone();
+        crate::stop::on_signal(move || {
+            let _ = interrupts.send(engine::Input::Interrupt);
+        });
+        Ok(Studio {
+            http,
+            guard,
+            inputs,
+            received,
+        })
     }
 
     /// The page's URL, token included.
@@ -84,15 +98,10 @@ impl Studio {
         simulator: Option<Simulator>,
     ) -> Result<engine::Ended, StudioError> {
         let hub = Arc::new(engine::Hub::default());
-        let (inputs, received) = std::sync::mpsc::channel();
-        let interrupts = inputs.clone();
-        crate::stop::on_signal(move || {
-            let _ = interrupts.send(engine::Input::Interrupt);
-        });
         let mut context =
-            server::Context::new(self.guard, hub.clone(), inputs, state.robot().clone());
+            server::Context::new(self.guard, hub.clone(), self.inputs, state.robot().clone());
         context.simulator = simulator;
         server::spawn(self.http, context);
-        Ok(engine::run(state, session, &hub, received)?)
+        Ok(engine::run(state, session, &hub, self.received)?)
     }
 }
