@@ -126,3 +126,41 @@ fn prompt(state: &TeachState) -> Value {
         _ => json!({"kind": "yesno", "question": question}),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::robot::Robot;
+    use crate::sequence::{KeyframeList, Sequence};
+    use crate::teach::Key;
+
+    #[test]
+    fn the_snapshot_shows_what_the_terminal_shows() {
+        let robot = Robot::builtin("so101").unwrap();
+        let present = robot.home.clone();
+        let list = KeyframeList::new(Sequence::new("so101"));
+        let mut state = TeachState::new(robot, list, "taught.json".into(), None, present);
+        // Two keys at home (no journal: the keys ask for no command), then N opens a prompt.
+        for key in [Key::Char('n'), Key::Char('n'), Key::Char('N')] {
+            let _ = state.handle_key(key);
+        }
+        let s = snapshot(&state, "virtual", false);
+        // A new list is spaced 2 s apart and interpolated monotone; the last key has no
+        // segment after it.
+        assert_eq!(s["keys"][0]["time"], json!(0.0));
+        assert_eq!(s["keys"][1]["time"], json!(2.0));
+        assert_eq!(s["keys"][0]["interp"], json!("monotone"));
+        assert!(s["keys"][1]["interp"].is_null());
+        assert_eq!(s["current"], json!(1));
+        assert_eq!(s["joints"][0]["present_text"], json!("0.0°"));
+        // Torque is off until the start's hold is confirmed.
+        assert_eq!(s["joints"][0]["torque"], json!(false));
+        assert_eq!(s["dirty"], json!(true));
+        assert_eq!(s["prompt"]["kind"], json!("text"));
+        assert!(s["prompt"]["question"]
+            .as_str()
+            .unwrap()
+            .starts_with("name of key 1"));
+        assert_eq!(s["activity"]["kind"], json!("idle"));
+    }
+}
