@@ -63,6 +63,13 @@ function setController(on, reason) {
 }
 
 setInterval(() => { if (studio.controller) claim(); }, HEARTBEAT_MS);
+// A hidden tab's timers are slowed down until its lease lapses (and a playback stops, since
+// nobody sees the Stop button). Back in view, the page asks again, unless another one took it.
+let hadControl = false;
+document.addEventListener('visibilitychange', () => {
+  if (document.hidden) hadControl = studio.controller;
+  else if (hadControl && !studio.controller) claim();
+});
 $('take').onclick = claim;
 window.addEventListener('pagehide', () => {
   if (studio.controller) fetch('/api/release', { method: 'POST', headers, keepalive: true });
