@@ -5,7 +5,9 @@
 
 use super::control::Lease;
 use super::snapshot::snapshot;
+use crate::robot::Robot;
 use crate::sequence::Sequence;
+use crate::teach::format;
 use crate::teach::{self, Key, Session, TeachError, TeachState};
 use serde_json::Value;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
@@ -86,13 +88,35 @@ impl Hub {
         if value == published.last {
             return;
         }
+        published.sequence = Some(state.list().sequence().clone());
+        self.number(&mut published, value);
+    }
+
+    /// The last snapshot with the arm at `present`, read while a jog ramps (the state hears
+    /// of the pose once the jog is done; the page sees it move meanwhile).
+    fn publish_present(&self, robot: &Robot, present: &[f64]) {
+        let mut published = self.published();
+        let mut value = published.last.clone();
+        if value.is_null() {
+            return;
+        }
+        for (j, (joint, &v)) in robot.joints.iter().zip(present).enumerate() {
+            value["joints"][j]["present"] = v.into();
+            value["joints"][j]["present_text"] = format::value_and_percent(joint, v).into();
+        }
+        let tcp = robot.tcp_position(present);
+        value["tcp"] = serde_json::json!([tcp.x, tcp.y, tcp.z]);
+        self.number(&mut published, value);
+    }
+
+    /// Sends `value` as the next snapshot.
+    fn number(&self, published: &mut Published, value: Value) {
         published.seq += 1;
         let mut sent = value.clone();
         sent["seq"] = published.seq.into();
         // For the page's latency figure: when this pose left the server.
         sent["at_ms"] = unix_ms().into();
         published.json = Arc::new(sent.to_string());
-        published.sequence = Some(state.list().sequence().clone());
         published.last = value;
         self.changed.notify_all();
     }
@@ -138,10 +162,14 @@ pub enum Ended {
 pub fn run(
     state: &mut TeachState,
     session: &mut Session,
-    hub: &Hub,
+    hub: &Arc<Hub>,
     inputs: Receiver<Input>,
 ) -> Result<Ended, TeachError> {
     let bus = session.describe().to_string();
+    let (watcher, robot) = (hub.clone(), state.robot().clone());
+    session.observe_jogs(Box::new(move |present| {
+        watcher.publish_present(&robot, present)
+    }));
     let mut next_read = Instant::now();
     let mut interrupted = false;
     let result = loop {

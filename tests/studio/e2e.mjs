@@ -156,7 +156,9 @@ try {
         : performance.now() - t0 > 10000 ? resolve(null) : requestAnimationFrame(check));
       requestAnimationFrame(check);
     })));
-    await waitFor(() => window.studio.snapshot.status.text.includes('shoulder_pan'));
+    // The jog answered (its ramp done) and the emulated servo at rest before the next one.
+    await a.evaluate(() => window.studio.sent());
+    await a.waitForTimeout(400);
   }
   results.jogToFrameMs = jogs;
   results.loadMs = await a.evaluate(() => window.studio.loadMs);

@@ -14,6 +14,8 @@ const HEARTBEAT_MS = 700;
 const studio = window.studio = {
   snapshot: null, controller: false, refusals: [], latencies: [], arrivals: [], loadMs: null, view: null,
   send, press: key => send({ key }),
+  // Resolves once every key sent so far has been answered.
+  sent: () => queue,
 };
 
 async function api(path, body) {
