@@ -209,3 +209,65 @@ fn the_studio_needs_a_port_and_ctrl_c_ends_it() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("ended by Ctrl-C"));
     assert!(!dir.path().join("new.json").exists(), "nothing was written");
 }
+
+/// One HTTP request to the studio, as the page's scripts send it (no browser needed); 1.0, so
+/// that the answer comes whole rather than chunked.
+fn http(addr: &str, method: &str, path: &str, token: &str, body: &str) -> (u16, Value) {
+    use std::io::{Read, Write};
+    let mut stream = std::net::TcpStream::connect(addr).unwrap();
+    write!(
+        stream,
+        "{method} {path} HTTP/1.0\r\nHost: {addr}\r\nX-Keypose-Token: {token}\r\n\
+         X-Keypose-Client: test-page\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        body.len()
+    )
+    .unwrap();
+    let mut answer = String::new();
+    stream.read_to_string(&mut answer).unwrap();
+    let status = answer[9..12].parse().unwrap();
+    let json = answer.split_once("\r\n\r\n").unwrap().1;
+    (status, serde_json::from_str(json).unwrap_or(Value::Null))
+}
+
+/// The page's Simulate: the list played in MuJoCo as `keypose sim` plays it. The wave example
+/// passes its verdict (README: every example passes), and the trace the page replays ends
+/// where the last key is (home: every joint at 0°), within the 2° a settled servo model may
+/// sag under gravity.
+#[test]
+fn the_page_simulates_the_list_in_mujoco() {
+    let dir = tempfile::tempdir().unwrap();
+    let sequence = Path::new(env!("CARGO_MANIFEST_DIR")).join("sequences/so101_wave.json");
+    std::fs::copy(&sequence, dir.path().join("wave.json")).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_keypose"))
+        .args(["studio", "--port", "virtual", "wave.json"])
+        .current_dir(dir.path())
+        .env("KEYPOSE_CACHE", common::sim_cache())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    let _studio = Studio(child);
+    let mut url = String::new();
+    BufReader::new(stdout).read_line(&mut url).unwrap();
+    let rest = url.trim().strip_prefix("http://").unwrap();
+    let (addr, token) = rest.split_once("/?token=").unwrap();
+    assert_eq!(http(addr, "POST", "/api/control", token, "{}").0, 200);
+    let (status, answer) = http(addr, "POST", "/api/simulate", token, "{}");
+    assert_eq!(status, 200, "{answer}");
+    assert_eq!(
+        answer["report"]["passed"],
+        json!(true),
+        "{}",
+        answer["report"]
+    );
+    let last = answer["trace"]["position"]
+        .as_array()
+        .unwrap()
+        .last()
+        .unwrap();
+    // The five arm joints of the last key, "home" (the gripper is not in it).
+    for (j, value) in last.as_array().unwrap().iter().take(5).enumerate() {
+        let value = value.as_f64().unwrap();
+        assert!(value.abs() < 2.0, "joint {j} ends at {value}°");
+    }
+}
