@@ -37,5 +37,6 @@ pub mod robot;
 pub mod sequence;
 pub mod sim;
 pub mod stop;
+pub mod studio;
 pub mod teach;
 pub mod terminal_text;

@@ -52,6 +52,13 @@ enum Command {
     /// Teach poses key by key in a terminal UI: limp the arm or jog it, capture keys, edit the
     /// list, play it, save it.
     Teach(commands::teach::TeachArgs),
+    /// Teach, edit and preview in the browser, with the arm in 3D: serves a page on
+    /// 127.0.0.1 and prints its URL (with an access token) as the first line.
+    ///
+    /// The page drives the same session as `keypose teach` (the same keys). One page controls
+    /// the arm, others watch; closing the controlling page stops playback the soft way.
+    /// Ctrl-C stops the arm (decelerating; twice: at once) and ends the studio.
+    Studio(commands::studio::StudioArgs),
     /// Record a motion made by hand (torque off), then turn it into the fewest keyframes that
     /// reproduce it within a tolerance.
     Record(commands::record::RecordArgs),
@@ -94,6 +101,7 @@ fn main() -> ExitCode {
         Command::Sim(args) => commands::sim::run(args),
         Command::Play(args) => commands::play::run(args),
         Command::Teach(args) => commands::teach::run(args),
+        Command::Studio(args) => commands::studio::run(args),
         Command::Record(args) => commands::record::run(args),
         Command::Import(format) => commands::import::run(format),
         Command::Export(format) => commands::export::run(format),

@@ -18,6 +18,7 @@ pub mod retime;
 pub mod sample;
 pub mod scan;
 pub mod sim;
+pub mod studio;
 pub mod teach;
 pub mod torque;
 pub mod virtual_bus;

@@ -370,7 +370,7 @@ pub fn table(file: &str, result: &Simulated) -> String {
     out
 }
 
-fn report_json(file: &str, robot: &Robot, result: &Simulated) -> serde_json::Value {
+pub fn report_json(file: &str, robot: &Robot, result: &Simulated) -> serde_json::Value {
     json!({
         "sequence": file,
         "robot": robot.name,

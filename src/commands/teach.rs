@@ -14,6 +14,18 @@ pub const DEFAULT_OUTPUT: &str = "taught.json";
 #[derive(Debug, Clone, clap::Args)]
 #[command(after_help = teach::help_text())]
 pub struct TeachArgs {
+    #[command(flatten)]
+    pub session: SessionArgs,
+    /// Read the keys from this script instead of the terminal ("-": standard input), printing
+    /// the status after each step to standard error. Tokens are listed below.
+    #[arg(long, value_name = "FILE|-")]
+    pub keys: Option<PathBuf>,
+}
+
+/// What a teaching session starts from: the list, the robot, the bus, where `w` writes. Shared
+/// by `keypose teach` and `keypose studio`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SessionArgs {
     /// Sequence file to edit; a new list when it does not exist yet (w creates it).
     pub sequence: Option<PathBuf>,
     /// A built-in robot (so101, so100, koch, omx), a LeRobot robot type (so101_follower,
@@ -28,16 +40,38 @@ pub struct TeachArgs {
     /// Where w writes [default: SEQ, else taught.json].
     #[arg(long, short, value_name = "FILE")]
     pub output: Option<PathBuf>,
-    /// Read the keys from this script instead of the terminal ("-": standard input), printing
-    /// the status after each step to standard error. Tokens are listed below.
-    #[arg(long, value_name = "FILE|-")]
-    pub keys: Option<PathBuf>,
     /// Recover the journal of an interrupted session without asking.
     #[arg(long)]
     pub recover: bool,
 }
 
+/// A session ready to teach: the arm held where it is, the list loaded, the journal offered.
+pub struct Opened {
+    pub state: TeachState,
+    pub session: Session,
+    /// Kept until the session ends: dropping it stops the emulated servos.
+    pub _virtual_bus: Option<keypose::bus::virtual_bus::PtyServer>,
+}
+
 pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
+    let script = |_: &Robot| script_or_terminal(args);
+    let (mut opened, script) = open(&args.session, script)?;
+    let (state, session) = (&mut opened.state, &mut opened.session);
+    let result = match script {
+        Some(input) => teach::script::run(state, session, input, &mut std::io::stderr()),
+        None => teach::ui::run(state, session),
+    };
+    result.map_err(CommandError::Teach)?;
+    Ok(Verdict::Pass)
+}
+
+/// Loads the list and the robot, opens the journal, connects and holds the arm. `before_bus`
+/// runs once the robot is known and before the bus opens (what a front end needs to refuse
+/// early, such as a terminal); its result comes back beside the session.
+pub fn open<T>(
+    args: &SessionArgs,
+    before_bus: impl FnOnce(&Robot) -> Result<T, CommandError>,
+) -> Result<(Opened, T), CommandError> {
     let port = args.bus.port.as_deref().ok_or_else(|| {
         CommandError::Usage(
             "--port is required: a serial port (see `keypose ports`), or \"virtual\" for \
@@ -47,15 +81,13 @@ pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
     })?;
     let (output, source) = target(args);
     let (list, robot) = load(args, source.as_deref())?;
-    // Teach plays at the robot's own control rate: refuse one the player cannot keep now,
+    // A session plays at the robot's own control rate: refuse one the player cannot keep now,
     // before the bus is opened, rather than at the first playback.
     super::control_rate(None, &robot)?;
     let (journal, pending) = open_journal(&output);
-    let script = script_or_terminal(args)?;
+    let early = before_bus(&robot)?;
 
     let connection = args.bus.connect(&robot, port)?;
-    // Kept until the session ends: dropping it stops the emulated servos.
-    let _virtual_bus = connection.virtual_bus;
     let mut session = Session::new(connection.bus, &robot);
     let present = session
         .read()?
@@ -68,17 +100,17 @@ pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
         None => {}
     }
     hold_at_start(&mut state, &mut session)?;
-    let result = match script {
-        Some(input) => teach::script::run(&mut state, &mut session, input, &mut std::io::stderr()),
-        None => teach::ui::run(&mut state, &mut session),
+    let opened = Opened {
+        state,
+        session,
+        _virtual_bus: connection.virtual_bus,
     };
-    result.map_err(CommandError::Teach)?;
-    Ok(Verdict::Pass)
+    Ok((opened, early))
 }
 
 /// Where `w` writes, and the file the list comes from: SEQ, else the file `w` writes to if it
 /// exists already, so that a session never overwrites a file it has not shown.
-fn target(args: &TeachArgs) -> (PathBuf, Option<PathBuf>) {
+fn target(args: &SessionArgs) -> (PathBuf, Option<PathBuf>) {
     let output = args
         .output
         .clone()
@@ -141,7 +173,7 @@ fn hold_at_start(state: &mut TeachState, session: &mut Session) -> Result<(), Co
 }
 
 /// The list to edit and the robot to teach.
-fn load(args: &TeachArgs, source: Option<&Path>) -> Result<(KeyframeList, Robot), CommandError> {
+fn load(args: &SessionArgs, source: Option<&Path>) -> Result<(KeyframeList, Robot), CommandError> {
     if let Some(path) = source {
         let input = SequenceInput {
             sequence: path.to_path_buf(),

@@ -6,6 +6,19 @@ use crate::curve::Interp;
 use crate::json::InputError;
 use std::path::Path;
 
+/// Why [`KeyframeList::set_time`] left a key where it was.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum TimeRefusal {
+    #[error("there is no key")]
+    NoKey,
+    #[error("{time} s is outside 0 … {max} s", max = super::MAX_TIME)]
+    OutOfRange { time: f64 },
+    #[error("the previous key (and its hold) ends later: {earliest:.3} s is the earliest")]
+    Previous { earliest: f64 },
+    #[error("the next key comes sooner: {latest:.3} s is the latest")]
+    Next { latest: f64 },
+}
+
 /// A sequence being edited, with its current key and whether it has unsaved changes.
 #[derive(Debug, Clone)]
 pub struct KeyframeList {
@@ -213,6 +226,37 @@ impl KeyframeList {
         self.sequence.key_interval = Some(interval);
         self.dirty = true;
         true
+    }
+
+    /// Moves the current key to `time` (seconds), keeping the order of the keys: it must stay
+    /// after the previous key's hold and before the next key, with its own hold, by at least
+    /// [`super::MIN_GAP`], and within 0 … [`super::MAX_TIME`]. A uniformly spaced list gets
+    /// absolute times first (the spacing made explicit). The refusal says why.
+    pub fn set_time(&mut self, time: f64) -> Result<(), TimeRefusal> {
+        if self.is_empty() {
+            return Err(TimeRefusal::NoKey);
+        }
+        if !(time.is_finite() && (0.0..=super::MAX_TIME).contains(&time)) {
+            return Err(TimeRefusal::OutOfRange { time });
+        }
+        let times = self.sequence.key_times();
+        let i = self.current;
+        if i > 0 {
+            let earliest = times[i - 1] + self.sequence.keyframes[i - 1].hold + super::MIN_GAP;
+            if time < earliest {
+                return Err(TimeRefusal::Previous { earliest });
+            }
+        }
+        if let Some(&next) = times.get(i + 1) {
+            let latest = next - self.sequence.keyframes[i].hold - super::MIN_GAP;
+            if time > latest {
+                return Err(TimeRefusal::Next { latest });
+            }
+        }
+        self.sequence.make_times_absolute();
+        self.sequence.keyframes[i].time = Some(time);
+        self.dirty = true;
+        Ok(())
     }
 
     fn edit_current(&mut self, edit: impl FnOnce(&mut Keyframe)) -> bool {

@@ -13,7 +13,7 @@ use crate::json::InputError;
 use crate::pose::RigidTransform;
 use std::path::Path;
 
-pub use edit::KeyframeList;
+pub use edit::{KeyframeList, TimeRefusal};
 pub use load::{MAX_TIME, MIN_GAP};
 
 pub const SEQUENCE_FORMAT: &str = "keypose-sequence/1";

@@ -13,6 +13,15 @@ const MODELS: [(&str, &str); 4] = [
     ("omx", include_str!("../../sim/models/omx.xml")),
 ];
 
+/// The MJCF text of the built-in model of `robot`, if keypose has one (the studio draws its
+/// geometry).
+pub fn builtin_model(robot: &str) -> Option<&'static str> {
+    MODELS
+        .iter()
+        .find(|(name, _)| *name == robot)
+        .map(|(_, text)| *text)
+}
+
 /// The path of the built-in model of `robot`, written out when missing or different.
 pub fn model_path(config: &PyConfig, robot: &str) -> Result<PathBuf, SimError> {
     let (_, text) = MODELS

@@ -25,6 +25,13 @@ pub enum Key {
     Import(PathBuf),
     /// Script only: write to this file, which becomes the session's output.
     Write(PathBuf),
+    /// The studio's list: make key `index` current (a click on it).
+    SelectKey(usize),
+    /// The studio's joint table: select joint `index` (a click on it).
+    SelectJoint(usize),
+    /// The studio's timeline: move the current key to this time, in whole milliseconds (a
+    /// drag; milliseconds keep the key `Eq` and the file's times short).
+    KeyTime(u64),
 }
 
 /// A key binding as shown to the user.

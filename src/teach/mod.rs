@@ -30,7 +30,7 @@ pub use journal::{Journal, Pending};
 pub use keys::{help_text, Key, BINDINGS};
 pub use messages::{BusCommand, Command, Event, FileCommand};
 pub use prompt::Prompt;
-pub use session::{Session, SessionError};
+pub use session::{PoseObserver, Session, SessionError};
 pub use state::TeachState;
 
 /// What ends a session early.

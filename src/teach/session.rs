@@ -111,8 +111,17 @@ pub enum SessionError {
     BusLost(String),
 }
 
+/// Told the present pose while a jog ramps (the studio's 3D view follows the arm).
+pub type PoseObserver = Box<dyn FnMut(&[f64]) + Send>;
+
+/// While a jog ramps with an observer, the arm is read every this many control cycles (every
+/// 20 ms at 100 Hz): a small share of the bus, often enough to watch.
+const JOG_READ_EVERY: usize = 2;
+
 pub struct Session {
     robot: Robot,
+    /// Told the present pose during jogs, when a front end asks.
+    observer: Option<PoseObserver>,
     ids: Vec<u8>,
     description: String,
     /// `None` while a motion thread has it.
@@ -130,10 +139,28 @@ impl Session {
             ids: robot.joints.iter().map(|j| j.servo.id).collect(),
             description: bus.describe(),
             robot: robot.clone(),
+            observer: None,
             bus: Some(bus),
             motion: None,
             torque: vec![false; n],
             goal_ticks: vec![None; n],
+        }
+    }
+
+    /// From now on, `observer` hears the present pose while a jog ramps (the terminal needs
+    /// none: it redraws once the jog is done).
+    pub fn observe_jogs(&mut self, observer: PoseObserver) {
+        self.observer = Some(observer);
+    }
+
+    /// Reads the arm for the observer, if there is one; a failed read is skipped (the next
+    /// one, or the session's own reading after the jog, shows the pose).
+    fn tell_observer(&mut self) {
+        let (Some(observer), Some(bus)) = (self.observer.as_mut(), self.bus.as_mut()) else {
+            return;
+        };
+        if let Ok(ticks) = bus.read_positions(&self.ids) {
+            observer(&self.robot.values_of(&ticks));
         }
     }
 
@@ -268,6 +295,9 @@ impl Session {
             self.bus_mut()?.write_goals(&ticks)?;
             if t >= ramp.duration {
                 break;
+            }
+            if k % JOG_READ_EVERY == 0 {
+                self.tell_observer();
             }
         }
         for (&(j, _), &(_, tick)) in goals.iter().zip(&ticks) {

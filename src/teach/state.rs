@@ -225,6 +225,9 @@ impl TeachState {
             Key::Char('-') => self.change_time(false),
             Key::Char('t') => self.toggle_torque(false),
             Key::Char('T') => self.toggle_torque(true),
+            Key::SelectKey(index) => self.select_key(index),
+            Key::SelectJoint(index) => self.select_joint(index),
+            Key::KeyTime(millis) => self.set_key_time(millis),
             Key::Up => self.select(-1),
             Key::Down => self.select(1),
             Key::Left => self.jog(-1.0, false),
@@ -565,6 +568,16 @@ impl TeachState {
         }
     }
 
+    /// The soft stop a front end asks for when it loses its user (a closed page): the first
+    /// stop request, decelerating along the path; nothing when the arm is idle or a stop was
+    /// already asked for (a second request would hold at once, which is the user's call).
+    pub fn soft_stop(&mut self) -> Vec<Command> {
+        match self.activity {
+            Activity::Moving { stops: 0, .. } => self.stop(),
+            _ => Vec::new(),
+        }
+    }
+
     fn stop(&mut self) -> Vec<Command> {
         let Activity::Moving { stops, .. } = &mut self.activity else {
             return Vec::new();
@@ -581,7 +594,18 @@ impl TeachState {
 
     fn select(&mut self, delta: isize) -> Vec<Command> {
         let n = self.robot.joints.len() as isize;
-        self.selected = (self.selected as isize + delta).rem_euclid(n) as usize;
+        self.select_joint((self.selected as isize + delta).rem_euclid(n) as usize)
+    }
+
+    fn select_joint(&mut self, index: usize) -> Vec<Command> {
+        if index >= self.robot.joints.len() {
+            return self.fail(format!(
+                "there is no joint {index}: {} has {}",
+                self.robot.name,
+                self.robot.joints.len()
+            ));
+        }
+        self.selected = index;
         let joint = &self.robot.joints[self.selected];
         self.info(format!(
             "{} selected (limits {})",

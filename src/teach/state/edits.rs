@@ -164,4 +164,29 @@ impl TeachState {
         self.info(format!("{label}: {name} {shown_value}{later}"));
         self.edited()
     }
+
+    /// Makes key `index` current, as `>`/`<` would step to it.
+    pub(super) fn select_key(&mut self, index: usize) -> Vec<Command> {
+        if !self.list.select(index) {
+            return self.fail(format!(
+                "there is no key {index} ({})",
+                format::count(self.list.len())
+            ));
+        }
+        let label = self.key_label(index);
+        self.info(format!("{label} (space moves the arm there)"));
+        Vec::new()
+    }
+
+    /// Moves the current key to `millis` ms (a drag on the timeline), keeping the keys in
+    /// order; a uniformly spaced list becomes a timed one.
+    pub(super) fn set_key_time(&mut self, millis: u64) -> Vec<Command> {
+        let time = millis as f64 / 1000.0;
+        let label = self.key_label(self.list.current_index());
+        if let Err(why) = self.list.set_time(time) {
+            return self.fail(format!("{label} stays where it was: {why}"));
+        }
+        self.info(format!("{label} at {time:.3} s"));
+        self.edited()
+    }
 }

@@ -747,3 +747,76 @@ fn a_joint_given_as_a_transform_is_not_typed_over() {
     );
     assert!(!state.is_dirty());
 }
+
+#[test]
+fn a_click_selects_a_key_or_a_joint_and_a_missing_one_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = two_keys_at_the_first(dir.path());
+    press(&mut state, Key::SelectKey(1));
+    assert_eq!(state.list().current_index(), 1);
+    press(&mut state, Key::SelectKey(2));
+    assert_eq!(
+        state.list().current_index(),
+        1,
+        "no key 2: the current key stays"
+    );
+    assert!(state.status().error && state.status().text.contains("no key 2"));
+    press(&mut state, Key::SelectJoint(ELBOW));
+    assert_eq!(state.selected(), ELBOW);
+    // The SO-101 has six joints, 0 … 5.
+    press(&mut state, Key::SelectJoint(6));
+    assert_eq!(state.selected(), ELBOW);
+    assert!(state.status().error);
+}
+
+#[test]
+fn dragging_a_key_in_time_keeps_the_order_and_reaches_the_journal() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = two_keys_at_the_first(dir.path());
+    press(&mut state, Key::Char('n'));
+    // `n` inserts after the current key 0: keys at 0, 2 and 4 s (uniform, 2 s apart), the
+    // new one (key 1, at 2 s) current.
+    assert_eq!(state.list().current_index(), 1);
+    press(&mut state, Key::KeyTime(2_500));
+    let sequence = state.list().sequence();
+    assert_eq!(sequence.key_interval, None, "the spacing is made explicit");
+    assert_eq!(sequence.key_times(), vec![0.0, 2.5, 4.0]);
+    assert!(state.is_dirty());
+    let journal = Sequence::load(state.journal().unwrap().path()).expect("journaled");
+    assert_eq!(journal.key_times(), vec![0.0, 2.5, 4.0]);
+
+    // Past the next key (4 s) or before the previous one (0 s): refused, the key stays.
+    for millis in [4_000, 5_000, 0] {
+        press(&mut state, Key::KeyTime(millis));
+        assert!(state.status().error, "{millis} ms: {:?}", state.status());
+        assert_eq!(state.list().sequence().key_times(), vec![0.0, 2.5, 4.0]);
+    }
+    // The previous key's hold counts: a 1 s hold at 0 s ends at 1 s.
+    press_all(&mut state, &[Key::Char('<')]);
+    edit(&mut state, 'h', "1");
+    press_all(&mut state, &[Key::Char('>'), Key::KeyTime(900)]);
+    assert!(
+        state.status().text.contains("earliest"),
+        "{:?}",
+        state.status()
+    );
+    press(&mut state, Key::KeyTime(1_001));
+    assert_eq!(state.list().sequence().key_times(), vec![0.0, 1.001, 4.0]);
+}
+
+#[test]
+fn a_lost_front_end_stops_playback_softly_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = two_keys_at_the_first(dir.path());
+    assert!(state.soft_stop().is_empty(), "idle: nothing to stop");
+    press(&mut state, Key::Char('y'));
+    assert!(state.is_moving());
+    assert!(matches!(
+        &state.soft_stop()[..],
+        [Command::Bus(BusCommand::Stop)]
+    ));
+    assert!(
+        state.soft_stop().is_empty(),
+        "a second request would hold at once: not asked for"
+    );
+}

@@ -1,0 +1,313 @@
+//! The studio's engine: the teaching loop of `keypose teach` (driver events into the state,
+//! the present pose read every [`READ_PERIOD`], keys pressed through [`teach::press`]) with
+//! the keys coming from the page over a channel instead of from a terminal, and every change
+//! published as a numbered [`snapshot`] for the event streams.
+
+use super::control::Lease;
+use super::snapshot::snapshot;
+use crate::robot::Robot;
+use crate::sequence::Sequence;
+use crate::teach::format;
+use crate::teach::{self, Key, Session, TeachError, TeachState};
+use serde_json::Value;
+use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+/// How often the present pose is read: 50 Hz, so that the page, which draws each snapshot,
+/// follows the arm at well over 30 Hz (the terminal reads at 20 Hz).
+pub const READ_PERIOD: Duration = Duration::from_millis(20);
+
+/// What the page asks the engine to do.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Action {
+    Key(Key),
+    /// The answer typed into the page's box for a text prompt: replaces what the prompt holds
+    /// (by Backspace), types it and presses Enter — the keys the terminal would get.
+    Line(String),
+    /// The Stop button: whatever the page shows, a moving arm stops (a prompt in the way is
+    /// dropped first).
+    Stop,
+}
+
+pub enum Input {
+    Action {
+        action: Action,
+        /// The status line after the action.
+        reply: Sender<Value>,
+    },
+    /// Ctrl-C, SIGTERM or SIGHUP in the terminal.
+    Interrupt,
+}
+
+/// The published state, shared with the HTTP threads.
+#[derive(Debug, Default)]
+pub struct Published {
+    pub seq: u64,
+    pub json: Arc<String>,
+    /// The list as it is now, for the timeline.
+    pub sequence: Option<Sequence>,
+    /// The session ended: streams close.
+    pub ended: bool,
+    last: Value,
+}
+
+/// What the engine and the HTTP threads share.
+#[derive(Debug, Default)]
+pub struct Hub {
+    published: Mutex<Published>,
+    changed: Condvar,
+    pub lease: Mutex<Lease>,
+}
+
+/// What a stream waiting for news gets.
+pub enum News {
+    Snapshot(u64, Arc<String>),
+    Quiet,
+    Ended,
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+impl Hub {
+    pub fn lease(&self) -> MutexGuard<'_, Lease> {
+        lock(&self.lease)
+    }
+
+    pub fn published(&self) -> MutexGuard<'_, Published> {
+        lock(&self.published)
+    }
+
+    /// Publishes `state` when it differs from the last snapshot.
+    pub(super) fn publish(&self, state: &TeachState, bus: &str) {
+        let controlled = self.lease().is_held();
+        let value = snapshot(state, bus, controlled);
+        let mut published = self.published();
+        if value == published.last {
+            return;
+        }
+        published.sequence = Some(state.list().sequence().clone());
+        self.number(&mut published, value);
+    }
+
+    /// The last snapshot with the arm at `present`, read while a jog ramps (the state hears
+    /// of the pose once the jog is done; the page sees it move meanwhile).
+    fn publish_present(&self, robot: &Robot, present: &[f64]) {
+        let mut published = self.published();
+        let mut value = published.last.clone();
+        if value.is_null() {
+            return;
+        }
+        for (j, (joint, &v)) in robot.joints.iter().zip(present).enumerate() {
+            value["joints"][j]["present"] = v.into();
+            value["joints"][j]["present_text"] = format::value_and_percent(joint, v).into();
+        }
+        let tcp = robot.tcp_position(present);
+        value["tcp"] = serde_json::json!([tcp.x, tcp.y, tcp.z]);
+        self.number(&mut published, value);
+    }
+
+    /// Sends `value` as the next snapshot.
+    fn number(&self, published: &mut Published, value: Value) {
+        published.seq += 1;
+        let mut sent = value.clone();
+        sent["seq"] = published.seq.into();
+        // For the page's latency figure: when this pose left the server.
+        sent["at_ms"] = unix_ms().into();
+        published.json = Arc::new(sent.to_string());
+        published.last = value;
+        self.changed.notify_all();
+    }
+
+    fn end(&self) {
+        self.published().ended = true;
+        self.changed.notify_all();
+    }
+
+    /// The first snapshot after `seen`, waiting at most `timeout` for it.
+    pub fn wait_news(&self, seen: u64, timeout: Duration) -> News {
+        let published = self.published();
+        let (published, _) = self
+            .changed
+            .wait_timeout_while(published, timeout, |p| p.seq <= seen && !p.ended)
+            .unwrap_or_else(PoisonError::into_inner);
+        if published.ended {
+            News::Ended
+        } else if published.seq > seen {
+            News::Snapshot(published.seq, published.json.clone())
+        } else {
+            News::Quiet
+        }
+    }
+}
+
+fn unix_ms() -> f64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64() * 1000.0)
+}
+
+/// How a studio session ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ended {
+    /// The page quit it (`q`).
+    Quit,
+    /// Ctrl-C (or SIGTERM, SIGHUP) in the terminal, once the arm was at rest.
+    Interrupted,
+}
+
+/// Runs the session until the page quits it (`q`) or Ctrl-C ends it with the arm at rest.
+pub fn run(
+    state: &mut TeachState,
+    session: &mut Session,
+    hub: &Arc<Hub>,
+    inputs: Receiver<Input>,
+) -> Result<Ended, TeachError> {
+    let bus = session.describe().to_string();
+    let (watcher, robot) = (hub.clone(), state.robot().clone());
+    session.observe_jogs(Box::new(move |present| {
+        watcher.publish_present(&robot, present)
+    }));
+    let mut next_read = Instant::now();
+    let mut interrupted = false;
+    let result = loop {
+        follow_the_drivers(state, session, hub)?;
+        if Instant::now() >= next_read {
+            teach::refresh(state, session);
+            next_read = Instant::now() + READ_PERIOD;
+        }
+        hub.publish(state, &bus);
+        if state.should_quit() {
+            break Ok(Ended::Quit);
+        }
+        if interrupted && !state.is_moving() {
+            break Ok(Ended::Interrupted);
+        }
+        let timeout = next_read.saturating_duration_since(Instant::now());
+        match inputs.recv_timeout(timeout) {
+            Ok(Input::Action { action, reply }) => {
+                act(state, session, action);
+                let _ = reply.send(serde_json::json!({
+                    "text": state.status().text,
+                    "error": state.status().error,
+                }));
+            }
+            Ok(Input::Interrupt) => {
+                interrupted = true;
+                interrupt(state, session);
+            }
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => break Ok(Ended::Quit),
+        }
+    };
+    hub.end();
+    result
+}
+
+/// What happens between keys: a finished motion's end, and the soft stop when the
+/// controlling page is gone — also one that went silent (no heartbeat, no broken stream to
+/// tell), let go here whether or not any page asks for anything.
+fn follow_the_drivers(
+    state: &mut TeachState,
+    session: &mut Session,
+    hub: &Hub,
+) -> Result<(), TeachError> {
+    if let Some(event) = session.poll()? {
+        let follow = state.on_event(event);
+        teach::apply(state, session, follow);
+    }
+    let lost = {
+        let mut lease = hub.lease();
+        lease.expire(Instant::now());
+        lease.take_lost()
+    };
+    if lost {
+        let stop = state.soft_stop();
+        teach::apply(state, session, stop);
+    }
+    Ok(())
+}
+
+fn act(state: &mut TeachState, session: &mut Session, action: Action) {
+    match action {
+        Action::Key(key) => {
+            teach::press(state, session, key);
+        }
+        Action::Stop => interrupt(state, session),
+        Action::Line(text) => {
+            let Some(teach::Prompt::Text { text: now, .. }) = state.prompt() else {
+                // Not asked for (the page was behind): typed as keys, the line would run as
+                // commands, so it is dropped.
+                return;
+            };
+            let typed = now.chars().count();
+            let keys = std::iter::repeat_n(Key::Backspace, typed)
+                .chain(text.chars().map(Key::Char))
+                .chain([Key::Enter]);
+            for key in keys {
+                teach::press(state, session, key);
+            }
+        }
+    }
+}
+
+/// Ctrl-C and the Stop button: the prompt (if any) is dropped and a moving arm stopped, by the keys that do it on
+/// the terminal — the first stop decelerates along the path, a second holds at once. The loop
+/// ends once the arm is at rest, holding.
+fn interrupt(state: &mut TeachState, session: &mut Session) {
+    if state.prompt().is_some() {
+        teach::press(state, session, Key::Esc);
+    }
+    if state.is_moving() {
+        teach::press(state, session, Key::Esc);
+    }
+}
+
+/// A key of the page, in the tokens of a `--keys` script (`space`, `shift-left`, `u`, …)
+/// plus the page's own: `select-key:N`, `select-joint:N` and `key-time:MS`. The script's
+/// `import:`, `write:` and `wait:` are refused: the page imports through the `i` prompt, and
+/// writes where the session writes.
+pub fn parse_key(token: &str) -> Result<Key, String> {
+    let number = |rest: &str, what: &str| {
+        rest.parse::<u64>()
+            .map_err(|_| format!("{token:?}: expected {what} after the colon"))
+    };
+    if let Some(rest) = token.strip_prefix("select-key:") {
+        return number(rest, "a key index").map(|i| Key::SelectKey(i as usize));
+    }
+    if let Some(rest) = token.strip_prefix("select-joint:") {
+        return number(rest, "a joint index").map(|i| Key::SelectJoint(i as usize));
+    }
+    if let Some(rest) = token.strip_prefix("key-time:") {
+        return number(rest, "a time in whole milliseconds").map(Key::KeyTime);
+    }
+    match teach::keys::parse_token(token)? {
+        teach::keys::Step::Key(Key::Import(_) | Key::Write(_)) | teach::keys::Step::Wait(_) => {
+            Err(format!("{token:?} is for --keys scripts, not the page"))
+        }
+        teach::keys::Step::Key(key) => Ok(key),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn page_keys_are_the_script_tokens_and_the_studio_ones() {
+        assert_eq!(parse_key("space"), Ok(Key::Char(' ')));
+        assert_eq!(parse_key("shift-right"), Ok(Key::ShiftRight));
+        assert_eq!(parse_key(">"), Ok(Key::Char('>')));
+        assert_eq!(parse_key("select-key:3"), Ok(Key::SelectKey(3)));
+        assert_eq!(parse_key("select-joint:0"), Ok(Key::SelectJoint(0)));
+        assert_eq!(parse_key("key-time:2500"), Ok(Key::KeyTime(2500)));
+        assert!(parse_key("key-time:-1").is_err());
+        assert!(parse_key("key-time:1.5").is_err());
+        assert!(parse_key("write:/etc/passwd").is_err());
+        assert!(parse_key("import:x.json").is_err());
+        assert!(parse_key("wait:1s").is_err());
+        assert!(parse_key("jump").is_err());
+    }
+}

@@ -1,0 +1,55 @@
+//! `GET /api/timeline`: what the page's timeline draws — every joint's position and velocity
+//! curves with its keys and limits, as `keypose plot` computes them ([`report::plot_data`]),
+//! and where `keypose check` finds the limits broken ([`plan::check`], at the control rate
+//! `teach` checks at).
+
+use crate::plan::{self, Trajectory};
+use crate::report;
+use crate::robot::Robot;
+use crate::sequence::Sequence;
+use serde_json::{json, Value};
+
+/// Samples per second of the curves: smooth at the page's width, and light to send.
+const CURVE_RATE: f64 = 50.0;
+/// Most curve samples per joint: a long sequence is drawn coarser rather than sent huge.
+const MAX_SAMPLES: f64 = 4000.0;
+
+pub fn timeline(sequence: Option<&Sequence>, robot: &Robot) -> Value {
+    let Some(sequence) = sequence.filter(|s| !s.keyframes.is_empty()) else {
+        return json!({"empty": true, "reason": "no keys yet"});
+    };
+    let trajectory = match Trajectory::build(sequence, robot) {
+        Ok(t) => t,
+        Err(e) => return json!({"empty": true, "reason": e.to_string()}),
+    };
+    let duration = trajectory.duration().max(1e-3);
+    let rate = CURVE_RATE.min(MAX_SAMPLES / duration).max(1.0 / duration);
+    let data = report::plot_data("", &trajectory, robot, rate, Vec::new());
+    let check = plan::check(&trajectory, robot, robot.control_hz);
+    json!({
+        "empty": false,
+        "start": trajectory.start,
+        "end": trajectory.end,
+        "times": data.times,
+        "joints": data.joints.iter().map(|j| json!({
+            "name": j.name,
+            "unit": j.unit,
+            "min": j.min,
+            "max": j.max,
+            "velocity_limit": j.velocity_limit,
+            "positions": j.positions,
+            "velocities": j.velocities,
+            "keys": j.keys,
+        })).collect::<Vec<_>>(),
+        "key_marks": data.key_marks,
+        "findings": check.violations.iter().map(|v| json!({
+            "joint": v.joint,
+            "kind": v.kind.name(),
+            "from": v.from,
+            "to": v.to,
+            "peak_time": v.peak_time,
+            "text": format!("{} {} limit broken in {}: peak {:.3} {} (limit {:.3})",
+                v.joint, v.kind.name(), v.segment_label, v.peak, v.unit, v.limit),
+        })).collect::<Vec<_>>(),
+    })
+}

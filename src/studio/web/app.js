@@ -1,0 +1,282 @@
+// The studio page: shows the snapshots the server streams and sends keys, the same keys
+// `keypose teach` takes. Every rule is the server's; this page only draws and asks.
+import { ArmView } from '/view3d.js';
+import { Timeline } from '/timeline.js';
+
+const token = new URLSearchParams(location.search).get('token') || '';
+const client = Array.from(crypto.getRandomValues(new Uint8Array(12)), b => b.toString(16).padStart(2, '0')).join('');
+const $ = id => document.getElementById(id);
+const headers = { 'X-Keypose-Token': token, 'X-Keypose-Client': client, 'Content-Type': 'application/json' };
+const HEARTBEAT_MS = 700;
+
+// What the page knows; exposed for the browser test and the latency figures.
+const studio = window.studio = {
+  snapshot: null, controller: false, refusals: [], latencies: [], arrivals: [], loadMs: null, view: null,
+  send, press: key => send({ key }),
+  // Resolves once every key sent so far has been answered.
+  sent: () => queue,
+};
+
+async function api(path, body) {
+  const response = await fetch(path, { method: body ? 'POST' : 'GET', headers, body: body && JSON.stringify(body) });
+  const answer = await response.json().catch(() => ({}));
+  return { ok: response.ok, status: response.status, answer };
+}
+
+// Keys go one after another, as typed: each waits for the answer to the one before, so
+// that two quick presses never overtake each other on their way to the server.
+let queue = Promise.resolve();
+function send(body) {
+  const sent = queue.then(() => sendNow(body));
+  queue = sent.catch(() => {});
+  return sent;
+}
+
+async function sendNow(body) {
+  const { ok, answer } = await api('/api/key', body);
+  if (!ok) {
+    studio.refusals.push(answer.error);
+    showStatus(answer.error || 'refused', true);
+  }
+  return ok;
+}
+
+function showStatus(text, error) {
+  $('status').textContent = text;
+  $('status').className = error ? 'error' : '';
+}
+
+// ----- control: the first page to ask controls; the heartbeat keeps it -----
+
+async function claim() {
+  const { ok, answer } = await api('/api/control', {});
+  setController(ok, ok ? '' : answer.error);
+  return ok;
+}
+
+function setController(on, reason) {
+  studio.controller = on;
+  $('control').textContent = on ? 'in control' : 'watching';
+  $('control').className = 'badge ' + (on ? 'controller' : 'watcher');
+  $('control').title = reason || '';
+  $('take').hidden = on;
+  if (!on && reason) showStatus(reason, true);
+}
+
+setInterval(() => { if (studio.controller) claim(); }, HEARTBEAT_MS);
+// A hidden tab's timers are slowed down until its lease lapses (and a playback stops, since
+// nobody sees the Stop button). Back in view, the page asks again, unless another one took it.
+let hadControl = false;
+document.addEventListener('visibilitychange', () => {
+  if (document.hidden) hadControl = studio.controller;
+  else if (hadControl && !studio.controller) claim();
+});
+$('take').onclick = claim;
+window.addEventListener('pagehide', () => {
+  if (studio.controller) fetch('/api/release', { method: 'POST', headers, keepalive: true });
+});
+
+// ----- keys: the terminal's bindings -----
+
+function keyToken(e) {
+  if (e.ctrlKey || e.metaKey || e.altKey) return null;
+  switch (e.key) {
+    case ' ': return 'space';
+    case 'ArrowUp': return 'up';
+    case 'ArrowDown': return 'down';
+    case 'ArrowLeft': return e.shiftKey ? 'shift-left' : 'left';
+    case 'ArrowRight': return e.shiftKey ? 'shift-right' : 'right';
+    case 'Escape': return 'esc';
+    case 'Enter': return 'enter';
+    case 'Backspace': return 'backspace';
+    default: return e.key.length === 1 ? e.key : null;
+  }
+}
+
+document.addEventListener('keydown', e => {
+  if (e.target === $('answer')) return;
+  if (e.target.tagName === 'INPUT') return;
+  const token = keyToken(e);
+  if (!token) return;
+  e.preventDefault();
+  send({ key: token });
+});
+
+document.addEventListener('click', e => {
+  const key = e.target.closest('button[data-key]');
+  if (key) { send({ key: key.dataset.key }); key.blur(); }
+});
+$('stop').onclick = () => send({ key: 'stop' });
+$('ok').onclick = () => send({ line: $('answer').value });
+$('answer').addEventListener('keydown', e => {
+  if (e.key === 'Enter') { e.preventDefault(); send({ line: $('answer').value }); }
+  if (e.key === 'Escape') { e.preventDefault(); send({ key: 'esc' }); }
+});
+
+// ----- drawing a snapshot -----
+
+let lastJoints = '', lastKeys = '', lastPrompt = '', ghostOverride = null;
+
+function render(s) {
+  $('title').textContent = `${s.robot} on ${s.bus} · ${s.output}${s.dirty ? ' (unsaved)' : ''} · ` +
+    (s.interval !== null ? `${s.interval.toFixed(1)} s between keys` : `timed keys, speed ×${s.speed.toFixed(1)}`);
+  const joints = JSON.stringify([s.joints, s.selected]);
+  if (joints !== lastJoints) { lastJoints = joints; renderJoints(s); }
+  const keys = JSON.stringify([s.keys, s.current]);
+  if (keys !== lastKeys) { lastKeys = keys; renderKeys(s); refreshTimeline(s); }
+  const prompt = JSON.stringify(s.prompt);
+  if (prompt !== lastPrompt) { lastPrompt = prompt; renderPrompt(s.prompt); }
+  if (!s.prompt) showStatus(s.status.text, s.status.error);
+  $('activity').textContent = `${s.activity.text} · ${s.journal ? 'journal ' + s.journal : 'no journal'}`;
+  $('tcp').textContent = 'tool ' + s.tcp.map(v => (v * 1000).toFixed(0)).join(', ') + ' mm';
+  if (studio.view) {
+    studio.view.setPose(s.joints.map(j => j.present));
+    const key = s.current !== null ? s.keys[s.current] : null;
+    const ghost = ghostOverride || (key && $('ghost').checked ? key.values : null);
+    studio.view.setGhost(ghost);
+  }
+}
+
+// Where the present value and the key's sit between the limits, in percent; placed by
+// script after the row is built (the page's policy allows no inline styles).
+function bar(j) {
+  const at = v => (v === null ? null : Math.min(Math.max((v - j.min) / (j.max - j.min), 0), 1) * 100);
+  const p = at(j.present), k = at(j.key);
+  return `<span class="bar">${k === null ? '' : `<i class="key" data-at="${k}"></i>`}` +
+    `${p === null ? '' : `<i class="present" data-at="${p}"></i>`}</span>`;
+}
+
+function text(value) {
+  return String(value ?? '').replace(/[&<>"']/g, c => `&#${c.charCodeAt(0)};`);
+}
+
+function renderJoints(s) {
+  $('joints').tBodies[0].innerHTML = s.joints.map((j, i) =>
+    `<tr data-joint="${i}" class="${i === s.selected ? 'selected' : ''}"><td>${i === s.selected ? '▶ ' : ''}${text(j.name)}</td>` +
+    `<td>${text(j.present_text)}</td><td>${text(j.key_text)}</td><td>${bar(j)}</td>` +
+    `<td class="${j.torque ? 'hold' : 'limp'}">${j.torque ? 'hold' : 'limp'}${j.load ? ' · load' : ''}</td></tr>`).join('');
+  for (const mark of $('joints').querySelectorAll('i[data-at]')) mark.style.left = `${mark.dataset.at}%`;
+}
+
+function renderKeys(s) {
+  $('keyinfo').textContent = `(${s.keys.length}), default ${s.interpolation}`;
+  $('keys').tBodies[0].innerHTML = s.keys.map((k, i) =>
+    `<tr data-index="${i}" class="${i === s.current ? 'selected' : ''}"><td>${i}</td><td>${text(k.name)}</td>` +
+    `<td>${k.time.toFixed(2)}</td><td>${k.hold > 0 ? k.hold.toFixed(2) : ''}</td>` +
+    `<td>${k.interp ? text(k.interp) + (k.own_interp ? '*' : '') : ''}</td></tr>`).join('');
+}
+
+$('keys').addEventListener('click', e => {
+  const row = e.target.closest('tr[data-index]');
+  if (row) send({ key: `select-key:${row.dataset.index}` });
+});
+$('joints').addEventListener('click', e => {
+  const row = e.target.closest('tr[data-joint]');
+  if (row) send({ key: `select-joint:${row.dataset.joint}` });
+});
+
+function renderPrompt(prompt) {
+  $('prompt').hidden = !prompt;
+  if (!prompt) {
+    // The keys are the page's again, not the closed box's.
+    if (document.activeElement === $('answer')) $('answer').blur();
+    return;
+  }
+  $('question').textContent = prompt.kind === 'text' ? prompt.question.replace(/:[^:]*▏.*$/, '') : prompt.question;
+  $('textanswer').hidden = prompt.kind !== 'text';
+  $('yesno').hidden = prompt.kind !== 'yesno';
+  if (prompt.kind === 'text') {
+    $('answer').value = prompt.text;
+    $('answer').focus();
+  }
+}
+
+// ----- the timeline -----
+
+let timelineTimer = null;
+const timeline = new Timeline($('timeline'), {
+  onScrub: values => { ghostOverride = values; if (studio.snapshot) render(studio.snapshot); },
+  onKeyTime: async (index, millis) => {
+    if (await send({ key: `select-key:${index}` })) send({ key: `key-time:${millis}` });
+  },
+});
+
+function refreshTimeline(s) {
+  clearTimeout(timelineTimer);
+  timelineTimer = setTimeout(async () => {
+    const { answer } = await api('/api/timeline');
+    const keys = s.keys.map((k, i) => ({ time: k.time, current: i === s.current }));
+    timeline.set(answer, keys);
+    $('findings').textContent = (answer.findings || []).map(f => `⚠ ${f.text}`).join('  ·  ');
+    studio.timeline = answer;
+  }, 100);
+}
+
+// ----- simulation: the list played in MuJoCo, the trace replayed on the ghost -----
+
+$('simulate').onclick = async () => {
+  $('simulation').textContent = 'simulating in MuJoCo…';
+  const { ok, answer } = await api('/api/simulate', {});
+  if (!ok) { $('simulation').textContent = answer.error || 'the simulation failed'; return; }
+  studio.simulation = answer;
+  const report = answer.report, trace = answer.trace;
+  // A finding's run time, as the sequence time the timeline shows (none during the ramp).
+  const sequenceTime = t => {
+    const i = trace.time.findIndex(x => x >= t);
+    return i < 0 ? null : trace.sequence_time[i];
+  };
+  const findings = report.findings.map(f => ({ ...f, at: sequenceTime(f.time) }));
+  timeline.setSimFindings(findings);
+  $('simulation').textContent = `simulation (${report.model}): ${report.passed ? 'passes' : 'FAILS'}` +
+    findings.map(f => ` · ${f.kind} ${f.joint || ''} at ${f.time.toFixed(2)} s: ${f.message}`).join('');
+  replay(trace);
+};
+
+// The trace at its own pace on the ghost; the live arm goes on following the servos.
+function replay(trace) {
+  const start = performance.now();
+  const step = () => {
+    const t = (performance.now() - start) / 1000;
+    let i = trace.time.findIndex(x => x >= t);
+    if (i < 0) { ghostOverride = null; if (studio.snapshot) render(studio.snapshot); return; }
+    ghostOverride = trace.position[i];
+    studio.view.setGhost(ghostOverride);
+    requestAnimationFrame(step);
+  };
+  requestAnimationFrame(step);
+}
+
+// ----- start: the robot, then the stream -----
+
+async function start() {
+  const { ok, answer: model } = await api('/api/robot');
+  if (!ok) { showStatus(model.error || 'cannot load the robot', true); return; }
+  studio.model = model;
+  studio.view = new ArmView($('view'), model);
+  $('axes').onchange = e => studio.view.showAxes(e.target.checked);
+  await claim();
+  const events = new EventSource(`/api/events?token=${encodeURIComponent(token)}&client=${client}`);
+  events.onmessage = e => {
+    const s = JSON.parse(e.data);
+    studio.snapshot = s;
+    // When each snapshot left the server and how long it took to arrive here.
+    studio.arrivals.push({ seq: s.seq, at: s.at_ms, delay: Date.now() - s.at_ms });
+    if (studio.arrivals.length > 1000) studio.arrivals.shift();
+    render(s);
+    // How long from the server's snapshot to the frame that shows it.
+    studio.view.onFrame = () => {
+      studio.view.onFrame = null;
+      studio.latencies.push(Date.now() - s.at_ms);
+      if (studio.latencies.length > 500) studio.latencies.shift();
+      // From the navigation's start (performance's time origin) to the first drawn arm.
+      if (studio.loadMs === null) studio.loadMs = performance.now();
+    };
+  };
+  events.addEventListener('end', () => {
+    events.close();
+    showStatus('the studio session has ended (keypose studio quit)', true);
+    setController(false, 'session ended');
+  });
+}
+
+start();

@@ -1,0 +1,221 @@
+// The arm in 3D: built from GET /api/robot (the chain, and the simulation model's bodies and
+// shapes when there is one), posed by joint values in the robot's units (degrees; metres for
+// prismatic joints). A second, translucent copy is the ghost.
+import * as THREE from 'three';
+import { OrbitControls } from '/vendor/three/OrbitControls.js';
+
+const DEG = Math.PI / 180;
+
+function quat(q) { return new THREE.Quaternion(q[0], q[1], q[2], q[3]); }
+function vec(t) { return new THREE.Vector3(t[0], t[1], t[2]); }
+
+function place(object, origin) {
+  object.position.copy(vec(origin.t));
+  object.quaternion.copy(quat(origin.q));
+}
+
+// A mesh along the segment a → b (three's capsules and cylinders run along +Y).
+function alongSegment(mesh, a, b) {
+  const dir = new THREE.Vector3().subVectors(b, a);
+  mesh.position.copy(a).addScaledVector(dir, 0.5);
+  mesh.quaternion.setFromUnitVectors(new THREE.Vector3(0, 1, 0), dir.clone().normalize());
+  return mesh;
+}
+
+function geomMesh(g, material) {
+  const [s0, s1 = s0, s2 = s1] = g.size;
+  let geometry;
+  let length = 2 * s1;
+  if (g.fromto) length = vec(g.fromto.slice(0, 3)).distanceTo(vec(g.fromto.slice(3)));
+  switch (g.type) {
+    case 'box': geometry = new THREE.BoxGeometry(2 * s0, 2 * s1, 2 * s2); break;
+    case 'sphere': geometry = new THREE.SphereGeometry(s0, 20, 14); break;
+    case 'capsule': geometry = new THREE.CapsuleGeometry(s0, length, 6, 16); break;
+    case 'cylinder': geometry = new THREE.CylinderGeometry(s0, s0, length, 20); break;
+    default: return null;
+  }
+  const mesh = new THREE.Mesh(geometry, material(g.rgba));
+  if (g.fromto) return alongSegment(mesh, vec(g.fromto.slice(0, 3)), vec(g.fromto.slice(3)));
+  place(mesh, g.origin);
+  // MJCF capsules and cylinders without fromto run along their frame's Z.
+  if (g.type === 'capsule' || g.type === 'cylinder') {
+    mesh.quaternion.multiply(new THREE.Quaternion().setFromUnitVectors(
+      new THREE.Vector3(0, 1, 0), new THREE.Vector3(0, 0, 1)));
+  }
+  return mesh;
+}
+
+// One copy of the arm: a node per body (or per joint, without a model), each jointed node
+// turned or slid by its joint.
+class Arm {
+  constructor(model, material) {
+    this.root = new THREE.Group();
+    this.joints = new Map();
+    this.axes = [];
+    this.model = model;
+    if (model.bodies) {
+      for (const body of model.bodies) this.root.add(this.body(body, material));
+    } else {
+      this.chain(model.joints, material);
+    }
+    const tcpParent = model.tcp && this.joints.get(model.tcp.parent);
+    if (tcpParent) {
+      this.tcp = new THREE.Mesh(new THREE.SphereGeometry(0.006, 12, 8), material([1, 0.1, 0.1, 1]));
+      place(this.tcp, model.tcp.origin);
+      tcpParent.moving.add(this.tcp);
+    }
+  }
+
+  addJoint(name, kind, axis, frame) {
+    const moving = new THREE.Group();
+    frame.add(moving);
+    const a = vec(axis).normalize();
+    const arrow = new THREE.ArrowHelper(a, new THREE.Vector3(), 0.06, 0xff00ff, 0.015, 0.01);
+    arrow.visible = false;
+    frame.add(arrow);
+    this.axes.push(arrow);
+    this.joints.set(name, { moving, kind, axis: a });
+    return moving;
+  }
+
+  body(body, material) {
+    const frame = new THREE.Group();
+    frame.name = body.name;
+    place(frame, body.origin);
+    const inner = body.joint
+      ? this.addJoint(body.joint.name, body.joint.kind, body.joint.axis, frame)
+      : frame;
+    for (const g of body.geoms) {
+      const mesh = geomMesh(g, material);
+      if (mesh) inner.add(mesh);
+    }
+    for (const child of body.children) inner.add(this.body(child, material));
+    return frame;
+  }
+
+  // Without a model: a sphere at each joint and a rod to the next.
+  chain(joints, material) {
+    let parent = this.root;
+    const grey = material([0.7, 0.7, 0.72, 1]);
+    for (const j of joints) {
+      const frame = new THREE.Group();
+      place(frame, j.origin);
+      parent.add(frame);
+      const rod = vec(j.origin.t);
+      if (rod.length() > 1e-6) {
+        parent.add(alongSegment(new THREE.Mesh(new THREE.CylinderGeometry(0.008, 0.008, rod.length(), 12), grey),
+          new THREE.Vector3(), rod));
+      }
+      frame.add(new THREE.Mesh(new THREE.SphereGeometry(0.014, 16, 10), material([0.1, 0.1, 0.1, 1])));
+      parent = this.addJoint(j.name, j.kind, j.axis, frame);
+    }
+  }
+
+  // Joint values in robot order and units.
+  pose(values) {
+    const byName = new Map();
+    this.model.joints.forEach((j, i) => {
+      const v = values[i];
+      if (v === null || v === undefined || !Number.isFinite(v)) return;
+      byName.set(j.name, j.kind === 'prismatic' ? v : v * DEG);
+    });
+    for (const m of this.model.mimics || []) {
+      if (byName.has(m.follows)) byName.set(m.joint, m.offset + m.scale * byName.get(m.follows));
+    }
+    for (const [name, value] of byName) {
+      const joint = this.joints.get(name);
+      if (!joint) continue;
+      if (joint.kind === 'prismatic') {
+        joint.moving.position.copy(joint.axis).multiplyScalar(value);
+      } else {
+        joint.moving.quaternion.setFromAxisAngle(joint.axis, value);
+      }
+    }
+  }
+}
+
+export class ArmView {
+  constructor(canvas, model) {
+    this.canvas = canvas;
+    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true });
+    this.renderer.setPixelRatio(Math.min(window.devicePixelRatio, 2));
+    this.scene = new THREE.Scene();
+    this.scene.background = new THREE.Color(0x20252b);
+    this.camera = new THREE.PerspectiveCamera(45, 1, 0.01, 10);
+    this.camera.up.set(0, 0, 1);
+    this.camera.position.set(0.45, -0.55, 0.4);
+    this.controls = new OrbitControls(this.camera, canvas);
+    this.controls.target.set(0.1, 0, 0.12);
+    this.controls.update();
+    this.scene.add(new THREE.HemisphereLight(0xffffff, 0x404040, 2.2));
+    const sun = new THREE.DirectionalLight(0xffffff, 1.6);
+    sun.position.set(1, -1, 2);
+    this.scene.add(sun);
+    const grid = new THREE.GridHelper(1, 20, 0x667080, 0x3a4048);
+    grid.rotation.x = Math.PI / 2; // three's grid lies in XZ; the robot's floor is XY.
+    this.scene.add(grid);
+    this.scene.add(new THREE.AxesHelper(0.1));
+    const solid = rgba => new THREE.MeshStandardMaterial({
+      color: new THREE.Color(rgba[0], rgba[1], rgba[2]), roughness: 0.6, metalness: 0.1 });
+    const ghostMaterial = new THREE.MeshBasicMaterial({
+      color: 0x4fc3f7, transparent: true, opacity: 0.25, depthWrite: false });
+    this.arm = new Arm(model, solid);
+    this.ghost = new Arm(model, () => ghostMaterial);
+    this.ghost.root.visible = false;
+    this.scene.add(this.arm.root, this.ghost.root);
+    this.onFrame = null;
+    // Drawn only when something changed: software GL (and a laptop's battery) cannot afford
+    // sixty identical frames a second.
+    this.dirty = true;
+    this.controls.addEventListener('change', () => { this.dirty = true; });
+    window.addEventListener('resize', () => { this.dirty = true; });
+    const loop = () => {
+      if (this.dirty) {
+        this.dirty = false;
+        this.resize();
+        this.renderer.render(this.scene, this.camera);
+        if (this.onFrame) this.onFrame();
+      }
+      requestAnimationFrame(loop);
+    };
+    requestAnimationFrame(loop);
+  }
+
+  resize() {
+    const { clientWidth: w, clientHeight: h } = this.canvas;
+    if (this.canvas.width !== Math.floor(w * this.renderer.getPixelRatio()) || this.lastH !== h) {
+      this.renderer.setSize(w, h, false);
+      this.camera.aspect = w / Math.max(h, 1);
+      this.camera.updateProjectionMatrix();
+      this.lastH = h;
+    }
+  }
+
+  setPose(values) { this.arm.pose(values); this.dirty = true; }
+
+  // The ghost at `values` (robot order and units), or hidden with null.
+  setGhost(values) {
+    this.dirty = true;
+    this.ghost.root.visible = !!values;
+    if (values) this.ghost.pose(values);
+  }
+
+  showAxes(on) { for (const a of this.arm.axes) a.visible = on; this.dirty = true; }
+
+  // Where the drawn tool centre point is, in the robot's base frame (metres).
+  tcpPosition() {
+    if (!this.arm.tcp) return null;
+    this.scene.updateMatrixWorld(true);
+    const p = this.arm.tcp.getWorldPosition(new THREE.Vector3());
+    return [p.x, p.y, p.z];
+  }
+
+  // The drawn rotation of a joint, for tests and the latency figure.
+  jointAngle(name) {
+    const joint = this.arm.joints.get(name);
+    if (!joint) return null;
+    if (joint.kind === 'prismatic') return joint.moving.position.dot(joint.axis);
+    const q = joint.moving.quaternion;
+    return 2 * Math.atan2(new THREE.Vector3(q.x, q.y, q.z).dot(joint.axis), q.w) / DEG;
+  }
+}

@@ -1,0 +1,273 @@
+//! `keypose studio` in a real browser: the binary on emulated servos (`--port virtual`),
+//! Debian's Chromium driven headless by playwright-core (tests/studio/e2e.mjs; WebGL through
+//! SwiftShader). The page teaches a sequence by the keys of `keypose teach`; this side checks
+//! the file it wrote against the keys pressed (the virtual arm starts with every joint at 0°
+//! and each jog is exactly 1° or 10°), and the page's findings: the 3D view drawn, refusals
+//! without the token or from another origin, a second page that only watches, playback
+//! stopped when the controlling page closes.
+//!
+//! Needs node, /usr/bin/chromium and tests/studio/node_modules (`scripts/test` installs
+//! them); without them the test fails and says how to install them.
+
+mod common;
+
+use common::SO101_JOINTS;
+use serde_json::{json, Value};
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+const CHROMIUM: &str = "/usr/bin/chromium";
+
+fn test_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests")
+        .join("studio")
+}
+
+/// Fails, loudly, when the browser test cannot run here.
+fn require_browser_tools() {
+    let node = Command::new("node").arg("--version").output();
+    let mut missing = Vec::new();
+    if !node.is_ok_and(|o| o.status.success()) {
+        missing.push("node (apt-get install nodejs npm)");
+    }
+    if !Path::new(CHROMIUM).exists() {
+        missing.push("chromium (apt-get install chromium)");
+    }
+    if !test_dir()
+        .join("node_modules")
+        .join("playwright-core")
+        .exists()
+    {
+        missing.push("playwright-core (npm ci --prefix tests/studio)");
+    }
+    assert!(
+        missing.is_empty(),
+        "the studio's browser test needs {}; scripts/test installs them",
+        missing.join(", ")
+    );
+}
+
+/// Ends the studio when the test ends, however it ends.
+struct Studio(Child);
+
+impl Drop for Studio {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn pose(values: [f64; 6]) -> Value {
+    let joints: serde_json::Map<String, Value> = SO101_JOINTS
+        .iter()
+        .zip(values)
+        .map(|(n, v)| (n.to_string(), json!(v)))
+        .collect();
+    json!({ "joints": joints })
+}
+
+fn named(name: &str, mut key: Value) -> Value {
+    key["name"] = json!(name);
+    key
+}
+
+#[test]
+fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
+    require_browser_tools();
+    let dir = tempfile::tempdir().unwrap();
+    let artifacts = dir.path().join("artifacts");
+    std::fs::create_dir(&artifacts).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_keypose"))
+        .args(["studio", "--port", "virtual", "taught.json"])
+        .current_dir(dir.path())
+        .env("KEYPOSE_CACHE", dir.path().join("cache"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("start keypose studio");
+    let stdout = child.stdout.take().unwrap();
+    let studio = Studio(child);
+    let mut url = String::new();
+    BufReader::new(stdout).read_line(&mut url).unwrap();
+    let url = url.trim().to_string();
+    assert!(
+        url.starts_with("http://127.0.0.1:") && url.contains("/?token="),
+        "the first line is the page's URL, got {url:?}"
+    );
+
+    let out = Command::new("node")
+        .arg(test_dir().join("e2e.mjs"))
+        .arg(&url)
+        .arg(&artifacts)
+        .output()
+        .expect("run node");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "the browser run failed:\n{stderr}");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let results: Value = serde_json::from_str(stdout.lines().last().unwrap_or(""))
+        .unwrap_or_else(|e| panic!("e2e results: {e}\n{stdout}\n{stderr}"));
+    eprintln!("studio e2e: {results}");
+    drop(studio);
+
+    assert_eq!(results["errors"], json!([]), "the page ran without errors");
+    // n at home; shift-right twice (+20° pan), n; down, right three times (+3° lift), u;
+    // N and "wave" typed in the page's box; n then d (a key added and deleted); w.
+    let written: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("taught.json")).unwrap())
+            .unwrap();
+    assert_eq!(
+        written["keyframes"],
+        json!([
+            pose([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            named("wave", pose([20.0, 3.0, 0.0, 0.0, 0.0, 0.0]))
+        ])
+    );
+    assert_eq!(written["key_interval"], json!(2.0));
+    // A blank canvas is one colour; a drawn arm, floor grid and lighting are hundreds.
+    assert!(results["colours"].as_u64().unwrap() > 100, "{results}");
+    // The drawn pan is the servo's: 20° is 227.56 ticks of 4096 per turn, so the servo goes
+    // to the nearest tick, 228, which reads back as 228 · 360 / 4096 = 20.0390625°.
+    let drawn = results["drawnPan"].as_f64().unwrap();
+    assert!((drawn - 20.0390625).abs() < 1e-9, "{drawn}");
+    // The page's scene graph (MJCF bodies) puts the tool where keypose's forward kinematics
+    // (the robot description) does, to the micrometre, at every pose tried.
+    for pose in results["tcp"].as_array().unwrap() {
+        let drawn: Vec<f64> = serde_json::from_value(pose["drawn"].clone()).unwrap();
+        let computed: Vec<f64> = serde_json::from_value(pose["computed"].clone()).unwrap();
+        let gap = drawn
+            .iter()
+            .zip(&computed)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        assert!(gap < 1e-6, "drawn {drawn:?}, computed {computed:?}");
+    }
+    // The timeline's drag moved key 1 from 2 s to 3 s.
+    let times: Vec<f64> = serde_json::from_value(results["keyTimes"].clone()).unwrap();
+    assert_eq!(times, [0.0, 3.0]);
+    assert_eq!(results["timelineJoints"], json!(6));
+    for refused in ["noToken", "noTokenPage", "foreignOrigin", "reboundHost"] {
+        assert_eq!(results[refused], json!(403), "{refused}");
+    }
+    assert_eq!(results["withToken"], json!(200));
+    assert_eq!(results["secondControls"], json!(false));
+    assert_eq!(results["secondKeyAccepted"], json!(false));
+    assert!(results["secondRefusal"]
+        .as_str()
+        .unwrap()
+        .contains("another page controls the arm"));
+    assert_eq!(results["keysAfterRefusal"], json!(2));
+    // Closing the controller's page mid-play stopped the arm along its path.
+    assert!(
+        results["afterClose"]
+            .as_str()
+            .unwrap()
+            .contains("decelerated"),
+        "{results}"
+    );
+}
+
+/// No browser needed: without `--port` the studio does not start (exit 2, saying why), and
+/// Ctrl-C ends a running one with exit 130, the arm held, unsaved keys left in the journal.
+#[test]
+fn the_studio_needs_a_port_and_ctrl_c_ends_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let keypose = || {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_keypose"));
+        command
+            .current_dir(dir.path())
+            .env("KEYPOSE_CACHE", dir.path().join("cache"));
+        command
+    };
+    let out = keypose().args(["studio", "new.json"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--port is required"));
+
+    let mut child = keypose()
+        .args(["studio", "--port", "virtual", "new.json"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut url = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut url)
+        .unwrap();
+    // 127.0.0.1, a port the system chose, and 32 random bytes in hex.
+    let token = url.trim().rsplit_once("/?token=").unwrap().1.to_string();
+    assert_eq!(token.len(), 64, "{url}");
+    assert!(token.chars().all(|c| c.is_ascii_hexdigit()));
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(130));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("ended by Ctrl-C"));
+    assert!(!dir.path().join("new.json").exists(), "nothing was written");
+}
+
+/// One HTTP request to the studio, as the page's scripts send it (no browser needed); 1.0, so
+/// that the answer comes whole rather than chunked.
+fn http(addr: &str, method: &str, path: &str, token: &str, body: &str) -> (u16, Value) {
+    use std::io::{Read, Write};
+    let mut stream = std::net::TcpStream::connect(addr).unwrap();
+    write!(
+        stream,
+        "{method} {path} HTTP/1.0\r\nHost: {addr}\r\nX-Keypose-Token: {token}\r\n\
+         X-Keypose-Client: test-page\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        body.len()
+    )
+    .unwrap();
+    let mut answer = String::new();
+    stream.read_to_string(&mut answer).unwrap();
+    let status = answer[9..12].parse().unwrap();
+    let json = answer.split_once("\r\n\r\n").unwrap().1;
+    (status, serde_json::from_str(json).unwrap_or(Value::Null))
+}
+
+/// The page's Simulate: the list played in MuJoCo as `keypose sim` plays it. The wave example
+/// passes its verdict (README: every example passes), and the trace the page replays ends
+/// where the last key is (home: every joint at 0°), within the 2° a settled servo model may
+/// sag under gravity.
+#[test]
+fn the_page_simulates_the_list_in_mujoco() {
+    let dir = tempfile::tempdir().unwrap();
+    let sequence = Path::new(env!("CARGO_MANIFEST_DIR")).join("sequences/so101_wave.json");
+    std::fs::copy(&sequence, dir.path().join("wave.json")).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_keypose"))
+        .args(["studio", "--port", "virtual", "wave.json"])
+        .current_dir(dir.path())
+        .env("KEYPOSE_CACHE", common::sim_cache())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    let _studio = Studio(child);
+    let mut url = String::new();
+    BufReader::new(stdout).read_line(&mut url).unwrap();
+    let rest = url.trim().strip_prefix("http://").unwrap();
+    let (addr, token) = rest.split_once("/?token=").unwrap();
+    assert_eq!(http(addr, "POST", "/api/control", token, "{}").0, 200);
+    let (status, answer) = http(addr, "POST", "/api/simulate", token, "{}");
+    assert_eq!(status, 200, "{answer}");
+    assert_eq!(
+        answer["report"]["passed"],
+        json!(true),
+        "{}",
+        answer["report"]
+    );
+    let last = answer["trace"]["position"]
+        .as_array()
+        .unwrap()
+        .last()
+        .unwrap();
+    // The five arm joints of the last key, "home" (the gripper is not in it).
+    for (j, value) in last.as_array().unwrap().iter().take(5).enumerate() {
+        let value = value.as_f64().unwrap();
+        assert!(value.abs() < 2.0, "joint {j} ends at {value}°");
+    }
+}
