@@ -4,6 +4,7 @@
 pub mod decoding;
 
 use keypose::robot::{Robot, BUILTIN_NAMES};
+use std::sync::OnceLock;
 
 /// The fuzzer's bytes read front to back as a series of choices; once they run out every
 /// choice is 0, so any input is a complete (if short) scenario.
@@ -48,8 +49,21 @@ impl<'a> Choices<'a> {
     }
 }
 
-/// The built-in robot chosen by `selector`.
-pub fn builtin_robot(selector: u8) -> Robot {
-    let name = BUILTIN_NAMES[usize::from(selector) % BUILTIN_NAMES.len()];
-    Robot::builtin(name).expect("a built-in robot")
+/// The built-in robot chosen by `selector`, parsed once per process (parsing it again on every
+/// execution would dominate the cheaper targets).
+pub fn builtin_robot(selector: u8) -> &'static Robot {
+    static ROBOTS: OnceLock<Vec<Robot>> = OnceLock::new();
+    let robots = ROBOTS.get_or_init(|| {
+        BUILTIN_NAMES
+            .iter()
+            .map(|name| Robot::builtin(name).expect("a built-in robot"))
+            .collect()
+    });
+    &robots[usize::from(selector) % robots.len()]
+}
+
+/// The built-in robot called `name`, if there is one.
+pub fn builtin_named(name: &str) -> Option<&'static Robot> {
+    let index = BUILTIN_NAMES.iter().position(|n| *n == name)?;
+    Some(builtin_robot(index as u8))
 }
