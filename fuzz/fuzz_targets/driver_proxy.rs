@@ -187,11 +187,7 @@ fuzz_target!(|data: &[u8]| {
     }));
     let codec = codec(robot.bus.protocol);
     let servos = robot.servos();
-    let mut bus = NativeBus::new(
-        Box::new(Proxy(shared.clone())),
-        robot.bus.protocol,
-        &servos,
-    );
+    let mut bus = NativeBus::new(Box::new(Proxy(shared.clone())), robot.bus.protocol, &servos);
     let all: Vec<u8> = servos.iter().map(|(id, _)| *id).collect();
     for _ in 0..16 {
         let (op, arg) = {
@@ -230,7 +226,11 @@ fuzz_target!(|data: &[u8]| {
                 let _ = bus.read_health(&ids);
             }
             5 => {
-                let models: Vec<_> = servos.iter().filter(|(id, _)| ids.contains(id)).copied().collect();
+                let models: Vec<_> = servos
+                    .iter()
+                    .filter(|(id, _)| ids.contains(id))
+                    .copied()
+                    .collect();
                 if let Ok(values) = bus.read_homing_offsets(&models) {
                     check_values(&shared, robot, codec, &ids, &values, |t| t.homing_offset);
                 }

@@ -4,8 +4,8 @@
 //! packet re-encodes to bytes that decode to the same packet.
 #![no_main]
 
-use keypose::bus::protocol::packet::Direction;
 use keypose::bus::protocol::dynamixel::Dynamixel2;
+use keypose::bus::protocol::packet::Direction;
 use keypose_fuzz::decoding::check_framing;
 use libfuzzer_sys::fuzz_target;
 

@@ -17,7 +17,10 @@ fuzz_target!(|data: &[u8]| {
     };
     let frames = robot.joint_frames(&robot.home);
     assert_eq!(frames.len(), robot.joints.len());
-    assert!(robot.tcp_position(&robot.home).is_finite(), "home FK not finite");
+    assert!(
+        robot.tcp_position(&robot.home).is_finite(),
+        "home FK not finite"
+    );
     for (joint, &home) in robot.joints.iter().zip(&robot.home) {
         check_goals(joint, home);
     }

@@ -32,7 +32,11 @@ fuzz_target!(|data: &[u8]| {
     };
     let again = Sequence::from_json("fuzz.json", &sequence.to_json())
         .unwrap_or_else(|e| panic!("a loaded sequence does not load once saved: {e}"));
-    assert_eq!(content(&again), content(&sequence), "save and load changed the sequence");
+    assert_eq!(
+        content(&again),
+        content(&sequence),
+        "save and load changed the sequence"
+    );
 
     let robot = builtin_named(&sequence.robot).unwrap_or_else(|| builtin_robot(0));
     let Ok(trajectory) = Trajectory::build(&sequence, robot) else {

@@ -1,6 +1,8 @@
 //! The properties of a packet framing both decoder targets check.
 
-use keypose::bus::protocol::packet::{Decoded, Direction, Framing, Packet, PacketError, PacketKind};
+use keypose::bus::protocol::packet::{
+    Decoded, Direction, Framing, Packet, PacketError, PacketKind,
+};
 
 /// Decodes all of `bytes`, asserting that every step that does not ask for more bytes consumes
 /// at least one (the driver's receive loop relies on it to terminate) and that asking for more
@@ -20,7 +22,11 @@ pub fn decode_all(
             Ok(Decoded::Packet(packet)) => out.push(Ok(packet)),
             Err(e) => out.push(Err(e)),
         }
-        assert!(bytes.len() < before, "a decoding step consumed nothing: {:?}", out.last());
+        assert!(
+            bytes.len() < before,
+            "a decoding step consumed nothing: {:?}",
+            out.last()
+        );
     }
 }
 
@@ -30,9 +36,7 @@ pub fn encode(framing: &dyn Framing, packet: &Packet) -> Result<Vec<u8>, PacketE
         PacketKind::Instruction(code) => {
             framing.try_encode_instruction(packet.id, code, &packet.params)
         }
-        PacketKind::Status { error } => {
-            framing.try_encode_status(packet.id, error, &packet.params)
-        }
+        PacketKind::Status { error } => framing.try_encode_status(packet.id, error, &packet.params),
     }
 }
 
