@@ -356,7 +356,7 @@ mod tests {
         // The loaded rotation is the unit quaternion along (0.7071, 0.7073): w/z = 0.7071/0.7073.
         let r = rotation(&loaded);
         assert!((r.length() - 1.0).abs() < 1e-15);
-        assert!((r.w / r.z - 0.7071 / 0.7073).abs() < 1e-12);
+        assert!((r.w / r.z - 7071.0 / 7073.0).abs() < 1e-12);
         let again = parse_sequence("a.json", &loaded.to_json()).unwrap();
         assert_eq!(rotation(&again), r);
     }
