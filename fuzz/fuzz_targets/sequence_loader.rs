@@ -42,7 +42,8 @@ fuzz_target!(|data: &[u8]| {
     let Ok(trajectory) = Trajectory::build(&sequence, robot) else {
         return;
     };
-    if !(trajectory.duration() <= MAX_CHECKED_SECONDS) {
+    let duration = trajectory.duration();
+    if duration.is_nan() || duration > MAX_CHECKED_SECONDS {
         return;
     }
     let rate = robot.control_hz;
