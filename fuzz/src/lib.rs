@@ -1,0 +1,69 @@
+//! Helpers the fuzz targets share: reading structured choices from the fuzzer's bytes, the
+//! built-in robots, and the packet properties both decoder targets check.
+
+pub mod decoding;
+
+use keypose::robot::{Robot, BUILTIN_NAMES};
+use std::sync::OnceLock;
+
+/// The fuzzer's bytes read front to back as a series of choices; once they run out every
+/// choice is 0, so any input is a complete (if short) scenario.
+pub struct Choices<'a> {
+    data: &'a [u8],
+}
+
+impl<'a> Choices<'a> {
+    pub fn new(data: &'a [u8]) -> Self {
+        Choices { data }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.data.is_empty()
+    }
+
+    pub fn byte(&mut self) -> u8 {
+        match self.data.split_first() {
+            Some((&b, rest)) => {
+                self.data = rest;
+                b
+            }
+            None => 0,
+        }
+    }
+
+    /// The next `n` bytes (fewer at the end).
+    pub fn take(&mut self, n: usize) -> &'a [u8] {
+        let (taken, rest) = self.data.split_at(n.min(self.data.len()));
+        self.data = rest;
+        taken
+    }
+
+    /// One of `items`, chosen by the next byte.
+    pub fn pick<T: Copy>(&mut self, items: &[T]) -> T {
+        items[usize::from(self.byte()) % items.len()]
+    }
+
+    /// Whatever is left.
+    pub fn rest(&mut self) -> &'a [u8] {
+        std::mem::take(&mut self.data)
+    }
+}
+
+/// The built-in robot chosen by `selector`, parsed once per process (parsing it again on every
+/// execution would dominate the cheaper targets).
+pub fn builtin_robot(selector: u8) -> &'static Robot {
+    static ROBOTS: OnceLock<Vec<Robot>> = OnceLock::new();
+    let robots = ROBOTS.get_or_init(|| {
+        BUILTIN_NAMES
+            .iter()
+            .map(|name| Robot::builtin(name).expect("a built-in robot"))
+            .collect()
+    });
+    &robots[usize::from(selector) % robots.len()]
+}
+
+/// The built-in robot called `name`, if there is one.
+pub fn builtin_named(name: &str) -> Option<&'static Robot> {
+    let index = BUILTIN_NAMES.iter().position(|n| *n == name)?;
+    Some(builtin_robot(index as u8))
+}
