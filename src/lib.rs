@@ -25,6 +25,7 @@ pub mod bus;
 pub mod curve;
 
 pub mod json;
+pub mod kinematics;
 pub mod pacing;
 pub mod plan;
 pub mod player;
