@@ -21,9 +21,10 @@ use super::{
     joint_distance, lowest_below_floor, orientation_residual_deg, within_limits, Solution,
     ToolTarget,
 };
-use crate::pose::{twist_swing, unwrap_within, RigidTransform};
+use crate::pose::{twist_swing, unwrap_within, wrap_pi, RigidTransform};
 use crate::robot::{JointKind, Robot};
 use glam::{DQuat, DVec2, DVec3};
+use std::f64::consts::{PI, TAU};
 
 /// How far from parallel (or square) two axes may be and still count as such: the built-ins'
 /// files carry their URDFs' six-digit quaternions, a few 1e-6 off.
@@ -33,9 +34,16 @@ const AXIS_TOLERANCE: f64 = 1e-4;
 const POSITION_CHECK_M: f64 = 1e-6;
 /// Roll iterations when the roll moves the tool point (the tool point is off the roll axis on
 /// SO-101 and Koch): each pass shrinks the error by about offset / reach (< 0.1).
-const ROLL_PASSES: usize = 30;
+const ROLL_PASSES: usize = 40;
+/// Step of the search for a roll when the seed's cannot reach a position, degrees.
+const ROLL_SEARCH_STEP_DEG: f64 = 30.0;
+/// Orientation residuals this close count as equal when choosing a branch, degrees: of the
+/// branches that orient the tool best, the nearest to the previous key wins.
+const RESIDUAL_TIE_DEG: f64 = 0.05;
+/// A residual this small means the orientation was reached, degrees.
+const EXACT_DEG: f64 = 1e-6;
 /// Step of the search for a tool pitch that reaches a position the previous pitch cannot, degrees.
-const PITCH_SEARCH_STEP_DEG: f64 = 1.0;
+const PITCH_SEARCH_STEP_DEG: f64 = 0.25;
 
 /// The roll joint, in the pan frame at zero pitch.
 #[derive(Debug, Clone, PartialEq)]
@@ -153,6 +161,14 @@ impl ArmGeometry {
         })
     }
 
+    /// How far `position` (base frame) is from the pan axis, metres. Within about the tool
+    /// point's offset from the roll axis (8 mm on SO-101 and Koch) the pan is nearly free and
+    /// the orientation is solved as well as the general solver manages, not exactly.
+    pub fn pan_axis_distance(&self, position: DVec3) -> f64 {
+        let p = self.base.r.conjugate() * (position - self.base.t);
+        (p - self.pan_axis * p.dot(self.pan_axis)).length()
+    }
+
     pub fn has_roll(&self) -> bool {
         self.roll.is_some()
     }
@@ -195,7 +211,9 @@ impl ArmGeometry {
     }
 
     /// With a position alone: the seed's tool pitch and roll if any branch reaches with them,
-    /// else the nearest pitch (in steps of [`PITCH_SEARCH_STEP_DEG`] either way) that does.
+    /// else the nearest pitch (in steps of [`PITCH_SEARCH_STEP_DEG`] either way) that does,
+    /// trying other rolls only when no pitch does with the seed's (the roll moves a tool point
+    /// that is off its axis, which can take the pan past its limit).
     fn best_positioned(
         &self,
         robot: &Robot,
@@ -204,24 +222,46 @@ impl ArmGeometry {
         floor: bool,
     ) -> Option<Vec<f64>> {
         let pitch = self.tool_pitch(seed);
-        let roll = self
-            .roll
-            .as_ref()
-            .map_or(0.0, |r| seed[r.index].to_radians());
-        let steps = (180.0 / PITCH_SEARCH_STEP_DEG) as i32;
-        (0..=steps).find_map(|k| {
-            [1.0, -1.0].into_iter().find_map(|side| {
-                let phi = pitch + side * f64::from(k) * PITCH_SEARCH_STEP_DEG.to_radians();
-                let candidates = BRANCHES
-                    .iter()
-                    .filter_map(|&b| self.assemble(robot, position, phi, roll, b, seed, floor));
-                nearest(robot, candidates, seed)
+        let rolls = self.roll_candidates(robot, seed);
+        rolls.into_iter().find_map(|roll| {
+            let steps = (180.0 / PITCH_SEARCH_STEP_DEG) as i32;
+            (0..=steps).find_map(|k| {
+                [1.0, -1.0].into_iter().find_map(|side| {
+                    let phi = pitch + side * f64::from(k) * PITCH_SEARCH_STEP_DEG.to_radians();
+                    let candidates = BRANCHES
+                        .iter()
+                        .filter_map(|&b| self.assemble(robot, position, phi, roll, b, seed, floor));
+                    nearest(robot, candidates, seed)
+                })
             })
         })
     }
 
+    /// Rolls (radians) to try for a position alone: the seed's, then every
+    /// [`ROLL_SEARCH_STEP_DEG`] either way inside the limits; just 0 without a roll joint.
+    fn roll_candidates(&self, robot: &Robot, seed: &[f64]) -> Vec<f64> {
+        let Some(roll) = &self.roll else {
+            return vec![0.0];
+        };
+        let limits = robot.joints[roll.index].limits;
+        let start = seed[roll.index];
+        let mut rolls = vec![start];
+        for k in 1..=(360.0 / ROLL_SEARCH_STEP_DEG) as i32 {
+            for side in [1.0, -1.0] {
+                let r = start + side * f64::from(k) * ROLL_SEARCH_STEP_DEG;
+                if limits.contains(r) {
+                    rolls.push(r);
+                }
+            }
+        }
+        rolls.into_iter().map(f64::to_radians).collect()
+    }
+
     /// With an orientation: every branch with the tool pitch and roll the orientation asks for
-    /// (the pan changes per branch, and with it what the orientation asks of the pitch).
+    /// (the pan changes per branch, and with it what the orientation asks of the pitch). The
+    /// roll from the seed's by repetition first; when that reaches the orientation on no
+    /// branch exactly, every roll that is a consistent answer (there can be several when the
+    /// target is near the pan axis).
     fn best_oriented(
         &self,
         robot: &Robot,
@@ -230,16 +270,53 @@ impl ArmGeometry {
         seed: &[f64],
         floor: bool,
     ) -> Option<Vec<f64>> {
-        let candidates = BRANCHES.iter().filter_map(|&branch| {
-            let (phi, roll) = self.settle_roll(position, orientation, branch, seed)?;
-            self.assemble(robot, position, phi, roll, branch, seed, floor)
-        });
-        nearest(robot, candidates, seed)
+        let fast: Vec<(Branch, (f64, f64))> = BRANCHES
+            .iter()
+            .filter_map(|&b| Some((b, self.settle_roll(position, orientation, b, seed)?)))
+            .collect();
+        let found = self.oriented_candidates(robot, position, orientation, &fast, seed, floor);
+        if found.iter().any(|c| c.1 < EXACT_DEG) || self.roll.is_none() {
+            return choose_oriented(robot, found, seed);
+        }
+        let thorough: Vec<(Branch, (f64, f64))> = BRANCHES
+            .iter()
+            .flat_map(|&b| {
+                self.scan_roll(position, orientation, b)
+                    .into_iter()
+                    .map(move |r| (b, r))
+            })
+            .collect();
+        let mut all = found;
+        all.extend(self.oriented_candidates(robot, position, orientation, &thorough, seed, floor));
+        choose_oriented(robot, all, seed)
+    }
+
+    /// The solutions of the given branches and (pitch, roll) pairs, with their residuals.
+    fn oriented_candidates(
+        &self,
+        robot: &Robot,
+        position: DVec3,
+        orientation: DQuat,
+        choices: &[(Branch, (f64, f64))],
+        seed: &[f64],
+        floor: bool,
+    ) -> Vec<(Vec<f64>, f64)> {
+        choices
+            .iter()
+            .filter_map(|&(branch, (phi, roll))| {
+                let values = self.assemble(robot, position, phi, roll, branch, seed, floor)?;
+                let residual = orientation_residual_deg(robot.tcp_frame(&values).r, orientation);
+                Some((values, residual.length()))
+            })
+            .collect()
     }
 
     /// The tool pitch and roll (radians) the orientation asks for on `branch`. The roll moves
     /// the tool point when the point is off the roll axis, which moves the pan, which changes
-    /// what the orientation asks: a fixed point, reached by repeating.
+    /// what the orientation asks: a fixed point of [`ArmGeometry::next_roll`]. Repeating it
+    /// converges when the target is far from the pan axis compared with the tool point's offset
+    /// (the usual case, and fast); near the pan axis it need not, and the roll is then found by
+    /// scanning for where the roll asked equals the roll assumed.
     fn settle_roll(
         &self,
         position: DVec3,
@@ -247,26 +324,66 @@ impl ArmGeometry {
         branch: Branch,
         seed: &[f64],
     ) -> Option<(f64, f64)> {
-        let mut roll = self
-            .roll
-            .as_ref()
-            .map_or(0.0, |r| seed[r.index].to_radians());
-        let mut pitch = 0.0;
+        let Some(roll_joint) = &self.roll else {
+            return Some((self.next_roll(position, orientation, branch, 0.0)?.0, 0.0));
+        };
+        let mut roll = seed[roll_joint.index].to_radians();
         for _ in 0..ROLL_PASSES {
-            let pan = self.pan_angle(position, roll, branch)?;
-            let in_pan = (DQuat::from_axis_angle(self.pan_axis, pan).conjugate()
-                * self.base.r.conjugate()
-                * orientation)
-                .normalize();
-            let (phi, new_roll) = self.pitch_and_roll(in_pan);
-            pitch = phi;
-            let settled = (new_roll - roll).abs() < 1e-13;
-            roll = new_roll;
-            if settled || self.roll.is_none() {
-                break;
+            let (phi, next) = self.next_roll(position, orientation, branch, roll)?;
+            if wrap_pi(next - roll).abs() < 1e-13 {
+                return Some((phi, next));
             }
+            roll = next;
         }
-        Some((pitch, roll))
+        None
+    }
+
+    /// The pitch and roll that `orientation` asks for if the roll were `roll`.
+    fn next_roll(
+        &self,
+        position: DVec3,
+        orientation: DQuat,
+        branch: Branch,
+        roll: f64,
+    ) -> Option<(f64, f64)> {
+        let pan = self.pan_angle(position, roll, branch)?;
+        let in_pan = (DQuat::from_axis_angle(self.pan_axis, pan).conjugate()
+            * self.base.r.conjugate()
+            * orientation)
+            .normalize();
+        Some(self.pitch_and_roll(in_pan))
+    }
+
+    /// Every fixed point of [`ArmGeometry::next_roll`], found by sign changes of (asked −
+    /// assumed) over a grid of rolls, each refined by bisection.
+    fn scan_roll(&self, position: DVec3, orientation: DQuat, branch: Branch) -> Vec<(f64, f64)> {
+        const STEPS: usize = 360;
+        let gap = |roll: f64| {
+            self.next_roll(position, orientation, branch, roll)
+                .map(|(_, next)| wrap_pi(next - roll))
+        };
+        let at = |k: usize| -PI + TAU * k as f64 / STEPS as f64;
+        (0..STEPS)
+            .filter_map(|k| {
+                let (mut lo, mut hi) = (at(k), at(k + 1));
+                let (g_lo, g_hi) = (gap(lo)?, gap(hi)?);
+                // A sign change across a wrap of ±π is a jump, not a root.
+                if g_lo.signum() == g_hi.signum() || (g_lo - g_hi).abs() > PI {
+                    return None;
+                }
+                for _ in 0..60 {
+                    let mid = 0.5 * (lo + hi);
+                    if gap(mid)?.signum() == g_lo.signum() {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                let roll = 0.5 * (lo + hi);
+                self.next_roll(position, orientation, branch, roll)
+                    .map(|(phi, _)| (phi, roll))
+            })
+            .collect()
     }
 
     /// The pitch φ and roll ψ for which Rot(n, φ)·Rot(roll axis, ψ)·tool comes nearest to
@@ -309,10 +426,14 @@ impl ArmGeometry {
         let a = p.dot(self.n);
         let b = p.dot(self.pan_axis.cross(self.n));
         let radius = a.hypot(b);
-        if radius < offset.abs() || radius == 0.0 {
+        // A target on the circle of tangency computed in floating point lands a hair inside it.
+        if radius + 1e-9 < offset.abs() || radius == 0.0 {
             return None;
         }
-        let spread = (radius * radius - offset * offset).sqrt().atan2(offset);
+        let spread = (radius * radius - offset * offset)
+            .max(0.0)
+            .sqrt()
+            .atan2(offset);
         let side = if branch.back { -1.0 } else { 1.0 };
         Some(b.atan2(a) + side * spread)
     }
@@ -365,6 +486,21 @@ impl ArmGeometry {
         }
         within_limits(robot, values).then_some(())
     }
+}
+
+/// Of solutions with their orientation residuals, those orienting the tool best (within
+/// [`RESIDUAL_TIE_DEG`]), and of those the nearest to `seed`.
+fn choose_oriented(
+    robot: &Robot,
+    candidates: Vec<(Vec<f64>, f64)>,
+    seed: &[f64],
+) -> Option<Vec<f64>> {
+    let best = candidates.iter().map(|c| c.1).fold(f64::INFINITY, f64::min);
+    let close = candidates
+        .into_iter()
+        .filter(|c| c.1 <= best + RESIDUAL_TIE_DEG)
+        .map(|c| c.0);
+    nearest(robot, close, seed)
 }
 
 /// Of `candidates`, the one nearest to `seed` in joint space.

@@ -11,13 +11,22 @@ use crate::pose::rotation_vector;
 use crate::robot::{JointKind, Robot};
 use glam::{DMat3, DQuat, DVec3};
 
-/// Damping, metres (and radians for the orientation task): keeps steps bounded near
-/// singularities, where the undamped inverse blows up.
+/// Damping far from the target, metres (and radians for the orientation task): keeps steps
+/// bounded near singularities, where the undamped inverse blows up. It shrinks with the error
+/// ([`damping`]) so the last steps are Gauss–Newton's and converge fast.
 const DAMPING: f64 = 1e-3;
+/// Damping of the orientation task, radians. It stays: on a 5-joint arm what is left after the
+/// position is two-dimensional, and without damping the third direction's tiny singular value
+/// would turn any residual into a huge step.
+const ORIENTATION_DAMPING: f64 = 0.05;
+/// Share of the orientation step taken per iteration.
+const ORIENTATION_GAIN: f64 = 0.3;
+/// The error below which the damping shrinks with it, metres.
+const DAMPING_ERROR: f64 = 0.01;
 /// Largest change of one joint in one iteration, radians (metres ×10 for prismatic joints):
 /// the linearisation holds only near the present pose.
 const MAX_STEP: f64 = 0.2;
-const MAX_ITERATIONS: usize = 300;
+const MAX_ITERATIONS: usize = 500;
 /// Converged when the tool is this close to the target, metres.
 const POSITION_TOLERANCE_M: f64 = 1e-7;
 
@@ -72,13 +81,7 @@ impl Dls {
         floor: bool,
     ) -> Option<Solution> {
         let free = self.free_joints(held);
-        let mut home = robot.home.clone();
-        for (i, slot) in home.iter_mut().enumerate() {
-            if !free.contains(&i) {
-                *slot = seed[i];
-            }
-        }
-        [seed.to_vec(), home].into_iter().find_map(|start| {
+        starts(robot, seed, &free).into_iter().find_map(|start| {
             let values = iterate(robot, target, start, &free, MAX_ITERATIONS);
             let reached =
                 robot.tcp_position(&values).distance(target.position) < POSITION_TOLERANCE_M * 10.0;
@@ -99,26 +102,37 @@ impl Dls {
     }
 }
 
+/// Where to start iterating, in order: the seed, the home pose, the middle and the quarter
+/// points of every free joint's range (a stretched arm, the zero pose of some, is singular:
+/// steps from it go nowhere). Joints not free keep the seed's values.
+fn starts(robot: &Robot, seed: &[f64], free: &[usize]) -> Vec<Vec<f64>> {
+    let at = |share: Option<f64>| -> Vec<f64> {
+        (0..robot.joints.len())
+            .map(|i| {
+                let limits = robot.joints[i].limits;
+                match share {
+                    _ if !free.contains(&i) => seed[i],
+                    Some(s) => limits.min + s * (limits.max - limits.min),
+                    None => robot.home[i],
+                }
+            })
+            .collect()
+    };
+    vec![
+        seed.to_vec(),
+        at(None),
+        at(Some(0.5)),
+        at(Some(0.25)),
+        at(Some(0.75)),
+    ]
+}
+
 /// The reachable tool position nearest to `position` that the solver finds (the limits
-/// clamping it), from the seed, the home pose and the middle of every joint's range.
+/// clamping it) from each of its [`starts`].
 pub fn nearest_reachable(robot: &Robot, position: DVec3, seed: &[f64], held: &[bool]) -> DVec3 {
-    let dls = Dls::new(robot);
-    let free = dls.free_joints(held);
-    let middle: Vec<f64> = robot
-        .joints
-        .iter()
-        .zip(seed)
-        .enumerate()
-        .map(|(i, (j, &s))| {
-            if free.contains(&i) {
-                (j.limits.min + j.limits.max) / 2.0
-            } else {
-                s
-            }
-        })
-        .collect();
+    let free = Dls::new(robot).free_joints(held);
     let target = ToolTarget::position(position);
-    [seed.to_vec(), robot.home.clone(), middle]
+    starts(robot, seed, &free)
         .into_iter()
         .map(|start| robot.tcp_position(&iterate(robot, &target, start, &free, 1000)))
         .min_by(|a, b| a.distance(position).total_cmp(&b.distance(position)))
@@ -145,7 +159,8 @@ fn iterate(
             break;
         }
         let jacobian = Jacobian::at(robot, &values, free);
-        let step = jacobian.step(position_error, orientation_error);
+        let lambda = DAMPING * (position_error.length() / DAMPING_ERROR).clamp(1e-3, 1.0);
+        let step = jacobian.step(position_error, orientation_error, lambda);
         let largest = step.iter().fold(0.0_f64, |m, s| m.max(s.abs()));
         let scale = if largest > MAX_STEP {
             MAX_STEP / largest
@@ -201,14 +216,19 @@ impl Jacobian {
 
     /// The joint step: the damped pseudo-inverse of the position rows applied to the position
     /// error, plus the orientation's step projected into that task's null space.
-    fn step(&self, position_error: DVec3, orientation_error: Option<DVec3>) -> Vec<f64> {
-        let primary = damped_solve(&self.linear, position_error);
+    fn step(
+        &self,
+        position_error: DVec3,
+        orientation_error: Option<DVec3>,
+        lambda: f64,
+    ) -> Vec<f64> {
+        let primary = damped_solve(&self.linear, position_error, lambda);
         let Some(orientation_error) = orientation_error else {
             return primary;
         };
         let n = self.free.len();
         // Null-space projector N = I − J⁺J of the position task (n × n, n ≤ a handful).
-        let pinv = damped_pseudo_inverse(&self.linear);
+        let pinv = damped_pseudo_inverse(&self.linear, lambda);
         let mut projector = vec![vec![0.0; n]; n];
         for (r, row) in projector.iter_mut().enumerate() {
             for (c, slot) in row.iter_mut().enumerate() {
@@ -221,20 +241,30 @@ impl Jacobian {
             .map(|c| (0..n).map(|r| self.angular[r] * projector[r][c]).sum())
             .collect();
         let achieved: DVec3 = (0..n).map(|c| self.angular[c] * primary[c]).sum();
-        let secondary = damped_solve(&projected, orientation_error - achieved);
-        primary.iter().zip(secondary).map(|(a, b)| a + b).collect()
+        let secondary = damped_solve(
+            &projected,
+            orientation_error - achieved,
+            ORIENTATION_DAMPING,
+        );
+        // The secondary step only follows the linearisation so far: at full gain it drags the
+        // arm off the position faster than the primary task brings it back.
+        primary
+            .iter()
+            .zip(secondary)
+            .map(|(a, b)| a + ORIENTATION_GAIN * b)
+            .collect()
     }
 }
 
 /// Jᵀ(JJᵀ + λ²I)⁻¹·e for a 3-row Jacobian given by columns.
-fn damped_solve(columns: &[DVec3], error: DVec3) -> Vec<f64> {
-    let y = normal_matrix(columns).inverse() * error;
+fn damped_solve(columns: &[DVec3], error: DVec3, lambda: f64) -> Vec<f64> {
+    let y = normal_matrix(columns, lambda).inverse() * error;
     columns.iter().map(|c| c.dot(y)).collect()
 }
 
 /// Jᵀ(JJᵀ + λ²I)⁻¹ as n rows of 3.
-fn damped_pseudo_inverse(columns: &[DVec3]) -> Vec<[f64; 3]> {
-    let inverse = normal_matrix(columns).inverse();
+fn damped_pseudo_inverse(columns: &[DVec3], lambda: f64) -> Vec<[f64; 3]> {
+    let inverse = normal_matrix(columns, lambda).inverse();
     columns
         .iter()
         .map(|c| (inverse.transpose() * *c).to_array())
@@ -242,10 +272,10 @@ fn damped_pseudo_inverse(columns: &[DVec3]) -> Vec<[f64; 3]> {
 }
 
 /// JJᵀ + λ²I.
-fn normal_matrix(columns: &[DVec3]) -> DMat3 {
+fn normal_matrix(columns: &[DVec3], lambda: f64) -> DMat3 {
     let outer = |c: &DVec3| DMat3::from_cols(*c * c.x, *c * c.y, *c * c.z);
     columns
         .iter()
         .map(outer)
-        .fold(DMat3::IDENTITY * DAMPING * DAMPING, |a, b| a + b)
+        .fold(DMat3::IDENTITY * lambda * lambda, |a, b| a + b)
 }

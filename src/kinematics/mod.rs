@@ -108,7 +108,7 @@ pub fn mm3(p: DVec3) -> String {
 #[derive(Debug, Clone)]
 pub enum Solver {
     /// The robot is built like the built-in arms: exact solutions, every branch.
-    ClosedForm(ArmGeometry),
+    ClosedForm(Box<ArmGeometry>),
     /// Any other chain: damped least squares from the seed.
     General(dls::Dls),
 }
@@ -117,7 +117,7 @@ impl Solver {
     /// The closed form when the robot's chain has its shape, else the general solver.
     pub fn for_robot(robot: &Robot) -> Solver {
         match ArmGeometry::derive(robot) {
-            Some(geometry) => Solver::ClosedForm(geometry),
+            Some(geometry) => Solver::ClosedForm(Box::new(geometry)),
             None => Solver::General(dls::Dls::new(robot)),
         }
     }
@@ -136,7 +136,17 @@ impl Solver {
         held: &[bool],
     ) -> Result<Solution, IkError> {
         let solution = match self {
-            Solver::ClosedForm(geometry) => geometry.solve(robot, target, seed),
+            Solver::ClosedForm(geometry) => {
+                let exact = geometry.solve(robot, target, seed);
+                if exact
+                    .as_ref()
+                    .is_some_and(|s| s.orientation_error_deg() < EXACT_DEG)
+                {
+                    exact
+                } else {
+                    better_of(exact, dls::Dls::new(robot).solve(robot, target, seed, held))
+                }
+            }
             Solver::General(dls) => dls.solve(robot, target, seed, held),
         };
         match solution {
@@ -180,6 +190,24 @@ impl Solver {
             miss: nearest.distance(target.position),
             nearest,
         }
+    }
+}
+
+/// An orientation residual this small is the orientation reached, degrees.
+const EXACT_DEG: f64 = 1e-6;
+
+/// The closed form's answer, or the general solver's where the closed form has none or
+/// orients the tool worse. The closed form misses solutions in two thin places: right above
+/// the pan axis, where the pan is nearly free and the roll moves the tool point round it, and
+/// where the feasible tool pitches are narrower than its search step; the general solver,
+/// started from the previous key, covers them.
+fn better_of(closed: Option<Solution>, general: Option<Solution>) -> Option<Solution> {
+    match (closed, general) {
+        (Some(c), Some(g)) if g.orientation_error_deg() + 0.05 < c.orientation_error_deg() => {
+            Some(g)
+        }
+        (Some(c), _) => Some(c),
+        (None, g) => g,
     }
 }
 
