@@ -89,6 +89,13 @@ pub enum IkError {
         part: String,
         depth_mm: f64,
     },
+    /// The position is reachable, but no orientation near the one asked is inside the limits.
+    #[error(
+        "the tool reaches ({}) but not with the orientation asked inside the joint limits; \
+         drop \"r\" to let the arm choose, or turn the tool less",
+        mm3(*target)
+    )]
+    OrientationOutOfReach { target: DVec3 },
     /// The robot has no joint that moves the tool.
     #[error("robot {robot} has no joint that moves its tool frame")]
     NoToolJoints { robot: String },
@@ -176,6 +183,11 @@ impl Solver {
                     target: target.position,
                     part,
                     depth_mm: depth * 1000.0,
+                };
+            }
+            if target.orientation.is_some() {
+                return IkError::OrientationOutOfReach {
+                    target: target.position,
                 };
             }
         }
