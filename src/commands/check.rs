@@ -75,7 +75,11 @@ fn tool_text(tools: &ToolSolve, tolerance: f64) -> String {
         let Some(r) = key.residual_deg else {
             continue;
         };
-        let verdict = if residual_max(key) <= tolerance { "ok" } else { "FAIL" };
+        let verdict = if residual_max(key) <= tolerance {
+            "ok"
+        } else {
+            "FAIL"
+        };
         out += &format!(
             "tool key {}: orientation off by {:.2}°, {:.2}°, {:.2}° about the tool's x, y, z \
              (tolerance {tolerance}°) {verdict}\n",

@@ -67,32 +67,43 @@ pub fn point_on_line(
     }
 }
 
-/// Solves the line from the pose at `from` (joint values) to the tool pose of `to` at the
-/// parameters `params` (increasing, 0 … 1). Joints not moving the tool go from their `from`
-/// to their `to` values at the same parameter. `oriented` follows the orientation too.
+/// Solves the line from the pose at `from` (joint values) to `end` at the parameters
+/// `params` (increasing, ending at 1). The orientation is slerped from the start pose's to
+/// `end`'s when `end` has one, else only the position is followed. Joints not moving the tool
+/// go from their `from` values to `end_values` at the same parameter.
+///
+/// Each sample is solved by damped least squares from the previous one: a step of a few
+/// millimetres converges in a couple of iterations and stays on the branch the line started
+/// on by construction, where the closed form's choice among a position's many tool pitches
+/// would flicker from sample to sample at a joint limit.
 pub fn solve_line(
-    solver: &Solver,
     robot: &Robot,
     from: &[f64],
-    to: &[f64],
+    end: &ToolTarget,
+    end_values: &[f64],
     params: &[f64],
-    oriented: bool,
 ) -> Result<LineSolution, LineError> {
     let start = robot.tcp_frame(from);
-    let end = robot.tcp_frame(to);
+    let end_orientation = end.orientation.unwrap_or(start.r);
     let tool = super::tool_joints(robot);
+    let held: Vec<bool> = tool.iter().map(|t| !t).collect();
+    let solver = Solver::General(super::dls::Dls::new(robot));
     let mut samples: Vec<Vec<f64>> = Vec::with_capacity(params.len());
     let mut previous = from.to_vec();
     for &s in params {
         let fraction = samples.len().saturating_sub(1) as f64 / (params.len() - 1).max(1) as f64;
-        let target = point_on_line((start.t, start.r), (end.t, end.r), s, oriented);
+        let target = point_on_line(
+            (start.t, start.r),
+            (end.position, end_orientation),
+            s,
+            end.orientation.is_some(),
+        );
         let mut seed = previous.clone();
         for (i, slot) in seed.iter_mut().enumerate() {
             if !tool[i] {
-                *slot = from[i] + (to[i] - from[i]) * s;
+                *slot = from[i] + (end_values[i] - from[i]) * s;
             }
         }
-        let held: Vec<bool> = tool.iter().map(|t| !t).collect();
         let solution = solver
             .solve(robot, &target, &seed, &held)
             .map_err(|source| LineError::LeavesWorkspace { fraction, source })?;

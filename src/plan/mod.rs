@@ -284,7 +284,11 @@ fn push_line_samples(
         return;
     };
     for (time, values) in line.times.iter().zip(&line.samples) {
-        keys.push(TrackKey::new(*time, values[joint], crate::curve::Interp::Monotone));
+        keys.push(TrackKey::new(
+            *time,
+            values[joint],
+            crate::curve::Interp::Monotone,
+        ));
     }
 }
 

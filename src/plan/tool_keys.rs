@@ -48,7 +48,10 @@ pub fn solve<'a>(
     sequence: &'a Sequence,
     robot: &Robot,
 ) -> Result<(Cow<'a, Sequence>, ToolSolve), InputError> {
-    let has_tools = sequence.keyframes.iter().any(|k| k.tool.is_some() || k.line);
+    let has_tools = sequence
+        .keyframes
+        .iter()
+        .any(|k| k.tool.is_some() || k.line);
     if !has_tools {
         return Ok((Cow::Borrowed(sequence), ToolSolve::default()));
     }
@@ -56,18 +59,60 @@ pub fn solve<'a>(
     let mut solved = sequence.clone();
     let mut report = ToolSolve::default();
     let mut pose = robot.home.clone();
-    let mut poses = Vec::with_capacity(sequence.keyframes.len());
+    let times = sequence.key_times();
     for index in 0..solved.keyframes.len() {
+        let before = pose.clone();
         apply_joint_values(robot, &solved, index, &mut pose);
+        let line_in = index > 0 && solved.keyframes[index - 1].line;
+        let followed = if line_in {
+            let line = solve_line_into(robot, &solved, &times, index, &before, &pose);
+            let end = line.samples.last().cloned();
+            report.lines.push(line);
+            end
+        } else {
+            None
+        };
         if solved.keyframes[index].tool.is_some() {
-            let key_report = solve_key(&solver, robot, &mut solved, index, &pose)?;
+            let key_report = match followed {
+                Some(end) => take_line_end(robot, &mut solved, index, end),
+                None => solve_key(&solver, robot, &mut solved, index, &pose)?,
+            };
             pose.clone_from(&key_report.values);
             report.keys.push(key_report);
         }
-        poses.push(pose.clone());
     }
-    report.lines = solve_lines(&solver, robot, &mut solved, &poses);
+    for line in &mut report.lines {
+        // The last sample is the next key itself, which its own track key holds.
+        line.samples.pop();
+        line.times.pop();
+        solved.keyframes[line.key].interp = Some(crate::curve::Interp::Monotone);
+    }
     Ok((Cow::Owned(solved), report))
+}
+
+/// A tool key reached along a line takes the line's last sample, so the line ends on the
+/// branch it ran on.
+fn take_line_end(
+    robot: &Robot,
+    sequence: &mut Sequence,
+    index: usize,
+    end: Vec<f64>,
+) -> ToolKeyReport {
+    let key = &mut sequence.keyframes[index];
+    let tool_joints = kinematics::tool_joints(robot);
+    let wanted = key.tool.and_then(|t| t.orientation).map(|o| o.quaternion());
+    for (i, joint) in robot.joints.iter().enumerate() {
+        if tool_joints[i] && key.value(&joint.name).is_none() {
+            key.set(&joint.name, KeyValue::Joint(end[i]));
+        }
+    }
+    ToolKeyReport {
+        key: index,
+        label: key.label(index),
+        residual_deg: wanted
+            .map(|w| kinematics::orientation_residual_deg(robot.tcp_frame(&end).r, w)),
+        values: end,
+    }
 }
 
 /// The key's plain joint values (degrees, metres) over `pose`: what the previous key left.
@@ -124,56 +169,53 @@ fn solve_key(
     })
 }
 
-/// Every `"interp": "line"` key's segment solved at the robot's control rate. The tool moves
-/// along the line with minimum-jerk timing between the end of the key's hold and the next key,
-/// so it starts and ends at rest there; the samples become monotone keys of the tracks.
-fn solve_lines(
-    solver: &Solver,
+/// The line from key `index − 1` (at `from`) to key `index`: to its tool target if it has
+/// one, else to the tool pose of its joints (`to`), solved at the robot's control rate. The
+/// tool moves along it with minimum-jerk timing between the end of the first key's hold and
+/// the second key, so it starts and ends at rest there.
+fn solve_line_into(
     robot: &Robot,
-    sequence: &mut Sequence,
-    poses: &[Vec<f64>],
-) -> Vec<LineReport> {
-    let times = sequence.key_times();
-    let mut reports = Vec::new();
-    for index in 0..sequence.keyframes.len().saturating_sub(1) {
-        let key = &sequence.keyframes[index];
-        if !key.line {
-            continue;
+    sequence: &Sequence,
+    times: &[f64],
+    index: usize,
+    from: &[f64],
+    to: &[f64],
+) -> LineReport {
+    let first = &sequence.keyframes[index - 1];
+    let end = match sequence.keyframes[index].tool {
+        Some(tool) => ToolTarget {
+            position: tool.xyz,
+            orientation: tool.orientation.map(|o| o.quaternion()),
+        },
+        None => {
+            let frame = robot.tcp_frame(to);
+            ToolTarget::pose(frame.t, frame.r)
         }
-        let oriented = key.tool.is_some_and(|t| t.orientation.is_some())
-            || sequence.keyframes[index + 1]
-                .tool
-                .is_some_and(|t| t.orientation.is_some());
-        let start = times[index] + key.hold;
-        let span = times[index + 1] - start;
-        let count = ((span * robot.control_hz).ceil() as usize).max(2);
-        let shares: Vec<f64> = (1..count).map(|k| k as f64 / count as f64).collect();
-        let params: Vec<f64> = shares.iter().map(|&u| minimum_jerk(u)).collect();
-        let label = key.label(index);
-        let result = line::solve_line(solver, robot, &poses[index], &poses[index + 1], &params, oriented);
-        let report = match result {
-            Ok(solved) => LineReport {
-                key: index,
-                label,
-                fraction: 1.0,
-                problem: None,
-                samples: solved.samples,
-                times: shares.iter().map(|u| start + u * span).collect(),
-            },
-            Err(e) => LineReport {
-                key: index,
-                label,
-                fraction: e.fraction(),
-                problem: Some(e.to_string()),
-                samples: Vec::new(),
-                times: Vec::new(),
-            },
-        };
-        reports.push(report);
-        // The samples are monotone keys: they never overshoot between two of them.
-        sequence.keyframes[index].interp = Some(crate::curve::Interp::Monotone);
+    };
+    let start = times[index - 1] + first.hold;
+    let span = times[index] - start;
+    let count = ((span * robot.control_hz).ceil() as usize).max(2);
+    let shares: Vec<f64> = (1..=count).map(|k| k as f64 / count as f64).collect();
+    let params: Vec<f64> = shares.iter().map(|&u| minimum_jerk(u)).collect();
+    let label = first.label(index - 1);
+    match line::solve_line(robot, from, &end, to, &params) {
+        Ok(solved) => LineReport {
+            key: index - 1,
+            label,
+            fraction: 1.0,
+            problem: None,
+            samples: solved.samples,
+            times: shares.iter().map(|u| start + u * span).collect(),
+        },
+        Err(e) => LineReport {
+            key: index - 1,
+            label,
+            fraction: e.fraction(),
+            problem: Some(e.to_string()),
+            samples: Vec::new(),
+            times: Vec::new(),
+        },
     }
-    reports
 }
 
 /// The minimum-jerk share of the path at the share `u` of the time: 10u³ − 15u⁴ + 6u⁵, at rest
