@@ -348,23 +348,19 @@ fn parse_transform(node: &Node) -> Result<RigidTransform, InputError> {
 
 /// `{w, x, y, z}`, of norm 1 within [`UNIT_TOLERANCE`], normalised.
 fn parse_quaternion(n: &Node) -> Result<DQuat, InputError> {
-    {
-        {
-            n.only_fields(&["w", "x", "y", "z"])?;
-            let mut c = [0.0; 4];
-            for (slot, name) in c.iter_mut().zip(["w", "x", "y", "z"]) {
-                *slot = n
-                    .require(name, "a quaternion component")?
-                    .number("quaternion component")?;
-            }
-            let q = DQuat::from_xyzw(c[1], c[2], c[3], c[0]);
-            let norm = q.length();
-            if (norm - 1.0).abs() > UNIT_TOLERANCE {
-                return Err(n.error(format!(
-                    "expected a unit quaternion (norm 1 ± {UNIT_TOLERANCE}), found norm {norm:.6}"
-                )));
-            }
-            Ok(q.normalize())
-        }
+    n.only_fields(&["w", "x", "y", "z"])?;
+    let mut c = [0.0; 4];
+    for (slot, name) in c.iter_mut().zip(["w", "x", "y", "z"]) {
+        *slot = n
+            .require(name, "a quaternion component")?
+            .number("quaternion component")?;
     }
+    let q = DQuat::from_xyzw(c[1], c[2], c[3], c[0]);
+    let norm = q.length();
+    if (norm - 1.0).abs() > UNIT_TOLERANCE {
+        return Err(n.error(format!(
+            "expected a unit quaternion (norm 1 ± {UNIT_TOLERANCE}), found norm {norm:.6}"
+        )));
+    }
+    Ok(q.normalize())
 }
