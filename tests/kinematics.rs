@@ -234,3 +234,147 @@ fn a_target_under_the_floor_is_refused_as_such() {
         .unwrap_err();
     assert!(matches!(error, IkError::BelowFloor { .. }), "{error}");
 }
+
+mod sequences {
+    use keypose::plan::Trajectory;
+    use keypose::robot::Robot;
+    use keypose::sequence::Sequence;
+
+    fn sequence(keys: &str) -> Sequence {
+        let text = format!(
+            r#"{{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "monotone",
+                "keyframes": [{keys}]}}"#
+        );
+        Sequence::from_json("tool.json", &text).expect("parses")
+    }
+
+    const START: &str = r#"{"name": "start", "time": 0, "joints": {"shoulder_pan": 0, "shoulder_lift": 0, "elbow_flex": 0, "wrist_flex": 0, "wrist_roll": 0, "gripper": 0}}"#;
+
+    /// The solved joints put the tool where the key says (by the forward kinematics), and the
+    /// joint the key gives keeps its value.
+    #[test]
+    fn a_tool_key_is_solved_into_joints_and_keeps_its_own() {
+        let robot = Robot::builtin("so101").unwrap();
+        let keys = format!(
+            r#"{START}, {{"name": "grasp", "time": 2, "tool": {{"xyz": [0.25, 0.05, 0.06]}}, "joints": {{"gripper": 30}}}}"#
+        );
+        let trajectory = Trajectory::build(&sequence(&keys), &robot).unwrap();
+        let at_key = trajectory.sample(2.0);
+        let tool = robot.tcp_position(&at_key);
+        assert!(
+            tool.distance(glam::DVec3::new(0.25, 0.05, 0.06)) < 1e-6,
+            "{tool:?}"
+        );
+        assert_eq!(at_key[5], 30.0);
+    }
+
+    #[test]
+    fn an_unreachable_tool_key_names_the_key_and_the_miss() {
+        let robot = Robot::builtin("so101").unwrap();
+        let keys =
+            format!(r#"{START}, {{"name": "far", "time": 2, "tool": {{"xyz": [0.9, 0, 0.1]}}}}"#);
+        let error = Trajectory::build(&sequence(&keys), &robot)
+            .unwrap_err()
+            .to_string();
+        for part in [
+            "tool.json",
+            "$.keyframes[1].tool.xyz",
+            "key far",
+            "misses by",
+            "nearest reachable point",
+        ] {
+            assert!(error.contains(part), "{part:?} in {error}");
+        }
+    }
+
+    #[test]
+    fn a_bad_tool_field_is_refused_with_its_path() {
+        let text = r#"{"format": "keypose-sequence/1", "robot": "so101",
+            "keyframes": [{"time": 0, "tool": {"xyz": [0.2, 0], "rpy": [0, 0, 0]}}]}"#;
+        let error = Sequence::from_json("bad.json", text)
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("$.keyframes[0].tool.xyz"), "{error}");
+        let text = r#"{"format": "keypose-sequence/1", "robot": "so101",
+            "keyframes": [{"time": 0, "tool": {"xyz": [0.2, 0, 0.1], "r": {"w": 1, "x": 0, "y": 0, "z": 0}, "rpy": [0, 0, 0]}}]}"#;
+        let error = Sequence::from_json("bad.json", text)
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("given twice"), "{error}");
+    }
+
+    /// Saving keeps the key as written (tool, rpy, line), and the saved text loads to the same.
+    #[test]
+    fn tool_keys_and_lines_save_as_written() {
+        let keys = format!(
+            r#"{START}, {{"time": 2, "interp": "line", "tool": {{"xyz": [0.25, 0.05, 0.12], "rpy": [0.1, 0.2, 0.3]}}}}, {{"time": 3, "tool": {{"xyz": [0.25, 0.05, 0.06]}}}}"#
+        );
+        let loaded = sequence(&keys);
+        let text = loaded.to_json();
+        assert!(
+            text.contains(r#""interp":"line""#) && text.contains(r#""rpy":[0.1,0.2,0.3]"#),
+            "{text}"
+        );
+        let again = Sequence::from_json("tool.json", &text).unwrap();
+        assert_eq!(again.keyframes, loaded.keyframes);
+    }
+
+    /// Along a line the tool stays on the segment between the two targets: every control-rate
+    /// sample of the solved joint curves, through the forward kinematics, within 0.1 mm of it
+    /// (the samples are exact; between them the monotone joint curve bends it by less).
+    #[test]
+    fn a_line_keeps_the_tool_on_the_segment() {
+        let robot = Robot::builtin("so101").unwrap();
+        let keys = format!(
+            r#"{START}, {{"time": 2, "interp": "line", "tool": {{"xyz": [0.25, 0.05, 0.12]}}}}, {{"time": 3.5, "tool": {{"xyz": [0.20, -0.05, 0.06]}}}}"#
+        );
+        let trajectory = Trajectory::build(&sequence(&keys), &robot).unwrap();
+        assert!(
+            trajectory.tools.lines[0].problem.is_none(),
+            "{:?}",
+            trajectory.tools.lines
+        );
+        let (a, b) = (
+            glam::DVec3::new(0.25, 0.05, 0.12),
+            glam::DVec3::new(0.20, -0.05, 0.06),
+        );
+        let mut previous: Option<Vec<f64>> = None;
+        for k in 0..=150 {
+            let values = trajectory.sample(2.0 + k as f64 / 100.0);
+            let p = robot.tcp_position(&values);
+            let s = ((p - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+            let off = p.distance(a + (b - a) * s);
+            assert!(
+                off < 1e-4,
+                "t = {}: {:.3} mm off the line",
+                2.0 + k as f64 / 100.0,
+                off * 1e3
+            );
+            // Branch continuity: no joint moves more than a few degrees per 10 ms.
+            if let Some(prev) = &previous {
+                for (x, y) in values.iter().zip(prev) {
+                    assert!((x - y).abs() < 3.0, "{values:?} after {prev:?}");
+                }
+            }
+            previous = Some(values);
+        }
+    }
+
+    /// A line through the base (out of the workspace half-way) is reported with its feasible
+    /// share, and the trajectory still builds (joint interpolation there).
+    #[test]
+    fn a_line_out_of_the_workspace_reports_its_feasible_fraction() {
+        let robot = Robot::builtin("so101").unwrap();
+        let keys = format!(
+            r#"{START}, {{"time": 2, "interp": "line", "tool": {{"xyz": [0.30, 0.0, 0.10]}}}}, {{"time": 4, "tool": {{"xyz": [-0.25, 0.0, 0.10]}}}}"#
+        );
+        let trajectory = Trajectory::build(&sequence(&keys), &robot).unwrap();
+        let line = &trajectory.tools.lines[0];
+        let problem = line
+            .problem
+            .as_deref()
+            .expect("the line cannot be followed");
+        assert!(line.fraction > 0.0 && line.fraction < 1.0, "{line:?}");
+        assert!(problem.contains('%'), "{problem}");
+    }
+}
