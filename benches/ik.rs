@@ -159,6 +159,40 @@ fn bench(c: &mut Criterion) {
         correct(&robot, &positions, &theirs)
     );
 
+    // Criterion reports means; the closed form's fallbacks (pitch search, roll scan, the general
+    // solver) make a few targets far slower than the rest, so the median is printed too.
+    let median = |f: &dyn Fn(usize)| {
+        let mut times: Vec<f64> = (0..TARGETS)
+            .map(|i| {
+                let start = std::time::Instant::now();
+                for _ in 0..20 {
+                    f(i);
+                }
+                start.elapsed().as_secs_f64() / 20.0 * 1e6
+            })
+            .collect();
+        times.sort_by(f64::total_cmp);
+        (times[TARGETS / 2], times[TARGETS * 9 / 10])
+    };
+    let (m, p90) = median(&|i| {
+        let target = ToolTarget::pose(frames[i].t, frames[i].r);
+        black_box(closed.solve(&robot, &target, &robot.home, &held).ok());
+    });
+    println!("closed form, pose, from home: median {m:.2} µs, 90th percentile {p90:.2} µs");
+    let (m, p90) = median(&|i| {
+        let seed: Vec<f64> = poses[i].iter().map(|v| v + 5.0).collect();
+        black_box(
+            closed
+                .solve(&robot, &ToolTarget::position(positions[i]), &seed, &held)
+                .ok(),
+        );
+    });
+    println!("closed form, position, from a key 5 deg away: median {m:.2} µs, 90th percentile {p90:.2} µs");
+    let (m, p90) = median(&|i| {
+        black_box(k_solve(&arm, &k_solver, positions[i]));
+    });
+    println!("k, position, from zero: median {m:.2} µs, 90th percentile {p90:.2} µs");
+
     let mut group = c.benchmark_group("ik so101 per key");
     let mut i = 0;
     group.bench_function("closed form, pose (xyz + r)", |b| {

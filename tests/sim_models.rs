@@ -507,7 +507,11 @@ fn mujoco_puts_the_tool_of_solved_joints_on_the_target() {
             };
             let Ok(solution) = solver.solve(&robot, &target, &robot.home, &held) else {
                 // Only near the pan axis can an oriented target be missed (docs/robots.md §12.2).
-                assert!(target.orientation.is_some(), "{}: {frame:?} unsolved", case.robot);
+                assert!(
+                    target.orientation.is_some(),
+                    "{}: {frame:?} unsolved",
+                    case.robot
+                );
                 continue;
             };
             let mut qpos = Map::new();

@@ -129,11 +129,8 @@ fn largest_jump(robot: &Robot, a: &[f64], b: &[f64]) -> Option<(String, f64)> {
         .iter()
         .zip(a.iter().zip(b))
         .map(|(joint, (x, y))| {
-            let scale = match joint.kind {
-                crate::robot::JointKind::Revolute => 1.0,
-                crate::robot::JointKind::Prismatic => 1000.0,
-            };
-            (joint.name.clone(), ((x - y) * scale).abs())
+            let jump = ((x - y) * super::comparable_unit(joint.kind)).abs();
+            (joint.name.clone(), jump)
         })
         .max_by(|p, q| p.1.total_cmp(&q.1))
 }

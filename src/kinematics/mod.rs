@@ -268,14 +268,17 @@ pub fn joint_distance(robot: &Robot, a: &[f64], b: &[f64]) -> f64 {
         .joints
         .iter()
         .zip(a.iter().zip(b))
-        .map(|(joint, (x, y))| {
-            let scale = match joint.kind {
-                JointKind::Revolute => 1.0,
-                JointKind::Prismatic => 1000.0,
-            };
-            ((x - y) * scale).powi(2)
-        })
+        .map(|(joint, (x, y))| ((x - y) * comparable_unit(joint.kind)).powi(2))
         .sum()
+}
+
+/// The factor that makes a joint's unit comparable with degrees: 1 for revolute joints,
+/// 1000 for prismatic ones (millimetres), whose travel is centimetres.
+pub fn comparable_unit(kind: JointKind) -> f64 {
+    match kind {
+        JointKind::Revolute => 1.0,
+        JointKind::Prismatic => 1000.0,
+    }
 }
 
 /// Whether every value is inside its joint's limits.
