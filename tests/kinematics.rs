@@ -378,3 +378,36 @@ mod sequences {
         assert!(problem.contains('%'), "{problem}");
     }
 }
+
+/// `sample --tool` adds the tool path; at the key "above-cup" (t = 2 s) it is the key's target.
+#[test]
+fn sample_outputs_the_tool_path() {
+    let sequence = format!(
+        "{}/sequences/so101-tool-line.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_keypose"))
+        .args(["sample", &sequence, "--tool", "--rate", "10"])
+        .output()
+        .expect("keypose runs");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let text = String::from_utf8(output.stdout).unwrap();
+    let mut lines = text.lines();
+    assert!(
+        lines.next().unwrap().ends_with(",tool_x,tool_y,tool_z"),
+        "{text}"
+    );
+    let at_two = lines.find(|l| l.starts_with("2,")).expect("a row at 2 s");
+    let tool: Vec<f64> = at_two
+        .rsplit(',')
+        .take(3)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    for (got, want) in tool.iter().zip([0.12, 0.05, 0.25]) {
+        assert!((got - want).abs() < 1e-6, "{at_two}");
+    }
+}
