@@ -93,6 +93,11 @@ pub const BINDINGS: &[Binding] = &[
         "interval/speed",
         "time between keys ±0.1 s (timed sequences: playback speed ±0.1)",
     ),
+    bind(
+        "x c z",
+        "tool +x/y/z (shift −)",
+        "jog the tool 5 mm along the base frame's +x, +y, +z (shift: −), solving the joints",
+    ),
     bind("t", "torque joint", "torque on/off, selected joint"),
     bind("T", "torque all", "torque on/off, all joints"),
     bind("↑ ↓", "select joint", "select a joint"),

@@ -747,3 +747,56 @@ fn a_joint_given_as_a_transform_is_not_typed_over() {
     );
     assert!(!state.is_dirty());
 }
+
+/// Tool jogs: from a bent pose (the stretched home is singular), x then z then −x, each 5 mm;
+/// the goals' tool point (forward kinematics) moves by exactly that, and the gripper stays.
+#[test]
+fn tool_jogs_move_the_tool_point_five_millimetres_along_an_axis() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press_all(
+        &mut state,
+        &[Key::Down, Key::ShiftLeft, Key::ShiftLeft, Key::ShiftLeft],
+    );
+    press_all(
+        &mut state,
+        &[Key::Down, Key::ShiftRight, Key::ShiftRight, Key::ShiftRight],
+    );
+    let start = state.robot().tcp_position(state.goals());
+    let gripper = state.goals()[5];
+    for (key, step) in [
+        (Key::Char('x'), glam::DVec3::new(0.005, 0.0, 0.0)),
+        (Key::Char('z'), glam::DVec3::new(0.005, 0.0, 0.005)),
+        (Key::Char('X'), glam::DVec3::new(0.0, 0.0, 0.005)),
+    ] {
+        press(&mut state, key);
+        let tool = state.robot().tcp_position(state.goals());
+        assert!(
+            (tool - start - step).length() < 1e-6,
+            "{tool:?} vs {start:?} + {step:?}: {:?}",
+            state.status()
+        );
+    }
+    assert_eq!(state.goals()[5], gripper);
+}
+
+/// Jogging the tool forward from home (0.39 m out; the SO-101 reaches about 0.48 m) ends in
+/// a refusal, out of reach or a jump, never a goal outside the limits.
+#[test]
+fn a_tool_jog_out_of_reach_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    let refused = (0..40).find(|_| press(&mut state, Key::Char('x')).is_empty());
+    assert!(refused.is_some(), "40 jogs of 5 mm all went through");
+    let status = state.status();
+    assert!(
+        status.error && (status.text.contains("cannot reach") || status.text.contains("jump")),
+        "{status:?}"
+    );
+    let robot = state.robot();
+    assert!(robot
+        .joints
+        .iter()
+        .zip(state.goals())
+        .all(|(j, &g)| j.limits.contains(g)));
+}
