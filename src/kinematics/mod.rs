@@ -142,7 +142,14 @@ impl Solver {
         seed: &[f64],
         held: &[bool],
     ) -> Result<Solution, IkError> {
+        // The closed form moves every joint of the chain; a key that gives one of them itself
+        // (say the roll) leaves fewer to solve, which the general solver handles.
+        let tool = tool_joints(robot);
+        let holds_a_tool_joint = held.iter().zip(&tool).any(|(&h, &t)| h && t);
         let solution = match self {
+            Solver::ClosedForm(_) if holds_a_tool_joint => {
+                dls::Dls::new(robot).solve(robot, target, seed, held)
+            }
             Solver::ClosedForm(geometry) => {
                 let exact = geometry.solve(robot, target, seed);
                 if exact

@@ -62,6 +62,11 @@ pub const BINDINGS: &[Binding] = &[
         "new key",
         "new key after the current one, from the present pose",
     ),
+    bind(
+        "K",
+        "new tool key",
+        "new key after the current one, the present pose as a tool key (tool xyz + rpy)",
+    ),
     bind("d", "delete", "delete the current key"),
     bind("> <", "next/prev", "next / previous key (also . and ,)"),
     bind("] [", "move key", "move the current key later / earlier"),

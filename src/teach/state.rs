@@ -223,6 +223,7 @@ impl TeachState {
             // `=` is `+` without shift on most layouts.
             Key::Char('+' | '=') => self.change_time(true),
             Key::Char('-') => self.change_time(false),
+            Key::Char('K') => self.new_tool_key(),
             Key::Char('x') => self.jog_tool(0, 1.0),
             Key::Char('X') => self.jog_tool(0, -1.0),
             Key::Char('c') => self.jog_tool(1, 1.0),
@@ -718,7 +719,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
 
 mod edits;
 mod reports;
-mod tool_jog;
+mod tool;
 
 #[cfg(test)]
 mod tests;

@@ -800,3 +800,38 @@ fn a_tool_jog_out_of_reach_is_refused() {
         .zip(state.goals())
         .all(|(j, &g)| j.limits.contains(g)));
 }
+
+/// `K` captures the present pose as a tool key whose solution, through the forward kinematics,
+/// is the present tool position (rounded to 0.1 mm); the gripper stays a joint value.
+#[test]
+fn a_tool_key_captures_the_present_tool_pose() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press_all(
+        &mut state,
+        &[
+            Key::Down,
+            Key::ShiftLeft,
+            Key::ShiftLeft,
+            Key::Down,
+            Key::ShiftRight,
+        ],
+    );
+    press(&mut state, Key::Char('K'));
+    let key = state.list().show().expect("a key").clone();
+    let tool = key.tool.expect("a tool key");
+    let present = state.robot().tcp_position(state.goals());
+    assert!(
+        (tool.xyz - present).abs().max_element() <= 0.00005 + 1e-12,
+        "{tool:?} vs {present:?}"
+    );
+    assert!(
+        key.value("gripper").is_some() && key.value("elbow_flex").is_none(),
+        "{key:?}"
+    );
+    let trajectory = Trajectory::build(state.list().sequence(), state.robot()).expect("solves");
+    let solved = state
+        .robot()
+        .tcp_position(&trajectory.sample(trajectory.start));
+    assert!(solved.distance(tool.xyz) < 1e-6, "{solved:?}");
+}
