@@ -270,20 +270,29 @@ impl ArmGeometry {
         seed: &[f64],
         floor: bool,
     ) -> Option<Vec<f64>> {
-        let fast: Vec<(Branch, (f64, f64))> = BRANCHES
-            .iter()
-            .filter_map(|&b| Some((b, self.settle_roll(position, orientation, b, seed)?)))
+        // The pitch and roll depend on the pan branch only: both elbows share them.
+        let fast: Vec<(Branch, (f64, f64))> = [false, true]
+            .into_iter()
+            .filter_map(|back| {
+                let pan_side = Branch { back, elbow: 0 };
+                Some((
+                    back,
+                    self.settle_roll(position, orientation, pan_side, seed)?,
+                ))
+            })
+            .flat_map(|(back, angles)| (0..2).map(move |elbow| (Branch { back, elbow }, angles)))
             .collect();
         let found = self.oriented_candidates(robot, position, orientation, &fast, seed, floor);
         if found.iter().any(|c| c.1 < EXACT_DEG) || self.roll.is_none() {
             return choose_oriented(robot, found, seed);
         }
-        let thorough: Vec<(Branch, (f64, f64))> = BRANCHES
-            .iter()
-            .flat_map(|&b| {
-                self.scan_roll(position, orientation, b)
+        let thorough: Vec<(Branch, (f64, f64))> = [false, true]
+            .into_iter()
+            .flat_map(|back| {
+                let rolls = self.scan_roll(position, orientation, Branch { back, elbow: 0 });
+                rolls
                     .into_iter()
-                    .map(move |r| (b, r))
+                    .flat_map(move |r| (0..2).map(move |elbow| (Branch { back, elbow }, r)))
             })
             .collect();
         let mut all = found;
