@@ -411,3 +411,31 @@ fn sample_outputs_the_tool_path() {
         assert!((got - want).abs() < 1e-6, "{at_two}");
     }
 }
+
+/// `plot --tool` draws the tool path as three more rows, every number finite.
+#[test]
+fn plot_draws_the_tool_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("tool.svg");
+    let sequence = format!(
+        "{}/sequences/so101-tool-line.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_keypose"))
+        .args(["plot", &sequence, "--tool", "-o", svg.to_str().unwrap()])
+        .output()
+        .expect("keypose runs");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let text = std::fs::read_to_string(&svg).unwrap();
+    for row in ["tool_x", "tool_y", "tool_z"] {
+        assert!(text.contains(row), "{row} missing");
+    }
+    assert!(
+        !text.contains("NaN") && !text.contains("inf"),
+        "a non-finite number in the SVG"
+    );
+}
