@@ -26,6 +26,7 @@ pub mod curve;
 pub mod interop;
 
 pub mod json;
+pub mod kinematics;
 pub mod pacing;
 pub mod plan;
 pub mod player;

@@ -473,3 +473,67 @@ fn pushing_an_arm_into_the_floor_or_into_itself_makes_contacts() {
         }
     }
 }
+
+/// Inverse kinematics against MuJoCo: tool targets (positions of random poses above the floor,
+/// half with their orientation) solved from home by keypose, the solved joints set in each
+/// arm's MuJoCo model, and MuJoCo's `tcp` site measured within 0.5 mm of the target.
+#[test]
+fn mujoco_puts_the_tool_of_solved_joints_on_the_target() {
+    use keypose::kinematics::{lowest_below_floor, Solver, ToolTarget};
+    const TARGETS: usize = 20;
+    const WITHIN_M: f64 = 0.0005;
+    let mut harness = harness();
+    let mut rng = Prng(0x696b_5f74_6f6f_6c73);
+    for case in &CASES {
+        let robot = robot(case.robot);
+        load(&mut harness, case.robot);
+        let solver = Solver::for_robot(&robot);
+        let held = vec![false; robot.joints.len()];
+        let mut solved = 0;
+        while solved < TARGETS {
+            let truth: Vec<f64> = robot
+                .joints
+                .iter()
+                .map(|j| rng.uniform(j.limits.min, j.limits.max))
+                .collect();
+            if lowest_below_floor(&robot, &truth).is_some() {
+                continue;
+            }
+            let frame = robot.tcp_frame(&truth);
+            let target = if solved % 2 == 0 {
+                ToolTarget::position(frame.t)
+            } else {
+                ToolTarget::pose(frame.t, frame.r)
+            };
+            let Ok(solution) = solver.solve(&robot, &target, &robot.home, &held) else {
+                // Only near the pan axis can an oriented target be missed (docs/robots.md §12.2).
+                assert!(
+                    target.orientation.is_some(),
+                    "{}: {frame:?} unsolved",
+                    case.robot
+                );
+                continue;
+            };
+            let mut qpos = Map::new();
+            for (joint, &value) in robot.joints.iter().zip(&solution.values) {
+                qpos.insert(joint.name.clone(), json!(to_sim(joint.kind, value)));
+            }
+            let reply = request(
+                &mut harness,
+                case.robot,
+                json!({"op": "kinematics", "qpos": qpos, "sites": ["tcp"]}),
+            );
+            let tcp = vec3(&reply["sites"]["tcp"], &format!("{} tcp", case.robot));
+            let miss = max_deviation(tcp, frame.t.to_array());
+            assert!(
+                miss <= WITHIN_M,
+                "{}: target {:?}, joints {:?}: MuJoCo's tcp {tcp:?} is {:.2} mm off",
+                case.robot,
+                frame.t,
+                solution.values,
+                miss * 1000.0
+            );
+            solved += 1;
+        }
+    }
+}

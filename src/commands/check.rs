@@ -1,6 +1,7 @@
 //! `keypose check`: the sampled curve against the robot's limits.
 
 use super::{parse_check_rate, write_output, CommandError, SequenceInput, Verdict};
+use keypose::plan::tool_keys::{ToolKeyReport, ToolSolve};
 use keypose::plan::{check, Trajectory};
 use keypose::report;
 
@@ -15,6 +16,10 @@ pub struct CheckArgs {
     /// Report format.
     #[arg(long, value_enum, default_value_t = ReportFormat::Text)]
     pub format: ReportFormat,
+    /// Largest orientation a tool key with "r" may miss by about any tool axis, degrees: a
+    /// 5-joint arm cannot reach every orientation, and more than this fails the check.
+    #[arg(long, value_name = "DEG", default_value_t = 2.0)]
+    pub orientation_tolerance: f64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -29,18 +34,101 @@ pub fn run(args: &CheckArgs) -> Result<Verdict, CommandError> {
     let rate = super::limit_check_rate(args.rate, &robot);
     super::check_sample_budget(&sequence.file, &trajectory, rate)?;
     let result = check(&trajectory, &robot, rate);
+    let tools = &trajectory.tools;
+    let tolerance = args.orientation_tolerance;
     let text = match args.format {
-        ReportFormat::Text => report::check_text(&result, &sequence.file, &robot),
+        ReportFormat::Text => {
+            report::check_text(&result, &sequence.file, &robot) + &tool_text(tools, tolerance)
+        }
         ReportFormat::Json => {
-            let mut s = report::check_json(&result, &sequence.file, &robot).to_string();
+            let mut json = report::check_json(&result, &sequence.file, &robot);
+            if !(tools.keys.is_empty() && tools.lines.is_empty()) {
+                json["tool"] = tool_json(tools, tolerance);
+            }
+            let mut s = json.to_string();
             s.push('\n');
             s
         }
     };
     write_output(None, &text)?;
-    Ok(if result.passed() {
+    Ok(if result.passed() && tools_pass(tools, tolerance) {
         Verdict::Pass
     } else {
         Verdict::Fail
     })
+}
+
+/// Whether every tool key is oriented within `tolerance` and every line can be followed.
+fn tools_pass(tools: &ToolSolve, tolerance: f64) -> bool {
+    tools.keys.iter().all(|k| residual_max(k) <= tolerance)
+        && tools.lines.iter().all(|l| l.problem.is_none())
+}
+
+fn residual_max(key: &ToolKeyReport) -> f64 {
+    key.residual_deg.map_or(0.0, |r| r.abs().max_element())
+}
+
+/// The tool keys' orientation residuals and the lines, one line each ("" without any).
+fn tool_text(tools: &ToolSolve, tolerance: f64) -> String {
+    let mut out = String::new();
+    for key in &tools.keys {
+        let Some(r) = key.residual_deg else {
+            continue;
+        };
+        let verdict = if residual_max(key) <= tolerance {
+            "ok"
+        } else {
+            "FAIL"
+        };
+        out += &format!(
+            "tool key {}: orientation off by {:.2}°, {:.2}°, {:.2}° about the tool's x, y, z \
+             (tolerance {tolerance}°) {verdict}\n",
+            key.label, r.x, r.y, r.z
+        );
+    }
+    for line in &tools.lines {
+        match &line.problem {
+            None => {
+                out += &format!(
+                    "tool line from key {}: straight, {} samples, ok\n",
+                    line.label,
+                    line.samples.len()
+                )
+            }
+            Some(problem) => {
+                out += &format!(
+                    "tool line from key {}: FAIL, {:.0} % feasible: {problem}\n",
+                    line.label,
+                    line.fraction * 100.0
+                )
+            }
+        }
+    }
+    out
+}
+
+fn tool_json(tools: &ToolSolve, tolerance: f64) -> serde_json::Value {
+    let keys: Vec<_> = tools
+        .keys
+        .iter()
+        .map(|k| {
+            serde_json::json!({
+                "key": k.label,
+                "orientation_residual_deg": k.residual_deg.map(|r| r.to_array()),
+                "ok": residual_max(k) <= tolerance,
+            })
+        })
+        .collect();
+    let lines: Vec<_> = tools
+        .lines
+        .iter()
+        .map(|l| {
+            serde_json::json!({
+                "from_key": l.label,
+                "feasible_fraction": l.fraction,
+                "problem": l.problem,
+            })
+        })
+        .collect();
+    serde_json::json!({ "orientation_tolerance_deg": tolerance, "keys": keys, "lines": lines })
 }

@@ -3,6 +3,8 @@
 use super::{parse_check_rate, write_output, CommandError, SequenceInput, Verdict};
 use keypose::plan::Trajectory;
 use keypose::report;
+use keypose::report::plot::PlotJoint;
+use keypose::robot::Robot;
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, Clone, clap::Args)]
@@ -22,6 +24,10 @@ pub struct PlotArgs {
     /// drawn is the one the servos will be asked for.
     #[arg(long, value_name = "HZ", default_value = "200", value_parser = parse_check_rate, allow_negative_numbers = true)]
     pub rate: f64,
+    /// Also draw the tool path: rows tool_x, tool_y, tool_z, the robot's tcp in its base frame
+    /// (mm), with its speed along each axis.
+    #[arg(long)]
+    pub tool: bool,
 }
 
 pub fn run(args: &PlotArgs) -> Result<Verdict, CommandError> {
@@ -46,6 +52,10 @@ pub fn run(args: &PlotArgs) -> Result<Verdict, CommandError> {
         super::joint_indices(&robot, &args.joints)?;
         data.joints.retain(|j| args.joints.contains(&j.name));
     }
+    if args.tool {
+        data.joints
+            .extend(tool_rows(&trajectory, &robot, &data.times));
+    }
     write_output(Some(&args.output), &report::plot::render_svg(&data))?;
     Ok(Verdict::Pass)
 }
@@ -62,4 +72,55 @@ fn check_svg_extension(output: &Path) -> Result<(), CommandError> {
         "-o {}: expected a .svg file (keypose draws SVG; convert it to PNG with e.g. rsvg-convert)",
         output.display()
     )))
+}
+
+/// The tool path as three rows, x, y and z in mm at the plot's sample times, with velocities
+/// by central differences, unlimited (a tool coordinate has no limits of its own).
+fn tool_rows(trajectory: &Trajectory, robot: &Robot, times: &[f64]) -> Vec<PlotJoint> {
+    let path: Vec<[f64; 3]> = times
+        .iter()
+        .map(|&t| (robot.tcp_position(&trajectory.sample(t)) * 1000.0).to_array())
+        .collect();
+    let keys: Vec<(f64, [f64; 3])> = trajectory
+        .key_times
+        .iter()
+        .filter(|&&t| t >= trajectory.start && t <= trajectory.end)
+        .map(|&t| {
+            (
+                t,
+                (robot.tcp_position(&trajectory.sample(t)) * 1000.0).to_array(),
+            )
+        })
+        .collect();
+    (0..3)
+        .map(|axis| {
+            let positions: Vec<f64> = path.iter().map(|p| p[axis]).collect();
+            PlotJoint {
+                name: format!("tool_{}", ["x", "y", "z"][axis]),
+                unit: "mm".into(),
+                min: f64::NEG_INFINITY,
+                max: f64::INFINITY,
+                velocity_limit: f64::INFINITY,
+                velocities: differences(times, &positions),
+                positions,
+                keys: keys.iter().map(|(t, p)| (*t, p[axis])).collect(),
+                measured: None,
+            }
+        })
+        .collect()
+}
+
+/// Central differences (one-sided at the ends).
+fn differences(times: &[f64], values: &[f64]) -> Vec<f64> {
+    let n = values.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (i.saturating_sub(1), (i + 1).min(n.saturating_sub(1)));
+            if b > a {
+                (values[b] - values[a]) / (times[b] - times[a])
+            } else {
+                0.0
+            }
+        })
+        .collect()
 }

@@ -4,7 +4,9 @@
 
 use super::check::ReportFormat;
 use super::{write_output, CommandError, RobotArgs, Verdict};
-use keypose::pose::rpy_from_quat;
+use glam::DVec3;
+use keypose::kinematics::{tool_joints, Solution, Solver, ToolTarget};
+use keypose::pose::{quat_from_rpy, rpy_from_quat};
 use keypose::robot::{Joint, JointKind, Robot};
 use keypose::sim::verdict::{collisions, Contact, ContactKind, Thresholds};
 use keypose::sim::{self, Simulation};
@@ -31,6 +33,12 @@ pub struct PoseArgs {
     /// nearer; a prismatic joint at its upper limit).
     #[arg(long, value_name = "FILE.png", conflicts_with = "values")]
     pub directions: Option<PathBuf>,
+    /// Instead of joint values, where the tool (the robot's tcp) should be: X,Y,Z in metres in
+    /// the base frame, optionally followed by ROLL,PITCH,YAW in degrees (as this command prints
+    /// them). Prints the joint solution nearest the home pose, with each joint's margin to its
+    /// limits.
+    #[arg(long, value_name = "X,Y,Z[,R,P,Y]", conflicts_with_all = ["values", "directions"], allow_hyphen_values = true)]
+    pub tool: Option<String>,
 }
 
 /// The step each joint is drawn at in the joint-directions picture, degrees.
@@ -58,15 +66,27 @@ pub fn run(args: &PoseArgs) -> Result<Verdict, CommandError> {
     if let Some(path) = &args.directions {
         return draw_directions(&robot, model.as_ref(), path);
     }
-    let pose = parse_pose(&robot, &args.values)?;
+    let (pose, solved) = match &args.tool {
+        Some(text) => solve_tool(&robot, text)?,
+        None => (parse_pose(&robot, &args.values)?, None),
+    };
     let mut simulation = Simulation::start(&robot, model.as_ref(), None)?;
     let contacts = simulation.pose_contacts(&robot, &pose.values)?;
     let thresholds = Thresholds::default();
     let touching = floor_first(collisions(&contacts, &thresholds));
     let text = match args.format {
-        ReportFormat::Text => text_report(&robot, simulation.model(), &pose, &touching),
+        ReportFormat::Text => {
+            let solved_text = solved
+                .as_ref()
+                .map(|s| solution_text(&robot, s))
+                .unwrap_or_default();
+            solved_text + &text_report(&robot, simulation.model(), &pose, &touching)
+        }
         ReportFormat::Json => {
-            let report = json_report(&robot, simulation.model(), &pose, &touching, &thresholds);
+            let mut report = json_report(&robot, simulation.model(), &pose, &touching, &thresholds);
+            if let Some(s) = &solved {
+                report["solved"] = solution_json(&robot, s);
+            }
             format!("{report:#}\n")
         }
     };
@@ -75,6 +95,102 @@ pub fn run(args: &PoseArgs) -> Result<Verdict, CommandError> {
         Verdict::Pass
     } else {
         Verdict::Fail
+    })
+}
+
+/// A tool target from `--tool` and its solution.
+struct Solved {
+    target: ToolTarget,
+    solution: Solution,
+    closed_form: bool,
+}
+
+/// `X,Y,Z[,ROLL,PITCH,YAW]` solved from the home pose: the pose (tool joints marked given).
+fn solve_tool(robot: &Robot, text: &str) -> Result<(Pose, Option<Solved>), CommandError> {
+    let usage = |why: String| CommandError::Usage(format!("--tool {text:?}: {why}"));
+    let numbers: Vec<f64> = text
+        .split(',')
+        .map(|n| n.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
+        .collect::<Option<_>>()
+        .ok_or_else(|| usage("expected numbers separated by commas".into()))?;
+    let target = match numbers[..] {
+        [x, y, z] => ToolTarget::position(DVec3::new(x, y, z)),
+        [x, y, z, r, p, yaw] => ToolTarget::pose(
+            DVec3::new(x, y, z),
+            quat_from_rpy(r.to_radians(), p.to_radians(), yaw.to_radians()),
+        ),
+        _ => {
+            return Err(usage(format!(
+                "expected X,Y,Z (metres) or X,Y,Z,ROLL,PITCH,YAW (degrees), found {} numbers",
+                numbers.len()
+            )))
+        }
+    };
+    let solver = Solver::for_robot(robot);
+    let held = vec![false; robot.joints.len()];
+    let solution = solver
+        .solve(robot, &target, &robot.home, &held)
+        .map_err(|e| usage(e.to_string()))?;
+    let pose = Pose {
+        values: solution.values.clone(),
+        given: tool_joints(robot),
+    };
+    let closed_form = solver.is_closed_form();
+    Ok((
+        pose,
+        Some(Solved {
+            target,
+            solution,
+            closed_form,
+        }),
+    ))
+}
+
+/// The solution's header: the target, the solver, the orientation residual, the margins.
+fn solution_text(robot: &Robot, solved: &Solved) -> String {
+    let mut out = String::new();
+    let p = solved.target.position;
+    let how = if solved.closed_form {
+        "closed form"
+    } else {
+        "damped least squares"
+    };
+    let _ = writeln!(
+        out,
+        "solved ({how}) for the tool at x {:.4}  y {:.4}  z {:.4} m",
+        p.x, p.y, p.z
+    );
+    if let Some(r) = solved.solution.orientation_residual_deg {
+        let _ = writeln!(
+            out,
+            "orientation off by {:.2}°, {:.2}°, {:.2}° about the tool's x, y, z",
+            r.x, r.y, r.z
+        );
+    }
+    for (joint, value) in robot.joints.iter().zip(&solved.solution.values) {
+        let margin = (value - joint.limits.min).min(joint.limits.max - value);
+        let _ = writeln!(
+            out,
+            "  {:<20} margin {margin:>8.2} {} to the nearest limit",
+            joint.name,
+            joint.kind.unit()
+        );
+    }
+    out
+}
+
+fn solution_json(robot: &Robot, solved: &Solved) -> serde_json::Value {
+    let margins: Vec<_> = robot
+        .joints
+        .iter()
+        .zip(&solved.solution.values)
+        .map(|(j, v)| json!({ "name": j.name, "margin": (v - j.limits.min).min(j.limits.max - v) }))
+        .collect();
+    json!({
+        "target": solved.target.position.to_array(),
+        "solver": if solved.closed_form { "closed form" } else { "damped least squares" },
+        "orientation_residual_deg": solved.solution.orientation_residual_deg.map(|r| r.to_array()),
+        "margins": margins,
     })
 }
 

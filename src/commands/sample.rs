@@ -23,7 +23,14 @@ pub struct SampleArgs {
     /// Output file [default: standard output].
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
+    /// Also output the tool path: tool_x, tool_y, tool_z columns, the position of the robot's
+    /// tcp in its base frame at each sample (metres).
+    #[arg(long)]
+    pub tool: bool,
 }
+
+/// The tool path's columns, after the joints'.
+const TOOL_COLUMNS: [&str; 3] = ["tool_x", "tool_y", "tool_z"];
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Units {
@@ -43,9 +50,14 @@ pub fn run(args: &SampleArgs) -> Result<Verdict, CommandError> {
     let (sequence, robot) = args.input.load()?;
     let trajectory = Trajectory::build(&sequence, &robot)?;
     super::check_sample_budget(&sequence.file, &trajectory, args.rate)?;
-    let rows = sample_rows(&trajectory, &robot, args.rate, args.units)?;
+    let mut rows = sample_rows(&trajectory, &robot, args.rate, args.units)?;
+    let mut columns = trajectory.joint_names.clone();
+    if args.tool {
+        append_tool_path(&trajectory, &robot, &mut rows);
+        columns.extend(TOOL_COLUMNS.map(String::from));
+    }
     let text = match args.format {
-        SampleFormat::Csv => to_csv(&trajectory.joint_names, &rows),
+        SampleFormat::Csv => to_csv(&columns, &rows),
         SampleFormat::Json => {
             let units = match args.units {
                 Units::Deg => "deg",
@@ -57,7 +69,7 @@ pub fn run(args: &SampleArgs) -> Result<Verdict, CommandError> {
                 "robot": robot.name,
                 "rate_hz": args.rate,
                 "units": units,
-                "columns": std::iter::once("time").chain(trajectory.joint_names.iter().map(String::as_str)).collect::<Vec<_>>(),
+                "columns": std::iter::once("time").chain(columns.iter().map(String::as_str)).collect::<Vec<_>>(),
                 "rows": rows,
             })
             .to_string();
@@ -97,6 +109,14 @@ pub fn sample_rows(
         rows.push(row);
     }
     Ok(rows)
+}
+
+/// Appends the tool position at each row's time (its first column) to the row.
+fn append_tool_path(trajectory: &Trajectory, robot: &Robot, rows: &mut [Vec<f64>]) {
+    for row in rows {
+        let tool = robot.tcp_position(&trajectory.sample(row[0]));
+        row.extend(tool.to_array());
+    }
 }
 
 fn to_csv(joint_names: &[String], rows: &[Vec<f64>]) -> String {

@@ -5,6 +5,7 @@ mod approach;
 mod check;
 mod retime;
 mod timeline;
+pub mod tool_keys;
 
 use crate::curve::{Cursor, CurveError, Track, TrackKey};
 use crate::json::InputError;
@@ -38,6 +39,8 @@ pub struct Trajectory {
     pub key_times: Vec<f64>,
     /// Name (or "#index") of every keyframe.
     pub key_labels: Vec<String>,
+    /// The tool keys and straight tool lines solved on the way (empty without them).
+    pub tools: tool_keys::ToolSolve,
 }
 
 impl Trajectory {
@@ -79,6 +82,8 @@ impl Trajectory {
     /// ```
     pub fn build(sequence: &Sequence, robot: &Robot) -> Result<Trajectory, InputError> {
         sequence.validate()?;
+        let (solved, tools) = tool_keys::solve(sequence, robot)?;
+        let sequence = solved.as_ref();
         let file = sequence.file.as_str();
         let key_times = sequence.key_times();
         for (index, key) in sequence.keyframes.iter().enumerate() {
@@ -127,6 +132,7 @@ impl Trajectory {
                 previous = Some(v);
                 let interp = key.interp.unwrap_or(sequence.interpolation);
                 keys.push(TrackKey::new(key_times[index], v, interp).with_hold(key.hold));
+                push_line_samples(&mut keys, &tools, index, joint_index);
             }
             if keys.is_empty() {
                 keys.push(TrackKey::new(
@@ -156,6 +162,7 @@ impl Trajectory {
                 .map(|(i, k)| k.label(i))
                 .collect(),
             key_times,
+            tools,
         })
     }
 
@@ -262,6 +269,26 @@ fn value_path(sequence: &Sequence, index: usize, joint: &str, value: &KeyValue) 
         format!("{}.{field}.{joint}", sequence.key_path(index))
     } else {
         format!("{}.{field}[{joint:?}]", sequence.key_path(index))
+    }
+}
+
+/// The solved samples of a straight tool line starting at key `index`, as monotone keys of
+/// joint `joint`'s track (none when the line could not be followed).
+fn push_line_samples(
+    keys: &mut Vec<TrackKey<f64>>,
+    tools: &tool_keys::ToolSolve,
+    index: usize,
+    joint: usize,
+) {
+    let Some(line) = tools.lines.iter().find(|l| l.key == index) else {
+        return;
+    };
+    for (time, values) in line.times.iter().zip(&line.samples) {
+        keys.push(TrackKey::new(
+            *time,
+            values[joint],
+            crate::curve::Interp::Monotone,
+        ));
     }
 }
 

@@ -151,6 +151,8 @@ pub fn plot_data(
                 .iter()
                 .zip(track.values())
                 .filter(|(t, _)| **t >= trajectory.start && **t <= trajectory.end)
+                // A straight tool line's samples are track keys too; only the sequence's are dots.
+                .filter(|(t, _)| trajectory.key_times.contains(t))
                 .map(|(t, v)| (*t, *v))
                 .collect();
             plot::PlotJoint {

@@ -200,6 +200,11 @@ impl KeyframeList {
         self.edit_current(|k| k.set(joint, value))
     }
 
+    /// Sets (or clears) the current key's tool target.
+    pub fn set_tool(&mut self, tool: Option<super::ToolKey>) -> bool {
+        self.edit_current(|k| k.tool = tool)
+    }
+
     /// Sets the current key's hold; refused when it would overrun the next key.
     pub fn set_hold(&mut self, hold: f64) -> bool {
         let times = self.sequence.key_times();

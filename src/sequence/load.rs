@@ -1,6 +1,9 @@
 //! Reading `keypose-sequence/1` files.
 
-use super::{Ends, KeyValue, Keyframe, Sequence, DEFAULT_KEY_INTERVAL, SEQUENCE_FORMAT};
+use super::{
+    Ends, KeyValue, Keyframe, Sequence, ToolKey, ToolOrientation, DEFAULT_KEY_INTERVAL,
+    SEQUENCE_FORMAT,
+};
 use crate::curve::Interp;
 use crate::json::{self, InputError, Node};
 use crate::pose::RigidTransform;
@@ -228,12 +231,20 @@ fn parse_interp(node: &Node) -> Result<Interp, InputError> {
     node.value
         .as_str()
         .and_then(Interp::parse)
-        .ok_or_else(|| node.expected("one of step, linear, cubic, monotone"))
+        .ok_or_else(|| node.expected("one of step, linear, cubic, monotone (or line on a key)"))
 }
 
 fn parse_keyframe(node: &Node) -> Result<Keyframe, InputError> {
     node.object()?;
-    node.only_fields(&["name", "time", "hold", "interp", "joints", "transforms"])?;
+    node.only_fields(&[
+        "name",
+        "time",
+        "hold",
+        "interp",
+        "joints",
+        "transforms",
+        "tool",
+    ])?;
     let mut key = Keyframe::new(Vec::new());
     if let Some(n) = node.get("name") {
         key.name = Some(n.str("a key name")?.to_string());
@@ -249,7 +260,14 @@ fn parse_keyframe(node: &Node) -> Result<Keyframe, InputError> {
         key.hold = hold;
     }
     if let Some(n) = node.get("interp") {
-        key.interp = Some(parse_interp(&n)?);
+        if n.value.as_str() == Some("line") {
+            key.line = true;
+        } else {
+            key.interp = Some(parse_interp(&n)?);
+        }
+    }
+    if let Some(n) = node.get("tool") {
+        key.tool = Some(parse_tool(&n)?);
     }
     if let Some(joints) = node.get("joints") {
         for (name, value) in joints.entries()? {
@@ -269,9 +287,9 @@ fn parse_keyframe(node: &Node) -> Result<Keyframe, InputError> {
                 .push((name.to_string(), KeyValue::Transform(transform)));
         }
     }
-    if key.values.is_empty() {
+    if key.values.is_empty() && key.tool.is_none() {
         return Err(node.error(
-            "this key sets no joint; expected \"joints\" or \"transforms\" with at least one joint",
+            "this key sets no joint; expected \"joints\" or \"transforms\" with at least one joint, or \"tool\"",
         ));
     }
     Ok(key)
@@ -306,6 +324,25 @@ fn unit(q: DQuat) -> DQuat {
     }
 }
 
+/// A key's `"tool"`: `xyz` in metres, optionally `r` (a unit quaternion) or `rpy` (radians).
+fn parse_tool(node: &Node) -> Result<ToolKey, InputError> {
+    node.object()?;
+    node.only_fields(&["xyz", "r", "rpy"])?;
+    let xyz_node = node.require("xyz", "the tool position [x, y, z] in metres")?;
+    let xyz = DVec3::from_array(xyz_node.numbers::<3>("metres")?);
+    let orientation = match (node.get("r"), node.get("rpy")) {
+        (Some(r), Some(_)) => {
+            return Err(
+                r.error("the tool orientation is given twice (\"r\" and \"rpy\"); expected one")
+            )
+        }
+        (Some(r), None) => Some(ToolOrientation::Quaternion(parse_quaternion(&r)?)),
+        (None, Some(rpy)) => Some(ToolOrientation::Rpy(rpy.numbers::<3>("radians")?)),
+        (None, None) => None,
+    };
+    Ok(ToolKey { xyz, orientation })
+}
+
 fn parse_transform(node: &Node) -> Result<RigidTransform, InputError> {
     node.only_fields(&["t", "r"])?;
     let t = match node.get("t") {
@@ -313,26 +350,29 @@ fn parse_transform(node: &Node) -> Result<RigidTransform, InputError> {
         None => DVec3::ZERO,
     };
     let r = match node.get("r") {
-        Some(n) => {
-            n.only_fields(&["w", "x", "y", "z"])?;
-            let mut c = [0.0; 4];
-            for (slot, name) in c.iter_mut().zip(["w", "x", "y", "z"]) {
-                *slot = n
-                    .require(name, "a quaternion component")?
-                    .number("quaternion component")?;
-            }
-            let q = DQuat::from_xyzw(c[1], c[2], c[3], c[0]);
-            let norm = q.length();
-            if (norm - 1.0).abs() > UNIT_TOLERANCE {
-                return Err(n.error(format!(
-                    "expected a unit quaternion (norm 1 ± {UNIT_TOLERANCE}), found norm {norm:.6}"
-                )));
-            }
-            unit(q)
-        }
+        Some(n) => parse_quaternion(&n)?,
         None => DQuat::IDENTITY,
     };
     Ok(RigidTransform::new(t, r))
+}
+
+/// `{w, x, y, z}`, of norm 1 within [`UNIT_TOLERANCE`], normalised (see [`unit`]).
+fn parse_quaternion(n: &Node) -> Result<DQuat, InputError> {
+    n.only_fields(&["w", "x", "y", "z"])?;
+    let mut c = [0.0; 4];
+    for (slot, name) in c.iter_mut().zip(["w", "x", "y", "z"]) {
+        *slot = n
+            .require(name, "a quaternion component")?
+            .number("quaternion component")?;
+    }
+    let q = DQuat::from_xyzw(c[1], c[2], c[3], c[0]);
+    let norm = q.length();
+    if (norm - 1.0).abs() > UNIT_TOLERANCE {
+        return Err(n.error(format!(
+            "expected a unit quaternion (norm 1 ± {UNIT_TOLERANCE}), found norm {norm:.6}"
+        )));
+    }
+    Ok(unit(q))
 }
 
 #[cfg(test)]

@@ -11,6 +11,7 @@ mod save;
 use crate::curve::Interp;
 use crate::json::InputError;
 use crate::pose::RigidTransform;
+use glam::{DQuat, DVec3};
 use std::path::Path;
 
 pub use edit::{KeyframeList, TimeRefusal};
@@ -41,6 +42,33 @@ pub enum KeyValue {
     Transform(RigidTransform),
 }
 
+/// How a tool key gives the tool's orientation, kept as written so saving gives it back.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ToolOrientation {
+    /// `"r": {w, x, y, z}`, a unit quaternion.
+    Quaternion(DQuat),
+    /// `"rpy": [roll, pitch, yaw]`, radians, URDF convention (R = Rz·Ry·Rx).
+    Rpy([f64; 3]),
+}
+
+impl ToolOrientation {
+    pub fn quaternion(&self) -> DQuat {
+        match *self {
+            ToolOrientation::Quaternion(q) => q,
+            ToolOrientation::Rpy([r, p, y]) => crate::pose::quat_from_rpy(r, p, y),
+        }
+    }
+}
+
+/// A key's `"tool"`: where the robot's tool frame (`tcp`) goes, in the base frame. Inverse
+/// kinematics turns it into joint values when the robot is known (`Trajectory::build`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolKey {
+    /// Metres.
+    pub xyz: DVec3,
+    pub orientation: Option<ToolOrientation>,
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct Keyframe {
     pub name: Option<String>,
@@ -52,6 +80,10 @@ pub struct Keyframe {
     pub interp: Option<Interp>,
     /// (joint name, value) in the order written.
     pub values: Vec<(String, KeyValue)>,
+    /// The tool pose this key asks for, solved into the joints `values` does not give.
+    pub tool: Option<ToolKey>,
+    /// `"interp": "line"`: the tool moves in a straight line from this key to the next.
+    pub line: bool,
     /// Index of this key in the file it was loaded from, for error paths after sorting.
     pub source_index: Option<usize>,
 }
@@ -64,6 +96,8 @@ impl Keyframe {
             hold: 0.0,
             interp: None,
             values,
+            tool: None,
+            line: false,
             source_index: None,
         }
     }

@@ -1,6 +1,6 @@
 //! Writing sequences back to `keypose-sequence/1` JSON.
 
-use super::{Ends, KeyValue, Sequence, SEQUENCE_FORMAT};
+use super::{Ends, KeyValue, Sequence, ToolKey, ToolOrientation, SEQUENCE_FORMAT};
 use serde_json::{json, Map, Value};
 
 pub(super) fn to_json(sequence: &Sequence) -> String {
@@ -31,8 +31,13 @@ pub(super) fn to_json(sequence: &Sequence) -> String {
             if key.hold > 0.0 {
                 k.insert("hold".into(), json!(key.hold));
             }
-            if let Some(interp) = key.interp {
+            if key.line {
+                k.insert("interp".into(), json!("line"));
+            } else if let Some(interp) = key.interp {
                 k.insert("interp".into(), json!(interp.name()));
+            }
+            if let Some(tool) = &key.tool {
+                k.insert("tool".into(), tool_json(tool));
             }
             let mut joints = Map::new();
             let mut transforms = Map::new();
@@ -70,6 +75,25 @@ pub(super) fn to_json(sequence: &Sequence) -> String {
     let mut text = compact_keys(&Value::Object(root));
     text.push('\n');
     text
+}
+
+/// A tool key as written: `xyz`, and `r` or `rpy` if it had one.
+fn tool_json(tool: &ToolKey) -> Value {
+    let mut t = Map::new();
+    t.insert("xyz".into(), json!(tool.xyz.to_array()));
+    match tool.orientation {
+        Some(ToolOrientation::Quaternion(q)) => {
+            t.insert(
+                "r".into(),
+                json!({ "w": q.w, "x": q.x, "y": q.y, "z": q.z }),
+            );
+        }
+        Some(ToolOrientation::Rpy(rpy)) => {
+            t.insert("rpy".into(), json!(rpy));
+        }
+        None => {}
+    }
+    Value::Object(t)
 }
 
 /// Pretty JSON with one keyframe per line: sequences are read and diffed by people, and a key per

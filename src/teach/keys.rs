@@ -69,6 +69,11 @@ pub const BINDINGS: &[Binding] = &[
         "new key",
         "new key after the current one, from the present pose",
     ),
+    bind(
+        "K",
+        "new tool key",
+        "new key after the current one, the present pose as a tool key (tool xyz + rpy)",
+    ),
     bind("d", "delete", "delete the current key"),
     bind("> <", "next/prev", "next / previous key (also . and ,)"),
     bind("] [", "move key", "move the current key later / earlier"),
@@ -99,6 +104,11 @@ pub const BINDINGS: &[Binding] = &[
         "+ -",
         "interval/speed",
         "time between keys ±0.1 s (timed sequences: playback speed ±0.1)",
+    ),
+    bind(
+        "x c z",
+        "tool +x/y/z (shift −)",
+        "jog the tool 5 mm along the base frame's +x, +y, +z (shift: −), solving the joints",
     ),
     bind("t", "torque joint", "torque on/off, selected joint"),
     bind("T", "torque all", "torque on/off, all joints"),

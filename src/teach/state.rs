@@ -223,6 +223,13 @@ impl TeachState {
             // `=` is `+` without shift on most layouts.
             Key::Char('+' | '=') => self.change_time(true),
             Key::Char('-') => self.change_time(false),
+            Key::Char('K') => self.new_tool_key(),
+            Key::Char('x') => self.jog_tool(0, 1.0),
+            Key::Char('X') => self.jog_tool(0, -1.0),
+            Key::Char('c') => self.jog_tool(1, 1.0),
+            Key::Char('C') => self.jog_tool(1, -1.0),
+            Key::Char('z') => self.jog_tool(2, 1.0),
+            Key::Char('Z') => self.jog_tool(2, -1.0),
             Key::Char('t') => self.toggle_torque(false),
             Key::Char('T') => self.toggle_torque(true),
             Key::SelectKey(index) => self.select_key(index),
@@ -736,6 +743,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
 
 mod edits;
 mod reports;
+mod tool;
 
 #[cfg(test)]
 mod tests;

@@ -191,9 +191,21 @@ fn draw_joints(frame: &mut Frame, area: Rect, state: &TeachState) {
     )
     .block(
         Block::bordered()
-            .title(" joints  (● present  ◆ current key; load: carries the arm's weight) "),
+            .title(" joints  (● present  ◆ current key; load: carries the arm's weight) ")
+            .title_bottom(tool_title(state)),
     );
     frame.render_widget(table, area);
+}
+
+/// Where the tool (the robot's tcp) is at the present pose, base frame, millimetres: what a
+/// tool key (`"tool": {"xyz": …}`, metres) would say. Blank until every joint has been read.
+fn tool_title(state: &TeachState) -> String {
+    let present = state.present();
+    if present.len() != state.robot().joints.len() || present.iter().any(|v| !v.is_finite()) {
+        return String::new();
+    }
+    let p = state.robot().tcp_position(present) * 1000.0;
+    format!(" tool at x {:.1}  y {:.1}  z {:.1} mm ", p.x, p.y, p.z)
 }
 
 /// `[──◆───●──]`: where the present value (●) and the key's value (◆) sit between the limits.
@@ -403,6 +415,10 @@ mod tests {
                 "quit",
                 "▶ 0",
                 "default monotone",
+                // The tool at home, where docs/robots.md §1.3 measured MuJoCo's gripperframe:
+                // (0.39136, −0.00001, 0.22647) m.
+                "tool at x 391.4",
+                "z 226.5 mm",
             ] {
                 assert!(screen.contains(text), "{text:?} missing at width {width}");
             }

@@ -820,3 +820,91 @@ fn a_lost_front_end_stops_playback_softly_once() {
         "a second request would hold at once: not asked for"
     );
 }
+
+/// Tool jogs: from a bent pose (the stretched home is singular), x then z then −x, each 5 mm;
+/// the goals' tool point (forward kinematics) moves by exactly that, and the gripper stays.
+#[test]
+fn tool_jogs_move_the_tool_point_five_millimetres_along_an_axis() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press_all(
+        &mut state,
+        &[Key::Down, Key::ShiftLeft, Key::ShiftLeft, Key::ShiftLeft],
+    );
+    press_all(
+        &mut state,
+        &[Key::Down, Key::ShiftRight, Key::ShiftRight, Key::ShiftRight],
+    );
+    let start = state.robot().tcp_position(state.goals());
+    let gripper = state.goals()[5];
+    for (key, step) in [
+        (Key::Char('x'), glam::DVec3::new(0.005, 0.0, 0.0)),
+        (Key::Char('z'), glam::DVec3::new(0.005, 0.0, 0.005)),
+        (Key::Char('X'), glam::DVec3::new(0.0, 0.0, 0.005)),
+    ] {
+        press(&mut state, key);
+        let tool = state.robot().tcp_position(state.goals());
+        assert!(
+            (tool - start - step).length() < 1e-6,
+            "{tool:?} vs {start:?} + {step:?}: {:?}",
+            state.status()
+        );
+    }
+    assert_eq!(state.goals()[5], gripper);
+}
+
+/// Jogging the tool forward from home (0.39 m out; the SO-101 reaches about 0.48 m) ends in
+/// a refusal, out of reach or a jump, never a goal outside the limits.
+#[test]
+fn a_tool_jog_out_of_reach_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    let refused = (0..40).find(|_| press(&mut state, Key::Char('x')).is_empty());
+    assert!(refused.is_some(), "40 jogs of 5 mm all went through");
+    let status = state.status();
+    assert!(
+        status.error && (status.text.contains("cannot reach") || status.text.contains("jump")),
+        "{status:?}"
+    );
+    let robot = state.robot();
+    assert!(robot
+        .joints
+        .iter()
+        .zip(state.goals())
+        .all(|(j, &g)| j.limits.contains(g)));
+}
+
+/// `K` captures the present pose as a tool key whose solution, through the forward kinematics,
+/// is the present tool position (rounded to 0.1 mm); the gripper stays a joint value.
+#[test]
+fn a_tool_key_captures_the_present_tool_pose() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press_all(
+        &mut state,
+        &[
+            Key::Down,
+            Key::ShiftLeft,
+            Key::ShiftLeft,
+            Key::Down,
+            Key::ShiftRight,
+        ],
+    );
+    press(&mut state, Key::Char('K'));
+    let key = state.list().show().expect("a key").clone();
+    let tool = key.tool.expect("a tool key");
+    let present = state.robot().tcp_position(state.goals());
+    assert!(
+        (tool.xyz - present).abs().max_element() <= 0.00005 + 1e-12,
+        "{tool:?} vs {present:?}"
+    );
+    assert!(
+        key.value("gripper").is_some() && key.value("elbow_flex").is_none(),
+        "{key:?}"
+    );
+    let trajectory = Trajectory::build(state.list().sequence(), state.robot()).expect("solves");
+    let solved = state
+        .robot()
+        .tcp_position(&trajectory.sample(trajectory.start));
+    assert!(solved.distance(tool.xyz) < 1e-6, "{solved:?}");
+}

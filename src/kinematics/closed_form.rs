@@ -1,0 +1,523 @@
+//! Closed-form inverse kinematics for arms built like the built-ins: a pan joint, three pitch
+//! joints with parallel axes square to the pan's, and optionally a roll joint carrying the tool.
+//!
+//! The geometry is read off the robot's own joint origins and axes ([`ArmGeometry::derive`]),
+//! so an arm with the same shape and other dimensions (SO-100 beside SO-101) needs no code.
+//! docs/robots.md §9 derives the solution. In short, in the *pan frame* (joint 0's moving
+//! frame) the pitch joints only move the tool within planes square to their common axis `n`:
+//!
+//! 1. the tool point's offset along `n` is fixed (it depends on the roll only), so the pan angle
+//!    is the one that puts the target at that offset: two branches (reaching forward or back
+//!    over the base);
+//! 2. the tool pitch φ (the sum of the three pitch rotations) comes from the asked orientation
+//!    (the roll axis turned about `n` as near as it goes to where the target wants it), or, with
+//!    a position alone, is kept from the previous pose;
+//! 3. the wrist point is the target minus the last link turned by φ, and the first two pitch
+//!    joints reach it as a planar two-link arm: two elbow branches;
+//! 4. the roll is the remaining twist about the roll axis.
+
+use super::planar::two_link;
+use super::{
+    joint_distance, lowest_below_floor, orientation_residual_deg, within_limits, Solution,
+    ToolTarget,
+};
+use crate::pose::{twist_swing, unwrap_within, wrap_pi, RigidTransform};
+use crate::robot::{JointKind, Robot};
+use glam::{DQuat, DVec2, DVec3};
+use std::f64::consts::{PI, TAU};
+
+/// How far from parallel (or square) two axes may be and still count as such: the built-ins'
+/// files carry their URDFs' six-digit quaternions, a few 1e-6 off.
+const AXIS_TOLERANCE: f64 = 1e-4;
+/// The position a solution must reproduce through the forward kinematics, metres: a check that
+/// the branch assembled is a solution at all, never a wrong one.
+const POSITION_CHECK_M: f64 = 1e-6;
+/// Roll iterations when the roll moves the tool point (the tool point is off the roll axis on
+/// SO-101 and Koch): each pass shrinks the error by about offset / reach (< 0.1).
+const ROLL_PASSES: usize = 40;
+/// Step of the search for a roll when the seed's cannot reach a position, degrees.
+const ROLL_SEARCH_STEP_DEG: f64 = 30.0;
+/// Orientation residuals this close count as equal when choosing a branch, degrees: of the
+/// branches that orient the tool best, the nearest to the previous key wins.
+const RESIDUAL_TIE_DEG: f64 = 0.05;
+/// A residual this small means the orientation was reached, degrees.
+const EXACT_DEG: f64 = 1e-6;
+/// Step of the search for a tool pitch that reaches a position the previous pitch cannot, degrees.
+const PITCH_SEARCH_STEP_DEG: f64 = 0.25;
+
+/// The roll joint, in the pan frame at zero pitch.
+#[derive(Debug, Clone, PartialEq)]
+struct Roll {
+    index: usize,
+    anchor: DVec3,
+    axis: DVec3,
+}
+
+/// The shape of a pan + three-pitch (+ roll) arm, in its pan frame at zero pitch and roll.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ArmGeometry {
+    /// Joint 0's origin in the base frame (the pan frame at zero pan).
+    base: RigidTransform,
+    pan_axis: DVec3,
+    pitch: [usize; 3],
+    /// The common pitch axis, and each pitch joint's axis as ±n.
+    n: DVec3,
+    signs: [f64; 3],
+    /// Plane axes with u × v = n, so a turn about n is counter-clockwise in (u, v).
+    u: DVec3,
+    v: DVec3,
+    /// Pitch joint anchors.
+    anchors: [DVec3; 3],
+    roll: Option<Roll>,
+    /// The tool frame at zero pitch and roll.
+    tool: RigidTransform,
+}
+
+/// One set of choices: pan branch and elbow branch.
+#[derive(Debug, Clone, Copy)]
+struct Branch {
+    back: bool,
+    elbow: usize,
+}
+
+const BRANCHES: [Branch; 4] = [
+    Branch {
+        back: false,
+        elbow: 0,
+    },
+    Branch {
+        back: false,
+        elbow: 1,
+    },
+    Branch {
+        back: true,
+        elbow: 0,
+    },
+    Branch {
+        back: true,
+        elbow: 1,
+    },
+];
+
+impl ArmGeometry {
+    /// The geometry when `robot` has this shape: joints 0–3 revolute, 1–3 parallel and square
+    /// to 0, the tool carried by joint 3 or by a revolute joint 4 (the roll). None otherwise.
+    pub fn derive(robot: &Robot) -> Option<ArmGeometry> {
+        let tcp = robot.tcp.as_ref()?;
+        let joints = &robot.joints;
+        if joints.len() < 4 || !(3..=4).contains(&tcp.parent) {
+            return None;
+        }
+        if joints[..=tcp.parent]
+            .iter()
+            .any(|j| j.kind != JointKind::Revolute)
+        {
+            return None;
+        }
+        let zero = vec![0.0; joints.len()];
+        let frames = robot.joint_frames(&zero);
+        let base = joints[0].origin;
+        let to_pan = |p: DVec3| frames[0].r.conjugate() * (p - frames[0].t);
+        let axis_in_pan =
+            |i: usize| (frames[0].r.conjugate() * (frames[i].r * joints[i].axis)).normalize();
+        let n = axis_in_pan(1);
+        let pan_axis = joints[0].axis.normalize();
+        if pan_axis.dot(n).abs() > AXIS_TOLERANCE {
+            return None;
+        }
+        let mut signs = [1.0; 3];
+        for (slot, i) in signs.iter_mut().zip(1..=3) {
+            let a = axis_in_pan(i);
+            if a.cross(n).length() > AXIS_TOLERANCE {
+                return None;
+            }
+            *slot = a.dot(n).signum();
+        }
+        let roll = (tcp.parent == 4).then(|| Roll {
+            index: 4,
+            anchor: to_pan(frames[4].t),
+            axis: axis_in_pan(4),
+        });
+        let tool_world = frames[tcp.parent].compose(&tcp.origin);
+        let u = pan_axis.cross(n).normalize();
+        Some(ArmGeometry {
+            base,
+            pan_axis,
+            pitch: [1, 2, 3],
+            n,
+            signs,
+            u,
+            v: n.cross(u),
+            anchors: [
+                to_pan(frames[1].t),
+                to_pan(frames[2].t),
+                to_pan(frames[3].t),
+            ],
+            roll,
+            tool: RigidTransform::new(
+                to_pan(tool_world.t),
+                (frames[0].r.conjugate() * tool_world.r).normalize(),
+            ),
+        })
+    }
+
+    /// How far `position` (base frame) is from the pan axis, metres. Within about the tool
+    /// point's offset from the roll axis (8 mm on SO-101 and Koch) the pan is nearly free and
+    /// the orientation is solved as well as the general solver manages, not exactly.
+    pub fn pan_axis_distance(&self, position: DVec3) -> f64 {
+        let p = self.base.r.conjugate() * (position - self.base.t);
+        (p - self.pan_axis * p.dot(self.pan_axis)).length()
+    }
+
+    pub fn has_roll(&self) -> bool {
+        self.roll.is_some()
+    }
+
+    /// The solution inside the limits and clear of the floor nearest to `seed`, or None.
+    pub fn solve(&self, robot: &Robot, target: &ToolTarget, seed: &[f64]) -> Option<Solution> {
+        self.solve_with(robot, target, seed, true)
+    }
+
+    /// [`ArmGeometry::solve`] without the floor rule, to tell "below the floor" from "out of reach".
+    pub fn solve_ignoring_floor(
+        &self,
+        robot: &Robot,
+        target: &ToolTarget,
+        seed: &[f64],
+    ) -> Option<Solution> {
+        self.solve_with(robot, target, seed, false)
+    }
+
+    fn solve_with(
+        &self,
+        robot: &Robot,
+        target: &ToolTarget,
+        seed: &[f64],
+        floor: bool,
+    ) -> Option<Solution> {
+        let best = match target.orientation {
+            Some(orientation) => {
+                self.best_oriented(robot, target.position, orientation, seed, floor)
+            }
+            None => self.best_positioned(robot, target.position, seed, floor),
+        }?;
+        let orientation_residual_deg = target
+            .orientation
+            .map(|wanted| orientation_residual_deg(robot.tcp_frame(&best).r, wanted));
+        Some(Solution {
+            values: best,
+            orientation_residual_deg,
+        })
+    }
+
+    /// With a position alone: the seed's tool pitch and roll if any branch reaches with them,
+    /// else the nearest pitch (in steps of [`PITCH_SEARCH_STEP_DEG`] either way) that does,
+    /// trying other rolls only when no pitch does with the seed's (the roll moves a tool point
+    /// that is off its axis, which can take the pan past its limit).
+    fn best_positioned(
+        &self,
+        robot: &Robot,
+        position: DVec3,
+        seed: &[f64],
+        floor: bool,
+    ) -> Option<Vec<f64>> {
+        let pitch = self.tool_pitch(seed);
+        let rolls = self.roll_candidates(robot, seed);
+        rolls.into_iter().find_map(|roll| {
+            let steps = (180.0 / PITCH_SEARCH_STEP_DEG) as i32;
+            (0..=steps).find_map(|k| {
+                [1.0, -1.0].into_iter().find_map(|side| {
+                    let phi = pitch + side * f64::from(k) * PITCH_SEARCH_STEP_DEG.to_radians();
+                    let candidates = BRANCHES
+                        .iter()
+                        .filter_map(|&b| self.assemble(robot, position, phi, roll, b, seed, floor));
+                    nearest(robot, candidates, seed)
+                })
+            })
+        })
+    }
+
+    /// Rolls (radians) to try for a position alone: the seed's, then every
+    /// [`ROLL_SEARCH_STEP_DEG`] either way inside the limits; just 0 without a roll joint.
+    fn roll_candidates(&self, robot: &Robot, seed: &[f64]) -> Vec<f64> {
+        let Some(roll) = &self.roll else {
+            return vec![0.0];
+        };
+        let limits = robot.joints[roll.index].limits;
+        let start = seed[roll.index];
+        let mut rolls = vec![start];
+        for k in 1..=(360.0 / ROLL_SEARCH_STEP_DEG) as i32 {
+            for side in [1.0, -1.0] {
+                let r = start + side * f64::from(k) * ROLL_SEARCH_STEP_DEG;
+                if limits.contains(r) {
+                    rolls.push(r);
+                }
+            }
+        }
+        rolls.into_iter().map(f64::to_radians).collect()
+    }
+
+    /// With an orientation: every branch with the tool pitch and roll the orientation asks for
+    /// (the pan changes per branch, and with it what the orientation asks of the pitch). The
+    /// roll from the seed's by repetition first; when that reaches the orientation on no
+    /// branch exactly, every roll that is a consistent answer (there can be several when the
+    /// target is near the pan axis).
+    fn best_oriented(
+        &self,
+        robot: &Robot,
+        position: DVec3,
+        orientation: DQuat,
+        seed: &[f64],
+        floor: bool,
+    ) -> Option<Vec<f64>> {
+        // The pitch and roll depend on the pan branch only: both elbows share them.
+        let fast: Vec<(Branch, (f64, f64))> = [false, true]
+            .into_iter()
+            .filter_map(|back| {
+                let pan_side = Branch { back, elbow: 0 };
+                Some((
+                    back,
+                    self.settle_roll(position, orientation, pan_side, seed)?,
+                ))
+            })
+            .flat_map(|(back, angles)| (0..2).map(move |elbow| (Branch { back, elbow }, angles)))
+            .collect();
+        let found = self.oriented_candidates(robot, position, orientation, &fast, seed, floor);
+        if found.iter().any(|c| c.1 < EXACT_DEG) || self.roll.is_none() {
+            return choose_oriented(robot, found, seed);
+        }
+        let thorough: Vec<(Branch, (f64, f64))> = [false, true]
+            .into_iter()
+            .flat_map(|back| {
+                let rolls = self.scan_roll(position, orientation, Branch { back, elbow: 0 });
+                rolls
+                    .into_iter()
+                    .flat_map(move |r| (0..2).map(move |elbow| (Branch { back, elbow }, r)))
+            })
+            .collect();
+        let mut all = found;
+        all.extend(self.oriented_candidates(robot, position, orientation, &thorough, seed, floor));
+        choose_oriented(robot, all, seed)
+    }
+
+    /// The solutions of the given branches and (pitch, roll) pairs, with their residuals.
+    fn oriented_candidates(
+        &self,
+        robot: &Robot,
+        position: DVec3,
+        orientation: DQuat,
+        choices: &[(Branch, (f64, f64))],
+        seed: &[f64],
+        floor: bool,
+    ) -> Vec<(Vec<f64>, f64)> {
+        choices
+            .iter()
+            .filter_map(|&(branch, (phi, roll))| {
+                let values = self.assemble(robot, position, phi, roll, branch, seed, floor)?;
+                let residual = orientation_residual_deg(robot.tcp_frame(&values).r, orientation);
+                Some((values, residual.length()))
+            })
+            .collect()
+    }
+
+    /// The tool pitch and roll (radians) the orientation asks for on `branch`. The roll moves
+    /// the tool point when the point is off the roll axis, which moves the pan, which changes
+    /// what the orientation asks: a fixed point of [`ArmGeometry::next_roll`]. Repeating it
+    /// converges when the target is far from the pan axis compared with the tool point's offset
+    /// (the usual case, and fast); near the pan axis it need not, and the roll is then found by
+    /// scanning for where the roll asked equals the roll assumed.
+    fn settle_roll(
+        &self,
+        position: DVec3,
+        orientation: DQuat,
+        branch: Branch,
+        seed: &[f64],
+    ) -> Option<(f64, f64)> {
+        let Some(roll_joint) = &self.roll else {
+            return Some((self.next_roll(position, orientation, branch, 0.0)?.0, 0.0));
+        };
+        let mut roll = seed[roll_joint.index].to_radians();
+        for _ in 0..ROLL_PASSES {
+            let (phi, next) = self.next_roll(position, orientation, branch, roll)?;
+            if wrap_pi(next - roll).abs() < 1e-13 {
+                return Some((phi, next));
+            }
+            roll = next;
+        }
+        None
+    }
+
+    /// The pitch and roll that `orientation` asks for if the roll were `roll`.
+    fn next_roll(
+        &self,
+        position: DVec3,
+        orientation: DQuat,
+        branch: Branch,
+        roll: f64,
+    ) -> Option<(f64, f64)> {
+        let pan = self.pan_angle(position, roll, branch)?;
+        let in_pan = (DQuat::from_axis_angle(self.pan_axis, pan).conjugate()
+            * self.base.r.conjugate()
+            * orientation)
+            .normalize();
+        Some(self.pitch_and_roll(in_pan))
+    }
+
+    /// Every fixed point of [`ArmGeometry::next_roll`], found by sign changes of (asked −
+    /// assumed) over a grid of rolls, each refined by bisection.
+    fn scan_roll(&self, position: DVec3, orientation: DQuat, branch: Branch) -> Vec<(f64, f64)> {
+        const STEPS: usize = 360;
+        let gap = |roll: f64| {
+            self.next_roll(position, orientation, branch, roll)
+                .map(|(_, next)| wrap_pi(next - roll))
+        };
+        let at = |k: usize| -PI + TAU * k as f64 / STEPS as f64;
+        (0..STEPS)
+            .filter_map(|k| {
+                let (mut lo, mut hi) = (at(k), at(k + 1));
+                let (g_lo, g_hi) = (gap(lo)?, gap(hi)?);
+                // A sign change across a wrap of ±π is a jump, not a root.
+                if g_lo.signum() == g_hi.signum() || (g_lo - g_hi).abs() > PI {
+                    return None;
+                }
+                for _ in 0..60 {
+                    let mid = 0.5 * (lo + hi);
+                    if gap(mid)?.signum() == g_lo.signum() {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                let roll = 0.5 * (lo + hi);
+                self.next_roll(position, orientation, branch, roll)
+                    .map(|(phi, _)| (phi, roll))
+            })
+            .collect()
+    }
+
+    /// The pitch φ and roll ψ for which Rot(n, φ)·Rot(roll axis, ψ)·tool comes nearest to
+    /// `in_pan`: φ turns the roll axis about n onto the plane through where `in_pan` puts it,
+    /// ψ is what remains about the roll axis. Without a roll, φ is the twist about n.
+    fn pitch_and_roll(&self, in_pan: DQuat) -> (f64, f64) {
+        let m = (in_pan * self.tool.r.conjugate()).normalize();
+        let Some(roll) = &self.roll else {
+            return (twist_swing(m, self.n).0, 0.0);
+        };
+        let flat = |a: DVec3| a - self.n * a.dot(self.n);
+        let (from, to) = (flat(roll.axis), flat(m * roll.axis));
+        let phi = self.n.dot(from.cross(to)).atan2(from.dot(to));
+        let rest = DQuat::from_axis_angle(self.n, -phi) * m;
+        (phi, twist_swing(rest, roll.axis).0)
+    }
+
+    /// The tool pitch of a pose: the sum of the pitch rotations about n, radians.
+    fn tool_pitch(&self, values: &[f64]) -> f64 {
+        self.pitch
+            .iter()
+            .zip(self.signs)
+            .map(|(&i, s)| s * values[i].to_radians())
+            .sum()
+    }
+
+    /// The tool point in the pan frame at zero pitch, for a roll of `roll` radians.
+    fn tool_point(&self, roll: f64) -> DVec3 {
+        match &self.roll {
+            Some(r) => r.anchor + DQuat::from_axis_angle(r.axis, roll) * (self.tool.t - r.anchor),
+            None => self.tool.t,
+        }
+    }
+
+    /// The pan angle (radians) that puts `position` at the tool point's fixed offset along n.
+    fn pan_angle(&self, position: DVec3, roll: f64, branch: Branch) -> Option<f64> {
+        let p = self.base.r.conjugate() * (position - self.base.t);
+        let offset = self.tool_point(roll).dot(self.n);
+        // The target's offset along n after turning the pan by q: a·cos q + b·sin q.
+        let a = p.dot(self.n);
+        let b = p.dot(self.pan_axis.cross(self.n));
+        let radius = a.hypot(b);
+        // A target on the circle of tangency computed in floating point lands a hair inside it.
+        if radius + 1e-9 < offset.abs() || radius == 0.0 {
+            return None;
+        }
+        let spread = (radius * radius - offset * offset)
+            .max(0.0)
+            .sqrt()
+            .atan2(offset);
+        let side = if branch.back { -1.0 } else { 1.0 };
+        Some(b.atan2(a) + side * spread)
+    }
+
+    /// The joint values of one branch for tool pitch `phi` and roll `roll` (radians), each
+    /// unwrapped into its limits nearest the seed; None when the branch does not reach or
+    /// leaves the limits or (with `floor`) goes below the floor.
+    #[allow(clippy::too_many_arguments)]
+    fn assemble(
+        &self,
+        robot: &Robot,
+        position: DVec3,
+        phi: f64,
+        roll: f64,
+        branch: Branch,
+        seed: &[f64],
+        floor: bool,
+    ) -> Option<Vec<f64>> {
+        let pan = self.pan_angle(position, roll, branch)?;
+        let turn_back = DQuat::from_axis_angle(self.pan_axis, -pan);
+        let in_pan = turn_back * (self.base.r.conjugate() * (position - self.base.t));
+        let flat = |p: DVec3| DVec2::new(p.dot(self.u), p.dot(self.v));
+        let [c1, c2, c3] = self.anchors.map(flat);
+        let last = flat(self.tool_point(roll)) - c3;
+        let wrist = flat(in_pan) - DVec2::from_angle(phi).rotate(last);
+        let (shoulder, elbow) = two_link(c2 - c1, c3 - c2, wrist - c1)?[branch.elbow];
+        let turns = [shoulder, elbow, phi - shoulder - elbow];
+        let mut values = seed.to_vec();
+        values[0] = pan.to_degrees();
+        for ((&i, s), turn) in self.pitch.iter().zip(self.signs).zip(turns) {
+            values[i] = s * turn.to_degrees();
+        }
+        if let Some(r) = &self.roll {
+            values[r.index] = roll.to_degrees();
+        }
+        self.fit_to_limits(robot, &mut values, seed)?;
+        let reached = robot.tcp_position(&values).distance(position) < POSITION_CHECK_M;
+        let clear = !floor || lowest_below_floor(robot, &values).is_none();
+        (reached && clear).then_some(values)
+    }
+
+    /// Each solved angle as the turn of it inside the joint's limits nearest the seed.
+    fn fit_to_limits(&self, robot: &Robot, values: &mut [f64], seed: &[f64]) -> Option<()> {
+        let solved = [0, 1, 2, 3]
+            .into_iter()
+            .chain(self.roll.as_ref().map(|r| r.index));
+        for i in solved {
+            let limits = robot.joints[i].limits;
+            values[i] = unwrap_within(values[i], seed[i], limits.min, limits.max, 360.0)?;
+        }
+        within_limits(robot, values).then_some(())
+    }
+}
+
+/// Of solutions with their orientation residuals, those orienting the tool best (within
+/// [`RESIDUAL_TIE_DEG`]), and of those the nearest to `seed`.
+fn choose_oriented(
+    robot: &Robot,
+    candidates: Vec<(Vec<f64>, f64)>,
+    seed: &[f64],
+) -> Option<Vec<f64>> {
+    let best = candidates.iter().map(|c| c.1).fold(f64::INFINITY, f64::min);
+    let close = candidates
+        .into_iter()
+        .filter(|c| c.1 <= best + RESIDUAL_TIE_DEG)
+        .map(|c| c.0);
+    nearest(robot, close, seed)
+}
+
+/// Of `candidates`, the one nearest to `seed` in joint space.
+fn nearest(
+    robot: &Robot,
+    candidates: impl Iterator<Item = Vec<f64>>,
+    seed: &[f64],
+) -> Option<Vec<f64>> {
+    candidates
+        .min_by(|a, b| joint_distance(robot, a, seed).total_cmp(&joint_distance(robot, b, seed)))
+}

@@ -1,0 +1,225 @@
+//! Tool keys into joint values, and straight tool lines into joint samples: the step between
+//! reading a sequence and building its tracks, where the robot is first known. Everything after
+//! it (interpolation, the limit check, retime, playback, simulation) sees joint values only.
+
+use crate::json::InputError;
+use crate::kinematics::{self, line, Solver, ToolTarget};
+use crate::robot::Robot;
+use crate::sequence::{KeyValue, Sequence};
+use glam::DVec3;
+use std::borrow::Cow;
+
+/// What solving a tool key gave, for `check` to report.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ToolKeyReport {
+    /// The key's index in time order, and its name or "#index".
+    pub key: usize,
+    pub label: String,
+    /// Every joint's value at the key, in joint order.
+    pub values: Vec<f64>,
+    /// The orientation left unreached, degrees about the tool's x, y, z (None without `r`).
+    pub residual_deg: Option<DVec3>,
+}
+
+/// A straight tool line from key `key` to the next.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LineReport {
+    pub key: usize,
+    pub label: String,
+    /// Share of the line that can be followed (1 when all of it).
+    pub fraction: f64,
+    /// Why the rest cannot; then the segment is interpolated in joint space instead.
+    pub problem: Option<String>,
+    /// Samples solved along the line (joint order), at `times`.
+    pub samples: Vec<Vec<f64>>,
+    pub times: Vec<f64>,
+}
+
+/// The tool keys and lines of a sequence, solved.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ToolSolve {
+    pub keys: Vec<ToolKeyReport>,
+    pub lines: Vec<LineReport>,
+}
+
+/// The sequence with every tool key's joints solved (borrowed unchanged when it has none), and
+/// what solving found. A target out of reach is an input error naming the key.
+pub fn solve<'a>(
+    sequence: &'a Sequence,
+    robot: &Robot,
+) -> Result<(Cow<'a, Sequence>, ToolSolve), InputError> {
+    let has_tools = sequence
+        .keyframes
+        .iter()
+        .any(|k| k.tool.is_some() || k.line);
+    if !has_tools {
+        return Ok((Cow::Borrowed(sequence), ToolSolve::default()));
+    }
+    let solver = Solver::for_robot(robot);
+    let mut solved = sequence.clone();
+    let mut report = ToolSolve::default();
+    let mut pose = robot.home.clone();
+    let times = sequence.key_times();
+    for index in 0..solved.keyframes.len() {
+        let before = pose.clone();
+        apply_joint_values(robot, &solved, index, &mut pose);
+        let line_in = index > 0 && solved.keyframes[index - 1].line;
+        let followed = if line_in {
+            let line = solve_line_into(robot, &solved, &times, index, &before, &pose);
+            let end = line.samples.last().cloned();
+            report.lines.push(line);
+            end
+        } else {
+            None
+        };
+        if solved.keyframes[index].tool.is_some() {
+            let key_report = match followed {
+                Some(end) => take_line_end(robot, &mut solved, index, end),
+                None => solve_key(&solver, robot, &mut solved, index, &pose)?,
+            };
+            pose.clone_from(&key_report.values);
+            report.keys.push(key_report);
+        }
+    }
+    for line in &mut report.lines {
+        // The last sample is the next key itself, which its own track key holds.
+        line.samples.pop();
+        line.times.pop();
+        solved.keyframes[line.key].interp = Some(crate::curve::Interp::Monotone);
+    }
+    Ok((Cow::Owned(solved), report))
+}
+
+/// A tool key reached along a line takes the line's last sample, so the line ends on the
+/// branch it ran on.
+fn take_line_end(
+    robot: &Robot,
+    sequence: &mut Sequence,
+    index: usize,
+    end: Vec<f64>,
+) -> ToolKeyReport {
+    let key = &mut sequence.keyframes[index];
+    let tool_joints = kinematics::tool_joints(robot);
+    let wanted = key.tool.and_then(|t| t.orientation).map(|o| o.quaternion());
+    for (i, joint) in robot.joints.iter().enumerate() {
+        if tool_joints[i] && key.value(&joint.name).is_none() {
+            key.set(&joint.name, KeyValue::Joint(end[i]));
+        }
+    }
+    ToolKeyReport {
+        key: index,
+        label: key.label(index),
+        residual_deg: wanted
+            .map(|w| kinematics::orientation_residual_deg(robot.tcp_frame(&end).r, w)),
+        values: end,
+    }
+}
+
+/// The key's plain joint values (degrees, metres) over `pose`: what the previous key left.
+fn apply_joint_values(robot: &Robot, sequence: &Sequence, index: usize, pose: &mut [f64]) {
+    for (name, value) in &sequence.keyframes[index].values {
+        if let (Some(i), KeyValue::Joint(v)) = (robot.joint_index(name), value) {
+            pose[i] = *v;
+        }
+    }
+}
+
+/// Solves key `index`'s tool target from `seed` (the previous key's pose with this key's own
+/// joint values, which stay as given) and writes the solved joints into the key.
+fn solve_key(
+    solver: &Solver,
+    robot: &Robot,
+    sequence: &mut Sequence,
+    index: usize,
+    seed: &[f64],
+) -> Result<ToolKeyReport, InputError> {
+    let key = &sequence.keyframes[index];
+    let Some(tool) = key.tool else {
+        unreachable!("solve_key is called for tool keys only");
+    };
+    let held: Vec<bool> = robot
+        .joints
+        .iter()
+        .map(|j| key.value(&j.name).is_some())
+        .collect();
+    let target = ToolTarget {
+        position: tool.xyz,
+        orientation: tool.orientation.map(|o| o.quaternion()),
+    };
+    let label = key.label(index);
+    let solution = solver.solve(robot, &target, seed, &held).map_err(|e| {
+        InputError::at_path(
+            &sequence.file,
+            &format!("{}.tool.xyz", sequence.key_path(index)),
+            format!("key {label}: {e}"),
+        )
+    })?;
+    let tool_joints = kinematics::tool_joints(robot);
+    let key = &mut sequence.keyframes[index];
+    for (i, joint) in robot.joints.iter().enumerate() {
+        if tool_joints[i] && !held[i] {
+            key.set(&joint.name, KeyValue::Joint(solution.values[i]));
+        }
+    }
+    Ok(ToolKeyReport {
+        key: index,
+        label,
+        residual_deg: solution.orientation_residual_deg,
+        values: solution.values,
+    })
+}
+
+/// The line from key `index − 1` (at `from`) to key `index`: to its tool target if it has
+/// one, else to the tool pose of its joints (`to`), solved at the robot's control rate. The
+/// tool moves along it with minimum-jerk timing between the end of the first key's hold and
+/// the second key, so it starts and ends at rest there.
+fn solve_line_into(
+    robot: &Robot,
+    sequence: &Sequence,
+    times: &[f64],
+    index: usize,
+    from: &[f64],
+    to: &[f64],
+) -> LineReport {
+    let first = &sequence.keyframes[index - 1];
+    let end = match sequence.keyframes[index].tool {
+        Some(tool) => ToolTarget {
+            position: tool.xyz,
+            orientation: tool.orientation.map(|o| o.quaternion()),
+        },
+        None => {
+            let frame = robot.tcp_frame(to);
+            ToolTarget::pose(frame.t, frame.r)
+        }
+    };
+    let start = times[index - 1] + first.hold;
+    let span = times[index] - start;
+    let count = ((span * robot.control_hz).ceil() as usize).max(2);
+    let shares: Vec<f64> = (1..=count).map(|k| k as f64 / count as f64).collect();
+    let params: Vec<f64> = shares.iter().map(|&u| minimum_jerk(u)).collect();
+    let label = first.label(index - 1);
+    match line::solve_line(robot, from, &end, to, &params) {
+        Ok(solved) => LineReport {
+            key: index - 1,
+            label,
+            fraction: 1.0,
+            problem: None,
+            samples: solved.samples,
+            times: shares.iter().map(|u| start + u * span).collect(),
+        },
+        Err(e) => LineReport {
+            key: index - 1,
+            label,
+            fraction: e.fraction(),
+            problem: Some(e.to_string()),
+            samples: Vec::new(),
+            times: Vec::new(),
+        },
+    }
+}
+
+/// The minimum-jerk share of the path at the share `u` of the time: 10u³ − 15u⁴ + 6u⁵, at rest
+/// (zero velocity and acceleration) at both ends.
+pub fn minimum_jerk(u: f64) -> f64 {
+    u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
+}
