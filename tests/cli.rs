@@ -625,12 +625,13 @@ fn readme_console_examples() -> Vec<(String, String)> {
     examples
 }
 
-/// Runs a README command line in `dir`: `keypose ARGS [| head -N]  # comment`. What it
-/// printed: standard output, then standard error.
+/// Runs a README command line in `dir`: `keypose ARGS [| head -N | sed -n 'Np;A,Bp']
+/// # comment`. What it printed: standard output (the lines the filter keeps), then standard
+/// error.
 fn run_readme_command(command: &str, dir: &Path) -> String {
     let command = command.split(" #").next().unwrap();
-    let (command, head) = match command.split_once(" | head -") {
-        Some((command, n)) => (command, Some(n.trim().parse::<usize>().unwrap())),
+    let (command, filter) = match command.split_once(" | ") {
+        Some((command, filter)) => (command, Some(filter.trim())),
         None => (command, None),
     };
     let args: Vec<&str> = command.split_whitespace().collect();
@@ -641,11 +642,30 @@ fn run_readme_command(command: &str, dir: &Path) -> String {
         .output()
         .unwrap();
     let stdout = common::stdout(&out);
-    let stdout: String = match head {
-        Some(n) => stdout.lines().take(n).map(|l| format!("{l}\n")).collect(),
-        None => stdout,
-    };
-    stdout + &common::stderr(&out)
+    let kept: String = stdout
+        .lines()
+        .enumerate()
+        .filter(|(i, _)| filter.is_none_or(|f| line_kept(f, i + 1)))
+        .map(|(_, l)| format!("{l}\n"))
+        .collect();
+    kept + &common::stderr(&out)
+}
+
+/// Whether the README's filter (`head -N`, or `sed -n` with `Np` and `A,Bp` parts) prints
+/// line `n` (from 1).
+fn line_kept(filter: &str, n: usize) -> bool {
+    if let Some(count) = filter.strip_prefix("head -") {
+        return n <= count.parse::<usize>().unwrap();
+    }
+    let spec = filter
+        .strip_prefix("sed -n '")
+        .and_then(|s| s.strip_suffix('\''))
+        .unwrap_or_else(|| panic!("a filter the README runner knows: {filter}"));
+    spec.split(';').any(|part| {
+        let range = part.strip_suffix('p').expect("sed -n parts end in p");
+        let (first, last) = range.split_once(',').unwrap_or((range, range));
+        (first.parse().unwrap()..=last.parse().unwrap()).contains(&n)
+    })
 }
 
 #[test]
@@ -658,9 +678,10 @@ fn the_readme_console_examples_print_what_the_commands_print() {
     let mut compared = Vec::new();
     for (command, expected) in readme_console_examples() {
         let verb = command.split_whitespace().nth(1).unwrap_or_default();
-        // Those need servos, MuJoCo or a playback log: not run here (tests/pose_cli.rs
-        // compares the `pose` sample).
-        if ["play", "plot", "sim", "pose"].contains(&verb) {
+        // Those need servos, MuJoCo, a playback log, a browser or a dataset: not run here
+        // (tests/pose_cli.rs compares the `pose` sample; tests/studio.rs, lerobot_import.rs
+        // and export_cli.rs run the others).
+        if ["play", "plot", "sim", "pose", "studio", "import", "export"].contains(&verb) {
             continue;
         }
         let printed = run_readme_command(&command, dir.path());
@@ -674,7 +695,7 @@ fn the_readme_console_examples_print_what_the_commands_print() {
         );
         compared.push(verb.to_string());
     }
-    assert_eq!(compared, ["check", "check", "sample", "retime"]);
+    assert_eq!(compared, ["check", "check", "sample", "sample", "retime"]);
 }
 
 #[test]
