@@ -11,7 +11,9 @@ use keypose::bus::virtual_bus::VirtualBus;
 use keypose::bus::ServoBus;
 use keypose::pacing::Clock;
 use keypose::plan::Trajectory;
-use keypose::player::{play, play_with_clock, Outcome, PlayError, PlayOptions, StopSignal};
+use keypose::player::{
+    play, play_with_clock, Outcome, PlayError, PlayOptions, ServoProfileError, StopSignal,
+};
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
 use std::sync::Mutex;
@@ -197,5 +199,37 @@ fn a_stop_request_ends_playback_with_the_old_values_back() {
     assert_eq!(
         bus.read_setting(&ids, Setting::Acceleration).unwrap(),
         vec![200; 6]
+    );
+}
+
+/// A Dynamixel servo in the time-based profile (Drive_Mode bit 2, value 4, as ROBOTIS sets up
+/// the OpenMANIPULATOR-X) takes Profile_Velocity and Profile_Acceleration as milliseconds: the
+/// limits would become move times. The playback is refused before anything is written.
+#[test]
+fn a_dynamixel_servo_in_the_time_based_profile_is_refused_and_nothing_is_written() {
+    let robot = Robot::builtin("koch").unwrap();
+    let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
+    // Drive_Mode (address 10) is in EEPROM: written while the torque is off, as at rest.
+    virtual_bus.lock().servos[2].set("Drive_Mode", 4).unwrap();
+    let mut options = PlayOptions::new(100.0);
+    options.servo_profile = true;
+    let played = play(
+        &mut bus,
+        &robot,
+        &trajectory(&robot),
+        &options,
+        &StopSignal::default(),
+    );
+    match played {
+        Err(PlayError::ServoProfile(ServoProfileError::TimeBased {
+            servo, drive_mode, ..
+        })) => assert_eq!((servo, drive_mode), (3, 4)),
+        other => panic!("{other:?}"),
+    }
+    assert!(sync_writes_to(&virtual_bus, 112, true).is_empty());
+    assert!(sync_writes_to(&virtual_bus, 108, true).is_empty());
+    assert!(
+        virtual_bus.lock().goals_received().is_empty(),
+        "nothing moved"
     );
 }

@@ -27,6 +27,9 @@ pub enum Setting {
     ProfileAcceleration,
     /// Dynamixel Profile_Velocity.
     ProfileVelocity,
+    /// Dynamixel Drive_Mode: only read, to tell which profile the servo runs (see
+    /// [`time_based`]); never written.
+    DriveMode,
 }
 
 impl Setting {
@@ -36,6 +39,7 @@ impl Setting {
             Setting::Acceleration => table.acceleration,
             Setting::ProfileAcceleration => table.profile_acceleration,
             Setting::ProfileVelocity => table.profile_velocity,
+            Setting::DriveMode => table.drive_mode,
         }
     }
 
@@ -44,8 +48,19 @@ impl Setting {
             Setting::Acceleration => "Acceleration",
             Setting::ProfileAcceleration => "Profile_Acceleration",
             Setting::ProfileVelocity => "Profile_Velocity",
+            Setting::DriveMode => "Drive_Mode",
         }
     }
+}
+
+/// Drive_Mode bit 2: the time-based profile (e-Manual, Drive Mode).
+const DRIVE_MODE_TIME_BASED: i64 = 1 << 2;
+
+/// Whether a Dynamixel Drive_Mode value selects the time-based profile, in which
+/// Profile_Acceleration and Profile_Velocity are durations in milliseconds: the joint limits
+/// written in the velocity-based units would then mean a move time, not a bound.
+pub fn time_based(drive_mode: i64) -> bool {
+    drive_mode & DRIVE_MODE_TIME_BASED != 0
 }
 
 /// Servo steps (ticks) per revolution of the supported models.
@@ -135,6 +150,7 @@ pub fn applied_limits(joint: &Joint) -> Result<(f64, Option<f64>), ProfileError>
             Setting::ProfileVelocity => {
                 velocity = Some(value as f64 * dxl_velocity_unit() * per_tick)
             }
+            Setting::DriveMode => {}
         }
     }
     Ok((acceleration, velocity))

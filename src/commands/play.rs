@@ -290,9 +290,11 @@ fn conclude(
             ))
         }
         Err(e @ PlayError::Log { .. }) => Err(CommandError::Usage(e.to_string())),
-        Err(e @ PlayError::ServoProfile(player::ServoProfileError::Units(_))) => {
-            Err(CommandError::Usage(e.to_string()))
-        }
+        Err(
+            e @ PlayError::ServoProfile(
+                player::ServoProfileError::Units(_) | player::ServoProfileError::TimeBased { .. },
+            ),
+        ) => Err(CommandError::Usage(e.to_string())),
         Err(e) => Err(CommandError::Play(e)),
     }
 }

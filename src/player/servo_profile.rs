@@ -6,9 +6,9 @@
 //! remembered values when told to ([`ProfileGuard::restore`], which reports a failure) or,
 //! failing that, when dropped: after an error return or a panic too.
 
-use crate::bus::profile::{settings_for, ProfileError, Setting};
+use crate::bus::profile::{settings_for, time_based, ProfileError, Setting};
 use crate::bus::{BusError, ServoBus};
-use crate::robot::Robot;
+use crate::robot::{Robot, Vendor};
 
 /// One profile register's values, (id, value) per servo: the values found before playback, or
 /// the ones to write.
@@ -26,6 +26,17 @@ pub enum ServoProfileError {
     /// A joint limit the servo's register cannot express (nothing was written).
     #[error(transparent)]
     Units(#[from] ProfileError),
+    /// A Dynamixel servo set to the time-based profile (nothing was written).
+    #[error(
+        "--servo-profile: servo {servo} (joint {joint}) runs the time-based profile (Drive_Mode \
+         {drive_mode}, bit 2 set), where the profile registers hold milliseconds, not the \
+         joint's limits; clear the bit or play without --servo-profile; nothing was written"
+    )]
+    TimeBased {
+        joint: String,
+        servo: u8,
+        drive_mode: i64,
+    },
     #[error("--servo-profile: {0}")]
     Setup(#[from] BusError),
     #[error("--servo-profile: the servos' previous profile could not be restored: {0}")]
@@ -41,6 +52,7 @@ impl<'a> ProfileGuard<'a> {
         robot: &Robot,
     ) -> Result<ProfileGuard<'a>, ServoProfileError> {
         let wanted = wanted_settings(robot)?;
+        refuse_time_based(bus, robot)?;
         let mut guard = ProfileGuard {
             bus,
             saved: Vec::new(),
@@ -81,6 +93,30 @@ impl Drop for ProfileGuard<'_> {
                 eprintln!("warning: --servo-profile: the servos' previous profile could not be restored: {e}");
             }
         }
+    }
+}
+
+/// Refuses a Dynamixel servo whose Drive_Mode selects the time-based profile (as ROBOTIS's
+/// OpenMANIPULATOR-X set-up does): the limits, in velocity-based units, would be taken as move
+/// times there.
+fn refuse_time_based(bus: &mut dyn ServoBus, robot: &Robot) -> Result<(), ServoProfileError> {
+    let joints: Vec<_> = robot
+        .joints
+        .iter()
+        .filter(|j| j.servo.model.vendor() == Vendor::Dynamixel)
+        .collect();
+    if joints.is_empty() {
+        return Ok(());
+    }
+    let ids: Vec<u8> = joints.iter().map(|j| j.servo.id).collect();
+    let modes = bus.read_setting(&ids, Setting::DriveMode)?;
+    match joints.iter().zip(modes).find(|(_, mode)| time_based(*mode)) {
+        Some((joint, drive_mode)) => Err(ServoProfileError::TimeBased {
+            joint: joint.name.clone(),
+            servo: joint.servo.id,
+            drive_mode,
+        }),
+        None => Ok(()),
     }
 }
 
