@@ -180,6 +180,7 @@ try {
   await a.evaluate(() => window.studio.sent());
   results.dragTargets = await a.evaluate(() => window.studio.targets.slice());
   results.dragGoals = (await state()).joints.map(j => j.goal);
+  results.toolTargetMs = results.dragTargets.map(t => t.ms);
   await a.evaluate(() => window.studio.moveTool([1, 0, 0.1]));
   await a.evaluate(() => window.studio.targetsDone());
   results.farTarget = await a.evaluate(() => window.studio.targets.at(-1));
@@ -248,7 +249,7 @@ const summary = xs => {
   const at = q => Math.round(s[Math.min(s.length - 1, Math.floor(q * s.length))]);
   return s.length ? { n: s.length, median: at(0.5), p90: at(0.9), max: at(1) } : null;
 };
-results.summary = Object.fromEntries(['jogToFrameMs', 'playSnapshotIntervalsMs', 'playSnapshotToArrivalMs', 'playSnapshotToFrameMs']
+results.summary = Object.fromEntries(['jogToFrameMs', 'toolTargetMs', 'playSnapshotIntervalsMs', 'playSnapshotToArrivalMs', 'playSnapshotToFrameMs']
   .map(k => [k, summary(results[k] || [])]));
 writeFileSync(join(artifacts, 'results.json'), JSON.stringify(results, null, 1));
 console.log(JSON.stringify(results));
