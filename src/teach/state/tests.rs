@@ -947,6 +947,13 @@ fn a_reachable_tool_target_moves_the_tool_there() {
     let tool = state.robot().tcp_position(state.goals());
     let asked = glam::DVec3::from_array(target.map(|um| um as f64 * 1e-6));
     assert!(tool.distance(asked) < 0.0001, "{tool:?} vs {asked:?}");
+    let shown = format!(
+        "tool → ({:.1}, {:.1}, {:.1} mm)",
+        target[0] as f64 / 1000.0,
+        target[1] as f64 / 1000.0,
+        target[2] as f64 / 1000.0
+    );
+    assert_eq!(state.status().text, shown);
     assert_eq!(state.goals()[5], gripper);
 }
 
