@@ -266,23 +266,27 @@ let nextTarget = null, targeting = null;
 
 function moveTool(position) {
   nextTarget = position;
-  if (!targeting) targeting = sendTargets().finally(() => { targeting = null; });
+  targeting = targeting || sendTargets();
 }
 
 async function sendTargets() {
-  while (nextTarget) {
-    const mm = nextTarget.map(v => (v * 1000).toFixed(1)).join(',');
-    nextTarget = null;
-    const started = performance.now();
-    const { ok, answer } = await post({ key: `tool-target:${mm}` });
-    const refused = !ok || answer.status.error;
-    // How long the server took to solve, check and ramp it (for the README's figures).
-    const ms = performance.now() - started;
-    studio.targets.push({ mm, refused, ms, text: ok ? answer.status.text : answer.error });
-    if (studio.targets.length > 200) studio.targets.shift();
-    if (studio.handle) studio.handle.setRefused(refused);
-    const rest = TARGET_MS - ms;
-    if (rest > 0) await new Promise(resolve => setTimeout(resolve, rest));
+  try {
+    while (nextTarget) {
+      const mm = nextTarget.map(v => (v * 1000).toFixed(1)).join(',');
+      nextTarget = null;
+      const started = performance.now();
+      const { ok, answer } = await post({ key: `tool-target:${mm}` });
+      const refused = !ok || answer.status.error;
+      // How long the server took to solve, check and ramp it (for the README's figures).
+      const ms = performance.now() - started;
+      studio.targets.push({ mm, refused, ms, text: ok ? answer.status.text : answer.error });
+      if (studio.targets.length > 200) studio.targets.shift();
+      if (studio.handle) studio.handle.setRefused(refused);
+      if (ms < TARGET_MS) await new Promise(resolve => setTimeout(resolve, TARGET_MS - ms));
+    }
+  } finally {
+    // No await since the loop's test: a target asked for from here on starts a new loop.
+    targeting = null;
   }
 }
 
