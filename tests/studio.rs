@@ -148,11 +148,17 @@ fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
     let times: Vec<f64> = serde_json::from_value(results["keyTimes"].clone()).unwrap();
     assert_eq!(times, [0.0, 3.0]);
     assert_eq!(results["timelineJoints"], json!(6));
+    tool_handle_followed_the_drag(&results);
     for refused in ["noToken", "noTokenPage", "foreignOrigin", "reboundHost"] {
         assert_eq!(results[refused], json!(403), "{refused}");
     }
     assert_eq!(results["withToken"], json!(200));
     assert_eq!(results["secondControls"], json!(false));
+    assert_eq!(
+        results["secondHandleShown"],
+        json!(false),
+        "a watcher cannot drag"
+    );
     assert_eq!(results["secondKeyAccepted"], json!(false));
     assert!(results["secondRefusal"]
         .as_str()
@@ -167,6 +173,49 @@ fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
             .contains("decelerated"),
         "{results}"
     );
+}
+
+/// The tool handle's drag (by the mouse, through three's gizmo): several targets sent, every
+/// one taken, and the goals they left put the tool — by keypose's forward kinematics of the
+/// SO-101 description, not the solver — on the last one, within 0.1 mm, away from where the
+/// drag began. The target a metre out (the arm's links add up to well under half a metre) is
+/// refused with the miss and the nearest point, the handle red and the goals unchanged.
+fn tool_handle_followed_the_drag(results: &Value) {
+    let robot = keypose::robot::Robot::builtin("so101").unwrap();
+    let targets = results["dragTargets"].as_array().unwrap();
+    assert!(targets.len() >= 2, "the drag sent {targets:?}");
+    assert!(
+        targets.iter().all(|t| t["refused"] == json!(false)),
+        "{targets:?}"
+    );
+    let mm = |text: &Value| -> glam::DVec3 {
+        let v: Vec<f64> = text
+            .as_str()
+            .unwrap()
+            .split(',')
+            .map(|x| x.parse().unwrap())
+            .collect();
+        glam::DVec3::new(v[0], v[1], v[2]) / 1000.0
+    };
+    let last = mm(&targets.last().unwrap()["mm"]);
+    let goals: Vec<f64> = serde_json::from_value(results["dragGoals"].clone()).unwrap();
+    let tool = robot.tcp_position(&goals);
+    assert!(tool.distance(last) < 0.0001, "{tool:?} vs {last:?}");
+    let start: Vec<f64> = serde_json::from_value(results["handleStart"].clone()).unwrap();
+    let moved = tool.distance(glam::DVec3::from_slice(&start));
+    assert!(moved > 0.005, "the drag moved the tool {moved} m");
+
+    let far = &results["farTarget"];
+    assert_eq!(far["mm"], json!("1000.0,0.0,100.0"));
+    assert_eq!(far["refused"], json!(true));
+    let text = far["text"].as_str().unwrap();
+    assert!(
+        text.contains("cannot reach") && text.contains("nearest reachable point"),
+        "{text}"
+    );
+    assert_eq!(results["farHandleRed"], json!(true));
+    assert_eq!(results["farStatus"]["error"], json!(true));
+    assert_eq!(results["farGoals"], results["dragGoals"], "the arm stays");
 }
 
 /// No browser needed: without `--port` the studio does not start (exit 2, saying why), and

@@ -8,6 +8,7 @@ const FILES: &[(&str, &str, &[u8])] = &[
     ("/app.js", JS, include_bytes!("web/app.js")),
     ("/view3d.js", JS, include_bytes!("web/view3d.js")),
     ("/timeline.js", JS, include_bytes!("web/timeline.js")),
+    ("/handle.js", JS, include_bytes!("web/handle.js")),
     (
         "/style.css",
         "text/css; charset=utf-8",
@@ -27,6 +28,11 @@ const FILES: &[(&str, &str, &[u8])] = &[
         "/vendor/three/OrbitControls.js",
         JS,
         include_bytes!("web/vendor/three/OrbitControls.js"),
+    ),
+    (
+        "/vendor/three/TransformControls.js",
+        JS,
+        include_bytes!("web/vendor/three/TransformControls.js"),
     ),
     (
         "/vendor/three/LICENSE",

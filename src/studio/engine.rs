@@ -189,6 +189,9 @@ pub fn run(
         match inputs.recv_timeout(timeout) {
             Ok(Input::Action { action, reply }) => {
                 act(state, session, action);
+                // Published before the answer: whoever asks for the state once answered
+                // sees what the action did.
+                hub.publish(state, &bus);
                 let _ = reply.send(serde_json::json!({
                     "text": state.status().text,
                     "error": state.status().error,
@@ -266,7 +269,8 @@ fn interrupt(state: &mut TeachState, session: &mut Session) {
 }
 
 /// A key of the page, in the tokens of a `--keys` script (`space`, `shift-left`, `u`, …)
-/// plus the page's own: `select-key:N`, `select-joint:N` and `key-time:MS`. The script's
+/// plus the page's own: `select-key:N`, `select-joint:N`, `key-time:MS` and
+/// `tool-target:X,Y,Z` (the tool handle, millimetres in the base frame). The script's
 /// `import:`, `write:` and `wait:` are refused: the page imports through the `i` prompt, and
 /// writes where the session writes.
 pub fn parse_key(token: &str) -> Result<Key, String> {
@@ -283,12 +287,30 @@ pub fn parse_key(token: &str) -> Result<Key, String> {
     if let Some(rest) = token.strip_prefix("key-time:") {
         return number(rest, "a time in whole milliseconds").map(Key::KeyTime);
     }
+    if let Some(rest) = token.strip_prefix("tool-target:") {
+        return tool_target(rest).ok_or_else(|| {
+            format!("{token:?}: expected three numbers in millimetres, X,Y,Z, after the colon")
+        });
+    }
     match teach::keys::parse_token(token)? {
         teach::keys::Step::Key(Key::Import(_) | Key::Write(_)) | teach::keys::Step::Wait(_) => {
             Err(format!("{token:?} is for --keys scripts, not the page"))
         }
         teach::keys::Step::Key(key) => Ok(key),
     }
+}
+
+/// `X,Y,Z` in millimetres as a [`Key::ToolTarget`] in whole micrometres; ten metres or more
+/// from the base is no arm's (and keeps the conversion far from overflowing).
+fn tool_target(text: &str) -> Option<Key> {
+    let mm: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>().ok().filter(|v| v.abs() < 10_000.0))
+        .collect::<Option<_>>()?;
+    let [x, y, z] = mm[..] else { return None };
+    Some(Key::ToolTarget(
+        [x, y, z].map(|v| (v * 1000.0).round() as i64),
+    ))
 }
 
 #[cfg(test)]
@@ -309,5 +331,12 @@ mod tests {
         assert!(parse_key("import:x.json").is_err());
         assert!(parse_key("wait:1s").is_err());
         assert!(parse_key("jump").is_err());
+        assert_eq!(
+            parse_key("tool-target:250.5,-10,0.0004"),
+            Ok(Key::ToolTarget([250_500, -10_000, 0]))
+        );
+        for bad in ["1,2", "1,2,3,4", "a,2,3", "1,2,NaN", "1,2,1e9", ""] {
+            assert!(parse_key(&format!("tool-target:{bad}")).is_err(), "{bad}");
+        }
     }
 }

@@ -230,6 +230,7 @@ impl TeachState {
             Key::Char('C') => self.jog_tool(1, -1.0),
             Key::Char('z') => self.jog_tool(2, 1.0),
             Key::Char('Z') => self.jog_tool(2, -1.0),
+            Key::ToolTarget(micrometres) => self.move_tool_to(micrometres),
             Key::Char('t') => self.toggle_torque(false),
             Key::Char('T') => self.toggle_torque(true),
             Key::SelectKey(index) => self.select_key(index),

@@ -163,6 +163,32 @@ try {
   results.jogToFrameMs = jogs;
   results.loadMs = await a.evaluate(() => window.studio.loadMs);
 
+  // ----- the tool handle: dragged by the mouse (the gizmo's centre, in small steps, as a
+  // hand would), then a target a metre out, which the server refuses -----
+  // The state as the server has it once the last answer came (the stream may lag behind).
+  const state = async () => JSON.parse((await raw('/api/state', { Host: target.host, 'X-Keypose-Token': token })).body);
+  results.handleStart = (await state()).tcp;
+  const at = await a.evaluate(() => window.studio.handle.screenPosition());
+  await a.mouse.move(at.x, at.y);
+  await a.mouse.down();
+  for (let i = 1; i <= 12; i++) {
+    await a.mouse.move(at.x + 2 * i, at.y + 2 * i);
+    await a.waitForTimeout(60);
+  }
+  await a.mouse.up();
+  await a.evaluate(() => window.studio.targetsDone());
+  await a.evaluate(() => window.studio.sent());
+  results.dragTargets = await a.evaluate(() => window.studio.targets.slice());
+  results.dragGoals = (await state()).joints.map(j => j.goal);
+  results.toolTargetMs = results.dragTargets.map(t => t.ms);
+  await a.evaluate(() => window.studio.moveTool([1, 0, 0.1]));
+  await a.evaluate(() => window.studio.targetsDone());
+  results.farTarget = await a.evaluate(() => window.studio.targets.at(-1));
+  results.farHandleRed = await a.evaluate(() => window.studio.handle.refused);
+  const far = await state();
+  results.farGoals = far.joints.map(j => j.goal);
+  results.farStatus = far.status;
+
   // ----- refusals: no token, a foreign Origin, a rebound Host -----
   const host = target.host;
   results.noToken = (await raw('/api/state', { Host: host })).status;
@@ -182,6 +208,7 @@ try {
   await b.goto(url);
   await b.waitForFunction(() => window.studio && window.studio.snapshot && window.studio.view);
   results.secondControls = await b.evaluate(() => window.studio.controller);
+  results.secondHandleShown = await b.evaluate(() => window.studio.handle.gizmo.enabled);
   results.secondKeyAccepted = await b.evaluate(() => window.studio.press('n'));
   results.secondRefusal = await b.evaluate(() => window.studio.refusals.at(-1));
   results.keysAfterRefusal = (await snapshot()).keys.length;
@@ -222,7 +249,7 @@ const summary = xs => {
   const at = q => Math.round(s[Math.min(s.length - 1, Math.floor(q * s.length))]);
   return s.length ? { n: s.length, median: at(0.5), p90: at(0.9), max: at(1) } : null;
 };
-results.summary = Object.fromEntries(['jogToFrameMs', 'playSnapshotIntervalsMs', 'playSnapshotToArrivalMs', 'playSnapshotToFrameMs']
+results.summary = Object.fromEntries(['jogToFrameMs', 'toolTargetMs', 'playSnapshotIntervalsMs', 'playSnapshotToArrivalMs', 'playSnapshotToFrameMs']
   .map(k => [k, summary(results[k] || [])]));
 writeFileSync(join(artifacts, 'results.json'), JSON.stringify(results, null, 1));
 console.log(JSON.stringify(results));

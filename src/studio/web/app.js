@@ -2,6 +2,7 @@
 // `keypose teach` takes. Every rule is the server's; this page only draws and asks.
 import { ArmView } from '/view3d.js';
 import { Timeline } from '/timeline.js';
+import { ToolHandle } from '/handle.js';
 
 const token = new URLSearchParams(location.search).get('token') || '';
 const client = Array.from(crypto.getRandomValues(new Uint8Array(12)), b => b.toString(16).padStart(2, '0')).join('');
@@ -12,7 +13,10 @@ const HEARTBEAT_MS = 700;
 // What the page knows; exposed for the browser test and the latency figures.
 const studio = window.studio = {
   snapshot: null, controller: false, refusals: [], latencies: [], arrivals: [], loadMs: null, view: null,
-  send, press: key => send({ key }),
+  handle: null, targets: [],
+  send, press: key => send({ key }), moveTool,
+  // Resolves once the tool targets asked for so far have been answered.
+  targetsDone: () => targeting || Promise.resolve(),
   // Resolves once every key sent so far has been answered.
   sent: () => queue,
 };
@@ -26,19 +30,24 @@ async function api(path, body) {
 // Keys go one after another, as typed: each waits for the answer to the one before, so
 // that two quick presses never overtake each other on their way to the server.
 let queue = Promise.resolve();
-function send(body) {
-  const sent = queue.then(() => sendNow(body));
+function post(body) {
+  const sent = queue.then(() => postNow(body));
   queue = sent.catch(() => {});
   return sent;
 }
 
-async function sendNow(body) {
-  const { ok, answer } = await api('/api/key', body);
-  if (!ok) {
-    studio.refusals.push(answer.error);
-    showStatus(answer.error || 'refused', true);
+// Whether the server took the key.
+function send(body) {
+  return post(body).then(r => r.ok);
+}
+
+async function postNow(body) {
+  const reply = await api('/api/key', body);
+  if (!reply.ok) {
+    studio.refusals.push(reply.answer.error);
+    showStatus(reply.answer.error || 'refused', true);
   }
-  return ok;
+  return reply;
 }
 
 function showStatus(text, error) {
@@ -60,6 +69,7 @@ function setController(on, reason) {
   $('control').className = 'badge ' + (on ? 'controller' : 'watcher');
   $('control').title = reason || '';
   $('take').hidden = on;
+  if (studio.handle) studio.handle.setEnabled(on);
   if (!on && reason) showStatus(reason, true);
 }
 
@@ -134,6 +144,7 @@ function render(s) {
     const key = s.current !== null ? s.keys[s.current] : null;
     const ghost = ghostOverride || (key && $('ghost').checked ? key.values : null);
     studio.view.setGhost(ghost);
+    if (studio.handle) studio.handle.follow();
   }
 }
 
@@ -246,6 +257,39 @@ function replay(trace) {
   requestAnimationFrame(step);
 }
 
+// ----- the tool handle: dragged, the joints follow (solved and checked in Rust) -----
+
+// At most 20 targets a second, one at a time: a target not yet sent gives way to a newer one,
+// so a fast drag never queues up moves the arm would make long after the mouse stopped.
+const TARGET_MS = 50;
+let nextTarget = null, targeting = null;
+
+function moveTool(position) {
+  nextTarget = position;
+  targeting = targeting || sendTargets();
+}
+
+async function sendTargets() {
+  try {
+    while (nextTarget) {
+      const mm = nextTarget.map(v => (v * 1000).toFixed(1)).join(',');
+      nextTarget = null;
+      const started = performance.now();
+      const { ok, answer } = await post({ key: `tool-target:${mm}` });
+      const refused = !ok || answer.status.error;
+      // How long the server took to solve, check and ramp it (for the README's figures).
+      const ms = performance.now() - started;
+      studio.targets.push({ mm, refused, ms, text: ok ? answer.status.text : answer.error });
+      if (studio.targets.length > 200) studio.targets.shift();
+      if (studio.handle) studio.handle.setRefused(refused);
+      if (ms < TARGET_MS) await new Promise(resolve => setTimeout(resolve, TARGET_MS - ms));
+    }
+  } finally {
+    // No await since the loop's test: a target asked for from here on starts a new loop.
+    targeting = null;
+  }
+}
+
 // ----- start: the robot, then the stream -----
 
 async function start() {
@@ -254,6 +298,7 @@ async function start() {
   studio.model = model;
   studio.view = new ArmView($('view'), model);
   $('axes').onchange = e => studio.view.showAxes(e.target.checked);
+  if (model.tcp) studio.handle = new ToolHandle(studio.view, moveTool);
   await claim();
   const events = new EventSource(`/api/events?token=${encodeURIComponent(token)}&client=${client}`);
   events.onmessage = e => {

@@ -57,9 +57,17 @@ impl TeachState {
         for &(j, v) in &goals {
             self.goals[j] = v;
         }
-        if let Some(&(j, v)) = goals.last() {
-            let joint = &self.robot.joints[j];
-            self.info(format!("{} → {}", joint.name, format::value(joint, v)));
+        match goals[..] {
+            [] => {}
+            [(j, v)] => {
+                let joint = &self.robot.joints[j];
+                self.info(format!("{} → {}", joint.name, format::value(joint, v)));
+            }
+            // Several joints at once: the tool moved (a tool jog or target).
+            _ => {
+                let tool = self.robot.tcp_position(&self.goals);
+                self.info(format!("tool → ({})", crate::kinematics::mm3(tool)));
+            }
         }
     }
 

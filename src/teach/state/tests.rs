@@ -908,3 +908,101 @@ fn a_tool_key_captures_the_present_tool_pose() {
         .tcp_position(&trajectory.sample(trajectory.start));
     assert!(solved.distance(tool.xyz) < 1e-6, "{solved:?}");
 }
+
+/// The bent pose of the tool-jog tests (lift −30°, elbow +30°): away from the stretched,
+/// singular home.
+fn bent(dir: &Path) -> TeachState {
+    let mut state = session(dir);
+    press_all(
+        &mut state,
+        &[Key::Down, Key::ShiftLeft, Key::ShiftLeft, Key::ShiftLeft],
+    );
+    press_all(
+        &mut state,
+        &[Key::Down, Key::ShiftRight, Key::ShiftRight, Key::ShiftRight],
+    );
+    state
+}
+
+/// A tool target in whole micrometres, `offset` metres from where the goals put the tool.
+fn target_from_tool(state: &TeachState, offset: glam::DVec3) -> [i64; 3] {
+    let p = state.robot().tcp_position(state.goals()) + offset;
+    p.to_array().map(|x| (x * 1e6).round() as i64)
+}
+
+/// The studio's tool handle: a target 12 mm away (x +8, y −6, z +7 mm) moves the goals so that
+/// the forward kinematics puts the tool on it, and the gripper stays.
+#[test]
+fn a_reachable_tool_target_moves_the_tool_there() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = bent(dir.path());
+    let gripper = state.goals()[5];
+    let target = target_from_tool(&state, glam::DVec3::new(0.008, -0.006, 0.007));
+    let commands = press(&mut state, Key::ToolTarget(target));
+    assert!(
+        matches!(&commands[..], [Command::Bus(BusCommand::Goals(_))]),
+        "{commands:?} {:?}",
+        state.status()
+    );
+    let tool = state.robot().tcp_position(state.goals());
+    let asked = glam::DVec3::from_array(target.map(|um| um as f64 * 1e-6));
+    assert!(tool.distance(asked) < 0.0001, "{tool:?} vs {asked:?}");
+    let shown = format!(
+        "tool → ({:.1}, {:.1}, {:.1} mm)",
+        target[0] as f64 / 1000.0,
+        target[1] as f64 / 1000.0,
+        target[2] as f64 / 1000.0
+    );
+    assert_eq!(state.status().text, shown);
+    assert_eq!(state.goals()[5], gripper);
+}
+
+/// A target a metre out (the SO-101's links from the shoulder to the tool add up to well under
+/// half a metre) is refused with the miss and the nearest point, and the goals stay.
+#[test]
+fn an_unreachable_tool_target_is_refused_and_the_arm_stays() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = bent(dir.path());
+    let before = state.goals().to_vec();
+    let commands = press(&mut state, Key::ToolTarget([1_000_000, 0, 100_000]));
+    assert!(commands.is_empty(), "{commands:?}");
+    let status = state.status();
+    assert!(status.error, "{status:?}");
+    assert!(
+        status
+            .text
+            .starts_with("tool target: the tool cannot reach (1000.0, 0.0, 100.0 mm)")
+            && status.text.contains("nearest reachable point"),
+        "{status:?}"
+    );
+    let miss: f64 = status
+        .text
+        .split("misses by ")
+        .nth(1)
+        .unwrap()
+        .split(" mm")
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(miss > 500.0, "{status:?}");
+    assert_eq!(state.goals(), before.as_slice());
+}
+
+/// A target 15 cm to the side is reachable, but with the tool 0.33 m out the pan alone would
+/// turn by atan(0.15 / 0.33) ≈ 24° at once: refused as a jump, the goals unchanged.
+#[test]
+fn a_tool_target_that_needs_a_joint_jump_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = bent(dir.path());
+    let before = state.goals().to_vec();
+    let target = target_from_tool(&state, glam::DVec3::new(0.0, 0.15, 0.0));
+    let commands = press(&mut state, Key::ToolTarget(target));
+    assert!(commands.is_empty(), "{commands:?}");
+    let status = state.status();
+    assert!(
+        status.error && status.text.contains("shoulder_pan would jump"),
+        "{status:?}"
+    );
+    assert_eq!(state.goals(), before.as_slice());
+}

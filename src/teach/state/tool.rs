@@ -1,6 +1,7 @@
-//! The tool in teaching: jogging it (a step of the tool point along a base axis, solved into
-//! joint goals by the robot's inverse kinematics from the present goals, so the arm stays on
-//! its branch) and capturing the present pose as a tool key.
+//! The tool in teaching: moving it — a jog (a step of the tool point along a base axis) or a
+//! target (the studio's tool handle, dragged) — solved into joint goals by the robot's inverse
+//! kinematics from the present goals, so the arm stays on its branch; and capturing the
+//! present pose as a tool key.
 
 use super::*;
 use crate::kinematics::{line::JOINT_JUMP_DEG, tool_joints, Solver, ToolTarget};
@@ -46,27 +47,42 @@ impl TeachState {
     }
 
     /// Moves the tool point [`TOOL_JOG_M`] along base axis `axis` (0 x, 1 y, 2 z) by `sign`.
-    /// Refused while moving, with a tool joint limp, out of reach, or when the step would need
-    /// any joint to move more than [`JOINT_JUMP_DEG`] (near a singularity).
     pub(super) fn jog_tool(&mut self, axis: usize, sign: f64) -> Vec<Command> {
+        let mut step = DVec3::ZERO;
+        step[axis] = sign * TOOL_JOG_M;
+        let target = self.robot.tcp_position(&self.goals) + step;
+        self.reach_tool("tool jog", target)
+    }
+
+    /// Moves the tool point to `micrometres` (base frame): the studio's tool handle, dragged.
+    /// Checked exactly as a jog; a refused target leaves the arm where it is.
+    pub(super) fn move_tool_to(&mut self, micrometres: [i64; 3]) -> Vec<Command> {
+        let target = DVec3::from_array(micrometres.map(|um| um as f64 * 1e-6));
+        self.reach_tool("tool target", target)
+    }
+
+    /// Goals that put the tool point at `target`, solved from the present goals (so the arm
+    /// stays on its branch) with the joints that do not move the tool held. Refused while
+    /// moving, with a tool joint limp, out of reach (saying by how much and the nearest
+    /// reachable point), or when any joint would move more than [`JOINT_JUMP_DEG`] (near a
+    /// singularity); the session ramps the accepted goals as it ramps every jog.
+    fn reach_tool(&mut self, what: &str, target: DVec3) -> Vec<Command> {
         if let Some(refused) = self.refuse_while_moving() {
             return refused;
         }
         let moving = tool_joints(&self.robot);
         if let Some(limp) = (0..moving.len()).find(|&j| moving[j] && !self.torque[j]) {
             return self.fail(format!(
-                "{} is limp (torque off): T holds every joint for jogging the tool",
+                "{} is limp (torque off): T holds every joint for moving the tool",
                 self.robot.joints[limp].name
             ));
         }
-        let mut step = DVec3::ZERO;
-        step[axis] = sign * TOOL_JOG_M;
-        let target = ToolTarget::position(self.robot.tcp_position(&self.goals) + step);
         let held: Vec<bool> = moving.iter().map(|m| !m).collect();
         let solver = Solver::for_robot(&self.robot);
+        let target = ToolTarget::position(target);
         let solution = match solver.solve(&self.robot, &target, &self.goals, &held) {
             Ok(solution) => solution,
-            Err(e) => return self.fail(format!("tool jog: {e}")),
+            Err(e) => return self.fail(format!("{what}: {e}")),
         };
         let goals: Vec<(usize, f64)> = (0..moving.len())
             .filter(|&j| moving[j])
@@ -77,7 +93,8 @@ impl TeachState {
             .find(|&&(j, v)| (v - self.goals[j]).abs() > JOINT_JUMP_DEG)
         {
             return self.fail(format!(
-                "tool jog: {} would jump {:.1}° (a singularity); jog the joints instead",
+                "{what}: {} would jump {:.1}° (a singularity, or too far at once); \
+                 move the tool in smaller steps or jog the joints",
                 self.robot.joints[j].name,
                 v - self.goals[j]
             ));
