@@ -235,9 +235,15 @@ try {
   await a.close();
   await b.waitForFunction(() => window.studio.snapshot.activity.kind === 'idle', null, { timeout: 15000 });
   results.afterClose = await b.evaluate(() => window.studio.snapshot.status.text);
-  // The watcher may take control now that nobody holds it, and its keys then count.
-  await b.click('#take');
-  await b.waitForFunction(() => window.studio.controller);
+  // The watcher may take control once nobody holds it, and its keys then count. The closed
+  // page's lease ends when its release arrives or, failing that, lapses (2 s): until then a
+  // take is refused, so the test takes as a user would, again until it is granted.
+  const deadline = Date.now() + 15000;
+  while (!(await b.evaluate(() => window.studio.controller)) && Date.now() < deadline) {
+    await b.click('#take');
+    await b.waitForTimeout(250);
+  }
+  await b.waitForFunction(() => window.studio.controller, null, { timeout: 1000 });
   results.takenOver = await b.evaluate(() => window.studio.press('>'));
   results.errors = errors.concat(errorsB);
 } finally {
