@@ -16,10 +16,9 @@
 //!    joints reach it as a planar two-link arm: two elbow branches;
 //! 4. the roll is the remaining twist about the roll axis.
 
-use super::planar::two_link;
+use super::planar::{angle_of, two_link};
 use super::{
-    joint_distance, lowest_below_floor, orientation_residual_deg, within_limits, Solution,
-    ToolTarget,
+    joint_distance, orientation_residual_deg, walk_arm, within_limits, Solution, ToolTarget,
 };
 use crate::pose::{twist_swing, unwrap_within, wrap_pi, RigidTransform};
 use crate::robot::{JointKind, Robot};
@@ -210,10 +209,13 @@ impl ArmGeometry {
         })
     }
 
-    /// With a position alone: the seed's tool pitch and roll if any branch reaches with them,
-    /// else the nearest pitch (in steps of [`PITCH_SEARCH_STEP_DEG`] either way) that does,
-    /// trying other rolls only when no pitch does with the seed's (the roll moves a tool point
-    /// that is off its axis, which can take the pan past its limit).
+    /// With a position alone: the seed's tool pitch and roll if any branch reaches with them;
+    /// else, per pan branch, the tool pitch nearest the seed's at which the wrist is within
+    /// the two links' reach, in closed form ([`ArmGeometry::nearest_reachable_pitch`]). Only
+    /// when the limits or the floor refuse those too, the pitch is searched in steps of
+    /// [`PITCH_SEARCH_STEP_DEG`] either way, and other rolls are tried when no pitch reaches
+    /// with the seed's (the roll moves a tool point that is off its axis, which can take the
+    /// pan past its limit).
     fn best_positioned(
         &self,
         robot: &Robot,
@@ -222,19 +224,92 @@ impl ArmGeometry {
         floor: bool,
     ) -> Option<Vec<f64>> {
         let pitch = self.tool_pitch(seed);
+        let at = |phi: f64, roll: f64, branches: &[Branch]| {
+            let candidates = branches
+                .iter()
+                .filter_map(|&b| self.assemble(robot, position, phi, roll, b, seed, floor))
+                .map(|c| c.0);
+            nearest(robot, candidates, seed)
+        };
         let rolls = self.roll_candidates(robot, seed);
         rolls.into_iter().find_map(|roll| {
-            let steps = (180.0 / PITCH_SEARCH_STEP_DEG) as i32;
-            (0..=steps).find_map(|k| {
-                [1.0, -1.0].into_iter().find_map(|side| {
-                    let phi = pitch + side * f64::from(k) * PITCH_SEARCH_STEP_DEG.to_radians();
-                    let candidates = BRANCHES
-                        .iter()
-                        .filter_map(|&b| self.assemble(robot, position, phi, roll, b, seed, floor));
+            at(pitch, roll, &BRANCHES)
+                .or_else(|| {
+                    let candidates = BRANCHES.chunks(2).flat_map(|elbows| {
+                        let pitches =
+                            self.nearest_reachable_pitch(position, pitch, roll, elbows[0]);
+                        pitches
+                            .into_iter()
+                            .flatten()
+                            .filter_map(|phi| at(phi, roll, elbows))
+                    });
                     nearest(robot, candidates, seed)
                 })
-            })
+                .or_else(|| {
+                    let steps = (180.0 / PITCH_SEARCH_STEP_DEG) as i32;
+                    (1..=steps).find_map(|k| {
+                        [1.0, -1.0].into_iter().find_map(|side| {
+                            let step = side * f64::from(k) * PITCH_SEARCH_STEP_DEG.to_radians();
+                            at(pitch + step, roll, &BRANCHES)
+                        })
+                    })
+                })
         })
+    }
+
+    /// The tool pitches (radians) nearest to `pitch` at which the two links reach the wrist
+    /// point for `position` on the pan side of `branch`, one on each of the two arcs of
+    /// reachable pitches (docs/robots.md §12.2), a little inside the arc's end so the arm is
+    /// not at its stretched or folded singularity; None where no pitch reaches.
+    fn nearest_reachable_pitch(
+        &self,
+        position: DVec3,
+        pitch: f64,
+        roll: f64,
+        branch: Branch,
+    ) -> [Option<f64>; 2] {
+        const INSIDE: f64 = 0.1 * PI / 180.0;
+        let none = [None, None];
+        let Some(pan) = self.pan_angle(position, roll, branch) else {
+            return none;
+        };
+        let in_pan = DQuat::from_axis_angle(self.pan_axis, -pan)
+            * (self.base.r.conjugate() * (position - self.base.t));
+        let flat = |p: DVec3| DVec2::new(p.dot(self.u), p.dot(self.v));
+        let [c1, c2, c3] = self.anchors.map(flat);
+        let last = flat(self.tool_point(roll)) - c3;
+        let to_target = flat(in_pan) - c1;
+        let (l1, l2) = ((c2 - c1).length(), (c3 - c2).length());
+        // |wrist − c1|² = |D|² + |L|² − 2|D||L|·cos(φ − α): reachable while it lies between
+        // the folded (|l1 − l2|) and the stretched (l1 + l2) arm.
+        let (d, l) = (to_target.length(), last.length());
+        if d * l < 1e-12 {
+            return none;
+        }
+        let cos_at = |reach: f64| (d * d + l * l - reach * reach) / (2.0 * d * l);
+        let (cos_far, cos_near) = (cos_at(l1 + l2), cos_at((l1 - l2).abs()));
+        if cos_far > 1.0 || cos_near < -1.0 {
+            return none;
+        }
+        let (from, to) = (cos_near.min(1.0).acos(), cos_far.max(-1.0).acos());
+        let alpha = angle_of(to_target) - angle_of(last);
+        let wanted = wrap_pi(pitch - alpha);
+        let (from, to) = if to - from > 2.0 * INSIDE {
+            (from + INSIDE, to - INSIDE)
+        } else {
+            let middle = 0.5 * (from + to);
+            (middle, middle)
+        };
+        // The arc on the seed's side of α holds the nearest pitch; on the other arc, the end
+        // nearer the seed's pitch (the way round past α or past α + π).
+        let side = if wanted < 0.0 { -1.0 } else { 1.0 };
+        let far_end = if wanted.abs() + from <= TAU - wanted.abs() - to {
+            from
+        } else {
+            to
+        };
+        let at = |delta: f64| Some(pitch + wrap_pi(alpha + delta - pitch));
+        [at(side * wanted.abs().clamp(from, to)), at(-side * far_end)]
     }
 
     /// Rolls (radians) to try for a position alone: the seed's, then every
@@ -313,8 +388,9 @@ impl ArmGeometry {
         choices
             .iter()
             .filter_map(|&(branch, (phi, roll))| {
-                let values = self.assemble(robot, position, phi, roll, branch, seed, floor)?;
-                let residual = orientation_residual_deg(robot.tcp_frame(&values).r, orientation);
+                let (values, reached) =
+                    self.assemble(robot, position, phi, roll, branch, seed, floor)?;
+                let residual = orientation_residual_deg(reached, orientation);
                 Some((values, residual.length()))
             })
             .collect()
@@ -336,7 +412,9 @@ impl ArmGeometry {
         let Some(roll_joint) = &self.roll else {
             return Some((self.next_roll(position, orientation, branch, 0.0)?.0, 0.0));
         };
-        let mut roll = seed[roll_joint.index].to_radians();
+        let mut roll = self
+            .roll_of_reachable(position, orientation, branch)
+            .unwrap_or_else(|| seed[roll_joint.index].to_radians());
         for _ in 0..ROLL_PASSES {
             let (phi, next) = self.next_roll(position, orientation, branch, roll)?;
             if wrap_pi(next - roll).abs() < 1e-13 {
@@ -345,6 +423,28 @@ impl ArmGeometry {
             roll = next;
         }
         None
+    }
+
+    /// The roll (radians) that reaches `orientation` exactly if the arm can reach it, in
+    /// closed form (docs/robots.md §12.2): the tool frame fixes the vector from the roll
+    /// anchor to the tool point whatever the joints, so the roll anchor is known, its offset
+    /// along n is fixed, and its pan is the roll-free one. The fixed point of
+    /// [`ArmGeometry::next_roll`] starts here, and is already there when the orientation is
+    /// reachable; otherwise it moves on to the nearest consistent roll.
+    fn roll_of_reachable(
+        &self,
+        position: DVec3,
+        orientation: DQuat,
+        branch: Branch,
+    ) -> Option<f64> {
+        let roll = self.roll.as_ref()?;
+        let in_origin = (self.base.r.conjugate() * orientation).normalize();
+        let p = self.base.r.conjugate() * (position - self.base.t);
+        let anchor = p - in_origin * (self.tool.r.conjugate() * (self.tool.t - roll.anchor));
+        let pan = self.pan_for_offset(anchor, roll.anchor.dot(self.n), branch)?;
+        let in_pan =
+            (DQuat::from_axis_angle(self.pan_axis, pan).conjugate() * in_origin).normalize();
+        Some(self.pitch_and_roll(in_pan).1)
     }
 
     /// The pitch and roll that `orientation` asks for if the roll were `roll`.
@@ -430,7 +530,11 @@ impl ArmGeometry {
     /// The pan angle (radians) that puts `position` at the tool point's fixed offset along n.
     fn pan_angle(&self, position: DVec3, roll: f64, branch: Branch) -> Option<f64> {
         let p = self.base.r.conjugate() * (position - self.base.t);
-        let offset = self.tool_point(roll).dot(self.n);
+        self.pan_for_offset(p, self.tool_point(roll).dot(self.n), branch)
+    }
+
+    /// The pan angle (radians) that puts `p` (in joint 0's origin frame) at `offset` along n.
+    fn pan_for_offset(&self, p: DVec3, offset: f64, branch: Branch) -> Option<f64> {
         // The target's offset along n after turning the pan by q: a·cos q + b·sin q.
         let a = p.dot(self.n);
         let b = p.dot(self.pan_axis.cross(self.n));
@@ -460,7 +564,7 @@ impl ArmGeometry {
         branch: Branch,
         seed: &[f64],
         floor: bool,
-    ) -> Option<Vec<f64>> {
+    ) -> Option<(Vec<f64>, DQuat)> {
         let pan = self.pan_angle(position, roll, branch)?;
         let turn_back = DQuat::from_axis_angle(self.pan_axis, -pan);
         let in_pan = turn_back * (self.base.r.conjugate() * (position - self.base.t));
@@ -479,9 +583,12 @@ impl ArmGeometry {
             values[r.index] = roll.to_degrees();
         }
         self.fit_to_limits(robot, &mut values, seed)?;
-        let reached = robot.tcp_position(&values).distance(position) < POSITION_CHECK_M;
-        let clear = !floor || lowest_below_floor(robot, &values).is_none();
-        (reached && clear).then_some(values)
+        // The robot's own forward kinematics, in one walk that allocates nothing: the branch
+        // must put the tool on the target (never a wrong branch) and stay above the floor.
+        let (below, tool) = walk_arm(robot, &values);
+        let reached = tool.t.distance(position) < POSITION_CHECK_M;
+        let clear = !floor || below.is_none();
+        (reached && clear).then_some((values, tool.r))
     }
 
     /// Each solved angle as the turn of it inside the joint's limits nearest the seed.
