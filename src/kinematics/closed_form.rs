@@ -42,7 +42,10 @@ const RESIDUAL_TIE_DEG: f64 = 0.05;
 /// A residual this small means the orientation was reached, degrees.
 const EXACT_DEG: f64 = 1e-6;
 /// Step of the search for a tool pitch that reaches a position the previous pitch cannot, degrees.
-const PITCH_SEARCH_STEP_DEG: f64 = 0.25;
+const PITCH_SEARCH_STEP_DEG: f64 = 1.0;
+/// Bisections from the first search step that reaches back towards the seed's pitch: the
+/// pitch found is within 1° / 2¹² of the edge of what reaches.
+const PITCH_REFINE_PASSES: usize = 12;
 
 /// The roll joint, in the pan frame at zero pitch.
 #[derive(Debug, Clone, PartialEq)]
@@ -79,24 +82,28 @@ struct Branch {
     elbow: usize,
 }
 
-const BRANCHES: [Branch; 4] = [
-    Branch {
-        back: false,
-        elbow: 0,
-    },
-    Branch {
-        back: false,
-        elbow: 1,
-    },
-    Branch {
-        back: true,
-        elbow: 0,
-    },
-    Branch {
-        back: true,
-        elbow: 1,
-    },
-];
+/// One pan side for one roll, in the arm plane (u, v): what every tool pitch and elbow there
+/// shares, worked out once.
+#[derive(Debug, Clone, Copy)]
+struct Plane {
+    /// Radians.
+    pan: f64,
+    roll: f64,
+    /// The target, the pitch anchors, and the last link (wrist anchor to tool point).
+    target: DVec2,
+    anchors: [DVec2; 3],
+    last: DVec2,
+}
+
+impl Plane {
+    /// The first two pitch turns of both elbows that put the wrist where tool pitch `phi`
+    /// needs it, or None when the links cannot reach it.
+    fn reach(&self, phi: f64) -> Option<[(f64, f64); 2]> {
+        let [c1, c2, c3] = self.anchors;
+        let wrist = self.target - DVec2::from_angle(phi).rotate(self.last);
+        two_link(c2 - c1, c3 - c2, wrist - c1)
+    }
+}
 
 impl ArmGeometry {
     /// The geometry when `robot` has this shape: joints 0–3 revolute, 1–3 parallel and square
@@ -224,92 +231,51 @@ impl ArmGeometry {
         floor: bool,
     ) -> Option<Vec<f64>> {
         let pitch = self.tool_pitch(seed);
-        let at = |phi: f64, roll: f64, branches: &[Branch]| {
-            let candidates = branches
-                .iter()
-                .filter_map(|&b| self.assemble(robot, position, phi, roll, b, seed, floor))
-                .map(|c| c.0);
-            nearest(robot, candidates, seed)
-        };
         let rolls = self.roll_candidates(robot, seed);
         rolls.into_iter().find_map(|roll| {
-            at(pitch, roll, &BRANCHES)
+            let planes: Vec<Plane> = [false, true]
+                .into_iter()
+                .filter_map(|back| self.plane(position, roll, back))
+                .collect();
+            let at = |phi: f64, planes: &[Plane]| {
+                let candidates = planes
+                    .iter()
+                    .flat_map(|p| self.both_elbows(robot, p, position, phi, seed, floor));
+                nearest(robot, candidates, seed)
+            };
+            at(pitch, &planes)
                 .or_else(|| {
-                    let candidates = BRANCHES.chunks(2).flat_map(|elbows| {
-                        let pitches =
-                            self.nearest_reachable_pitch(position, pitch, roll, elbows[0]);
+                    let candidates = planes.iter().flat_map(|plane| {
+                        let pitches = nearest_reachable_pitch(plane, pitch);
+                        let one = std::slice::from_ref(plane);
                         pitches
                             .into_iter()
                             .flatten()
-                            .filter_map(|phi| at(phi, roll, elbows))
+                            .filter_map(move |phi| at(phi, one))
                     });
                     nearest(robot, candidates, seed)
                 })
                 .or_else(|| {
+                    let step = PITCH_SEARCH_STEP_DEG.to_radians();
                     let steps = (180.0 / PITCH_SEARCH_STEP_DEG) as i32;
                     (1..=steps).find_map(|k| {
                         [1.0, -1.0].into_iter().find_map(|side| {
-                            let step = side * f64::from(k) * PITCH_SEARCH_STEP_DEG.to_radians();
-                            at(pitch + step, roll, &BRANCHES)
+                            let reached = side * f64::from(k) * step;
+                            at(pitch + reached, &planes)?;
+                            // Back towards the seed's pitch, to the edge of what reaches.
+                            let (mut short, mut far) = (reached - side * step, reached);
+                            for _ in 0..PITCH_REFINE_PASSES {
+                                let middle = 0.5 * (short + far);
+                                match at(pitch + middle, &planes) {
+                                    Some(_) => far = middle,
+                                    None => short = middle,
+                                }
+                            }
+                            at(pitch + far, &planes)
                         })
                     })
                 })
         })
-    }
-
-    /// The tool pitches (radians) nearest to `pitch` at which the two links reach the wrist
-    /// point for `position` on the pan side of `branch`, one on each of the two arcs of
-    /// reachable pitches (docs/robots.md §12.2), a little inside the arc's end so the arm is
-    /// not at its stretched or folded singularity; None where no pitch reaches.
-    fn nearest_reachable_pitch(
-        &self,
-        position: DVec3,
-        pitch: f64,
-        roll: f64,
-        branch: Branch,
-    ) -> [Option<f64>; 2] {
-        const INSIDE: f64 = 0.1 * PI / 180.0;
-        let none = [None, None];
-        let Some(pan) = self.pan_angle(position, roll, branch) else {
-            return none;
-        };
-        let in_pan = DQuat::from_axis_angle(self.pan_axis, -pan)
-            * (self.base.r.conjugate() * (position - self.base.t));
-        let flat = |p: DVec3| DVec2::new(p.dot(self.u), p.dot(self.v));
-        let [c1, c2, c3] = self.anchors.map(flat);
-        let last = flat(self.tool_point(roll)) - c3;
-        let to_target = flat(in_pan) - c1;
-        let (l1, l2) = ((c2 - c1).length(), (c3 - c2).length());
-        // |wrist − c1|² = |D|² + |L|² − 2|D||L|·cos(φ − α): reachable while it lies between
-        // the folded (|l1 − l2|) and the stretched (l1 + l2) arm.
-        let (d, l) = (to_target.length(), last.length());
-        if d * l < 1e-12 {
-            return none;
-        }
-        let cos_at = |reach: f64| (d * d + l * l - reach * reach) / (2.0 * d * l);
-        let (cos_far, cos_near) = (cos_at(l1 + l2), cos_at((l1 - l2).abs()));
-        if cos_far > 1.0 || cos_near < -1.0 {
-            return none;
-        }
-        let (from, to) = (cos_near.min(1.0).acos(), cos_far.max(-1.0).acos());
-        let alpha = angle_of(to_target) - angle_of(last);
-        let wanted = wrap_pi(pitch - alpha);
-        let (from, to) = if to - from > 2.0 * INSIDE {
-            (from + INSIDE, to - INSIDE)
-        } else {
-            let middle = 0.5 * (from + to);
-            (middle, middle)
-        };
-        // The arc on the seed's side of α holds the nearest pitch; on the other arc, the end
-        // nearer the seed's pitch (the way round past α or past α + π).
-        let side = if wanted < 0.0 { -1.0 } else { 1.0 };
-        let far_end = if wanted.abs() + from <= TAU - wanted.abs() - to {
-            from
-        } else {
-            to
-        };
-        let at = |delta: f64| Some(pitch + wrap_pi(alpha + delta - pitch));
-        [at(side * wanted.abs().clamp(from, to)), at(-side * far_end)]
     }
 
     /// Rolls (radians) to try for a position alone: the seed's, then every
@@ -565,22 +531,66 @@ impl ArmGeometry {
         seed: &[f64],
         floor: bool,
     ) -> Option<(Vec<f64>, DQuat)> {
-        let pan = self.pan_angle(position, roll, branch)?;
+        let plane = self.plane(position, roll, branch.back)?;
+        let turns = plane.reach(phi)?[branch.elbow];
+        self.checked(robot, &plane, position, phi, turns, seed, floor)
+    }
+
+    /// The pan side `back` for roll `roll`: what every tool pitch and elbow there shares.
+    fn plane(&self, position: DVec3, roll: f64, back: bool) -> Option<Plane> {
+        let pan = self.pan_angle(position, roll, Branch { back, elbow: 0 })?;
         let turn_back = DQuat::from_axis_angle(self.pan_axis, -pan);
         let in_pan = turn_back * (self.base.r.conjugate() * (position - self.base.t));
         let flat = |p: DVec3| DVec2::new(p.dot(self.u), p.dot(self.v));
-        let [c1, c2, c3] = self.anchors.map(flat);
-        let last = flat(self.tool_point(roll)) - c3;
-        let wrist = flat(in_pan) - DVec2::from_angle(phi).rotate(last);
-        let (shoulder, elbow) = two_link(c2 - c1, c3 - c2, wrist - c1)?[branch.elbow];
+        let anchors = self.anchors.map(flat);
+        Some(Plane {
+            pan,
+            roll,
+            target: flat(in_pan),
+            last: flat(self.tool_point(roll)) - anchors[2],
+            anchors,
+        })
+    }
+
+    /// Both elbows at tool pitch `phi` on `plane`, each checked ([`ArmGeometry::checked`]).
+    fn both_elbows<'a>(
+        &'a self,
+        robot: &'a Robot,
+        plane: &'a Plane,
+        position: DVec3,
+        phi: f64,
+        seed: &'a [f64],
+        floor: bool,
+    ) -> impl Iterator<Item = Vec<f64>> + 'a {
+        let elbows = plane.reach(phi).into_iter().flatten();
+        elbows.filter_map(move |turns| {
+            let solution = self.checked(robot, plane, position, phi, turns, seed, floor);
+            solution.map(|s| s.0)
+        })
+    }
+
+    /// The joint values for the first two pitch turns `turns` (radians) at tool pitch `phi`,
+    /// each unwrapped into its limits nearest the seed, with the tool orientation reached;
+    /// None when they leave the limits, miss the target or (with `floor`) go below the floor.
+    #[allow(clippy::too_many_arguments)]
+    fn checked(
+        &self,
+        robot: &Robot,
+        plane: &Plane,
+        position: DVec3,
+        phi: f64,
+        (shoulder, elbow): (f64, f64),
+        seed: &[f64],
+        floor: bool,
+    ) -> Option<(Vec<f64>, DQuat)> {
         let turns = [shoulder, elbow, phi - shoulder - elbow];
         let mut values = seed.to_vec();
-        values[0] = pan.to_degrees();
+        values[0] = plane.pan.to_degrees();
         for ((&i, s), turn) in self.pitch.iter().zip(self.signs).zip(turns) {
             values[i] = s * turn.to_degrees();
         }
         if let Some(r) = &self.roll {
-            values[r.index] = roll.to_degrees();
+            values[r.index] = plane.roll.to_degrees();
         }
         self.fit_to_limits(robot, &mut values, seed)?;
         // The robot's own forward kinematics, in one walk that allocates nothing: the branch
@@ -627,4 +637,47 @@ fn nearest(
 ) -> Option<Vec<f64>> {
     candidates
         .min_by(|a, b| joint_distance(robot, a, seed).total_cmp(&joint_distance(robot, b, seed)))
+}
+
+/// The tool pitches (radians) nearest to `pitch` at which the two links reach the wrist
+/// point, one on each of the two arcs of
+/// reachable pitches on `plane` (docs/robots.md §12.2), a little inside the arc's end so the arm is
+/// not at its stretched or folded singularity; None where no pitch reaches.
+fn nearest_reachable_pitch(plane: &Plane, pitch: f64) -> [Option<f64>; 2] {
+    const INSIDE: f64 = 0.1 * PI / 180.0;
+    let none = [None, None];
+    let [c1, c2, c3] = plane.anchors;
+    let last = plane.last;
+    let to_target = plane.target - c1;
+    let (l1, l2) = ((c2 - c1).length(), (c3 - c2).length());
+    // |wrist − c1|² = |D|² + |L|² − 2|D||L|·cos(φ − α): reachable while it lies between
+    // the folded (|l1 − l2|) and the stretched (l1 + l2) arm.
+    let (d, l) = (to_target.length(), last.length());
+    if d * l < 1e-12 {
+        return none;
+    }
+    let cos_at = |reach: f64| (d * d + l * l - reach * reach) / (2.0 * d * l);
+    let (cos_far, cos_near) = (cos_at(l1 + l2), cos_at((l1 - l2).abs()));
+    if cos_far > 1.0 || cos_near < -1.0 {
+        return none;
+    }
+    let (from, to) = (cos_near.min(1.0).acos(), cos_far.max(-1.0).acos());
+    let alpha = angle_of(to_target) - angle_of(last);
+    let wanted = wrap_pi(pitch - alpha);
+    let (from, to) = if to - from > 2.0 * INSIDE {
+        (from + INSIDE, to - INSIDE)
+    } else {
+        let middle = 0.5 * (from + to);
+        (middle, middle)
+    };
+    // The arc on the seed's side of α holds the nearest pitch; on the other arc, the end
+    // nearer the seed's pitch (the way round past α or past α + π).
+    let side = if wanted < 0.0 { -1.0 } else { 1.0 };
+    let far_end = if wanted.abs() + from <= TAU - wanted.abs() - to {
+        from
+    } else {
+        to
+    };
+    let at = |delta: f64| Some(pitch + wrap_pi(alpha + delta - pitch));
+    [at(side * wanted.abs().clamp(from, to)), at(-side * far_end)]
 }
