@@ -3,15 +3,17 @@
 //!
 //! The geometry is read off the robot's own joint origins and axes ([`ArmGeometry::derive`]),
 //! so an arm with the same shape and other dimensions (SO-100 beside SO-101) needs no code.
-//! docs/robots.md §9 derives the solution. In short, in the *pan frame* (joint 0's moving
+//! docs/robots.md §12.2 derives the solution. In short, in the *pan frame* (joint 0's moving
 //! frame) the pitch joints only move the tool within planes square to their common axis `n`:
 //!
 //! 1. the tool point's offset along `n` is fixed (it depends on the roll only), so the pan angle
 //!    is the one that puts the target at that offset: two branches (reaching forward or back
 //!    over the base);
 //! 2. the tool pitch φ (the sum of the three pitch rotations) comes from the asked orientation
-//!    (the roll axis turned about `n` as near as it goes to where the target wants it), or, with
-//!    a position alone, is kept from the previous pose;
+//!    (the roll axis turned about `n` as near as it goes to where the target wants it; the roll
+//!    anchor, and so the pan, follows from the orientation in closed form), or, with a position
+//!    alone, is kept from the previous pose, or is the nearest pitch at which the two links
+//!    reach the wrist (a closed-form arc of pitches);
 //! 3. the wrist point is the target minus the last link turned by φ, and the first two pitch
 //!    joints reach it as a planar two-link arm: two elbow branches;
 //! 4. the roll is the remaining twist about the roll axis.
@@ -364,10 +366,12 @@ impl ArmGeometry {
 
     /// The tool pitch and roll (radians) the orientation asks for on `branch`. The roll moves
     /// the tool point when the point is off the roll axis, which moves the pan, which changes
-    /// what the orientation asks: a fixed point of [`ArmGeometry::next_roll`]. Repeating it
-    /// converges when the target is far from the pan axis compared with the tool point's offset
-    /// (the usual case, and fast); near the pan axis it need not, and the roll is then found by
-    /// scanning for where the roll asked equals the roll assumed.
+    /// what the orientation asks: a fixed point of [`ArmGeometry::next_roll`]. It starts from
+    /// the closed-form roll ([`ArmGeometry::roll_of_reachable`]), which is the fixed point when
+    /// the orientation is reachable, so one pass confirms it; otherwise repeating converges when
+    /// the target is far from the pan axis compared with the tool point's offset; near the pan
+    /// axis it need not, and the caller then scans for where the roll asked equals the roll
+    /// assumed.
     fn settle_roll(
         &self,
         position: DVec3,
