@@ -77,13 +77,6 @@ pub struct ArmGeometry {
     tool: RigidTransform,
 }
 
-/// One set of choices: pan branch and elbow branch.
-#[derive(Debug, Clone, Copy)]
-struct Branch {
-    back: bool,
-    elbow: usize,
-}
-
 /// One pan side for one roll, in the arm plane (u, v): what every tool pitch and elbow there
 /// shares, worked out once.
 #[derive(Debug, Clone, Copy)]
@@ -314,28 +307,19 @@ impl ArmGeometry {
         floor: bool,
     ) -> Option<Vec<f64>> {
         // The pitch and roll depend on the pan branch only: both elbows share them.
-        let fast: Vec<(Branch, (f64, f64))> = [false, true]
+        let fast: Vec<(bool, (f64, f64))> = [false, true]
             .into_iter()
-            .filter_map(|back| {
-                let pan_side = Branch { back, elbow: 0 };
-                Some((
-                    back,
-                    self.settle_roll(position, orientation, pan_side, seed)?,
-                ))
-            })
-            .flat_map(|(back, angles)| (0..2).map(move |elbow| (Branch { back, elbow }, angles)))
+            .filter_map(|back| Some((back, self.settle_roll(position, orientation, back, seed)?)))
             .collect();
         let found = self.oriented_candidates(robot, position, orientation, &fast, seed, floor);
         if found.iter().any(|c| c.1 < EXACT_DEG) || self.roll.is_none() {
             return choose_oriented(robot, found, seed);
         }
-        let thorough: Vec<(Branch, (f64, f64))> = [false, true]
+        let thorough: Vec<(bool, (f64, f64))> = [false, true]
             .into_iter()
             .flat_map(|back| {
-                let rolls = self.scan_roll(position, orientation, Branch { back, elbow: 0 });
-                rolls
-                    .into_iter()
-                    .flat_map(move |r| (0..2).map(move |elbow| (Branch { back, elbow }, r)))
+                let rolls = self.scan_roll(position, orientation, back);
+                rolls.into_iter().map(move |r| (back, r))
             })
             .collect();
         let mut all = found;
@@ -343,28 +327,33 @@ impl ArmGeometry {
         choose_oriented(robot, all, seed)
     }
 
-    /// The solutions of the given branches and (pitch, roll) pairs, with their residuals.
+    /// The solutions of both elbows for the given pan sides (`back`) and (pitch, roll) pairs,
+    /// with their residuals.
     fn oriented_candidates(
         &self,
         robot: &Robot,
         position: DVec3,
         orientation: DQuat,
-        choices: &[(Branch, (f64, f64))],
+        choices: &[(bool, (f64, f64))],
         seed: &[f64],
         floor: bool,
     ) -> Vec<(Vec<f64>, f64)> {
         choices
             .iter()
-            .filter_map(|&(branch, (phi, roll))| {
-                let (values, reached) =
-                    self.assemble(robot, position, phi, roll, branch, seed, floor)?;
-                let residual = orientation_residual_deg(reached, orientation);
-                Some((values, residual.length()))
+            .filter_map(|&(back, (phi, roll))| Some((self.plane(position, roll, back)?, phi)))
+            .flat_map(|(plane, phi)| {
+                let elbows = plane.reach(phi).into_iter().flatten();
+                elbows.filter_map(move |turns| {
+                    let (values, reached) =
+                        self.checked(robot, &plane, position, phi, turns, seed, floor)?;
+                    let residual = orientation_residual_deg(reached, orientation);
+                    Some((values, residual.length()))
+                })
             })
             .collect()
     }
 
-    /// The tool pitch and roll (radians) the orientation asks for on `branch`. The roll moves
+    /// The tool pitch and roll (radians) the orientation asks for on pan side `back`. The roll moves
     /// the tool point when the point is off the roll axis, which moves the pan, which changes
     /// what the orientation asks: a fixed point of [`ArmGeometry::next_roll`]. It starts from
     /// the closed-form roll ([`ArmGeometry::roll_of_reachable`]), which is the fixed point when
@@ -376,17 +365,17 @@ impl ArmGeometry {
         &self,
         position: DVec3,
         orientation: DQuat,
-        branch: Branch,
+        back: bool,
         seed: &[f64],
     ) -> Option<(f64, f64)> {
         let Some(roll_joint) = &self.roll else {
-            return Some((self.next_roll(position, orientation, branch, 0.0)?.0, 0.0));
+            return Some((self.next_roll(position, orientation, back, 0.0)?.0, 0.0));
         };
         let mut roll = self
-            .roll_of_reachable(position, orientation, branch)
+            .roll_of_reachable(position, orientation, back)
             .unwrap_or_else(|| seed[roll_joint.index].to_radians());
         for _ in 0..ROLL_PASSES {
-            let (phi, next) = self.next_roll(position, orientation, branch, roll)?;
+            let (phi, next) = self.next_roll(position, orientation, back, roll)?;
             if wrap_pi(next - roll).abs() < 1e-13 {
                 return Some((phi, next));
             }
@@ -401,17 +390,12 @@ impl ArmGeometry {
     /// along n is fixed, and its pan is the roll-free one. The fixed point of
     /// [`ArmGeometry::next_roll`] starts here, and is already there when the orientation is
     /// reachable; otherwise it moves on to the nearest consistent roll.
-    fn roll_of_reachable(
-        &self,
-        position: DVec3,
-        orientation: DQuat,
-        branch: Branch,
-    ) -> Option<f64> {
+    fn roll_of_reachable(&self, position: DVec3, orientation: DQuat, back: bool) -> Option<f64> {
         let roll = self.roll.as_ref()?;
         let in_origin = (self.base.r.conjugate() * orientation).normalize();
         let p = self.base.r.conjugate() * (position - self.base.t);
         let anchor = p - in_origin * (self.tool.r.conjugate() * (self.tool.t - roll.anchor));
-        let pan = self.pan_for_offset(anchor, roll.anchor.dot(self.n), branch)?;
+        let pan = self.pan_for_offset(anchor, roll.anchor.dot(self.n), back)?;
         let in_pan =
             (DQuat::from_axis_angle(self.pan_axis, pan).conjugate() * in_origin).normalize();
         Some(self.pitch_and_roll(in_pan).1)
@@ -422,10 +406,10 @@ impl ArmGeometry {
         &self,
         position: DVec3,
         orientation: DQuat,
-        branch: Branch,
+        back: bool,
         roll: f64,
     ) -> Option<(f64, f64)> {
-        let pan = self.pan_angle(position, roll, branch)?;
+        let pan = self.pan_angle(position, roll, back)?;
         let in_pan = (DQuat::from_axis_angle(self.pan_axis, pan).conjugate()
             * self.base.r.conjugate()
             * orientation)
@@ -435,10 +419,10 @@ impl ArmGeometry {
 
     /// Every fixed point of [`ArmGeometry::next_roll`], found by sign changes of (asked −
     /// assumed) over a grid of rolls, each refined by bisection.
-    fn scan_roll(&self, position: DVec3, orientation: DQuat, branch: Branch) -> Vec<(f64, f64)> {
+    fn scan_roll(&self, position: DVec3, orientation: DQuat, back: bool) -> Vec<(f64, f64)> {
         const STEPS: usize = 360;
         let gap = |roll: f64| {
-            self.next_roll(position, orientation, branch, roll)
+            self.next_roll(position, orientation, back, roll)
                 .map(|(_, next)| wrap_pi(next - roll))
         };
         let at = |k: usize| -PI + TAU * k as f64 / STEPS as f64;
@@ -459,7 +443,7 @@ impl ArmGeometry {
                     }
                 }
                 let roll = 0.5 * (lo + hi);
-                self.next_roll(position, orientation, branch, roll)
+                self.next_roll(position, orientation, back, roll)
                     .map(|(phi, _)| (phi, roll))
             })
             .collect()
@@ -497,14 +481,15 @@ impl ArmGeometry {
         }
     }
 
-    /// The pan angle (radians) that puts `position` at the tool point's fixed offset along n.
-    fn pan_angle(&self, position: DVec3, roll: f64, branch: Branch) -> Option<f64> {
+    /// The pan angle (radians) that puts `position` at the tool point's fixed offset along n,
+    /// on the branch reaching forward or (`back`) back over the base.
+    fn pan_angle(&self, position: DVec3, roll: f64, back: bool) -> Option<f64> {
         let p = self.base.r.conjugate() * (position - self.base.t);
-        self.pan_for_offset(p, self.tool_point(roll).dot(self.n), branch)
+        self.pan_for_offset(p, self.tool_point(roll).dot(self.n), back)
     }
 
     /// The pan angle (radians) that puts `p` (in joint 0's origin frame) at `offset` along n.
-    fn pan_for_offset(&self, p: DVec3, offset: f64, branch: Branch) -> Option<f64> {
+    fn pan_for_offset(&self, p: DVec3, offset: f64, back: bool) -> Option<f64> {
         // The target's offset along n after turning the pan by q: a·cos q + b·sin q.
         let a = p.dot(self.n);
         let b = p.dot(self.pan_axis.cross(self.n));
@@ -517,32 +502,13 @@ impl ArmGeometry {
             .max(0.0)
             .sqrt()
             .atan2(offset);
-        let side = if branch.back { -1.0 } else { 1.0 };
+        let side = if back { -1.0 } else { 1.0 };
         Some(b.atan2(a) + side * spread)
-    }
-
-    /// The joint values of one branch for tool pitch `phi` and roll `roll` (radians), each
-    /// unwrapped into its limits nearest the seed; None when the branch does not reach or
-    /// leaves the limits or (with `floor`) goes below the floor.
-    #[allow(clippy::too_many_arguments)]
-    fn assemble(
-        &self,
-        robot: &Robot,
-        position: DVec3,
-        phi: f64,
-        roll: f64,
-        branch: Branch,
-        seed: &[f64],
-        floor: bool,
-    ) -> Option<(Vec<f64>, DQuat)> {
-        let plane = self.plane(position, roll, branch.back)?;
-        let turns = plane.reach(phi)?[branch.elbow];
-        self.checked(robot, &plane, position, phi, turns, seed, floor)
     }
 
     /// The pan side `back` for roll `roll`: what every tool pitch and elbow there shares.
     fn plane(&self, position: DVec3, roll: f64, back: bool) -> Option<Plane> {
-        let pan = self.pan_angle(position, roll, Branch { back, elbow: 0 })?;
+        let pan = self.pan_angle(position, roll, back)?;
         let turn_back = DQuat::from_axis_angle(self.pan_axis, -pan);
         let in_pan = turn_back * (self.base.r.conjugate() * (position - self.base.t));
         let flat = |p: DVec3| DVec2::new(p.dot(self.u), p.dot(self.v));
