@@ -3,23 +3,24 @@
 //!
 //! The geometry is read off the robot's own joint origins and axes ([`ArmGeometry::derive`]),
 //! so an arm with the same shape and other dimensions (SO-100 beside SO-101) needs no code.
-//! docs/robots.md §9 derives the solution. In short, in the *pan frame* (joint 0's moving
+//! docs/robots.md §12.2 derives the solution. In short, in the *pan frame* (joint 0's moving
 //! frame) the pitch joints only move the tool within planes square to their common axis `n`:
 //!
 //! 1. the tool point's offset along `n` is fixed (it depends on the roll only), so the pan angle
 //!    is the one that puts the target at that offset: two branches (reaching forward or back
 //!    over the base);
 //! 2. the tool pitch φ (the sum of the three pitch rotations) comes from the asked orientation
-//!    (the roll axis turned about `n` as near as it goes to where the target wants it), or, with
-//!    a position alone, is kept from the previous pose;
+//!    (the roll axis turned about `n` as near as it goes to where the target wants it; the roll
+//!    anchor, and so the pan, follows from the orientation in closed form), or, with a position
+//!    alone, is kept from the previous pose, or is the nearest pitch at which the two links
+//!    reach the wrist (a closed-form arc of pitches);
 //! 3. the wrist point is the target minus the last link turned by φ, and the first two pitch
 //!    joints reach it as a planar two-link arm: two elbow branches;
 //! 4. the roll is the remaining twist about the roll axis.
 
-use super::planar::two_link;
+use super::planar::{angle_of, two_link};
 use super::{
-    joint_distance, lowest_below_floor, orientation_residual_deg, within_limits, Solution,
-    ToolTarget,
+    joint_distance, orientation_residual_deg, walk_arm, within_limits, Solution, ToolTarget,
 };
 use crate::pose::{twist_swing, unwrap_within, wrap_pi, RigidTransform};
 use crate::robot::{JointKind, Robot};
@@ -43,7 +44,10 @@ const RESIDUAL_TIE_DEG: f64 = 0.05;
 /// A residual this small means the orientation was reached, degrees.
 const EXACT_DEG: f64 = 1e-6;
 /// Step of the search for a tool pitch that reaches a position the previous pitch cannot, degrees.
-const PITCH_SEARCH_STEP_DEG: f64 = 0.25;
+const PITCH_SEARCH_STEP_DEG: f64 = 1.0;
+/// Bisections from the first search step that reaches back towards the seed's pitch: the
+/// pitch found is within 1° / 2¹² of the edge of what reaches.
+const PITCH_REFINE_PASSES: usize = 12;
 
 /// The roll joint, in the pan frame at zero pitch.
 #[derive(Debug, Clone, PartialEq)]
@@ -73,31 +77,28 @@ pub struct ArmGeometry {
     tool: RigidTransform,
 }
 
-/// One set of choices: pan branch and elbow branch.
+/// One pan side for one roll, in the arm plane (u, v): what every tool pitch and elbow there
+/// shares, worked out once.
 #[derive(Debug, Clone, Copy)]
-struct Branch {
-    back: bool,
-    elbow: usize,
+struct Plane {
+    /// Radians.
+    pan: f64,
+    roll: f64,
+    /// The target, the pitch anchors, and the last link (wrist anchor to tool point).
+    target: DVec2,
+    anchors: [DVec2; 3],
+    last: DVec2,
 }
 
-const BRANCHES: [Branch; 4] = [
-    Branch {
-        back: false,
-        elbow: 0,
-    },
-    Branch {
-        back: false,
-        elbow: 1,
-    },
-    Branch {
-        back: true,
-        elbow: 0,
-    },
-    Branch {
-        back: true,
-        elbow: 1,
-    },
-];
+impl Plane {
+    /// The first two pitch turns of both elbows that put the wrist where tool pitch `phi`
+    /// needs it, or None when the links cannot reach it.
+    fn reach(&self, phi: f64) -> Option<[(f64, f64); 2]> {
+        let [c1, c2, c3] = self.anchors;
+        let wrist = self.target - DVec2::from_angle(phi).rotate(self.last);
+        two_link(c2 - c1, c3 - c2, wrist - c1)
+    }
+}
 
 impl ArmGeometry {
     /// The geometry when `robot` has this shape: joints 0–3 revolute, 1–3 parallel and square
@@ -210,10 +211,13 @@ impl ArmGeometry {
         })
     }
 
-    /// With a position alone: the seed's tool pitch and roll if any branch reaches with them,
-    /// else the nearest pitch (in steps of [`PITCH_SEARCH_STEP_DEG`] either way) that does,
-    /// trying other rolls only when no pitch does with the seed's (the roll moves a tool point
-    /// that is off its axis, which can take the pan past its limit).
+    /// With a position alone: the seed's tool pitch and roll if any branch reaches with them;
+    /// else, per pan branch, the tool pitch nearest the seed's at which the wrist is within
+    /// the two links' reach, in closed form ([`ArmGeometry::nearest_reachable_pitch`]). Only
+    /// when the limits or the floor refuse those too, the pitch is searched in steps of
+    /// [`PITCH_SEARCH_STEP_DEG`] either way, and other rolls are tried when no pitch reaches
+    /// with the seed's (the roll moves a tool point that is off its axis, which can take the
+    /// pan past its limit).
     fn best_positioned(
         &self,
         robot: &Robot,
@@ -224,16 +228,48 @@ impl ArmGeometry {
         let pitch = self.tool_pitch(seed);
         let rolls = self.roll_candidates(robot, seed);
         rolls.into_iter().find_map(|roll| {
-            let steps = (180.0 / PITCH_SEARCH_STEP_DEG) as i32;
-            (0..=steps).find_map(|k| {
-                [1.0, -1.0].into_iter().find_map(|side| {
-                    let phi = pitch + side * f64::from(k) * PITCH_SEARCH_STEP_DEG.to_radians();
-                    let candidates = BRANCHES
-                        .iter()
-                        .filter_map(|&b| self.assemble(robot, position, phi, roll, b, seed, floor));
+            let planes: Vec<Plane> = [false, true]
+                .into_iter()
+                .filter_map(|back| self.plane(position, roll, back))
+                .collect();
+            let at = |phi: f64, planes: &[Plane]| {
+                let candidates = planes
+                    .iter()
+                    .flat_map(|p| self.both_elbows(robot, p, position, phi, seed, floor));
+                nearest(robot, candidates, seed)
+            };
+            at(pitch, &planes)
+                .or_else(|| {
+                    let candidates = planes.iter().flat_map(|plane| {
+                        let pitches = nearest_reachable_pitch(plane, pitch);
+                        let one = std::slice::from_ref(plane);
+                        pitches
+                            .into_iter()
+                            .flatten()
+                            .filter_map(move |phi| at(phi, one))
+                    });
                     nearest(robot, candidates, seed)
                 })
-            })
+                .or_else(|| {
+                    let step = PITCH_SEARCH_STEP_DEG.to_radians();
+                    let steps = (180.0 / PITCH_SEARCH_STEP_DEG) as i32;
+                    (1..=steps).find_map(|k| {
+                        [1.0, -1.0].into_iter().find_map(|side| {
+                            let reached = side * f64::from(k) * step;
+                            at(pitch + reached, &planes)?;
+                            // Back towards the seed's pitch, to the edge of what reaches.
+                            let (mut short, mut far) = (reached - side * step, reached);
+                            for _ in 0..PITCH_REFINE_PASSES {
+                                let middle = 0.5 * (short + far);
+                                match at(pitch + middle, &planes) {
+                                    Some(_) => far = middle,
+                                    None => short = middle,
+                                }
+                            }
+                            at(pitch + far, &planes)
+                        })
+                    })
+                })
         })
     }
 
@@ -271,28 +307,19 @@ impl ArmGeometry {
         floor: bool,
     ) -> Option<Vec<f64>> {
         // The pitch and roll depend on the pan branch only: both elbows share them.
-        let fast: Vec<(Branch, (f64, f64))> = [false, true]
+        let fast: Vec<(bool, (f64, f64))> = [false, true]
             .into_iter()
-            .filter_map(|back| {
-                let pan_side = Branch { back, elbow: 0 };
-                Some((
-                    back,
-                    self.settle_roll(position, orientation, pan_side, seed)?,
-                ))
-            })
-            .flat_map(|(back, angles)| (0..2).map(move |elbow| (Branch { back, elbow }, angles)))
+            .filter_map(|back| Some((back, self.settle_roll(position, orientation, back, seed)?)))
             .collect();
         let found = self.oriented_candidates(robot, position, orientation, &fast, seed, floor);
         if found.iter().any(|c| c.1 < EXACT_DEG) || self.roll.is_none() {
             return choose_oriented(robot, found, seed);
         }
-        let thorough: Vec<(Branch, (f64, f64))> = [false, true]
+        let thorough: Vec<(bool, (f64, f64))> = [false, true]
             .into_iter()
             .flat_map(|back| {
-                let rolls = self.scan_roll(position, orientation, Branch { back, elbow: 0 });
-                rolls
-                    .into_iter()
-                    .flat_map(move |r| (0..2).map(move |elbow| (Branch { back, elbow }, r)))
+                let rolls = self.scan_roll(position, orientation, back);
+                rolls.into_iter().map(move |r| (back, r))
             })
             .collect();
         let mut all = found;
@@ -300,45 +327,55 @@ impl ArmGeometry {
         choose_oriented(robot, all, seed)
     }
 
-    /// The solutions of the given branches and (pitch, roll) pairs, with their residuals.
+    /// The solutions of both elbows for the given pan sides (`back`) and (pitch, roll) pairs,
+    /// with their residuals.
     fn oriented_candidates(
         &self,
         robot: &Robot,
         position: DVec3,
         orientation: DQuat,
-        choices: &[(Branch, (f64, f64))],
+        choices: &[(bool, (f64, f64))],
         seed: &[f64],
         floor: bool,
     ) -> Vec<(Vec<f64>, f64)> {
         choices
             .iter()
-            .filter_map(|&(branch, (phi, roll))| {
-                let values = self.assemble(robot, position, phi, roll, branch, seed, floor)?;
-                let residual = orientation_residual_deg(robot.tcp_frame(&values).r, orientation);
-                Some((values, residual.length()))
+            .filter_map(|&(back, (phi, roll))| Some((self.plane(position, roll, back)?, phi)))
+            .flat_map(|(plane, phi)| {
+                let elbows = plane.reach(phi).into_iter().flatten();
+                elbows.filter_map(move |turns| {
+                    let (values, reached) =
+                        self.checked(robot, &plane, position, phi, turns, seed, floor)?;
+                    let residual = orientation_residual_deg(reached, orientation);
+                    Some((values, residual.length()))
+                })
             })
             .collect()
     }
 
-    /// The tool pitch and roll (radians) the orientation asks for on `branch`. The roll moves
+    /// The tool pitch and roll (radians) the orientation asks for on pan side `back`. The roll moves
     /// the tool point when the point is off the roll axis, which moves the pan, which changes
-    /// what the orientation asks: a fixed point of [`ArmGeometry::next_roll`]. Repeating it
-    /// converges when the target is far from the pan axis compared with the tool point's offset
-    /// (the usual case, and fast); near the pan axis it need not, and the roll is then found by
-    /// scanning for where the roll asked equals the roll assumed.
+    /// what the orientation asks: a fixed point of [`ArmGeometry::next_roll`]. It starts from
+    /// the closed-form roll ([`ArmGeometry::roll_of_reachable`]), which is the fixed point when
+    /// the orientation is reachable, so one pass confirms it; otherwise repeating converges when
+    /// the target is far from the pan axis compared with the tool point's offset; near the pan
+    /// axis it need not, and the caller then scans for where the roll asked equals the roll
+    /// assumed.
     fn settle_roll(
         &self,
         position: DVec3,
         orientation: DQuat,
-        branch: Branch,
+        back: bool,
         seed: &[f64],
     ) -> Option<(f64, f64)> {
         let Some(roll_joint) = &self.roll else {
-            return Some((self.next_roll(position, orientation, branch, 0.0)?.0, 0.0));
+            return Some((self.next_roll(position, orientation, back, 0.0)?.0, 0.0));
         };
-        let mut roll = seed[roll_joint.index].to_radians();
+        let mut roll = self
+            .roll_of_reachable(position, orientation, back)
+            .unwrap_or_else(|| seed[roll_joint.index].to_radians());
         for _ in 0..ROLL_PASSES {
-            let (phi, next) = self.next_roll(position, orientation, branch, roll)?;
+            let (phi, next) = self.next_roll(position, orientation, back, roll)?;
             if wrap_pi(next - roll).abs() < 1e-13 {
                 return Some((phi, next));
             }
@@ -347,15 +384,32 @@ impl ArmGeometry {
         None
     }
 
+    /// The roll (radians) that reaches `orientation` exactly if the arm can reach it, in
+    /// closed form (docs/robots.md §12.2): the tool frame fixes the vector from the roll
+    /// anchor to the tool point whatever the joints, so the roll anchor is known, its offset
+    /// along n is fixed, and its pan is the roll-free one. The fixed point of
+    /// [`ArmGeometry::next_roll`] starts here, and is already there when the orientation is
+    /// reachable; otherwise it moves on to the nearest consistent roll.
+    fn roll_of_reachable(&self, position: DVec3, orientation: DQuat, back: bool) -> Option<f64> {
+        let roll = self.roll.as_ref()?;
+        let in_origin = (self.base.r.conjugate() * orientation).normalize();
+        let p = self.base.r.conjugate() * (position - self.base.t);
+        let anchor = p - in_origin * (self.tool.r.conjugate() * (self.tool.t - roll.anchor));
+        let pan = self.pan_for_offset(anchor, roll.anchor.dot(self.n), back)?;
+        let in_pan =
+            (DQuat::from_axis_angle(self.pan_axis, pan).conjugate() * in_origin).normalize();
+        Some(self.pitch_and_roll(in_pan).1)
+    }
+
     /// The pitch and roll that `orientation` asks for if the roll were `roll`.
     fn next_roll(
         &self,
         position: DVec3,
         orientation: DQuat,
-        branch: Branch,
+        back: bool,
         roll: f64,
     ) -> Option<(f64, f64)> {
-        let pan = self.pan_angle(position, roll, branch)?;
+        let pan = self.pan_angle(position, roll, back)?;
         let in_pan = (DQuat::from_axis_angle(self.pan_axis, pan).conjugate()
             * self.base.r.conjugate()
             * orientation)
@@ -365,10 +419,10 @@ impl ArmGeometry {
 
     /// Every fixed point of [`ArmGeometry::next_roll`], found by sign changes of (asked −
     /// assumed) over a grid of rolls, each refined by bisection.
-    fn scan_roll(&self, position: DVec3, orientation: DQuat, branch: Branch) -> Vec<(f64, f64)> {
+    fn scan_roll(&self, position: DVec3, orientation: DQuat, back: bool) -> Vec<(f64, f64)> {
         const STEPS: usize = 360;
         let gap = |roll: f64| {
-            self.next_roll(position, orientation, branch, roll)
+            self.next_roll(position, orientation, back, roll)
                 .map(|(_, next)| wrap_pi(next - roll))
         };
         let at = |k: usize| -PI + TAU * k as f64 / STEPS as f64;
@@ -389,7 +443,7 @@ impl ArmGeometry {
                     }
                 }
                 let roll = 0.5 * (lo + hi);
-                self.next_roll(position, orientation, branch, roll)
+                self.next_roll(position, orientation, back, roll)
                     .map(|(phi, _)| (phi, roll))
             })
             .collect()
@@ -427,10 +481,15 @@ impl ArmGeometry {
         }
     }
 
-    /// The pan angle (radians) that puts `position` at the tool point's fixed offset along n.
-    fn pan_angle(&self, position: DVec3, roll: f64, branch: Branch) -> Option<f64> {
+    /// The pan angle (radians) that puts `position` at the tool point's fixed offset along n,
+    /// on the branch reaching forward or (`back`) back over the base.
+    fn pan_angle(&self, position: DVec3, roll: f64, back: bool) -> Option<f64> {
         let p = self.base.r.conjugate() * (position - self.base.t);
-        let offset = self.tool_point(roll).dot(self.n);
+        self.pan_for_offset(p, self.tool_point(roll).dot(self.n), back)
+    }
+
+    /// The pan angle (radians) that puts `p` (in joint 0's origin frame) at `offset` along n.
+    fn pan_for_offset(&self, p: DVec3, offset: f64, back: bool) -> Option<f64> {
         // The target's offset along n after turning the pan by q: a·cos q + b·sin q.
         let a = p.dot(self.n);
         let b = p.dot(self.pan_axis.cross(self.n));
@@ -443,45 +502,73 @@ impl ArmGeometry {
             .max(0.0)
             .sqrt()
             .atan2(offset);
-        let side = if branch.back { -1.0 } else { 1.0 };
+        let side = if back { -1.0 } else { 1.0 };
         Some(b.atan2(a) + side * spread)
     }
 
-    /// The joint values of one branch for tool pitch `phi` and roll `roll` (radians), each
-    /// unwrapped into its limits nearest the seed; None when the branch does not reach or
-    /// leaves the limits or (with `floor`) goes below the floor.
-    #[allow(clippy::too_many_arguments)]
-    fn assemble(
-        &self,
-        robot: &Robot,
-        position: DVec3,
-        phi: f64,
-        roll: f64,
-        branch: Branch,
-        seed: &[f64],
-        floor: bool,
-    ) -> Option<Vec<f64>> {
-        let pan = self.pan_angle(position, roll, branch)?;
+    /// The pan side `back` for roll `roll`: what every tool pitch and elbow there shares.
+    fn plane(&self, position: DVec3, roll: f64, back: bool) -> Option<Plane> {
+        let pan = self.pan_angle(position, roll, back)?;
         let turn_back = DQuat::from_axis_angle(self.pan_axis, -pan);
         let in_pan = turn_back * (self.base.r.conjugate() * (position - self.base.t));
         let flat = |p: DVec3| DVec2::new(p.dot(self.u), p.dot(self.v));
-        let [c1, c2, c3] = self.anchors.map(flat);
-        let last = flat(self.tool_point(roll)) - c3;
-        let wrist = flat(in_pan) - DVec2::from_angle(phi).rotate(last);
-        let (shoulder, elbow) = two_link(c2 - c1, c3 - c2, wrist - c1)?[branch.elbow];
+        let anchors = self.anchors.map(flat);
+        Some(Plane {
+            pan,
+            roll,
+            target: flat(in_pan),
+            last: flat(self.tool_point(roll)) - anchors[2],
+            anchors,
+        })
+    }
+
+    /// Both elbows at tool pitch `phi` on `plane`, each checked ([`ArmGeometry::checked`]).
+    fn both_elbows<'a>(
+        &'a self,
+        robot: &'a Robot,
+        plane: &'a Plane,
+        position: DVec3,
+        phi: f64,
+        seed: &'a [f64],
+        floor: bool,
+    ) -> impl Iterator<Item = Vec<f64>> + 'a {
+        let elbows = plane.reach(phi).into_iter().flatten();
+        elbows.filter_map(move |turns| {
+            let solution = self.checked(robot, plane, position, phi, turns, seed, floor);
+            solution.map(|s| s.0)
+        })
+    }
+
+    /// The joint values for the first two pitch turns `turns` (radians) at tool pitch `phi`,
+    /// each unwrapped into its limits nearest the seed, with the tool orientation reached;
+    /// None when they leave the limits, miss the target or (with `floor`) go below the floor.
+    #[allow(clippy::too_many_arguments)]
+    fn checked(
+        &self,
+        robot: &Robot,
+        plane: &Plane,
+        position: DVec3,
+        phi: f64,
+        (shoulder, elbow): (f64, f64),
+        seed: &[f64],
+        floor: bool,
+    ) -> Option<(Vec<f64>, DQuat)> {
         let turns = [shoulder, elbow, phi - shoulder - elbow];
         let mut values = seed.to_vec();
-        values[0] = pan.to_degrees();
+        values[0] = plane.pan.to_degrees();
         for ((&i, s), turn) in self.pitch.iter().zip(self.signs).zip(turns) {
             values[i] = s * turn.to_degrees();
         }
         if let Some(r) = &self.roll {
-            values[r.index] = roll.to_degrees();
+            values[r.index] = plane.roll.to_degrees();
         }
         self.fit_to_limits(robot, &mut values, seed)?;
-        let reached = robot.tcp_position(&values).distance(position) < POSITION_CHECK_M;
-        let clear = !floor || lowest_below_floor(robot, &values).is_none();
-        (reached && clear).then_some(values)
+        // The robot's own forward kinematics, in one walk that allocates nothing: the branch
+        // must put the tool on the target (never a wrong branch) and stay above the floor.
+        let (below, tool) = walk_arm(robot, &values);
+        let reached = tool.t.distance(position) < POSITION_CHECK_M;
+        let clear = !floor || below.is_none();
+        (reached && clear).then_some((values, tool.r))
     }
 
     /// Each solved angle as the turn of it inside the joint's limits nearest the seed.
@@ -520,4 +607,47 @@ fn nearest(
 ) -> Option<Vec<f64>> {
     candidates
         .min_by(|a, b| joint_distance(robot, a, seed).total_cmp(&joint_distance(robot, b, seed)))
+}
+
+/// The tool pitches (radians) nearest to `pitch` at which the two links reach the wrist
+/// point, one on each of the two arcs of
+/// reachable pitches on `plane` (docs/robots.md §12.2), a little inside the arc's end so the arm is
+/// not at its stretched or folded singularity; None where no pitch reaches.
+fn nearest_reachable_pitch(plane: &Plane, pitch: f64) -> [Option<f64>; 2] {
+    const INSIDE: f64 = 0.1 * PI / 180.0;
+    let none = [None, None];
+    let [c1, c2, c3] = plane.anchors;
+    let last = plane.last;
+    let to_target = plane.target - c1;
+    let (l1, l2) = ((c2 - c1).length(), (c3 - c2).length());
+    // |wrist − c1|² = |D|² + |L|² − 2|D||L|·cos(φ − α): reachable while it lies between
+    // the folded (|l1 − l2|) and the stretched (l1 + l2) arm.
+    let (d, l) = (to_target.length(), last.length());
+    if d * l < 1e-12 {
+        return none;
+    }
+    let cos_at = |reach: f64| (d * d + l * l - reach * reach) / (2.0 * d * l);
+    let (cos_far, cos_near) = (cos_at(l1 + l2), cos_at((l1 - l2).abs()));
+    if cos_far > 1.0 || cos_near < -1.0 {
+        return none;
+    }
+    let (from, to) = (cos_near.min(1.0).acos(), cos_far.max(-1.0).acos());
+    let alpha = angle_of(to_target) - angle_of(last);
+    let wanted = wrap_pi(pitch - alpha);
+    let (from, to) = if to - from > 2.0 * INSIDE {
+        (from + INSIDE, to - INSIDE)
+    } else {
+        let middle = 0.5 * (from + to);
+        (middle, middle)
+    };
+    // The arc on the seed's side of α holds the nearest pitch; on the other arc, the end
+    // nearer the seed's pitch (the way round past α or past α + π).
+    let side = if wanted < 0.0 { -1.0 } else { 1.0 };
+    let far_end = if wanted.abs() + from <= TAU - wanted.abs() - to {
+        from
+    } else {
+        to
+    };
+    let at = |delta: f64| Some(pitch + wrap_pi(alpha + delta - pitch));
+    [at(side * wanted.abs().clamp(from, to)), at(-side * far_end)]
 }

@@ -15,6 +15,7 @@ pub mod line;
 mod planar;
 
 use crate::pose::rotation_vector;
+use crate::pose::RigidTransform;
 use crate::robot::{JointKind, Robot};
 use glam::{DQuat, DVec3};
 
@@ -144,8 +145,8 @@ impl Solver {
     ) -> Result<Solution, IkError> {
         // The closed form moves every joint of the chain; a key that gives one of them itself
         // (say the roll) leaves fewer to solve, which the general solver handles.
-        let tool = tool_joints(robot);
-        let holds_a_tool_joint = held.iter().zip(&tool).any(|(&h, &t)| h && t);
+        let last = last_tool_joint(robot);
+        let holds_a_tool_joint = held.iter().take(last + 1).any(|&h| h);
         let solution = match self {
             Solver::ClosedForm(_) if holds_a_tool_joint => {
                 dls::Dls::new(robot).solve(robot, target, seed, held)
@@ -232,11 +233,16 @@ fn better_of(closed: Option<Solution>, general: Option<Solution>) -> Option<Solu
 
 /// Which joints move the tool frame: those on the chain up to the tcp's parent.
 pub fn tool_joints(robot: &Robot) -> Vec<bool> {
-    let last = match &robot.tcp {
+    let last = last_tool_joint(robot);
+    (0..robot.joints.len()).map(|i| i <= last).collect()
+}
+
+/// The last joint on the chain to the tcp (the tcp's parent).
+fn last_tool_joint(robot: &Robot) -> usize {
+    match &robot.tcp {
         Some(tcp) => tcp.parent,
         None => robot.joints.len().saturating_sub(1),
-    };
-    (0..robot.joints.len()).map(|i| i <= last).collect()
+    }
 }
 
 /// How far below the floor a joint ends up at `values` (if any part does): the lowest of the
@@ -246,19 +252,46 @@ pub fn tool_joints(robot: &Robot) -> Vec<bool> {
 /// tool point are the skeleton of the arm: links are a few centimetres thick, so a pose that
 /// passes this can still graze the floor, which `pose` and `sim` check with MuJoCo's geometry.
 pub fn lowest_below_floor(robot: &Robot, values: &[f64]) -> Option<(String, f64)> {
+    let (lowest, _) = walk_arm(robot, values);
+    lowest.map(|(part, depth)| {
+        let name = match part {
+            Some(i) => robot.joints[i].name.clone(),
+            None => "the tool point".to_string(),
+        };
+        (name, depth)
+    })
+}
+
+/// One walk of the forward kinematics, without allocating: the lowest part below the floor
+/// (a joint index, None for the tool point, with its depth in metres) and the tcp frame. The
+/// closed form checks every branch it assembles with it.
+pub(crate) fn walk_arm(
+    robot: &Robot,
+    values: &[f64],
+) -> (Option<(Option<usize>, f64)>, RigidTransform) {
     const SLACK_M: f64 = 1e-6;
-    let frames = robot.joint_frames(values);
-    let mut lowest: Option<(String, f64)> = None;
-    let mut consider = |name: &str, z: f64| {
-        if z < -SLACK_M && lowest.as_ref().is_none_or(|(_, d)| -z > *d) {
-            lowest = Some((name.to_string(), -z));
+    let mut lowest: Option<(Option<usize>, f64)> = None;
+    let mut consider = |part: Option<usize>, z: f64| {
+        if z < -SLACK_M && lowest.is_none_or(|(_, d)| -z > d) {
+            lowest = Some((part, -z));
         }
     };
-    for (joint, frame) in robot.joints.iter().zip(&frames).skip(1) {
-        consider(&joint.name, frame.t.z);
+    let carrier = robot.tcp.as_ref().map(|tcp| tcp.parent);
+    let mut carried = RigidTransform::IDENTITY;
+    for (i, frame) in robot.frames(values).enumerate() {
+        if i > 0 {
+            consider(Some(i), frame.t.z);
+        }
+        if carrier.is_none_or(|c| c == i) {
+            carried = frame;
+        }
     }
-    consider("the tool point", robot.tcp_position(values).z);
-    lowest
+    let tool = match &robot.tcp {
+        Some(tcp) => carried.compose(&tcp.origin),
+        None => carried,
+    };
+    consider(None, tool.t.z);
+    (lowest, tool)
 }
 
 /// The rotation from `reached` to `wanted`, in the tool frame, degrees about x, y, z.

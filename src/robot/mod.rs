@@ -362,13 +362,7 @@ impl Robot {
 
     /// World pose of every joint's moving frame for joint values in joint order.
     pub fn joint_frames(&self, values: &[f64]) -> Vec<RigidTransform> {
-        let mut frames = Vec::with_capacity(self.joints.len());
-        let mut current = RigidTransform::IDENTITY;
-        for (joint, &value) in self.joints.iter().zip(values) {
-            current = current.compose(&joint.origin).compose(&joint.motion(value));
-            frames.push(current);
-        }
-        frames
+        self.frames(values).collect()
     }
 
     /// World position of the tool centre point (or of the last joint's frame when the robot
@@ -380,11 +374,28 @@ impl Robot {
     /// World pose of the tool centre point frame (or of the last joint's frame when the robot
     /// defines no TCP).
     pub fn tcp_frame(&self, values: &[f64]) -> RigidTransform {
-        let frames = self.joint_frames(values);
+        // Walked without collecting the frames: inverse kinematics calls this per candidate.
+        let carried = match &self.tcp {
+            Some(tcp) => tcp.parent + 1,
+            None => self.joints.len(),
+        };
+        let last = self.frames(values).take(carried).last();
+        let last = last.unwrap_or(RigidTransform::IDENTITY);
         match &self.tcp {
-            Some(tcp) => frames[tcp.parent].compose(&tcp.origin),
-            None => frames.last().copied().unwrap_or(RigidTransform::IDENTITY),
+            Some(tcp) => last.compose(&tcp.origin),
+            None => last,
         }
+    }
+
+    /// Every joint's moving frame in the base frame, in joint order, computed lazily.
+    pub fn frames<'a>(&'a self, values: &'a [f64]) -> impl Iterator<Item = RigidTransform> + 'a {
+        self.joints
+            .iter()
+            .zip(values)
+            .scan(RigidTransform::IDENTITY, |current, (joint, &value)| {
+                *current = current.compose(&joint.origin).compose(&joint.motion(value));
+                Some(*current)
+            })
     }
 
     /// World position of every joint's anchor (its frame origin) and its world axis.
