@@ -5,16 +5,7 @@
 #![no_main]
 
 use keypose::bus::protocol::feetech::Feetech;
-use keypose::bus::protocol::packet::Direction;
-use keypose_fuzz::decoding::check_framing;
+use keypose_fuzz::decoding::fuzz_framing;
 use libfuzzer_sys::fuzz_target;
 
-fuzz_target!(|data: &[u8]| {
-    let Some((&split, bytes)) = data.split_first() else {
-        return;
-    };
-    let split = usize::from(split) * bytes.len() / 256;
-    for direction in [Direction::FromServo, Direction::ToServo] {
-        check_framing(&Feetech, bytes, split, direction);
-    }
-});
+fuzz_target!(|data: &[u8]| fuzz_framing(&Feetech, data));

@@ -40,6 +40,18 @@ pub fn encode(framing: &dyn Framing, packet: &Packet) -> Result<Vec<u8>, PacketE
     }
 }
 
+/// A fuzz input for a framing: the first byte says where to split the rest in two (as a
+/// fraction of 256), and the rest is checked as both directions read it ([`check_framing`]).
+pub fn fuzz_framing(framing: &dyn Framing, data: &[u8]) {
+    let Some((&split, bytes)) = data.split_first() else {
+        return;
+    };
+    let split = usize::from(split) * bytes.len() / 256;
+    for direction in [Direction::FromServo, Direction::ToServo] {
+        check_framing(framing, bytes, split, direction);
+    }
+}
+
 /// Every property of one decoder on one input:
 /// - progress: each step consumes a byte or asks for more;
 /// - incremental: the input fed in two pieces (split where `split` says) decodes to the same

@@ -66,7 +66,7 @@ pub fn time_based(drive_mode: i64) -> bool {
 /// Servo steps (ticks) per revolution of the supported models.
 const TICKS_PER_REV: f64 = 4096.0;
 /// STS Acceleration: steps/s² per unit.
-const STS_ACCELERATION_UNIT: f64 = 100.0;
+pub const STS_ACCELERATION_UNIT: f64 = 100.0;
 /// STS Acceleration's largest value.
 const STS_ACCELERATION_MAX: i64 = 254;
 /// Dynamixel Profile_Acceleration: rev/min² per unit.
@@ -156,13 +156,13 @@ pub fn applied_limits(joint: &Joint) -> Result<(f64, Option<f64>), ProfileError>
     Ok((acceleration, velocity))
 }
 
-/// Dynamixel Profile_Acceleration's unit in ticks/s².
-fn dxl_acceleration_unit() -> f64 {
+/// Dynamixel Profile_Acceleration's unit in ticks/s² (velocity-based profile).
+pub fn dxl_acceleration_unit() -> f64 {
     DXL_ACCELERATION_UNIT_REV_MIN2 * TICKS_PER_REV / 3600.0
 }
 
-/// Dynamixel Profile_Velocity's unit in ticks/s.
-fn dxl_velocity_unit() -> f64 {
+/// Dynamixel Profile_Velocity's (and Present_Velocity's) unit in ticks/s.
+pub fn dxl_velocity_unit() -> f64 {
     DXL_VELOCITY_UNIT_REV_MIN * TICKS_PER_REV / 60.0
 }
 

@@ -97,13 +97,7 @@ pub(super) const fn eeprom(
     range: (i64, i64),
 ) -> Item {
     let r = register(name, address, size, Encoding::Unsigned);
-    item(
-        r,
-        Access::ReadWrite,
-        Area::Eeprom,
-        Default::Value(default),
-        range,
-    )
+    writable(r, Area::Eeprom, Default::Value(default), range)
 }
 
 /// An unsigned RAM item anyone may write.
@@ -115,13 +109,7 @@ pub(super) const fn ram(
     range: (i64, i64),
 ) -> Item {
     let r = register(name, address, size, Encoding::Unsigned);
-    item(
-        r,
-        Access::ReadWrite,
-        Area::Ram,
-        Default::Value(default),
-        range,
-    )
+    writable(r, Area::Ram, Default::Value(default), range)
 }
 
 /// A writable item with its own encoding.

@@ -14,6 +14,7 @@ use super::motion::{Motion, Profile};
 use super::{ServoFault, MEMORY_SIZE, ROOM_TEMPERATURE_C, SUPPLY_DECIVOLTS};
 use crate::bus::models::item::{Access, Default, Item};
 use crate::bus::models::{ModelSpec, TORQUE_RECALIBRATE};
+use crate::bus::profile;
 use crate::bus::protocol::Refusal;
 use crate::bus::registers::{Register, RegisterTable};
 use crate::bus::Alarms;
@@ -21,21 +22,14 @@ use crate::robot::{ServoModel, Vendor};
 use std::time::Duration;
 
 const TICKS_PER_TURN: f64 = 4096.0;
-/// Drive Mode bits (e-Manual `control_table_drivemode.md`).
+/// Drive Mode bit 0 (e-Manual `control_table_drivemode.md`); bit 2 is [`profile::time_based`].
 const DRIVE_REVERSE: i64 = 1 << 0;
-const DRIVE_TIME_BASED_PROFILE: i64 = 1 << 2;
 /// Dynamixel position control mode, the factory one; Feetech's is 0.
 const DYNAMIXEL_POSITION_MODE: i64 = 3;
 const FEETECH_POSITION_MODE: i64 = 0;
 /// In Dynamixel position mode a Homing Offset beyond this is ignored (e-Manual
 /// `control_table_homingoffset.md`).
 const POSITION_MODE_OFFSET_LIMIT: i64 = 1024;
-/// Profile Velocity unit 0.229 rev/min and Profile Acceleration unit 214.577 rev/min², in
-/// ticks per second and per second² (4096 ticks per turn).
-const DXL_VELOCITY_UNIT: f64 = 0.229 * TICKS_PER_TURN / 60.0;
-const DXL_ACCELERATION_UNIT: f64 = 214.577 * TICKS_PER_TURN / 3600.0;
-/// Feetech Acceleration unit: 100 steps/s² (FT-MEM address 41).
-const STS_ACCELERATION_UNIT: f64 = 100.0;
 
 #[derive(Debug, Clone)]
 pub struct VirtualServo {
@@ -272,7 +266,7 @@ impl VirtualServo {
             velocity = -velocity;
         }
         if self.is_dynamixel() {
-            velocity /= DXL_VELOCITY_UNIT;
+            velocity /= profile::dxl_velocity_unit();
         }
         velocity.round() as i64
     }
@@ -410,17 +404,17 @@ impl VirtualServo {
         if !self.is_dynamixel() {
             // Goal_Speed and Acceleration 0 mean "as fast as it can".
             let speed = self.value("Goal_Speed").unsigned_abs() as f64;
-            let acceleration = self.value("Acceleration") as f64 * STS_ACCELERATION_UNIT;
+            let acceleration = self.value("Acceleration") as f64 * profile::STS_ACCELERATION_UNIT;
             return Profile::bounded(speed, acceleration);
         }
         let velocity = self.value("Profile_Velocity") as f64;
         let acceleration = self.value("Profile_Acceleration") as f64;
-        if self.drive_mode() & DRIVE_TIME_BASED_PROFILE != 0 {
+        if profile::time_based(self.drive_mode()) {
             return Profile::timed(distance, velocity / 1000.0, acceleration / 1000.0);
         }
         Profile::bounded(
-            velocity * DXL_VELOCITY_UNIT,
-            acceleration * DXL_ACCELERATION_UNIT,
+            velocity * profile::dxl_velocity_unit(),
+            acceleration * profile::dxl_acceleration_unit(),
         )
     }
 }
