@@ -142,6 +142,16 @@ impl SequenceInput {
         if let Some(mode) = self.interpolation {
             sequence.interpolation = mode;
         }
+        if sequence.is_cell() {
+            if self.robot.is_some() {
+                return Err(CommandError::Usage(format!(
+                    "--robot: {} names several arms (\"robots\"); expected no --robot (name each arm's robot in the file)",
+                    sequence.file
+                )));
+            }
+            let cell = super::load_cell(&sequence, &self.sequence, &self.calibration)?;
+            return Ok((sequence, cell));
+        }
         let robot = match &self.robot {
             Some(spec) => super::resolve_option_robot(spec)?,
             None => super::resolve_sequence_robot(&sequence, &self.sequence)?,

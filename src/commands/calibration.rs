@@ -9,18 +9,20 @@ use keypose::robot::lerobot_names::{
 use keypose::robot::{LeRobotRole, LeRobotType, Robot};
 use std::path::PathBuf;
 
-/// The calibration options every command that loads a robot takes.
+/// The calibration options every command that loads a robot takes. On a sequence of several
+/// arms each value names its arm (`--calibration left=FILE --robot-id right=NAME`).
 #[derive(Debug, Clone, Default, clap::Args)]
 pub struct CalibrationArgs {
-    /// LeRobot calibration file to apply to the robot's servo mapping and limits.
-    #[arg(long, value_name = "FILE", conflicts_with = "robot_id")]
-    pub calibration: Option<PathBuf>,
+    /// LeRobot calibration file to apply to the robot's servo mapping and limits (ARM=FILE for
+    /// an arm of a sequence of several, once per arm).
+    #[arg(long, value_name = "[ARM=]FILE")]
+    pub calibration: Vec<String>,
     /// Apply the calibration LeRobot keeps for this arm (the --robot.id or --teleop.id it was
     /// calibrated with), where LeRobot keeps it: $HF_LEROBOT_CALIBRATION/robots/so_follower/NAME.json
     /// for an SO-101, robots/koch_follower/ for a Koch, leaders under teleoperators/ (README
-    /// "LeRobot calibration").
-    #[arg(long, value_name = "NAME")]
-    pub robot_id: Option<String>,
+    /// "LeRobot calibration"). ARM=NAME for an arm of a sequence of several.
+    #[arg(long, value_name = "[ARM=]NAME")]
+    pub robot_id: Vec<String>,
 }
 
 /// A calibration file to apply, and how it was found.
@@ -33,18 +35,52 @@ pub struct CalibrationFile {
 
 impl CalibrationArgs {
     pub fn given(&self) -> bool {
-        self.calibration.is_some() || self.robot_id.is_some()
+        !self.calibration.is_empty() || !self.robot_id.is_empty()
+    }
+
+    /// The options for arm `arm` of a cell whose arms are `arms`: the values given as
+    /// `arm=…`. A value without a known arm's name is refused, as it would apply to no arm.
+    pub fn for_arm(&self, arm: &str, arms: &[&str]) -> Result<CalibrationArgs, CommandError> {
+        let pick = |values: &[String], option: &str| -> Result<Vec<String>, CommandError> {
+            let mut mine = Vec::new();
+            for value in values {
+                match value.split_once('=') {
+                    Some((name, rest)) if arms.contains(&name) => {
+                        if name == arm {
+                            mine.push(rest.to_string());
+                        }
+                    }
+                    _ => {
+                        return Err(CommandError::Usage(format!(
+                            "{option} {value:?}: the sequence has several arms; expected ARM=VALUE with ARM one of {}",
+                            arms.join(", ")
+                        )))
+                    }
+                }
+            }
+            Ok(mine)
+        };
+        Ok(CalibrationArgs {
+            calibration: pick(&self.calibration, "--calibration")?,
+            robot_id: pick(&self.robot_id, "--robot-id")?,
+        })
     }
 
     /// The file to apply to `robot`, if any.
     pub fn file_for(&self, robot: &Robot) -> Result<Option<CalibrationFile>, CommandError> {
-        if let Some(path) = &self.calibration {
+        if self.calibration.len() + self.robot_id.len() > 1 {
+            return Err(CommandError::Usage(
+                "--calibration and --robot-id: expected one calibration for the arm, found several"
+                    .into(),
+            ));
+        }
+        if let Some(path) = self.calibration.first() {
             return Ok(Some(CalibrationFile {
-                path: path.clone(),
+                path: PathBuf::from(path),
                 looked_up: None,
             }));
         }
-        let Some(id) = &self.robot_id else {
+        let Some(id) = self.robot_id.first() else {
             return Ok(None);
         };
         let lerobot = robot.lerobot.ok_or_else(|| {

@@ -176,6 +176,30 @@ fn resolve_sequence_robot(sequence: &Sequence, sequence_path: &Path) -> Result<R
         .map_err(|e| resolve_error(e, |m| InputError::at_path(&sequence.file, "$.robot", m)))
 }
 
+/// The cell of a sequence's arms (`"robots"`): each arm's robot resolved as a sequence's robot
+/// is, with its own calibration (`--calibration ARM=FILE`, `--robot-id ARM=NAME`), placed at its
+/// base.
+pub fn load_cell(
+    sequence: &Sequence,
+    sequence_path: &Path,
+    calibration: &CalibrationArgs,
+) -> Result<Robot, CommandError> {
+    let names: Vec<&str> = sequence.arms.iter().map(|a| a.name.as_str()).collect();
+    let mut arms = Vec::with_capacity(sequence.arms.len());
+    for arm in &sequence.arms {
+        let robot = Robot::resolve(&arm.robot, sequence_path.parent()).map_err(|e| {
+            resolve_error(e, |m| {
+                InputError::at_path(&sequence.file, &format!("$.robots.{}", arm.name), m)
+            })
+        })?;
+        let robot = finish_robot(robot, &calibration.for_arm(&arm.name, &names)?)?;
+        let base = arm.base.unwrap_or(keypose::pose::RigidTransform::IDENTITY);
+        arms.push((arm.name.clone(), robot, base));
+    }
+    Robot::cell(arms)
+        .map_err(|e| InputError::at_path(&sequence.file, "$.robots", e.to_string()).into())
+}
+
 /// A resolution error as input error: a robot file's own error as it is, a name's at `at`.
 fn resolve_error(error: ResolveError, at: impl Fn(String) -> InputError) -> InputError {
     match error {

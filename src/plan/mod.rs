@@ -280,15 +280,17 @@ fn push_line_samples(
     index: usize,
     joint: usize,
 ) {
-    let Some(line) = tools.lines.iter().find(|l| l.key == index) else {
+    let Some(line) = tools
+        .lines
+        .iter()
+        .find(|l| l.key == index && l.joints.contains(&joint))
+    else {
         return;
     };
-    for (time, values) in line.times.iter().zip(&line.samples) {
-        keys.push(TrackKey::new(
-            *time,
-            values[joint],
-            crate::curve::Interp::Monotone,
-        ));
+    for (k, time) in line.times.iter().enumerate() {
+        if let Some(value) = line.value(k, joint) {
+            keys.push(TrackKey::new(*time, value, crate::curve::Interp::Monotone));
+        }
     }
 }
 

@@ -4,10 +4,11 @@
 
 use crate::json::InputError;
 use crate::kinematics::{self, line, Solver, ToolTarget};
-use crate::robot::Robot;
+use crate::robot::{cell_joint_name, split_joint_name, Robot};
 use crate::sequence::{KeyValue, Sequence};
 use glam::DVec3;
 use std::borrow::Cow;
+use std::ops::Range;
 
 /// What solving a tool key gave, for `check` to report.
 #[derive(Debug, Clone, PartialEq)]
@@ -19,6 +20,8 @@ pub struct ToolKeyReport {
     pub values: Vec<f64>,
     /// The orientation left unreached, degrees about the tool's x, y, z (None without `r`).
     pub residual_deg: Option<DVec3>,
+    /// The arm whose tool it is, in a cell.
+    pub arm: Option<String>,
 }
 
 /// A straight tool line from key `key` to the next.
@@ -33,6 +36,20 @@ pub struct LineReport {
     /// Samples solved along the line (joint order), at `times`.
     pub samples: Vec<Vec<f64>>,
     pub times: Vec<f64>,
+    /// The robot's joints the samples give, in order: all of them on one arm, one arm's in a
+    /// cell.
+    pub joints: Range<usize>,
+    /// The arm whose tool it is, in a cell.
+    pub arm: Option<String>,
+}
+
+impl LineReport {
+    /// The sampled value of the robot's joint `joint` in sample `k`, when the line gives it.
+    pub fn value(&self, k: usize, joint: usize) -> Option<f64> {
+        self.joints
+            .contains(&joint)
+            .then(|| self.samples[k][joint - self.joints.start])
+    }
 }
 
 /// The tool keys and lines of a sequence, solved.
@@ -48,6 +65,9 @@ pub fn solve<'a>(
     sequence: &'a Sequence,
     robot: &Robot,
 ) -> Result<(Cow<'a, Sequence>, ToolSolve), InputError> {
+    if robot.is_cell() {
+        return solve_cell(sequence, robot);
+    }
     let has_tools = sequence
         .keyframes
         .iter()
@@ -90,6 +110,87 @@ pub fn solve<'a>(
     Ok((Cow::Owned(solved), report))
 }
 
+/// A cell's tool keys and lines, arm by arm: each arm's part of the sequence is solved as a
+/// sequence of its own on its own robot (its tool targets are in its base frame), and the
+/// joints solved are written back under the arm's names.
+fn solve_cell<'a>(
+    sequence: &'a Sequence,
+    cell: &Robot,
+) -> Result<(Cow<'a, Sequence>, ToolSolve), InputError> {
+    let has_tools = sequence
+        .keyframes
+        .iter()
+        .any(|k| !k.arm_tools.is_empty() || k.line);
+    if !has_tools {
+        return Ok((Cow::Borrowed(sequence), ToolSolve::default()));
+    }
+    let mut solved = sequence.clone();
+    let mut report = ToolSolve::default();
+    for arm in &cell.arms {
+        let view = arm_view(sequence, &arm.name);
+        let (arm_solved, arm_report) =
+            solve(&view, &arm.robot).map_err(|e| on_arm(e, &arm.name))?;
+        for (key, arm_key) in solved.keyframes.iter_mut().zip(&arm_solved.keyframes) {
+            for (name, value) in &arm_key.values {
+                key.set(&cell_joint_name(&arm.name, name), *value);
+            }
+            if arm_key.interp.is_some() && key.line {
+                key.interp = arm_key.interp;
+            }
+        }
+        report
+            .keys
+            .extend(arm_report.keys.into_iter().map(|k| ToolKeyReport {
+                label: format!("{}: {}", arm.name, k.label),
+                arm: Some(arm.name.clone()),
+                ..k
+            }));
+        report
+            .lines
+            .extend(arm_report.lines.into_iter().map(|l| LineReport {
+                label: format!("{}: {}", arm.name, l.label),
+                joints: arm.joints.clone(),
+                arm: Some(arm.name.clone()),
+                ..l
+            }));
+    }
+    Ok((Cow::Owned(solved), report))
+}
+
+/// One arm's part of a cell's sequence, as a sequence of its own: its joints without the
+/// arm's prefix and its tool target as the key's tool. Lines stay where they are: an arm
+/// without tool keys on a line follows the tool pose of its joints there.
+fn arm_view(sequence: &Sequence, arm: &str) -> Sequence {
+    let mut view = sequence.clone();
+    view.arms.clear();
+    for key in &mut view.keyframes {
+        key.values = std::mem::take(&mut key.values)
+            .into_iter()
+            .filter_map(|(name, value)| match split_joint_name(&name) {
+                Some((a, joint)) if a == arm => Some((joint.to_string(), value)),
+                _ => None,
+            })
+            .collect();
+        key.tool = key
+            .arm_tools
+            .iter()
+            .find(|(a, _)| a == arm)
+            .map(|(_, tool)| *tool);
+        key.arm_tools.clear();
+    }
+    view
+}
+
+/// An error about an arm's part of a cell's sequence, with the arm's path in the file: the
+/// arm's tool is `tool.ARM`, its joints `ARM/JOINT`.
+fn on_arm(mut error: InputError, arm: &str) -> InputError {
+    if let crate::json::Location::Path(path) = &mut error.location {
+        *path = path.replace(".tool.", &format!(".tool.{arm}."));
+    }
+    error.message = format!("arm {arm}: {}", error.message);
+    error
+}
+
 /// A tool key reached along a line takes the line's last sample, so the line ends on the
 /// branch it ran on.
 fn take_line_end(
@@ -112,6 +213,7 @@ fn take_line_end(
         residual_deg: wanted
             .map(|w| kinematics::orientation_residual_deg(robot.tcp_frame(&end).r, w)),
         values: end,
+        arm: None,
     }
 }
 
@@ -166,6 +268,7 @@ fn solve_key(
         label,
         residual_deg: solution.orientation_residual_deg,
         values: solution.values,
+        arm: None,
     })
 }
 
@@ -206,6 +309,8 @@ fn solve_line_into(
             problem: None,
             samples: solved.samples,
             times: shares.iter().map(|u| start + u * span).collect(),
+            joints: 0..robot.joints.len(),
+            arm: None,
         },
         Err(e) => LineReport {
             key: index - 1,
@@ -214,6 +319,8 @@ fn solve_line_into(
             problem: Some(e.to_string()),
             samples: Vec::new(),
             times: Vec::new(),
+            joints: 0..robot.joints.len(),
+            arm: None,
         },
     }
 }

@@ -422,6 +422,7 @@ impl Fitting<'_> {
         Sequence {
             file: "<recording>".into(),
             robot: robot.name.clone(),
+            arms: Vec::new(),
             description: Some(format!(
                 "recorded by hand: {} samples, {} keys within {}° / {} m",
                 self.times.len(),

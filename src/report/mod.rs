@@ -98,6 +98,9 @@ pub fn check_json(report: &CheckReport, sequence_file: &str, robot: &Robot) -> V
         "robot_source": match &robot.source {
             RobotSource::Builtin(name) => json!({ "builtin": name }),
             RobotSource::File(path) => json!({ "file": path.display().to_string() }),
+            RobotSource::Cell => json!({ "cell": robot.arms.iter().map(|a| json!({
+                "arm": a.name, "robot": a.robot.name,
+            })).collect::<Vec<_>>() }),
         },
         "passed": report.passed(),
         "rate_hz": report.rate,

@@ -1,6 +1,7 @@
 //! Robot descriptions: the joint chain, limits, servo mapping and forward kinematics.
 
 mod builtin;
+pub mod cell;
 mod gravity;
 mod lerobot;
 pub mod lerobot_names;
@@ -14,8 +15,10 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 pub use builtin::BUILTIN_NAMES;
+pub use cell::{cell_joint_name, split_joint_name, Arm, CellError};
 pub use lerobot::{import_lerobot_calibration, CalibrationMismatch, CalibrationReport, IdMismatch};
 pub use lerobot_names::{LeRobotRole, LeRobotType, NotBuiltIn};
+pub(crate) use load::parse_origin;
 pub use servo::{PositionEncoding, Servo, ServoModel, TickError, Vendor};
 
 pub const ROBOT_FORMAT: &str = "keypose-robot/1";
@@ -232,6 +235,8 @@ pub enum RobotSource {
     Builtin(String),
     /// Read from a file (or parsed from text named like one).
     File(PathBuf),
+    /// Several arms made into one ([`Robot::cell`]).
+    Cell,
 }
 
 impl fmt::Display for RobotSource {
@@ -239,6 +244,7 @@ impl fmt::Display for RobotSource {
         match self {
             RobotSource::Builtin(_) => f.write_str("built-in"),
             RobotSource::File(path) => write!(f, "file {}", path.display()),
+            RobotSource::Cell => f.write_str("cell"),
         }
     }
 }
@@ -285,6 +291,8 @@ pub struct Robot {
     /// The LeRobot type this robot is (a built-in named the keypose way is its follower type),
     /// which says where LeRobot keeps its calibrations; None for a robot file.
     pub lerobot: Option<&'static LeRobotType>,
+    /// The arms of a cell ([`Robot::cell`]); empty for a robot of one arm.
+    pub arms: Vec<Arm>,
 }
 
 impl Robot {
@@ -389,13 +397,16 @@ impl Robot {
 
     /// Every joint's moving frame in the base frame, in joint order, computed lazily.
     pub fn frames<'a>(&'a self, values: &'a [f64]) -> impl Iterator<Item = RigidTransform> + 'a {
-        self.joints
-            .iter()
-            .zip(values)
-            .scan(RigidTransform::IDENTITY, |current, (joint, &value)| {
+        self.joints.iter().zip(values).enumerate().scan(
+            RigidTransform::IDENTITY,
+            |current, (index, (joint, &value))| {
+                if self.starts_chain(index) {
+                    *current = RigidTransform::IDENTITY;
+                }
                 *current = current.compose(&joint.origin).compose(&joint.motion(value));
                 Some(*current)
-            })
+            },
+        )
     }
 
     /// World position of every joint's anchor (its frame origin) and its world axis.

@@ -1,7 +1,7 @@
 //! Reading `keypose-sequence/1` files.
 
 use super::{
-    Ends, KeyValue, Keyframe, Sequence, ToolKey, ToolOrientation, DEFAULT_KEY_INTERVAL,
+    ArmSpec, Ends, KeyValue, Keyframe, Sequence, ToolKey, ToolOrientation, DEFAULT_KEY_INTERVAL,
     SEQUENCE_FORMAT,
 };
 use crate::curve::Interp;
@@ -30,14 +30,14 @@ pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputEr
     root.only_fields(&[
         "format",
         "robot",
+        "robots",
         "description",
         "interpolation",
         "ends",
         "key_interval",
         "keyframes",
     ])?;
-    let robot = root.require("robot", "a robot name or file")?;
-    let robot = robot.str("a robot name or file")?.to_string();
+    let (robot, arms) = parse_robots(&root)?;
     let description = match root.get("description") {
         Some(n) => Some(n.str("a text")?.to_string()),
         None => None,
@@ -51,11 +51,12 @@ pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputEr
     let key_interval = parse_key_interval(interval_node.as_ref())?;
     let frames_node = root.require("keyframes", "the list of keys")?;
     let items = frames_node.items()?;
-    let mut keyframes = parse_keyframes(&frames_node, &items)?;
+    let mut keyframes = parse_keyframes(&frames_node, &items, &arms)?;
     let key_interval = settle_timing(&mut keyframes, &items, key_interval, interval_node.as_ref())?;
     let sequence = Sequence {
         file: file.to_string(),
         robot,
+        arms,
         description,
         interpolation,
         ends,
@@ -64,6 +65,71 @@ pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputEr
     };
     validate_keys(&sequence)?;
     Ok(sequence)
+}
+
+/// `"robot"` (one arm) or `"robots"` (several, by name), exactly one of them.
+fn parse_robots(root: &Node) -> Result<(String, Vec<ArmSpec>), InputError> {
+    const ROBOT: &str = "a robot name or file";
+    match (root.get("robot"), root.get("robots")) {
+        (Some(_), Some(robots)) => Err(robots.error(
+            "both \"robot\" and \"robots\" are given; expected \"robot\" for one arm or \"robots\" for several",
+        )),
+        (Some(robot), None) => Ok((robot.str(ROBOT)?.to_string(), Vec::new())),
+        (None, Some(robots)) => Ok((String::new(), parse_arms(&robots)?)),
+        (None, None) => Err(root.error(
+            "missing field \"robot\" (a robot name or file, or \"robots\" naming several arms)",
+        )),
+    }
+}
+
+/// `"robots": {"left": {"robot": "so101", "base": {..}}, "right": "so101"}`.
+fn parse_arms(node: &Node) -> Result<Vec<ArmSpec>, InputError> {
+    let entries = node.entries()?;
+    if entries.is_empty() {
+        return Err(node.expected("at least one arm, such as {\"left\": \"so101\"}"));
+    }
+    let mut arms = Vec::with_capacity(entries.len());
+    for (name, value) in entries {
+        if !valid_arm_name(name) {
+            return Err(value.error(format!(
+                "arm name {name:?}; expected letters, digits, '_' or '-' (it prefixes the arm's joints as {name}/JOINT)"
+            )));
+        }
+        arms.push(parse_arm(name, &value)?);
+    }
+    Ok(arms)
+}
+
+/// An arm name: it prefixes joint names (`left/elbow_flex`), so it holds no '/'.
+pub fn valid_arm_name(name: &str) -> bool {
+    !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+}
+
+fn parse_arm(name: &str, node: &Node) -> Result<ArmSpec, InputError> {
+    const ROBOT: &str =
+        "a robot name or file, or {\"robot\": .., \"base\": {\"xyz\": [..], \"rpy\": [..]}}";
+    if node.value.is_string() {
+        return Ok(ArmSpec {
+            name: name.to_string(),
+            robot: node.str(ROBOT)?.to_string(),
+            base: None,
+        });
+    }
+    node.object()?;
+    node.only_fields(&["robot", "base"])?;
+    let robot = node.require("robot", "a robot name or file")?;
+    let base = match node.get("base") {
+        Some(base) => Some(crate::robot::parse_origin(&base)?),
+        None => None,
+    };
+    Ok(ArmSpec {
+        name: name.to_string(),
+        robot: robot.str("a robot name or file")?.to_string(),
+        base,
+    })
 }
 
 fn parse_ends(root: &Node) -> Result<Ends, InputError> {
@@ -89,7 +155,11 @@ fn parse_key_interval(node: Option<&Node>) -> Result<Option<f64>, InputError> {
 }
 
 /// Every key, numbered by its place in the file (for messages), at most [`MAX_KEYFRAMES`].
-fn parse_keyframes(frames_node: &Node, items: &[Node]) -> Result<Vec<Keyframe>, InputError> {
+fn parse_keyframes(
+    frames_node: &Node,
+    items: &[Node],
+    arms: &[ArmSpec],
+) -> Result<Vec<Keyframe>, InputError> {
     if items.is_empty() {
         return Err(frames_node.expected("at least one keyframe"));
     }
@@ -101,7 +171,7 @@ fn parse_keyframes(frames_node: &Node, items: &[Node]) -> Result<Vec<Keyframe>, 
     }
     let mut keyframes = Vec::with_capacity(items.len());
     for (index, item) in items.iter().enumerate() {
-        let mut key = parse_keyframe(item)?;
+        let mut key = parse_keyframe(item, arms)?;
         key.source_index = Some(index);
         keyframes.push(key);
     }
@@ -234,7 +304,7 @@ fn parse_interp(node: &Node) -> Result<Interp, InputError> {
         .ok_or_else(|| node.expected("one of step, linear, cubic, monotone (or line on a key)"))
 }
 
-fn parse_keyframe(node: &Node) -> Result<Keyframe, InputError> {
+fn parse_keyframe(node: &Node, arms: &[ArmSpec]) -> Result<Keyframe, InputError> {
     node.object()?;
     node.only_fields(&[
         "name",
@@ -267,7 +337,11 @@ fn parse_keyframe(node: &Node) -> Result<Keyframe, InputError> {
         }
     }
     if let Some(n) = node.get("tool") {
-        key.tool = Some(parse_tool(&n)?);
+        if arms.is_empty() {
+            key.tool = Some(parse_tool(&n)?);
+        } else {
+            key.arm_tools = parse_arm_tools(&n, arms)?;
+        }
     }
     if let Some(joints) = node.get("joints") {
         for (name, value) in joints.entries()? {
@@ -287,7 +361,7 @@ fn parse_keyframe(node: &Node) -> Result<Keyframe, InputError> {
                 .push((name.to_string(), KeyValue::Transform(transform)));
         }
     }
-    if key.values.is_empty() && key.tool.is_none() {
+    if key.values.is_empty() && key.tool.is_none() && key.arm_tools.is_empty() {
         return Err(node.error(
             "this key sets no joint; expected \"joints\" or \"transforms\" with at least one joint, or \"tool\"",
         ));
@@ -341,6 +415,23 @@ fn parse_tool(node: &Node) -> Result<ToolKey, InputError> {
         (None, None) => None,
     };
     Ok(ToolKey { xyz, orientation })
+}
+
+/// A key's `"tool"` in a sequence of several arms: one tool target per arm, by arm name.
+fn parse_arm_tools(node: &Node, arms: &[ArmSpec]) -> Result<Vec<(String, ToolKey)>, InputError> {
+    let entries = node.entries()?;
+    let names: Vec<&str> = arms.iter().map(|a| a.name.as_str()).collect();
+    let mut tools = Vec::with_capacity(entries.len());
+    for (arm, value) in entries {
+        if !names.contains(&arm) {
+            return Err(value.error(format!(
+                "unknown arm {arm:?}; expected a tool target per arm, named as in \"robots\": {}",
+                names.join(", ")
+            )));
+        }
+        tools.push((arm.to_string(), parse_tool(&value)?));
+    }
+    Ok(tools)
 }
 
 fn parse_transform(node: &Node) -> Result<RigidTransform, InputError> {

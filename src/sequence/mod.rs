@@ -15,7 +15,7 @@ use glam::{DQuat, DVec3};
 use std::path::Path;
 
 pub use edit::{KeyframeList, TimeRefusal};
-pub use load::{MAX_TIME, MIN_GAP};
+pub use load::{valid_arm_name, MAX_TIME, MIN_GAP};
 
 pub const SEQUENCE_FORMAT: &str = "keypose-sequence/1";
 pub const DEFAULT_KEY_INTERVAL: f64 = 2.0;
@@ -82,6 +82,9 @@ pub struct Keyframe {
     pub values: Vec<(String, KeyValue)>,
     /// The tool pose this key asks for, solved into the joints `values` does not give.
     pub tool: Option<ToolKey>,
+    /// In a sequence of several arms, each arm's tool target (`"tool": {"left": {..}}`), in
+    /// that arm's own base frame; `tool` stays `None` there.
+    pub arm_tools: Vec<(String, ToolKey)>,
     /// `"interp": "line"`: the tool moves in a straight line from this key to the next.
     pub line: bool,
     /// Index of this key in the file it was loaded from, for error paths after sorting.
@@ -97,6 +100,7 @@ impl Keyframe {
             interp: None,
             values,
             tool: None,
+            arm_tools: Vec::new(),
             line: false,
             source_index: None,
         }
@@ -126,11 +130,26 @@ impl Keyframe {
     }
 }
 
+/// One arm of a sequence that names several (`"robots"`): its name, which is the prefix of its
+/// joints (`ARM/JOINT`), its robot, and where its base stands in the cell.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ArmSpec {
+    pub name: String,
+    /// A built-in robot, a LeRobot type or a robot file, as for `"robot"`.
+    pub robot: String,
+    /// The arm's base frame in the cell frame (metres, URDF roll-pitch-yaw); `None` is the
+    /// cell's origin.
+    pub base: Option<RigidTransform>,
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sequence {
     /// Where it came from, for messages (`"<new>"` when built in memory).
     pub file: String,
+    /// The robot of a one-arm sequence; empty when `arms` names several.
     pub robot: String,
+    /// The arms of a sequence for several (`"robots"`), in the order written; empty for one.
+    pub arms: Vec<ArmSpec>,
     pub description: Option<String>,
     pub interpolation: Interp,
     pub ends: Ends,
@@ -147,6 +166,7 @@ impl Sequence {
         Self {
             file: "<new>".into(),
             robot: robot.into(),
+            arms: Vec::new(),
             description: None,
             interpolation: Interp::Monotone,
             ends: Ends::Played,
@@ -179,6 +199,20 @@ impl Sequence {
                 format!("cannot write: {e}"),
             )
         })
+    }
+
+    /// An empty sequence for the arms of a cell (see [`Sequence::new`]).
+    pub fn new_cell(arms: Vec<ArmSpec>) -> Self {
+        Self {
+            robot: String::new(),
+            arms,
+            ..Self::new("")
+        }
+    }
+
+    /// Whether the sequence is for several arms (`"robots"`).
+    pub fn is_cell(&self) -> bool {
+        !self.arms.is_empty()
     }
 
     /// Time of keyframe `index`.

@@ -1,12 +1,17 @@
 //! Writing sequences back to `keypose-sequence/1` JSON.
 
-use super::{Ends, KeyValue, Sequence, ToolKey, ToolOrientation, SEQUENCE_FORMAT};
+use super::{ArmSpec, Ends, KeyValue, Sequence, ToolKey, ToolOrientation, SEQUENCE_FORMAT};
+use crate::pose::{quat_from_rpy, rpy_from_quat, RigidTransform};
 use serde_json::{json, Map, Value};
 
 pub(super) fn to_json(sequence: &Sequence) -> String {
     let mut root = Map::new();
     root.insert("format".into(), json!(SEQUENCE_FORMAT));
-    root.insert("robot".into(), json!(sequence.robot));
+    if sequence.is_cell() {
+        root.insert("robots".into(), arms_json(&sequence.arms));
+    } else {
+        root.insert("robot".into(), json!(sequence.robot));
+    }
     if let Some(d) = &sequence.description {
         root.insert("description".into(), json!(d));
     }
@@ -38,6 +43,14 @@ pub(super) fn to_json(sequence: &Sequence) -> String {
             }
             if let Some(tool) = &key.tool {
                 k.insert("tool".into(), tool_json(tool));
+            }
+            if !key.arm_tools.is_empty() {
+                let tools = key
+                    .arm_tools
+                    .iter()
+                    .map(|(arm, tool)| (arm.clone(), tool_json(tool)))
+                    .collect();
+                k.insert("tool".into(), Value::Object(tools));
             }
             let mut joints = Map::new();
             let mut transforms = Map::new();
@@ -75,6 +88,34 @@ pub(super) fn to_json(sequence: &Sequence) -> String {
     let mut text = compact_keys(&Value::Object(root));
     text.push('\n');
     text
+}
+
+/// `"robots"`: an arm without a base as its robot's name alone, one with a base as an object
+/// (the rotation as roll-pitch-yaw, the convention it was written in, or as `quat` at gimbal
+/// lock, where roll-pitch-yaw does not give it back).
+fn arms_json(arms: &[ArmSpec]) -> Value {
+    let arms = arms
+        .iter()
+        .map(|arm| {
+            let value = match &arm.base {
+                None => json!(arm.robot),
+                Some(base) => json!({ "robot": arm.robot, "base": origin_json(base) }),
+            };
+            (arm.name.clone(), value)
+        })
+        .collect();
+    Value::Object(arms)
+}
+
+fn origin_json(origin: &RigidTransform) -> Value {
+    let xyz = origin.t.to_array();
+    let (r, p, y) = rpy_from_quat(origin.r);
+    if quat_from_rpy(r, p, y).angle_between(origin.r) < 1e-9 {
+        json!({ "xyz": xyz, "rpy": [r, p, y] })
+    } else {
+        let q = origin.r;
+        json!({ "xyz": xyz, "quat": [q.w, q.x, q.y, q.z] })
+    }
 }
 
 /// A tool key as written: `xyz`, and `r` or `rpy` if it had one.
