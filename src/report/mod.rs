@@ -57,16 +57,22 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
             );
         }
     }
+    // Wide enough for a cell's `ARM/JOINT` names; one arm's names fit the usual 14.
+    let w = report
+        .joints
+        .iter()
+        .map(|j| j.joint.chars().count())
+        .fold(14, usize::max);
     let _ = writeln!(
         out,
-        "  {:<14} {:>22} {:>24} {:>26}",
+        "  {:<w$} {:>22} {:>24} {:>26}",
         "joint", "range", "peak velocity", "peak acceleration"
     );
     for j in &report.joints {
         let (scale, unit) = units::display_scale(j.unit);
         let _ = writeln!(
             out,
-            "  {:<14} {:>9.2} … {:>7.2} {:<3} {:>8.1} {:<6} ({:>4.0} %) {:>9.1} {:<7} ({:>4.0} %)",
+            "  {:<w$} {:>9.2} … {:>7.2} {:<3} {:>8.1} {:<6} ({:>4.0} %) {:>9.1} {:<7} ({:>4.0} %)",
             j.joint,
             j.min_position * scale,
             j.max_position * scale,
