@@ -5,15 +5,17 @@
 
 mod common;
 
-use common::{repo, run, show, stdout};
+use common::{repo, run, show, stderr, stdout};
 use keypose::robot::Robot;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// Compiles the player with the header exported from `sequence`; returns the program.
-fn build_player(sequence: &str, dir: &Path) -> PathBuf {
+fn build_player(sequence: &str, dir: &Path, extra: &[&str]) -> PathBuf {
     let header = dir.join("seq.h");
-    let out = run(&["export", "c", sequence, "-o", header.to_str().unwrap()]);
+    let mut args = vec!["export", "c", sequence, "-o", header.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    let out = run(&args);
     assert_eq!(out.status.code(), Some(0), "{}", show(&out));
     let program = dir.join("player");
     let players = repo("players/c");
@@ -50,15 +52,22 @@ fn player_rows(program: &Path, args: &[&str]) -> Vec<Vec<f64>> {
 }
 
 fn assert_same_ticks(sequence: &str) {
+    assert_same_ticks_of(sequence, &[], 0);
+}
+
+/// The player built with `extra` export options against the sampled columns from `first` on
+/// (after the time column: 0 for a one-arm sequence, an arm's first joint in a cell).
+fn assert_same_ticks_of(sequence: &str, extra: &[&str], first: usize) {
     let dir = tempfile::tempdir().unwrap();
-    let program = build_player(sequence, dir.path());
+    let program = build_player(sequence, dir.path(), extra);
     let played = player_rows(&program, &["100"]);
     let sampled = run(&["sample", sequence, "--units", "ticks", "--rate", "100"]);
     assert_eq!(sampled.status.code(), Some(0), "{}", show(&sampled));
     let expected = rows(&stdout(&sampled));
     assert_eq!(played.len(), expected.len(), "{sequence}: rows");
     for (p, e) in played.iter().zip(&expected) {
-        for j in 1..e.len() {
+        let e = [&e[..1], &e[1 + first..]].concat();
+        for j in 1..p.len() {
             assert!(
                 (p[j] - e[j]).abs() <= 1.0,
                 "{sequence}: t = {}, joint {}: player {}, keypose {}",
@@ -80,10 +89,28 @@ fn the_players_ticks_are_keyposes_within_one_tick() {
 }
 
 #[test]
+fn one_arm_of_a_cell_exports_alone_with_its_own_servo_ids() {
+    let sequence = repo("sequences/bimanual_wave.json");
+    // The right arm's joints are the cell's 7th to 12th columns.
+    assert_same_ticks_of(&sequence, &["--arm", "right"], 6);
+    let dir = tempfile::tempdir().unwrap();
+    let header = dir.path().join("right.h");
+    let header_path = header.to_str().unwrap();
+    let out = run(&["export", "c", &sequence, "-o", header_path, "--arm", "right"]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    // The SO-101's servos are 1 … 6 on each arm's bus, not the cell's 7 … 12.
+    let text = std::fs::read_to_string(&header).unwrap();
+    assert!(text.contains("kp_seq_ids[KP_SEQ_JOINTS] = {1, 2, 3, 4, 5, 6};"), "{text}");
+    let out = run(&["export", "c", &sequence, "-o", header_path]);
+    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+    assert!(stderr(&out).contains("give --arm, one of left, right"), "{}", show(&out));
+}
+
+#[test]
 fn the_approach_eases_in_to_the_first_pose_within_the_limits() {
     let dir = tempfile::tempdir().unwrap();
     let sequence = repo("sequences/so101_nod.json");
-    let program = build_player(&sequence, dir.path());
+    let program = build_player(&sequence, dir.path(), &[]);
     // From 600 ticks away on shoulder_pan and 300 the other way on elbow_flex.
     let rate = 100.0;
     let approach = player_rows(&program, &["100", "1447,2047,2347,2047,2047,2047"]);

@@ -29,6 +29,10 @@ pub struct CArgs {
     /// Output header (replaced atomically).
     #[arg(short, long, value_name = "FILE.h")]
     pub output: PathBuf,
+    /// On a sequence of several arms: the arm whose part to export (the stand-alone player
+    /// drives one bus).
+    #[arg(long, value_name = "ARM")]
+    pub arm: Option<String>,
 }
 
 #[derive(Debug, Clone, clap::Args)]
@@ -101,6 +105,7 @@ fn export_c(args: &CArgs) -> Result<Verdict, CommandError> {
     let Some((sequence, robot, trajectory)) = checked(&args.input)? else {
         return Ok(Verdict::Fail);
     };
+    let (robot, trajectory) = one_bus(robot, trajectory, args.arm.as_deref(), &sequence.file)?;
     let text = c_export::header(&trajectory, &robot, &sequence.file)
         .map_err(|e| CommandError::Usage(format!("{}: {e}", sequence.file)))?;
     write_output(Some(&args.output), &text)?;
@@ -111,6 +116,37 @@ fn export_c(args: &CArgs) -> Result<Verdict, CommandError> {
         trajectory.duration()
     );
     Ok(Verdict::Pass)
+}
+
+/// The robot and trajectory of one bus: the robot itself, or the arm `--arm` names of a cell
+/// (whose joints' servo ids are the cell's, not those of any bus).
+fn one_bus(
+    robot: Robot,
+    trajectory: Trajectory,
+    arm: Option<&str>,
+    file: &str,
+) -> Result<(Robot, Trajectory), CommandError> {
+    let names = || {
+        let names: Vec<&str> = robot.arms.iter().map(|a| a.name.as_str()).collect();
+        names.join(", ")
+    };
+    match arm {
+        None if robot.is_cell() => Err(CommandError::Usage(format!(
+            "{file} names several arms; the stand-alone player drives one bus: give --arm, one of {}",
+            names()
+        ))),
+        None => Ok((robot, trajectory)),
+        Some(name) => {
+            let Some(arm) = robot.arm(name) else {
+                return Err(CommandError::Usage(if robot.is_cell() {
+                    format!("--arm {name:?}: expected one of {}", names())
+                } else {
+                    format!("--arm {name:?}: {file} is for one arm; expected no --arm")
+                }));
+            };
+            Ok((arm.robot.clone(), trajectory.for_arm(arm)))
+        }
+    }
 }
 
 /// The sequence, its robot and trajectory when it passes the limit check at the robot's control

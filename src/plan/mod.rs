@@ -10,7 +10,7 @@ pub mod tool_keys;
 use crate::curve::{Cursor, CurveError, Track, TrackKey};
 use crate::json::InputError;
 use crate::pose::{self, RigidTransform};
-use crate::robot::{Joint, JointKind, Robot};
+use crate::robot::{Arm, Joint, JointKind, Robot};
 use crate::sequence::{Ends, KeyValue, Sequence};
 use std::f64::consts::TAU;
 
@@ -164,6 +164,20 @@ impl Trajectory {
             key_times,
             tools,
         })
+    }
+
+    /// The part of a cell's trajectory that arm `arm` plays: its joints' tracks under the
+    /// arm's own joint names, in its robot's joint order, on the same timeline.
+    pub fn for_arm(&self, arm: &Arm) -> Trajectory {
+        Trajectory {
+            joint_names: arm.robot.joint_names().iter().map(|n| n.to_string()).collect(),
+            tracks: self.tracks[arm.joints.clone()].to_vec(),
+            start: self.start,
+            end: self.end,
+            key_times: self.key_times.clone(),
+            key_labels: self.key_labels.clone(),
+            tools: tool_keys::ToolSolve::default(),
+        }
     }
 
     pub fn tracks(&self) -> &[Track<f64>] {
