@@ -189,3 +189,47 @@ fn one_arm_options_on_a_cell_are_usage_errors() {
         );
     }
 }
+
+#[test]
+fn sample_gives_each_arms_tool_in_its_own_base_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("two.json");
+    std::fs::write(&path, TWO_ARMS).unwrap();
+    let out = run(&["sample", path.to_str().unwrap(), "--tool", "--rate", "10"]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|c| *c == name).unwrap();
+    let row: Vec<f64> = lines
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse().unwrap())
+                .collect::<Vec<f64>>()
+        })
+        .find(|r| (r[0] - 2.0).abs() < 1e-9)
+        .unwrap();
+    // The right arm's tool key at 2 s, in the right arm's base frame.
+    let right: Vec<f64> = ["right/tool_x", "right/tool_y", "right/tool_z"]
+        .iter()
+        .map(|c| row[column(c)])
+        .collect();
+    for (got, want) in right.iter().zip([0.22, 0.05, 0.12]) {
+        assert!((got - want).abs() < 1e-4, "{right:?}");
+    }
+    // The left arm's tool is where the SO-101 alone puts it for the left joints, although its
+    // base is turned and moved: the columns are in its own base frame too.
+    let so101 = Robot::builtin("so101").unwrap();
+    let left: Vec<f64> = so101
+        .joint_names()
+        .iter()
+        .map(|j| row[column(&format!("left/{j}"))])
+        .collect();
+    let expected = so101.tcp_position(&left);
+    for (axis, want) in ["left/tool_x", "left/tool_y", "left/tool_z"]
+        .iter()
+        .zip(expected.to_array())
+    {
+        assert!((row[column(axis)] - want).abs() < 2e-9, "{axis}");
+    }
+}

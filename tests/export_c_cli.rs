@@ -96,14 +96,29 @@ fn one_arm_of_a_cell_exports_alone_with_its_own_servo_ids() {
     let dir = tempfile::tempdir().unwrap();
     let header = dir.path().join("right.h");
     let header_path = header.to_str().unwrap();
-    let out = run(&["export", "c", &sequence, "-o", header_path, "--arm", "right"]);
+    let out = run(&[
+        "export",
+        "c",
+        &sequence,
+        "-o",
+        header_path,
+        "--arm",
+        "right",
+    ]);
     assert_eq!(out.status.code(), Some(0), "{}", show(&out));
     // The SO-101's servos are 1 … 6 on each arm's bus, not the cell's 7 … 12.
     let text = std::fs::read_to_string(&header).unwrap();
-    assert!(text.contains("kp_seq_ids[KP_SEQ_JOINTS] = {1, 2, 3, 4, 5, 6};"), "{text}");
+    assert!(
+        text.contains("kp_seq_ids[KP_SEQ_JOINTS] = {1, 2, 3, 4, 5, 6};"),
+        "{text}"
+    );
     let out = run(&["export", "c", &sequence, "-o", header_path]);
     assert_eq!(out.status.code(), Some(2), "{}", show(&out));
-    assert!(stderr(&out).contains("give --arm, one of left, right"), "{}", show(&out));
+    assert!(
+        stderr(&out).contains("give --arm, one of left, right"),
+        "{}",
+        show(&out)
+    );
 }
 
 #[test]

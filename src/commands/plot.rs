@@ -74,40 +74,42 @@ fn check_svg_extension(output: &Path) -> Result<(), CommandError> {
     )))
 }
 
-/// The tool path as three rows, x, y and z in mm at the plot's sample times, with velocities
-/// by central differences, unlimited (a tool coordinate has no limits of its own).
+/// The tool path as three rows (per arm, on a cell), x, y and z in mm at the plot's sample
+/// times, with velocities by central differences, unlimited (a tool coordinate has no limits of
+/// its own).
 fn tool_rows(trajectory: &Trajectory, robot: &Robot, times: &[f64]) -> Vec<PlotJoint> {
-    let path: Vec<[f64; 3]> = times
-        .iter()
-        .map(|&t| (robot.tcp_position(&trajectory.sample(t)) * 1000.0).to_array())
-        .collect();
-    let keys: Vec<(f64, [f64; 3])> = trajectory
+    let tools_mm = |t: f64| -> Vec<[f64; 3]> {
+        robot
+            .tool_positions(&trajectory.sample(t))
+            .iter()
+            .map(|p| (*p * 1000.0).to_array())
+            .collect()
+    };
+    let path: Vec<Vec<[f64; 3]>> = times.iter().map(|&t| tools_mm(t)).collect();
+    let keys: Vec<(f64, Vec<[f64; 3]>)> = trajectory
         .key_times
         .iter()
         .filter(|&&t| t >= trajectory.start && t <= trajectory.end)
-        .map(|&t| {
-            (
-                t,
-                (robot.tcp_position(&trajectory.sample(t)) * 1000.0).to_array(),
-            )
-        })
+        .map(|&t| (t, tools_mm(t)))
         .collect();
-    (0..3)
-        .map(|axis| {
-            let positions: Vec<f64> = path.iter().map(|p| p[axis]).collect();
-            PlotJoint {
-                name: format!("tool_{}", ["x", "y", "z"][axis]),
+    let mut rows = Vec::new();
+    for (tool, prefix) in robot.tool_prefixes().iter().enumerate() {
+        for axis in 0..3 {
+            let positions: Vec<f64> = path.iter().map(|p| p[tool][axis]).collect();
+            rows.push(PlotJoint {
+                name: format!("{prefix}tool_{}", ["x", "y", "z"][axis]),
                 unit: "mm".into(),
                 min: f64::NEG_INFINITY,
                 max: f64::INFINITY,
                 velocity_limit: f64::INFINITY,
                 velocities: differences(times, &positions),
                 positions,
-                keys: keys.iter().map(|(t, p)| (*t, p[axis])).collect(),
+                keys: keys.iter().map(|(t, p)| (*t, p[tool][axis])).collect(),
                 measured: None,
-            }
-        })
-        .collect()
+            });
+        }
+    }
+    rows
 }
 
 /// Central differences (one-sided at the ends).

@@ -54,7 +54,9 @@ pub fn run(args: &SampleArgs) -> Result<Verdict, CommandError> {
     let mut columns = trajectory.joint_names.clone();
     if args.tool {
         append_tool_path(&trajectory, &robot, &mut rows);
-        columns.extend(TOOL_COLUMNS.map(String::from));
+        for prefix in robot.tool_prefixes() {
+            columns.extend(TOOL_COLUMNS.map(|c| format!("{prefix}{c}")));
+        }
     }
     let text = match args.format {
         SampleFormat::Csv => to_csv(&columns, &rows),
@@ -111,11 +113,13 @@ pub fn sample_rows(
     Ok(rows)
 }
 
-/// Appends the tool position at each row's time (its first column) to the row.
+/// Appends the tool position (each arm's, on a cell) at each row's time (its first column) to
+/// the row.
 fn append_tool_path(trajectory: &Trajectory, robot: &Robot, rows: &mut [Vec<f64>]) {
     for row in rows {
-        let tool = robot.tcp_position(&trajectory.sample(row[0]));
-        row.extend(tool.to_array());
+        for tool in robot.tool_positions(&trajectory.sample(row[0])) {
+            row.extend(tool.to_array());
+        }
     }
 }
 

@@ -170,7 +170,12 @@ impl Trajectory {
     /// arm's own joint names, in its robot's joint order, on the same timeline.
     pub fn for_arm(&self, arm: &Arm) -> Trajectory {
         Trajectory {
-            joint_names: arm.robot.joint_names().iter().map(|n| n.to_string()).collect(),
+            joint_names: arm
+                .robot
+                .joint_names()
+                .iter()
+                .map(|n| n.to_string())
+                .collect(),
             tracks: self.tracks[arm.joints.clone()].to_vec(),
             start: self.start,
             end: self.end,

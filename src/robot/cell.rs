@@ -6,6 +6,7 @@
 
 use super::{Robot, RobotSource};
 use crate::pose::RigidTransform;
+use glam::DVec3;
 use std::ops::Range;
 
 /// One arm of a cell.
@@ -123,6 +124,29 @@ impl Robot {
         self.arms.iter().find(|a| a.joints.contains(&index))
     }
 
+    /// The prefix of each tool's names, in the order of [`Robot::tool_positions`]: `""` for a
+    /// robot of one arm, `"ARM/"` per arm of a cell.
+    pub fn tool_prefixes(&self) -> Vec<String> {
+        if self.is_cell() {
+            self.arms.iter().map(|a| format!("{}/", a.name)).collect()
+        } else {
+            vec![String::new()]
+        }
+    }
+
+    /// Where each tool is for joint values `values`: the robot's tcp in its base frame, or on a
+    /// cell each arm's tcp in that arm's base frame (the frame its tool keys are in).
+    pub fn tool_positions(&self, values: &[f64]) -> Vec<DVec3> {
+        if self.is_cell() {
+            self.arms
+                .iter()
+                .map(|a| a.robot.tcp_position(a.values(values)))
+                .collect()
+        } else {
+            vec![self.tcp_position(values)]
+        }
+    }
+
     /// Whether joint `index` starts a chain of its own: the first joint of a cell's arm, whose
     /// origin is in the cell frame rather than on the previous joint.
     pub(super) fn starts_chain(&self, index: usize) -> bool {
@@ -147,7 +171,6 @@ impl Arm {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::DVec3;
 
     fn two_so101(offset: f64) -> Robot {
         let so101 = Robot::builtin("so101").unwrap();
