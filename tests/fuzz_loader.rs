@@ -7,7 +7,8 @@ use keypose::robot::{import_lerobot_calibration, Robot};
 use keypose::sequence::Sequence;
 use proptest::prelude::*;
 
-const SEQUENCES: [&str; 6] = [
+const SEQUENCES: [&str; 7] = [
+    include_str!("../sequences/bimanual_wave.json"),
     include_str!("../sequences/so101_wave.json"),
     include_str!("../sequences/so101_pick_place.json"),
     include_str!("../sequences/so101_nod.json"),
@@ -26,7 +27,7 @@ fn run_pipeline(text: &str) {
     let Ok(sequence) = Sequence::from_json("fuzz.json", text) else {
         return;
     };
-    let Some(robot) = Robot::builtin(&sequence.robot) else {
+    let Some(robot) = keypose::plan::builtin_robot_of(&sequence) else {
         return;
     };
     if let Ok(trajectory) = Trajectory::build(&sequence, &robot) {

@@ -1,5 +1,5 @@
 //! Sequence file text, loaded against the built-in robot it names (the SO-101 when it names
-//! none), then through everything `check`, `retime` and `play` do before a servo is involved.
+//! none; the cell of the built-ins its arms name for several arms), then through everything `check`, `retime` and `play` do before a servo is involved.
 //! Property: no panic; what loads saves and loads back to the same sequence; a trajectory that
 //! builds checks; what `retime` returns builds, its report is the check of what it returns, and
 //! it never shortens a segment (beyond the millisecond its key times are rounded to).
@@ -7,7 +7,7 @@
 
 use keypose::plan::{check, retime, Trajectory};
 use keypose::sequence::Sequence;
-use keypose_fuzz::{builtin_named, builtin_robot};
+use keypose_fuzz::sequence_robot;
 use libfuzzer_sys::fuzz_target;
 
 /// Longer trajectories are valid but make an execution take seconds at the control rate.
@@ -38,7 +38,10 @@ fuzz_target!(|data: &[u8]| {
         "save and load changed the sequence"
     );
 
-    let robot = builtin_named(&sequence.robot).unwrap_or_else(|| builtin_robot(0));
+    let Some(robot) = sequence_robot(&sequence) else {
+        return;
+    };
+    let robot = robot.as_ref();
     let Ok(trajectory) = Trajectory::build(&sequence, robot) else {
         return;
     };

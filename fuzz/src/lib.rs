@@ -4,6 +4,8 @@
 pub mod decoding;
 
 use keypose::robot::{Robot, BUILTIN_NAMES};
+use keypose::sequence::Sequence;
+use std::borrow::Cow;
 use std::sync::OnceLock;
 
 /// The fuzzer's bytes read front to back as a series of choices; once they run out every
@@ -66,4 +68,15 @@ pub fn builtin_robot(selector: u8) -> &'static Robot {
 pub fn builtin_named(name: &str) -> Option<&'static Robot> {
     let index = BUILTIN_NAMES.iter().position(|n| *n == name)?;
     Some(builtin_robot(index as u8))
+}
+
+/// The robot a sequence is loaded against: the built-in it names (the SO-101 when it names
+/// none), or for a sequence of several arms the cell of the built-ins its arms name (None when
+/// an arm names no built-in or the arms make no cell).
+pub fn sequence_robot(sequence: &Sequence) -> Option<Cow<'static, Robot>> {
+    if sequence.is_cell() {
+        return keypose::plan::builtin_robot_of(sequence).map(Cow::Owned);
+    }
+    let robot = builtin_named(&sequence.robot).unwrap_or_else(|| builtin_robot(0));
+    Some(Cow::Borrowed(robot))
 }

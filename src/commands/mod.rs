@@ -193,7 +193,9 @@ pub fn load_cell(
             })
         })?;
         let robot = finish_robot(robot, &calibration.for_arm(&arm.name, &names)?)?;
-        let base = arm.base.unwrap_or(keypose::pose::RigidTransform::IDENTITY);
+        let base = arm
+            .base
+            .map_or(keypose::pose::RigidTransform::IDENTITY, |b| b.transform());
         arms.push((arm.name.clone(), robot, base));
     }
     Robot::cell(arms)

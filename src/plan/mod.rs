@@ -26,6 +26,24 @@ pub const SWING_TOLERANCE_DEG: f64 = 0.5;
 /// off its axis, metres.
 pub const OFF_AXIS_TOLERANCE_M: f64 = 1e-4;
 
+/// The robot of a sequence that names built-in robots only (a program without robot files:
+/// tests, fuzzing, a library user): the built-in it names, or the cell of the built-ins its arms
+/// name, placed at their bases. None when it names anything else.
+pub fn builtin_robot_of(sequence: &Sequence) -> Option<Robot> {
+    if !sequence.is_cell() {
+        return Robot::builtin(&sequence.robot);
+    }
+    let arms = sequence
+        .arms
+        .iter()
+        .map(|arm| {
+            let base = arm.base.map_or(RigidTransform::IDENTITY, |b| b.transform());
+            Robot::builtin(&arm.robot).map(|robot| (arm.name.clone(), robot, base))
+        })
+        .collect::<Option<Vec<_>>>()?;
+    Robot::cell(arms).ok()
+}
+
 /// Per-joint tracks in robot joint order and units, with the played time window.
 #[derive(Debug, Clone)]
 pub struct Trajectory {

@@ -160,7 +160,7 @@ fn parse_joint(node: &Node, protocol: Protocol) -> Result<Joint, InputError> {
 
 /// `{ "xyz": [..], "rpy": [..] }` as in URDF, or `{ "xyz": [..], "quat": [w, x, y, z] }` as in
 /// MJCF, for origins whose roll-pitch-yaw sits at gimbal lock.
-pub(crate) fn parse_origin(node: &Node) -> Result<RigidTransform, InputError> {
+pub(super) fn parse_origin(node: &Node) -> Result<RigidTransform, InputError> {
     node.only_fields(&["xyz", "rpy", "quat"])?;
     let xyz = match node.get("xyz") {
         Some(n) => DVec3::from_array(n.numbers::<3>("metres")?),

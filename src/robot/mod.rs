@@ -18,7 +18,6 @@ pub use builtin::BUILTIN_NAMES;
 pub use cell::{cell_joint_name, split_joint_name, Arm, CellError};
 pub use lerobot::{import_lerobot_calibration, CalibrationMismatch, CalibrationReport, IdMismatch};
 pub use lerobot_names::{LeRobotRole, LeRobotType, NotBuiltIn};
-pub(crate) use load::parse_origin;
 pub use servo::{PositionEncoding, Servo, ServoModel, TickError, Vendor};
 
 pub const ROBOT_FORMAT: &str = "keypose-robot/1";

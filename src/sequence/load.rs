@@ -1,8 +1,8 @@
 //! Reading `keypose-sequence/1` files.
 
 use super::{
-    ArmSpec, Ends, KeyValue, Keyframe, Sequence, ToolKey, ToolOrientation, DEFAULT_KEY_INTERVAL,
-    SEQUENCE_FORMAT,
+    ArmSpec, Ends, KeyValue, Keyframe, Placement, Sequence, ToolKey, ToolOrientation,
+    DEFAULT_KEY_INTERVAL, SEQUENCE_FORMAT,
 };
 use crate::curve::Interp;
 use crate::json::{self, InputError, Node};
@@ -122,7 +122,7 @@ fn parse_arm(name: &str, node: &Node) -> Result<ArmSpec, InputError> {
     node.only_fields(&["robot", "base"])?;
     let robot = node.require("robot", "a robot name or file")?;
     let base = match node.get("base") {
-        Some(base) => Some(crate::robot::parse_origin(&base)?),
+        Some(base) => Some(parse_placement(&base)?),
         None => None,
     };
     Ok(ArmSpec {
@@ -130,6 +130,33 @@ fn parse_arm(name: &str, node: &Node) -> Result<ArmSpec, InputError> {
         robot: robot.str("a robot name or file")?.to_string(),
         base,
     })
+}
+
+/// An arm's base as a joint origin is written: `xyz`, and `rpy` or `quat` `[w, x, y, z]`.
+fn parse_placement(node: &Node) -> Result<Placement, InputError> {
+    node.object()?;
+    node.only_fields(&["xyz", "rpy", "quat"])?;
+    let xyz = match node.get("xyz") {
+        Some(n) => DVec3::from_array(n.numbers::<3>("metres")?),
+        None => DVec3::ZERO,
+    };
+    let rotation = match (node.get("rpy"), node.get("quat")) {
+        (Some(_), Some(quat)) => {
+            return Err(
+                quat.error("the rotation is given twice (\"rpy\" and \"quat\"); expected one")
+            )
+        }
+        (Some(rpy), None) => Some(ToolOrientation::Rpy(rpy.numbers::<3>("radians")?)),
+        (None, Some(quat)) => {
+            let [w, x, y, z] = quat.numbers::<4>("quaternion component, w first")?;
+            Some(ToolOrientation::Quaternion(unit_quaternion(
+                &quat,
+                DQuat::from_xyzw(x, y, z, w),
+            )?))
+        }
+        (None, None) => None,
+    };
+    Ok(Placement { xyz, rotation })
 }
 
 fn parse_ends(root: &Node) -> Result<Ends, InputError> {
@@ -456,7 +483,11 @@ fn parse_quaternion(n: &Node) -> Result<DQuat, InputError> {
             .require(name, "a quaternion component")?
             .number("quaternion component")?;
     }
-    let q = DQuat::from_xyzw(c[1], c[2], c[3], c[0]);
+    unit_quaternion(n, DQuat::from_xyzw(c[1], c[2], c[3], c[0]))
+}
+
+/// `q` of norm 1 within [`UNIT_TOLERANCE`], normalised (see [`unit`]); `n` is where it was.
+fn unit_quaternion(n: &Node, q: DQuat) -> Result<DQuat, InputError> {
     let norm = q.length();
     if (norm - 1.0).abs() > UNIT_TOLERANCE {
         return Err(n.error(format!(

@@ -137,9 +137,23 @@ pub struct ArmSpec {
     pub name: String,
     /// A built-in robot, a LeRobot type or a robot file, as for `"robot"`.
     pub robot: String,
-    /// The arm's base frame in the cell frame (metres, URDF roll-pitch-yaw); `None` is the
-    /// cell's origin.
-    pub base: Option<RigidTransform>,
+    /// The arm's base frame in the cell frame; `None` is the cell's origin.
+    pub base: Option<Placement>,
+}
+
+/// A frame's place as written in a file, `xyz` in metres and optionally a rotation (`rpy` in
+/// radians, URDF order, or `quat` `[w, x, y, z]`), kept as written so saving gives it back.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Placement {
+    pub xyz: DVec3,
+    pub rotation: Option<ToolOrientation>,
+}
+
+impl Placement {
+    pub fn transform(&self) -> RigidTransform {
+        let r = self.rotation.map_or(DQuat::IDENTITY, |o| o.quaternion());
+        RigidTransform::new(self.xyz, r)
+    }
 }
 
 #[derive(Debug, Clone, PartialEq)]

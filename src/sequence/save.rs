@@ -1,7 +1,8 @@
 //! Writing sequences back to `keypose-sequence/1` JSON.
 
-use super::{ArmSpec, Ends, KeyValue, Sequence, ToolKey, ToolOrientation, SEQUENCE_FORMAT};
-use crate::pose::{quat_from_rpy, rpy_from_quat, RigidTransform};
+use super::{
+    ArmSpec, Ends, KeyValue, Placement, Sequence, ToolKey, ToolOrientation, SEQUENCE_FORMAT,
+};
 use serde_json::{json, Map, Value};
 
 pub(super) fn to_json(sequence: &Sequence) -> String {
@@ -90,16 +91,15 @@ pub(super) fn to_json(sequence: &Sequence) -> String {
     text
 }
 
-/// `"robots"`: an arm without a base as its robot's name alone, one with a base as an object
-/// (the rotation as roll-pitch-yaw, the convention it was written in, or as `quat` at gimbal
-/// lock, where roll-pitch-yaw does not give it back).
+/// `"robots"`: an arm without a base as its robot's name alone, one with a base as an object,
+/// the base as it was written.
 fn arms_json(arms: &[ArmSpec]) -> Value {
     let arms = arms
         .iter()
         .map(|arm| {
             let value = match &arm.base {
                 None => json!(arm.robot),
-                Some(base) => json!({ "robot": arm.robot, "base": origin_json(base) }),
+                Some(base) => json!({ "robot": arm.robot, "base": placement_json(base) }),
             };
             (arm.name.clone(), value)
         })
@@ -107,15 +107,19 @@ fn arms_json(arms: &[ArmSpec]) -> Value {
     Value::Object(arms)
 }
 
-fn origin_json(origin: &RigidTransform) -> Value {
-    let xyz = origin.t.to_array();
-    let (r, p, y) = rpy_from_quat(origin.r);
-    if quat_from_rpy(r, p, y).angle_between(origin.r) < 1e-9 {
-        json!({ "xyz": xyz, "rpy": [r, p, y] })
-    } else {
-        let q = origin.r;
-        json!({ "xyz": xyz, "quat": [q.w, q.x, q.y, q.z] })
+fn placement_json(placement: &Placement) -> Value {
+    let mut p = Map::new();
+    p.insert("xyz".into(), json!(placement.xyz.to_array()));
+    match placement.rotation {
+        Some(ToolOrientation::Rpy(rpy)) => {
+            p.insert("rpy".into(), json!(rpy));
+        }
+        Some(ToolOrientation::Quaternion(q)) => {
+            p.insert("quat".into(), json!([q.w, q.x, q.y, q.z]));
+        }
+        None => {}
     }
+    Value::Object(p)
 }
 
 /// A tool key as written: `xyz`, and `r` or `rpy` if it had one.
