@@ -109,6 +109,7 @@ class Model:
         # In a cell, the arm each body belongs to (None: the world's); robot bodies of two
         # different arms touching is a collision between arms, not a self-collision.
         self.body_arm = [None] * m.nbody
+        self.arm_order = {arm: index for index, arm in enumerate(self.arm_roots or {})}
         for arm, names in (self.arm_roots or {}).items():
             arm_root_ids = {mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name) for name in names}
             for b in range(m.nbody):

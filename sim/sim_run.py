@@ -335,6 +335,9 @@ class Simulator:
                 elif model.body_robot[b1] and model.body_robot[b2]:
                     # In a cell, two arms' bodies touching is a collision between the arms.
                     kind = "self" if model.body_arm[b1] == model.body_arm[b2] else "arms"
+                    if kind == "arms" and model.arm_order[model.body_arm[b1]] > model.arm_order[model.body_arm[b2]]:
+                        # Named in the cell's order of arms, whichever MuJoCo put first.
+                        b1, b2 = b2, b1
                 else:
                     kind = "environment"
             self.mujoco.mj_contactForce(m, d, int(i), wrench)
