@@ -451,4 +451,45 @@ mod tests {
         );
         assert!(v.findings[1].message.contains("4.0 mm deep"));
     }
+
+    /// Two so101 arms, left and right, as one cell.
+    fn cell() -> Robot {
+        let so101 = Robot::builtin("so101").unwrap();
+        let arm = |name: &str| {
+            (
+                name.to_string(),
+                so101.clone(),
+                crate::pose::RigidTransform::IDENTITY,
+            )
+        };
+        Robot::cell(vec![arm("left"), arm("right")]).unwrap()
+    }
+
+    #[test]
+    fn in_a_cell_findings_name_the_arm_and_arms_colliding_both() {
+        let robot = cell();
+        let mut trace = perfect(&robot);
+        // Joint 8 is the right arm's elbow_flex (6 joints an arm).
+        trace.position[150][8] = 16.0;
+        trace.contacts = vec![Contact {
+            time: 1.0,
+            body1: "left/gripper".into(),
+            body2: "right/moving_jaw".into(),
+            kind: ContactKind::BetweenArms,
+            depth: 0.003,
+            force: 4.0,
+            arms: [Some("left".into()), Some("right".into())],
+        }];
+        let v = judge(&robot, &trace, &[], &Thresholds::default());
+        assert_eq!(kinds(&v), ["arm collision", "tracking"]);
+        assert_eq!(v.findings[0].arms, ["left", "right"]);
+        assert_eq!(
+            v.findings[0].message,
+            "arms left and right: left/gripper touches right/moving_jaw: 3.0 mm deep, 4.0 N"
+        );
+        assert_eq!(v.findings[1].joint.as_deref(), Some("right/elbow_flex"));
+        assert_eq!(v.findings[1].arms, ["right"]);
+        assert_eq!(v.tracking[8].arm.as_deref(), Some("right"));
+        assert_eq!(v.tracking[0].arm.as_deref(), Some("left"));
+    }
 }
