@@ -50,7 +50,7 @@ const PAIR_MJCF: &str = r#"<mujoco model="pair">
 "#;
 
 fn harness(dir: &Path) -> (Harness, String) {
-    let config = PyConfig::with_cache_dir(&sim_cache());
+    let config = PyConfig::with_cache_dir(sim_cache());
     config
         .ensure_python()
         .unwrap_or_else(|e| panic!("keypose's Python environment (MuJoCo) is needed: {e}"));
