@@ -228,8 +228,27 @@ fn tool_x(joints: &[&str]) -> f64 {
     x.unwrap().parse().unwrap()
 }
 
-fn report(path: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+/// `keypose sim ARGS`, its wall time printed under `label`.
+fn sim(label: &str, args: &[&str]) -> std::process::Output {
+    let started = Instant::now();
+    let out = keypose(&[&["sim"], args].concat());
+    println!(
+        "{label}: keypose sim took {:.2} s",
+        started.elapsed().as_secs_f64()
+    );
+    out
+}
+
+/// The findings of the report at `path` whose kind `kind` accepts.
+fn findings(path: &Path, kind: impl Fn(&str) -> bool) -> Vec<Value> {
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    report["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| kind(f["kind"].as_str().unwrap()))
+        .cloned()
+        .collect()
 }
 
 /// The CSV at `path` as columns by header name.
@@ -261,11 +280,12 @@ fn arms_reaching_into_each_other_collide_and_far_apart_pass() {
     println!("tool point in front of the base: {home:.3} m at home, {reach:.3} m at the reach");
     assert!(2.0 * home < 0.84 && 2.0 * reach > 0.84 && 2.0 * reach < 1.0);
 
-    let started = Instant::now();
     let close = facing(dir.path(), 0.84);
     let close_report = dir.path().join("close.json");
-    let out = keypose(&["sim", &close, "--report", close_report.to_str().unwrap()]);
-    println!("0.84 m apart: {:.2} s", started.elapsed().as_secs_f64());
+    let out = sim(
+        "0.84 m apart",
+        &[&close, "--report", close_report.to_str().unwrap()],
+    );
     assert_eq!(out.status.code(), Some(1), "{}", show(&out));
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     let line = stdout
@@ -276,25 +296,17 @@ fn arms_reaching_into_each_other_collide_and_far_apart_pass() {
         line.contains("arms left and right: left/") && line.contains(" touches right/"),
         "{line}"
     );
-    let findings = report(&close_report)["findings"].clone();
-    let collisions: Vec<&Value> = findings
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter(|f| f["kind"] == "arm collision")
-        .collect();
-    let first = collisions[0];
+    let collisions = findings(&close_report, |kind| kind == "arm collision");
+    let first = &collisions[0];
     assert_eq!(first["arms"], json!(["left", "right"]), "{first}");
     // They meet on the way: home leaves room, so not before the motion starts.
     let time = first["time"].as_f64().unwrap();
     assert!(time > 0.0 && time <= 1.2, "{first}");
     println!("first arm collision at {time:.2} s: {}", first["message"]);
 
-    let started = Instant::now();
     let far = facing(dir.path(), 1.0);
     let log = dir.path().join("far.csv");
-    let out = keypose(&["sim", &far, "--log", log.to_str().unwrap()]);
-    println!("1.0 m apart: {:.2} s", started.elapsed().as_secs_f64());
+    let out = sim("1.0 m apart", &[&far, "--log", log.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(0), "{}", show(&out));
     // The scene is symmetric under the half turn about x = 0.5 m: both arms move alike.
     let log = columns(&log);
@@ -315,9 +327,7 @@ fn the_bimanual_wave_passes_and_each_arm_moves_as_sampled() {
     let dir = tempfile::tempdir().unwrap();
     let wave = common::repo("sequences/bimanual_wave.json");
     let log = dir.path().join("wave.csv");
-    let started = Instant::now();
-    let out = keypose(&["sim", &wave, "--log", log.to_str().unwrap()]);
-    println!("bimanual_wave: {:.2} s", started.elapsed().as_secs_f64());
+    let out = sim("bimanual_wave", &[&wave, "--log", log.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(0), "{}", show(&out));
     let sampled_path = dir.path().join("sampled.csv");
     let out = keypose(&[
@@ -398,25 +408,21 @@ fn a_cell_curling_one_arm_onto_itself_is_that_arms_self_collision() {
     )
     .unwrap();
     let report_path = dir.path().join("curl-report.json");
-    let out = keypose(&[
-        "sim",
-        path.to_str().unwrap(),
-        "--report",
-        report_path.to_str().unwrap(),
-    ]);
+    let out = sim(
+        "one arm curled",
+        &[
+            path.to_str().unwrap(),
+            "--report",
+            report_path.to_str().unwrap(),
+        ],
+    );
     assert_eq!(out.status.code(), Some(1), "{}", show(&out));
-    let findings = report(&report_path)["findings"].clone();
-    let collisions: Vec<&Value> = findings
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter(|f| f["kind"].as_str().unwrap().contains("collision"))
-        .collect();
+    let collisions = findings(&report_path, |kind| kind.contains("collision"));
     // The gripper may graze the floor on the way too: every collision is the left arm's.
     for f in &collisions {
         assert_eq!(f["arms"], json!(["left"]), "{f}");
     }
-    let own: Vec<&&Value> = collisions
+    let own: Vec<&Value> = collisions
         .iter()
         .filter(|f| f["kind"] == "self collision")
         .collect();
