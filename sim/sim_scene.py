@@ -56,7 +56,10 @@ def compose(mujoco, arms):
         prefix = arm["name"] + "/"
         roots[arm["name"]] = [prefix + body.name for body in _root_bodies(child)]
         frame = scene.worldbody.add_frame(pos=arm["pos"], quat=arm["quat"])
-        scene.attach(child, prefix=prefix, frame=frame)
+        try:
+            scene.attach(child, prefix=prefix, frame=frame)
+        except Exception as e:  # MuJoCo raises ValueError when the arm cannot be attached
+            raise SimError("model", f"cannot attach {arm['mjcf']} as arm {arm['name']}: {e}".rstrip())
     _add_floor(mujoco, scene)
     try:
         model = scene.compile()

@@ -81,7 +81,16 @@ fn load_request(
     let mut arms = Vec::with_capacity(robot.arms.len());
     let mut names = Vec::with_capacity(robot.arms.len());
     for arm in &robot.arms {
-        let path = model_path(config, &arm.robot.name)?;
+        let path = model_path(config, &arm.robot.name).map_err(|e| match e {
+            SimError::Model { model, .. } => SimError::Model {
+                model,
+                message: format!(
+                    "arm {}: keypose has no built-in model of this robot, and a cell is simulated with its arms' built-in models",
+                    arm.name
+                ),
+            },
+            e => e,
+        })?;
         let r = arm.base.r;
         arms.push(json!({
             "name": arm.name,
