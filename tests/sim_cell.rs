@@ -448,3 +448,22 @@ fn another_model_is_refused_on_a_cell() {
         "{stderr}"
     );
 }
+
+#[test]
+fn the_servo_profile_and_a_render_work_on_the_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let far = facing(dir.path(), 1.0);
+    let sheet = dir.path().join("facing.png");
+    let out = sim(
+        "servo profile and render",
+        &[&far, "--servo-profile", "--render", sheet.to_str().unwrap()],
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    // Two keys: a sheet of two 320 × 240 tiles side by side.
+    assert_eq!(common::png_size(&sheet), (640, 240));
+    let stderr = common::stderr(&out);
+    assert!(
+        stderr.contains("rendered 2 frame(s) of left=so101,right=so101"),
+        "{stderr}"
+    );
+}
