@@ -5,7 +5,8 @@ actuators are named "left/shoulder_pan" as keypose names a cell's joints.
 The scene has one floor and one light of its own; the arms' own floors, lights and keyframes
 are left out (each model brings them for being simulated alone). Each arm keeps its contact
 exclusions, renamed with its prefix by MjSpec; nothing excludes one arm's bodies from
-another's. The physics options (timestep, integrator) are the first arm's.
+another's. The timestep is the smallest of the arms' models, the integrator and the headlight
+the first arm's.
 
 It knows nothing about runs, rendering or the request loop.
 """
@@ -53,6 +54,8 @@ def compose(mujoco, arms):
         child = _arm_spec(mujoco, arm)
         if index == 0:
             _take_settings(scene, child)
+        # The finest timestep any arm's model asks for keeps every arm's physics stable.
+        scene.option.timestep = min(scene.option.timestep, child.option.timestep)
         prefix = arm["name"] + "/"
         roots[arm["name"]] = [prefix + body.name for body in _root_bodies(child)]
         frame = scene.worldbody.add_frame(pos=arm["pos"], quat=arm["quat"])

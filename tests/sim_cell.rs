@@ -49,7 +49,8 @@ const PAIR_MJCF: &str = r#"<mujoco model="pair">
 </mujoco>
 "#;
 
-fn harness(dir: &Path) -> (Harness, String) {
+/// The harness, the pair's model file and a copy of it at half the timestep (0.001 s).
+fn harness(dir: &Path) -> (Harness, String, String) {
     let config = PyConfig::with_cache_dir(sim_cache());
     config
         .ensure_python()
@@ -58,7 +59,14 @@ fn harness(dir: &Path) -> (Harness, String) {
         .unwrap_or_else(|e| panic!("the MuJoCo harness did not start: {e}"));
     let path = dir.join("pair.xml");
     std::fs::write(&path, PAIR_MJCF).unwrap();
-    (harness, path.display().to_string())
+    let fine = dir.join("pair-fine.xml");
+    let text = PAIR_MJCF.replace(r#"timestep="0.002""#, r#"timestep="0.001""#);
+    std::fs::write(&fine, text).unwrap();
+    (
+        harness,
+        path.display().to_string(),
+        fine.display().to_string(),
+    )
 }
 
 /// Arm `name` of model `mjcf` at `x` on the x axis, turned `yaw` about z.
@@ -92,12 +100,14 @@ fn contact_pairs(reply: &Value) -> Vec<(String, String, String, String, String)>
 #[test]
 fn a_scene_places_each_arm_at_its_base_and_keeps_its_exclusions() {
     let dir = tempfile::tempdir().unwrap();
-    let (mut harness, pair) = harness(dir.path());
+    let (mut harness, pair, fine) = harness(dir.path());
     let yaw = std::f64::consts::PI;
     let loaded = request(
         &mut harness,
-        json!({"op": "load", "arms": [arm("left", &pair, 0.0, 0.0), arm("right", &pair, 1.0, yaw)]}),
+        json!({"op": "load", "arms": [arm("left", &pair, 0.0, 0.0), arm("right", &fine, 1.0, yaw)]}),
     );
+    // The finer of the two arms' timesteps.
+    assert_eq!(loaded["timestep"], json!(0.001));
     let joints: Vec<&str> = loaded["joints"]
         .as_array()
         .unwrap()
