@@ -249,9 +249,12 @@ fn sim(label: &str, args: &[&str]) -> std::process::Output {
     out
 }
 
-/// The findings of the report at `path` whose kind `kind` accepts.
-fn findings(path: &Path, kind: impl Fn(&str) -> bool) -> Vec<Value> {
-    let report: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+fn read_report(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// The findings of `report` whose kind `kind` accepts.
+fn findings(report: &Value, kind: impl Fn(&str) -> bool) -> Vec<Value> {
     report["findings"]
         .as_array()
         .unwrap()
@@ -306,7 +309,16 @@ fn arms_reaching_into_each_other_collide_and_far_apart_pass() {
         line.contains("arms left and right: left/") && line.contains(" touches right/"),
         "{line}"
     );
-    let collisions = findings(&close_report, |kind| kind == "arm collision");
+    let report = read_report(&close_report);
+    assert_eq!(report["arms"][1]["name"], "right");
+    assert_eq!(report["arms"][1]["base"]["xyz"], json!([0.84, 0.0, 0.0]));
+    let yaw = report["arms"][1]["base"]["rpy"][2].as_f64().unwrap();
+    assert!(
+        (yaw - std::f64::consts::PI).abs() < 1e-9,
+        "{}",
+        report["arms"]
+    );
+    let collisions = findings(&report, |kind| kind == "arm collision");
     let first = &collisions[0];
     assert_eq!(first["arms"], json!(["left", "right"]), "{first}");
     // They meet on the way: home leaves room, so not before the motion starts.
@@ -427,7 +439,9 @@ fn a_cell_curling_one_arm_onto_itself_is_that_arms_self_collision() {
         ],
     );
     assert_eq!(out.status.code(), Some(1), "{}", show(&out));
-    let collisions = findings(&report_path, |kind| kind.contains("collision"));
+    let collisions = findings(&read_report(&report_path), |kind| {
+        kind.contains("collision")
+    });
     // The gripper may graze the floor on the way too: every collision is the left arm's.
     for f in &collisions {
         assert_eq!(f["arms"], json!(["left"]), "{f}");

@@ -398,10 +398,14 @@ pub fn report_json(file: &str, robot: &Robot, result: &Simulated) -> serde_json:
         "passed": result.verdict.passed(),
         "simulated_seconds": result.trace.time.last().copied().unwrap_or(0.0),
         "wall_seconds": result.wall_seconds,
-        "arms": robot.arms.iter().map(|a| json!({
-            "name": a.name, "robot": a.robot.name,
-            "base": {"xyz": a.base.t.to_array(), "quat_xyzw": a.base.r.to_array()},
-        })).collect::<Vec<_>>(),
+        // Each base as the sequence gives it: metres, and roll-pitch-yaw in radians.
+        "arms": robot.arms.iter().map(|a| {
+            let (roll, pitch, yaw) = keypose::pose::rpy_from_quat(a.base.r);
+            json!({
+                "name": a.name, "robot": a.robot.name,
+                "base": {"xyz": a.base.t.to_array(), "rpy": [roll, pitch, yaw]},
+            })
+        }).collect::<Vec<_>>(),
         "findings": result.verdict.findings.iter().map(|f| json!({
             "kind": f.kind, "joint": f.joint, "arms": f.arms, "time": f.time, "message": f.message,
         })).collect::<Vec<_>>(),

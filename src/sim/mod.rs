@@ -2,7 +2,9 @@
 //!
 //! The arm is commanded exactly as the player would command servos: the same [`Timeline`]
 //! (approach ramp from the pose the arm rests in, the control rate, loops, speed), the same
-//! joint values. The harness only measures; [`verdict`] decides.
+//! joint values. The harness only measures; [`verdict`] decides. A cell of several arms is one
+//! scene of every arm's model at its base, its joints named `ARM/JOINT` as the cell's are, so
+//! that everything here treats it as one robot.
 
 pub mod joint_map;
 mod models;
@@ -78,6 +80,11 @@ fn load_request(
             ),
         });
     }
+    cell_load_request(config, robot)
+}
+
+/// The `load` request of a cell's scene and its name in reports: `ARM=MODEL, …`.
+fn cell_load_request(config: &PyConfig, robot: &Robot) -> Result<(Value, String), SimError> {
     let mut arms = Vec::with_capacity(robot.arms.len());
     let mut names = Vec::with_capacity(robot.arms.len());
     for arm in &robot.arms {
