@@ -18,7 +18,8 @@ pub struct SimArgs {
     #[command(flatten)]
     pub input: SequenceInput,
     /// Another MJCF model to run instead of the built-in one (its joint names must match the
-    /// robot's), e.g. the arm maker's official mesh model.
+    /// robot's), e.g. the arm maker's official mesh model. One arm only: a sequence of several
+    /// arms is simulated with each arm's built-in model.
     #[arg(long, value_name = "FILE")]
     pub mjcf: Option<PathBuf>,
     /// With --mjcf: the model's names of the robot's joints, as ROBOT=MODEL pairs
