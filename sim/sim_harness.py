@@ -9,6 +9,7 @@ is sim/PROTOCOL.md; in short:
                  or {"ready": false, "error": TEXT, "missing": MODULE}
     ping         {"op": "ping"} -> {"ok": true}
     load         {"op": "load", "mjcf": PATH}
+                 or a cell's scene: {"op": "load", "arms": [{"name", "mjcf", "pos", "quat"}, ...]}
     kinematics   {"op": "kinematics", "qpos": {JOINT: VALUE}, "sites": [SITE, ...]}
     contacts     {"op": "contacts", "qpos": {JOINT: VALUE}}  (one pose, no dynamics)
     run          {"op": "run", "joints": [...], "control_hz": HZ, "initial": [...], "commands": [[...]]}
@@ -40,7 +41,8 @@ What PROTOCOL.md leaves open, decided here:
   with its label drawn inside; the reply gives the image's size.
 
 This file is the request loop; the work is done apart, each module knowing nothing of the
-others' concerns: sim_model (the loaded model, kinematics), sim_run (runs), sim_render and
+others' concerns: sim_model (the loaded model, kinematics), sim_scene (a cell's arms in one
+scene), sim_run (runs), sim_render and
 sim_images (renders), sim_requests (checks of request members), harness_io (the line protocol,
 shared with sdk_bridge.py). keypose writes them all beside this file.
 """

@@ -9,16 +9,19 @@ import math
 
 from harness_io import member
 from sim_requests import SimError, is_number, request_error, string_list
+from sim_scene import arm_requests, compose
 
 
 class Model:
     """A loaded MJCF model with the lookups the requests need, computed once."""
 
-    def __init__(self, mujoco, np, path, model):
+    def __init__(self, mujoco, np, path, model, arm_roots=None):
         self.mujoco = mujoco
         self.np = np
         self.path = path
         self.m = m = model
+        # A cell's scene (sim_scene): each arm's root bodies by arm name; None for one model.
+        self.arm_roots = arm_roots
         # Autoreset would make a diverging trace jump back to qpos0 without a trace of why.
         m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
         self.data = mujoco.MjData(m)
@@ -103,6 +106,15 @@ class Model:
             roots = {int(m.body_rootid[m.jnt_bodyid[j]]) for j in range(m.njnt)}
         roots.discard(0)
         self.body_robot = np.array([b != 0 and int(m.body_rootid[b]) in roots for b in range(m.nbody)], dtype=bool)
+        # In a cell, the arm each body belongs to (None: the world's); robot bodies of two
+        # different arms touching is a collision between arms, not a self-collision.
+        self.body_arm = [None] * m.nbody
+        self.arm_order = {arm: index for index, arm in enumerate(self.arm_roots or {})}
+        for arm, names in (self.arm_roots or {}).items():
+            arm_root_ids = {mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name) for name in names}
+            for b in range(m.nbody):
+                if int(m.body_rootid[b]) in arm_root_ids:
+                    self.body_arm[b] = arm
 
     def _is_position_servo(self, a):
         m, mujoco = self.m, self.mujoco
@@ -157,13 +169,16 @@ class Model:
                     "limited": bool(m.jnt_limited[j]),
                 }
             )
-        return {
+        reply = {
             "timestep": float(m.opt.timestep),
             "joints": joints,
             "actuators": self.actuator_reply,
             "bodies": self.body_names,
             "sites": list(self.site_ids),
         }
+        if self.arm_roots is not None:
+            reply["arms"] = {arm: [name for b, name in enumerate(self.body_names) if self.body_arm[b] == arm] for arm in self.arm_roots}
+        return reply
 
     def kinematics(self, req):
         """Forward kinematics at the given joint values: joint anchors and axes, site positions."""
@@ -194,7 +209,12 @@ class Model:
 
 
 def load_model(mujoco, np, req):
-    """The model of a load request's "mjcf" file; a "model" error when MuJoCo refuses it."""
+    """The model of a load request's "mjcf" file, or the scene of its "arms" (a cell,
+    sim_scene); a "model" error when MuJoCo refuses it."""
+    if "arms" in req:
+        arms = arm_requests(req)
+        model, roots = compose(mujoco, arms)
+        return Model(mujoco, np, ", ".join(f"{a['name']}={a['mjcf']}" for a in arms), model, roots)
     path = member(req, "mjcf")
     if not isinstance(path, str) or not path:
         raise request_error(f"'mjcf' must be a path, not {json.dumps(path)}")

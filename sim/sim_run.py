@@ -333,17 +333,23 @@ class Simulator:
                 if model.geom_floor[g1] or model.geom_floor[g2]:
                     kind = "floor"
                 elif model.body_robot[b1] and model.body_robot[b2]:
-                    kind = "self"
+                    # In a cell, two arms' bodies touching is a collision between the arms.
+                    kind = "self" if model.body_arm[b1] == model.body_arm[b2] else "arms"
+                    if kind == "arms" and model.arm_order[model.body_arm[b1]] > model.arm_order[model.body_arm[b2]]:
+                        # Named in the cell's order of arms, whichever MuJoCo put first.
+                        b1, b2 = b2, b1
                 else:
                     kind = "environment"
             self.mujoco.mj_contactForce(m, d, int(i), wrench)
-            out.append(
-                {
-                    "time": round(now, TRACE_DECIMALS),
-                    "body1": model.body_names[b1] if b1 >= 0 else "flex",
-                    "body2": model.body_names[b2] if b2 >= 0 else "flex",
-                    "kind": kind,
-                    "depth": float(-dist[i]),
-                    "force": float(wrench[0]),
-                }
-            )
+            contact = {
+                "time": round(now, TRACE_DECIMALS),
+                "body1": model.body_names[b1] if b1 >= 0 else "flex",
+                "body2": model.body_names[b2] if b2 >= 0 else "flex",
+                "kind": kind,
+                "depth": float(-dist[i]),
+                "force": float(wrench[0]),
+            }
+            if model.arm_roots is not None:
+                contact["arm1"] = model.body_arm[b1] if b1 >= 0 else None
+                contact["arm2"] = model.body_arm[b2] if b2 >= 0 else None
+            out.append(contact)

@@ -297,10 +297,9 @@ fn describe(contact: &Contact) -> String {
             "{} touches {} (self-collision), {depth:.1} mm deep",
             contact.body1, contact.body2
         ),
-        ContactKind::Environment => format!(
-            "{} touches {}, {depth:.1} mm deep",
-            contact.body1, contact.body2
-        ),
+        ContactKind::BetweenArms | ContactKind::Environment => {
+            format!("{}, {depth:.1} mm deep", contact.bodies())
+        }
     }
 }
 

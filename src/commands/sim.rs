@@ -18,7 +18,8 @@ pub struct SimArgs {
     #[command(flatten)]
     pub input: SequenceInput,
     /// Another MJCF model to run instead of the built-in one (its joint names must match the
-    /// robot's), e.g. the arm maker's official mesh model.
+    /// robot's), e.g. the arm maker's official mesh model. One arm only: a sequence of several
+    /// arms is simulated with each arm's built-in model.
     #[arg(long, value_name = "FILE")]
     pub mjcf: Option<PathBuf>,
     /// With --mjcf: the model's names of the robot's joints, as ROBOT=MODEL pairs
@@ -27,6 +28,10 @@ pub struct SimArgs {
     /// OpenMANIPULATOR-X model).
     #[arg(long, value_name = "NAME|FILE|A=B,…", requires = "mjcf")]
     pub joint_map: Option<String>,
+    /// Write the player's log of the simulated playback (CSV, as `play --log`): per control
+    /// cycle the commanded and the simulated position of every joint.
+    #[arg(long, value_name = "FILE.csv")]
+    pub log: Option<PathBuf>,
     /// Write the measurements and the verdict as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,
@@ -180,6 +185,14 @@ pub fn run(args: &SimArgs) -> Result<Verdict, CommandError> {
         None => None,
     };
     let model = match &args.mjcf {
+        Some(path) if robot.is_cell() => {
+            return Err(CommandError::Usage(format!(
+                "--mjcf {}: {} is {}, each simulated with its built-in model at its base; --mjcf and --joint-map are for a sequence of one arm",
+                path.display(),
+                sequence.file,
+                robot.description
+            )))
+        }
         Some(path) => {
             sim::check_mjcf_file(path)?;
             let joint_map = match &args.joint_map {
@@ -197,6 +210,7 @@ pub fn run(args: &SimArgs) -> Result<Verdict, CommandError> {
     let options = PlayOptions {
         speed: args.speed,
         servo_profile: args.servo_profile,
+        log: args.log.clone(),
         ..PlayOptions::new(rate)
     };
     let result = simulate(&sequence, &robot, &trajectory, &options, model.as_ref())?;
@@ -323,9 +337,16 @@ pub fn table(file: &str, result: &Simulated) -> String {
         "{file} in MuJoCo ({}): {simulated:.2} s simulated in {:.2} s",
         result.model, result.wall_seconds
     );
+    // A cell's joints are ARM/JOINT: the column is as wide as the longest.
+    let width = result
+        .verdict
+        .tracking
+        .iter()
+        .map(|t| t.joint.chars().count())
+        .fold(18, usize::max);
     let _ = writeln!(
         out,
-        "  {:<18} {:>22} {:>10} {:>22} {:>18}",
+        "  {:<width$} {:>22} {:>10} {:>22} {:>18}",
         "joint", "max tracking error", "rms", "worst after settling", "servo speed °/s"
     );
     for t in &result.verdict.tracking {
@@ -339,7 +360,7 @@ pub fn table(file: &str, result: &Simulated) -> String {
         let max = show(t.max_error);
         let _ = writeln!(
             out,
-            "  {:<18} {:>9} {:<3} @ {:>6.2} s {:>10} {:>22} {:>8.0} / {:<6.0}",
+            "  {:<width$} {:>9} {:<3} @ {:>6.2} s {:>10} {:>22} {:>8.0} / {:<6.0}",
             t.joint,
             max.number(),
             max.unit,
@@ -378,11 +399,20 @@ pub fn report_json(file: &str, robot: &Robot, result: &Simulated) -> serde_json:
         "passed": result.verdict.passed(),
         "simulated_seconds": result.trace.time.last().copied().unwrap_or(0.0),
         "wall_seconds": result.wall_seconds,
+        // Each base as the sequence gives it: metres, and roll-pitch-yaw in radians.
+        "arms": robot.arms.iter().map(|a| {
+            let (roll, pitch, yaw) = keypose::pose::rpy_from_quat(a.base.r);
+            json!({
+                "name": a.name, "robot": a.robot.name,
+                "base": {"xyz": a.base.t.to_array(), "rpy": [roll, pitch, yaw]},
+            })
+        }).collect::<Vec<_>>(),
         "findings": result.verdict.findings.iter().map(|f| json!({
-            "kind": f.kind, "joint": f.joint, "time": f.time, "message": f.message,
+            "kind": f.kind, "joint": f.joint, "arms": f.arms, "time": f.time, "message": f.message,
         })).collect::<Vec<_>>(),
         "tracking": result.verdict.tracking.iter().map(|t| json!({
             "joint": t.joint,
+            "arm": t.arm,
             "unit": t.unit,
             "max_error": t.max_error,
             "max_error_time": t.max_error_time,

@@ -30,6 +30,7 @@ const SUPPORT: &[(&str, &str)] = &[
     ("sim_profile.py", include_str!("../../sim/sim_profile.py")),
     ("sim_render.py", include_str!("../../sim/sim_render.py")),
     ("sim_images.py", include_str!("../../sim/sim_images.py")),
+    ("sim_scene.py", include_str!("../../sim/sim_scene.py")),
 ];
 
 /// The file names of the embedded harness scripts.

@@ -2,7 +2,9 @@
 //!
 //! The arm is commanded exactly as the player would command servos: the same [`Timeline`]
 //! (approach ramp from the pose the arm rests in, the control rate, loops, speed), the same
-//! joint values. The harness only measures; [`verdict`] decides.
+//! joint values. The harness only measures; [`verdict`] decides. A cell of several arms is one
+//! scene of every arm's model at its base, its joints named `ARM/JOINT` as the cell's are, so
+//! that everything here treats it as one robot.
 
 pub mod joint_map;
 mod models;
@@ -51,6 +53,62 @@ fn model_error(error: SimError, model: &str) -> SimError {
         }
         _ => error,
     }
+}
+
+/// The `load` request of `robot`'s model, and the model's name in reports: `mjcf` or the
+/// robot's built-in model; for a cell, the scene of every arm's built-in model, each at its
+/// base, its joints prefixed with the arm's name as the cell's are (sim/PROTOCOL.md, load).
+fn load_request(
+    config: &PyConfig,
+    robot: &Robot,
+    mjcf: Option<&MjcfModel>,
+) -> Result<(Value, String), SimError> {
+    if !robot.is_cell() {
+        let path: PathBuf = match mjcf {
+            Some(m) => m.path.clone(),
+            None => model_path(config, &robot.name)?,
+        };
+        let model = path.display().to_string();
+        return Ok((json!({ "op": "load", "mjcf": model }), model));
+    }
+    if let Some(m) = mjcf {
+        return Err(SimError::Model {
+            model: m.path.display().to_string(),
+            message: format!(
+                "is one arm's model; {} is simulated with each arm's built-in model",
+                robot.description
+            ),
+        });
+    }
+    cell_load_request(config, robot)
+}
+
+/// The `load` request of a cell's scene and its name in reports: `ARM=MODEL, …`.
+fn cell_load_request(config: &PyConfig, robot: &Robot) -> Result<(Value, String), SimError> {
+    let mut arms = Vec::with_capacity(robot.arms.len());
+    let mut names = Vec::with_capacity(robot.arms.len());
+    for arm in &robot.arms {
+        let path = model_path(config, &arm.robot.name).map_err(|e| match e {
+            SimError::Model { model, .. } => SimError::Model {
+                model,
+                message: format!(
+                    "arm {}: keypose has no built-in model of this robot, and a cell is simulated with its arms' built-in models",
+                    arm.name
+                ),
+            },
+            e => e,
+        })?;
+        let r = arm.base.r;
+        arms.push(json!({
+            "name": arm.name,
+            "mjcf": path.display().to_string(),
+            "pos": arm.base.t.to_array(),
+            // MuJoCo's order: w first.
+            "quat": [r.w, r.x, r.y, r.z],
+        }));
+        names.push(format!("{}={}", arm.name, path.display()));
+    }
+    Ok((json!({ "op": "load", "arms": arms }), names.join(", ")))
 }
 
 /// What the player would send, cycle by cycle, in joint units.
@@ -200,13 +258,9 @@ impl Simulation {
             options.env.push(("MUJOCO_GL".into(), gl.into()));
         }
         let harness = Harness::start_in(&config, HARNESS_SCRIPT, options)?;
-        let path: PathBuf = match mjcf {
-            Some(m) => m.path.clone(),
-            None => model_path(&config, &robot.name)?,
-        };
+        let (load, model) = load_request(&config, robot, mjcf)?;
         let no_map = JointMap::default();
         let map = mjcf.map_or(&no_map, |m| &m.joint_map);
-        let model = path.display().to_string();
         let mut sim = Simulation {
             harness,
             model: model.clone(),
@@ -219,9 +273,7 @@ impl Simulation {
             timestep: 0.0,
             servo_profile: None,
         };
-        let reply = sim
-            .request(&json!({ "op": "load", "mjcf": model }))
-            .map_err(|e| model_error(e, &model))?;
+        let reply = sim.request(&load).map_err(|e| model_error(e, &model))?;
         sim.timestep = reply["timestep"].as_f64().unwrap_or(0.002);
         let model_joints: Vec<&str> = reply["joints"]
             .as_array()
@@ -419,8 +471,10 @@ fn contacts_of(reply: &Value) -> Vec<Contact> {
                     kind: match c["kind"].as_str() {
                         Some("floor") => ContactKind::Floor,
                         Some("self") => ContactKind::SelfCollision,
+                        Some("arms") => ContactKind::BetweenArms,
                         _ => ContactKind::Environment,
                     },
+                    arms: [&c["arm1"], &c["arm2"]].map(|a| a.as_str().map(str::to_string)),
                     depth: c["depth"].as_f64().unwrap_or(0.0).abs(),
                     force: c["force"].as_f64().unwrap_or(0.0),
                 })

@@ -11,6 +11,8 @@ pub(super) struct Column<'a> {
     pub trace: &'a Trace,
     pub index: usize,
     pub joint: &'a Joint,
+    /// The arm of a cell the joint belongs to.
+    pub arm: Option<&'a str>,
 }
 
 impl Column<'_> {
@@ -41,6 +43,7 @@ impl Column<'_> {
         Finding {
             kind,
             joint: Some(self.joint.name.clone()),
+            arms: self.arm.into_iter().map(str::to_string).collect(),
             time,
             message,
         }

@@ -12,19 +12,27 @@ pub(super) fn check_contacts(trace: &Trace, t: &Thresholds) -> Vec<Finding> {
             kind: match c.kind {
                 ContactKind::Floor => FindingKind::FloorCollision,
                 ContactKind::SelfCollision => FindingKind::SelfCollision,
+                ContactKind::BetweenArms => FindingKind::ArmCollision,
                 ContactKind::Environment => FindingKind::Collision,
             },
             joint: None,
+            arms: arms_of(c),
             time: c.time,
             message: format!(
-                "{} touches {}: {:.1} mm deep, {:.1} N",
-                c.body1,
-                c.body2,
+                "{}: {:.1} mm deep, {:.1} N",
+                c.bodies(),
                 c.depth * 1000.0,
                 c.force
             ),
         })
         .collect()
+}
+
+/// The arms of a contact's bodies, each once.
+fn arms_of(c: &Contact) -> Vec<String> {
+    let mut arms: Vec<String> = c.arms.iter().flatten().cloned().collect();
+    arms.dedup();
+    arms
 }
 
 /// The collisions among `contacts`: the deepest contact of each kind and pair of bodies (in
@@ -53,6 +61,7 @@ pub(super) fn check_divergence(trace: &Trace) -> Vec<Finding> {
         .map(|(time, message)| Finding {
             kind: FindingKind::Divergence,
             joint: None,
+            arms: Vec::new(),
             time: *time,
             message: message.clone(),
         })

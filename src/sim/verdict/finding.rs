@@ -20,6 +20,8 @@ pub enum FindingKind {
     Saturation,
     FloorCollision,
     SelfCollision,
+    /// Two arms of a cell ran into each other.
+    ArmCollision,
     /// A contact with the environment other than the floor.
     Collision,
     /// The physics went unstable.
@@ -37,6 +39,7 @@ impl FindingKind {
             FindingKind::Saturation => "saturation",
             FindingKind::FloorCollision => "floor collision",
             FindingKind::SelfCollision => "self collision",
+            FindingKind::ArmCollision => "arm collision",
             FindingKind::Collision => "collision",
             FindingKind::Divergence => "divergence",
         }
@@ -61,6 +64,8 @@ impl Serialize for FindingKind {
 pub struct Finding {
     pub kind: FindingKind,
     pub joint: Option<String>,
+    /// In a cell, the arms it is about: the joint's, or the arms of the colliding bodies.
+    pub arms: Vec<String>,
     pub time: f64,
     pub message: String,
 }

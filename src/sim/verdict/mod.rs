@@ -55,9 +55,21 @@ pub struct Contact {
     pub depth: f64,
     /// Normal force, newtons.
     pub force: f64,
+    /// In a cell, the arms `body1` and `body2` belong to (None: not an arm's, the floor say).
+    pub arms: [Option<String>; 2],
 }
 
 impl Contact {
+    /// The two bodies, and for a collision between arms the two arms first:
+    /// "arms left and right: left/gripper touches right/moving_jaw".
+    pub fn bodies(&self) -> String {
+        let touch = format!("{} touches {}", self.body1, self.body2);
+        match (self.kind, &self.arms) {
+            (ContactKind::BetweenArms, [Some(a), Some(b)]) => format!("arms {a} and {b}: {touch}"),
+            _ => touch,
+        }
+    }
+
     /// Whether `other` is between the same two bodies, named in either order.
     pub fn same_bodies(&self, other: &Contact) -> bool {
         (self.body1 == other.body1 && self.body2 == other.body2)
@@ -69,6 +81,8 @@ impl Contact {
 pub enum ContactKind {
     Floor,
     SelfCollision,
+    /// Bodies of two different arms of a cell.
+    BetweenArms,
     Environment,
 }
 
@@ -77,6 +91,7 @@ impl ContactKind {
         match self {
             ContactKind::Floor => "floor",
             ContactKind::SelfCollision => "self",
+            ContactKind::BetweenArms => "arms",
             ContactKind::Environment => "environment",
         }
     }
@@ -86,6 +101,8 @@ impl ContactKind {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Tracking {
     pub joint: String,
+    /// The arm of a cell the joint belongs to.
+    pub arm: Option<String>,
     /// Revolute (degrees) or prismatic (metres): what [`shown`] needs to show its figures.
     pub kind: JointKind,
     pub unit: &'static str,
@@ -130,6 +147,7 @@ pub fn judge(robot: &Robot, trace: &Trace, keys: &[KeyMark], t: &Thresholds) -> 
             trace,
             index,
             joint,
+            arm: robot.arm_of_joint(index).map(|a| a.name.as_str()),
         };
         tracking.push(judge_joint(&column, keys, t, &mut findings));
     }
@@ -190,6 +208,7 @@ fn judge_joint(
     findings.extend(saturation::check_saturation(column, t));
     Tracking {
         joint: column.joint.name.clone(),
+        arm: column.arm.map(str::to_string),
         kind: column.joint.kind,
         unit: column.joint.kind.unit(),
         max_error: errors.max,
@@ -411,6 +430,7 @@ mod tests {
             kind,
             depth,
             force: 2.0,
+            arms: [None, None],
         };
         trace.contacts = vec![
             contact(0.8, 0.0001, ContactKind::Floor), // a resting touch: ignored
@@ -430,5 +450,46 @@ mod tests {
             ]
         );
         assert!(v.findings[1].message.contains("4.0 mm deep"));
+    }
+
+    /// Two so101 arms, left and right, as one cell.
+    fn cell() -> Robot {
+        let so101 = Robot::builtin("so101").unwrap();
+        let arm = |name: &str| {
+            (
+                name.to_string(),
+                so101.clone(),
+                crate::pose::RigidTransform::IDENTITY,
+            )
+        };
+        Robot::cell(vec![arm("left"), arm("right")]).unwrap()
+    }
+
+    #[test]
+    fn in_a_cell_findings_name_the_arm_and_arms_colliding_both() {
+        let robot = cell();
+        let mut trace = perfect(&robot);
+        // Joint 8 is the right arm's elbow_flex (6 joints an arm).
+        trace.position[150][8] = 16.0;
+        trace.contacts = vec![Contact {
+            time: 1.0,
+            body1: "left/gripper".into(),
+            body2: "right/moving_jaw".into(),
+            kind: ContactKind::BetweenArms,
+            depth: 0.003,
+            force: 4.0,
+            arms: [Some("left".into()), Some("right".into())],
+        }];
+        let v = judge(&robot, &trace, &[], &Thresholds::default());
+        assert_eq!(kinds(&v), ["arm collision", "tracking"]);
+        assert_eq!(v.findings[0].arms, ["left", "right"]);
+        assert_eq!(
+            v.findings[0].message,
+            "arms left and right: left/gripper touches right/moving_jaw: 3.0 mm deep, 4.0 N"
+        );
+        assert_eq!(v.findings[1].joint.as_deref(), Some("right/elbow_flex"));
+        assert_eq!(v.findings[1].arms, ["right"]);
+        assert_eq!(v.tracking[8].arm.as_deref(), Some("right"));
+        assert_eq!(v.tracking[0].arm.as_deref(), Some("left"));
     }
 }
