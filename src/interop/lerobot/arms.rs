@@ -6,8 +6,8 @@
 //! becomes a cell of two arms named `left` and `right`, whose joints are `left/shoulder_pan` and
 //! so on. A dataset says nothing about where the arms stand; [`default_base`] places them.
 
-use super::LeRobotError;
 use super::DatasetInfo;
+use super::LeRobotError;
 use crate::pose::RigidTransform;
 use crate::robot::{cell_joint_name, split_joint_name};
 use glam::{DQuat, DVec3};
@@ -15,10 +15,11 @@ use glam::{DQuat, DVec3};
 /// LeRobot's arm prefixes and the arms they become, in LeRobot's order.
 const ARMS: [(&str, &str); 2] = [("left", "left_"), ("right", "right_")];
 
-/// Where an arm's base stands when nothing says: half the spacing to either side of the cell
-/// origin along y, both facing the way an arm's own base frame faces. 0.4 m apart leaves the
-/// reach of two SO-101s (about 0.35 m) overlapping between them, where bimanual tasks hand
-/// things over; the user edits `"base"` for the real bench.
+/// Where an arm's base stands when nothing says: this far to either side of the cell origin
+/// along y, both facing +x as an arm's own base frame does. 0.4 m apart is less than an
+/// SO-101's reach (its tool is 0.39 m ahead of its base at the zero pose), so the arms' spaces
+/// overlap between them, where bimanual tasks hand things over; LeRobot's bimanual configs hold
+/// ports, ids and cameras but no placement, so the user edits `"base"` for the real bench.
 pub const DEFAULT_HALF_SPACING_M: f64 = 0.2;
 
 /// The arms a feature's names denote: none for a dataset of one arm, else those whose prefix
@@ -115,8 +116,14 @@ mod tests {
         assert!(dataset_arms(&info(), "action", &names(&["gripper.pos"]))
             .unwrap()
             .is_empty());
-        assert_eq!(robot_name("left_shoulder_pan.pos", true), "left/shoulder_pan.pos");
-        assert_eq!(robot_name("left_shoulder_pan.pos", false), "left_shoulder_pan.pos");
+        assert_eq!(
+            robot_name("left_shoulder_pan.pos", true),
+            "left/shoulder_pan.pos"
+        );
+        assert_eq!(
+            robot_name("left_shoulder_pan.pos", false),
+            "left_shoulder_pan.pos"
+        );
         assert_eq!(lerobot_name("right/gripper"), "right_gripper");
         assert_eq!(arm_robot_type("bi_so100_follower"), "so100_follower");
     }
