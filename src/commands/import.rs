@@ -8,6 +8,7 @@ use super::record::{
 use super::{CalibrationArgs, CommandError, Verdict};
 use keypose::curve::Interp;
 use keypose::interop::lerobot::{self, BodyUnits, DatasetInfo, ImportOptions, Imported};
+use keypose::json::{InputError, Location};
 use keypose::record::KeyframeOptions;
 use keypose::robot::Robot;
 use keypose::sequence::ArmSpec;
@@ -134,10 +135,20 @@ pub fn import_episode(
     let names = info.names(&args.field).map_err(CommandError::LeRobot)?;
     let arms = lerobot::dataset_arms(&info, &args.field, &names).map_err(CommandError::LeRobot)?;
     let spec = robot_spec(&info, choice.robot, !arms.is_empty())?;
+    // A name from the dataset is the dataset's to blame, one from --robot the option's.
+    let resolve = |name: &str| {
+        Robot::resolve(name, None).map_err(|e| {
+            super::resolve_error(e, |m| match choice.robot {
+                Some(_) => InputError::new("--robot", Location::File, m),
+                None => InputError::at_path(&info.file, "$.robot_type", m),
+            })
+        })
+    };
     let (robot, arm_specs) = if arms.is_empty() {
-        (super::load_robot(&spec, choice.calibration)?, Vec::new())
+        let robot = super::finish_robot(resolve(&spec)?, choice.calibration)?;
+        (robot, Vec::new())
     } else {
-        dataset_cell(&spec, &arms, choice.calibration)?
+        dataset_cell(&spec, &arms, choice.calibration, resolve)?
     };
     let options = ImportOptions {
         episode,
@@ -189,6 +200,7 @@ fn dataset_cell(
     spec: &str,
     arms: &[&str],
     calibration: &CalibrationArgs,
+    resolve: impl Fn(&str) -> Result<Robot, InputError>,
 ) -> Result<(Robot, Vec<ArmSpec>), CommandError> {
     let specs: Vec<ArmSpec> = arms
         .iter()
@@ -199,9 +211,7 @@ fn dataset_cell(
         })
         .collect();
     let calibration = bimanual_robot_ids(calibration, arms);
-    let cell_arms = super::cell_arms(&specs, &calibration, |arm| {
-        super::resolve_option_robot(&arm.robot)
-    })?;
+    let cell_arms = super::cell_arms(&specs, &calibration, |arm| resolve(&arm.robot))?;
     let robot = Robot::cell(cell_arms).map_err(|e| CommandError::Usage(e.to_string()))?;
     Ok((robot, specs))
 }

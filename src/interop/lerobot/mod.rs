@@ -14,7 +14,7 @@ pub mod units;
 pub use arms::dataset_arms;
 pub use info::DatasetInfo;
 pub use reader::{read_episode, EpisodeRows};
-pub use units::BodyUnits;
+pub use units::{BodyUnits, UnitsPerArm};
 
 use crate::json::InputError;
 use crate::python::HarnessError;
@@ -98,9 +98,7 @@ pub struct ImportOptions {
 pub struct Imported {
     pub keyframes: Keyframes,
     pub frames: usize,
-    /// The units of each arm's body joints (the arm's name, empty for a robot of one arm):
-    /// LeRobot configures `use_degrees` per arm.
-    pub units: Vec<(String, BodyUnits)>,
+    pub units: UnitsPerArm,
     pub column_type: String,
     pub data_file: String,
     pub notices: Vec<String>,
@@ -237,7 +235,7 @@ fn recording(
     columns: &[Option<usize>],
     rows: &EpisodeRows,
     options: &ImportOptions,
-) -> Result<(Recording, Vec<(String, BodyUnits)>, Vec<String>), LeRobotError> {
+) -> Result<(Recording, UnitsPerArm, Vec<String>), LeRobotError> {
     let n = rows.values.len();
     let mut notices = Vec::new();
     let mut units = Vec::new();

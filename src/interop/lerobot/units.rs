@@ -29,6 +29,10 @@ impl BodyUnits {
     }
 }
 
+/// The units of each arm's body joints, by arm name (empty for a robot of one arm): LeRobot
+/// configures `use_degrees` per arm.
+pub type UnitsPerArm = Vec<(String, BodyUnits)>;
+
 /// LeRobot's gripper motor, in 0 … 100 % of its calibrated range on every SO and Koch arm.
 pub const GRIPPER: &str = "gripper";
 /// Largest |value| of `RANGE_M100_100`: beyond it a body joint's values must be degrees.
@@ -115,9 +119,14 @@ pub fn conversion(
         )),
         (BodyUnits::Range, None) => Err(LeRobotError::NeedsCalibration {
             joint: joint.name.clone(),
-            arm: split_joint_name(&joint.name).map_or(String::new(), |(arm, _)| format!("{arm}=")),
+            arm: option_arm(joint),
         }),
     }
+}
+
+/// How the calibration options name `joint`'s arm: `left=` on a cell, nothing on one arm.
+fn option_arm(joint: &Joint) -> String {
+    split_joint_name(&joint.name).map_or(String::new(), |(arm, _)| format!("{arm}="))
 }
 
 /// 0 … 100 % onto the calibrated range, or onto the joint's limits without a calibration.
@@ -137,8 +146,11 @@ fn gripper_conversion(joint: &Joint) -> (Conversion, Option<String>) {
             let notice = format!(
                 "note: {} is in 0…100 % of its calibrated range; without a calibration 0 % is \
                  read as its lower limit ({}) and 100 % as its upper ({}): give --calibration \
-                 or --robot-id for the arm's own range",
-                joint.name, joint.limits.min, joint.limits.max
+                 {arm}FILE or --robot-id {arm}NAME for the arm's own range",
+                joint.name,
+                joint.limits.min,
+                joint.limits.max,
+                arm = option_arm(joint)
             );
             (percent(ends), Some(notice))
         }
