@@ -1096,6 +1096,12 @@ fn on_a_cell_tool_jogs_move_the_selected_joints_arm_in_its_base_frame() {
         state.status()
     );
     assert_eq!(&state.goals()[..6], &left_before[..]);
+    // The status says where the right arm's tool went, in the right arm's base frame.
+    let said = format!(
+        "tool (right) → ({})",
+        crate::kinematics::mm3(right_tool(&state))
+    );
+    assert_eq!(state.status().text, said);
 }
 
 /// `K` on a cell captures a tool key of the selected joint's arm (`"tool": {"right": …}`, in

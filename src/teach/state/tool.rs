@@ -71,6 +71,20 @@ pub fn tool_positions<'r>(robot: &'r Robot, values: &[f64]) -> Vec<(Option<&'r s
         .collect()
 }
 
+/// The tool of the arm the tool commands act on with joint `selected` selected (see
+/// [`tool_positions`]): the arm's name on a cell, and the tool point in its base frame.
+pub fn selected_tool<'r>(
+    robot: &'r Robot,
+    selected: usize,
+    values: &[f64],
+) -> (Option<&'r str>, DVec3) {
+    let arm = robot.arm_of_joint(selected).map(|a| a.name.as_str());
+    tool_positions(robot, values)
+        .into_iter()
+        .find(|(name, _)| *name == arm)
+        .unwrap_or((None, robot.tcp_position(values)))
+}
+
 impl TeachState {
     /// A new key after the current one holding the present pose as a tool key of the selected
     /// joint's arm: the tool's position (rounded to 0.1 mm) and orientation (roll-pitch-yaw,
