@@ -7,7 +7,7 @@ import http from 'node:http';
 
 const [url] = process.argv.slice(2);
 // A hang guard, not a timing check.
-setTimeout(() => fail('no result after 120 s'), 120000).unref();
+setTimeout(() => fail('no result after 300 s'), 300000).unref();
 const target = new URL(url);
 const token = target.searchParams.get('token');
 
@@ -43,7 +43,9 @@ try {
   page.on('pageerror', e => errors.push(`page error: ${e.message}`));
   page.on('console', m => { if (m.type() === 'error') errors.push(`console: ${m.text()}`); });
   await page.goto(url);
-  await page.waitForFunction(() => window.studio && window.studio.snapshot && window.studio.controller && window.studio.loadMs !== null);
+  // Generous waits: SwiftShader draws two arms slowly on a loaded machine.
+  await page.waitForFunction(() => window.studio && window.studio.snapshot && window.studio.controller && window.studio.loadMs !== null,
+    null, { timeout: 120000 }).catch(e => fail(`${e.message}; errors ${JSON.stringify(errors)}`));
   // The right arm's lift −30°, its elbow +30°: away from the stretched, singular home.
   for (const key of ['select-joint:7', 'shift-left', 'shift-left', 'shift-left', 'down', 'shift-right', 'shift-right', 'shift-right']) {
     await page.evaluate(k => window.studio.send({ key: k }), key);
@@ -52,7 +54,7 @@ try {
   await page.waitForFunction(() => {
     const s = window.studio.snapshot;
     return s.selected === 8 && Math.abs(s.joints[7].present + 30) < 0.1 && Math.abs(s.joints[8].present - 30) < 0.1;
-  }, null, { timeout: 15000 }).catch(e => fail(`${e.message}; errors ${JSON.stringify(errors)}`));
+  }, null, { timeout: 120000 }).catch(e => fail(`${e.message}; errors ${JSON.stringify(errors)}`));
   // Let the stream's last snapshot (the servos at rest) reach the page and be drawn.
   await page.waitForTimeout(500);
   Object.assign(results, await page.evaluate(() => ({
