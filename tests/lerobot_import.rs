@@ -118,22 +118,17 @@ fn deviations(
     calibration: Option<&Path>,
     expected: &[Vec<f64>],
 ) -> (usize, Vec<f64>, bool) {
-    let sequence = Sequence::load(sequence).unwrap();
+    robot_deviations(sequence, &so101_with(calibration), expected)
+}
+
+/// The built-in SO-101 with the LeRobot calibration at `calibration`, if any.
+fn so101_with(calibration: Option<&Path>) -> Robot {
     let mut robot = Robot::builtin("so101").unwrap();
     if let Some(path) = calibration {
         let text = std::fs::read_to_string(path).unwrap();
         keypose::robot::import_lerobot_calibration(&mut robot, "cal.json", &text).unwrap();
     }
-    let trajectory = Trajectory::build(&sequence, &robot).unwrap();
-    let mut worst = vec![0.0f64; robot.joints.len()];
-    for (k, row) in expected.iter().enumerate() {
-        let at = trajectory.sample(k as f64 / FPS);
-        for (j, (&want, got)) in row.iter().zip(at).enumerate() {
-            worst[j] = worst[j].max((want - got).abs());
-        }
-    }
-    let passed = check(&trajectory, &robot, robot.control_hz).passed();
-    (sequence.keyframes.len(), worst, passed)
+    robot
 }
 
 fn import(dir: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
@@ -357,12 +352,7 @@ fn bimanual_names() -> Vec<String> {
 
 /// A two-arm cell of SO-101s, each with its own LeRobot calibration file.
 fn calibrated_cell(left: &Path, right: &Path) -> Robot {
-    let arm = |path: &Path| {
-        let mut robot = Robot::builtin("so101").unwrap();
-        let text = std::fs::read_to_string(path).unwrap();
-        keypose::robot::import_lerobot_calibration(&mut robot, "cal.json", &text).unwrap();
-        robot
-    };
+    let arm = |path: &Path| so101_with(Some(path));
     let at = |y: f64| {
         keypose::pose::RigidTransform::new(glam::DVec3::new(0.0, y, 0.0), glam::DQuat::IDENTITY)
     };
@@ -373,9 +363,9 @@ fn calibrated_cell(left: &Path, right: &Path) -> Robot {
     .unwrap()
 }
 
-/// The largest deviation per cell joint of `sequence`'s curve from `expected` (joint values per
-/// frame at k/FPS), its key count, and whether it passes the limit check on `robot`.
-fn cell_deviations(
+/// The largest deviation per joint of `sequence`'s curve (on `robot`) from `expected` (joint
+/// values per frame at k/FPS), its key count, and whether it passes the limit check on `robot`.
+fn robot_deviations(
     sequence: &Path,
     robot: &Robot,
     expected: &[Vec<f64>],
@@ -494,7 +484,7 @@ fn bimanual_episode_becomes_a_two_arm_cell_with_each_arms_calibration() {
         .collect();
     let robot = calibrated_cell(&left_cal, &right_cal);
     let names: Vec<&str> = robot.joints.iter().map(|j| j.name.as_str()).collect();
-    let (keys, worst, passed) = cell_deviations(&out, &robot, &expected);
+    let (keys, worst, passed) = robot_deviations(&out, &robot, &expected);
     println!(
         "bimanual: {keys} keys for {} frames; worst per joint {worst:.3?}",
         expected.len()
@@ -549,7 +539,7 @@ fn bimanual_episode_becomes_a_two_arm_cell_with_each_arms_calibration() {
         .output()
         .unwrap();
     assert_eq!(result.status.code(), Some(0), "{}", show(&result));
-    let (_, worst, _) = cell_deviations(&by_id, &robot, &expected);
+    let (_, worst, _) = robot_deviations(&by_id, &robot, &expected);
     for (j, w) in worst.iter().enumerate() {
         assert!(
             *w <= TOLERANCE + TIME_SNAP_SLACK,

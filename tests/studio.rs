@@ -73,16 +73,13 @@ fn named(name: &str, mut key: Value) -> Value {
     key
 }
 
-#[test]
-fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
-    require_browser_tools();
-    let dir = tempfile::tempdir().unwrap();
-    let artifacts = dir.path().join("artifacts");
-    std::fs::create_dir(&artifacts).unwrap();
+/// Starts `keypose studio --port virtual ARGS` in `dir` and returns it with its page's URL.
+fn start_studio(dir: &Path, args: &[&str]) -> (Studio, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_keypose"))
-        .args(["studio", "--port", "virtual", "taught.json"])
-        .current_dir(dir.path())
-        .env("KEYPOSE_CACHE", dir.path().join("cache"))
+        .args(["studio", "--port", "virtual"])
+        .args(args)
+        .current_dir(dir)
+        .env("KEYPOSE_CACHE", dir.join("cache"))
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
         .spawn()
@@ -91,24 +88,38 @@ fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
     let studio = Studio(child);
     let mut url = String::new();
     BufReader::new(stdout).read_line(&mut url).unwrap();
-    let url = url.trim().to_string();
-    assert!(
-        url.starts_with("http://127.0.0.1:") && url.contains("/?token="),
-        "the first line is the page's URL, got {url:?}"
-    );
+    (studio, url.trim().to_string())
+}
 
+/// Runs the browser script `script` (in tests/studio/) with `args` and returns the JSON line
+/// of results it prints last.
+fn browser_run(script: &str, args: &[&Path]) -> Value {
     let out = Command::new("node")
-        .arg(test_dir().join("e2e.mjs"))
-        .arg(&url)
-        .arg(&artifacts)
+        .arg(test_dir().join(script))
+        .args(args)
         .output()
         .expect("run node");
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "the browser run failed:\n{stderr}");
     let stdout = String::from_utf8_lossy(&out.stdout);
     let results: Value = serde_json::from_str(stdout.lines().last().unwrap_or(""))
-        .unwrap_or_else(|e| panic!("e2e results: {e}\n{stdout}\n{stderr}"));
-    eprintln!("studio e2e: {results}");
+        .unwrap_or_else(|e| panic!("{script} results: {e}\n{stdout}\n{stderr}"));
+    eprintln!("{script}: {results}");
+    results
+}
+
+#[test]
+fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
+    require_browser_tools();
+    let dir = tempfile::tempdir().unwrap();
+    let artifacts = dir.path().join("artifacts");
+    std::fs::create_dir(&artifacts).unwrap();
+    let (studio, url) = start_studio(dir.path(), &["taught.json"]);
+    assert!(
+        url.starts_with("http://127.0.0.1:") && url.contains("/?token="),
+        "the first line is the page's URL, got {url:?}"
+    );
+    let results = browser_run("e2e.mjs", &[Path::new(&url), &artifacts]);
     drop(studio);
 
     assert_eq!(results["errors"], json!([]), "the page ran without errors");
@@ -218,24 +229,6 @@ fn tool_handle_followed_the_drag(results: &Value) {
     assert_eq!(results["farGoals"], results["dragGoals"], "the arm stays");
 }
 
-/// Starts `keypose studio --port virtual ARGS` in `dir` and returns it with its page's URL.
-fn start_studio(dir: &Path, args: &[&str]) -> (Studio, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_keypose"))
-        .args(["studio", "--port", "virtual"])
-        .args(args)
-        .current_dir(dir)
-        .env("KEYPOSE_CACHE", dir.join("cache"))
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .expect("start keypose studio");
-    let stdout = child.stdout.take().unwrap();
-    let studio = Studio(child);
-    let mut url = String::new();
-    BufReader::new(stdout).read_line(&mut url).unwrap();
-    (studio, url.trim().to_string())
-}
-
 /// The studio on a cell (sequences/bimanual_wave.json: two SO-101s, left at y +0.25 m, right
 /// at y −0.25 m): the page draws both arms, and with a joint of the right arm selected its
 /// tool is the right arm's, in the right arm's base frame: drawn by the page's scene graph
@@ -251,17 +244,7 @@ fn the_page_draws_every_arm_of_a_cell_and_the_handle_moves_the_selected_joints_a
     let wave = Path::new(env!("CARGO_MANIFEST_DIR")).join("sequences/bimanual_wave.json");
     std::fs::copy(&wave, dir.path().join("wave.json")).unwrap();
     let (studio, url) = start_studio(dir.path(), &["wave.json"]);
-    let out = Command::new("node")
-        .arg(test_dir().join("cell.mjs"))
-        .arg(&url)
-        .output()
-        .expect("run node");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "the browser run failed:\n{stderr}");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let results: Value = serde_json::from_str(stdout.lines().last().unwrap_or(""))
-        .unwrap_or_else(|e| panic!("cell results: {e}\n{stdout}\n{stderr}"));
-    eprintln!("studio cell: {results}");
+    let results = browser_run("cell.mjs", &[Path::new(&url)]);
     drop(studio);
 
     assert_eq!(results["errors"], json!([]), "the page ran without errors");

@@ -2,7 +2,7 @@
 // SwiftShader) with playwright-core; run by tests/studio.rs as `node cell.mjs URL`. Bends the
 // right arm, reads where the page draws its tool, moves the tool handle 10 mm along the
 // scene's x, and prints one JSON line of results for the Rust side to check.
-import { chromium } from 'playwright-core';
+import { launchChromium } from './browser.mjs';
 import http from 'node:http';
 
 const [url] = process.argv.slice(2);
@@ -30,12 +30,7 @@ function state() {
   });
 }
 
-const browser = await chromium.launch({
-  executablePath: '/usr/bin/chromium',
-  headless: true,
-  args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
-    '--disable-component-update', '--disable-sync', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
-});
+const browser = await launchChromium();
 const results = {};
 try {
   const page = await (await browser.newContext({ viewport: { width: 1200, height: 800 } })).newPage();
