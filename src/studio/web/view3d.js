@@ -145,9 +145,15 @@ export class ArmView {
     this.scene.background = new THREE.Color(0x20252b);
     this.camera = new THREE.PerspectiveCamera(45, 1, 0.01, 10);
     this.camera.up.set(0, 0, 1);
-    this.camera.position.set(0.45, -0.55, 0.4);
+    // Looking at the arm from the front right; a cell from further, centred between its
+    // arms' bases, so that every arm is in view.
+    const bases = (model.arms || []).map(a => vec(a.base.t));
+    const centre = bases.reduce((c, b) => c.addScaledVector(b, 1 / bases.length), new THREE.Vector3());
+    const spread = Math.max(0, ...bases.map(b => b.distanceTo(centre)));
+    const target = centre.clone().add(new THREE.Vector3(0.1, 0, 0.12));
+    this.camera.position.copy(target).addScaledVector(new THREE.Vector3(0.35, -0.55, 0.28), 1 + 2 * spread);
     this.controls = new OrbitControls(this.camera, canvas);
-    this.controls.target.set(0.1, 0, 0.12);
+    this.controls.target.copy(target);
     this.controls.update();
     this.scene.add(new THREE.HemisphereLight(0xffffff, 0x404040, 2.2));
     const sun = new THREE.DirectionalLight(0xffffff, 1.6);
