@@ -37,9 +37,22 @@ fn python() -> PathBuf {
         .clone()
 }
 
-/// Writes a dataset at `root` from `episodes` (rows of values per frame) with `names`.
+/// Writes a dataset of an SO-101 at `root` from `episodes` (rows of values per frame) with
+/// `names`.
 fn write_dataset(
     root: &Path,
+    version: &str,
+    names: &[String],
+    column: &str,
+    episodes: &[(u32, Vec<Vec<f64>>)],
+) {
+    write_dataset_of(root, "so101_follower", version, names, column, episodes)
+}
+
+/// [`write_dataset`] for the LeRobot robot type `robot_type`.
+fn write_dataset_of(
+    root: &Path,
+    robot_type: &str,
     version: &str,
     names: &[String],
     column: &str,
@@ -48,7 +61,7 @@ fn write_dataset(
     let spec = json!({
         "root": root,
         "version": version,
-        "robot_type": "so101_follower",
+        "robot_type": robot_type,
         "fps": FPS,
         "names": names,
         "column": column,
@@ -105,22 +118,17 @@ fn deviations(
     calibration: Option<&Path>,
     expected: &[Vec<f64>],
 ) -> (usize, Vec<f64>, bool) {
-    let sequence = Sequence::load(sequence).unwrap();
+    robot_deviations(sequence, &so101_with(calibration), expected)
+}
+
+/// The built-in SO-101 with the LeRobot calibration at `calibration`, if any.
+fn so101_with(calibration: Option<&Path>) -> Robot {
     let mut robot = Robot::builtin("so101").unwrap();
     if let Some(path) = calibration {
         let text = std::fs::read_to_string(path).unwrap();
         keypose::robot::import_lerobot_calibration(&mut robot, "cal.json", &text).unwrap();
     }
-    let trajectory = Trajectory::build(&sequence, &robot).unwrap();
-    let mut worst = vec![0.0f64; robot.joints.len()];
-    for (k, row) in expected.iter().enumerate() {
-        let at = trajectory.sample(k as f64 / FPS);
-        for (j, (&want, got)) in row.iter().zip(at).enumerate() {
-            worst[j] = worst[j].max((want - got).abs());
-        }
-    }
-    let passed = check(&trajectory, &robot, robot.control_hz).passed();
-    (sequence.keyframes.len(), worst, passed)
+    robot
 }
 
 fn import(dir: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
@@ -243,11 +251,16 @@ fn degree_episodes_from_list_columns_become_few_keys_within_tolerance() {
 /// −100…100 puts 1024 at −100 and 3072 at +100, so v ↦ raw = 2048 + v · 10.24 ↦ 0.9 · v
 /// degrees; its gripper 0…100 % puts 0 at 1024: p ↦ (p − 50) · 1.8 degrees.
 fn calibration(path: &Path) {
+    calibration_of_range(path, 1024, 3072);
+}
+
+/// A calibration with every joint's recorded range `min` … `max` (drive_mode 0).
+fn calibration_of_range(path: &Path, min: u32, max: u32) {
     let entries: serde_json::Map<String, serde_json::Value> = SO101_JOINTS
         .iter()
         .enumerate()
         .map(|(i, j)| {
-            (j.to_string(), json!({"id": i + 1, "drive_mode": 0, "homing_offset": 0, "range_min": 1024, "range_max": 3072}))
+            (j.to_string(), json!({"id": i + 1, "drive_mode": 0, "homing_offset": 0, "range_min": min, "range_max": max}))
         })
         .collect();
     std::fs::write(path, serde_json::Value::Object(entries).to_string()).unwrap();
@@ -328,21 +341,233 @@ fn range_normalised_episode_from_fixed_size_lists_needs_and_uses_the_calibration
     assert!(passed);
 }
 
-#[test]
-fn bimanual_and_older_datasets_are_refused_with_the_reason() {
-    let tmp = tempfile::tempdir().unwrap();
-    let two = tmp.path().join("bi");
-    let names: Vec<String> = ["left_", "right_"]
+/// LeRobot's bimanual names (`bi_so_follower`: every feature of an arm prefixed `left_` or
+/// `right_`) for the SO-101's joints.
+fn bimanual_names() -> Vec<String> {
+    ["left_", "right_"]
         .iter()
         .flat_map(|side| SO101_JOINTS.iter().map(move |j| format!("{side}{j}.pos")))
+        .collect()
+}
+
+/// A two-arm cell of SO-101s, each with its own LeRobot calibration file.
+fn calibrated_cell(left: &Path, right: &Path) -> Robot {
+    let arm = |path: &Path| so101_with(Some(path));
+    let at = |y: f64| {
+        keypose::pose::RigidTransform::new(glam::DVec3::new(0.0, y, 0.0), glam::DQuat::IDENTITY)
+    };
+    Robot::cell(vec![
+        ("left".into(), arm(left), at(0.2)),
+        ("right".into(), arm(right), at(-0.2)),
+    ])
+    .unwrap()
+}
+
+/// The largest deviation per joint of `sequence`'s curve (on `robot`) from `expected` (joint
+/// values per frame at k/FPS), its key count, and whether it passes the limit check on `robot`.
+fn robot_deviations(
+    sequence: &Path,
+    robot: &Robot,
+    expected: &[Vec<f64>],
+) -> (usize, Vec<f64>, bool) {
+    let sequence = Sequence::load(sequence).unwrap();
+    let trajectory = Trajectory::build(&sequence, robot).unwrap();
+    let mut worst = vec![0.0f64; robot.joints.len()];
+    for (k, row) in expected.iter().enumerate() {
+        let at = trajectory.sample(k as f64 / FPS);
+        for (j, (&want, got)) in row.iter().zip(at).enumerate() {
+            worst[j] = worst[j].max((want - got).abs());
+        }
+    }
+    let passed = check(&trajectory, robot, robot.control_hz).passed();
+    (sequence.keyframes.len(), worst, passed)
+}
+
+#[test]
+fn bimanual_episode_becomes_a_two_arm_cell_with_each_arms_calibration() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("bi");
+    // In degrees: the left arm the usual motion, the right one its mirror image (body joints
+    // negated), both grippers the same %.
+    let left = motion(6.0, 60.0);
+    let right: Vec<Vec<f64>> = left
+        .iter()
+        .map(|r| {
+            let mut m: Vec<f64> = r.iter().map(|d| -d).collect();
+            m[5] = r[5];
+            m
+        })
         .collect();
+    // Two calibrations, so that a swap shows: the left arm's range 1024 … 3072 (v ↦ 0.9 · v°,
+    // gripper p ↦ (p − 50) · 1.8°, see `calibration`); the right arm's 512 … 3584, whose
+    // middle is 2048 too: v ↦ raw = 2048 + v · 15.36 ↦ 15.36 · 360/4096 · v = 1.35 · v°,
+    // gripper 0 % at 512 = −135° and 100 % at 3584 = +135°: p ↦ (p − 50) · 2.7°.
+    let (left_cal, right_cal) = (tmp.path().join("left.json"), tmp.path().join("right.json"));
+    calibration_of_range(&left_cal, 1024, 3072);
+    calibration_of_range(&right_cal, 512, 3584);
+    let normalised: Vec<Vec<f64>> = left
+        .iter()
+        .zip(&right)
+        .map(|(l, r)| {
+            let mut row: Vec<f64> = l.iter().map(|d| d / 0.9).collect();
+            row[5] = l[5];
+            row.extend(r.iter().map(|d| d / 1.35));
+            row[11] = r[5];
+            row
+        })
+        .collect();
+    // What current LeRobot writes for two SO arms: robot_type bi_so_follower.
+    write_dataset_of(
+        &dir,
+        "bi_so_follower",
+        "v3.0",
+        &bimanual_names(),
+        "list",
+        &[(0, normalised)],
+    );
+    let (l, r) = (
+        format!("left={}", left_cal.display()),
+        format!("right={}", right_cal.display()),
+    );
+    let calibrations = ["--calibration", l.as_str(), "--calibration", r.as_str()];
+    let out = tmp.path().join("cell.json");
+
+    // bi_so_follower's arms are LeRobot's so_follower, the class of the SO-100 and the SO-101
+    // alike: which one is asked for, not guessed.
+    let mut args = vec!["--episode", "0", "--units", "range"];
+    args.extend_from_slice(&calibrations);
+    let refused = import(&dir, &out, &args);
+    assert_eq!(refused.status.code(), Some(2), "{}", show(&refused));
+    assert!(
+        stderr(&refused).contains("give --robot so101 or --robot so100"),
+        "{}",
+        show(&refused)
+    );
+    assert!(!out.exists());
+
+    args.extend_from_slice(&["--robot", "so101"]);
+    let result = import(&dir, &out, &args);
+    assert_eq!(result.status.code(), Some(0), "{}", show(&result));
+    assert!(
+        stdout(&result).contains("left range, right range units"),
+        "{}",
+        show(&result)
+    );
+    assert!(
+        stderr(&result).contains("does not say where its arms stand"),
+        "{}",
+        show(&result)
+    );
+    let saved: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert!(saved.get("robot").is_none(), "{saved}");
+    for (arm, y) in [("left", 0.2), ("right", -0.2)] {
+        let spec = &saved["robots"][arm];
+        assert_eq!(spec["robot"], "so101", "{saved}");
+        assert_eq!(spec["base"]["xyz"], json!([0.0, y, 0.0]), "{saved}");
+    }
+    assert!(
+        saved["keyframes"][0]["joints"]["right/gripper"].is_number(),
+        "{saved}"
+    );
+
+    let expected: Vec<Vec<f64>> = left
+        .iter()
+        .zip(&right)
+        .map(|(l, r)| {
+            let mut row = l.clone();
+            row[5] = (l[5] - 50.0) * 1.8;
+            row.extend_from_slice(r);
+            row[11] = (r[5] - 50.0) * 2.7;
+            row
+        })
+        .collect();
+    let robot = calibrated_cell(&left_cal, &right_cal);
+    let names: Vec<&str> = robot.joints.iter().map(|j| j.name.as_str()).collect();
+    let (keys, worst, passed) = robot_deviations(&out, &robot, &expected);
+    println!(
+        "bimanual: {keys} keys for {} frames; worst per joint {worst:.3?}",
+        expected.len()
+    );
+    assert!(
+        keys * 5 < expected.len(),
+        "{keys} keys for {} frames",
+        expected.len()
+    );
+    for (j, w) in worst.iter().enumerate() {
+        assert!(*w <= TOLERANCE + TIME_SNAP_SLACK, "{}: {w}°", names[j]);
+    }
+    assert!(
+        passed,
+        "the imported cell sequence must pass the limit check"
+    );
+
+    // The file names its arms: `check` builds the same cell with the same per-arm calibrations.
+    let mut check_args = vec!["check", out.to_str().unwrap()];
+    check_args.extend_from_slice(&calibrations);
+    let checked = run_sim(&check_args);
+    assert_eq!(checked.status.code(), Some(0), "{}", show(&checked));
+
+    // LeRobot calibrates a bimanual robot of id NAME as arms NAME_left and NAME_right, under
+    // so_follower: --robot-id NAME finds both.
+    let root = tmp.path().join("lerobot_calibration");
+    let so = root.join("robots/so_follower");
+    std::fs::create_dir_all(&so).unwrap();
+    std::fs::copy(&left_cal, so.join("bench_left.json")).unwrap();
+    std::fs::copy(&right_cal, so.join("bench_right.json")).unwrap();
+    let by_id = tmp.path().join("by_id.json");
+    let result = common::keypose()
+        .args([
+            "import",
+            "lerobot",
+            dir.to_str().unwrap(),
+            "-o",
+            by_id.to_str().unwrap(),
+        ])
+        .args([
+            "--episode",
+            "0",
+            "--units",
+            "range",
+            "--robot",
+            "so101",
+            "--robot-id",
+            "bench",
+        ])
+        .env("KEYPOSE_CACHE", sim_cache())
+        .env("HF_LEROBOT_CALIBRATION", &root)
+        .output()
+        .unwrap();
+    assert_eq!(result.status.code(), Some(0), "{}", show(&result));
+    let (_, worst, _) = robot_deviations(&by_id, &robot, &expected);
+    for (j, w) in worst.iter().enumerate() {
+        assert!(
+            *w <= TOLERANCE + TIME_SNAP_SLACK,
+            "{} by id: {w}°",
+            names[j]
+        );
+    }
+}
+
+#[test]
+fn mixed_arm_names_and_older_datasets_are_refused_with_the_reason() {
+    let tmp = tempfile::tempdir().unwrap();
+    let two = tmp.path().join("mixed");
+    // The left arm's joints prefixed, the right arm's not: no arm for those values.
+    let mut names = bimanual_names();
+    for name in &mut names[6..] {
+        *name = name.trim_start_matches("right_").to_string();
+    }
     let rows: Vec<Vec<f64>> = vec![vec![0.0; 12]; 10];
-    write_dataset(&two, "v3.0", &names, "list", &[(0, rows)]);
-    let out = tmp.path().join("bi.json");
-    let result = import(&two, &out, &["--episode", "0"]);
+    write_dataset_of(&two, "bi_so_follower", "v3.0", &names, "list", &[(0, rows)]);
+    let out = tmp.path().join("mixed.json");
+    let result = import(&two, &out, &["--episode", "0", "--robot", "so101"]);
     assert_eq!(result.status.code(), Some(2), "{}", show(&result));
     assert!(
-        stderr(&result).contains("two-arm sequence, which keypose does not support yet"),
+        stderr(&result).contains(
+            "info.json: action names values of an arm (left_…, right_…) and values of none \
+             (shoulder_pan.pos, shoulder_lift.pos"
+        ),
         "{}",
         show(&result)
     );

@@ -73,16 +73,13 @@ fn named(name: &str, mut key: Value) -> Value {
     key
 }
 
-#[test]
-fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
-    require_browser_tools();
-    let dir = tempfile::tempdir().unwrap();
-    let artifacts = dir.path().join("artifacts");
-    std::fs::create_dir(&artifacts).unwrap();
+/// Starts `keypose studio --port virtual ARGS` in `dir` and returns it with its page's URL.
+fn start_studio(dir: &Path, args: &[&str]) -> (Studio, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_keypose"))
-        .args(["studio", "--port", "virtual", "taught.json"])
-        .current_dir(dir.path())
-        .env("KEYPOSE_CACHE", dir.path().join("cache"))
+        .args(["studio", "--port", "virtual"])
+        .args(args)
+        .current_dir(dir)
+        .env("KEYPOSE_CACHE", dir.join("cache"))
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
         .spawn()
@@ -91,24 +88,38 @@ fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
     let studio = Studio(child);
     let mut url = String::new();
     BufReader::new(stdout).read_line(&mut url).unwrap();
-    let url = url.trim().to_string();
-    assert!(
-        url.starts_with("http://127.0.0.1:") && url.contains("/?token="),
-        "the first line is the page's URL, got {url:?}"
-    );
+    (studio, url.trim().to_string())
+}
 
+/// Runs the browser script `script` (in tests/studio/) with `args` and returns the JSON line
+/// of results it prints last.
+fn browser_run(script: &str, args: &[&Path]) -> Value {
     let out = Command::new("node")
-        .arg(test_dir().join("e2e.mjs"))
-        .arg(&url)
-        .arg(&artifacts)
+        .arg(test_dir().join(script))
+        .args(args)
         .output()
         .expect("run node");
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "the browser run failed:\n{stderr}");
     let stdout = String::from_utf8_lossy(&out.stdout);
     let results: Value = serde_json::from_str(stdout.lines().last().unwrap_or(""))
-        .unwrap_or_else(|e| panic!("e2e results: {e}\n{stdout}\n{stderr}"));
-    eprintln!("studio e2e: {results}");
+        .unwrap_or_else(|e| panic!("{script} results: {e}\n{stdout}\n{stderr}"));
+    eprintln!("{script}: {results}");
+    results
+}
+
+#[test]
+fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
+    require_browser_tools();
+    let dir = tempfile::tempdir().unwrap();
+    let artifacts = dir.path().join("artifacts");
+    std::fs::create_dir(&artifacts).unwrap();
+    let (studio, url) = start_studio(dir.path(), &["taught.json"]);
+    assert!(
+        url.starts_with("http://127.0.0.1:") && url.contains("/?token="),
+        "the first line is the page's URL, got {url:?}"
+    );
+    let results = browser_run("e2e.mjs", &[Path::new(&url), &artifacts]);
     drop(studio);
 
     assert_eq!(results["errors"], json!([]), "the page ran without errors");
@@ -216,6 +227,75 @@ fn tool_handle_followed_the_drag(results: &Value) {
     assert_eq!(results["farHandleRed"], json!(true));
     assert_eq!(results["farStatus"]["error"], json!(true));
     assert_eq!(results["farGoals"], results["dragGoals"], "the arm stays");
+}
+
+/// The studio on a cell (sequences/bimanual_wave.json: two SO-101s, left at y +0.25 m, right
+/// at y −0.25 m): the page draws both arms, and with a joint of the right arm selected its
+/// tool is the right arm's, in the right arm's base frame: drawn by the page's scene graph
+/// (MJCF bodies) where keypose's forward kinematics of the SO-101 puts it, to the micrometre,
+/// and in the scene 0.25 m to the right of that (the base, from the file). The tool handle
+/// moved 10 mm along the scene's x asks for the right arm's tool 10 mm along its own x, and
+/// the goals it leaves put the right arm's tool there (forward kinematics, within 0.1 mm)
+/// while the left arm stays at home.
+#[test]
+fn the_page_draws_every_arm_of_a_cell_and_the_handle_moves_the_selected_joints_arm() {
+    require_browser_tools();
+    let dir = tempfile::tempdir().unwrap();
+    let wave = Path::new(env!("CARGO_MANIFEST_DIR")).join("sequences/bimanual_wave.json");
+    std::fs::copy(&wave, dir.path().join("wave.json")).unwrap();
+    let (studio, url) = start_studio(dir.path(), &["wave.json"]);
+    let results = browser_run("cell.mjs", &[Path::new(&url)]);
+    drop(studio);
+
+    assert_eq!(results["errors"], json!([]), "the page ran without errors");
+    assert_eq!(results["parts"], json!(2), "both arms drawn");
+    assert_eq!(results["toolArm"], json!("right"));
+    let vector = |v: &Value| -> glam::DVec3 {
+        let v: Vec<f64> = serde_json::from_value(v.clone()).unwrap();
+        glam::DVec3::from_slice(&v)
+    };
+    let so101 = keypose::robot::Robot::builtin("so101").unwrap();
+    let present: Vec<f64> = serde_json::from_value(results["present"].clone()).unwrap();
+    let right_tool = so101.tcp_position(&present[6..12]);
+    let drawn = vector(&results["drawn"]);
+    assert!(
+        drawn.distance(right_tool) < 1e-6,
+        "drawn {drawn:?}, computed {right_tool:?}"
+    );
+    assert!(vector(&results["computed"]).distance(right_tool) < 1e-9);
+    let in_scene = right_tool + glam::DVec3::new(0.0, -0.25, 0.0);
+    let drawn_world = vector(&results["drawnWorld"]);
+    assert!(
+        drawn_world.distance(in_scene) < 1e-6,
+        "{drawn_world:?} vs {in_scene:?}"
+    );
+
+    let target = &results["target"];
+    assert_eq!(target["refused"], json!(false), "{target}");
+    assert!(
+        target["text"]
+            .as_str()
+            .unwrap()
+            .starts_with("tool (right) → ("),
+        "{target}"
+    );
+    let asked: Vec<f64> = target["mm"]
+        .as_str()
+        .unwrap()
+        .split(',')
+        .map(|x| x.parse::<f64>().unwrap() / 1000.0)
+        .collect();
+    let asked = glam::DVec3::from_slice(&asked);
+    // The page sends millimetres to 0.1 mm.
+    let wanted = right_tool + glam::DVec3::new(0.01, 0.0, 0.0);
+    assert!(asked.distance(wanted) < 0.0001, "{asked:?} vs {wanted:?}");
+    let goals: Vec<f64> = serde_json::from_value(results["goals"].clone()).unwrap();
+    let reached = so101.tcp_position(&goals[6..12]);
+    assert!(reached.distance(asked) < 0.0001, "{reached:?} vs {asked:?}");
+    assert!(
+        goals[..6].iter().all(|&g| g == 0.0),
+        "the left arm stays: {goals:?}"
+    );
 }
 
 /// No browser needed: without `--port` the studio does not start (exit 2, saying why), and

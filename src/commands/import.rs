@@ -8,8 +8,10 @@ use super::record::{
 use super::{CalibrationArgs, CommandError, Verdict};
 use keypose::curve::Interp;
 use keypose::interop::lerobot::{self, BodyUnits, DatasetInfo, ImportOptions, Imported};
+use keypose::json::{InputError, Location};
 use keypose::record::KeyframeOptions;
 use keypose::robot::Robot;
+use keypose::sequence::ArmSpec;
 use keypose::terminal_text::escape_controls;
 use std::path::{Path, PathBuf};
 
@@ -93,9 +95,8 @@ fn run_lerobot(args: &LeRobotArgs) -> Result<Verdict, CommandError> {
         calibration: &args.calibration,
         interpolation: args.interpolation,
     };
-    let (imported, robot, spec) = import_episode(&args.dir, &args.episode, choice)?;
+    let (imported, robot, _) = import_episode(&args.dir, &args.episode, choice)?;
     let mut sequence = imported.keyframes.sequence.clone();
-    sequence.robot = robot_reference(&spec);
     sequence.file = args.output.display().to_string();
     sequence.save(&args.output)?;
     for notice in &imported.notices {
@@ -107,7 +108,7 @@ fn run_lerobot(args: &LeRobotArgs) -> Result<Verdict, CommandError> {
         args.dir.display(),
         imported.data_file,
         imported.column_type,
-        imported.units.name()
+        imported.units_text()
     );
     print_summary(&imported.keyframes, &args.output, args.calibration.given());
     if !imported.keyframes.check.passed() {
@@ -119,8 +120,9 @@ fn run_lerobot(args: &LeRobotArgs) -> Result<Verdict, CommandError> {
     Ok(Verdict::Pass)
 }
 
-/// Imports the episode in memory: the keys, the robot they are for (calibrated), and how the
-/// robot was named (the dataset's robot_type or --robot).
+/// Imports the episode in memory: the keys (naming their robot, or for a bimanual dataset their
+/// arms), the robot they are for (calibrated; a cell for a bimanual dataset), and how the robot
+/// was named (the dataset's robot_type or --robot).
 pub fn import_episode(
     dir: &Path,
     args: &EpisodeArgs,
@@ -131,18 +133,23 @@ pub fn import_episode(
         .ok_or_else(|| CommandError::Usage("--episode N is required with a dataset".into()))?;
     let info = DatasetInfo::read(dir).map_err(CommandError::LeRobot)?;
     let names = info.names(&args.field).map_err(CommandError::LeRobot)?;
-    lerobot::refuse_two_arms(&info, &args.field, &names).map_err(CommandError::LeRobot)?;
-    let spec = match (choice.robot, &info.robot_type) {
-        (Some(spec), _) => spec.to_string(),
-        (None, Some(robot_type)) => robot_type.clone(),
-        (None, None) => {
-            return Err(CommandError::Usage(format!(
-                "{}: no robot_type: give --robot",
-                info.file
-            )))
-        }
+    let arms = lerobot::dataset_arms(&info, &args.field, &names).map_err(CommandError::LeRobot)?;
+    let spec = robot_spec(&info, choice.robot, !arms.is_empty())?;
+    // A name from the dataset is the dataset's to blame, one from --robot the option's.
+    let resolve = |name: &str| {
+        Robot::resolve(name, None).map_err(|e| {
+            super::resolve_error(e, |m| match choice.robot {
+                Some(_) => InputError::new("--robot", Location::File, m),
+                None => InputError::at_path(&info.file, "$.robot_type", m),
+            })
+        })
     };
-    let robot = super::load_robot(&spec, choice.calibration)?;
+    let (robot, arm_specs) = if arms.is_empty() {
+        let robot = super::finish_robot(resolve(&spec)?, choice.calibration)?;
+        (robot, Vec::new())
+    } else {
+        dataset_cell(&spec, &arms, choice.calibration, resolve)?
+    };
     let options = ImportOptions {
         episode,
         field: args.field.clone(),
@@ -154,6 +161,93 @@ pub fn import_episode(
             check_rate_hz: robot.control_hz,
         },
     };
-    let imported = lerobot::import(dir, &info, &robot, &options).map_err(CommandError::LeRobot)?;
+    let mut imported =
+        lerobot::import(dir, &info, &robot, &options).map_err(CommandError::LeRobot)?;
+    let sequence = &mut imported.keyframes.sequence;
+    if arm_specs.is_empty() {
+        sequence.robot = robot_reference(&spec);
+    } else {
+        imported.notices.push(placement_notice(&arm_specs));
+        sequence.robot.clear();
+        sequence.arms = arm_specs;
+    }
     Ok((imported, robot, spec))
+}
+
+/// `--robot`, else the dataset's robot_type; for a bimanual dataset the type of its arms
+/// (`bi_so100_follower` → `so100_follower`), `--robot` naming both arms' robot.
+fn robot_spec(
+    info: &DatasetInfo,
+    option: Option<&str>,
+    bimanual: bool,
+) -> Result<String, CommandError> {
+    match (option, &info.robot_type) {
+        (Some(spec), _) => Ok(spec.to_string()),
+        (None, Some(robot_type)) if bimanual => {
+            Ok(lerobot::arms::arm_robot_type(robot_type).to_string())
+        }
+        (None, Some(robot_type)) => Ok(robot_type.clone()),
+        (None, None) => Err(CommandError::Usage(format!(
+            "{}: no robot_type: give --robot",
+            info.file
+        ))),
+    }
+}
+
+/// The cell of a bimanual dataset: one robot `spec` per arm, each with its own calibration, at
+/// the default bases; and the arms as the sequence names them.
+fn dataset_cell(
+    spec: &str,
+    arms: &[&str],
+    calibration: &CalibrationArgs,
+    resolve: impl Fn(&str) -> Result<Robot, InputError>,
+) -> Result<(Robot, Vec<ArmSpec>), CommandError> {
+    let specs: Vec<ArmSpec> = arms
+        .iter()
+        .map(|&arm| ArmSpec {
+            name: arm.to_string(),
+            robot: robot_reference(spec),
+            base: Some(lerobot::arms::default_base(arm)),
+        })
+        .collect();
+    let calibration = bimanual_robot_ids(calibration, arms);
+    let cell_arms = super::cell_arms(&specs, &calibration, |arm| resolve(&arm.robot))?;
+    let robot = Robot::cell(cell_arms).map_err(|e| CommandError::Usage(e.to_string()))?;
+    Ok((robot, specs))
+}
+
+/// LeRobot calibrates the arms of a bimanual robot of id NAME as ids `NAME_left` and
+/// `NAME_right` (`bi_so_follower.py`): `--robot-id NAME` without an arm means those.
+fn bimanual_robot_ids(calibration: &CalibrationArgs, arms: &[&str]) -> CalibrationArgs {
+    let robot_id = calibration
+        .robot_id
+        .iter()
+        .flat_map(|id| {
+            if id.contains('=') {
+                vec![id.clone()]
+            } else {
+                arms.iter().map(|arm| format!("{arm}={id}_{arm}")).collect()
+            }
+        })
+        .collect();
+    CalibrationArgs {
+        calibration: calibration.calibration.clone(),
+        robot_id,
+    }
+}
+
+/// Says where the arms were placed: a dataset does not record it.
+fn placement_notice(arms: &[ArmSpec]) -> String {
+    let bases: Vec<String> = arms
+        .iter()
+        .map(|arm| {
+            let t = arm.base.map_or(glam::DVec3::ZERO, |b| b.xyz);
+            format!("{} at y = {:+} m", arm.name, t.y)
+        })
+        .collect();
+    format!(
+        "note: a bimanual dataset does not say where its arms stand: placed {} (x forward, both \
+         facing +x); edit each arm's \"base\" in \"robots\" for the real bench",
+        bases.join(", ")
+    )
 }

@@ -184,22 +184,34 @@ pub fn load_cell(
     sequence_path: &Path,
     calibration: &CalibrationArgs,
 ) -> Result<Robot, CommandError> {
-    let names: Vec<&str> = sequence.arms.iter().map(|a| a.name.as_str()).collect();
-    let mut arms = Vec::with_capacity(sequence.arms.len());
-    for arm in &sequence.arms {
-        let robot = Robot::resolve(&arm.robot, sequence_path.parent()).map_err(|e| {
+    let arms = cell_arms(&sequence.arms, calibration, |arm| {
+        Robot::resolve(&arm.robot, sequence_path.parent()).map_err(|e| {
             resolve_error(e, |m| {
                 InputError::at_path(&sequence.file, &format!("$.robots.{}", arm.name), m)
             })
-        })?;
-        let robot = finish_robot(robot, &calibration.for_arm(&arm.name, &names)?)?;
+        })
+    })?;
+    Robot::cell(arms)
+        .map_err(|e| InputError::at_path(&sequence.file, "$.robots", e.to_string()).into())
+}
+
+/// Each of `arms` as [`Robot::cell`] takes it: its robot as `resolve` finds it, with the
+/// calibration the options give that arm, at its base (the cell's origin when it has none).
+pub fn cell_arms(
+    arms: &[keypose::sequence::ArmSpec],
+    calibration: &CalibrationArgs,
+    resolve: impl Fn(&keypose::sequence::ArmSpec) -> Result<Robot, InputError>,
+) -> Result<Vec<(String, Robot, keypose::pose::RigidTransform)>, CommandError> {
+    let names: Vec<&str> = arms.iter().map(|a| a.name.as_str()).collect();
+    let mut out = Vec::with_capacity(arms.len());
+    for arm in arms {
+        let robot = finish_robot(resolve(arm)?, &calibration.for_arm(&arm.name, &names)?)?;
         let base = arm
             .base
             .map_or(keypose::pose::RigidTransform::IDENTITY, |b| b.transform());
-        arms.push((arm.name.clone(), robot, base));
+        out.push((arm.name.clone(), robot, base));
     }
-    Robot::cell(arms)
-        .map_err(|e| InputError::at_path(&sequence.file, "$.robots", e.to_string()).into())
+    Ok(out)
 }
 
 /// A resolution error as input error: a robot file's own error as it is, a name's at `at`.

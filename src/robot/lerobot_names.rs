@@ -81,6 +81,14 @@ pub enum NotBuiltIn {
          path, e.g. --robot ./omx_lerobot.json"
     )]
     Omx { name: String, role: &'static str },
+    /// Since the SO classes were merged (S6 d791a431f) LeRobot records a dataset's robot_type as
+    /// the class name, `so_follower`, for the SO-100 and the SO-101 alike: which arm it was is
+    /// not written down, and their kinematics differ.
+    #[error(
+        "{name:?} is LeRobot's {role} class of both the SO-100 and the SO-101, which differ in \
+         their kinematics; it does not say which arm: give --robot so101 or --robot so100"
+    )]
+    SoClass { name: String, role: &'static str },
 }
 
 /// The LeRobot type names that resolve to a built-in, for messages.
@@ -101,6 +109,10 @@ pub fn lerobot_type(name: &str) -> Option<Result<&'static LeRobotType, NotBuiltI
     let name_owned = name.to_string();
     match name {
         "omx_follower" | "omx_leader" => Some(Err(NotBuiltIn::Omx {
+            name: name_owned,
+            role,
+        })),
+        "so_follower" | "so_leader" => Some(Err(NotBuiltIn::SoClass {
             name: name_owned,
             role,
         })),
@@ -281,6 +293,11 @@ mod tests {
         assert!(matches!(
             lerobot_type("omx_leader"),
             Some(Err(NotBuiltIn::Omx { .. }))
+        ));
+        // The merged SO class names no arm: neither is guessed.
+        assert!(matches!(
+            lerobot_type("so_follower"),
+            Some(Err(NotBuiltIn::SoClass { .. }))
         ));
         assert_eq!(lerobot_type("so102_follower"), None);
         assert_eq!(follower_type_of("omx"), None);

@@ -205,6 +205,14 @@ impl KeyframeList {
         self.edit_current(|k| k.tool = tool)
     }
 
+    /// Sets the current key's tool target for arm `arm` of a cell, in place of any it had.
+    pub fn set_arm_tool(&mut self, arm: &str, tool: super::ToolKey) -> bool {
+        self.edit_current(|k| {
+            k.arm_tools.retain(|(a, _)| a != arm);
+            k.arm_tools.push((arm.to_string(), tool));
+        })
+    }
+
     /// Sets the current key's hold; refused when it would overrun the next key.
     pub fn set_hold(&mut self, hold: f64) -> bool {
         let times = self.sequence.key_times();

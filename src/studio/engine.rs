@@ -104,7 +104,9 @@ impl Hub {
             value["joints"][j]["present"] = v.into();
             value["joints"][j]["present_text"] = format::value_and_percent(joint, v).into();
         }
-        let tcp = robot.tcp_position(present);
+        // The tool the snapshot shows: on a cell the selected joint's arm's.
+        let selected = value["selected"].as_u64().unwrap_or(0) as usize;
+        let (_, tcp) = crate::teach::state::selected_tool(robot, selected, present);
         value["tcp"] = serde_json::json!([tcp.x, tcp.y, tcp.z]);
         self.number(&mut published, value);
     }

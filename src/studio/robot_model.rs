@@ -36,8 +36,13 @@ pub enum ModelError {
     Missing { joint: String },
 }
 
-/// `GET /api/robot`: the chain, and the shapes when the robot has a model that matches it.
+/// `GET /api/robot`: the chain, and the shapes when the robot has a model that matches it. A
+/// cell is its arms, each the model of the arm alone with its base (cell frame) and where its
+/// joints start among the cell's; the page draws each at its base.
 pub fn model(robot: &Robot) -> Value {
+    if robot.is_cell() {
+        return cell_model(robot);
+    }
     let (bodies, mimics, note) = match crate::sim::builtin_model(&robot.name) {
         None => (
             Value::Null,
@@ -59,6 +64,30 @@ pub fn model(robot: &Robot) -> Value {
         "bodies": bodies,
         "mimics": mimics,
         "geometry": note,
+    })
+}
+
+fn cell_model(cell: &Robot) -> Value {
+    let arms: Vec<Value> = cell
+        .arms
+        .iter()
+        .map(|arm| {
+            json!({
+                "name": arm.name,
+                "base": transform(&arm.base),
+                "first": arm.joints.start,
+                "model": model(&arm.robot),
+            })
+        })
+        .collect();
+    json!({
+        "name": cell.name,
+        "joints": chain(cell),
+        "tcp": Value::Null,
+        "arms": arms,
+        "bodies": Value::Null,
+        "mimics": Value::Null,
+        "geometry": "each arm's own",
     })
 }
 
@@ -326,6 +355,28 @@ mod tests {
             }
         );
         assert!(model(&robot)["bodies"].is_null());
+    }
+
+    /// A cell is drawn arm by arm: each arm's own model (shapes included) at its base, with
+    /// the index of its first joint among the cell's.
+    #[test]
+    fn a_cell_is_its_arms_each_at_its_base() {
+        let so101 = Robot::builtin("so101").unwrap();
+        let right = RigidTransform::new(DVec3::new(0.0, -0.25, 0.0), DQuat::IDENTITY);
+        let cell = Robot::cell(vec![
+            ("left".into(), so101.clone(), RigidTransform::IDENTITY),
+            ("right".into(), so101, right),
+        ])
+        .unwrap();
+        let model = model(&cell);
+        let arms = model["arms"].as_array().unwrap();
+        assert_eq!(arms.len(), 2);
+        assert_eq!(arms[1]["name"], "right");
+        assert_eq!(arms[1]["first"], 6);
+        assert_eq!(arms[1]["base"]["t"], json!([0.0, -0.25, 0.0]));
+        assert_eq!(arms[1]["model"]["geometry"], "sim/models/so101.xml");
+        assert_eq!(arms[1]["model"]["joints"][0]["name"], "shoulder_pan");
+        assert_eq!(model["joints"][6]["name"], "right/shoulder_pan");
     }
 
     #[test]

@@ -5,14 +5,16 @@
 
 use crate::teach::format;
 use crate::teach::motion::MotionKind;
-use crate::teach::state::{Activity, TeachState};
+use crate::teach::state::{selected_tool, Activity, TeachState};
 use crate::teach::Prompt;
 use serde_json::{json, Value};
 
 /// The snapshot of `state`; `controlled` says whether a page holds control now.
 pub fn snapshot(state: &TeachState, bus: &str, controlled: bool) -> Value {
     let robot = state.robot();
-    let tcp = robot.tcp_position(state.present());
+    // The tool the handle and the readout act on: on a cell the selected joint's arm's, in
+    // its base frame.
+    let (tool_arm, tcp) = selected_tool(robot, state.selected(), state.present());
     json!({
         "robot": robot.name,
         "bus": bus,
@@ -30,6 +32,7 @@ pub fn snapshot(state: &TeachState, bus: &str, controlled: bool) -> Value {
         "prompt": prompt(state),
         "controlled": controlled,
         "tcp": [tcp.x, tcp.y, tcp.z],
+        "tool_arm": tool_arm,
         "journal": state.journal().map(|j| j.path().display().to_string()),
         "quit": state.should_quit(),
     })

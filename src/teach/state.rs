@@ -745,6 +745,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
 mod edits;
 mod reports;
 mod tool;
+pub use tool::{selected_tool, tool_positions};
 
 #[cfg(test)]
 mod tests;

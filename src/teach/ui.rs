@@ -198,14 +198,25 @@ fn draw_joints(frame: &mut Frame, area: Rect, state: &TeachState) {
 }
 
 /// Where the tool (the robot's tcp) is at the present pose, base frame, millimetres: what a
-/// tool key (`"tool": {"xyz": …}`, metres) would say. Blank until every joint has been read.
+/// tool key (`"tool": {"xyz": …}`, metres) would say; on a cell each arm's, in its own base
+/// frame. Blank until every joint has been read.
 fn tool_title(state: &TeachState) -> String {
     let present = state.present();
     if present.len() != state.robot().joints.len() || present.iter().any(|v| !v.is_finite()) {
         return String::new();
     }
-    let p = state.robot().tcp_position(present) * 1000.0;
-    format!(" tool at x {:.1}  y {:.1}  z {:.1} mm ", p.x, p.y, p.z)
+    let tools: Vec<String> = super::state::tool_positions(state.robot(), present)
+        .into_iter()
+        .map(|(arm, p)| {
+            let p = p * 1000.0;
+            let at = format!("x {:.1}  y {:.1}  z {:.1} mm", p.x, p.y, p.z);
+            match arm {
+                Some(arm) => format!("{arm} at {at}"),
+                None => format!("at {at}"),
+            }
+        })
+        .collect();
+    format!(" tool {} ", tools.join(" · "))
 }
 
 /// `[──◆───●──]`: where the present value (●) and the key's value (◆) sit between the limits.
@@ -358,6 +369,35 @@ mod tests {
     use super::*;
     use crate::robot::Robot;
     use crate::sequence::{KeyframeList, Sequence};
+
+    /// On a cell the tool line gives each arm's tool in its own base frame: at home both are
+    /// where docs/robots.md §1.3 measured MuJoCo's gripperframe, 391.4 mm ahead, wherever the
+    /// arm stands.
+    #[test]
+    fn the_tool_line_of_a_cell_names_each_arm() {
+        let so101 = Robot::builtin("so101").expect("built in");
+        let apart = |y: f64| {
+            crate::pose::RigidTransform::new(glam::DVec3::new(0.0, y, 0.0), glam::DQuat::IDENTITY)
+        };
+        let cell = Robot::cell(vec![
+            ("left".into(), so101.clone(), apart(0.2)),
+            ("right".into(), so101, apart(-0.2)),
+        ])
+        .expect("a cell");
+        let present = cell.home.clone();
+        let state = TeachState::new(
+            cell,
+            KeyframeList::new(Sequence::new_cell(Vec::new())),
+            "taught.json".into(),
+            None,
+            present,
+        );
+        let title = tool_title(&state);
+        assert!(
+            title.contains("tool left at x 391.4") && title.contains("· right at x 391.4"),
+            "{title}"
+        );
+    }
     use ratatui::backend::TestBackend;
     use ratatui::Terminal;
 

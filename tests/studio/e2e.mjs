@@ -1,7 +1,7 @@
 // Drives `keypose studio` in Debian's Chromium (headless, WebGL through SwiftShader) with
 // playwright-core; run by tests/studio.rs as `node e2e.mjs URL ARTIFACT_DIR`. Prints one
 // JSON line of results for the Rust side, which checks the file the keys wrote.
-import { chromium } from 'playwright-core';
+import { launchChromium } from './browser.mjs';
 import { writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 import http from 'node:http';
@@ -65,14 +65,7 @@ function pngColours(png) {
   return colours.size;
 }
 
-const browser = await chromium.launch({
-  executablePath: '/usr/bin/chromium',
-  headless: true,
-  args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
-    '--disable-component-update', '--disable-sync', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
-  // playwright-core gives every launch a fresh, empty profile of its own (a user-data-dir in
-  // the temporary directory, removed on close); it never downloads a browser.
-});
+const browser = await launchChromium();
 const results = {};
 try {
   // ----- the controller's page: loads without a JavaScript error -----

@@ -70,6 +70,19 @@ impl DatasetInfo {
         })
     }
 
+    /// An info.json of 30 fps with no features, for unit tests of what only needs its name.
+    #[cfg(test)]
+    pub(crate) fn for_tests(file: &str) -> DatasetInfo {
+        DatasetInfo {
+            file: file.to_string(),
+            fps: 30.0,
+            robot_type: None,
+            data_path: DEFAULT_DATA_PATH.to_string(),
+            total_episodes: None,
+            features: serde_json::json!({}),
+        }
+    }
+
     /// The names of `field`'s values (`features.<field>.names`), as LeRobot writes them
     /// (`shoulder_pan.pos`, …).
     pub fn names(&self, field: &str) -> Result<Vec<String>, LeRobotError> {

@@ -6,13 +6,15 @@
 //! ([`crate::record::keyframes`]): the fewest keys within the tolerance, clamped into the
 //! limits, retimed until the limit check passes.
 
+pub mod arms;
 pub mod info;
 pub mod reader;
 pub mod units;
 
+pub use arms::dataset_arms;
 pub use info::DatasetInfo;
 pub use reader::{read_episode, EpisodeRows};
-pub use units::BodyUnits;
+pub use units::{BodyUnits, UnitsPerArm};
 
 use crate::json::InputError;
 use crate::python::HarnessError;
@@ -22,8 +24,6 @@ use std::path::Path;
 
 /// LeRobot's suffix of a motor's position value in feature names (`shoulder_pan.pos`).
 const POSITION_SUFFIX: &str = ".pos";
-/// Prefixes of a bimanual robot's two arms (LeRobot's `bi_so_follower`: `left_`, `right_`).
-const ARM_PREFIXES: [&str; 2] = ["left_", "right_"];
 
 #[derive(Debug, thiserror::Error)]
 pub enum LeRobotError {
@@ -35,13 +35,13 @@ pub enum LeRobotError {
     )]
     Version { file: String, found: String },
     #[error(
-        "{file}: {field} names two arms ({names}): a bimanual dataset becomes a two-arm sequence, \
-         which keypose does not support yet"
+        "{file}: {field} names values of an arm (left_…, right_…) and values of none ({unprefixed}); \
+         expected every name to start with left_ or right_ (a bimanual dataset) or none to (one arm)"
     )]
-    Bimanual {
+    MixedArms {
         file: String,
         field: String,
-        names: String,
+        unprefixed: String,
     },
     #[error("{file}: {field} names {name:?}, which is not a joint of {robot}; expected names from: {expected}")]
     UnknownName {
@@ -62,9 +62,13 @@ pub enum LeRobotError {
     Dataset { dir: String, message: String },
     #[error(
         "joint {joint}: values in LeRobot's −100…100 range normalisation need the arm's \
-         calibration: give --calibration FILE or --robot-id NAME"
+         calibration: give --calibration {arm}FILE or --robot-id {arm}NAME"
     )]
-    NeedsCalibration { joint: String },
+    NeedsCalibration {
+        joint: String,
+        /// `left=` for an arm of a cell, else empty: how the options name the arm.
+        arm: String,
+    },
     #[error("reading the dataset: {0}")]
     Reader(HarnessError),
     #[error(transparent)]
@@ -94,27 +98,42 @@ pub struct ImportOptions {
 pub struct Imported {
     pub keyframes: Keyframes,
     pub frames: usize,
-    pub units: BodyUnits,
+    pub units: UnitsPerArm,
     pub column_type: String,
     pub data_file: String,
     pub notices: Vec<String>,
 }
 
-/// The robot joint each of `names` denotes (`None` for a motor's other quantities).
-/// Bimanual names are refused: two-arm sequences do not exist yet.
+impl Imported {
+    /// "degrees", or per arm: "left degrees, right range".
+    pub fn units_text(&self) -> String {
+        self.units
+            .iter()
+            .map(|(arm, units)| match arm.as_str() {
+                "" => units.name().to_string(),
+                arm => format!("{arm} {}", units.name()),
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+/// The robot joint each of `names` denotes (`None` for a motor's other quantities). On a cell
+/// (a bimanual dataset) `left_shoulder_pan.pos` denotes `left/shoulder_pan`.
 pub fn map_names(
     info: &DatasetInfo,
     field: &str,
     names: &[String],
     robot: &Robot,
 ) -> Result<Vec<Option<usize>>, LeRobotError> {
-    refuse_two_arms(info, field, names)?;
+    dataset_arms(info, field, names)?;
     let mut columns = Vec::with_capacity(names.len());
     for name in names {
+        let on_robot = arms::robot_name(name, robot.is_cell());
         // Another quantity of a motor (`.vel`, `.effort`) is not a position: left out.
-        let joint = match name.split_once('.') {
-            None => name.as_str(),
-            Some((motor, _)) if name.ends_with(POSITION_SUFFIX) => motor,
+        let joint = match on_robot.split_once('.') {
+            None => on_robot.as_str(),
+            Some((motor, _)) if on_robot.ends_with(POSITION_SUFFIX) => motor,
             Some(_) => {
                 columns.push(None);
                 continue;
@@ -127,7 +146,12 @@ pub fn map_names(
                 field: field.to_string(),
                 name: name.clone(),
                 robot: robot.name.clone(),
-                expected: robot.joint_names().join(", "),
+                expected: robot
+                    .joint_names()
+                    .iter()
+                    .map(|j| arms::lerobot_name(j))
+                    .collect::<Vec<_>>()
+                    .join(", "),
             })?;
         columns.push(Some(index));
     }
@@ -140,27 +164,6 @@ pub fn map_names(
         });
     }
     Ok(columns)
-}
-
-/// Refuses a bimanual dataset (`left_…`/`right_…` names): it would become a two-arm sequence,
-/// which does not exist yet. Called before the robot is resolved: a bimanual robot_type
-/// (`bi_so_follower`) is no robot of keypose's either.
-pub fn refuse_two_arms(
-    info: &DatasetInfo,
-    field: &str,
-    names: &[String],
-) -> Result<(), LeRobotError> {
-    if names
-        .iter()
-        .any(|n| ARM_PREFIXES.iter().any(|p| n.starts_with(p)))
-    {
-        return Err(LeRobotError::Bimanual {
-            file: info.file.clone(),
-            field: field.to_string(),
-            names: names.join(", "),
-        });
-    }
-    Ok(())
 }
 
 /// Imports episode `options.episode` of the dataset at `dir` for `robot` (its calibration, if
@@ -225,25 +228,35 @@ fn check_widths(dir: &Path, rows: &EpisodeRows, width: usize) -> Result<(), LeRo
 }
 
 /// The episode as a [`Recording`] of joint values: joints the dataset does not name keep the
-/// robot's home and are not fitted.
+/// robot's home and are not fitted. The units are decided per arm.
 fn recording(
     info: &DatasetInfo,
     robot: &Robot,
     columns: &[Option<usize>],
     rows: &EpisodeRows,
     options: &ImportOptions,
-) -> Result<(Recording, BodyUnits, Vec<String>), LeRobotError> {
+) -> Result<(Recording, UnitsPerArm, Vec<String>), LeRobotError> {
     let n = rows.values.len();
-    let body: Vec<usize> = (0..columns.len())
-        .filter(|&c| columns[c].is_some_and(|j| robot.joints[j].name != units::GRIPPER))
-        .collect();
-    let (units, notice) = units::decide(options.units, &rows.values, &body);
-    let mut notices: Vec<String> = notice.into_iter().collect();
+    let mut notices = Vec::new();
+    let mut units = Vec::new();
+    let mut joint_units = vec![BodyUnits::Degrees; robot.joints.len()];
+    for (arm, joints) in arm_joints(robot) {
+        let body: Vec<usize> = (0..columns.len())
+            .filter(|&c| {
+                columns[c]
+                    .is_some_and(|j| joints.contains(&j) && !units::is_gripper(&robot.joints[j]))
+            })
+            .collect();
+        let (decided, notice) = units::decide(options.units, &rows.values, &body, &arm);
+        notices.extend(notice);
+        joint_units[joints].fill(decided);
+        units.push((arm, decided));
+    }
     let mut values: Vec<Vec<f64>> = robot.home.iter().map(|&h| vec![h; n]).collect();
     let mut recorded = vec![false; robot.joints.len()];
     for (c, joint) in columns.iter().enumerate() {
         let Some(j) = *joint else { continue };
-        let (conversion, notice) = units::conversion(&robot.joints[j], units)?;
+        let (conversion, notice) = units::conversion(&robot.joints[j], joint_units[j])?;
         notices.extend(notice);
         values[j] = rows.values.iter().map(|r| conversion.apply(r[c])).collect();
         recorded[j] = true;
@@ -262,6 +275,18 @@ fn recording(
         units,
         notices,
     ))
+}
+
+/// Each arm's name and joints: a cell's arms, or the whole robot under the empty name.
+fn arm_joints(robot: &Robot) -> Vec<(String, std::ops::Range<usize>)> {
+    if robot.is_cell() {
+        return robot
+            .arms
+            .iter()
+            .map(|a| (a.name.clone(), a.joints.clone()))
+            .collect();
+    }
+    vec![(String::new(), 0..robot.joints.len())]
 }
 
 /// Seconds from the episode's first frame: its timestamps, else frame number over fps.

@@ -9,7 +9,7 @@
 //! `use_degrees=True`, else `RANGE_M100_100`.
 
 use super::LeRobotError;
-use crate::robot::{CalibratedRange, Joint};
+use crate::robot::{split_joint_name, CalibratedRange, Joint};
 
 /// How the dataset's body joints (all but the gripper) are normalised.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -29,17 +29,28 @@ impl BodyUnits {
     }
 }
 
+/// The units of each arm's body joints, by arm name (empty for a robot of one arm): LeRobot
+/// configures `use_degrees` per arm.
+pub type UnitsPerArm = Vec<(String, BodyUnits)>;
+
 /// LeRobot's gripper motor, in 0 … 100 % of its calibrated range on every SO and Koch arm.
 pub const GRIPPER: &str = "gripper";
 /// Largest |value| of `RANGE_M100_100`: beyond it a body joint's values must be degrees.
 const RANGE_BOUND: f64 = 100.0;
 
-/// The units of the body joints: those asked for, or what the values show. Returns the units
-/// and, when they could not be told apart, a notice saying so.
+/// Whether `joint` is an arm's gripper (`gripper`, or `ARM/gripper` on a cell).
+pub fn is_gripper(joint: &Joint) -> bool {
+    split_joint_name(&joint.name).map_or(joint.name.as_str(), |(_, j)| j) == GRIPPER
+}
+
+/// The units of the body joints of one arm (`arm`, empty for a robot of one arm): those asked
+/// for, or what the values show. Returns the units and, when they could not be told apart, a
+/// notice saying so.
 pub fn decide(
     asked: Option<BodyUnits>,
     values: &[Vec<f64>],
     body_columns: &[usize],
+    arm: &str,
 ) -> (BodyUnits, Option<String>) {
     if let Some(units) = asked {
         return (units, None);
@@ -51,8 +62,12 @@ pub fn decide(
     if largest > RANGE_BOUND {
         return (BodyUnits::Degrees, None);
     }
+    let of_arm = match arm {
+        "" => String::new(),
+        arm => format!(" of arm {arm}"),
+    };
     let notice = format!(
-        "note: every body-joint value is within ±{RANGE_BOUND} (largest {largest:.2}), so they may \
+        "note: every body-joint value{of_arm} is within ±{RANGE_BOUND} (largest {largest:.2}), so they may \
          be degrees or LeRobot's −100…100 range normalisation (an arm configured with \
          use_degrees=False); read as degrees, what current LeRobot records: if the arm used the \
          range, give --units range with its --calibration or --robot-id"
@@ -89,7 +104,7 @@ pub fn conversion(
     joint: &Joint,
     units: BodyUnits,
 ) -> Result<(Conversion, Option<String>), LeRobotError> {
-    if joint.name == GRIPPER {
+    if is_gripper(joint) {
         return Ok(gripper_conversion(joint));
     }
     match (units, joint.calibrated_range) {
@@ -104,8 +119,14 @@ pub fn conversion(
         )),
         (BodyUnits::Range, None) => Err(LeRobotError::NeedsCalibration {
             joint: joint.name.clone(),
+            arm: option_arm(joint),
         }),
     }
+}
+
+/// How the calibration options name `joint`'s arm: `left=` on a cell, nothing on one arm.
+fn option_arm(joint: &Joint) -> String {
+    split_joint_name(&joint.name).map_or(String::new(), |(arm, _)| format!("{arm}="))
 }
 
 /// 0 … 100 % onto the calibrated range, or onto the joint's limits without a calibration.
@@ -125,8 +146,11 @@ fn gripper_conversion(joint: &Joint) -> (Conversion, Option<String>) {
             let notice = format!(
                 "note: {} is in 0…100 % of its calibrated range; without a calibration 0 % is \
                  read as its lower limit ({}) and 100 % as its upper ({}): give --calibration \
-                 or --robot-id for the arm's own range",
-                joint.name, joint.limits.min, joint.limits.max
+                 {arm}FILE or --robot-id {arm}NAME for the arm's own range",
+                joint.name,
+                joint.limits.min,
+                joint.limits.max,
+                arm = option_arm(joint)
             );
             (percent(ends), Some(notice))
         }

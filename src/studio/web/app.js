@@ -138,8 +138,10 @@ function render(s) {
   if (prompt !== lastPrompt) { lastPrompt = prompt; renderPrompt(s.prompt); }
   if (!s.prompt) showStatus(s.status.text, s.status.error);
   $('activity').textContent = `${s.activity.text} · ${s.journal ? 'journal ' + s.journal : 'no journal'}`;
-  $('tcp').textContent = 'tool ' + s.tcp.map(v => (v * 1000).toFixed(0)).join(', ') + ' mm';
+  $('tcp').textContent = 'tool ' + (s.tool_arm ? `(${s.tool_arm}) ` : '') +
+    s.tcp.map(v => (v * 1000).toFixed(0)).join(', ') + ' mm';
   if (studio.view) {
+    studio.view.setToolJoint(s.selected);
     studio.view.setPose(s.joints.map(j => j.present));
     const key = s.current !== null ? s.keys[s.current] : null;
     const ghost = ghostOverride || (key && $('ghost').checked ? key.values : null);
@@ -298,7 +300,9 @@ async function start() {
   studio.model = model;
   studio.view = new ArmView($('view'), model);
   $('axes').onchange = e => studio.view.showAxes(e.target.checked);
-  if (model.tcp) studio.handle = new ToolHandle(studio.view, moveTool);
+  if (model.tcp || (model.arms || []).some(arm => arm.model.tcp)) {
+    studio.handle = new ToolHandle(studio.view, moveTool);
+  }
   await claim();
   const events = new EventSource(`/api/events?token=${encodeURIComponent(token)}&client=${client}`);
   events.onmessage = e => {

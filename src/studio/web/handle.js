@@ -7,7 +7,8 @@ import { TransformControls } from '/vendor/three/TransformControls.js';
 const COLOUR = { ok: 0xffd54f, refused: 0xef5350 };
 
 export class ToolHandle {
-  // `onMove(position)`: the ball was dragged to `position` (base frame, metres).
+  // `onMove(position)`: the ball was dragged to `position` (the tool's arm's base frame,
+  // metres; the ball itself lives in the scene, the cell's frame).
   constructor(view, onMove) {
     this.view = view;
     this.dragging = false;
@@ -25,7 +26,7 @@ export class ToolHandle {
       view.controls.enabled = !e.value;
       if (!e.value) this.follow();
     });
-    this.gizmo.addEventListener('objectChange', () => onMove(this.ball.position.toArray()));
+    this.gizmo.addEventListener('objectChange', () => onMove(view.toToolFrame(this.ball.position)));
     this.gizmo.addEventListener('change', () => { view.dirty = true; });
     this.setEnabled(false);
   }
@@ -46,9 +47,9 @@ export class ToolHandle {
 
   // Back on the drawn tool, unless the user holds the handle.
   follow() {
-    const tool = this.view.tcpPosition();
+    const tool = this.view.toolWorld();
     if (this.dragging || !tool) return;
-    this.ball.position.fromArray(tool);
+    this.ball.position.copy(tool);
     this.view.dirty = true;
   }
 

@@ -1,6 +1,8 @@
 // The arm in 3D: built from GET /api/robot (the chain, and the simulation model's bodies and
 // shapes when there is one), posed by joint values in the robot's units (degrees; metres for
-// prismatic joints). A second, translucent copy is the ghost.
+// prismatic joints). A second, translucent copy is the ghost. A cell is several arms, each
+// drawn from its own model at its base and posed by its part of the cell's values; the tool is
+// the one of the selected joint's arm, in that arm's base frame.
 import * as THREE from 'three';
 import { OrbitControls } from '/vendor/three/OrbitControls.js';
 
@@ -143,9 +145,15 @@ export class ArmView {
     this.scene.background = new THREE.Color(0x20252b);
     this.camera = new THREE.PerspectiveCamera(45, 1, 0.01, 10);
     this.camera.up.set(0, 0, 1);
-    this.camera.position.set(0.45, -0.55, 0.4);
+    // Looking at the arm from the front right; a cell from further, centred between its
+    // arms' bases, so that every arm is in view.
+    const bases = (model.arms || []).map(a => vec(a.base.t));
+    const centre = bases.reduce((c, b) => c.addScaledVector(b, 1 / bases.length), new THREE.Vector3());
+    const spread = Math.max(0, ...bases.map(b => b.distanceTo(centre)));
+    const target = centre.clone().add(new THREE.Vector3(0.1, 0, 0.12));
+    this.camera.position.copy(target).addScaledVector(new THREE.Vector3(0.35, -0.55, 0.28), 1 + 2 * spread);
     this.controls = new OrbitControls(this.camera, canvas);
-    this.controls.target.set(0.1, 0, 0.12);
+    this.controls.target.copy(target);
     this.controls.update();
     this.scene.add(new THREE.HemisphereLight(0xffffff, 0x404040, 2.2));
     const sun = new THREE.DirectionalLight(0xffffff, 1.6);
@@ -159,10 +167,20 @@ export class ArmView {
       color: new THREE.Color(rgba[0], rgba[1], rgba[2]), roughness: 0.6, metalness: 0.1 });
     const ghostMaterial = new THREE.MeshBasicMaterial({
       color: 0x4fc3f7, transparent: true, opacity: 0.25, depthWrite: false });
-    this.arm = new Arm(model, solid);
-    this.ghost = new Arm(model, () => ghostMaterial);
-    this.ghost.root.visible = false;
-    this.scene.add(this.arm.root, this.ghost.root);
+    // One part per arm: the arm and its ghost, each under a node at the arm's base.
+    const parts = model.arms || [{ name: null, base: null, first: 0, model }];
+    this.parts = parts.map(p => {
+      const part = { name: p.name, first: p.first, count: p.model.joints.length,
+        arm: new Arm(p.model, solid), ghost: new Arm(p.model, () => ghostMaterial),
+        root: new THREE.Group(), ghostRoot: new THREE.Group() };
+      if (p.base) { place(part.root, p.base); place(part.ghostRoot, p.base); }
+      part.root.add(part.arm.root);
+      part.ghostRoot.add(part.ghost.root);
+      part.ghostRoot.visible = false;
+      this.scene.add(part.root, part.ghostRoot);
+      return part;
+    });
+    this.toolPart = this.parts[0];
     this.onFrame = null;
     // Drawn only when something changed: software GL (and a laptop's battery) cannot afford
     // sixty identical frames a second.
@@ -191,28 +209,58 @@ export class ArmView {
     }
   }
 
-  setPose(values) { this.arm.pose(values); this.dirty = true; }
+  // Each arm's part of `values` (robot order).
+  static slice(part, values) { return values.slice(part.first, part.first + part.count); }
+
+  setPose(values) {
+    for (const part of this.parts) part.arm.pose(ArmView.slice(part, values));
+    this.dirty = true;
+  }
 
   // The ghost at `values` (robot order and units), or hidden with null.
   setGhost(values) {
     this.dirty = true;
-    this.ghost.root.visible = !!values;
-    if (values) this.ghost.pose(values);
+    for (const part of this.parts) {
+      part.ghostRoot.visible = !!values;
+      if (values) part.ghost.pose(ArmView.slice(part, values));
+    }
   }
 
-  showAxes(on) { for (const a of this.arm.axes) a.visible = on; this.dirty = true; }
+  showAxes(on) {
+    for (const part of this.parts) for (const a of part.arm.axes) a.visible = on;
+    this.dirty = true;
+  }
 
-  // Where the drawn tool centre point is, in the robot's base frame (metres).
-  tcpPosition() {
-    if (!this.arm.tcp) return null;
+  // The tool is the arm's that joint `index` (robot order) belongs to.
+  setToolJoint(index) {
+    this.toolPart = this.parts.find(p => index >= p.first && index < p.first + p.count) || this.parts[0];
+  }
+
+  // Where the tool's arm draws its tool centre point, in the scene (the cell's frame).
+  toolWorld() {
+    const tcp = this.toolPart.arm.tcp;
+    if (!tcp) return null;
     this.scene.updateMatrixWorld(true);
-    const p = this.arm.tcp.getWorldPosition(new THREE.Vector3());
-    return [p.x, p.y, p.z];
+    return tcp.getWorldPosition(new THREE.Vector3());
   }
 
-  // The drawn rotation of a joint, for tests and the latency figure.
+  // A point of the scene in the tool's arm's base frame (metres).
+  toToolFrame(world) {
+    this.scene.updateMatrixWorld(true);
+    return this.toolPart.root.worldToLocal(world.clone()).toArray();
+  }
+
+  // Where the drawn tool centre point is, in its arm's base frame (metres).
+  tcpPosition() {
+    const world = this.toolWorld();
+    return world ? this.toToolFrame(world) : null;
+  }
+
+  // The drawn rotation of a joint (a cell's as ARM/JOINT), for tests and the latency figure.
   jointAngle(name) {
-    const joint = this.arm.joints.get(name);
+    const [armName, jointName] = name.includes('/') ? name.split('/', 2) : [null, name];
+    const part = this.parts.find(p => p.name === armName);
+    const joint = part && part.arm.joints.get(jointName);
     if (!joint) return null;
     if (joint.kind === 'prismatic') return joint.moving.position.dot(joint.axis);
     const q = joint.moving.quaternion;

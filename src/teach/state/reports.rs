@@ -63,10 +63,12 @@ impl TeachState {
                 let joint = &self.robot.joints[j];
                 self.info(format!("{} → {}", joint.name, format::value(joint, v)));
             }
-            // Several joints at once: the tool moved (a tool jog or target).
-            _ => {
-                let tool = self.robot.tcp_position(&self.goals);
-                self.info(format!("tool → ({})", crate::kinematics::mm3(tool)));
+            // Several joints at once: the tool moved (a tool jog or target), on a cell the
+            // tool of those joints' arm, in its base frame.
+            [(j, _), ..] => {
+                let (arm, tool) = super::selected_tool(&self.robot, j, &self.goals);
+                let arm = arm.map_or(String::new(), |a| format!(" ({a})"));
+                self.info(format!("tool{arm} → ({})", crate::kinematics::mm3(tool)));
             }
         }
     }

@@ -1006,3 +1006,131 @@ fn a_tool_target_that_needs_a_joint_jump_is_refused() {
     );
     assert_eq!(state.goals(), before.as_slice());
 }
+
+/// Two SO-101s: left at y +0.2 m, right at y −0.2 m turned 90° about z, so that the right
+/// arm's base frame is not the cell's.
+fn two_arm_cell() -> (Robot, Vec<crate::sequence::ArmSpec>) {
+    use crate::pose::RigidTransform;
+    let bases = [
+        (
+            "left",
+            RigidTransform::new(glam::DVec3::new(0.0, 0.2, 0.0), glam::DQuat::IDENTITY),
+        ),
+        (
+            "right",
+            RigidTransform::new(
+                glam::DVec3::new(0.0, -0.2, 0.0),
+                glam::DQuat::from_rotation_z(std::f64::consts::FRAC_PI_2),
+            ),
+        ),
+    ];
+    let cell = Robot::cell(
+        bases
+            .iter()
+            .map(|&(name, base)| (name.to_string(), so101(), base))
+            .collect(),
+    )
+    .unwrap();
+    let specs = bases
+        .iter()
+        .map(|&(name, base)| crate::sequence::ArmSpec {
+            name: name.into(),
+            robot: "so101".into(),
+            base: Some(base),
+        })
+        .collect();
+    (cell, specs)
+}
+
+/// A session on the two-arm cell, both arms at home and held, the right arm bent (lift −30°,
+/// elbow +30°, away from the stretched, singular home) and its elbow selected.
+fn bent_right_arm(dir: &Path) -> TeachState {
+    let (cell, specs) = two_arm_cell();
+    let present = cell.home.clone();
+    let mut state = TeachState::new(
+        cell,
+        KeyframeList::new(Sequence::new_cell(specs)),
+        dir.join("taught.json"),
+        None,
+        present,
+    );
+    let start = state.start();
+    apply(&mut state, start);
+    // Down from the left arm's shoulder_pan to the right arm's shoulder_lift (joint 7).
+    for (key, times) in [
+        (Key::Down, 7),
+        (Key::ShiftLeft, 3),
+        (Key::Down, 1),
+        (Key::ShiftRight, 3),
+    ] {
+        for _ in 0..times {
+            press(&mut state, key.clone());
+        }
+    }
+    assert_eq!(
+        state.robot().joints[state.selected()].name,
+        "right/elbow_flex"
+    );
+    state
+}
+
+/// The right arm's tool point in its own base frame at the goals.
+fn right_tool(state: &TeachState) -> glam::DVec3 {
+    let arm = state.robot().arm("right").unwrap();
+    arm.robot.tcp_position(arm.values(state.goals()))
+}
+
+/// On a cell a tool jog moves the selected joint's arm, along its own base frame's axis (the
+/// right arm is turned, so the cell's x is not its x): 5 mm exactly, the other arm untouched.
+#[test]
+fn on_a_cell_tool_jogs_move_the_selected_joints_arm_in_its_base_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = bent_right_arm(dir.path());
+    let left_before = state.goals()[..6].to_vec();
+    let start = right_tool(&state);
+    press(&mut state, Key::Char('x'));
+    let moved = right_tool(&state) - start;
+    assert!(
+        (moved - glam::DVec3::new(0.005, 0.0, 0.0)).length() < 1e-6,
+        "{moved:?}: {:?}",
+        state.status()
+    );
+    assert_eq!(&state.goals()[..6], &left_before[..]);
+    // The status says where the right arm's tool went, in the right arm's base frame.
+    let said = format!(
+        "tool (right) → ({})",
+        crate::kinematics::mm3(right_tool(&state))
+    );
+    assert_eq!(state.status().text, said);
+}
+
+/// `K` on a cell captures a tool key of the selected joint's arm (`"tool": {"right": …}`, in
+/// its base frame), every other joint as a joint value; the key solves back onto that point.
+#[test]
+fn on_a_cell_a_tool_key_is_the_selected_arms() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = bent_right_arm(dir.path());
+    press(&mut state, Key::Char('K'));
+    let key = state.list().show().expect("a key").clone();
+    assert!(key.tool.is_none(), "{key:?}");
+    let [(arm, tool)] = key.arm_tools.as_slice() else {
+        panic!("one arm's tool: {key:?}")
+    };
+    assert_eq!(arm, "right");
+    let present = right_tool(&state);
+    assert!(
+        (tool.xyz - present).abs().max_element() <= 0.00005 + 1e-12,
+        "{tool:?} vs {present:?}"
+    );
+    assert!(
+        key.value("right/gripper").is_some()
+            && key.value("left/elbow_flex").is_some()
+            && key.value("right/elbow_flex").is_none(),
+        "{key:?}"
+    );
+    let trajectory = Trajectory::build(state.list().sequence(), state.robot()).expect("solves");
+    let sample = trajectory.sample(trajectory.start);
+    let right = state.robot().arm("right").unwrap();
+    let solved = right.robot.tcp_position(right.values(&sample));
+    assert!(solved.distance(tool.xyz) < 1e-6, "{solved:?}");
+}

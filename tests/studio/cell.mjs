@@ -1,0 +1,77 @@
+// Drives `keypose studio` on a cell of two arms in Debian's Chromium (headless, WebGL through
+// SwiftShader) with playwright-core; run by tests/studio.rs as `node cell.mjs URL`. Bends the
+// right arm, reads where the page draws its tool, moves the tool handle 10 mm along the
+// scene's x, and prints one JSON line of results for the Rust side to check.
+import { launchChromium } from './browser.mjs';
+import http from 'node:http';
+
+const [url] = process.argv.slice(2);
+// A hang guard, not a timing check.
+setTimeout(() => fail('no result after 300 s'), 300000).unref();
+const target = new URL(url);
+const token = target.searchParams.get('token');
+
+function fail(message) {
+  console.error(`cell: ${message}`);
+  process.exit(1);
+}
+
+// The state as the server has it (the stream may lag behind the last answer).
+function state() {
+  return new Promise((resolve, reject) => {
+    const req = http.request({ host: target.hostname, port: target.port, path: '/api/state',
+      headers: { Host: target.host, 'X-Keypose-Token': token } }, res => {
+      let body = '';
+      res.on('data', c => (body += c));
+      res.on('end', () => resolve(JSON.parse(body)));
+    });
+    req.on('error', reject);
+    req.end();
+  });
+}
+
+const browser = await launchChromium();
+const results = {};
+try {
+  const page = await (await browser.newContext({ viewport: { width: 1200, height: 800 } })).newPage();
+  const errors = [];
+  page.on('pageerror', e => errors.push(`page error: ${e.message}`));
+  page.on('console', m => { if (m.type() === 'error') errors.push(`console: ${m.text()}`); });
+  await page.goto(url);
+  // Generous waits: SwiftShader draws two arms slowly on a loaded machine.
+  await page.waitForFunction(() => window.studio && window.studio.snapshot && window.studio.controller && window.studio.loadMs !== null,
+    null, { timeout: 120000 }).catch(e => fail(`${e.message}; errors ${JSON.stringify(errors)}`));
+  // The right arm's lift −30°, its elbow +30°: away from the stretched, singular home.
+  for (const key of ['select-joint:7', 'shift-left', 'shift-left', 'shift-left', 'down', 'shift-right', 'shift-right', 'shift-right']) {
+    await page.evaluate(k => window.studio.send({ key: k }), key);
+  }
+  await page.evaluate(() => window.studio.sent());
+  await page.waitForFunction(() => {
+    const s = window.studio.snapshot;
+    return s.selected === 8 && Math.abs(s.joints[7].present + 30) < 0.1 && Math.abs(s.joints[8].present - 30) < 0.1;
+  }, null, { timeout: 120000 }).catch(e => fail(`${e.message}; errors ${JSON.stringify(errors)}`));
+  // Let the stream's last snapshot (the servos at rest) reach the page and be drawn.
+  await page.waitForTimeout(500);
+  Object.assign(results, await page.evaluate(() => ({
+    toolArm: window.studio.snapshot.tool_arm,
+    present: window.studio.snapshot.joints.map(j => j.present),
+    computed: window.studio.snapshot.tcp,
+    drawn: window.studio.view.tcpPosition(),
+    drawnWorld: window.studio.view.toolWorld().toArray(),
+    parts: window.studio.view.parts.length,
+  })));
+  // The handle's ball 10 mm along the scene's x, as a drag leaves it.
+  await page.evaluate(() => {
+    const handle = window.studio.handle;
+    handle.ball.position.x += 0.01;
+    handle.gizmo.dispatchEvent({ type: 'objectChange' });
+  });
+  await page.evaluate(() => window.studio.targetsDone());
+  await page.evaluate(() => window.studio.sent());
+  results.target = await page.evaluate(() => window.studio.targets.at(-1));
+  results.goals = (await state()).joints.map(j => j.goal);
+  results.errors = errors;
+} finally {
+  await browser.close();
+}
+console.log(JSON.stringify(results));
