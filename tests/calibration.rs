@@ -467,7 +467,11 @@ fn robot_id_misuse_is_a_usage_error() {
     let cases: [(Vec<&str>, &[&str]); 4] = [
         (
             vec!["--robot-id", "blue", "--calibration", &cal],
-            &["--robot-id", "--calibration", "expected one calibration for the arm"],
+            &[
+                "--robot-id",
+                "--calibration",
+                "expected one calibration for the arm",
+            ],
         ),
         (
             vec!["--robot", &robot_file, "--robot-id", "blue"],

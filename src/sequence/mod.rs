@@ -150,6 +150,14 @@ pub struct Placement {
 }
 
 impl Placement {
+    /// A placement written as `xyz` and `quat`.
+    pub fn from_transform(transform: RigidTransform) -> Self {
+        Placement {
+            xyz: transform.t,
+            rotation: Some(ToolOrientation::Quaternion(transform.r)),
+        }
+    }
+
     pub fn transform(&self) -> RigidTransform {
         let r = self.rotation.map_or(DQuat::IDENTITY, |o| o.quaternion());
         RigidTransform::new(self.xyz, r)

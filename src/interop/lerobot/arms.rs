@@ -143,7 +143,7 @@ mod tests {
 
     #[test]
     fn the_default_bases_stand_apart_along_y() {
-        assert_eq!(default_base("left").t, DVec3::new(0.0, 0.2, 0.0));
-        assert_eq!(default_base("right").t, DVec3::new(0.0, -0.2, 0.0));
+        assert_eq!(default_base("left").xyz, DVec3::new(0.0, 0.2, 0.0));
+        assert_eq!(default_base("right").xyz, DVec3::new(0.0, -0.2, 0.0));
     }
 }

@@ -1036,7 +1036,7 @@ fn two_arm_cell() -> (Robot, Vec<crate::sequence::ArmSpec>) {
         .map(|&(name, base)| crate::sequence::ArmSpec {
             name: name.into(),
             robot: "so101".into(),
-            base: Some(base),
+            base: Some(crate::sequence::Placement::from_transform(base)),
         })
         .collect();
     (cell, specs)
