@@ -302,8 +302,8 @@ fn curve_error(sequence: &Sequence, error: CurveError) -> InputError {
 
 /// A joint value (degrees or metres) from what a key says about the joint. `reference` is the
 /// previous key's value on this joint (or home): a revolute angle is unwrapped to the turn inside
-/// the limits nearest to it.
-fn joint_value(joint: &Joint, value: &KeyValue, reference: f64) -> Result<f64, String> {
+/// the limits nearest to it. (The mirror reads keys the same way.)
+pub fn joint_value(joint: &Joint, value: &KeyValue, reference: f64) -> Result<f64, String> {
     match *value {
         KeyValue::Joint(v) => Ok(v),
         KeyValue::Percent(p) => percent_value(joint, p),
