@@ -310,14 +310,13 @@ impl Pair {
 
     /// The tool target of the source arm, reflected, becomes the target arm's.
     fn mirror_tools(&self, key: &mut Keyframe) {
-        let plane = &self.arm.plane;
         match (&self.from, &self.to) {
             (Some(from), Some(to)) => {
                 let source = key
                     .arm_tools
                     .iter()
                     .find(|(a, _)| a == from)
-                    .map(|(_, t)| plane.reflect_tool(t));
+                    .map(|(_, t)| self.arm.reflect_tool(t));
                 match key.arm_tools.iter_mut().find(|(a, _)| a == to) {
                     Some(slot) => match source {
                         Some(tool) => slot.1 = tool,
@@ -326,7 +325,7 @@ impl Pair {
                     None => key.arm_tools.extend(source.map(|t| (to.clone(), t))),
                 }
             }
-            _ => key.tool = key.tool.map(|t| plane.reflect_tool(&t)),
+            _ => key.tool = key.tool.map(|t| self.arm.reflect_tool(&t)),
         }
     }
 }
@@ -346,9 +345,10 @@ fn mirror_value(
     let sign = if rule == JointRule::Negate { -1.0 } else { 1.0 };
     let mirrored = match (*value, rule) {
         (_, JointRule::Keep | JointRule::Gripper) => *value,
-        (KeyValue::Joint(v), JointRule::Negate) => KeyValue::Joint(-v),
+        // `0 − v`, not `−v`: a zero stays 0 rather than becoming −0 in the file.
+        (KeyValue::Joint(v), JointRule::Negate) => KeyValue::Joint(0.0 - v),
         (KeyValue::Transform(tf), JointRule::Negate) => KeyValue::Transform(inverse(&tf)),
-        (KeyValue::Percent(_), JointRule::Negate) => as_percent(to, -original),
+        (KeyValue::Percent(_), JointRule::Negate) => as_percent(to, 0.0 - original),
     };
     // A percent means a share of the target's own range; anything else the number mirrored.
     let wanted = match mirrored {

@@ -87,26 +87,23 @@ fn a_transform_mirrors_to_the_opposite_turn() {
 #[test]
 fn a_tool_key_is_reflected_across_the_plane() {
     let robot = so101();
+    let r0 = robot.tcp_frame(&[0.0; 6]).r;
+    // A turn of 30° about the vertical from the zero-pose orientation: its mirror image is the
+    // turn of −30°, from the same orientation.
+    let turned = DQuat::from_rotation_z(30f64.to_radians()) * r0;
     let mut sequence = one_key(&[]);
-    sequence.keyframes[0].values.clear();
-    let q = DQuat::from_xyzw(0.1, 0.2, 0.3, 0.9).normalize();
     sequence.keyframes[0].tool = Some(ToolKey {
         xyz: DVec3::new(0.25, 0.1, 0.2),
-        orientation: Some(crate::sequence::ToolOrientation::Quaternion(q)),
+        orientation: Some(crate::sequence::ToolOrientation::Quaternion(turned)),
     });
     let mirror = Mirror::new(&robot, Mapping::InPlace, "t.json").unwrap();
     let (mirrored, _) = mirror.sequence(&sequence, &robot).unwrap();
     let tool = mirrored.keyframes[0].tool.unwrap();
-    // The SO-101's plane is x-z (within 3e-5 rad): y → −y; (w, x, y, z) → (w, −x, y, −z).
+    // The SO-101's plane is x-z (within 3.2e-5 rad): y → −y.
     assert!((tool.xyz - DVec3::new(0.25, -0.1, 0.2)).length() < 2e-5);
-    let reflected = DQuat::from_xyzw(-q.x, q.y, -q.z, q.w);
-    assert!(
-        tool.orientation
-            .unwrap()
-            .quaternion()
-            .angle_between(reflected)
-            < 1e-4
-    );
+    let want = DQuat::from_rotation_z(-30f64.to_radians()) * r0;
+    let error = tool.orientation.unwrap().quaternion().angle_between(want);
+    assert!(error < 1e-4, "{error}");
 }
 
 fn cell() -> Robot {
