@@ -91,16 +91,13 @@ impl ArmMirror {
     pub fn of(robot: &Robot) -> Result<ArmMirror, MirrorError> {
         let plane = MirrorPlane::of(robot)?;
         let zero = vec![0.0; robot.joints.len()];
-        // Joints after the one carrying the tool point move something the tool point is not on.
-        let carried = robot
-            .tcp
-            .as_ref()
-            .map_or(robot.joints.len(), |t| t.parent + 1);
+        // A joint past the tool point's parent moves something the tool point is not on.
+        let moves_tool = crate::kinematics::tool_joints(robot);
         let mut rules = Vec::with_capacity(robot.joints.len());
         for (index, (joint, (_, axis))) in
             robot.joints.iter().zip(robot.joint_axes(&zero)).enumerate()
         {
-            let rule = if index >= carried {
+            let rule = if !moves_tool[index] {
                 JointRule::Gripper
             } else {
                 axis_rule(robot, index, joint.kind, axis, &plane)?
