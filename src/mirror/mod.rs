@@ -44,6 +44,14 @@ pub enum MirrorError {
         from_joints: Vec<String>,
         to_joints: Vec<String>,
     },
+    #[error("{file}: {path}: key {label} sets nothing for arm {from}, whose motion replaces {to}'s: it would set no joint; expected every key to set a joint or tool target of {from} (or no --arms, to mirror each arm in place)")]
+    EmptyKey {
+        file: String,
+        path: String,
+        label: String,
+        from: String,
+        to: String,
+    },
     #[error("{file}: {path}: {message}")]
     Value {
         file: String,
@@ -305,6 +313,15 @@ impl Pair {
             key.values.extend(mirrored);
         }
         self.mirror_tools(key);
+        if key.values.is_empty() && key.tool.is_none() && key.arm_tools.is_empty() {
+            return Err(MirrorError::EmptyKey {
+                file: at.file.clone(),
+                path: at.path.clone(),
+                label: at.label.clone(),
+                from: self.from.clone().unwrap_or_default(),
+                to: self.to.clone().unwrap_or_default(),
+            });
+        }
         Ok(clips)
     }
 

@@ -182,3 +182,25 @@ fn teach_mirrors_the_selected_arm_onto_the_other_of_two() {
     );
     assert_eq!(Mirror::for_selected_joint(&so101(), 0), Mapping::InPlace);
 }
+
+#[test]
+fn a_key_left_with_nothing_is_refused_naming_it() {
+    let robot = cell();
+    let mut sequence = one_key(&[("left/shoulder_pan", 10.0)]);
+    let mut solo = Keyframe::new(vec![("right/elbow_flex".into(), KeyValue::Joint(20.0))]);
+    solo.name = Some("solo".into());
+    sequence.keyframes.push(solo);
+    let mapping = Mapping::Onto {
+        from: "left",
+        to: "right",
+    };
+    let error = Mirror::new(&robot, mapping, "t.json")
+        .unwrap()
+        .sequence(&sequence, &robot)
+        .unwrap_err();
+    assert!(
+        matches!(&error, MirrorError::EmptyKey { label, .. } if label == "solo"),
+        "{error}"
+    );
+    assert!(error.to_string().contains("$.keyframes[1]"), "{error}");
+}
