@@ -204,3 +204,36 @@ fn a_key_left_with_nothing_is_refused_naming_it() {
     );
     assert!(error.to_string().contains("$.keyframes[1]"), "{error}");
 }
+
+#[test]
+fn a_percent_mirrors_through_the_calibrated_range() {
+    use crate::robot::CalibratedRange;
+    let mut robot = so101();
+    // A recorded pan range of −100° … 120°: 50 % is 10°, its mirror −10° is 90/220 = 40.909 %.
+    robot.joints[0].calibrated_range = Some(CalibratedRange {
+        at_0: -100.0,
+        at_100: 120.0,
+    });
+    let mut sequence = one_key(&[]);
+    sequence.keyframes[0].values = vec![
+        ("shoulder_pan".into(), KeyValue::Percent(50.0)),
+        ("shoulder_lift".into(), KeyValue::Joint(12.0)),
+    ];
+    let mirror = Mirror::new(&robot, Mapping::InPlace, "t.json").unwrap();
+    let (mirrored, clips) = mirror.sequence(&sequence, &robot).unwrap();
+    assert!(clips.is_empty());
+    match mirrored.keyframes[0].value("shoulder_pan") {
+        Some(KeyValue::Percent(p)) => assert!((p - 9000.0 / 220.0).abs() < 1e-9, "{p}"),
+        other => panic!("{other:?}"),
+    }
+    // Without a calibration a percent names no angle: refused with the key's path.
+    let error = Mirror::new(&so101(), Mapping::InPlace, "t.json")
+        .unwrap()
+        .sequence(&sequence, &so101())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("$.keyframes[0].joints.shoulder_pan") && error.contains("calibration"),
+        "{error}"
+    );
+}
