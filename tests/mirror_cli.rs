@@ -243,3 +243,39 @@ fn bad_arms_exit_2_naming_what_was_expected() {
     assert!(common::stderr(&out).contains("FROM:TO"));
     assert!(!output.exists(), "nothing is written on bad input");
 }
+
+#[test]
+fn a_tool_key_of_one_arm_mirrored_onto_the_other_reaches_the_reflected_point() {
+    // Left's tool target, in left's base frame; mirrored onto right, in right's own frame, it
+    // is (x, −y, z) by hand (both SO-101, whose plane is x-z).
+    let sequence = r#"{"format": "keypose-sequence/1",
+        "robots": {"left": {"robot": "so101", "base": {"xyz": [0, 0.25, 0], "rpy": [0, 0, 0]}},
+                   "right": {"robot": "so101", "base": {"xyz": [0, -0.25, 0], "rpy": [0, 0, 0]}}},
+        "interpolation": "monotone",
+        "keyframes": [{"time": 0, "joints": {"left/shoulder_pan": 0, "right/elbow_flex": 30}},
+                      {"time": 4, "tool": {"left": {"xyz": [0.25, 0.08, 0.15]}}}]}"#;
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("cell.json");
+    fs::write(&input, sequence).unwrap();
+    let output = dir.path().join("mirrored.json");
+    let out = mirror(&input, &output, &["--arms", "left:right"]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let (columns, rows) = sample(&output, &[]);
+    let last = rows.last().unwrap();
+    let arm = |name: &str| -> Vec<f64> {
+        SO101_JOINTS
+            .iter()
+            .map(|j| last[column(&columns, &format!("{name}/{j}"))])
+            .collect()
+    };
+    let so101 = Robot::builtin("so101").unwrap();
+    let left = so101.tcp_position(&arm("left"));
+    let right = so101.tcp_position(&arm("right"));
+    println!("left tool {left:?}, right tool {right:?}");
+    assert!((left - glam::DVec3::new(0.25, 0.08, 0.15)).length() < 1e-6);
+    // 14 µm of it is the SO-101 plane's 3.2e-5 rad off x-z (see above).
+    assert!(
+        (right - glam::DVec3::new(0.25, -0.08, 0.15)).length() < 3e-5,
+        "{right:?}"
+    );
+}
