@@ -255,6 +255,29 @@ impl Pair {
         robot: &Robot,
         at: &KeyContext,
     ) -> Result<Vec<Clip>, MirrorError> {
+        let (mirrored, clips) = self.mirror_values(key, robot, at)?;
+        self.place_values(key, mirrored);
+        self.mirror_tools(key);
+        if key.values.is_empty() && key.tool.is_none() && key.arm_tools.is_empty() {
+            return Err(MirrorError::EmptyKey {
+                file: at.file.clone(),
+                path: at.path.clone(),
+                label: at.label.clone(),
+                from: self.from.clone().unwrap_or_default(),
+                to: self.to.clone().unwrap_or_default(),
+            });
+        }
+        Ok(clips)
+    }
+
+    /// The source arm's values of `key`, mirrored and named as the target arm's, in the order
+    /// written, and what had to be clipped.
+    fn mirror_values(
+        &self,
+        key: &Keyframe,
+        robot: &Robot,
+        at: &KeyContext,
+    ) -> Result<(Values, Vec<Clip>), MirrorError> {
         let mut clips = Vec::new();
         let mut mirrored = Vec::new();
         for (name, value) in &key.values {
@@ -262,13 +285,9 @@ impl Pair {
                 continue;
             };
             let target_name = Self::full_name(&self.to, local);
-            let field = match value {
-                KeyValue::Transform(_) => "transforms",
-                _ => "joints",
-            };
             let value_error = |message: String| MirrorError::Value {
                 file: at.file.clone(),
-                path: format!("{}.{field}.{name}", at.path),
+                path: plan::key_value_path(&at.path, name, value),
                 message,
             };
             let (Some(rule), Some(source), Some(target)) = (
@@ -295,15 +314,18 @@ impl Pair {
             }
             mirrored.push((target_name, value));
         }
+        Ok((mirrored, clips))
+    }
+
+    /// Puts the mirrored values in the key: in place where the source's stood, or instead of
+    /// all the target arm's.
+    fn place_values(&self, key: &mut Keyframe, mirrored: Values) {
         if self.from == self.to {
-            // In place: every value of the arm is replaced where it stands.
-            for (slot, (name, value)) in key
+            let slots = key
                 .values
                 .iter_mut()
-                .filter(|(n, _)| self.source_joint(n).is_some())
-                .zip(mirrored)
-            {
-                debug_assert_eq!(*slot.0, name);
+                .filter(|(n, _)| self.source_joint(n).is_some());
+            for (slot, (_, value)) in slots.zip(mirrored) {
                 slot.1 = value;
             }
         } else {
@@ -312,17 +334,6 @@ impl Pair {
                 .retain(|(n, _)| split_joint_name(n).is_none_or(|(a, _)| a != to));
             key.values.extend(mirrored);
         }
-        self.mirror_tools(key);
-        if key.values.is_empty() && key.tool.is_none() && key.arm_tools.is_empty() {
-            return Err(MirrorError::EmptyKey {
-                file: at.file.clone(),
-                path: at.path.clone(),
-                label: at.label.clone(),
-                from: self.from.clone().unwrap_or_default(),
-                to: self.to.clone().unwrap_or_default(),
-            });
-        }
-        Ok(clips)
     }
 
     /// The tool target of the source arm, reflected, becomes the target arm's.
@@ -347,16 +358,21 @@ impl Pair {
     }
 }
 
-/// The mirror image of joint `source`'s value as joint `target`'s, and (value, limit) when it
-/// had to be clipped into `target`'s limits.
-#[allow(clippy::type_complexity)]
+/// A key's values as it names them, in the order written.
+type Values = Vec<(String, KeyValue)>;
+
+/// A mirrored value, and (value, limit) when it had to be clipped to a limit.
+type Mirrored = (KeyValue, Option<(f64, f64)>);
+
+/// The mirror image of joint `source`'s value as joint `target`'s, clipped into `target`'s
+/// limits when it falls outside them.
 fn mirror_value(
     rule: JointRule,
     value: &KeyValue,
     robot: &Robot,
     source: usize,
     target: usize,
-) -> Result<(KeyValue, Option<(f64, f64)>), String> {
+) -> Result<Mirrored, String> {
     let (from, to) = (&robot.joints[source], &robot.joints[target]);
     let original = plan::joint_value(from, value, robot.home[source])?;
     let sign = if rule == JointRule::Negate { -1.0 } else { 1.0 };

@@ -257,6 +257,11 @@ fn format_value(v: f64, kind: JointKind) -> String {
 }
 
 fn value_path(sequence: &Sequence, index: usize, joint: &str, value: &KeyValue) -> String {
+    key_value_path(&sequence.key_path(index), joint, value)
+}
+
+/// The JSON path of what the key at `key_path` says about `joint`.
+pub(crate) fn key_value_path(key_path: &str, joint: &str, value: &KeyValue) -> String {
     let field = match value {
         KeyValue::Joint(_) | KeyValue::Percent(_) => "joints",
         KeyValue::Transform(_) => "transforms",
@@ -266,9 +271,9 @@ fn value_path(sequence: &Sequence, index: usize, joint: &str, value: &KeyValue) 
         .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
         && !joint.is_empty();
     if simple {
-        format!("{}.{field}.{joint}", sequence.key_path(index))
+        format!("{key_path}.{field}.{joint}")
     } else {
-        format!("{}.{field}[{joint:?}]", sequence.key_path(index))
+        format!("{key_path}.{field}[{joint:?}]")
     }
 }
 
