@@ -38,8 +38,9 @@ enum Command {
     /// Stretch key times, segment by segment, until velocity and acceleration limits hold, and
     /// write the new sequence.
     Retime(commands::retime::RetimeArgs),
-    /// Mirror a sequence across each arm's own vertical plane (pan and roll change sign), or
-    /// one arm's motion onto another (`--arms left:right`), and write it.
+    /// Mirror a sequence across each arm's own vertical plane (joints turning about axes in
+    /// it, such as a pan and a wrist roll, change sign), or one arm's motion onto another
+    /// (`--arms left:right`), and write it.
     ///
     /// Values the mirror puts outside the target joint's limits are clipped to the limit and
     /// reported; exit code 1 when any was (the file is written all the same).
