@@ -77,3 +77,6 @@ impl TeachState {
         self.edited()
     }
 }
+
+#[cfg(test)]
+mod tests;
