@@ -11,7 +11,8 @@ use std::process::ExitCode;
     name = "keypose",
     version,
     about = "Teach a robot arm poses key by key and play them back smoothly",
-    after_help = "Exit codes: 0 success; 1 a check or simulation verdict failed; 2 bad input \
+    after_help = "Exit codes: 0 success; 1 a check or simulation verdict failed (mirror: a value \
+                  was clipped to a limit); 2 bad input \
                   (files, arguments); 3 hardware or bus error; 130 interrupted."
 )]
 struct Cli {
