@@ -279,3 +279,31 @@ fn a_tool_key_of_one_arm_mirrored_onto_the_other_reaches_the_reflected_point() {
         "{right:?}"
     );
 }
+
+#[test]
+fn on_the_symmetric_omx_a_mirrored_tool_key_lands_exactly_on_the_hand_reflected_point() {
+    // The OMX's plane is exactly x-z (docs/robots.md §13): (0.2, 0.05, 0.15) → (0.2, −0.05, 0.15).
+    let sequence = r#"{"format": "keypose-sequence/1", "robot": "omx", "interpolation": "monotone",
+        "keyframes": [{"time": 0, "joints": {"joint1": 0}},
+                      {"time": 4, "tool": {"xyz": [0.2, 0.05, 0.15]}}]}"#;
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("omx.json");
+    fs::write(&input, sequence).unwrap();
+    let output = dir.path().join("mirrored.json");
+    let out = mirror(&input, &output, &[]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let (columns, rows) = sample(&output, &["--tool"]);
+    let last = rows.last().unwrap();
+    let tool: Vec<f64> = ["tool_x", "tool_y", "tool_z"]
+        .iter()
+        .map(|c| last[column(&columns, c)])
+        .collect();
+    println!("omx mirrored tool at {tool:?}");
+    for (got, want) in tool.iter().zip([0.2, -0.05, 0.15]) {
+        assert!((got - want).abs() < 1e-6, "{tool:?}");
+    }
+    // The pan turned the other way, the pitches as they were: joint1 = −atan2(0.05, 0.2 − 0.012).
+    let pan = last[column(&columns, "joint1")];
+    let want = -(0.05f64).atan2(0.2 - 0.012).to_degrees();
+    assert!((pan - want).abs() < 1e-3, "{pan} vs {want}");
+}
