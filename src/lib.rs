@@ -27,6 +27,7 @@ pub mod interop;
 
 pub mod json;
 pub mod kinematics;
+pub mod mirror;
 pub mod pacing;
 pub mod plan;
 pub mod player;

@@ -11,7 +11,8 @@ use std::process::ExitCode;
     name = "keypose",
     version,
     about = "Teach a robot arm poses key by key and play them back smoothly",
-    after_help = "Exit codes: 0 success; 1 a check or simulation verdict failed; 2 bad input \
+    after_help = "Exit codes: 0 success; 1 a check or simulation verdict failed (mirror: a value \
+                  was clipped to a limit); 2 bad input \
                   (files, arguments); 3 hardware or bus error; 130 interrupted."
 )]
 struct Cli {
@@ -38,6 +39,13 @@ enum Command {
     /// Stretch key times, segment by segment, until velocity and acceleration limits hold, and
     /// write the new sequence.
     Retime(commands::retime::RetimeArgs),
+    /// Mirror a sequence across each arm's own vertical plane (joints turning about axes in
+    /// it, such as a pan and a wrist roll, change sign), or one arm's motion onto another
+    /// (`--arms left:right`), and write it.
+    ///
+    /// Values the mirror puts outside the target joint's limits are clipped to the limit and
+    /// reported; exit code 1 when any was (the file is written all the same).
+    Mirror(commands::mirror::MirrorArgs),
     /// Play a sequence in MuJoCo and judge it: tracking, collisions, joint stops, saturation,
     /// servo speed, divergence. Exit code 1 when the verdict fails.
     Sim(commands::sim::SimArgs),
@@ -98,6 +106,7 @@ fn main() -> ExitCode {
         Command::Sample(args) => commands::sample::run(args),
         Command::Plot(args) => commands::plot::run(args),
         Command::Retime(args) => commands::retime::run(args),
+        Command::Mirror(args) => commands::mirror::run(args),
         Command::Sim(args) => commands::sim::run(args),
         Command::Play(args) => commands::play::run(args),
         Command::Teach(args) => commands::teach::run(args),

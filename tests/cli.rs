@@ -695,7 +695,10 @@ fn the_readme_console_examples_print_what_the_commands_print() {
         );
         compared.push(verb.to_string());
     }
-    assert_eq!(compared, ["check", "check", "sample", "sample", "retime"]);
+    assert_eq!(
+        compared,
+        ["check", "check", "sample", "sample", "retime", "mirror"]
+    );
 }
 
 #[test]

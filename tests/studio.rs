@@ -136,6 +136,9 @@ fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
         ])
     );
     assert_eq!(written["key_interval"], json!(2.0));
+    // The page's "mirror key" button, then its hotkey m, on that key: the pan (its axis in the
+    // arm's vertical plane) changes sign and back, the lift (square to the plane) stays.
+    assert_eq!(results["mirrored"], json!([[-20, 3], [20, 3]]));
     // A blank canvas is one colour; a drawn arm, floor grid and lighting are hundreds.
     assert!(results["colours"].as_u64().unwrap() > 100, "{results}");
     // The drawn pan is the servo's: 20° is 227.56 ticks of 4096 per turn, so the servo goes

@@ -7,6 +7,7 @@ pub mod check;
 pub mod doctor;
 pub mod export;
 pub mod import;
+pub mod mirror;
 pub mod option_values;
 pub mod play;
 pub mod plot;
@@ -105,6 +106,8 @@ pub enum CommandError {
     Teach(keypose::teach::TeachError),
     #[error(transparent)]
     LeRobot(keypose::interop::lerobot::LeRobotError),
+    #[error(transparent)]
+    Mirror(#[from] keypose::mirror::MirrorError),
     /// Something else about the servos, in words.
     #[error("{0}")]
     Hardware(String),
@@ -153,6 +156,7 @@ impl CommandError {
             | CommandError::Record(_)
             | CommandError::Model(_)
             | CommandError::Usage(_)
+            | CommandError::Mirror(_)
             | CommandError::Output { .. } => EXIT_BAD_INPUT,
         }
     }

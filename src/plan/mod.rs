@@ -294,6 +294,11 @@ fn format_value(v: f64, kind: JointKind) -> String {
 }
 
 fn value_path(sequence: &Sequence, index: usize, joint: &str, value: &KeyValue) -> String {
+    key_value_path(&sequence.key_path(index), joint, value)
+}
+
+/// The JSON path of what the key at `key_path` says about `joint`.
+pub(crate) fn key_value_path(key_path: &str, joint: &str, value: &KeyValue) -> String {
     let field = match value {
         KeyValue::Joint(_) | KeyValue::Percent(_) => "joints",
         KeyValue::Transform(_) => "transforms",
@@ -303,9 +308,9 @@ fn value_path(sequence: &Sequence, index: usize, joint: &str, value: &KeyValue) 
         .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
         && !joint.is_empty();
     if simple {
-        format!("{}.{field}.{joint}", sequence.key_path(index))
+        format!("{key_path}.{field}.{joint}")
     } else {
-        format!("{}.{field}[{joint:?}]", sequence.key_path(index))
+        format!("{key_path}.{field}[{joint:?}]")
     }
 }
 
@@ -339,8 +344,8 @@ fn curve_error(sequence: &Sequence, error: CurveError) -> InputError {
 
 /// A joint value (degrees or metres) from what a key says about the joint. `reference` is the
 /// previous key's value on this joint (or home): a revolute angle is unwrapped to the turn inside
-/// the limits nearest to it.
-fn joint_value(joint: &Joint, value: &KeyValue, reference: f64) -> Result<f64, String> {
+/// the limits nearest to it. (The mirror reads keys the same way.)
+pub fn joint_value(joint: &Joint, value: &KeyValue, reference: f64) -> Result<f64, String> {
     match *value {
         KeyValue::Joint(v) => Ok(v),
         KeyValue::Percent(p) => percent_value(joint, p),

@@ -200,6 +200,23 @@ impl KeyframeList {
         self.edit_current(|k| k.set(joint, value))
     }
 
+    /// Replaces the current key whole (an edit worked out on a copy, such as its mirror
+    /// image); false when there is no key.
+    pub fn replace_current(&mut self, key: Keyframe) -> bool {
+        self.edit_current(|k| *k = key)
+    }
+
+    /// Replaces every key, keeping their number (an edit of the whole list worked out on a
+    /// copy); false, and no change, when the count differs.
+    pub fn replace_keys(&mut self, keys: Vec<Keyframe>) -> bool {
+        if keys.len() != self.len() {
+            return false;
+        }
+        self.sequence.keyframes = keys;
+        self.dirty = true;
+        true
+    }
+
     /// Sets (or clears) the current key's tool target.
     pub fn set_tool(&mut self, tool: Option<super::ToolKey>) -> bool {
         self.edit_current(|k| k.tool = tool)

@@ -100,6 +100,12 @@ pub const BINDINGS: &[Binding] = &[
         "type value",
         "type the selected joint's value in the current key (then y moves the arm there)",
     ),
+    bind(
+        "m M",
+        "mirror key/all",
+        "mirror the current key / every key across the arm's vertical plane (two arms: the \
+         selected joint's arm onto the other)",
+    ),
     bind("i", "import", "import a sequence file (replaces the list)"),
     bind("w", "write", "write the sequence file"),
     bind("y", "play/stop", "play from the current key / stop"),
@@ -133,7 +139,7 @@ pub fn help_text() -> String {
     }
     text.push_str(
         "\nA --keys script holds tokens separated by spaces or lines (# starts a comment):\n  \
-         space u n d > < ] [ N h p v i w y + - t T q, up down left right shift-left shift-right,\n  \
+         space u n d > < ] [ N h p v m M i w y + - t T q, up down left right shift-left shift-right,\n  \
          enter esc backspace, yes no (answers), any single character (typed into a prompt;\n  \
          space types a space there), import:PATH, write:PATH (paths without spaces), wait:500ms or wait:2s.\n  \
          Each step waits until the arm has reached its goal; `-` as the file reads standard \

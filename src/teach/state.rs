@@ -224,6 +224,8 @@ impl TeachState {
             Key::Char('+' | '=') => self.change_time(true),
             Key::Char('-') => self.change_time(false),
             Key::Char('K') => self.new_tool_key(),
+            Key::Char('m') => self.mirror_key(),
+            Key::Char('M') => self.mirror_sequence(),
             Key::Char('x') => self.jog_tool(0, 1.0),
             Key::Char('X') => self.jog_tool(0, -1.0),
             Key::Char('c') => self.jog_tool(1, 1.0),
@@ -743,6 +745,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
 }
 
 mod edits;
+mod mirroring;
 mod reports;
 mod tool;
 pub use tool::{selected_tool, tool_positions};

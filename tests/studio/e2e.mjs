@@ -114,6 +114,14 @@ try {
   await waitFor(() => !window.studio.snapshot.dirty);
   results.status = (await snapshot()).status.text;
 
+  // ----- mirroring: the button, then the hotkey, on key 1 (pan 20°, lift 3°) -----
+  await a.click('button[data-key="m"]');
+  await waitFor(() => window.studio.snapshot.keys[1].values[0] === -20);
+  results.mirrored = [(await snapshot()).keys[1].values.slice(0, 2)];
+  await press('m');
+  await waitFor(() => window.studio.snapshot.keys[1].values[0] === 20);
+  results.mirrored.push((await snapshot()).keys[1].values.slice(0, 2));
+
   // ----- the 3D view: drawn, and the arm where the servos are -----
   const png = await a.locator('#view').screenshot();
   results.colours = pngColours(png);
