@@ -4,8 +4,8 @@
 
 use super::log::{PlaybackLog, Row};
 use super::{
-    clamp_start, measured_pose, print_progress, release_when_reached, GoalGuard,
-    Outcome, PlayError, PlayOptions, Stats, StepLimiter,
+    clamp_start, measured_pose, print_progress, release_when_reached, GoalGuard, Outcome,
+    PlayError, PlayOptions, Stats, StepLimiter,
 };
 use crate::bus::{alarm_error, faulty_joint, BusError, ReadStreak, ServoBus};
 use crate::pacing::{Clock, CycleStart, Pacer};
@@ -206,7 +206,8 @@ impl<'a> Run<'a> {
     fn served_only(&mut self) {
         if self.lost.iter().any(|&lost| lost) {
             let mut lost = self.lost.iter();
-            self.goals.retain(|_| !lost.next().copied().unwrap_or(false));
+            self.goals
+                .retain(|_| !lost.next().copied().unwrap_or(false));
         }
     }
 
@@ -219,7 +220,9 @@ impl<'a> Run<'a> {
             .iter()
             .zip(&self.lost)
             .map(|(joint, &lost)| match lost {
-                false => ticks.next().map_or(f64::NAN, |&tick| joint.servo.value(tick)),
+                false => ticks
+                    .next()
+                    .map_or(f64::NAN, |&tick| joint.servo.value(tick)),
                 true => f64::NAN,
             })
             .collect()

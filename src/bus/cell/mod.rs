@@ -104,9 +104,11 @@ fn cell_ids(arm: &Arm) -> Vec<(u8, u8)> {
 
 /// `error` of `arm`'s bus as the cell's: the servo it names by its cell id.
 fn in_arm(arm: &str, ids: &[(u8, u8)], error: BusError) -> BusError {
-    let servo = error
-        .servo()
-        .and_then(|id| ids.iter().find(|(_, own)| *own == id).map(|(cell, _)| *cell));
+    let servo = error.servo().and_then(|id| {
+        ids.iter()
+            .find(|(_, own)| *own == id)
+            .map(|(cell, _)| *cell)
+    });
     BusError::Arm {
         arm: arm.to_string(),
         servo,

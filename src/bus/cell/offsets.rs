@@ -92,7 +92,11 @@ mod tests {
             record.add(&[t0, t0 + Duration::from_micros(10)]);
         }
         record.add(&[t0 + Duration::from_micros(300), t0]);
-        record.add(&[t0, t0 + Duration::from_millis(80), t0 + Duration::from_millis(1)]);
+        record.add(&[
+            t0,
+            t0 + Duration::from_millis(80),
+            t0 + Duration::from_millis(1),
+        ]);
         // A cycle written to one bus has no offset.
         record.add(&[t0]);
         let summary = record.summary();

@@ -78,12 +78,15 @@ impl<T> Pending<T> {
         let hung = || BusError::Hung {
             waited_ms: allowed.as_millis() as u64,
         };
-        match self.0.recv_timeout(deadline.saturating_duration_since(Instant::now())) {
+        match self
+            .0
+            .recv_timeout(deadline.saturating_duration_since(Instant::now()))
+        {
             Ok(result) => result,
             Err(RecvTimeoutError::Timeout) => Err(hung()),
-            Err(RecvTimeoutError::Disconnected) => Err(BusError::Protocol(
-                "the bus's thread has ended".into(),
-            )),
+            Err(RecvTimeoutError::Disconnected) => {
+                Err(BusError::Protocol("the bus's thread has ended".into()))
+            }
         }
     }
 }
