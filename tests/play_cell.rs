@@ -230,31 +230,37 @@ fn two_buses_play_in_step_each_within_its_arms_limits_and_the_log_has_both_arms(
     }
 }
 
+/// What a playback with a fault injected on the right bus left behind.
+struct FaultRun {
+    out: Output,
+    left: Vec<Vec<f64>>,
+    right: Vec<Vec<f64>>,
+    /// Goals the right bus had received when the fault was injected.
+    right_before: usize,
+    followed: Vec<f64>,
+}
+
 /// Plays on two buses, injects `fault` into the right arm's wrist_flex (servo 4) 2.5 s in,
-/// waits for the end; returns the output, both arms' goals, and how many goals the right bus
-/// had received when the fault was injected.
-fn fault_on_the_right(
-    fault: ServoFault,
-) -> (Output, Vec<Vec<f64>>, Vec<Vec<f64>>, usize, Vec<f64>) {
+/// waits for the end.
+fn fault_on_the_right(fault: ServoFault) -> FaultRun {
     let (left, right) = (arm_bus(), arm_bus());
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("fault.csv");
     let child = play(&left, &right, &logged_quietly(&log));
     std::thread::sleep(Duration::from_millis(2500));
-    let before = {
+    let right_before = {
         let mut servos = right.bus().lock();
         servos.set_fault(4, Some(fault));
         servos.goals_received().len()
     };
     let out = child.wait_with_output().unwrap();
-    let followed = followed_shares(&log);
-    (
+    FaultRun {
         out,
-        goals_by_joint(&left),
-        goals_by_joint(&right),
-        before,
-        followed,
-    )
+        left: goals_by_joint(&left),
+        right: goals_by_joint(&right),
+        right_before,
+        followed: followed_shares(&log),
+    }
 }
 
 /// `--quiet --log LOG`, and a stall bound a loaded test machine does not reach (a stall is
@@ -280,7 +286,13 @@ fn a_fault_on_one_bus_stops_both_arms_the_other_braking_to_rest() {
         (ServoFault::Alarm(overload), "alarm: overload"),
     ];
     for (fault, expected) in cases {
-        let (out, left, right, before, followed) = fault_on_the_right(fault);
+        let FaultRun {
+            out,
+            left,
+            right,
+            right_before: before,
+            followed,
+        } = fault_on_the_right(fault);
         let err = stderr(&out);
         assert_eq!(out.status.code(), Some(3), "{fault:?}: {err}");
         // The fault names the arm, its joint and the servo by the id its own bus knows.

@@ -362,3 +362,86 @@ impl ServoBus for CellBus {
         Some(self.offsets.summary())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bus::faulty_joint;
+    use crate::bus::virtual_bus::{ServoFault, VirtualBus};
+    use crate::pose::RigidTransform;
+
+    /// Two SO-101 (servo ids 1 … 6 each) as a cell, each on emulated servos behind the real
+    /// driver, in memory.
+    fn two_arms() -> (Robot, CellBus, VirtualBus, VirtualBus) {
+        let so101 = Robot::builtin("so101").unwrap();
+        let cell = Robot::cell(vec![
+            ("left".into(), so101.clone(), RigidTransform::IDENTITY),
+            ("right".into(), so101.clone(), RigidTransform::IDENTITY),
+        ])
+        .unwrap();
+        let (left_bus, left) = VirtualBus::in_process(&so101);
+        let (right_bus, right) = VirtualBus::in_process(&so101);
+        let connections = [left_bus, right_bus]
+            .into_iter()
+            .map(|bus| Connection {
+                bus: Box::new(bus),
+                virtual_bus: None,
+            })
+            .collect();
+        let bus = CellBus::new(&cell, connections);
+        (cell, bus, left, right)
+    }
+
+    #[test]
+    fn each_cell_id_reaches_its_arms_servo_by_the_arms_own_id() {
+        let (_, mut bus, left, right) = two_arms();
+        left.lock().servo_mut(1).unwrap().place_at(1000.0);
+        right.lock().servo_mut(2).unwrap().place_at(3000.0);
+        // Cell id 8 is the right arm's second servo (its id 2), cell id 1 the left's first.
+        assert_eq!(bus.read_positions(&[8, 1]).unwrap(), vec![3000, 1000]);
+        bus.write_goals(&[(1, 2000), (7, 2100), (12, 2200)])
+            .unwrap();
+        assert_eq!(left.lock().goals_received(), vec![(1, 2000)]);
+        assert_eq!(right.lock().goals_received(), vec![(1, 2100), (6, 2200)]);
+        let health = bus.read_health(&[12, 6]).unwrap();
+        assert_eq!(health.iter().map(|h| h.id).collect::<Vec<_>>(), vec![12, 6]);
+        // One write to both arms: one offset measured.
+        assert_eq!(bus.write_offsets().unwrap().cycles, 1);
+    }
+
+    #[test]
+    fn a_fault_names_its_arm_and_joint_and_an_isolated_arm_is_sent_nothing() {
+        let (cell, mut bus, _, right) = two_arms();
+        right.lock().set_fault(4, Some(ServoFault::NoAnswer));
+        let ids: Vec<u8> = (1..=12).collect();
+        let error = bus.read_positions(&ids).unwrap_err();
+        assert_eq!(
+            faulty_joint(&cell, &error).as_deref(),
+            Some("right/wrist_flex")
+        );
+        assert!(
+            matches!(error.root(), BusError::Timeout { id: 4, .. }),
+            "{error}"
+        );
+        assert!(
+            error.to_string().starts_with("right bus: servo 4: "),
+            "{error}"
+        );
+
+        assert_eq!(bus.isolate(&error), Some((7..=12).collect()));
+        assert!(matches!(
+            bus.read_positions(&[7]),
+            Err(BusError::Isolated { arm }) if arm == "right"
+        ));
+        // The left arm is still served; it is the last one, so a fault of its own ends all.
+        assert_eq!(bus.read_positions(&[1, 2]).unwrap().len(), 2);
+        let left_fault = BusError::Arm {
+            arm: "left".into(),
+            servo: Some(1),
+            source: Box::new(BusError::Protocol("test".into())),
+        };
+        assert_eq!(bus.isolate(&left_fault), None);
+        // An error of no arm is the whole cell's.
+        assert_eq!(bus.isolate(&BusError::Protocol("test".into())), None);
+    }
+}
