@@ -181,15 +181,14 @@ fn two_buses_play_in_step_each_within_its_arms_limits_and_the_log_has_both_arms(
             goals.last()
         );
     }
-    // Both wrists are keyed alike up to "wave-out" (2.6 s, plus the 0.3 s hold at "raise",
-    // after the 0.5 s approach): one timeline drives both, so each cycle's goal is the same
-    // tick on both buses.
-    let alike = ((0.5 + 2.9) * RATE_HZ) as usize - 10;
-    assert_eq!(left_goals[3][..alike], right_goals[3][..alike]);
-    let raised = left_goals[3][..alike]
+    // Both wrists are keyed alike up to "wave-out" (35° at 2.6 s; the segment after it
+    // bends towards each arm's own "reach"): one timeline drives both, so up to the cycle the
+    // left wrist first reaches 35°, each cycle's goal is the same tick on both buses.
+    let waved_out = left_goals[3]
         .iter()
-        .fold(f64::MIN, |m, &g| m.max(g));
-    assert!(raised > 30.0, "the wrists never waved out: {raised}°");
+        .position(|&g| g >= 35.0)
+        .expect("the left wrist never waved out to 35°");
+    assert_eq!(left_goals[3][..=waved_out], right_goals[3][..=waved_out]);
     let (median, p99, max, cycles) = reported_offsets(&err);
     println!(
         "goal-write offset between the two buses over {cycles} cycles at {RATE_HZ} Hz: median {median:.3} ms, p99 {p99:.3} ms, max {max:.3} ms"
