@@ -413,3 +413,40 @@ fn ports_that_do_not_fit_the_arms_are_usage_errors() {
         assert!(!err.contains("playing"), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn teach_on_a_cell_reads_each_arm_on_its_own_bus() {
+    let (left, right) = (arm_bus(), arm_bus());
+    // The right arm's elbow (its servo 3) bent to -30° by hand; the left one at home.
+    let elbow = &so101().joints[2];
+    let bent = elbow.goal_tick(-30.0).unwrap();
+    right
+        .bus()
+        .lock()
+        .servo_mut(3)
+        .unwrap()
+        .place_at(bent as f64);
+    let dir = tempfile::tempdir().unwrap();
+    let sequence = dir.path().join("cell.json");
+    std::fs::copy(repo(WAVE), &sequence).unwrap();
+    std::fs::write(dir.path().join("s.keys"), "n w q\n").unwrap();
+    let out = keypose()
+        .current_dir(dir.path())
+        .args(["teach", "cell.json", "--keys", "s.keys"])
+        .args(["--port", &format!("left={}", left.path())])
+        .args(["--port", &format!("right={}", right.path())])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    let written: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&sequence).unwrap()).unwrap();
+    let keys = written["keyframes"].as_array().unwrap();
+    assert_eq!(keys.len(), 7, "{err}");
+    // The new key (after the first) holds the pose each arm's bus reported.
+    let new = &keys[1]["joints"];
+    let right_elbow = new["right/elbow_flex"].as_f64().unwrap();
+    let left_elbow = new["left/elbow_flex"].as_f64().unwrap();
+    assert!((right_elbow + 30.0).abs() <= TICK, "{new}");
+    assert!(left_elbow.abs() <= TICK, "{new}");
+}
