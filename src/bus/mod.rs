@@ -193,7 +193,7 @@ pub enum BusError {
     #[error("no answer from the bus within {waited_ms} ms")]
     Hung { waited_ms: u64 },
     /// A transaction addressed an arm whose bus was isolated after a fault.
-    #[error("arm {arm}: its bus is isolated after a fault; nothing more is sent to it")]
+    #[error("isolated after a fault (arm {arm}): nothing more is sent to it")]
     Isolated { arm: String },
 }
 

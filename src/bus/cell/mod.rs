@@ -170,11 +170,6 @@ impl CellBus {
                         self.route.len()
                     ))
                 })?;
-            if self.arms[arm].isolated {
-                return Err(BusError::Isolated {
-                    arm: self.arms[arm].name.clone(),
-                });
-            }
             let part = match parts.iter().position(|p| p.arm == arm) {
                 Some(i) => &mut parts[i],
                 None => {
@@ -194,7 +189,9 @@ impl CellBus {
     }
 
     /// Runs `job` of each part on its arm's thread, all at once, and waits for every one (so no
-    /// answer is left behind); the first error in arm order is the result.
+    /// answer is left behind); the first error in arm order is the result. The part of an
+    /// isolated arm is not sent: it fails, after the other arms' parts are done (restoring the
+    /// servos' profile after a fault still reaches the healthy arms).
     fn each<T, F>(&mut self, parts: &[Part], job: impl Fn(&Part) -> F) -> Result<Vec<T>, BusError>
     where
         T: Send + 'static,
@@ -202,13 +199,22 @@ impl CellBus {
     {
         let pending: Vec<_> = parts
             .iter()
-            .map(|part| self.arms[part.arm].worker.start(job(part)))
+            .map(|part| {
+                let arm = &mut self.arms[part.arm];
+                (!arm.isolated).then(|| arm.worker.start(job(part)))
+            })
             .collect();
         let deadline = Instant::now() + HUNG_AFTER;
         let mut results = Vec::with_capacity(parts.len());
         let mut first_error = None;
         for (part, pending) in parts.iter().zip(pending) {
-            match pending.wait(deadline, HUNG_AFTER) {
+            let result = match pending {
+                Some(pending) => pending.wait(deadline, HUNG_AFTER),
+                None => Err(BusError::Isolated {
+                    arm: self.arms[part.arm].name.clone(),
+                }),
+            };
+            match result {
                 Ok(value) => results.push(value),
                 Err(error) => {
                     let arm = &self.arms[part.arm];
@@ -429,10 +435,13 @@ mod tests {
         );
 
         assert_eq!(bus.isolate(&error), Some((7..=12).collect()));
-        assert!(matches!(
-            bus.read_positions(&[7]),
-            Err(BusError::Isolated { arm }) if arm == "right"
-        ));
+        let sent = right.lock().received.len();
+        let refused = bus.read_positions(&[1, 7]).unwrap_err();
+        assert!(
+            matches!(refused.root(), BusError::Isolated { arm } if arm == "right"),
+            "{refused}"
+        );
+        assert_eq!(right.lock().received.len(), sent, "the isolated bus was sent to");
         // The left arm is still served; it is the last one, so a fault of its own ends all.
         assert_eq!(bus.read_positions(&[1, 2]).unwrap().len(), 2);
         let left_fault = BusError::Arm {
