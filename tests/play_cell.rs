@@ -450,3 +450,60 @@ fn teach_on_a_cell_reads_each_arm_on_its_own_bus() {
     assert!((right_elbow + 30.0).abs() <= TICK, "{new}");
     assert!(left_elbow.abs() <= TICK, "{new}");
 }
+
+/// A LeRobot calibration of an SO-101: the whole turn on every joint, `offset` as every
+/// servo's homing offset.
+fn so101_calibration(offset: i64) -> String {
+    let joints: Vec<String> = common::SO101_JOINTS
+        .iter()
+        .zip(1..)
+        .map(|(joint, id)| {
+            format!(
+                r#""{joint}": {{"id": {id}, "drive_mode": 0, "homing_offset": {offset}, "range_min": 0, "range_max": 4095}}"#
+            )
+        })
+        .collect();
+    format!("{{{}}}", joints.join(", "))
+}
+
+#[test]
+fn each_arm_is_checked_against_its_own_calibration() {
+    let dir = tempfile::tempdir().unwrap();
+    let cal = dir.path().join("right.json");
+    let text = so101_calibration(100);
+    std::fs::write(&cal, &text).unwrap();
+    let calibration = format!("right={}", cal.display());
+    let mut calibrated = so101();
+    keypose::robot::import_lerobot_calibration(&mut calibrated, "right.json", &text).unwrap();
+
+    // The right arm's servos hold the calibration's offsets, the left's none: it plays.
+    let (left, right) = (arm_bus(), PtyServer::start(&calibrated).unwrap());
+    let out = play(
+        &left,
+        &right,
+        &[
+            "--quiet",
+            "--calibration",
+            &calibration,
+            "--max-stall",
+            "5000",
+        ],
+    )
+    .wait_with_output()
+    .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+
+    // Servos at factory offsets on the right: refused before anything moved, naming the arm.
+    let (left, right) = (arm_bus(), arm_bus());
+    let out = play(&left, &right, &["--quiet", "--calibration", &calibration])
+        .wait_with_output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("right bus: homing offset differs from the servo's: joint shoulder_pan (servo 1): the file says 100, the servo holds 0"),
+        "{err}"
+    );
+    assert!(left.bus().lock().goals_received().is_empty());
+    assert!(right.bus().lock().goals_received().is_empty());
+}

@@ -441,7 +441,11 @@ mod tests {
             matches!(refused.root(), BusError::Isolated { arm } if arm == "right"),
             "{refused}"
         );
-        assert_eq!(right.lock().received.len(), sent, "the isolated bus was sent to");
+        assert_eq!(
+            right.lock().received.len(),
+            sent,
+            "the isolated bus was sent to"
+        );
         // The left arm is still served; it is the last one, so a fault of its own ends all.
         assert_eq!(bus.read_positions(&[1, 2]).unwrap().len(), 2);
         let left_fault = BusError::Arm {
