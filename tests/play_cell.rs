@@ -159,6 +159,15 @@ fn reported_offsets(err: &str) -> (f64, f64, f64, u64) {
 #[test]
 fn two_buses_play_in_step_each_within_its_arms_limits_and_the_log_has_both_arms() {
     let (left, right) = (arm_bus(), arm_bus());
+    // The left elbow starts bent to -20° (moved by hand), the right arm at home: the first key
+    // is home for both.
+    let elbow = &so101().joints[2];
+    let bent = elbow.goal_tick(-20.0).unwrap();
+    left.bus()
+        .lock()
+        .servo_mut(3)
+        .unwrap()
+        .place_at(bent as f64);
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("cell.csv");
     // Not quiet: the summary says the goal-write offsets.
@@ -220,6 +229,30 @@ fn two_buses_play_in_step_each_within_its_arms_limits_and_the_log_has_both_arms(
         "{} rows, {cycles} cycles",
         rows.len()
     );
+    // The approach ramp starts where each arm is (the left elbow's first goal is where it was
+    // bent) and brings both arms to the first pose together: when the approach ends, every
+    // keyed joint of both arms is commanded at home (0°).
+    assert!(
+        (left_goals[2][0] + 20.0).abs() <= TICK,
+        "{}",
+        left_goals[2][0]
+    );
+    // The ramp runs before the sequence's clock starts (a stall in it is logged as
+    // "resuming"): it has ended at the row before the first with a sequence time past 0.
+    let time = header.iter().position(|h| *h == "sequence_time").unwrap();
+    let approached = rows
+        .iter()
+        .position(|r| r[time].parse::<f64>().unwrap() > 0.0)
+        .expect("the sequence never started");
+    assert!(approached > 0, "no approach");
+    for arm in ["left", "right"] {
+        for joint in &common::SO101_JOINTS[..5] {
+            let column = format!("{arm}/{joint}_cmd");
+            let c = header.iter().position(|h| *h == column).unwrap();
+            let at: f64 = rows[approached - 1][c].parse().unwrap();
+            assert!(at.abs() < 1e-6, "{column} at {at}° when the approach ended");
+        }
+    }
     for row in &rows {
         for &c in &measured {
             row[c]
