@@ -28,6 +28,13 @@ fn arm_bus() -> PtyServer {
     PtyServer::start(&so101()).unwrap()
 }
 
+/// Places an arm's elbow (servo 3) at `degrees`, as a hand would, before anything connects.
+fn bend_elbow(bus: &PtyServer, degrees: f64) {
+    let tick = so101().joints[2].goal_tick(degrees).unwrap();
+    let mut servos = bus.bus().lock();
+    servos.servo_mut(3).unwrap().place_at(tick as f64);
+}
+
 /// `keypose play WAVE` on the two buses, with `extra` arguments, started and left running.
 fn play(left: &PtyServer, right: &PtyServer, extra: &[&str]) -> Child {
     keypose()
@@ -161,13 +168,7 @@ fn two_buses_play_in_step_each_within_its_arms_limits_and_the_log_has_both_arms(
     let (left, right) = (arm_bus(), arm_bus());
     // The left elbow starts bent to -20° (moved by hand), the right arm at home: the first key
     // is home for both.
-    let elbow = &so101().joints[2];
-    let bent = elbow.goal_tick(-20.0).unwrap();
-    left.bus()
-        .lock()
-        .servo_mut(3)
-        .unwrap()
-        .place_at(bent as f64);
+    bend_elbow(&left, -20.0);
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("cell.csv");
     // Not quiet: the summary says the goal-write offsets.
@@ -451,14 +452,7 @@ fn ports_that_do_not_fit_the_arms_are_usage_errors() {
 fn teach_on_a_cell_reads_each_arm_on_its_own_bus() {
     let (left, right) = (arm_bus(), arm_bus());
     // The right arm's elbow (its servo 3) bent to -30° by hand; the left one at home.
-    let elbow = &so101().joints[2];
-    let bent = elbow.goal_tick(-30.0).unwrap();
-    right
-        .bus()
-        .lock()
-        .servo_mut(3)
-        .unwrap()
-        .place_at(bent as f64);
+    bend_elbow(&right, -30.0);
     let dir = tempfile::tempdir().unwrap();
     let sequence = dir.path().join("cell.json");
     std::fs::copy(repo(WAVE), &sequence).unwrap();

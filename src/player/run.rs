@@ -242,8 +242,6 @@ impl<'a> Run<'a> {
                 *lost |= ids.contains(&joint.servo.id);
             }
             self.ids.retain(|id| !ids.contains(id));
-            // The streak was the isolated arm's: the arms left begin a streak of their own.
-            self.reads = ReadStreak::default();
             now = PlayError::Isolated {
                 arm,
                 fault: Box::new(now),
