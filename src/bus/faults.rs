@@ -3,7 +3,7 @@
 //! Shared by everything that reads servos over time (playback, recording): the tolerance for a
 //! lost answer is a property of the bus, not of what the reading is for.
 
-use super::BusError;
+use super::{BusError, Health};
 use crate::robot::Robot;
 
 /// Consecutive failed read-backs that count as a fault.
@@ -12,27 +12,58 @@ pub const MAX_READ_FAILURES: u32 = 3;
 /// Consecutive failed reads. One lost answer is skipped; [`MAX_READ_FAILURES`] in a row are a
 /// fault, reported by the failure that began the streak: on a shared bus a late answer from one
 /// servo delays the others' answers, so the later failures name servos that did nothing wrong.
-/// A port that is gone or an alarm is a fault at once.
+/// A port that is gone, a hung bus (in a cell) or an alarm is a fault at once.
+///
+/// In a cell each arm's bus has a streak of its own ([`BusError::Arm`] says whose failure it
+/// is): a lost answer on one bus says nothing of another, and the fault must name the arm
+/// whose bus failed, since that is the arm that stops being served.
 #[derive(Debug, Default)]
 pub struct ReadStreak {
+    buses: Vec<Streak>,
+}
+
+#[derive(Debug)]
+struct Streak {
+    /// None: the bus of a robot of one arm.
+    arm: Option<String>,
     failures: u32,
-    first: Option<BusError>,
+    first: BusError,
 }
 
 impl ReadStreak {
+    /// A read that every bus answered ends every streak.
     pub fn succeeded(&mut self) {
-        *self = ReadStreak::default();
+        self.buses.clear();
     }
 
     /// Counts a failed read; returns the error to stop with when it ends the tolerance.
     pub fn failed(&mut self, error: BusError) -> Option<BusError> {
-        if matches!(error, BusError::Port { .. } | BusError::Alarm { .. }) {
+        if matches!(
+            error.root(),
+            BusError::Port { .. } | BusError::Alarm { .. } | BusError::Hung { .. }
+        ) {
             return Some(error);
         }
-        self.failures += 1;
-        let first = self.first.get_or_insert(error);
-        (self.failures >= MAX_READ_FAILURES)
-            .then(|| std::mem::replace(first, BusError::Protocol(String::new())))
+        let arm = match &error {
+            BusError::Arm { arm, .. } => Some(arm.clone()),
+            _ => None,
+        };
+        let Some(index) = self.buses.iter().position(|s| s.arm == arm) else {
+            self.buses.push(Streak {
+                arm,
+                failures: 1,
+                first: error,
+            });
+            return self.ended(self.buses.len() - 1);
+        };
+        self.buses[index].failures += 1;
+        self.ended(index)
+    }
+
+    /// The streak at `index`, when it has reached the tolerance: its first failure, and the
+    /// streak begun again.
+    fn ended(&mut self, index: usize) -> Option<BusError> {
+        (self.buses[index].failures >= MAX_READ_FAILURES).then(|| self.buses.remove(index).first)
     }
 }
 
@@ -50,4 +81,54 @@ pub fn faulty_joint(robot: &Robot, error: &BusError) -> Option<String> {
         .servo()
         .and_then(|id| robot.joint_of_servo(id))
         .map(str::to_owned)
+}
+
+/// The fault of a servo whose health shows an alarm. In a cell the alarm is its arm's
+/// ([`BusError::Arm`]): the servo by its own id on the arm's bus inside, by its cell id outside.
+pub fn alarm_error(robot: &Robot, health: &Health) -> BusError {
+    let alarm = |id| BusError::Alarm {
+        id,
+        alarms: health.alarms,
+    };
+    let index = robot.joints.iter().position(|j| j.servo.id == health.id);
+    let Some((arm, index)) = index.and_then(|i| robot.arm_of_joint(i).map(|arm| (arm, i))) else {
+        return alarm(health.id);
+    };
+    let own = arm.robot.joints[index - arm.joints.start].servo.id;
+    BusError::Arm {
+        arm: arm.name.clone(),
+        servo: Some(health.id),
+        source: Box::new(alarm(own)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn timeout(arm: &str, id: u8) -> BusError {
+        BusError::Arm {
+            arm: arm.into(),
+            servo: Some(id),
+            source: Box::new(BusError::Timeout { id, timeout_ms: 40 }),
+        }
+    }
+
+    #[test]
+    fn each_arms_bus_keeps_its_own_streak() {
+        let mut streak = ReadStreak::default();
+        // One lost answer on the left, then the right bus fails three times in a row.
+        assert!(streak.failed(timeout("left", 1)).is_none());
+        assert!(streak.failed(timeout("right", 4)).is_none());
+        assert!(streak.failed(timeout("right", 10)).is_none());
+        let fault = streak.failed(timeout("right", 11)).unwrap();
+        // The right bus's first failure, not the left's.
+        assert!(matches!(&fault, BusError::Arm { arm, servo: Some(4), .. } if arm == "right"));
+        // The left streak goes on; a read every bus answered ends it.
+        assert!(streak.failed(timeout("left", 2)).is_none());
+        streak.succeeded();
+        assert!(streak.failed(timeout("left", 3)).is_none());
+        assert!(streak.failed(timeout("left", 3)).is_none());
+        assert!(streak.failed(timeout("left", 3)).is_some());
+    }
 }

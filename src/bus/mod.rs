@@ -11,6 +11,7 @@
 //! through the Python bridge). Neither the driver nor the emulated servos ask which vendor they
 //! talk to: the codec and the model description answer for them.
 
+pub mod cell;
 mod connect;
 pub mod driver;
 mod echo;
@@ -25,8 +26,9 @@ pub mod sdk;
 pub mod transport;
 pub mod virtual_bus;
 
+pub use cell::{connect_cell, CellBus, WriteOffsets};
 pub use connect::{connect, connect_with, scan, BusOptions, Connection, Driver, VIRTUAL_PORT};
-pub use faults::{faulty_joint, joint_prefix, ReadStreak, MAX_READ_FAILURES};
+pub use faults::{alarm_error, faulty_joint, joint_prefix, ReadStreak, MAX_READ_FAILURES};
 pub use ports::{latency_timers, list_ports, PortInfo};
 
 use std::fmt;
@@ -178,6 +180,21 @@ pub enum BusError {
     /// of the input (a calibration made on another arm), found by reading the servos.
     #[error(transparent)]
     HomingOffset(#[from] homing::HomingMismatch),
+    /// An error of one arm's bus in a cell ([`cell::CellBus`]): `servo` is the servo's id in
+    /// the cell (so the joint it names is `ARM/JOINT`); the source keeps the arm's own ids.
+    #[error("{arm} bus: {source}")]
+    Arm {
+        arm: String,
+        servo: Option<u8>,
+        #[source]
+        source: Box<BusError>,
+    },
+    /// A transaction that took longer than the cell allows one bus: the bus hangs.
+    #[error("no answer from the bus within {waited_ms} ms")]
+    Hung { waited_ms: u64 },
+    /// A transaction addressed an arm whose bus was isolated after a fault.
+    #[error("isolated after a fault (arm {arm}): nothing more is sent to it")]
+    Isolated { arm: String },
 }
 
 impl BusError {
@@ -198,7 +215,19 @@ impl BusError {
             | BusError::Refused { id, .. }
             | BusError::Silent { id, .. } => Some(*id),
             BusError::HomingOffset(m) => m.mismatches.first().map(|m| m.servo),
-            BusError::Port { .. } | BusError::Protocol(_) => None,
+            BusError::Arm { servo, .. } => *servo,
+            BusError::Port { .. }
+            | BusError::Protocol(_)
+            | BusError::Hung { .. }
+            | BusError::Isolated { .. } => None,
+        }
+    }
+
+    /// The error itself, out of the arm that wraps it in a cell.
+    pub fn root(&self) -> &BusError {
+        match self {
+            BusError::Arm { source, .. } => source.root(),
+            other => other,
         }
     }
 }
@@ -262,6 +291,17 @@ pub trait ServoBus: Send {
     ) -> Result<(), BusError> {
         let _ = values;
         Err(setting_unsupported(&self.describe(), setting))
+    }
+    /// A bus made of several arms' buses (a cell): stops serving the arm that `error` came
+    /// from, so that the other arms can still be braked to rest, and returns the servo ids it
+    /// no longer serves. `None` (one bus, or no healthy arm left): the fault ends everything.
+    fn isolate(&mut self, error: &BusError) -> Option<Vec<u8>> {
+        let _ = error;
+        None
+    }
+    /// How far apart the arms' buses started each goal write (a cell); `None` on one bus.
+    fn write_offsets(&self) -> Option<WriteOffsets> {
+        None
     }
 }
 

@@ -12,9 +12,10 @@ use std::path::PathBuf;
 #[derive(Debug, Clone, clap::Args)]
 pub struct BusArgs {
     /// Serial port (e.g. /dev/ttyUSB0, /dev/ttyACM0), or "virtual" for emulated servos on a
-    /// pseudo-terminal.
-    #[arg(long, value_name = "PATH|virtual")]
-    pub port: Option<String>,
+    /// pseudo-terminal. A sequence of several arms: ARM=PATH once per arm, or "virtual" for
+    /// emulated servos on a bus of their own per arm.
+    #[arg(long, value_name = "[ARM=]PATH|virtual")]
+    pub port: Vec<String>,
     /// Our own protocol code (native) or the vendor's Python SDK (sdk).
     #[arg(long, value_enum, default_value_t = Driver::Native)]
     pub driver: Driver,
@@ -74,8 +75,9 @@ impl WireArgs {
 }
 
 impl BusArgs {
-    /// Opens the bus on `port` for `robot`.
-    pub fn connect(&self, robot: &Robot, port: &str) -> Result<bus::Connection, CommandError> {
+    /// Opens the servos of `robot`: its bus on the one `--port`, or for a cell of several arms
+    /// one bus per arm (`--port ARM=PATH` each, or `--port virtual`).
+    pub fn open(&self, robot: &Robot) -> Result<bus::Connection, CommandError> {
         let options = bus::BusOptions {
             driver: self.driver,
             baud: self.baud,
@@ -83,17 +85,102 @@ impl BusArgs {
             wire_timing: !self.wire.no_wire_timing,
             usb_latency: self.wire.usb_latency,
         };
-        Ok(bus::connect_with(robot, port, &options)?)
+        if robot.is_cell() {
+            let ports = self.arm_ports(robot)?;
+            return Ok(bus::connect_cell(robot, &ports, &options)?);
+        }
+        Ok(bus::connect_with(robot, self.required_port()?, &options)?)
     }
 
-    /// The port, for the commands that need one and cannot play elsewhere.
-    pub fn required_port(&self) -> Result<&str, CommandError> {
-        self.port.as_deref().ok_or_else(|| {
-            CommandError::Usage(
-                "--port is required: a serial port (see `keypose ports`) or \"virtual\"".into(),
-            )
-        })
+    /// Whether any `--port` was given.
+    pub fn given(&self) -> bool {
+        !self.port.is_empty()
     }
+
+    /// The one port of a robot of one arm.
+    pub fn required_port(&self) -> Result<&str, CommandError> {
+        match self.port.as_slice() {
+            [] => Err(CommandError::Usage(
+                "--port is required: a serial port (see `keypose ports`) or \"virtual\"".into(),
+            )),
+            [port] => match arm_port(port) {
+                None => Ok(port),
+                Some((arm, _)) => Err(CommandError::Usage(format!(
+                    "--port {port:?} names an arm ({arm:?}), but the robot has one arm; expected --port PATH"
+                ))),
+            },
+            ports => Err(CommandError::Usage(format!(
+                "--port is given {} times, but the robot has one arm; expected one --port PATH (ARM=PATH once per arm is for a sequence of several arms)",
+                ports.len()
+            ))),
+        }
+    }
+
+    /// Each arm's port, in the cell's arm order.
+    fn arm_ports(&self, cell: &Robot) -> Result<Vec<&str>, CommandError> {
+        let names: Vec<&str> = cell.arms.iter().map(|a| a.name.as_str()).collect();
+        let expected = || {
+            format!(
+                "expected --port ARM=PATH once for each of {}, or --port {}",
+                names.join(", "),
+                bus::VIRTUAL_PORT
+            )
+        };
+        match self.port.as_slice() {
+            [] => {
+                return Err(CommandError::Usage(format!(
+                    "--port is required: {}",
+                    expected()
+                )))
+            }
+            [one] if one == bus::VIRTUAL_PORT => return Ok(vec![bus::VIRTUAL_PORT; names.len()]),
+            _ => {}
+        }
+        let mut ports: Vec<Option<&str>> = vec![None; names.len()];
+        for value in &self.port {
+            let (arm, path) = arm_port(value).ok_or_else(|| {
+                CommandError::Usage(format!(
+                    "--port {value:?}: the sequence has several arms; {}",
+                    expected()
+                ))
+            })?;
+            let index = names.iter().position(|n| *n == arm).ok_or_else(|| {
+                CommandError::Usage(format!(
+                    "--port {value:?}: the sequence has no arm {arm:?}; {}",
+                    expected()
+                ))
+            })?;
+            if ports[index].replace(path).is_some() {
+                return Err(CommandError::Usage(format!(
+                    "--port: arm {arm} is given twice; {}",
+                    expected()
+                )));
+            }
+        }
+        let mut found = Vec::with_capacity(names.len());
+        for (name, port) in names.iter().zip(&ports) {
+            let port = port.ok_or_else(|| {
+                CommandError::Usage(format!("--port: no port for arm {name}; {}", expected()))
+            })?;
+            // One adapter cannot be two arms' bus: the second open would fail, or worse,
+            // two arms' goals would reach the same servos.
+            if port != bus::VIRTUAL_PORT && found.contains(&port) {
+                return Err(CommandError::Usage(format!(
+                    "--port: {port} is given to two arms; expected a port of its own for each arm"
+                )));
+            }
+            found.push(port);
+        }
+        Ok(found)
+    }
+}
+
+/// `("left", "/dev/ttyACM0")` for `left=/dev/ttyACM0`. An arm's name has no `/` (joints are
+/// `ARM/JOINT`), so a path that holds a `=` further on is still a path.
+fn arm_port(value: &str) -> Option<(&str, &str)> {
+    value
+        .split_once('=')
+        .filter(|(arm, _)| !arm.is_empty() && !arm.contains('/'))
 }
 
 /// A robot for commands without a sequence.

@@ -139,8 +139,9 @@ impl CommandError {
         use keypose::player::PlayError;
         use keypose::teach::TeachError;
         match self {
-            // The servos are fine; the calibration is not theirs: bad input.
-            CommandError::Bus(BusError::HomingOffset(_)) => EXIT_BAD_INPUT,
+            // The servos are fine; the calibration is not theirs (in a cell, one arm's): bad
+            // input.
+            CommandError::Bus(e) if matches!(e.root(), BusError::HomingOffset(_)) => EXIT_BAD_INPUT,
             CommandError::Play(PlayError::Log { .. }) => EXIT_BAD_INPUT,
             CommandError::Teach(TeachError::Terminal(_) | TeachError::Script(_)) => EXIT_BAD_INPUT,
             CommandError::Bus(_)

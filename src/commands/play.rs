@@ -18,7 +18,8 @@ use std::path::PathBuf;
 #[command(mut_arg("episode", |a| a.requires("lerobot")))]
 #[command(mut_arg("port", |port| port.help(
     "Serial port (e.g. /dev/ttyUSB0, /dev/ttyACM0), or \"virtual\" for emulated servos on a \
-     pseudo-terminal; without a port, play in MuJoCo"
+     pseudo-terminal; a sequence of several arms: ARM=PATH once per arm, or \"virtual\" for a \
+     bus of emulated servos per arm; without a port, play in MuJoCo"
 )))]
 pub struct PlayArgs {
     #[command(flatten)]
@@ -143,9 +144,10 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
         servo_profile: args.servo_profile,
         ..PlayOptions::new(rate)
     };
-    match &args.bus.port {
-        Some(port) => play_on_servos(args, port, &sequence, &robot, &trajectory, &options),
-        None => play_in_simulation(args, &sequence, &robot, &trajectory, &options),
+    if args.bus.given() {
+        play_on_servos(args, &sequence, &robot, &trajectory, &options)
+    } else {
+        play_in_simulation(args, &sequence, &robot, &trajectory, &options)
     }
 }
 
@@ -234,13 +236,12 @@ fn play_in_simulation(
 
 fn play_on_servos(
     args: &PlayArgs,
-    port: &str,
     sequence: &Sequence,
     robot: &Robot,
     trajectory: &Trajectory,
     options: &PlayOptions,
 ) -> Result<Verdict, CommandError> {
-    let mut connection = args.bus.connect(robot, port)?;
+    let mut connection = args.bus.open(robot)?;
     let stop = keypose::stop::stop_on_signal();
     args.realtime.enter();
 
@@ -273,10 +274,12 @@ fn conclude(
                     tracking_summary(robot, &stats)
                 );
             }
+            report_offsets(args, &stats);
             report_pacing(&stats);
             Ok(Verdict::Pass)
         }
         Ok((Outcome::Stopped, stats)) => {
+            report_offsets(args, &stats);
             report_pacing(&stats);
             Err(CommandError::Interrupted(
                 "stopped on request: the arm decelerated along its path and holds there, torque on"
@@ -284,6 +287,7 @@ fn conclude(
             ))
         }
         Ok((Outcome::Held, stats)) => {
+            report_offsets(args, &stats);
             report_pacing(&stats);
             Err(CommandError::Interrupted(
                 "held at once on a second request: torque on".into(),
@@ -312,6 +316,23 @@ fn tracking_summary(robot: &Robot, stats: &player::Stats) -> String {
             )
         }
         None => "no tracking error measured (no read-back)".into(),
+    }
+}
+
+/// A cell: how far apart the arms' buses started each cycle's goal write.
+fn report_offsets(args: &PlayArgs, stats: &player::Stats) {
+    let Some(offsets) = stats.write_offsets.filter(|o| o.cycles > 0) else {
+        return;
+    };
+    if !args.quiet {
+        let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+        eprintln!(
+            "goal writes of the arms' buses apart by: median {:.3} ms, p99 {:.3} ms, max {:.3} ms over {} cycles",
+            ms(offsets.median),
+            ms(offsets.p99),
+            ms(offsets.max),
+            offsets.cycles
+        );
     }
 }
 

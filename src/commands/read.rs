@@ -16,7 +16,7 @@ pub struct ReadArgs {
 pub fn run(args: &ReadArgs) -> Result<Verdict, CommandError> {
     let robot = args.robot.load()?;
     super::announce_robot(&robot);
-    let mut connection = args.bus.connect(&robot, args.bus.required_port()?)?;
+    let mut connection = args.bus.open(&robot)?;
     let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
     let ticks = connection.bus.read_positions(&ids)?;
     let mut joints = serde_json::Map::new();

@@ -95,12 +95,13 @@ pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
     }
     .load()?;
     let joints = joint_indices(&robot, &args.joints)?;
-    let port = args.bus.required_port()?;
+    // The port is checked before the user spends minutes moving the arm.
+    args.bus.required_port()?;
     // Refuse a place the file cannot go before the user spends minutes moving the arm.
     check_output_dir(&args.output)?;
     let rate = super::control_rate(args.rate, &robot)?;
     // The connection stays open to the end, as the emulated servos of `--port virtual` do.
-    let (_connection, recording) = capture(args, &robot, joints, port, rate)?;
+    let (_connection, recording) = capture(args, &robot, joints, rate)?;
     let (result, sequence) = fit_and_save(args, &robot, &recording, rate)?;
     print_summary(&result, &args.output, args.calibration.given());
     hint_at_linear(args, &result);
@@ -112,10 +113,9 @@ fn capture(
     args: &RecordArgs,
     robot: &Robot,
     joints: Vec<usize>,
-    port: &str,
     rate: f64,
 ) -> Result<(Connection, Recording), CommandError> {
-    let mut connection = args.bus.connect(robot, port)?;
+    let mut connection = args.bus.open(robot)?;
     let stop = keypose::stop::stop_on_signal();
     watch_stdin(stop.clone(), args.duration.is_none());
     args.realtime.enter();

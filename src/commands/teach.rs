@@ -72,13 +72,13 @@ pub fn open<T>(
     args: &SessionArgs,
     before_bus: impl FnOnce(&Robot) -> Result<T, CommandError>,
 ) -> Result<(Opened, T), CommandError> {
-    let port = args.bus.port.as_deref().ok_or_else(|| {
-        CommandError::Usage(
+    if !args.bus.given() {
+        return Err(CommandError::Usage(
             "--port is required: a serial port (see `keypose ports`), or \"virtual\" for \
              emulated servos"
                 .into(),
-        )
-    })?;
+        ));
+    }
     let (output, source) = target(args);
     let (list, robot) = load(args, source.as_deref())?;
     // A session plays at the robot's own control rate: refuse one the player cannot keep now,
@@ -87,7 +87,7 @@ pub fn open<T>(
     let (journal, pending) = open_journal(&output);
     let early = before_bus(&robot)?;
 
-    let connection = args.bus.connect(&robot, port)?;
+    let connection = args.bus.open(&robot)?;
     let mut session = Session::new(connection.bus, &robot);
     let present = session
         .read()?

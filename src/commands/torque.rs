@@ -30,7 +30,7 @@ pub fn run(args: &TorqueArgs) -> Result<Verdict, CommandError> {
     super::announce_robot(&robot);
     let joints = super::joint_indices(&robot, &args.joints)?;
     let ids: Vec<u8> = joints.iter().map(|&j| robot.joints[j].servo.id).collect();
-    let mut connection = args.bus.connect(&robot, args.bus.required_port()?)?;
+    let mut connection = args.bus.open(&robot)?;
     let on = args.state == OnOff::On;
     if on {
         // Torque on must hold where the arm is: set the goals to the present positions first,

@@ -2,7 +2,7 @@
 //!
 //! Columns: `time` (seconds since playback began), `phase`, `sequence_time`, then
 //! `<joint>_cmd` for every joint, `<joint>_meas` for every joint (empty when not read that
-//! cycle), `lateness_ms` (how late the cycle started against its deadline) and `stall_ms` (after
+//! cycle, or when the joint's arm in a cell was isolated after a fault), `lateness_ms` (how late the cycle started against its deadline) and `stall_ms` (after
 //! a stall: how much longer than one period the previous goal was held; empty otherwise).
 //! `keypose plot
 //! --log` overlays the measured columns on the sequence, against `sequence_time`.
@@ -201,7 +201,12 @@ fn format_row(line: &mut String, row: &Record) {
         let _ = write!(line, ",{v:.6}");
     }
     for i in 0..row.commanded.len() {
-        match row.measured.get(i).filter(|_| row.measured_now) {
+        // Not a number: a joint of an arm isolated after a fault, not read.
+        match row
+            .measured
+            .get(i)
+            .filter(|m| row.measured_now && m.is_finite())
+        {
             Some(m) => {
                 let _ = write!(line, ",{m:.6}");
             }

@@ -28,7 +28,7 @@ pub use log::{PlaybackLog, Row as LogRow};
 pub use progress::print_progress_line;
 pub use servo_profile::{ProfileGuard, ServoProfileError};
 
-use crate::bus::{joint_prefix, BusError, ServoBus};
+use crate::bus::{joint_prefix, BusError, ServoBus, WriteOffsets};
 use crate::plan::{Loops, Timeline, TimelineOptions, Trajectory};
 use crate::robot::Robot;
 use std::path::PathBuf;
@@ -130,6 +130,14 @@ pub enum PlayError {
         bound: f64,
         at: f64,
     },
+    /// A fault on one arm's bus in a cell: nothing more went to that bus, and the other arms
+    /// braked to rest along the path.
+    #[error("{fault}; nothing more was sent to the {arm} bus, and the other arms braked to rest along the path and hold there, torque on")]
+    Isolated {
+        arm: String,
+        #[source]
+        fault: Box<PlayError>,
+    },
     #[error(transparent)]
     ServoProfile(#[from] ServoProfileError),
     #[error("cannot write log {path}: {source}")]
@@ -154,6 +162,8 @@ pub struct Stats {
     /// most, in joint units.
     pub limited_goals: u64,
     pub largest_limiter_correction: f64,
+    /// A cell: how far apart the arms' buses started each cycle's goal write.
+    pub write_offsets: Option<WriteOffsets>,
 }
 
 impl Stats {
@@ -162,6 +172,10 @@ impl Stats {
     fn track(&mut self, robot: &Robot, measured: &[f64], commanded: &[f64]) {
         let share = |j: usize, error: f64| error / robot.joints[j].kind.position_slack();
         for (j, (m, c)) in measured.iter().zip(commanded).enumerate() {
+            // An isolated arm's joints are not measured.
+            if !m.is_finite() {
+                continue;
+            }
             let error = (m - c).abs();
             let larger = match self.tracking_error_joint {
                 Some(k) => share(j, error) > share(k, self.max_tracking_error),
@@ -289,29 +303,6 @@ pub fn clamp_start(robot: &Robot, measured: &[f64]) -> Result<Vec<f64>, PlayErro
             }
         })
         .collect()
-}
-
-/// Second stop: command the pose the arm is at now (or, if it cannot be read, the last goal).
-fn hold_here(
-    bus: &mut dyn ServoBus,
-    robot: &Robot,
-    guard: &GoalGuard,
-    ids: &[u8],
-    last_goal: &[f64],
-) -> Result<(), BusError> {
-    let here = match bus.read_positions(ids) {
-        Ok(ticks) => robot
-            .values_of(&ticks)
-            .iter()
-            .zip(&robot.joints)
-            .map(|(v, j)| v.clamp(j.limits.min, j.limits.max))
-            .collect(),
-        Err(_) => last_goal.to_vec(),
-    };
-    match guard.goals(&here) {
-        Ok(goals) => bus.write_goals(&goals),
-        Err(_) => Ok(()),
-    }
 }
 
 /// `--release-at-end`: torque off only once the arm has reached the final pose.

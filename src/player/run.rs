@@ -4,10 +4,10 @@
 
 use super::log::{PlaybackLog, Row};
 use super::{
-    clamp_start, hold_here, measured_pose, print_progress, release_when_reached, GoalGuard,
-    Outcome, PlayError, PlayOptions, Stats, StepLimiter,
+    clamp_start, measured_pose, print_progress, release_when_reached, GoalGuard, Outcome,
+    PlayError, PlayOptions, Stats, StepLimiter,
 };
-use crate::bus::{faulty_joint, BusError, ReadStreak, ServoBus};
+use crate::bus::{alarm_error, faulty_joint, BusError, ReadStreak, ServoBus};
 use crate::pacing::{Clock, CycleStart, Pacer};
 use crate::plan::{Phase, Timeline, Trajectory};
 use crate::robot::Robot;
@@ -22,7 +22,11 @@ pub(super) struct Run<'a> {
     robot: &'a Robot,
     trajectory: &'a Trajectory,
     options: &'a PlayOptions,
+    /// The servos still served, in joint order: all of them, unless an arm of a cell was
+    /// isolated after a fault.
     ids: Vec<u8>,
+    /// By joint: its arm's bus was isolated after a fault, so it is neither written nor read.
+    lost: Vec<bool>,
     guard: GoalGuard<'a>,
     timeline: Timeline<'a>,
     pacer: Pacer,
@@ -38,8 +42,9 @@ pub(super) struct Run<'a> {
     last_goal: Vec<f64>,
     reads: ReadStreak,
     stops_seen: u32,
-    /// A stall beyond the bound: braking, then this is the result.
-    stall_fault: Option<PlayError>,
+    /// A stall beyond the bound, or a fault on an isolated arm's bus: braking, then this is
+    /// the result.
+    pending_fault: Option<PlayError>,
     last_progress: Option<Instant>,
     cycle: u64,
 }
@@ -86,6 +91,7 @@ impl<'a> Run<'a> {
             robot,
             trajectory,
             options,
+            lost: vec![false; ids.len()],
             ids,
             guard,
             timeline,
@@ -93,7 +99,7 @@ impl<'a> Run<'a> {
             period,
             reads: ReadStreak::default(),
             stops_seen: 0,
-            stall_fault: None,
+            pending_fault: None,
             last_progress: None,
             cycle: 0,
         })
@@ -155,8 +161,8 @@ impl<'a> Run<'a> {
     fn after_stall(&mut self, start: &CycleStart, elapsed: f64) {
         self.timeline.after_stall(start.followed_share(self.period));
         let held = start.gap - self.period;
-        if held > self.options.max_stall && self.stall_fault.is_none() {
-            self.stall_fault = Some(PlayError::Stall {
+        if held > self.options.max_stall && self.pending_fault.is_none() {
+            self.pending_fault = Some(PlayError::Stall {
                 held,
                 period: self.period,
                 bound: self.options.max_stall,
@@ -174,14 +180,8 @@ impl<'a> Run<'a> {
     ) -> Result<Option<Outcome>, PlayError> {
         let requests = stop.count();
         if requests >= 2 {
-            hold_here(
-                self.bus,
-                self.robot,
-                &self.guard,
-                &self.ids,
-                &self.last_goal,
-            )
-            .map_err(|e| fault(self.robot, e, elapsed))?;
+            self.hold_here()
+                .map_err(|e| fault(self.robot, e, elapsed))?;
             return Ok(Some(Outcome::Held));
         }
         if requests > self.stops_seen {
@@ -195,11 +195,95 @@ impl<'a> Run<'a> {
     fn command(&mut self, followed: f64, elapsed: f64) -> Result<(), PlayError> {
         self.limiter.limit(&mut self.pose, followed);
         self.guard.goals_into(&self.pose, &mut self.goals)?;
-        self.bus
-            .write_goals(&self.goals)
-            .map_err(|e| fault(self.robot, e, elapsed))?;
+        self.served_only();
+        let written = self.bus.write_goals(&self.goals);
+        // The arms still served received theirs even when another arm's write failed.
         self.last_goal.copy_from_slice(&self.pose);
-        Ok(())
+        written.or_else(|e| self.on_fault(e, elapsed))
+    }
+
+    /// Drops the goals of joints whose arm is isolated (goals are in joint order).
+    fn served_only(&mut self) {
+        if self.lost.iter().any(|&lost| lost) {
+            let mut lost = self.lost.iter();
+            self.goals
+                .retain(|_| !lost.next().copied().unwrap_or(false));
+        }
+    }
+
+    /// Joint values of positions read from the servos still served; not a number for the
+    /// joints of an isolated arm.
+    fn served_values(&self, ticks: &[i64]) -> Vec<f64> {
+        let mut ticks = ticks.iter();
+        self.robot
+            .joints
+            .iter()
+            .zip(&self.lost)
+            .map(|(joint, &lost)| match lost {
+                false => ticks
+                    .next()
+                    .map_or(f64::NAN, |&tick| joint.servo.value(tick)),
+                true => f64::NAN,
+            })
+            .collect()
+    }
+
+    /// A bus fault. In a cell, the bus can isolate the faulty arm: the others then brake along
+    /// the path to rest and the fault is the result at the end. Otherwise it ends playback now.
+    fn on_fault(&mut self, error: BusError, elapsed: f64) -> Result<(), PlayError> {
+        let arm = match &error {
+            BusError::Arm { arm, .. } => Some(arm.clone()),
+            _ => None,
+        };
+        let isolated = self.bus.isolate(&error);
+        let mut now = fault(self.robot, error, elapsed);
+        if let (Some(ids), Some(arm)) = (isolated, arm) {
+            for (joint, lost) in self.robot.joints.iter().zip(&mut self.lost) {
+                *lost |= ids.contains(&joint.servo.id);
+            }
+            self.ids.retain(|id| !ids.contains(id));
+            now = PlayError::Isolated {
+                arm,
+                fault: Box::new(now),
+            };
+            self.timeline.request_stop();
+            match &self.pending_fault {
+                // The first fault is what stopped the cell; this one is said beside it.
+                Some(first) => eprintln!("warning: while braking after \"{first}\": {now}"),
+                None => self.pending_fault = Some(now),
+            }
+            return Ok(());
+        }
+        if let Some(first) = self.pending_fault.take() {
+            eprintln!("warning: this came while braking after: {first}");
+        }
+        Err(now)
+    }
+
+    /// Second stop: command the pose the arm is at now (or, where it cannot be read, the last
+    /// goal).
+    fn hold_here(&mut self) -> Result<(), BusError> {
+        let here: Vec<f64> = match self.bus.read_positions(&self.ids) {
+            Ok(ticks) => self
+                .served_values(&ticks)
+                .iter()
+                .zip(&self.last_goal)
+                .zip(&self.robot.joints)
+                .map(|((&v, &last), j)| {
+                    if v.is_finite() {
+                        v.clamp(j.limits.min, j.limits.max)
+                    } else {
+                        last
+                    }
+                })
+                .collect(),
+            Err(_) => self.last_goal.clone(),
+        };
+        if self.guard.goals_into(&here, &mut self.goals).is_err() {
+            return Ok(());
+        }
+        self.served_only();
+        self.bus.write_goals(&self.goals)
     }
 
     /// Present positions every `readback_every` cycles; a lost answer is skipped, a streak of
@@ -215,7 +299,7 @@ impl<'a> Run<'a> {
         match self.bus.read_positions(&self.ids) {
             Ok(ticks) => {
                 self.reads.succeeded();
-                let values = self.robot.values_of(&ticks);
+                let values = self.served_values(&ticks);
                 self.stats.track(self.robot, &values, &self.pose);
                 Ok(Some(values))
             }
@@ -230,14 +314,7 @@ impl<'a> Run<'a> {
         }
         match self.bus.read_health(&self.ids) {
             Ok(health) => match health.iter().find(|h| h.alarms.any()) {
-                Some(h) => Err(fault(
-                    self.robot,
-                    BusError::Alarm {
-                        id: h.id,
-                        alarms: h.alarms,
-                    },
-                    elapsed,
-                )),
+                Some(h) => self.on_fault(alarm_error(self.robot, h), elapsed),
                 None => Ok(()),
             },
             // A health read is a read like the others: it counts in the same streak.
@@ -247,7 +324,7 @@ impl<'a> Run<'a> {
 
     fn read_failed(&mut self, error: BusError, elapsed: f64) -> Result<(), PlayError> {
         match self.reads.failed(error) {
-            Some(error) => Err(fault(self.robot, error, elapsed)),
+            Some(error) => self.on_fault(error, elapsed),
             None => Ok(()),
         }
     }
@@ -294,8 +371,9 @@ impl<'a> Run<'a> {
         if let Some(log) = &mut self.log {
             log.finish()?;
         }
-        if let Some(stall) = self.stall_fault.take() {
-            return Err(stall);
+        self.stats.write_offsets = self.bus.write_offsets();
+        if let Some(pending) = self.pending_fault.take() {
+            return Err(pending);
         }
         if outcome == Outcome::Finished && self.options.release_at_end {
             release_when_reached(self.bus, self.robot, &self.ids, &self.last_goal)
