@@ -6,7 +6,7 @@ use keypose::bus::{self, Driver};
 use keypose::curve::Interp;
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Where the servos are.
 #[derive(Debug, Clone, clap::Args)]
@@ -200,11 +200,19 @@ impl RobotArgs {
     }
 }
 
-/// The inputs every sequence command takes.
+/// The inputs every sequence command takes: the file, and how to read it.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SequenceInput {
     /// Sequence file (keypose-sequence/1 JSON).
     pub sequence: PathBuf,
+    #[command(flatten)]
+    pub options: SequenceOptions,
+}
+
+/// How to read a sequence: on which robot, with which calibration, in which mode. `play` takes
+/// these without [`SequenceInput`], since a dataset episode may stand in for its file.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct SequenceOptions {
     /// Robot to use instead of the one the sequence names: a built-in name (so101, so100, koch, omx),
     /// a LeRobot robot type (so101_follower, koch_leader, …) or a robot file.
     #[arg(long, value_name = "NAME|FILE")]
@@ -225,7 +233,14 @@ fn parse_interp(s: &str) -> Result<Interp, String> {
 impl SequenceInput {
     /// Loads the sequence and its robot (with any calibration applied).
     pub fn load(&self) -> Result<(Sequence, Robot), CommandError> {
-        let mut sequence = Sequence::load(&self.sequence)?;
+        self.options.load(&self.sequence)
+    }
+}
+
+impl SequenceOptions {
+    /// Loads the sequence at `path` and its robot (with any calibration applied).
+    pub fn load(&self, path: &Path) -> Result<(Sequence, Robot), CommandError> {
+        let mut sequence = Sequence::load(path)?;
         if let Some(mode) = self.interpolation {
             sequence.interpolation = mode;
         }
@@ -236,12 +251,12 @@ impl SequenceInput {
                     sequence.file
                 )));
             }
-            let cell = super::load_cell(&sequence, &self.sequence, &self.calibration)?;
+            let cell = super::load_cell(&sequence, path, &self.calibration)?;
             return Ok((sequence, cell));
         }
         let robot = match &self.robot {
             Some(spec) => super::resolve_option_robot(spec)?,
-            None => super::resolve_sequence_robot(&sequence, &self.sequence)?,
+            None => super::resolve_sequence_robot(&sequence, path)?,
         };
         let robot = super::finish_robot(robot, &self.calibration)?;
         Ok((sequence, robot))

@@ -24,7 +24,7 @@ pub mod teach;
 pub mod torque;
 pub mod virtual_bus;
 
-pub use args::{BusArgs, RealtimeArgs, RobotArgs, SequenceInput, WireArgs};
+pub use args::{BusArgs, RealtimeArgs, RobotArgs, SequenceInput, SequenceOptions, WireArgs};
 pub use calibration::CalibrationArgs;
 
 use keypose::json::{InputError, Location};

@@ -1,7 +1,7 @@
 //! `keypose play`: stream a sequence to the servos.
 
 use super::BusArgs;
-use super::{option_values, parse_control_rate, CommandError, SequenceInput, Verdict};
+use super::{option_values, parse_control_rate, CommandError, SequenceOptions, Verdict};
 use keypose::plan::Loops;
 use keypose::plan::{check_at_speed, Trajectory};
 use keypose::player::{self, Outcome, PlayError, PlayOptions};
@@ -13,8 +13,6 @@ use std::path::PathBuf;
 
 #[derive(Debug, Clone, clap::Args)]
 // Only `play` simulates without a port: the other bus commands share the plain help.
-// A dataset episode (--lerobot) stands in for the sequence file.
-#[command(mut_arg("sequence", |a| a.required(false).default_value(NO_SEQUENCE).hide_default_value(true)))]
 #[command(mut_arg("episode", |a| a.requires("lerobot")))]
 #[command(mut_arg("port", |port| port.help(
     "Serial port (e.g. /dev/ttyUSB0, /dev/ttyACM0), or \"virtual\" for emulated servos on a \
@@ -22,8 +20,11 @@ use std::path::PathBuf;
      bus of emulated servos per arm; without a port, play in MuJoCo"
 )))]
 pub struct PlayArgs {
+    /// Sequence file (keypose-sequence/1 JSON); a dataset episode (--lerobot) stands in for it.
+    #[arg(required_unless_present = "lerobot", conflicts_with = "lerobot")]
+    pub sequence: Option<PathBuf>,
     #[command(flatten)]
-    pub input: SequenceInput,
+    pub options: SequenceOptions,
     #[command(flatten)]
     pub bus: BusArgs,
     /// Play episode --episode of this LeRobotDataset v3.0 folder instead of a sequence file:
@@ -151,34 +152,22 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
     }
 }
 
-/// What the sequence argument holds when none is given (clap's derive needs a value): no
-/// file is named so.
-const NO_SEQUENCE: &str = "<no sequence file>";
-
-/// The sequence file, or the dataset episode imported in memory.
+/// The sequence file, or the dataset episode imported in memory (clap makes sure it is one of
+/// the two).
 fn load(args: &PlayArgs) -> Result<(Sequence, Robot), CommandError> {
-    let given = args.input.sequence.as_os_str() != NO_SEQUENCE;
-    let Some(dir) = &args.lerobot else {
-        if !given {
-            return Err(CommandError::Usage(
-                "a sequence file is required (or --lerobot DIR --episode N)".into(),
-            ));
-        }
-        return args.input.load();
+    let (Some(dir), None) = (&args.lerobot, &args.sequence) else {
+        let path = args.sequence.as_deref().ok_or_else(|| {
+            CommandError::Usage("a sequence file is required (or --lerobot DIR --episode N)".into())
+        })?;
+        return args.options.load(path);
     };
-    if given {
-        return Err(CommandError::Usage(format!(
-            "{}: give a sequence file or --lerobot, not both",
-            args.input.sequence.display()
-        )));
-    }
-    let interpolation = match args.input.interpolation {
+    let interpolation = match args.options.interpolation {
         Some(mode) => super::record::parse_mode(mode.name()).map_err(CommandError::Usage)?,
         None => keypose::curve::Interp::Monotone,
     };
     let choice = super::import::RobotChoice {
-        robot: args.input.robot.as_deref(),
-        calibration: &args.input.calibration,
+        robot: args.options.robot.as_deref(),
+        calibration: &args.options.calibration,
         interpolation,
     };
     let (imported, robot, _) = super::import::import_episode(dir, &args.dataset, choice)?;

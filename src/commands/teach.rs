@@ -1,7 +1,7 @@
 //! `keypose teach`: the key-by-key teaching session, in a terminal or driven by a key script.
 
 use super::BusArgs;
-use super::{CommandError, SequenceInput, Verdict};
+use super::{CommandError, SequenceOptions, Verdict};
 use keypose::robot::Robot;
 use keypose::sequence::{KeyframeList, Sequence};
 use keypose::teach::{self, Journal, Pending, Session, TeachState};
@@ -175,13 +175,12 @@ fn hold_at_start(state: &mut TeachState, session: &mut Session) -> Result<(), Co
 /// The list to edit and the robot to teach.
 fn load(args: &SessionArgs, source: Option<&Path>) -> Result<(KeyframeList, Robot), CommandError> {
     if let Some(path) = source {
-        let input = SequenceInput {
-            sequence: path.to_path_buf(),
+        let options = SequenceOptions {
             robot: args.robot.clone(),
             calibration: args.calibration.clone(),
             interpolation: None,
         };
-        let (sequence, robot) = input.load()?;
+        let (sequence, robot) = options.load(path)?;
         return Ok((KeyframeList::new(sequence), robot));
     }
     let robot = super::load_robot(
