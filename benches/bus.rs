@@ -21,6 +21,11 @@
 //! 3. Software cost: CPU time per cycle of the native driver's encode + decode (sync write of 6
 //!    goals, sync read of 6 positions) over an in-memory transport that answers with canned
 //!    status packets at once: no I/O, no emulator.
+//! 4. Two arms: a cell of two so101 arms, each on its own wire-timed pseudo-terminal, through
+//!    the cell's bus (each arm's transactions on its own thread, goal writes released
+//!    together), against one arm on one bus in the same run: cycles per second and their ratio
+//!    (1 when the buses run side by side, 0.5 when one waits for the other), and how far apart
+//!    the two buses started each goal write.
 //!
 //! `cargo bench --bench bus` prints a compact table on lines starting with `summary:`. Nothing is
 //! asserted about timing. The SDK bridge needs python3 (3.11+, with venv) and PyPI the first
@@ -28,7 +33,7 @@
 //! `KEYPOSE_PYTHON` is set. Without it the SDK figures say why they are missing.
 
 use keypose::bus::virtual_bus::{PtyServer, WireTiming};
-use keypose::bus::{connect, Connection, Driver, ServoBus};
+use keypose::bus::{connect, connect_cell, BusOptions, Connection, Driver, ServoBus, WriteOffsets};
 use keypose::plan::Trajectory;
 use keypose::player::{play, Outcome, PlayOptions, StopSignal};
 use keypose::robot::{Protocol, Robot};
@@ -189,6 +194,10 @@ enum Contender {
 trait Cycler {
     fn cycle(&mut self) -> Result<(), String>;
     fn describe(&self) -> String;
+    /// How far apart a cell's buses started their goal writes (None on one bus).
+    fn write_offsets(&self) -> Option<WriteOffsets> {
+        None
+    }
 }
 
 /// keypose's native driver or the SDK bridge, through [`connect`].
@@ -200,7 +209,12 @@ struct KeyposeCycler {
 
 impl KeyposeCycler {
     fn open(robot: &Robot, path: &str, driver: Driver) -> Result<KeyposeCycler, String> {
-        let mut connection = connect(robot, path, driver, None).map_err(|e| e.to_string())?;
+        let connection = connect(robot, path, driver, None).map_err(|e| e.to_string())?;
+        KeyposeCycler::on(robot, connection)
+    }
+
+    /// Cycles on `connection` to `robot`'s servos (one arm's bus, or a cell's buses).
+    fn on(robot: &Robot, mut connection: Connection) -> Result<KeyposeCycler, String> {
         let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
         // Goals are where the servos are: the cycles move nothing, only the traffic counts.
         let ticks = connection
@@ -226,6 +240,10 @@ impl Cycler for KeyposeCycler {
 
     fn describe(&self) -> String {
         self.connection.bus.describe()
+    }
+
+    fn write_offsets(&self) -> Option<WriteOffsets> {
+        self.connection.bus.write_offsets()
     }
 }
 
@@ -302,9 +320,9 @@ impl Cycler for RustypotCycler {
 
 /// One driver's connection with the virtual servos it talks to.
 struct Link {
-    /// Declared before the server so the client closes the port first.
+    /// Declared before the servers so the client closes the port first.
     cycler: Box<dyn Cycler>,
-    _server: PtyServer,
+    _servers: Vec<PtyServer>,
     warmed_up: bool,
     errors: u64,
     first_error: Option<String>,
@@ -319,13 +337,32 @@ impl Link {
             }
             Contender::Rustypot => Box::new(RustypotCycler::open(robot, server.path())?),
         };
-        Ok(Link {
+        Ok(Link::of(cycler, vec![server]))
+    }
+
+    fn of(cycler: Box<dyn Cycler>, servers: Vec<PtyServer>) -> Link {
+        Link {
             cycler,
-            _server: server,
+            _servers: servers,
             warmed_up: false,
             errors: 0,
             first_error: None,
-        })
+        }
+    }
+
+    /// A cell of `cell`'s arms, each arm's emulated servos on a wire-timed pseudo-terminal of
+    /// their own, through [`CellBus`](keypose::bus::CellBus) and the native driver.
+    fn cell(cell: &Robot) -> Result<Link, String> {
+        let servers = cell
+            .arms
+            .iter()
+            .map(|arm| PtyServer::start(&arm.robot).map_err(|e| e.to_string()))
+            .collect::<Result<Vec<_>, _>>()?;
+        let paths: Vec<&str> = servers.iter().map(|s| s.path()).collect();
+        let connection =
+            connect_cell(cell, &paths, &BusOptions::default()).map_err(|e| e.to_string())?;
+        let cycler = KeyposeCycler::on(cell, connection)?;
+        Ok(Link::of(Box::new(cycler), servers))
     }
 
     /// Cycles for `length`; returns cycles per second and every successful cycle's duration.
@@ -670,6 +707,51 @@ fn jitter(rate_hz: f64, readback_every: u32) -> JitterResult {
 
 // ---------------------------------------------------------------------------------------------
 
+/// Two SO-101 arms on two wire-timed buses through the cell's bus, against one arm on one bus,
+/// interleaved: the cell's cycles per second over one bus's (1: the two buses' transactions ran
+/// side by side; 0.5: one after the other), and the goal writes' offsets.
+struct CellResult {
+    one: DriverResult,
+    cell: DriverResult,
+    offsets: Option<WriteOffsets>,
+}
+
+fn cell_cycles() -> CellResult {
+    let so101 = Robot::builtin("so101").expect("a built-in robot");
+    let arm = |name: &str, y: f64| {
+        let base = keypose::pose::RigidTransform::new(
+            glam::DVec3::new(0.0, y, 0.0),
+            glam::DQuat::IDENTITY,
+        );
+        (name.to_string(), so101.clone(), base)
+    };
+    let cell = Robot::cell(vec![arm("left", 0.25), arm("right", -0.25)]).expect("two arms");
+    let mut one = Runs {
+        link: Link::open(&so101, Contender::Keypose(Driver::Native)),
+        reps: Vec::new(),
+        durations: Vec::new(),
+    };
+    let mut two = Runs {
+        link: Link::cell(&cell),
+        reps: Vec::new(),
+        durations: Vec::new(),
+    };
+    for _ in 0..REPS {
+        one.run();
+        two.run();
+    }
+    let offsets = two
+        .link
+        .as_ref()
+        .ok()
+        .and_then(|l| l.cycler.write_offsets());
+    CellResult {
+        one: one.finish(),
+        cell: two.finish(),
+        offsets,
+    }
+}
+
 fn main() {
     // `cargo bench` passes `--bench`; `cargo test --benches` runs this too: keep that quick.
     let args: Vec<String> = std::env::args().collect();
@@ -761,6 +843,29 @@ fn main() {
         }
     }
 
+    println!("\n4. two so101 arms, each on its own wire-timed bus, through the cell's bus (12 goals + 12 positions a cycle), against one arm on one bus, {REPS}× {RUN:?} each, interleaved, median:");
+    let cells = cell_cycles();
+    cells.one.print("1 arm");
+    cells.cell.print("2 arms");
+    let cell_ratio = match (&cells.one.rate, &cells.cell.rate) {
+        (Ok(one), Ok(two)) => Some(two / one),
+        _ => None,
+    };
+    if let Some(ratio) = cell_ratio {
+        println!(
+            "  two arms' cycles/s over one arm's: {ratio:.2} (1: the buses ran side by side; 0.5: one after the other)"
+        );
+    }
+    if let Some(o) = &cells.offsets {
+        println!(
+            "  goal writes apart by: median {:.0} µs, p99 {:.0} µs, max {:.0} µs over {} cycles",
+            o.median.as_secs_f64() * 1e6,
+            o.p99.as_secs_f64() * 1e6,
+            o.max.as_secs_f64() * 1e6,
+            o.cycles
+        );
+    }
+
     let load_after = load_average();
     println!(
         "\nload average at start {load_before}, at end {load_after}; bench took {:.1} s",
@@ -832,6 +937,22 @@ fn main() {
             ),
             Err(reason) => println!("summary: | {} | failed: {reason} | | | | | | |", run.label),
         }
+    }
+    if let (Some(ratio), Ok(one), Ok(two)) = (cell_ratio, &cells.one.rate, &cells.cell.rate) {
+        println!("summary: ");
+        println!(
+            "summary: two so101 arms on two wire-timed buses through the cell's bus: {two:.0} cycles/s, \
+             one arm on one bus {one:.0} cycles/s: ratio {ratio:.2}{}",
+            cells
+                .offsets
+                .map(|o| format!(
+                    "; goal writes apart by median {:.0} µs, p99 {:.0} µs, max {:.0} µs",
+                    o.median.as_secs_f64() * 1e6,
+                    o.p99.as_secs_f64() * 1e6,
+                    o.max.as_secs_f64() * 1e6
+                ))
+                .unwrap_or_default()
+        );
     }
     println!(
         "summary: the virtual bus takes the wire's time at the robot's baud rate with the \

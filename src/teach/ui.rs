@@ -173,10 +173,17 @@ fn draw_joints(frame: &mut Frame, area: Rect, state: &TeachState) {
             row
         }
     });
+    // "▶ " and the longest name: a cell's `ARM/JOINT` names are longer than one arm's.
+    let name_width = state
+        .robot()
+        .joints
+        .iter()
+        .map(|j| j.name.chars().count() + 2)
+        .fold(18, usize::max) as u16;
     let table = Table::new(
         rows,
         [
-            Constraint::Length(18),
+            Constraint::Length(name_width),
             // "-87.9° 100%": degrees with the percent of a calibrated range beside them.
             Constraint::Length(12),
             Constraint::Length(12),
