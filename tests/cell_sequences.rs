@@ -228,3 +228,21 @@ fn sample_gives_each_arms_tool_in_its_own_base_frame() {
         assert!((row[column(axis)] - want).abs() < 2e-9, "{axis}");
     }
 }
+
+#[test]
+fn ros_exports_of_a_cell_name_joints_as_ros_descriptions_of_two_arms_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let sequence = common::repo("sequences/bimanual_wave.json");
+    for format in ["ros2", "play_motion2"] {
+        let output = dir.path().join(format!("{format}.yaml"));
+        let out = run(&["export", format, &sequence, "-o", output.to_str().unwrap()]);
+        assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+        let text = std::fs::read_to_string(&output).unwrap();
+        assert!(
+            text.contains("['left_shoulder_pan', 'left_shoulder_lift'")
+                && text.contains("'right_wrist_roll', 'right_gripper']"),
+            "{format}: {text}"
+        );
+        assert!(!text.contains("left/"), "{format}: {text}");
+    }
+}

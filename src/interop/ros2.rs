@@ -41,8 +41,22 @@ pub struct JointTrajectory {
 /// The joint names of the robot's official ROS 2 description: keypose's built-ins already use
 /// them (SO-101 and SO-100 URDFs and LeRobot share one set; the OpenMANIPULATOR-X's are
 /// ROBOTIS's ROS 2 names; docs/robots.md §1.2, §3.1, §11.2), and a robot file's own names are
-/// the only ones known for it.
+/// the only ones known for it. A cell's joints are `ARM_JOINT` there (`left_shoulder_pan`):
+/// in ROS a `/` separates namespaces, and a description of several arms prefixes each arm's
+/// joint names with the arm and an underscore.
 pub fn joint_names(robot: &Robot) -> Vec<String> {
+    if robot.is_cell() {
+        return robot
+            .arms
+            .iter()
+            .flat_map(|arm| {
+                arm.robot
+                    .joints
+                    .iter()
+                    .map(move |j| format!("{}_{}", arm.name, j.name))
+            })
+            .collect();
+    }
     robot.joint_names().iter().map(|n| n.to_string()).collect()
 }
 
