@@ -216,7 +216,8 @@ fn tool_title(state: &TeachState) -> String {
         .into_iter()
         .map(|(arm, p)| {
             let p = p * 1000.0;
-            let at = format!("x {:.1}  y {:.1}  z {:.1} mm", p.x, p.y, p.z);
+            let [x, y, z] = p.to_array().map(no_negative_zero);
+            let at = format!("x {x:.1}  y {y:.1}  z {z:.1} mm");
             match arm {
                 Some(arm) => format!("{arm} at {at}"),
                 None => format!("at {at}"),
@@ -224,6 +225,16 @@ fn tool_title(state: &TeachState) -> String {
         })
         .collect();
     format!(" tool {} ", tools.join(" · "))
+}
+
+/// `v` rounded to a tenth, with a value a hair below zero shown as 0.0 rather than −0.0.
+fn no_negative_zero(v: f64) -> f64 {
+    let rounded = (v * 10.0).round() / 10.0;
+    if rounded == 0.0 {
+        0.0
+    } else {
+        rounded
+    }
 }
 
 /// `[──◆───●──]`: where the present value (●) and the key's value (◆) sit between the limits.

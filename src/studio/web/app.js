@@ -139,7 +139,8 @@ function render(s) {
   if (!s.prompt) showStatus(s.status.text, s.status.error);
   $('activity').textContent = `${s.activity.text} · ${s.journal ? 'journal ' + s.journal : 'no journal'}`;
   $('tcp').textContent = 'tool ' + (s.tool_arm ? `(${s.tool_arm}) ` : '') +
-    s.tcp.map(v => (v * 1000).toFixed(0)).join(', ') + ' mm';
+    // Rounded first, so a coordinate a hair below zero shows as 0, not −0.
+    s.tcp.map(v => (Math.round(v * 1000) + 0).toFixed(0)).join(', ') + ' mm';
   if (studio.view) {
     studio.view.setToolJoint(s.selected);
     studio.view.setPose(s.joints.map(j => j.present));

@@ -56,18 +56,15 @@ impl ToolArm {
 /// Where each arm's tool point is at `values`, each in its own base frame: the robot's tcp, or
 /// on a cell every arm's, with the arm's name.
 pub fn tool_positions<'r>(robot: &'r Robot, values: &[f64]) -> Vec<(Option<&'r str>, DVec3)> {
+    let positions = robot.tool_positions(values);
     if !robot.is_cell() {
-        return vec![(None, robot.tcp_position(values))];
+        return positions.into_iter().map(|p| (None, p)).collect();
     }
     robot
         .arms
         .iter()
-        .map(|arm| {
-            (
-                Some(arm.name.as_str()),
-                arm.robot.tcp_position(arm.values(values)),
-            )
-        })
+        .map(|arm| Some(arm.name.as_str()))
+        .zip(positions)
         .collect()
 }
 
