@@ -142,7 +142,7 @@ fn assert_at_rest(arm: &str, goals: &[Vec<f64>]) {
     }
 }
 
-/// The goal-write offsets `play` reports, milliseconds: (median, p99, max, cycles).
+/// The goal-write offsets `play` reports, microseconds: (median, p99, max, cycles).
 fn reported_offsets(err: &str) -> (f64, f64, f64, u64) {
     let line = err
         .lines()
@@ -201,7 +201,7 @@ fn two_buses_play_in_step_each_within_its_arms_limits_and_the_log_has_both_arms(
     assert_eq!(left_goals[3][..=waved_out], right_goals[3][..=waved_out]);
     let (median, p99, max, cycles) = reported_offsets(&err);
     println!(
-        "goal-write offset between the two buses over {cycles} cycles at {RATE_HZ} Hz: median {median:.3} ms, p99 {p99:.3} ms, max {max:.3} ms"
+        "goal-write offset between the two buses over {cycles} cycles at {RATE_HZ} Hz: median {median} µs, p99 {p99} µs, max {max} µs"
     );
     assert!(
         cycles as usize >= left_goals[0].len() - 2,

@@ -314,12 +314,13 @@ fn report_offsets(args: &PlayArgs, stats: &player::Stats) {
         return;
     };
     if !args.quiet {
-        let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+        // Microseconds: the resolution the offsets are kept at.
+        let us = |d: std::time::Duration| d.as_micros();
         eprintln!(
-            "goal writes of the arms' buses apart by: median {:.3} ms, p99 {:.3} ms, max {:.3} ms over {} cycles",
-            ms(offsets.median),
-            ms(offsets.p99),
-            ms(offsets.max),
+            "goal writes of the arms' buses apart by: median {} µs, p99 {} µs, max {} µs over {} cycles",
+            us(offsets.median),
+            us(offsets.p99),
+            us(offsets.max),
             offsets.cycles
         );
     }

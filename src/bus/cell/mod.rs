@@ -4,14 +4,15 @@
 //! them by the arm's ids, which repeat from arm to arm. [`CellBus`] maps each cell id to its arm
 //! and that arm's id, and runs a transaction on every arm it touches at once, each arm's bus on
 //! a thread of its own ([`worker`]): the player keeps one loop, one timeline, one limiter and
-//! one guard for the whole cell, and only the I/O is spread over the buses. A goal write is
-//! released on every arm at the same instant, and how far apart the writes really started is
-//! measured ([`WriteOffsets`]).
+//! one guard for the whole cell, and only the I/O is spread over the buses. A goal write starts
+//! on every arm together, once every arm's thread is at the start gate ([`gate`]), and how far
+//! apart the writes really started is measured ([`WriteOffsets`]).
 //!
 //! Errors come back naming the arm ([`BusError::Arm`]) with the servo's cell id, so a fault
 //! names `right/wrist_flex`. On a fault the player isolates that arm
 //! ([`ServoBus::isolate`]): nothing more is sent to its bus while the others brake to rest.
 
+mod gate;
 mod offsets;
 mod worker;
 
@@ -21,13 +22,12 @@ use super::profile::Setting;
 use super::virtual_bus::PtyServer;
 use super::{connect_with, BusError, BusOptions, Connection, Health, PingInfo, ServoBus};
 use crate::robot::{Arm, Robot, ServoModel};
+use gate::Gate;
 use offsets::OffsetRecord;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 use worker::Worker;
 
-/// How far ahead of now a goal write is released: time for every arm's thread to wake and be
-/// waiting on the instant (an absolute sleep and a short spin, `pacing::precise`).
-const RELEASE_LEAD: Duration = Duration::from_micros(300);
 /// The longest one arm's transaction may take before its bus counts as hung: far beyond any
 /// read's retries, well short of a user's patience.
 pub const HUNG_AFTER: Duration = Duration::from_secs(1);
@@ -278,15 +278,17 @@ impl ServoBus for CellBus {
         Ok(Self::merge(&parts, values, ids.len()))
     }
 
-    /// Every arm's sync write starts at the same instant, a little ahead of now; the spread of
-    /// the instants they really started at is recorded.
+    /// Every arm's sync write starts once every arm's thread is ready for it ([`Gate`]); the
+    /// spread of the instants they really started at is recorded.
     fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError> {
         let parts = self.split(goals.iter().map(|(id, _)| *id))?;
-        let release = Instant::now() + RELEASE_LEAD;
+        let served = parts.iter().filter(|p| !self.arms[p.arm].isolated).count();
+        let gate = Arc::new(Gate::new(served));
         let starts = self.each(&parts, |part| {
             let own = part.own(goals);
+            let gate = Arc::clone(&gate);
             move |bus: &mut dyn ServoBus| {
-                crate::pacing::precise::sleep_until(release);
+                gate.pass();
                 let started = Instant::now();
                 bus.write_goals(&own).map(|()| started)
             }
