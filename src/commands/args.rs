@@ -92,6 +92,16 @@ impl BusArgs {
         Ok(bus::connect_with(robot, self.required_port()?, &options)?)
     }
 
+    /// Refuses ports that do not fit `robot` (one plain port, or one per arm of a cell) before
+    /// anything is opened.
+    pub fn check_ports(&self, robot: &Robot) -> Result<(), CommandError> {
+        if robot.is_cell() {
+            self.arm_ports(robot).map(|_| ())
+        } else {
+            self.required_port().map(|_| ())
+        }
+    }
+
     /// Whether any `--port` was given.
     pub fn given(&self) -> bool {
         !self.port.is_empty()

@@ -202,18 +202,13 @@ fn dataset_cell(
     calibration: &CalibrationArgs,
     resolve: impl Fn(&str) -> Result<Robot, InputError>,
 ) -> Result<(Robot, Vec<ArmSpec>), CommandError> {
-    let specs: Vec<ArmSpec> = arms
+    let arms: Vec<(String, String)> = arms
         .iter()
-        .map(|&arm| ArmSpec {
-            name: arm.to_string(),
-            robot: robot_reference(spec),
-            base: Some(lerobot::arms::default_base(arm)),
-        })
+        .map(|&arm| (arm.to_string(), spec.to_string()))
         .collect();
-    let calibration = bimanual_robot_ids(calibration, arms);
-    let cell_arms = super::cell_arms(&specs, &calibration, |arm| resolve(&arm.robot))?;
-    let robot = Robot::cell(cell_arms).map_err(|e| CommandError::Usage(e.to_string()))?;
-    Ok((robot, specs))
+    let names: Vec<&str> = arms.iter().map(|(arm, _)| arm.as_str()).collect();
+    let calibration = bimanual_robot_ids(calibration, &names);
+    super::default_placed_cell(&arms, &calibration, resolve)
 }
 
 /// LeRobot calibrates the arms of a bimanual robot of id NAME as ids `NAME_left` and

@@ -219,6 +219,28 @@ pub fn cell_arms(
     Ok(out)
 }
 
+/// The cell of arms named where no file places them (a bimanual dataset, `record --robot
+/// ARM=ROBOT`): each (arm, robot spec) resolved by `resolve`, with the calibration the options
+/// give that arm, at [`Placement::default_for`](keypose::sequence::Placement::default_for); and
+/// the arms as a sequence names them.
+pub fn default_placed_cell(
+    arms: &[(String, String)],
+    calibration: &CalibrationArgs,
+    resolve: impl Fn(&str) -> Result<Robot, InputError>,
+) -> Result<(Robot, Vec<keypose::sequence::ArmSpec>), CommandError> {
+    let specs: Vec<keypose::sequence::ArmSpec> = arms
+        .iter()
+        .map(|(arm, spec)| keypose::sequence::ArmSpec {
+            name: arm.clone(),
+            robot: record::robot_reference(spec),
+            base: Some(keypose::sequence::Placement::default_for(arm)),
+        })
+        .collect();
+    let cell_arms = cell_arms(&specs, calibration, |arm| resolve(&arm.robot))?;
+    let robot = Robot::cell(cell_arms).map_err(|e| CommandError::Usage(e.to_string()))?;
+    Ok((robot, specs))
+}
+
 /// A resolution error as input error: a robot file's own error as it is, a name's at `at`.
 fn resolve_error(error: ResolveError, at: impl Fn(String) -> InputError) -> InputError {
     match error {

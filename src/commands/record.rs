@@ -22,9 +22,11 @@ pub struct RecordArgs {
     #[arg(short, long, value_name = "FILE")]
     pub output: PathBuf,
     /// A built-in robot (so101, so100, koch, omx), a LeRobot robot type (so101_follower,
-    /// so100_follower, koch_follower and their leaders) or a robot file.
-    #[arg(long, value_name = "NAME|FILE", default_value = super::DEFAULT_ROBOT)]
-    pub robot: String,
+    /// so100_follower, koch_follower and their leaders) or a robot file. Several arms at once:
+    /// ARM=ROBOT once per arm (`--robot left=so101 --robot right=so101`, with `--port ARM=PATH`
+    /// per arm), recorded into a sequence of several arms.
+    #[arg(long, value_name = "[ARM=]NAME|FILE", default_value = super::DEFAULT_ROBOT)]
+    pub robot: Vec<String>,
     #[command(flatten)]
     pub calibration: super::CalibrationArgs,
     #[command(flatten)]
@@ -88,24 +90,72 @@ fn parse_duration(s: &str) -> Result<f64, String> {
     option_values::positive_up_to(s, record::MAX_SECONDS, "seconds")
 }
 
+/// What `--robot` names: one robot, or the arms of a cell (ARM=ROBOT each).
+enum Recorded {
+    One(String),
+    Cell(Vec<keypose::sequence::ArmSpec>),
+}
+
 pub fn run(args: &RecordArgs) -> Result<Verdict, CommandError> {
-    let robot = RobotArgs {
-        robot: args.robot.clone(),
-        calibration: args.calibration.clone(),
-    }
-    .load()?;
+    let (robot, recorded) = load_robot(args)?;
     let joints = joint_indices(&robot, &args.joints)?;
     // The port is checked before the user spends minutes moving the arm.
-    args.bus.required_port()?;
+    args.bus.check_ports(&robot)?;
     // Refuse a place the file cannot go before the user spends minutes moving the arm.
     check_output_dir(&args.output)?;
     let rate = super::control_rate(args.rate, &robot)?;
     // The connection stays open to the end, as the emulated servos of `--port virtual` do.
     let (_connection, recording) = capture(args, &robot, joints, rate)?;
-    let (result, sequence) = fit_and_save(args, &robot, &recording, rate)?;
+    let (result, sequence) = fit_and_save(args, &robot, &recorded, &recording, rate)?;
     print_summary(&result, &args.output, args.calibration.given());
     hint_at_linear(args, &result);
     conclude(&recording, &result, &sequence, &robot)
+}
+
+/// The robot `--robot` names, or the cell of the arms it names (`ARM=ROBOT` each, at the
+/// default bases, which the file then says).
+fn load_robot(args: &RecordArgs) -> Result<(Robot, Recorded), CommandError> {
+    let arms: Vec<Option<(String, String)>> = args
+        .robot
+        .iter()
+        .map(|value| {
+            value
+                .split_once('=')
+                .filter(|(arm, _)| keypose::sequence::valid_arm_name(arm))
+                .map(|(arm, spec)| (arm.to_string(), spec.to_string()))
+        })
+        .collect();
+    match (args.robot.as_slice(), arms.iter().all(Option::is_some)) {
+        ([spec], false) => {
+            let robot = RobotArgs {
+                robot: spec.clone(),
+                calibration: args.calibration.clone(),
+            }
+            .load()?;
+            Ok((robot, Recorded::One(spec.clone())))
+        }
+        (_, true) => {
+            let arms: Vec<(String, String)> = arms.into_iter().flatten().collect();
+            let (robot, specs) = super::default_placed_cell(&arms, &args.calibration, |spec| {
+                keypose::robot::Robot::resolve(spec, None).map_err(|e| {
+                    keypose::json::InputError::new(
+                        "--robot",
+                        keypose::json::Location::File,
+                        e.to_string(),
+                    )
+                })
+            })?;
+            eprintln!(
+                "note: the arms are placed at default bases (left at y = +{0} m, right at y = -{0} m, both facing +x); edit each arm's \"base\" in \"robots\" for the real bench",
+                keypose::sequence::DEFAULT_ARM_HALF_SPACING_M
+            );
+            Ok((robot, Recorded::Cell(specs)))
+        }
+        _ => Err(CommandError::Usage(format!(
+            "--robot {}: expected one robot, or ARM=ROBOT once per arm for several",
+            args.robot.join(" --robot ")
+        ))),
+    }
 }
 
 /// Limps the joints and records until Enter, Ctrl-C or the duration; says what is missing.
@@ -165,6 +215,7 @@ fn announce(args: &RecordArgs, robot: &Robot, joints: &[usize], bus: &str, rate:
 fn fit_and_save(
     args: &RecordArgs,
     robot: &Robot,
+    recorded: &Recorded,
     recording: &Recording,
     rate: f64,
 ) -> Result<(Keyframes, Sequence), CommandError> {
@@ -187,7 +238,13 @@ fn fit_and_save(
     )
     .map_err(CommandError::Record)?;
     let mut sequence = result.sequence.clone();
-    sequence.robot = robot_reference(&args.robot);
+    match recorded {
+        Recorded::One(spec) => sequence.robot = robot_reference(spec),
+        Recorded::Cell(arms) => {
+            sequence.robot.clear();
+            sequence.arms.clone_from(arms);
+        }
+    }
     sequence.file = args.output.display().to_string();
     sequence.save(&args.output)?;
     Ok((result, sequence))

@@ -149,7 +149,29 @@ pub struct Placement {
     pub rotation: Option<ToolOrientation>,
 }
 
+/// Where an arm's base stands when nothing says (a LeRobot dataset, a recording): this far to
+/// either side of the cell origin along y, both facing +x as an arm's own base frame does. 0.4 m
+/// apart is less than an SO-101's reach (its tool is 0.39 m ahead of its base at the zero pose),
+/// so the arms' spaces overlap between them, where bimanual tasks hand things over; the user
+/// edits `"base"` for the real bench.
+pub const DEFAULT_ARM_HALF_SPACING_M: f64 = 0.2;
+
 impl Placement {
+    /// The base of arm `arm` when nothing says (see [`DEFAULT_ARM_HALF_SPACING_M`]): `left` on
+    /// +y (the cell's left when facing +x), `right` on −y, any other arm at the origin. Written
+    /// with a zero roll-pitch-yaw, so the file shows where to turn an arm.
+    pub fn default_for(arm: &str) -> Placement {
+        let y = match arm {
+            "left" => DEFAULT_ARM_HALF_SPACING_M,
+            "right" => -DEFAULT_ARM_HALF_SPACING_M,
+            _ => 0.0,
+        };
+        Placement {
+            xyz: DVec3::new(0.0, y, 0.0),
+            rotation: Some(ToolOrientation::Rpy([0.0; 3])),
+        }
+    }
+
     /// A placement written as `xyz` and `quat`.
     pub fn from_transform(transform: RigidTransform) -> Self {
         Placement {

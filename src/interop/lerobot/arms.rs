@@ -4,23 +4,14 @@
 //! of the other with `right_` (`bi_so_follower.py::_motors_ft`, and `bi_so100_follower` before
 //! the SO classes were merged): `left_shoulder_pan.pos`, `right_gripper.pos`. Such a dataset
 //! becomes a cell of two arms named `left` and `right`, whose joints are `left/shoulder_pan` and
-//! so on. A dataset says nothing about where the arms stand; [`default_base`] places them.
+//! so on. A dataset says nothing about where the arms stand; [`Placement::default_for`](crate::sequence::Placement::default_for) places them.
 
 use super::DatasetInfo;
 use super::LeRobotError;
 use crate::robot::{cell_joint_name, split_joint_name};
-use crate::sequence::{Placement, ToolOrientation};
-use glam::DVec3;
 
 /// LeRobot's arm prefixes and the arms they become, in LeRobot's order.
 const ARMS: [(&str, &str); 2] = [("left", "left_"), ("right", "right_")];
-
-/// Where an arm's base stands when nothing says: this far to either side of the cell origin
-/// along y, both facing +x as an arm's own base frame does. 0.4 m apart is less than an
-/// SO-101's reach (its tool is 0.39 m ahead of its base at the zero pose), so the arms' spaces
-/// overlap between them, where bimanual tasks hand things over; LeRobot's bimanual configs hold
-/// ports, ids and cameras but no placement, so the user edits `"base"` for the real bench.
-pub const DEFAULT_HALF_SPACING_M: f64 = 0.2;
 
 /// The arms a feature's names denote: none for a dataset of one arm, else those whose prefix
 /// appears (`left`, `right`). Names with a prefix next to names without one are refused: each
@@ -83,21 +74,6 @@ pub fn arm_robot_type(robot_type: &str) -> &str {
     robot_type.strip_prefix("bi_").unwrap_or(robot_type)
 }
 
-/// The base of arm `arm` when the dataset does not say (see [`DEFAULT_HALF_SPACING_M`]):
-/// `left` on +y (the cell's left when facing +x), `right` on −y, any other arm at the origin.
-/// Written with a zero roll-pitch-yaw, so the file shows where to turn an arm.
-pub fn default_base(arm: &str) -> Placement {
-    let y = match arm {
-        "left" => DEFAULT_HALF_SPACING_M,
-        "right" => -DEFAULT_HALF_SPACING_M,
-        _ => 0.0,
-    };
-    Placement {
-        xyz: DVec3::new(0.0, y, 0.0),
-        rotation: Some(ToolOrientation::Rpy([0.0; 3])),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -139,11 +115,5 @@ mod tests {
         let text = error.to_string();
         assert!(text.contains("action"), "{text}");
         assert!(text.contains("gripper.pos"), "{text}");
-    }
-
-    #[test]
-    fn the_default_bases_stand_apart_along_y() {
-        assert_eq!(default_base("left").xyz, DVec3::new(0.0, 0.2, 0.0));
-        assert_eq!(default_base("right").xyz, DVec3::new(0.0, -0.2, 0.0));
     }
 }
