@@ -212,21 +212,39 @@ fn sample_gives_each_arms_tool_in_its_own_base_frame() {
     for (got, want) in right.iter().zip([0.22, 0.05, 0.12]) {
         assert!((got - want).abs() < 1e-4, "{right:?}");
     }
-    // The left arm's tool is where the SO-101 alone puts it for the left joints, although its
-    // base is turned and moved: the columns are in its own base frame too.
-    let so101 = Robot::builtin("so101").unwrap();
-    let left: Vec<f64> = so101
-        .joint_names()
-        .iter()
-        .map(|j| row[column(&format!("left/{j}"))])
-        .collect();
-    let expected = so101.tcp_position(&left);
-    for (axis, want) in ["left/tool_x", "left/tool_y", "left/tool_z"]
-        .iter()
-        .zip(expected.to_array())
-    {
-        assert!((row[column(axis)] - want).abs() < 2e-9, "{axis}");
+    // Without its tool key the right arm stays at home, the zero pose, as the left is at 0 s.
+    let home_only = TWO_ARMS.replace(r#", "tool": {"right": {"xyz": [0.22, 0.05, 0.12]}}"#, "");
+    std::fs::write(&path, home_only).unwrap();
+    let out = run(&["sample", path.to_str().unwrap(), "--tool", "--rate", "10"]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    // At 0 s both arms stand at the zero pose. The left base is moved 0.3 m and turned 0.5 rad,
+    // the right one is not: in each arm's own base frame their tools are at the same point, in
+    // the arm's own vertical plane (y = 0, to the 0.17 mm the SO-101's roll axis passes beside
+    // it); in the cell frame the left one would be 0.3 m and a turn away.
+    let first: Vec<f64> = lines_at(&text, 0.0);
+    for axis in ["tool_x", "tool_y", "tool_z"] {
+        let (l, r) = (
+            first[column(&format!("left/{axis}"))],
+            first[column(&format!("right/{axis}"))],
+        );
+        assert!((l - r).abs() < 1e-12, "{axis}: left {l}, right {r}");
     }
+    assert!(first[column("left/tool_y")].abs() < 1e-3, "{first:?}");
+    assert!(first[column("left/tool_x")] > 0.3, "{first:?}");
+}
+
+/// The CSV row of `text` at time `t`.
+fn lines_at(text: &str, t: f64) -> Vec<f64> {
+    text.lines()
+        .skip(1)
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse().unwrap())
+                .collect::<Vec<f64>>()
+        })
+        .find(|r| (r[0] - t).abs() < 1e-9)
+        .unwrap()
 }
 
 #[test]

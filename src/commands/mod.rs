@@ -169,7 +169,8 @@ pub fn load_robot(spec: &str, calibration: &CalibrationArgs) -> Result<Robot, Co
     finish_robot(resolve_option_robot(spec)?, calibration)
 }
 
-fn resolve_option_robot(spec: &str) -> Result<Robot, InputError> {
+/// The robot `--robot` names, without calibration; errors are `--robot`'s.
+pub(super) fn resolve_option_robot(spec: &str) -> Result<Robot, InputError> {
     Robot::resolve(spec, None)
         .map_err(|e| resolve_error(e, |m| InputError::new("--robot", Location::File, m)))
 }

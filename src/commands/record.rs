@@ -136,15 +136,8 @@ fn load_robot(args: &RecordArgs) -> Result<(Robot, Recorded), CommandError> {
         }
         (_, true) => {
             let arms: Vec<(String, String)> = arms.into_iter().flatten().collect();
-            let (robot, specs) = super::default_placed_cell(&arms, &args.calibration, |spec| {
-                keypose::robot::Robot::resolve(spec, None).map_err(|e| {
-                    keypose::json::InputError::new(
-                        "--robot",
-                        keypose::json::Location::File,
-                        e.to_string(),
-                    )
-                })
-            })?;
+            let (robot, specs) =
+                super::default_placed_cell(&arms, &args.calibration, super::resolve_option_robot)?;
             eprintln!(
                 "note: the arms are placed at default bases (left at y = +{0} m, right at y = -{0} m, both facing +x); edit each arm's \"base\" in \"robots\" for the real bench",
                 keypose::sequence::DEFAULT_ARM_HALF_SPACING_M

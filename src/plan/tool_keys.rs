@@ -66,8 +66,19 @@ pub fn solve<'a>(
     robot: &Robot,
 ) -> Result<(Cow<'a, Sequence>, ToolSolve), InputError> {
     if robot.is_cell() {
-        return solve_cell(sequence, robot);
+        solve_cell(sequence, robot)
+    } else {
+        solve_arm(sequence, robot, "tool")
     }
+}
+
+/// [`solve`] on a robot of one arm, whose keys' targets are at `tool_field` in the file
+/// (`tool`, or `tool.ARM` for an arm of a cell).
+fn solve_arm<'a>(
+    sequence: &'a Sequence,
+    robot: &Robot,
+    tool_field: &str,
+) -> Result<(Cow<'a, Sequence>, ToolSolve), InputError> {
     let has_tools = sequence
         .keyframes
         .iter()
@@ -95,7 +106,7 @@ pub fn solve<'a>(
         if solved.keyframes[index].tool.is_some() {
             let key_report = match followed {
                 Some(end) => take_line_end(robot, &mut solved, index, end),
-                None => solve_key(&solver, robot, &mut solved, index, &pose)?,
+                None => solve_key(&solver, robot, &mut solved, index, &pose, tool_field)?,
             };
             pose.clone_from(&key_report.values);
             report.keys.push(key_report);
@@ -128,8 +139,8 @@ fn solve_cell<'a>(
     let mut report = ToolSolve::default();
     for arm in &cell.arms {
         let view = arm_view(sequence, &arm.name);
-        let (arm_solved, arm_report) =
-            solve(&view, &arm.robot).map_err(|e| on_arm(e, &arm.name))?;
+        let (arm_solved, arm_report) = solve_arm(&view, &arm.robot, &format!("tool.{}", arm.name))
+            .map_err(|e| on_arm(e, &arm.name))?;
         for (key, arm_key) in solved.keyframes.iter_mut().zip(&arm_solved.keyframes) {
             for (name, value) in &arm_key.values {
                 key.set(&cell_joint_name(&arm.name, name), *value);
@@ -181,12 +192,9 @@ fn arm_view(sequence: &Sequence, arm: &str) -> Sequence {
     view
 }
 
-/// An error about an arm's part of a cell's sequence, with the arm's path in the file: the
-/// arm's tool is `tool.ARM`, its joints `ARM/JOINT`.
+/// An error about an arm's part of a cell's sequence: its message says the arm (its path names
+/// the arm's tool, `tool.ARM`, already).
 fn on_arm(mut error: InputError, arm: &str) -> InputError {
-    if let crate::json::Location::Path(path) = &mut error.location {
-        *path = path.replace(".tool.", &format!(".tool.{arm}."));
-    }
     error.message = format!("arm {arm}: {}", error.message);
     error
 }
@@ -234,6 +242,7 @@ fn solve_key(
     sequence: &mut Sequence,
     index: usize,
     seed: &[f64],
+    tool_field: &str,
 ) -> Result<ToolKeyReport, InputError> {
     let key = &sequence.keyframes[index];
     let Some(tool) = key.tool else {
@@ -252,7 +261,7 @@ fn solve_key(
     let solution = solver.solve(robot, &target, seed, &held).map_err(|e| {
         InputError::at_path(
             &sequence.file,
-            &format!("{}.tool.xyz", sequence.key_path(index)),
+            &format!("{}.{tool_field}.xyz", sequence.key_path(index)),
             format!("key {label}: {e}"),
         )
     })?;
