@@ -63,6 +63,23 @@ impl StopSignal {
         self.0.changed.notify_all();
     }
 
+    /// Raises the count of requests to `requests` (a no-op when that many were made already):
+    /// what a front end asks for when a stop may already have been requested by a quicker
+    /// path (the studio's HTTP thread, a signal), so that one press is never counted twice
+    /// and a first "decelerate" never becomes a second "hold at once".
+    pub fn request_to(&self, requests: u32) {
+        let mut count = self.lock();
+        if *count < requests {
+            *count = requests;
+            self.0.changed.notify_all();
+        }
+    }
+
+    /// The first request only: decelerate along the path, unless a stop is already under way.
+    pub fn soft_stop(&self) {
+        self.request_to(1);
+    }
+
     pub fn count(&self) -> u32 {
         *self.lock()
     }
@@ -126,6 +143,17 @@ mod tests {
         // What the handler runs: the latest action.
         ACTION.lock().unwrap().as_ref().unwrap()();
         assert_eq!((first.count(), second.count()), (0, 1));
+    }
+
+    #[test]
+    fn a_stop_asked_for_twice_by_two_paths_counts_once() {
+        let stop = StopSignal::default();
+        stop.soft_stop();
+        stop.request_to(1);
+        assert_eq!(stop.count(), 1, "still decelerating, not holding at once");
+        stop.request_to(2);
+        stop.soft_stop();
+        assert_eq!(stop.count(), 2);
     }
 
     #[test]

@@ -39,11 +39,24 @@ fn start(robot: &Robot, session: &mut Session) -> TeachState {
     state
 }
 
-/// A key press, then (as a script step does) waiting until the arm has arrived.
+/// A key press, then (as a script step does) waiting until the motion it started, a jog
+/// included, is over and the arm has arrived.
 fn press(state: &mut TeachState, session: &mut Session, key: Key) {
-    let events = teach::press(state, session, key);
+    let mut events = teach::press(state, session, key);
+    if let Some(ended) = session.wait_motion().expect("the motion thread") {
+        let follow = state.on_event(ended.clone());
+        events.push(ended);
+        events.extend(teach::apply(state, session, follow));
+    }
     assert!(
-        !events.iter().any(|e| matches!(e, Event::BusError(_))),
+        !events.iter().any(|e| matches!(
+            e,
+            Event::BusError(_)
+                | Event::MotionEnded {
+                    outcome: Err(_),
+                    ..
+                }
+        )),
         "{events:?}"
     );
     assert!(session

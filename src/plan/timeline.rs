@@ -11,7 +11,7 @@
 //!   sequence resumes along the path from where it was, later by the stall; it never jumps
 //!   ahead to where the clock says it should be.
 
-use super::{Approach, Trajectory};
+use super::{Approach, Trajectory, MIN_APPROACH_SECONDS};
 use crate::robot::Robot;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -32,6 +32,9 @@ pub struct TimelineOptions {
     pub from_key: Option<usize>,
     /// Ramp from where the arm is to the first pose (off only with `--no-approach`).
     pub approach: bool,
+    /// The approach's shortest duration, seconds: [`MIN_APPROACH_SECONDS`] for playback, whose
+    /// start is an unknown pose; 0 for a teach jog of held joints, timed by the limits alone.
+    pub shortest_approach: f64,
 }
 
 impl Default for TimelineOptions {
@@ -42,6 +45,7 @@ impl Default for TimelineOptions {
             ping_pong: false,
             from_key: None,
             approach: true,
+            shortest_approach: MIN_APPROACH_SECONDS,
         }
     }
 }
@@ -138,7 +142,7 @@ impl<'a> Timeline<'a> {
             .clamp(trajectory.start, trajectory.end);
         let first = trajectory.sample(play_from);
         let (state, approach_seconds) = if options.approach {
-            let ramp = Approach::new(robot, measured, &first);
+            let ramp = Approach::at_least(robot, measured, &first, options.shortest_approach);
             let seconds = ramp.duration;
             (
                 State::Ramp {

@@ -49,6 +49,8 @@ pub struct PlayOptions {
     pub from_key: Option<usize>,
     /// Ramp from the measured pose to the first pose (only `--no-approach` turns it off).
     pub approach: bool,
+    /// The approach ramp's shortest duration, seconds ([`TimelineOptions::shortest_approach`]).
+    pub shortest_approach: f64,
     pub release_at_end: bool,
     /// Read present positions every N cycles (None: never during playback).
     pub readback_every: Option<u32>,
@@ -72,6 +74,7 @@ impl PlayOptions {
             ping_pong: self.ping_pong,
             from_key: self.from_key,
             approach: self.approach,
+            shortest_approach: self.shortest_approach,
         }
     }
 
@@ -83,6 +86,7 @@ impl PlayOptions {
             ping_pong: false,
             from_key: None,
             approach: true,
+            shortest_approach: crate::plan::MIN_APPROACH_SECONDS,
             release_at_end: false,
             readback_every: Some(1),
             health_every: (rate_hz / 4.0).ceil().max(1.0) as u32,

@@ -346,6 +346,26 @@ impl Robot {
             .collect()
     }
 
+    /// These joints alone (indices in joint order), as a robot of their own for joint-space
+    /// motion: a teach jog is played by the player on the jogged joints only, so the others —
+    /// limp ones too — are neither written nor switched on. Each joint keeps its limits, servo
+    /// and calibration; the chain is not kept (no forward kinematics on the result), nor a
+    /// cell's arms.
+    pub fn only(&self, joints: &[usize]) -> Robot {
+        Robot {
+            name: self.name.clone(),
+            source: self.source.clone(),
+            description: self.description.clone(),
+            bus: self.bus.clone(),
+            control_hz: self.control_hz,
+            joints: joints.iter().map(|&j| self.joints[j].clone()).collect(),
+            tcp: None,
+            home: joints.iter().map(|&j| self.home[j]).collect(),
+            lerobot: self.lerobot,
+            arms: Vec::new(),
+        }
+    }
+
     /// Joint values (degrees or metres) of servo positions read in joint order.
     pub fn values_of(&self, ticks: &[i64]) -> Vec<f64> {
         self.joints

@@ -2,12 +2,16 @@
 //! the present pose read every [`READ_PERIOD`], keys pressed through [`teach::press`]) with
 //! the keys coming from the page over a channel instead of from a terminal, and every change
 //! published as a numbered [`snapshot`] for the event streams.
+//!
+//! What arrives is queued in a [`InputQueue`]: a stop (the Stop button, Esc, Ctrl-C, a lost
+//! controller) drops every action queued before it, and keys wait while a jog runs. The
+//! moving arm itself is braked before any of that by the HTTP thread or the signal handler,
+//! through the session's [`teach::Brake`].
 
 use super::control::Lease;
 use super::snapshot::snapshot;
-use crate::robot::Robot;
 use crate::sequence::Sequence;
-use crate::teach::format;
+use crate::teach::inputs::{self, InputQueue};
 use crate::teach::{self, Key, Session, TeachError, TeachState};
 use serde_json::Value;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
@@ -17,6 +21,8 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 /// How often the present pose is read: 50 Hz, so that the page, which draws each snapshot,
 /// follows the arm at well over 30 Hz (the terminal reads at 20 Hz).
 pub const READ_PERIOD: Duration = Duration::from_millis(20);
+/// How often the end of a jog is looked for while keys wait for it.
+const WAITING_POLL: Duration = Duration::from_millis(2);
 
 /// What the page asks the engine to do.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -38,6 +44,22 @@ pub enum Input {
     },
     /// Ctrl-C, SIGTERM or SIGHUP in the terminal.
     Interrupt,
+}
+
+impl inputs::Input for Input {
+    fn is_stop(&self) -> bool {
+        match self {
+            Input::Interrupt => true,
+            Input::Action { action, .. } => match action {
+                Action::Stop => true,
+                Action::Key(key) => key.is_stop(),
+                Action::Line(_) => false,
+            },
+        }
+    }
+    fn is_jog(&self) -> bool {
+        matches!(self, Input::Action { action: Action::Key(key), .. } if key.is_jog())
+    }
 }
 
 /// The published state, shared with the HTTP threads.
@@ -89,25 +111,6 @@ impl Hub {
             return;
         }
         published.sequence = Some(state.list().sequence().clone());
-        self.number(&mut published, value);
-    }
-
-    /// The last snapshot with the arm at `present`, read while a jog ramps (the state hears
-    /// of the pose once the jog is done; the page sees it move meanwhile).
-    fn publish_present(&self, robot: &Robot, present: &[f64]) {
-        let mut published = self.published();
-        let mut value = published.last.clone();
-        if value.is_null() {
-            return;
-        }
-        for (j, (joint, &v)) in robot.joints.iter().zip(present).enumerate() {
-            value["joints"][j]["present"] = v.into();
-            value["joints"][j]["present_text"] = format::value_and_percent(joint, v).into();
-        }
-        // The tool the snapshot shows: on a cell the selected joint's arm's.
-        let selected = value["selected"].as_u64().unwrap_or(0) as usize;
-        let (_, tcp) = crate::teach::state::selected_tool(robot, selected, present);
-        value["tcp"] = serde_json::json!([tcp.x, tcp.y, tcp.z]);
         self.number(&mut published, value);
     }
 
@@ -165,20 +168,23 @@ pub fn run(
     state: &mut TeachState,
     session: &mut Session,
     hub: &Arc<Hub>,
-    inputs: Receiver<Input>,
+    received: Receiver<Input>,
 ) -> Result<Ended, TeachError> {
     let bus = session.describe().to_string();
-    let (watcher, robot) = (hub.clone(), state.robot().clone());
-    session.observe_jogs(Box::new(move |present| {
-        watcher.publish_present(&robot, present)
-    }));
+    let mut queue = InputQueue::default();
     let mut next_read = Instant::now();
     let mut interrupted = false;
     let result = loop {
-        follow_the_drivers(state, session, hub)?;
+        follow_the_drivers(state, session, hub, &mut queue)?;
         if Instant::now() >= next_read {
             teach::refresh(state, session);
             next_read = Instant::now() + READ_PERIOD;
+        }
+        while let Some(input) = queue.next(state.is_jogging()) {
+            interrupted |= carry_out(state, session, input);
+            // Published before the answer of the next: whoever asks for the state once
+            // answered sees what the action did.
+            hub.publish(state, &bus);
         }
         hub.publish(state, &bus);
         if state.should_quit() {
@@ -187,37 +193,76 @@ pub fn run(
         if interrupted && !state.is_moving() {
             break Ok(Ended::Interrupted);
         }
-        let timeout = next_read.saturating_duration_since(Instant::now());
-        match inputs.recv_timeout(timeout) {
-            Ok(Input::Action { action, reply }) => {
-                act(state, session, action);
-                // Published before the answer: whoever asks for the state once answered
-                // sees what the action did.
-                hub.publish(state, &bus);
-                let _ = reply.send(serde_json::json!({
-                    "text": state.status().text,
-                    "error": state.status().error,
-                }));
-            }
-            Ok(Input::Interrupt) => {
-                interrupted = true;
-                interrupt(state, session);
+        let mut timeout = next_read.saturating_duration_since(Instant::now());
+        if !queue.is_empty() {
+            timeout = timeout.min(WAITING_POLL);
+        }
+        match received.recv_timeout(timeout) {
+            Ok(input) => {
+                take(&mut queue, input);
+                // Whatever else has arrived meanwhile, so that a stop behind it is seen now.
+                while let Ok(input) = received.try_recv() {
+                    take(&mut queue, input);
+                }
             }
             Err(RecvTimeoutError::Timeout) => {}
-            Err(RecvTimeoutError::Disconnected) => break Ok(Ended::Quit),
+            Err(RecvTimeoutError::Disconnected) if queue.is_empty() => break Ok(Ended::Quit),
+            Err(RecvTimeoutError::Disconnected) => {}
         }
     };
     hub.end();
     result
 }
 
+/// Queues `input`; what it drops (a stop drops everything before it) is answered as dropped.
+fn take(queue: &mut InputQueue<Input>, input: Input) {
+    let why = if inputs::Input::is_stop(&input) {
+        "dropped: a stop came after it".to_string()
+    } else {
+        format!(
+            "refused: {} actions are waiting already",
+            inputs::MAX_WAITING
+        )
+    };
+    answer_dropped(queue.push(input), &why);
+}
+
+fn answer_dropped(dropped: Vec<Input>, why: &str) {
+    for input in dropped {
+        if let Input::Action { reply, .. } = input {
+            let _ = reply.send(serde_json::json!({"text": why, "error": true}));
+        }
+    }
+}
+
+/// Hands one input to the state; true for an interruption (the session then ends once the
+/// arm is at rest).
+fn carry_out(state: &mut TeachState, session: &mut Session, input: Input) -> bool {
+    match input {
+        Input::Action { action, reply } => {
+            act(state, session, action);
+            let _ = reply.send(serde_json::json!({
+                "text": state.status().text,
+                "error": state.status().error,
+            }));
+            false
+        }
+        Input::Interrupt => {
+            interrupt(state, session);
+            true
+        }
+    }
+}
+
 /// What happens between keys: a finished motion's end, and the soft stop when the
 /// controlling page is gone — also one that went silent (no heartbeat, no broken stream to
-/// tell), let go here whether or not any page asks for anything.
+/// tell), let go here whether or not any page asks for anything. A lost page's queued keys
+/// go with it.
 fn follow_the_drivers(
     state: &mut TeachState,
     session: &mut Session,
     hub: &Hub,
+    queue: &mut InputQueue<Input>,
 ) -> Result<(), TeachError> {
     if let Some(event) = session.poll()? {
         let follow = state.on_event(event);
@@ -229,6 +274,8 @@ fn follow_the_drivers(
         lease.take_lost()
     };
     if lost {
+        session.brake().soft_stop();
+        answer_dropped(queue.drop_all(), "dropped: the page lost control");
         let stop = state.soft_stop();
         teach::apply(state, session, stop);
     }

@@ -98,9 +98,17 @@ impl Studio {
         simulator: Option<Simulator>,
     ) -> Result<engine::Ended, StudioError> {
         let hub = Arc::new(engine::Hub::default());
+        // From now on Ctrl-C (SIGTERM, SIGHUP) brakes the arm at once, on the handler's thread,
+        // and then asks the engine to end the session.
+        let (brake, interrupts) = (session.brake(), self.inputs.clone());
+        crate::stop::on_signal(move || {
+            brake.soft_stop();
+            let _ = interrupts.send(engine::Input::Interrupt);
+        });
         let mut context =
             server::Context::new(self.guard, hub.clone(), self.inputs, state.robot().clone());
         context.simulator = simulator;
+        context.brake = session.brake();
         // The first snapshot before the first request is served: requests that arrive as soon
         // as the URL is printed wait in the listening socket until then.
         hub.publish(state, session.describe());

@@ -8,6 +8,7 @@ use super::auth::{Credentials, Guard, Refusal, TOKEN_HEADER};
 use super::control::ControlRefusal;
 use super::engine::{self, Action, Hub, Input, News};
 use crate::robot::Robot;
+use crate::teach::Brake;
 use serde_json::{json, Value};
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -32,6 +33,9 @@ pub struct Context {
     pub guard: Guard,
     pub hub: Arc<Hub>,
     pub inputs: Sender<Input>,
+    /// Brakes the moving arm from the request's own thread: a Stop never waits for the
+    /// engine.
+    pub brake: Brake,
     pub robot: Robot,
     /// `GET /api/robot`, built once.
     pub robot_model: String,
@@ -48,6 +52,7 @@ impl Context {
             guard,
             hub,
             inputs,
+            brake: Brake::default(),
             robot,
             robot_model,
             simulator: None,
@@ -168,20 +173,27 @@ fn control(request: Request, context: &Context, client: Option<String>) {
     respond(request, response)
 }
 
-/// `POST /api/key` with `{"key": TOKEN}` or `{"line": TEXT}`: one action of the controller.
+/// `POST /api/key` with `{"key": TOKEN}` or `{"line": TEXT}`: one action of the controller,
+/// or the Stop button of any page (the token is checked already: whoever may watch may stop).
+/// A stop brakes the arm here and now, then goes to the engine, where it drops whatever keys
+/// are still queued.
 fn key(mut request: Request, context: &Context, client: Option<String>) {
-    let checked = context
-        .hub
-        .lease()
-        .check(client.as_deref().unwrap_or(""), Instant::now());
-    if let Err(refusal) = checked {
-        return respond(request, control_refused(&refusal));
-    }
     let action = read_body(&mut request).and_then(|body| parse_action(&body));
     let action = match action {
         Ok(action) => action,
         Err(message) => return respond(request, json_response(400, &json!({"error": message}))),
     };
+    if action == Action::Stop {
+        context.brake.soft_stop();
+    } else {
+        let checked = context
+            .hub
+            .lease()
+            .check(client.as_deref().unwrap_or(""), Instant::now());
+        if let Err(refusal) = checked {
+            return respond(request, control_refused(&refusal));
+        }
+    }
     let (reply, answer) = std::sync::mpsc::channel();
     let response = match context.inputs.send(Input::Action { action, reply }) {
         Err(_) => json_response(503, &json!({"error": "the session has ended"})),

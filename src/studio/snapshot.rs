@@ -106,6 +106,7 @@ fn activity(activity: &Activity) -> Value {
             let (what, text) = match kind {
                 MotionKind::ToKey(i) => ("to_key", format!("moving to key {i}")),
                 MotionKind::Play { from } => ("play", format!("playing from key {from}")),
+                MotionKind::Jog => ("jog", "jogging".to_string()),
             };
             let text = if *stops > 0 {
                 format!("{text}, stopping")

@@ -37,6 +37,28 @@ pub enum Key {
     ToolTarget([i64; 3]),
 }
 
+impl Key {
+    /// Whether the key jogs the arm (joints, the tool, the tool handle): these may come faster
+    /// than the arm moves (a held key repeats), so a session keeps the newest one only.
+    pub fn is_jog(&self) -> bool {
+        matches!(
+            self,
+            Key::Left
+                | Key::Right
+                | Key::ShiftLeft
+                | Key::ShiftRight
+                | Key::Char('x' | 'X' | 'c' | 'C' | 'z' | 'Z')
+                | Key::ToolTarget(_)
+        )
+    }
+
+    /// Whether the key asks the arm to stop (Esc, Ctrl-C): it wins over every key queued
+    /// before it, which it drops ([`super::inputs::InputQueue`]).
+    pub fn is_stop(&self) -> bool {
+        matches!(self, Key::Esc | Key::Interrupt)
+    }
+}
+
 /// A key binding as shown to the user.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Binding {

@@ -20,13 +20,13 @@ pub enum Command {
 pub enum BusCommand {
     /// On: hold these joints where they are now (goal = present, then torque on). Off: limp.
     Torque { joints: Vec<usize>, on: bool },
-    /// New goals for these joints, already inside their limits.
-    Goals(Vec<(usize, f64)>),
-    /// Run the player (safe approach ramp, then the trajectory) while keys are still read.
+    /// Run the player (safe approach ramp, then the trajectory) while keys are still read: a
+    /// move to a key, playback, or a jog.
     Run(Box<MotionPlan>),
     /// Stop the running motion: the first request decelerates along the path, a second holds
-    /// at once.
-    Stop,
+    /// at once. `requests` counts this one: a stop already requested by a quicker path (the
+    /// studio's HTTP thread, a signal) is not requested twice.
+    Stop { requests: u32 },
 }
 
 /// What the session asks of the file system; each is answered by one [`Event`].
@@ -70,10 +70,11 @@ pub enum Event {
     Released {
         joints: Vec<usize>,
     },
-    GoalsSent(Vec<(usize, f64)>),
     MotionStarted {
         kind: MotionKind,
         end_pose: Vec<f64>,
+        /// The joints it drives (robot order).
+        joints: Vec<usize>,
     },
     /// The player returned; every joint has torque on. `last_goals` is the last pose it
     /// commanded, when known.

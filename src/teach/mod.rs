@@ -9,13 +9,15 @@
 //!   playback through the player on its own thread; [`files`] carries out the file ones;
 //! - the front ends: [`ui`] draws the state in a terminal (ratatui + crossterm) and maps key
 //!   presses; [`script`] feeds it the keys of a `--keys` file, for tests and demos; both word
-//!   things through [`format`].
+//!   things through [`format`]. The terminal and the studio queue what arrives in
+//!   [`inputs::InputQueue`], where a stop wins over everything queued before it.
 //!
 //! Every edit is journaled ([`journal`]) so a crash loses nothing.
 
 pub mod capture;
 pub mod files;
 pub mod format;
+pub mod inputs;
 pub mod journal;
 pub mod keys;
 pub mod messages;
@@ -30,7 +32,7 @@ pub use journal::{Journal, Pending};
 pub use keys::{help_text, Key, BINDINGS};
 pub use messages::{BusCommand, Command, Event, FileCommand};
 pub use prompt::Prompt;
-pub use session::{PoseObserver, Session, SessionError};
+pub use session::{Brake, Session, SessionError};
 pub use state::TeachState;
 
 /// What ends a session early.

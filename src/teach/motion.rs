@@ -1,5 +1,9 @@
-//! The motions `space` and `y` ask for, planned from the list alone: pure functions, so what
-//! the arm would be sent is tested without servos or a session.
+//! The motions `space`, `y` and the jogs ask for, planned from the list and the goals alone:
+//! pure functions, so what the arm would be sent is tested without servos or a session.
+//!
+//! Every motion runs on the player (its ramp, limiter, guard, stop braking along the path and
+//! fault handling), on the session's motion thread, so that a stop request is acted on within
+//! one control period whatever the motion is — a jog included.
 
 use super::format;
 use crate::json::InputError;
@@ -15,12 +19,20 @@ pub enum MotionKind {
     ToKey(usize),
     /// `y`: the sequence from key `from`.
     Play { from: usize },
+    /// An arrow key, a tool jog or the studio's tool handle: these joints (robot order) to
+    /// these values, the others left as they are.
+    Jog,
 }
 
 /// A motion for the player: the approach ramp from the present pose, then `trajectory`.
 #[derive(Debug, Clone)]
 pub struct MotionPlan {
     pub kind: MotionKind,
+    /// What the player drives: the session's robot, or for a jog its jogged joints alone
+    /// ([`Robot::only`]), so that the others (limp ones too) are neither written nor switched on.
+    pub robot: Robot,
+    /// The driven joints' indices in the session's robot, in the order of `robot`'s joints.
+    pub joints: Vec<usize>,
     pub trajectory: Trajectory,
     pub options: PlayOptions,
     /// Where the arm is commanded at the end when the motion finishes.
@@ -62,6 +74,8 @@ pub fn to_key(robot: &Robot, sequence: &Sequence, index: usize) -> Result<Motion
     // One key: the player's approach ramp is the whole motion.
     Ok(MotionPlan {
         kind: MotionKind::ToKey(index),
+        robot: robot.clone(),
+        joints: (0..robot.joints.len()).collect(),
         trajectory: Trajectory::build(&target, robot)?,
         options: PlayOptions {
             progress: false,
@@ -88,12 +102,52 @@ pub fn play(
     let end_pose = trajectory.sample(trajectory.end);
     Ok(MotionPlan {
         kind: MotionKind::Play { from },
+        robot: robot.clone(),
+        joints: (0..robot.joints.len()).collect(),
         trajectory,
         options: PlayOptions {
             speed,
             from_key: Some(from),
             progress: false,
             ..PlayOptions::new(rate)
+        },
+        end_pose,
+    })
+}
+
+/// A jog: `jogged` joints (robot order, values already inside their limits) from the goals
+/// they hold, `goals`, to their new values, by the player's approach ramp alone on those
+/// joints — within half their velocity and acceleration limits and timed by them (no
+/// deliberate half second: the start is a held goal, known to a tick), brakeable along its
+/// path like any playback.
+pub fn jog(
+    robot: &Robot,
+    goals: &[f64],
+    jogged: &[(usize, f64)],
+) -> Result<MotionPlan, InputError> {
+    let joints: Vec<usize> = jogged.iter().map(|&(j, _)| j).collect();
+    let driven = robot.only(&joints);
+    let mut target = Sequence::new(&robot.name);
+    target.file = "<jog>".into();
+    target.keyframes.push(Keyframe::new(
+        jogged
+            .iter()
+            .map(|&(j, v)| (robot.joints[j].name.clone(), KeyValue::Joint(v)))
+            .collect(),
+    ));
+    let mut end_pose = goals.to_vec();
+    for &(j, v) in jogged {
+        end_pose[j] = v;
+    }
+    Ok(MotionPlan {
+        kind: MotionKind::Jog,
+        trajectory: Trajectory::build(&target, &driven)?,
+        robot: driven,
+        joints,
+        options: PlayOptions {
+            progress: false,
+            shortest_approach: 0.0,
+            ..PlayOptions::new(robot.control_hz)
         },
         end_pose,
     })
@@ -153,6 +207,35 @@ mod tests {
         assert_eq!(plan.options.speed, 1.5);
         assert_eq!(plan.options.rate_hz, robot.control_hz);
         assert!((plan.end_pose[0] - 20.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_jog_drives_the_jogged_joints_alone_within_half_their_limits() {
+        let robot = Robot::builtin("so101").unwrap();
+        let goals = [0.0, 5.0, 0.0, 0.0, 0.0, 0.0];
+        let plan = jog(&robot, &goals, &[(3, 10.0)]).unwrap();
+        assert_eq!(plan.kind, MotionKind::Jog);
+        assert_eq!(plan.joints, [3]);
+        let names: Vec<&str> = plan.robot.joints.iter().map(|j| j.name.as_str()).collect();
+        assert_eq!(names, ["wrist_flex"]);
+        assert_eq!(plan.end_pose, [0.0, 5.0, 0.0, 10.0, 0.0, 0.0]);
+        assert!(plan.options.approach && plan.options.shortest_approach == 0.0);
+        // From 0 to 10°, the minimum-jerk ramp at half the wrist's limits: its time is the
+        // larger of 15/8 · 10 / (v/2) and √(10/√3 · 10 / (a/2)).
+        let wrist = &robot.joints[3].limits;
+        let by_velocity = 15.0 / 8.0 * 10.0 / (wrist.velocity / 2.0);
+        let by_acceleration = (10.0 / 3f64.sqrt() * 10.0 / (wrist.acceleration / 2.0)).sqrt();
+        let timeline = crate::plan::Timeline::new(
+            &plan.robot,
+            &plan.trajectory,
+            &plan.options.timeline(),
+            &[0.0],
+        );
+        assert!(
+            (timeline.approach_seconds() - by_velocity.max(by_acceleration)).abs() < 1e-12,
+            "{} vs {by_velocity} / {by_acceleration}",
+            timeline.approach_seconds()
+        );
     }
 
     #[test]

@@ -105,12 +105,9 @@ fn run_key(
         let follow = state.on_event(ended);
         events.extend(apply(state, session, follow));
     }
-    let commanded = events.iter().any(|e| {
-        matches!(
-            e,
-            Event::GoalsSent(_) | Event::Held { .. } | Event::MotionEnded { .. }
-        )
-    });
+    let commanded = events
+        .iter()
+        .any(|e| matches!(e, Event::Held { .. } | Event::MotionEnded { .. }));
     if commanded {
         match session.settle(SETTLE_TIMEOUT) {
             Ok(true) => {}

@@ -1,19 +1,19 @@
 //! Carries out the state machine's [`BusCommand`]s on a [`ServoBus`] and reports [`Event`]s.
 //!
-//! Playback inside the session: `space` (move to a key) and `y` (play) both run
-//! [`player::play`] — the same approach ramp, pacing, limit guard, fault handling and braking
-//! stop as `keypose play` — on a thread that owns the bus for the motion's duration. The UI
-//! thread keeps reading keys meanwhile; `y`/`Esc` raise the player's [`StopSignal`] (once:
-//! decelerate along the path; twice: hold at once). The bus comes back with the thread's
-//! result. While the thread has it, the present pose shown is what the player itself read back,
-//! passed through a thin wrapper around the bus, so there is never a second user of the port.
+//! Every motion — `space` (move to a key), `y` (play) and every jog — runs [`player::play`]
+//! (the same approach ramp, pacing, step limiter, limit guard, fault handling and braking stop
+//! as `keypose play`) on a thread that owns the bus for the motion's duration; a jog drives
+//! only its joints ([`crate::robot::Robot::only`]). The UI thread keeps reading keys
+//! meanwhile, so `y`/`Esc` raise the player's [`StopSignal`] within a control period whatever
+//! was queued (once: decelerate along the path; twice: hold at once), and so can any thread
+//! through the session's [`Brake`]. The bus comes back with the thread's result. While the
+//! thread has it, the present pose shown is what the player itself read back, passed through
+//! a thin wrapper around the bus, so there is never a second user of the port.
 
 use super::capture::tidy;
 use super::messages::{BusCommand, Event};
 use super::motion::MotionPlan;
 use crate::bus::{BusError, ServoBus};
-use crate::pacing::{Pacer, WallClock};
-use crate::plan::Approach;
 use crate::player::{self, Outcome, PlayError, StopSignal};
 use crate::robot::Robot;
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -26,14 +26,15 @@ const SETTLE_POLL: Duration = Duration::from_millis(10);
 /// as settled (a loaded real servo may rest a tick or two off its goal).
 const SETTLE_STABLE_READS: u32 = 8;
 
-/// What the motion thread observed, shared with the UI thread.
+/// What the motion thread observed, shared with the UI thread: per joint of the session's
+/// robot (a jog reads and writes its own joints only; the others keep what was known).
 #[derive(Debug, Default)]
 struct Observed {
-    ticks: Option<Vec<i64>>,
-    goals: Option<Vec<(u8, i64)>>,
+    ticks: Vec<i64>,
+    goals: Vec<Option<i64>>,
 }
 
-fn lock(shared: &Mutex<Observed>) -> MutexGuard<'_, Observed> {
+fn lock<T>(shared: &Mutex<T>) -> MutexGuard<'_, T> {
     // A poisoned lock only means the motion thread panicked mid-update; the data is still the
     // best there is, and the panic itself is reported when the thread is joined.
     shared.lock().unwrap_or_else(|e| e.into_inner())
@@ -42,8 +43,17 @@ fn lock(shared: &Mutex<Observed>) -> MutexGuard<'_, Observed> {
 /// The bus as the player uses it, recording what it reads and writes for the screen.
 struct ObservedBus {
     inner: Box<dyn ServoBus>,
+    /// The session's servo ids, in joint order.
     ids: Vec<u8>,
     shared: Arc<Mutex<Observed>>,
+}
+
+impl ObservedBus {
+    /// The session's joint index of each servo in `ids`.
+    fn joints<'a>(&'a self, ids: &'a [u8]) -> impl Iterator<Item = Option<usize>> + 'a {
+        ids.iter()
+            .map(|id| self.ids.iter().position(|own| own == id))
+    }
 }
 
 impl ServoBus for ObservedBus {
@@ -55,15 +65,22 @@ impl ServoBus for ObservedBus {
     }
     fn read_positions(&mut self, ids: &[u8]) -> Result<Vec<i64>, BusError> {
         let ticks = self.inner.read_positions(ids)?;
-        if ids == self.ids.as_slice() {
-            lock(&self.shared).ticks = Some(ticks.clone());
+        let mut observed = lock(&self.shared);
+        for (joint, &tick) in self.joints(ids).zip(&ticks) {
+            if let Some(slot) = joint.and_then(|j| observed.ticks.get_mut(j)) {
+                *slot = tick;
+            }
         }
         Ok(ticks)
     }
     fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError> {
         self.inner.write_goals(goals)?;
-        if goals.len() == self.ids.len() {
-            lock(&self.shared).goals = Some(goals.to_vec());
+        let ids: Vec<u8> = goals.iter().map(|&(id, _)| id).collect();
+        let mut observed = lock(&self.shared);
+        for (joint, &(_, tick)) in self.joints(&ids).zip(goals) {
+            if let Some(slot) = joint.and_then(|j| observed.goals.get_mut(j)) {
+                *slot = Some(tick);
+            }
         }
         Ok(())
     }
@@ -99,6 +116,8 @@ type MotionResult = (Box<dyn ServoBus>, Result<Outcome, PlayError>);
 
 struct RunningMotion {
     stop: StopSignal,
+    /// The joints the player drives (robot order).
+    joints: Vec<usize>,
     shared: Arc<Mutex<Observed>>,
     handle: JoinHandle<MotionResult>,
 }
@@ -111,22 +130,34 @@ pub enum SessionError {
     BusLost(String),
 }
 
-/// Told the present pose while a jog ramps (the studio's 3D view follows the arm).
-pub type PoseObserver = Box<dyn FnMut(&[f64]) + Send>;
+/// Brakes whatever motion the session runs, from any thread (the studio's HTTP threads, a
+/// signal handler) without waiting for the thread that carries out the keys: the first stop
+/// request of the running motion, decelerating along its path; nothing when the arm is idle
+/// or a stop is under way. The state's own stop request that follows is the same request
+/// ([`StopSignal::request_to`]), so it is never counted twice.
+#[derive(Debug, Clone, Default)]
+pub struct Brake(Arc<Mutex<Option<StopSignal>>>);
 
-/// While a jog ramps with an observer, the arm is read every this many control cycles (every
-/// 20 ms at 100 Hz): a small share of the bus, often enough to watch.
-const JOG_READ_EVERY: usize = 2;
+impl Brake {
+    pub fn soft_stop(&self) {
+        if let Some(stop) = lock(&self.0).as_ref() {
+            stop.soft_stop();
+        }
+    }
+
+    fn set(&self, running: Option<StopSignal>) {
+        *lock(&self.0) = running;
+    }
+}
 
 pub struct Session {
     robot: Robot,
-    /// Told the present pose during jogs, when a front end asks.
-    observer: Option<PoseObserver>,
     ids: Vec<u8>,
     description: String,
     /// `None` while a motion thread has it.
     bus: Option<Box<dyn ServoBus>>,
     motion: Option<RunningMotion>,
+    brake: Brake,
     torque: Vec<bool>,
     /// Last goal sent to each joint, for settling.
     goal_ticks: Vec<Option<i64>>,
@@ -139,29 +170,17 @@ impl Session {
             ids: robot.joints.iter().map(|j| j.servo.id).collect(),
             description: bus.describe(),
             robot: robot.clone(),
-            observer: None,
             bus: Some(bus),
             motion: None,
+            brake: Brake::default(),
             torque: vec![false; n],
             goal_ticks: vec![None; n],
         }
     }
 
-    /// From now on, `observer` hears the present pose while a jog ramps (the terminal needs
-    /// none: it redraws once the jog is done).
-    pub fn observe_jogs(&mut self, observer: PoseObserver) {
-        self.observer = Some(observer);
-    }
-
-    /// Reads the arm for the observer, if there is one; a failed read is skipped (the next
-    /// one, or the session's own reading after the jog, shows the pose).
-    fn tell_observer(&mut self) {
-        let (Some(observer), Some(bus)) = (self.observer.as_mut(), self.bus.as_mut()) else {
-            return;
-        };
-        if let Ok(ticks) = bus.read_positions(&self.ids) {
-            observer(&self.robot.values_of(&ticks));
-        }
+    /// The session's brake, for threads other than the one carrying out its commands.
+    pub fn brake(&self) -> Brake {
+        self.brake.clone()
     }
 
     pub fn describe(&self) -> &str {
@@ -175,7 +194,7 @@ impl Session {
     /// The present pose: read from the bus, or while a motion runs, what the player last read.
     pub fn read(&mut self) -> Result<Option<Vec<f64>>, BusError> {
         if let Some(motion) = &self.motion {
-            return Ok(lock(&motion.shared).ticks.as_ref().map(|t| self.values(t)));
+            return Ok(Some(self.values(&lock(&motion.shared).ticks)));
         }
         let ids = self.ids.clone();
         let ticks = self.bus_mut()?.read_positions(&ids)?;
@@ -199,11 +218,10 @@ impl Session {
         let result = match command {
             BusCommand::Torque { joints, on: true } => self.hold(joints),
             BusCommand::Torque { joints, on: false } => self.release(joints),
-            BusCommand::Goals(goals) => self.send_goals(goals),
             BusCommand::Run(plan) => self.run(*plan),
-            BusCommand::Stop => {
+            BusCommand::Stop { requests } => {
                 if let Some(motion) = &self.motion {
-                    motion.stop.request();
+                    motion.stop.request_to(requests);
                 }
                 Ok(Vec::new())
             }
@@ -273,93 +291,34 @@ impl Session {
         Ok(vec![Event::Released { joints }])
     }
 
-    /// Moves the joints to new goals (a jog) along a minimum-jerk ramp at the control rate,
-    /// from the goals they hold, within half their velocity and acceleration limits: a jog of
-    /// 10° written at once would be a jump at the servo's top speed.
-    fn send_goals(&mut self, goals: Vec<(usize, f64)>) -> Result<Vec<Event>, BusError> {
-        let ramp = self.jog_ramp(&goals)?;
-        let period = 1.0 / self.robot.control_hz;
-        let clock = WallClock::new();
-        let mut pacer = Pacer::new(&clock, period);
-        let mut pose = vec![0.0; self.robot.joints.len()];
-        let mut ticks = Vec::with_capacity(goals.len());
-        let never = StopSignal::default();
-        for k in 1.. {
-            pacer.wait(&clock, &never, 0);
-            let t = (k as f64 * period).min(ramp.duration);
-            ramp.sample_into(t, &mut pose);
-            ticks.clear();
-            for &(j, _) in &goals {
-                ticks.push((self.ids[j], self.goal_tick(j, pose[j])?));
-            }
-            self.bus_mut()?.write_goals(&ticks)?;
-            if t >= ramp.duration {
-                break;
-            }
-            if k % JOG_READ_EVERY == 0 {
-                self.tell_observer();
-            }
-        }
-        for (&(j, _), &(_, tick)) in goals.iter().zip(&ticks) {
-            self.goal_ticks[j] = Some(tick);
-        }
-        Ok(vec![Event::GoalsSent(goals)])
-    }
-
-    /// The ramp from each jogged joint's present goal to its new one; the other joints stay.
-    fn jog_ramp(&self, goals: &[(usize, f64)]) -> Result<Approach, BusError> {
-        let mut from: Vec<f64> = self
-            .goal_ticks
-            .iter()
-            .zip(&self.robot.joints)
-            .map(|(tick, joint)| tick.map_or(0.0, |t| joint.servo.value(t)))
-            .collect();
-        let mut to = from.clone();
-        for &(j, value) in goals {
-            // The state clamps jogs; this is the last line before the wire, as in the player.
-            self.goal_tick(j, value)?;
-            match self.goal_ticks[j] {
-                Some(tick) => from[j] = self.robot.joints[j].servo.value(tick),
-                // No goal held (not expected: jogging needs torque on): start at the target,
-                // which the ramp then holds.
-                None => from[j] = value,
-            }
-            to[j] = value;
-        }
-        Ok(Approach::at_least(&self.robot, &from, &to, 0.0))
-    }
-
-    fn goal_tick(&self, j: usize, value: f64) -> Result<i64, BusError> {
-        let joint = &self.robot.joints[j];
-        joint.goal_tick(value).map_err(|e| {
-            BusError::Protocol(format!(
-                "refusing to send joint {}: {e} (nothing was sent)",
-                joint.name
-            ))
-        })
-    }
-
     fn run(&mut self, plan: MotionPlan) -> Result<Vec<Event>, BusError> {
         if self.motion.is_some() {
             return Err(BusError::Protocol("the arm is already moving".into()));
         }
+        // What the screen shows of the joints the motion does not drive: where they are now.
+        let ids = self.ids.clone();
+        let ticks = self.bus_mut()?.read_positions(&ids)?;
         let inner = self
             .bus
             .take()
             .ok_or_else(|| BusError::Protocol("the bus is lost: restart keypose teach".into()))?;
-        let shared = Arc::new(Mutex::new(Observed::default()));
+        let shared = Arc::new(Mutex::new(Observed {
+            ticks,
+            goals: self.goal_ticks.clone(),
+        }));
         let stop = StopSignal::default();
         let MotionPlan {
             kind,
+            robot,
+            joints,
             trajectory,
             options,
             end_pose,
         } = plan;
-        let robot = self.robot.clone();
         let thread_stop = stop.clone();
         let mut bus = ObservedBus {
             inner,
-            ids: self.ids.clone(),
+            ids,
             shared: shared.clone(),
         };
         let handle = std::thread::Builder::new()
@@ -368,14 +327,28 @@ impl Session {
                 let result = player::play(&mut bus, &robot, &trajectory, &options, &thread_stop)
                     .map(|(outcome, _)| outcome);
                 (bus.inner, result)
-            })
-            .map_err(|e| BusError::Protocol(format!("cannot start the motion thread: {e}")))?;
+            });
+        let handle = match handle {
+            Ok(handle) => handle,
+            Err(e) => {
+                // The closure (and the bus in it) is gone with the failed spawn.
+                return Err(BusError::Protocol(format!(
+                    "cannot start the motion thread: {e}"
+                )));
+            }
+        };
+        self.brake.set(Some(stop.clone()));
         self.motion = Some(RunningMotion {
             stop,
+            joints: joints.clone(),
             shared,
             handle,
         });
-        Ok(vec![Event::MotionStarted { kind, end_pose }])
+        Ok(vec![Event::MotionStarted {
+            kind,
+            end_pose,
+            joints,
+        }])
     }
 
     /// The end of a finished motion, if it has finished; never blocks.
@@ -399,6 +372,7 @@ impl Session {
         let Some(motion) = self.motion.take() else {
             return Err(SessionError::BusLost("no motion".into()));
         };
+        self.brake.set(None);
         let (bus, result) = motion.handle.join().map_err(|panic| {
             let message = panic
                 .downcast_ref::<String>()
@@ -408,19 +382,24 @@ impl Session {
             SessionError::BusLost(message)
         })?;
         self.bus = Some(bus);
-        // The player turned torque on everywhere; its last goals are what the servos hold.
-        self.torque.iter_mut().for_each(|t| *t = true);
         let observed = lock(&motion.shared);
-        let last_goals = observed.goals.as_ref().map(|goals| {
-            for (slot, &(_, tick)) in self.goal_ticks.iter_mut().zip(goals) {
-                *slot = Some(tick);
-            }
-            self.values(&goals.iter().map(|&(_, t)| t).collect::<Vec<_>>())
-        });
+        // The player turned torque on for the joints it drives; its last goals are what those
+        // servos hold.
+        for &j in &motion.joints {
+            self.torque[j] = true;
+            self.goal_ticks[j] = observed.goals[j];
+        }
+        let last_goals = self
+            .goal_ticks
+            .iter()
+            .zip(&observed.ticks)
+            .zip(&self.robot.joints)
+            .map(|((goal, &present), joint)| joint.servo.value(goal.unwrap_or(present)))
+            .collect();
         let outcome = result.map_err(|e| format!("motion stopped: {e}"));
         Ok(Event::MotionEnded {
             outcome,
-            last_goals,
+            last_goals: Some(last_goals),
         })
     }
 

@@ -46,6 +46,8 @@ pub enum Activity {
     Moving {
         kind: MotionKind,
         end_pose: Vec<f64>,
+        /// The joints it drives (robot order).
+        joints: Vec<usize>,
         /// Stop requests sent so far.
         stops: u32,
     },
@@ -68,6 +70,10 @@ pub struct TeachState {
     selected: usize,
     speed: f64,
     activity: Activity,
+    /// A jog key pressed while a jog runs: the newest only, run when that jog has finished
+    /// (a held key moves the arm while held, and no more than one jog after it is let go);
+    /// dropped by a stop.
+    pending_jog: Option<Key>,
     prompt: Option<Prompt>,
     status: Status,
     quit: bool,
@@ -104,6 +110,7 @@ impl TeachState {
             selected: 0,
             speed: 1.0,
             activity: Activity::Idle,
+            pending_jog: None,
             prompt: None,
             status: Status::default(),
             quit: false,
@@ -174,6 +181,20 @@ impl TeachState {
     pub fn is_moving(&self) -> bool {
         self.activity != Activity::Idle
     }
+    /// A jog is running (braking too): other keys wait for it ([`super::inputs`]).
+    pub fn is_jogging(&self) -> bool {
+        matches!(
+            self.activity,
+            Activity::Moving {
+                kind: MotionKind::Jog,
+                ..
+            }
+        )
+    }
+    /// The jog key waiting for the running jog to finish, if any.
+    pub fn pending_jog(&self) -> Option<&Key> {
+        self.pending_jog.as_ref()
+    }
     /// Unsaved changes: edits since the last write, or a list that came from elsewhere.
     pub fn is_dirty(&self) -> bool {
         self.list.is_dirty() || self.replaced
@@ -198,6 +219,19 @@ impl TeachState {
     pub fn handle_key(&mut self, key: Key) -> Vec<Command> {
         if let Some(prompt) = self.prompt.take() {
             return self.answer(prompt, key);
+        }
+        let jog_going_on = matches!(
+            self.activity,
+            Activity::Moving {
+                kind: MotionKind::Jog,
+                stops: 0,
+                ..
+            }
+        );
+        if key.is_jog() && jog_going_on {
+            // Newest wins: a held key's repeats never pile up behind the arm.
+            self.pending_jog = Some(key);
+            return Vec::new();
         }
         match key {
             Key::Char(' ') => self.move_to_key(),
@@ -589,17 +623,19 @@ impl TeachState {
     }
 
     fn stop(&mut self) -> Vec<Command> {
+        self.pending_jog = None;
         let Activity::Moving { stops, .. } = &mut self.activity else {
             return Vec::new();
         };
         *stops += 1;
-        let message = if *stops == 1 {
+        let requests = *stops;
+        let message = if requests == 1 {
             "stopping: decelerating along the path (y or Esc again holds at once)"
         } else {
             "holding at once"
         };
         self.info(message);
-        bus(BusCommand::Stop)
+        bus(BusCommand::Stop { requests })
     }
 
     fn select(&mut self, delta: isize) -> Vec<Command> {
@@ -656,7 +692,15 @@ impl TeachState {
                 format::value(joint, limit)
             ));
         }
-        bus(BusCommand::Goals(vec![(j, goal)]))
+        self.jog_to(&[(j, goal)])
+    }
+
+    /// The player's motion for a jog of these joints to these values (inside their limits).
+    fn jog_to(&mut self, jogged: &[(usize, f64)]) -> Vec<Command> {
+        match motion::jog(&self.robot, &self.goals, jogged) {
+            Ok(plan) => bus(BusCommand::Run(Box::new(plan))),
+            Err(e) => self.fail(format!("cannot jog: {e}")),
+        }
     }
 
     fn toggle_torque(&mut self, all: bool) -> Vec<Command> {

@@ -6,6 +6,7 @@
 //! `try_init` installs a hook that restores the terminal before the panic message prints).
 
 use super::format;
+use super::inputs::InputQueue;
 use super::keys::{Key, BINDINGS};
 use super::motion::MotionKind;
 use super::state::{Activity, TeachState};
@@ -17,11 +18,15 @@ use ratatui::style::{Color, Modifier, Style};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Cell, Paragraph, Row, Table, TableState, Wrap};
 use ratatui::Frame;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// How often the present pose is read while idle: 20 Hz, smooth to watch and a small share of
 /// the bus.
 pub const READ_PERIOD: Duration = Duration::from_millis(50);
+/// How often the end of a jog is looked for while keys wait for it.
+const WAITING_POLL: Duration = Duration::from_millis(2);
 /// Width of the limit bar, in cells.
 const BAR_WIDTH: usize = 21;
 /// Below this width the joint table and the key list are stacked instead of side by side.
@@ -43,16 +48,21 @@ impl Drop for RestoreTerminal {
 pub fn run(state: &mut TeachState, session: &mut Session) -> Result<(), TeachError> {
     // The guard comes first so that a failure half-way through initialisation still restores.
     let _restore = RestoreTerminal;
-    // SIGTERM (kill) or SIGHUP (a closed terminal window) would otherwise leave the terminal in
-    // raw mode. Nothing is lost by exiting at once: every edit is already in the journal, and
-    // servos hold their last goal. (Ctrl-C in raw mode is a key, not a signal.)
-    crate::stop::on_signal(|| {
-        ratatui::restore();
-        std::process::exit(EXIT_KILLED);
+    // SIGTERM (kill) or SIGHUP (a closed terminal window) brakes a moving arm at once, on the
+    // handler's thread, and ends the session once the arm is at rest. Nothing is lost by
+    // ending then: every edit is already in the journal, and the servos hold their last goal.
+    // (Ctrl-C in raw mode is a key, not a signal.)
+    let killed = Arc::new(AtomicBool::new(false));
+    let (brake, signalled) = (session.brake(), killed.clone());
+    crate::stop::on_signal(move || {
+        brake.soft_stop();
+        signalled.store(true, Ordering::SeqCst);
     });
     let mut terminal = ratatui::try_init()?;
     let bus = session.describe().to_string();
+    let mut queue = InputQueue::default();
     let mut next_read = Instant::now();
+    let mut stopping_for_signal = false;
     loop {
         if let Some(event) = session.poll()? {
             let follow = state.on_event(event);
@@ -62,19 +72,37 @@ pub fn run(state: &mut TeachState, session: &mut Session) -> Result<(), TeachErr
             refresh(state, session);
             next_read = Instant::now() + READ_PERIOD;
         }
+        if killed.load(Ordering::SeqCst) && !stopping_for_signal {
+            stopping_for_signal = true;
+            queue.push(Key::Esc);
+        }
+        while let Some(key) = queue.next(state.is_jogging()) {
+            press(state, session, key);
+        }
         terminal.draw(|frame| draw(frame, state, &bus))?;
         if state.should_quit() {
             return Ok(());
         }
-        let timeout = next_read.saturating_duration_since(Instant::now());
-        if event::poll(timeout)? {
+        if stopping_for_signal && !state.is_moving() {
+            ratatui::restore();
+            std::process::exit(EXIT_KILLED);
+        }
+        let mut timeout = next_read.saturating_duration_since(Instant::now());
+        if !queue.is_empty() || stopping_for_signal {
+            timeout = timeout.min(WAITING_POLL);
+        }
+        // Every key that has arrived, before any is carried out: a stop among them drops the
+        // ones before it.
+        let mut wait = timeout;
+        while event::poll(wait)? {
             if let event::Event::Key(key_event) = event::read()? {
                 if key_event.kind != KeyEventKind::Release {
                     if let Some(key) = map_key(key_event) {
-                        press(state, session, key);
+                        queue.push(key);
                     }
                 }
             }
+            wait = Duration::ZERO;
         }
     }
 }
@@ -339,6 +367,7 @@ fn status_lines(state: &TeachState) -> Paragraph<'static> {
             let what = match kind {
                 MotionKind::ToKey(i) => format!("moving to key {i}"),
                 MotionKind::Play { from } => format!("playing from key {from}"),
+                MotionKind::Jog => "jogging".to_string(),
             };
             if *stops > 0 {
                 format!("{what}, stopping")

@@ -11,12 +11,15 @@ impl TeachState {
             Event::Reading(values) => self.present = values,
             Event::Held { joints, values } => self.held(joints, values),
             Event::Released { joints } => self.released(joints),
-            Event::GoalsSent(goals) => self.goals_sent(goals),
-            Event::MotionStarted { kind, end_pose } => self.motion_started(kind, end_pose),
+            Event::MotionStarted {
+                kind,
+                end_pose,
+                joints,
+            } => self.motion_started(kind, end_pose, joints),
             Event::MotionEnded {
                 outcome,
                 last_goals,
-            } => self.motion_ended(outcome, last_goals),
+            } => return self.motion_ended(outcome, last_goals),
             Event::BusError(message) => {
                 self.fail(message);
             }
@@ -53,28 +56,26 @@ impl TeachState {
         ));
     }
 
-    fn goals_sent(&mut self, goals: Vec<(usize, f64)>) {
-        for &(j, v) in &goals {
-            self.goals[j] = v;
-        }
-        match goals[..] {
-            [] => {}
-            [(j, v)] => {
-                let joint = &self.robot.joints[j];
-                self.info(format!("{} → {}", joint.name, format::value(joint, v)));
+    /// Where a jog goes: one joint's value, or (several joints: the tool moved, by a tool
+    /// jog or target) the tool of those joints' arm, in its base frame.
+    fn jog_text(&self, joints: &[usize], pose: &[f64]) -> String {
+        match joints {
+            [] => "nothing to jog".into(),
+            [j] => {
+                let joint = &self.robot.joints[*j];
+                format!("{} → {}", joint.name, format::value(joint, pose[*j]))
             }
-            // Several joints at once: the tool moved (a tool jog or target), on a cell the
-            // tool of those joints' arm, in its base frame.
-            [(j, _), ..] => {
-                let (arm, tool) = super::selected_tool(&self.robot, j, &self.goals);
+            [j, ..] => {
+                let (arm, tool) = super::selected_tool(&self.robot, *j, pose);
                 let arm = arm.map_or(String::new(), |a| format!(" ({a})"));
-                self.info(format!("tool{arm} → ({})", crate::kinematics::mm3(tool)));
+                format!("tool{arm} → ({})", crate::kinematics::mm3(tool))
             }
         }
     }
 
-    fn motion_started(&mut self, kind: MotionKind, end_pose: Vec<f64>) {
+    fn motion_started(&mut self, kind: MotionKind, end_pose: Vec<f64>, joints: Vec<usize>) {
         self.info(match kind {
+            MotionKind::Jog => self.jog_text(&joints, &end_pose),
             MotionKind::ToKey(i) => {
                 format!("moving to {} (y or Esc stops)", self.key_label(i))
             }
@@ -87,39 +88,55 @@ impl TeachState {
         self.activity = Activity::Moving {
             kind,
             end_pose,
+            joints,
             stops: 0,
         };
     }
 
-    fn motion_ended(&mut self, outcome: Result<Outcome, String>, last_goals: Option<Vec<f64>>) {
-        let Activity::Moving { kind, end_pose, .. } =
-            std::mem::replace(&mut self.activity, Activity::Idle)
+    /// The player returned: what the arm holds now, and a jog that waited for this one.
+    fn motion_ended(
+        &mut self,
+        outcome: Result<Outcome, String>,
+        last_goals: Option<Vec<f64>>,
+    ) -> Vec<Command> {
+        let Activity::Moving {
+            kind,
+            end_pose,
+            joints,
+            ..
+        } = std::mem::replace(&mut self.activity, Activity::Idle)
         else {
-            return;
+            return Vec::new();
         };
-        // The player turns torque on for every joint before it moves. After a fault that may
-        // not have happened (or a servo in shutdown dropped it), so the screen keeps what it
-        // knew rather than claim a hold.
+        // The player turns torque on for every joint it drives before it moves (a jog drives
+        // held joints only). After a fault that may not have happened (or a servo in shutdown
+        // dropped it), so the screen keeps what it knew rather than claim a hold.
         if outcome.is_ok() {
-            self.torque.iter_mut().for_each(|t| *t = true);
+            for &j in &joints {
+                self.torque[j] = true;
+            }
         }
         let stopped_at = last_goals.as_deref().unwrap_or(&self.present);
-        self.goals = match outcome {
-            // The exact pose it was sent to, so that jogs from there stay on round values.
-            Ok(Outcome::Finished) => end_pose,
-            _ => self
-                .robot
-                .joints
-                .iter()
-                .zip(stopped_at)
-                .map(|(j, &v)| tidy(j, v))
-                .collect(),
-        };
+        for &j in &joints {
+            self.goals[j] = match outcome {
+                // The exact pose it was sent to, so that jogs from there stay on round values.
+                Ok(Outcome::Finished) => end_pose[j],
+                _ => tidy(&self.robot.joints[j], stopped_at[j]),
+            };
+        }
+        let pending = self.pending_jog.take();
         match outcome {
-            Ok(Outcome::Finished) => self.info(match kind {
-                MotionKind::ToKey(i) => format!("at {}", self.key_label(i)),
-                MotionKind::Play { .. } => "played to the end; holding the last pose".into(),
-            }),
+            Ok(Outcome::Finished) => match kind {
+                MotionKind::ToKey(i) => self.info(format!("at {}", self.key_label(i))),
+                MotionKind::Play { .. } => self.info("played to the end; holding the last pose"),
+                MotionKind::Jog => {
+                    let text = self.jog_text(&joints, &self.goals);
+                    self.info(text);
+                    if let Some(key) = pending {
+                        return self.handle_key(key);
+                    }
+                }
+            },
             Ok(Outcome::Stopped) => {
                 self.info("stopped: the arm decelerated along its path and holds there")
             }
@@ -128,6 +145,7 @@ impl TeachState {
                 self.fail(message);
             }
         }
+        Vec::new()
     }
 
     // ----- what the files did -----

@@ -65,18 +65,31 @@ fn perfect_bus(state: &TeachState, command: BusCommand) -> Vec<Event> {
             vec![Event::Held { joints, values }]
         }
         BusCommand::Torque { joints, on: false } => vec![Event::Released { joints }],
-        BusCommand::Goals(goals) => {
+        // A jog arrives at once: started, finished, and read where it went.
+        BusCommand::Run(plan) if plan.kind == MotionKind::Jog => {
             let mut present = state.present().to_vec();
-            for &(j, v) in &goals {
-                present[j] = v;
+            for &j in &plan.joints {
+                present[j] = plan.end_pose[j];
             }
-            vec![Event::GoalsSent(goals), Event::Reading(present)]
+            vec![
+                Event::MotionStarted {
+                    kind: plan.kind,
+                    end_pose: plan.end_pose.clone(),
+                    joints: plan.joints.clone(),
+                },
+                Event::MotionEnded {
+                    outcome: Ok(Outcome::Finished),
+                    last_goals: Some(plan.end_pose.clone()),
+                },
+                Event::Reading(present),
+            ]
         }
         BusCommand::Run(plan) => vec![Event::MotionStarted {
             kind: plan.kind,
             end_pose: plan.end_pose.clone(),
+            joints: plan.joints.clone(),
         }],
-        BusCommand::Stop => Vec::new(),
+        BusCommand::Stop { .. } => Vec::new(),
     }
 }
 
@@ -432,11 +445,11 @@ fn space_ramps_to_the_key_and_y_plays_from_it() {
     assert!(!state.should_quit());
     assert!(matches!(
         &press(&mut state, Key::Char('y'))[..],
-        [Command::Bus(BusCommand::Stop)]
+        [Command::Bus(BusCommand::Stop { .. })]
     ));
     assert!(matches!(
         &press(&mut state, Key::Esc)[..],
-        [Command::Bus(BusCommand::Stop)]
+        [Command::Bus(BusCommand::Stop { .. })]
     ));
     assert!(state.status().text.contains("at once"));
     state.on_event(Event::MotionEnded {
@@ -813,7 +826,7 @@ fn a_lost_front_end_stops_playback_softly_once() {
     assert!(state.is_moving());
     assert!(matches!(
         &state.soft_stop()[..],
-        [Command::Bus(BusCommand::Stop)]
+        [Command::Bus(BusCommand::Stop { .. })]
     ));
     assert!(
         state.soft_stop().is_empty(),
@@ -940,7 +953,7 @@ fn a_reachable_tool_target_moves_the_tool_there() {
     let target = target_from_tool(&state, glam::DVec3::new(0.008, -0.006, 0.007));
     let commands = press(&mut state, Key::ToolTarget(target));
     assert!(
-        matches!(&commands[..], [Command::Bus(BusCommand::Goals(_))]),
+        matches!(&commands[..], [Command::Bus(BusCommand::Run(plan))] if plan.kind == MotionKind::Jog),
         "{commands:?} {:?}",
         state.status()
     );
@@ -1133,4 +1146,81 @@ fn on_a_cell_a_tool_key_is_the_selected_arms() {
     let right = state.robot().arm("right").unwrap();
     let solved = right.robot.tcp_position(right.values(&sample));
     assert!(solved.distance(tool.xyz) < 1e-6, "{solved:?}");
+}
+
+/// The plan of the one motion `commands` start.
+fn started(state: &mut TeachState, commands: Vec<Command>) -> super::motion::MotionPlan {
+    let [Command::Bus(BusCommand::Run(plan))] = &commands[..] else {
+        panic!("expected a motion, got {commands:?}");
+    };
+    state.on_event(Event::MotionStarted {
+        kind: plan.kind,
+        end_pose: plan.end_pose.clone(),
+        joints: plan.joints.clone(),
+    });
+    (**plan).clone()
+}
+
+#[test]
+fn jogs_pressed_while_a_jog_runs_keep_the_newest_only_and_a_stop_drops_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    let commands = state.handle_key(Key::Right);
+    let first = started(&mut state, commands);
+    assert_eq!(
+        (first.kind, &first.joints[..]),
+        (MotionKind::Jog, &[PAN][..])
+    );
+    assert_eq!(first.end_pose[PAN], 1.0);
+    // A held key's repeats (sixty of them) and a shift-left: nothing is sent meanwhile, and
+    // only the newest waits.
+    for _ in 0..60 {
+        assert!(state.handle_key(Key::Right).is_empty());
+    }
+    assert!(state.handle_key(Key::ShiftLeft).is_empty());
+    assert_eq!(state.pending_jog(), Some(&Key::ShiftLeft));
+    // The first jog arrives: the waiting one starts from where it went, 1 − 10 = −9°.
+    let follow = state.on_event(Event::MotionEnded {
+        outcome: Ok(Outcome::Finished),
+        last_goals: Some(first.end_pose.clone()),
+    });
+    let second = started(&mut state, follow);
+    assert_eq!(second.end_pose[PAN], -9.0);
+    assert_eq!(state.pending_jog(), None);
+    // A stop drops what waits and asks the player for its first request (brake).
+    assert!(state.handle_key(Key::Right).is_empty());
+    let stop = state.handle_key(Key::Esc);
+    assert!(
+        matches!(&stop[..], [Command::Bus(BusCommand::Stop { requests: 1 })]),
+        "{stop:?}"
+    );
+    assert_eq!(state.pending_jog(), None);
+    // Braked part-way: the goal is where it stopped, and nothing else runs.
+    let follow = state.on_event(Event::MotionEnded {
+        outcome: Ok(Outcome::Stopped),
+        last_goals: Some(vec![-4.3, 0.0, 0.0, 0.0, 0.0, 0.0]),
+    });
+    assert!(follow.is_empty(), "{follow:?}");
+    assert!(!state.is_moving());
+    assert_eq!(state.goals()[PAN], -4.3);
+}
+
+#[test]
+fn a_jog_of_one_joint_leaves_a_limp_joint_limp() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    const GRIPPER: usize = 5;
+    press(&mut state, Key::SelectJoint(GRIPPER));
+    press(&mut state, Key::Char('t'));
+    press(&mut state, Key::SelectJoint(PAN));
+    assert!(!state.torque()[GRIPPER]);
+    let commands = state.handle_key(Key::Right);
+    let plan = started(&mut state, commands);
+    assert_eq!(plan.joints, [PAN], "the player drives the pan alone");
+    state.on_event(Event::MotionEnded {
+        outcome: Ok(Outcome::Finished),
+        last_goals: Some(plan.end_pose.clone()),
+    });
+    assert!(!state.torque()[GRIPPER], "still limp");
+    assert_eq!(state.goals()[PAN], 1.0);
 }

@@ -184,6 +184,6 @@ impl TeachState {
                 v - self.goals[j]
             ));
         }
-        bus(BusCommand::Goals(goals))
+        self.jog_to(&goals)
     }
 }
