@@ -403,3 +403,38 @@ fn the_page_simulates_the_list_in_mujoco() {
         assert!(value.abs() < 2.0, "joint {j} ends at {value}°");
     }
 }
+
+/// Stop through the real page wins over everything queued: after an arrow key held for 2 s,
+/// and after sixty jogs posted at once, the arm stops within the jog it was on (before, the
+/// queued jogs ran on for 13–47°); a watching page's Stop is taken, its jog is not.
+#[test]
+fn the_pages_stop_wins_over_every_queued_jog() {
+    require_browser_tools();
+    let dir = tempfile::tempdir().unwrap();
+    let (studio, url) = start_studio(dir.path(), &["held.json"]);
+    let results = browser_run("stop.mjs", &[Path::new(&url)]);
+    drop(studio);
+    assert_eq!(results["errors"], json!([]), "the pages ran without errors");
+    // A held 1° jog: the one running and the one waiting behind it, at most 2° and braking
+    // within it; without the stop winning the queued repeats ran on for tens of degrees.
+    let held = results["held"]["degrees"].as_f64().unwrap();
+    assert!(held.abs() < 3.0, "{results}");
+    // Sixty 10° jogs: the pan stopped within the jog it was on and the one waiting, short of
+    // 20°, not at its limit.
+    let flood = results["flood"]["degrees"].as_f64().unwrap();
+    assert!(flood.abs() < 20.0, "{results}");
+    assert_eq!(results["watcherControls"], json!(false));
+    assert_eq!(
+        results["watcherJog"],
+        json!(false),
+        "a watcher may not move"
+    );
+    assert_eq!(results["watcherStop"], json!(true), "a watcher may stop");
+    assert!(
+        results["watcherStatus"]
+            .as_str()
+            .unwrap()
+            .contains("decelerated"),
+        "{results}"
+    );
+}

@@ -250,3 +250,52 @@ fn a_big_jog_moves_along_a_ramp_within_the_limits_not_in_one_jump() {
     }
     assert!((pan_goals.last().unwrap() - 10.0).abs() <= tick / 2.0);
 }
+
+#[test]
+fn esc_brakes_a_jog_mid_ramp_and_drops_the_jog_waiting_behind_it() {
+    let robot = Robot::builtin("so101").unwrap();
+    let (server, mut session) = open(&robot);
+    let mut state = start(&robot, &mut session);
+    let server = server.as_ref().expect("virtual servos");
+    let pan = &robot.joints[0];
+    let before = server.bus().lock().goals_received().len();
+    // Shift+right (+10°, a 0.58 s ramp) and another behind it; Esc at once.
+    teach::press(&mut state, &mut session, Key::ShiftRight);
+    assert!(
+        state.is_moving(),
+        "the jog runs while keys are read: {}",
+        state.status().text
+    );
+    teach::press(&mut state, &mut session, Key::ShiftRight);
+    assert_eq!(state.pending_jog(), Some(&Key::ShiftRight));
+    teach::press(&mut state, &mut session, Key::Esc);
+    let ended = session.wait_motion().unwrap().expect("a motion");
+    assert!(
+        matches!(
+            ended,
+            Event::MotionEnded {
+                outcome: Ok(Outcome::Stopped),
+                ..
+            }
+        ),
+        "{ended:?}"
+    );
+    let follow = state.on_event(ended);
+    assert!(follow.is_empty(), "nothing runs after the stop: {follow:?}");
+    let pan_goals: Vec<f64> = server.bus().lock().goals_received()[before..]
+        .iter()
+        .filter(|(id, _)| *id == pan.servo.id)
+        .map(|&(_, tick)| pan.servo.value(tick))
+        .collect();
+    // Braked along the ramp, well short of 10°, never a step beyond 115 °/s over 10 ms.
+    let last = *pan_goals.last().unwrap();
+    assert!(last < 10.0 - 1.0, "{pan_goals:?}");
+    let tick = 360.0 / 4096.0;
+    for pair in pan_goals.windows(2) {
+        assert!((pair[1] - pair[0]).abs() <= 1.15 + tick, "{pair:?}");
+    }
+    assert!(
+        (state.goals()[0] - last).abs() <= tick,
+        "the screen holds where it stopped"
+    );
+}

@@ -94,8 +94,12 @@ try {
   await press('n');
   await waitFor(() => window.studio.snapshot.keys.length === 2);
   await press('ArrowDown');
-  for (let i = 0; i < 3; i++) await press('ArrowRight');
-  await waitFor(() => Math.abs(window.studio.snapshot.joints[1].present - 3) < 0.1);
+  // One degree a press, each watched until it arrives (three quick presses would give two:
+  // while a jog runs only the newest press waits behind it).
+  for (let i = 1; i <= 3; i++) {
+    await press('ArrowRight');
+    await waitFor(i => Math.abs(window.studio.snapshot.joints[1].present - i) < 0.1 && window.studio.snapshot.activity.kind === 'idle', i);
+  }
   await press('u');
   await waitFor(() => window.studio.snapshot.keys[1].values[1] === 3);
   // A prompt answered in the page's box: N opens it, the box takes the name, Enter sets it.

@@ -18,7 +18,10 @@ const studio = window.studio = {
   // Resolves once the tool targets asked for so far have been answered.
   targetsDone: () => targeting || Promise.resolve(),
   // Resolves once every key sent so far has been answered.
-  sent: () => queue,
+  sent: () => pumping || Promise.resolve(),
+  stop: () => stopNow(), stops: [],
+  // A key straight to the server, past the page's queue (the stop test floods it so).
+  postRaw: body => api('/api/key', body).then(r => r.ok),
 };
 
 async function api(path, body) {
@@ -28,17 +31,64 @@ async function api(path, body) {
 }
 
 // Keys go one after another, as typed: each waits for the answer to the one before, so
-// that two quick presses never overtake each other on their way to the server.
-let queue = Promise.resolve();
-function post(body) {
-  const sent = queue.then(() => postNow(body));
-  queue = sent.catch(() => {});
-  return sent;
+// that two quick presses never overtake each other on their way to the server. Two
+// exceptions keep the arm answerable: a jog that has not left yet gives way to a newer one
+// (a held key's repeats never pile up behind the arm), and a stop goes at once, dropping
+// every key not yet sent (stopNow).
+const waiting = [];
+let pumping = null;
+const isJog = body => typeof body.key === 'string' &&
+  (/^(left|right|shift-left|shift-right|[xXcCzZ])$/.test(body.key) || body.key.startsWith('tool-target:'));
+// The answer a key gets when it never left.
+const notSent = why => ({ ok: false, status: 0, answer: { error: why }, dropped: true });
+
+// `repeat`: the key is held (the keyboard's auto-repeat), so letting it go drops it.
+function post(body, repeat = false) {
+  return new Promise(resolve => {
+    const last = waiting.at(-1);
+    if (last && isJog(body) && isJog(last.body)) {
+      last.resolve(notSent('replaced by a newer jog'));
+      waiting[waiting.length - 1] = { body, resolve, repeat };
+    } else {
+      waiting.push({ body, resolve, repeat });
+    }
+    pumping = pumping || pump();
+  });
+}
+
+async function pump() {
+  try {
+    while (waiting.length) {
+      const { body, resolve } = waiting.shift();
+      resolve(await postNow(body));
+    }
+  } finally {
+    pumping = null;
+  }
+}
+
+// Drops the keys not yet sent: all of them, or the repeats of a held key only.
+function dropWaiting(why, repeatsOnly) {
+  for (let i = waiting.length - 1; i >= 0; i--) {
+    if (repeatsOnly && !waiting[i].repeat) continue;
+    waiting[i].resolve(notSent(why));
+    waiting.splice(i, 1);
+  }
+}
+
+// The Stop button and Esc while the arm moves: sent at once, beside whatever key is on its
+// way, never behind the queue; any page may stop, a watching one too.
+async function stopNow() {
+  dropWaiting('dropped: Stop came after it', false);
+  studio.stops.push(performance.now());
+  const reply = await api('/api/key', { key: 'stop' });
+  if (!reply.ok) showStatus(reply.answer.error || 'the stop was refused', true);
+  return reply.ok;
 }
 
 // Whether the server took the key.
-function send(body) {
-  return post(body).then(r => r.ok);
+function send(body, repeat = false) {
+  return post(body, repeat).then(r => r.ok);
 }
 
 async function postNow(body) {
@@ -103,20 +153,25 @@ function keyToken(e) {
   }
 }
 
+const moving = () => studio.snapshot && studio.snapshot.activity.kind !== 'idle';
+
 document.addEventListener('keydown', e => {
   if (e.target === $('answer')) return;
   if (e.target.tagName === 'INPUT') return;
   const token = keyToken(e);
   if (!token) return;
   e.preventDefault();
-  send({ key: token });
+  if (token === 'esc' && (moving() || waiting.length)) stopNow();
+  else send({ key: token }, e.repeat);
 });
+// A held key let go: its repeats not yet sent go (the server runs at most one more jog).
+document.addEventListener('keyup', () => dropWaiting('the key was let go', true));
 
 document.addEventListener('click', e => {
   const key = e.target.closest('button[data-key]');
   if (key) { send({ key: key.dataset.key }); key.blur(); }
 });
-$('stop').onclick = () => send({ key: 'stop' });
+$('stop').onclick = () => stopNow();
 $('ok').onclick = () => send({ line: $('answer').value });
 $('answer').addEventListener('keydown', e => {
   if (e.key === 'Enter') { e.preventDefault(); send({ line: $('answer').value }); }
