@@ -438,3 +438,55 @@ fn the_pages_stop_wins_over_every_queued_jog() {
         "{results}"
     );
 }
+
+/// Playback in the studio that ran late says so, as `keypose play` does, instead of "played
+/// to the end": the studio is stopped (SIGSTOP) for 120 ms mid-playback — a stall within the
+/// 250 ms bound, so the wave plays on, later by the stall.
+#[test]
+fn a_playback_that_stalled_in_the_studio_says_how_late_it_ran() {
+    let dir = tempfile::tempdir().unwrap();
+    let sequence = Path::new(env!("CARGO_MANIFEST_DIR")).join("sequences/so101_nod.json");
+    std::fs::copy(&sequence, dir.path().join("nod.json")).unwrap();
+    let (studio, url) = start_studio(dir.path(), &["nod.json"]);
+    let rest = url.strip_prefix("http://").unwrap();
+    let (addr, token) = rest.split_once("/?token=").unwrap();
+    assert_eq!(http(addr, "POST", "/api/control", token, "{}").0, 200);
+    let (status, answer) = http(addr, "POST", "/api/key", token, r#"{"key": "y"}"#);
+    assert_eq!(status, 200, "{answer}");
+    assert!(
+        answer["status"]["text"]
+            .as_str()
+            .unwrap()
+            .contains("playing"),
+        "{answer}"
+    );
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    let signal = |name: &str| {
+        let sent = Command::new("kill")
+            .args([name, &studio.0.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(sent.success());
+    };
+    signal("-STOP");
+    std::thread::sleep(std::time::Duration::from_millis(120));
+    signal("-CONT");
+    let give_up = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    let state = loop {
+        // The page's heartbeat: a controller not heard from for 2 s is let go, and its
+        // playback stopped.
+        assert_eq!(http(addr, "POST", "/api/control", token, "{}").0, 200);
+        let (_, state) = http(addr, "GET", "/api/state", token, "");
+        if state["activity"]["kind"] == "idle" || std::time::Instant::now() > give_up {
+            break state;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    };
+    let text = state["status"]["text"].as_str().unwrap();
+    assert!(text.starts_with("played to the end"), "{state}");
+    assert!(
+        text.contains("stall(s)") && text.contains("s late"),
+        "{text}"
+    );
+    assert_eq!(state["status"]["error"], json!(true), "{state}");
+}

@@ -329,22 +329,8 @@ fn report_offsets(args: &PlayArgs, stats: &player::Stats) {
 /// Stalls and limiter interventions are reported even with `--quiet`: they change what the arm
 /// did.
 fn report_pacing(stats: &player::Stats) {
-    let pacing = &stats.pacing;
-    if pacing.stalls > 0 {
-        eprintln!(
-            "warning: {} stall(s): the longest held a goal {:.0} ms beyond its period; {} deadline(s) skipped, the sequence ran {:.3} s late; largest lateness {:.1} ms",
-            pacing.stalls,
-            pacing.longest_stall * 1e3,
-            pacing.skipped_deadlines,
-            pacing.time_lost,
-            pacing.max_lateness * 1e3
-        );
-    }
-    if stats.limited_goals > 0 {
-        eprintln!(
-            "warning: the step limiter held back {} goal(s), by up to {:.3}, to stay within the velocity and acceleration limits",
-            stats.limited_goals, stats.largest_limiter_correction
-        );
+    for warning in stats.warnings() {
+        eprintln!("warning: {warning}");
     }
 }
 

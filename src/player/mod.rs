@@ -19,6 +19,7 @@ mod log;
 mod progress;
 mod run;
 mod servo_profile;
+mod warnings;
 
 pub use crate::pacing::{Clock, LatenessSummary, WallClock};
 pub use crate::stop::StopSignal;

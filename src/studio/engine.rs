@@ -172,6 +172,7 @@ pub fn run(
 ) -> Result<Ended, TeachError> {
     let bus = session.describe().to_string();
     let mut queue = InputQueue::default();
+    let mut waiting_jog = WaitingJog::default();
     let mut next_read = Instant::now();
     let mut interrupted = false;
     let result = loop {
@@ -181,11 +182,13 @@ pub fn run(
             next_read = Instant::now() + READ_PERIOD;
         }
         while let Some(input) = queue.next(state.is_jogging()) {
-            interrupted |= carry_out(state, session, input);
+            interrupted |= carry_out(state, session, input, &mut waiting_jog);
             // Published before the answer of the next: whoever asks for the state once
             // answered sees what the action did.
             hub.publish(state, &bus);
         }
+        hub.publish(state, &bus);
+        waiting_jog.answer_when_taken(state);
         hub.publish(state, &bus);
         if state.should_quit() {
             break Ok(Ended::Quit);
@@ -235,16 +238,59 @@ fn answer_dropped(dropped: Vec<Input>, why: &str) {
     }
 }
 
+/// The answer owed to the jog that waits behind the running one: given when the state takes
+/// it (it starts, or is refused, or a stop drops it), so that the page learns what became of
+/// it — and, waiting for it, sends no more than one jog ahead of the arm.
+#[derive(Default)]
+struct WaitingJog(Option<Sender<Value>>);
+
+impl WaitingJog {
+    fn wait(&mut self, reply: Sender<Value>) {
+        if let Some(replaced) = self.0.replace(reply) {
+            let _ = replaced.send(serde_json::json!({
+                "text": "replaced by a newer jog",
+                "error": false,
+            }));
+        }
+    }
+
+    fn answer_when_taken(&mut self, state: &TeachState) {
+        if state.pending_jog().is_none() {
+            if let Some(reply) = self.0.take() {
+                let _ = reply.send(status(state));
+            }
+        }
+    }
+}
+
+fn status(state: &TeachState) -> Value {
+    serde_json::json!({
+        "text": state.status().text,
+        "error": state.status().error,
+    })
+}
+
 /// Hands one input to the state; true for an interruption (the session then ends once the
 /// arm is at rest).
-fn carry_out(state: &mut TeachState, session: &mut Session, input: Input) -> bool {
+fn carry_out(
+    state: &mut TeachState,
+    session: &mut Session,
+    input: Input,
+    waiting_jog: &mut WaitingJog,
+) -> bool {
     match input {
         Input::Action { action, reply } => {
+            let jog = match &action {
+                Action::Key(key) if key.is_jog() => Some(key.clone()),
+                _ => None,
+            };
             act(state, session, action);
-            let _ = reply.send(serde_json::json!({
-                "text": state.status().text,
-                "error": state.status().error,
-            }));
+            if jog.is_some() && state.pending_jog() == jog.as_ref() {
+                waiting_jog.wait(reply);
+            } else {
+                let _ = reply.send(status(state));
+            }
+            waiting_jog.answer_when_taken(state);
             false
         }
         Input::Interrupt => {

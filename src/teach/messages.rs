@@ -81,6 +81,9 @@ pub enum Event {
     MotionEnded {
         outcome: Result<Outcome, String>,
         last_goals: Option<Vec<f64>>,
+        /// What the player warned of, as `keypose play` says it: stalls (the motion ran late,
+        /// by how much), the step limiter holding goals back.
+        warnings: Vec<String>,
     },
     BusError(String),
     Loaded {

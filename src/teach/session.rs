@@ -112,7 +112,8 @@ impl ServoBus for ObservedBus {
     }
 }
 
-type MotionResult = (Box<dyn ServoBus>, Result<Outcome, PlayError>);
+/// The bus back, and how the motion ended with the player's warnings (stalls: it ran late).
+type MotionResult = (Box<dyn ServoBus>, Result<(Outcome, Vec<String>), PlayError>);
 
 struct RunningMotion {
     stop: StopSignal,
@@ -325,7 +326,7 @@ impl Session {
             .name("keypose-teach-motion".into())
             .spawn(move || {
                 let result = player::play(&mut bus, &robot, &trajectory, &options, &thread_stop)
-                    .map(|(outcome, _)| outcome);
+                    .map(|(outcome, stats)| (outcome, stats.warnings()));
                 (bus.inner, result)
             });
         let handle = match handle {
@@ -396,10 +397,14 @@ impl Session {
             .zip(&self.robot.joints)
             .map(|((goal, &present), joint)| joint.servo.value(goal.unwrap_or(present)))
             .collect();
-        let outcome = result.map_err(|e| format!("motion stopped: {e}"));
+        let (outcome, warnings) = match result {
+            Ok((outcome, warnings)) => (Ok(outcome), warnings),
+            Err(e) => (Err(format!("motion stopped: {e}")), Vec::new()),
+        };
         Ok(Event::MotionEnded {
             outcome,
             last_goals: Some(last_goals),
+            warnings,
         })
     }
 

@@ -68,6 +68,8 @@ try {
   });
   await page.evaluate(() => window.studio.targetsDone());
   await page.evaluate(() => window.studio.sent());
+  // Until the handle's jog has arrived (a target's answer comes when its jog starts).
+  while ((await state()).activity.kind !== 'idle') await page.waitForTimeout(50);
   results.target = await page.evaluate(() => window.studio.targets.at(-1));
   results.goals = (await state()).joints.map(j => j.goal);
   results.errors = errors;

@@ -172,6 +172,9 @@ try {
   // hand would), then a target a metre out, which the server refuses -----
   // The state as the server has it once the last answer came (the stream may lag behind).
   const state = async () => JSON.parse((await raw('/api/state', { Host: target.host, 'X-Keypose-Token': token })).body);
+  // Until the last jog the handle asked for has arrived (a target's answer comes when its
+  // jog starts).
+  const atRest = async () => { while ((await state()).activity.kind !== 'idle') await a.waitForTimeout(50); };
   results.handleStart = (await state()).tcp;
   const at = await a.evaluate(() => window.studio.handle.screenPosition());
   await a.mouse.move(at.x, at.y);
@@ -183,6 +186,7 @@ try {
   await a.mouse.up();
   await a.evaluate(() => window.studio.targetsDone());
   await a.evaluate(() => window.studio.sent());
+  await atRest();
   results.dragTargets = await a.evaluate(() => window.studio.targets.slice());
   results.dragGoals = (await state()).joints.map(j => j.goal);
   results.toolTargetMs = results.dragTargets.map(t => t.ms);

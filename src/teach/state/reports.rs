@@ -19,7 +19,8 @@ impl TeachState {
             Event::MotionEnded {
                 outcome,
                 last_goals,
-            } => return self.motion_ended(outcome, last_goals),
+                warnings,
+            } => return self.motion_ended(outcome, last_goals, &warnings),
             Event::BusError(message) => {
                 self.fail(message);
             }
@@ -98,6 +99,7 @@ impl TeachState {
         &mut self,
         outcome: Result<Outcome, String>,
         last_goals: Option<Vec<f64>>,
+        warnings: &[String],
     ) -> Vec<Command> {
         let Activity::Moving {
             kind,
@@ -144,6 +146,12 @@ impl TeachState {
             Err(message) => {
                 self.fail(message);
             }
+        }
+        if !warnings.is_empty() {
+            // Said as `keypose play` says it, beside what happened: a playback that ran late
+            // did not simply play "to the end".
+            let text = format!("{}; but: {}", self.status.text, warnings.join("; "));
+            self.warn(text);
         }
         Vec::new()
     }

@@ -80,6 +80,7 @@ fn perfect_bus(state: &TeachState, command: BusCommand) -> Vec<Event> {
                 Event::MotionEnded {
                     outcome: Ok(Outcome::Finished),
                     last_goals: Some(plan.end_pose.clone()),
+                    warnings: Vec::new(),
                 },
                 Event::Reading(present),
             ]
@@ -455,6 +456,7 @@ fn space_ramps_to_the_key_and_y_plays_from_it() {
     state.on_event(Event::MotionEnded {
         outcome: Ok(Outcome::Held),
         last_goals: Some(vec![12.04, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        warnings: Vec::new(),
     });
     assert!(!state.is_moving());
     assert_eq!(state.goals()[PAN], 12.0, "jogs go on from where it held");
@@ -469,6 +471,7 @@ fn space_ramps_to_the_key_and_y_plays_from_it() {
     state.on_event(Event::MotionEnded {
         outcome: Ok(Outcome::Finished),
         last_goals: None,
+        warnings: Vec::new(),
     });
     assert_eq!(state.goals()[PAN], 20.0);
     assert!(state.torque().iter().all(|&t| t));
@@ -726,6 +729,7 @@ fn a_typed_value_is_kept_within_the_limits_and_the_arm_moves_there_by_the_ramp()
     state.on_event(Event::MotionEnded {
         outcome: Ok(Outcome::Finished),
         last_goals: None,
+        warnings: Vec::new(),
     });
 
     // Declined: the key changes, the arm does not.
@@ -1183,6 +1187,7 @@ fn jogs_pressed_while_a_jog_runs_keep_the_newest_only_and_a_stop_drops_it() {
     let follow = state.on_event(Event::MotionEnded {
         outcome: Ok(Outcome::Finished),
         last_goals: Some(first.end_pose.clone()),
+        warnings: Vec::new(),
     });
     let second = started(&mut state, follow);
     assert_eq!(second.end_pose[PAN], -9.0);
@@ -1199,6 +1204,7 @@ fn jogs_pressed_while_a_jog_runs_keep_the_newest_only_and_a_stop_drops_it() {
     let follow = state.on_event(Event::MotionEnded {
         outcome: Ok(Outcome::Stopped),
         last_goals: Some(vec![-4.3, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        warnings: Vec::new(),
     });
     assert!(follow.is_empty(), "{follow:?}");
     assert!(!state.is_moving());
@@ -1220,7 +1226,30 @@ fn a_jog_of_one_joint_leaves_a_limp_joint_limp() {
     state.on_event(Event::MotionEnded {
         outcome: Ok(Outcome::Finished),
         last_goals: Some(plan.end_pose.clone()),
+        warnings: Vec::new(),
     });
     assert!(!state.torque()[GRIPPER], "still limp");
     assert_eq!(state.goals()[PAN], 1.0);
+}
+
+#[test]
+fn a_playback_that_ran_late_says_so_instead_of_played_to_the_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press(&mut state, Key::Char('n'));
+    press(&mut state, Key::ShiftRight);
+    press(&mut state, Key::Char('n'));
+    let commands = state.handle_key(Key::Char('y'));
+    started(&mut state, commands);
+    let late = "40 stall(s): the longest held a goal 250 ms beyond its period; 300 deadline(s) \
+                skipped, the sequence ran 3.200 s late; largest lateness 250.0 ms";
+    state.on_event(Event::MotionEnded {
+        outcome: Ok(Outcome::Finished),
+        last_goals: None,
+        warnings: vec![late.into()],
+    });
+    let status = state.status();
+    assert!(status.error, "{status:?}");
+    assert!(status.text.starts_with("played to the end"), "{status:?}");
+    assert!(status.text.contains("ran 3.200 s late"), "{status:?}");
 }

@@ -1,0 +1,58 @@
+//! What a playback's figures say the user must hear: stalls (the arm held a goal, so the
+//! sequence ran late) and the step limiter's interventions. Worded once, here, for every
+//! front end that plays — `keypose play` prints them, `teach` and the studio put them on the
+//! status line instead of a plain "played to the end".
+
+use super::Stats;
+
+impl Stats {
+    /// The warnings of this playback, one sentence each; none for a playback on time.
+    pub fn warnings(&self) -> Vec<String> {
+        let pacing = &self.pacing;
+        let mut warnings = Vec::new();
+        if pacing.stalls > 0 {
+            warnings.push(format!(
+                "{} stall(s): the longest held a goal {:.0} ms beyond its period; {} deadline(s) skipped, the sequence ran {:.3} s late; largest lateness {:.1} ms",
+                pacing.stalls,
+                pacing.longest_stall * 1e3,
+                pacing.skipped_deadlines,
+                pacing.time_lost,
+                pacing.max_lateness * 1e3
+            ));
+        }
+        if self.limited_goals > 0 {
+            warnings.push(format!(
+                "the step limiter held back {} goal(s), by up to {:.3}, to stay within the velocity and acceleration limits",
+                self.limited_goals, self.largest_limiter_correction
+            ));
+        }
+        warnings
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_playback_on_time_has_nothing_to_say_and_a_late_one_says_by_how_much() {
+        assert!(Stats::default().warnings().is_empty());
+        let mut stats = Stats::default();
+        stats.pacing.stalls = 3;
+        stats.pacing.longest_stall = 0.120;
+        stats.pacing.skipped_deadlines = 30;
+        stats.pacing.time_lost = 3.2;
+        stats.pacing.max_lateness = 0.1204;
+        stats.limited_goals = 2;
+        stats.largest_limiter_correction = 0.25;
+        assert_eq!(
+            stats.warnings(),
+            [
+                "3 stall(s): the longest held a goal 120 ms beyond its period; 30 deadline(s) \
+                 skipped, the sequence ran 3.200 s late; largest lateness 120.4 ms",
+                "the step limiter held back 2 goal(s), by up to 0.250, to stay within the \
+                 velocity and acceleration limits"
+            ]
+        );
+    }
+}
