@@ -356,7 +356,7 @@ impl Robot {
             name: self.name.clone(),
             source: self.source.clone(),
             description: self.description.clone(),
-            bus: self.bus.clone(),
+            bus: self.bus,
             control_hz: self.control_hz,
             joints: joints.iter().map(|&j| self.joints[j].clone()).collect(),
             tcp: None,
