@@ -13,7 +13,7 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     for name in ["so101", "koch"] {
-        let mut robot = builtin_named(name).unwrap();
+        let mut robot = builtin_named(name).unwrap().clone();
         let Ok(report) = import_lerobot_calibration(&mut robot, "calibration.json", text) else {
             continue;
         };
