@@ -101,7 +101,10 @@ fn the_whole_recorded_range_is_reachable_in_check_and_sample() {
     assert_eq!(at(4.0)[elbow], ELBOW_MAX);
     assert_eq!(at(8.0)[elbow], ELBOW_MIN);
     assert_eq!(at(12.0)[elbow], ELBOW_MAX);
-    assert_eq!(ELBOW_END_DEG, (ELBOW_MAX - ELBOW_MIN) as f64 / 2.0 * 360.0 / 4096.0);
+    assert_eq!(
+        ELBOW_END_DEG,
+        (ELBOW_MAX - ELBOW_MIN) as f64 / 2.0 * 360.0 / 4096.0
+    );
 }
 
 #[test]
@@ -124,7 +127,9 @@ fn a_key_past_the_recorded_range_is_refused_naming_the_calibration() {
         "{err}"
     );
     assert!(
-        err.contains(&format!("the range recorded for it in the calibration {cal}")),
+        err.contains(&format!(
+            "the range recorded for it in the calibration {cal}"
+        )),
         "{err}"
     );
 }
@@ -160,8 +165,7 @@ fn a_whole_turn_joint_keeps_the_robots_limits_at_the_same_ticks() {
 /// after LeRobot calibrated it, for `keypose virtual-bus`.
 fn calibrated_arm_at(dir: &Path, gripper_tick: i64) -> String {
     let mut robot: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(repo("robots/so101.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(repo("robots/so101.json")).unwrap()).unwrap();
     let cal: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(calibration()).unwrap()).unwrap();
     for joint in robot["joints"].as_array_mut().unwrap() {
@@ -183,7 +187,14 @@ fn torque_on_holds_a_gripper_resting_low_in_its_range() {
     let cal = calibration();
     let with_arm = |verb: &[&str]| {
         let mut args = verb.to_vec();
-        args.extend(["--robot", "so101", "--calibration", &cal, "--port", &server.path]);
+        args.extend([
+            "--robot",
+            "so101",
+            "--calibration",
+            &cal,
+            "--port",
+            &server.path,
+        ]);
         run(&args)
     };
     let out = with_arm(&["torque", "on"]);
@@ -203,14 +214,19 @@ fn play_takes_a_gripper_resting_low_in_its_range_through_0_10_and_100_percent() 
     let dir = tempfile::tempdir().unwrap();
     let arm = calibrated_arm_at(dir.path(), 2056);
     let server = VirtualBusProcess::start(&["--robot", &arm]);
+    // Each percent held for half a second (a monotone curve is flat between equal keys), so
+    // that whichever cycles fall there command exactly that value.
     let seq = write(
         dir.path(),
         "grip.json",
         r#"{"format":"keypose-sequence/1","robot":"so101","interpolation":"monotone",
           "keyframes":[
             {"time":0,"joints":{"gripper":"0%"}},
+            {"time":0.5,"joints":{"gripper":"0%"}},
             {"time":1.5,"joints":{"gripper":"10%"}},
-            {"time":3.5,"joints":{"gripper":"100%"}}]}"#,
+            {"time":2,"joints":{"gripper":"10%"}},
+            {"time":4,"joints":{"gripper":"100%"}},
+            {"time":4.5,"joints":{"gripper":"100%"}}]}"#,
     );
     let log = dir.path().join("grip.csv");
     let out = keypose()
@@ -220,7 +236,7 @@ fn play_takes_a_gripper_resting_low_in_its_range_through_0_10_and_100_percent() 
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(0), "{}", show(&out));
-    // The commanded gripper at each key time, in keypose's degrees from the calibrated middle
+    // The commanded gripper in keypose's degrees from the calibrated middle
     // (1956 + 3128) / 2 = 2542, at 360/4096° a tick: 0 % is −586 ticks, 10 % (unrounded
     // 2073.2) −468.8, 100 % +586.
     let deg = |tick: f64| (tick - 2542.0) * 360.0 / 4096.0;
@@ -238,21 +254,28 @@ fn play_takes_a_gripper_resting_low_in_its_range_through_0_10_and_100_percent() 
         .filter(|f| f[phase] == "play")
         .map(|f| (f[time].parse().unwrap(), f[cmd].parse().unwrap()))
         .collect();
-    let at = |t: f64| {
-        played
+    // The log gives six decimals.
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-6;
+    for (from, to, tick) in [(0.0, 0.5, 1956.0), (1.5, 2.0, 2073.2), (4.0, 4.5, 3128.0)] {
+        let held: Vec<f64> = played
             .iter()
-            .find(|(time, _)| (time - t).abs() < 1e-9)
-            .unwrap_or_else(|| panic!("no row at {t} s in {text}"))
-            .1
-    };
-    for (t, tick) in [(0.0, 1956.0), (1.5, 2073.2), (3.5, 3128.0)] {
+            .filter(|(t, _)| (from..=to).contains(t))
+            .map(|&(_, value)| value)
+            .collect();
+        assert!(!held.is_empty(), "no cycle within {from} … {to} s");
         assert!(
-            (at(t) - deg(tick)).abs() < 1e-3,
-            "{t} s: {} deg, expected {}",
-            at(t),
+            held.iter().all(|&value| close(value, deg(tick))),
+            "{from} … {to} s: {held:?}, expected {}",
             deg(tick)
         );
     }
+    let (low, high) = (deg(1956.0), deg(3128.0));
+    assert!(
+        played
+            .iter()
+            .all(|&(_, value)| value >= low - 1e-6 && value <= high + 1e-6),
+        "a goal outside {low} … {high}"
+    );
 }
 
 /// A calibration of `robot` as LeRobot writes it, with `recorded` given that range and every
@@ -270,8 +293,12 @@ fn calibrate(robot: &str, recorded: &str, range: (i64, i64)) -> Robot {
             )
         })
         .collect();
-    import_lerobot_calibration(&mut robot, "cal.json", &format!("{{{}}}", entries.join(",")))
-        .unwrap();
+    import_lerobot_calibration(
+        &mut robot,
+        "cal.json",
+        &format!("{{{}}}", entries.join(",")),
+    )
+    .unwrap();
     robot
 }
 
@@ -325,5 +352,34 @@ fn every_builtin_robots_limits_follow_the_calibrated_zero() {
                 assert_eq!(found, origin, "{what}");
             }
         }
+    }
+}
+
+#[test]
+fn a_whole_turn_joint_whose_robot_limits_lie_outside_the_turn_is_bad_input() {
+    // A robot file whose wrist_roll zero is tick 10000: its limits −157.21 … 162.79° are ticks
+    // 8211 … 11852, none of them in the 0 … 4095 the calibration gives that joint.
+    let dir = tempfile::tempdir().unwrap();
+    let mut robot: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(repo("robots/so101.json")).unwrap()).unwrap();
+    robot["joints"][4]["servo"]["zero_tick"] = 10000.into();
+    let robot = write(dir.path(), "far.json", &robot.to_string());
+    let cal = calibration();
+    let out = run(&[
+        "check",
+        &repo("sequences/so101_nod.json"),
+        "--robot",
+        &robot,
+        "--calibration",
+        &cal,
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+    let err = stderr(&out);
+    for part in [
+        format!("{cal}: $.wrist_roll"),
+        "outside the whole turn 0 … 4095".to_string(),
+        "zero_tick".to_string(),
+    ] {
+        assert!(err.contains(&part), "{part:?} in {err}");
     }
 }

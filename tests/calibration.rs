@@ -133,7 +133,9 @@ fn a_key_outside_the_range_the_calibration_recorded_says_so() {
     let err = stderr(&out);
     assert!(err.contains("expected -87.890625 … 87.890625 deg"), "{err}");
     assert!(
-        err.contains(&format!("the range recorded for it in the calibration {cal}")),
+        err.contains(&format!(
+            "the range recorded for it in the calibration {cal}"
+        )),
         "{err}"
     );
     // The same pose given to `keypose pose` is refused against the recorded range, before

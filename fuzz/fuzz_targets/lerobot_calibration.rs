@@ -23,7 +23,9 @@ fuzz_target!(|data: &[u8]| {
             if !report.calibrated.contains(&after.name) {
                 continue;
             }
-            let range = after.calibrated_range.expect("a calibrated joint keeps its range");
+            let range = after
+                .calibrated_range
+                .expect("a calibrated joint keeps its range");
             let (low, high) = (range.at_0.min(range.at_100), range.at_0.max(range.at_100));
             assert!(
                 min >= low && max <= high,

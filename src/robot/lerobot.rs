@@ -11,8 +11,8 @@
 //! The limits follow the zero into the calibrated frame. A joint whose range LeRobot recorded
 //! gets that range as its limits, wider or narrower than the robot's: it is the range the arm
 //! was moved through by hand, and LeRobot writes it into the servo's own Min/Max_Position_Limit
-//! registers (`write_calibration` in `feetech.py` and `dynamixel.py`), so it is what the servo
-//! will go to. A joint LeRobot gives the whole turn instead ([`WHOLE_TURN`]) keeps the robot's
+//! registers (`write_calibration` in `feetech.py` and `dynamixel.py`), which bound the servo in
+//! position mode. A joint LeRobot gives the whole turn instead ([`WHOLE_TURN`]) keeps the robot's
 //! limits, moved by ticks from the robot's zero to the calibrated one: the same servo positions,
 //! within that turn. docs/robots.md §8.
 //!
@@ -172,8 +172,7 @@ pub fn import_lerobot_calibration(
                 robot_id: joint.servo.id,
             });
         }
-        apply_motor(joint, &motor, file)
-            .map_err(|outside| node.error(outside.to_string()))?;
+        apply_motor(joint, &motor, file).map_err(|outside| node.error(outside.to_string()))?;
         report.calibrated.push(joint.name.clone());
     }
     if !mismatches.is_empty() {
@@ -287,7 +286,10 @@ fn calibrated_limits(
     }
     let ticks = [joint.limits.min, joint.limits.max].map(|value| uncalibrated.tick_exact(value));
     let moved = ticks.map(|tick| joint.servo.value_exact(tick));
-    let (min, max) = (moved[0].min(moved[1]).max(low), moved[0].max(moved[1]).min(high));
+    let (min, max) = (
+        moved[0].min(moved[1]).max(low),
+        moved[0].max(moved[1]).min(high),
+    );
     if min >= max {
         return Err(OutsideTheTurn {
             joint: joint.name.clone(),
