@@ -1,5 +1,5 @@
 //! LeRobot calibration files that do not fit the robot: partial, other servo ids, the old
-//! format; and the cause of a narrowed limit in the message about a key outside it.
+//! format; and the cause of a calibrated limit in the message about a key outside it.
 
 mod common;
 
@@ -105,7 +105,7 @@ fn the_old_lerobot_format_is_recognised_and_the_fix_named() {
 }
 
 #[test]
-fn a_key_outside_a_limit_the_calibration_narrowed_says_so() {
+fn a_key_outside_the_range_the_calibration_recorded_says_so() {
     let dir = tempfile::tempdir().unwrap();
     // elbow_flex recorded over 1048 … 3048: ±1000 ticks = ±87.890625°, inside the robot's
     // ±96.83°. A key at 90° is inside the robot's limits and outside the calibration's.
@@ -133,10 +133,12 @@ fn a_key_outside_a_limit_the_calibration_narrowed_says_so() {
     let err = stderr(&out);
     assert!(err.contains("expected -87.890625 … 87.890625 deg"), "{err}");
     assert!(
-        err.contains(&format!("narrowed by the calibration {cal}")),
+        err.contains(&format!(
+            "the range recorded for it in the calibration {cal}"
+        )),
         "{err}"
     );
-    // The same pose given to `keypose pose` is refused against the narrowed limits, before
+    // The same pose given to `keypose pose` is refused against the recorded range, before
     // any simulation starts.
     let out = run(&["pose", "elbow_flex=90", "--calibration", &cal]);
     assert_eq!(out.status.code(), Some(2), "{}", show(&out));
@@ -547,11 +549,10 @@ fn a_percent_of_the_grippers_recorded_range_is_the_degrees_worked_by_hand() {
     // 2000 + 0.40 · 1000 = 2400. keypose's zero is the range's middle, 2500, at 360/4096° a tick:
     // (2400 − 2500) · 0.087890625 = −8.7890625°.
     assert_eq!(gripper_at(&robot, "40%").unwrap(), -8.7890625);
-    // 100 %: tick 3000, 500 ticks above the middle = 43.9453125°, the narrowed upper limit.
+    // 100 %: tick 3000, 500 ticks above the middle = 43.9453125°; 0 %: tick 2000, −43.9453125°.
+    // Both are the recorded range's ends, the gripper's limits now.
     assert_eq!(gripper_at(&robot, "100%").unwrap(), 43.9453125);
-    // 0 % is tick 2000, −43.9453125°: below the robot's own −10° limit, which stays.
-    let err = gripper_at(&robot, "0%").unwrap_err();
-    assert!(err.contains("outside the limits of gripper"), "{err}");
+    assert_eq!(gripper_at(&robot, "0%").unwrap(), -43.9453125);
 }
 
 #[test]

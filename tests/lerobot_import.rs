@@ -341,6 +341,57 @@ fn range_normalised_episode_from_fixed_size_lists_needs_and_uses_the_calibration
     assert!(passed);
 }
 
+#[test]
+fn the_gripper_lands_anywhere_in_its_recorded_range_with_a_lerobot_calibration() {
+    // The calibration LeRobot wrote for an SO-101 follower: gripper recorded over 1956 … 3128,
+    // so LeRobot's RANGE_0_100 puts p % at tick 1956 + p/100 · 1172 and keypose's zero, the
+    // middle, at 2542; keypose's degrees are 360/4096 a tick: p ↦ (p/100 · 1172 − 586) · 360/4096.
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("ds");
+    // Body joints in degrees, within every recorded range; the gripper 0 % → 100 % → 0 %
+    // (passing 10 % both ways), from rest to rest.
+    let seconds = 6.0;
+    let w = std::f64::consts::TAU / seconds;
+    let frames: Vec<Vec<f64>> = motion(seconds, 60.0)
+        .into_iter()
+        .enumerate()
+        .map(|(k, mut row)| {
+            row[5] = 100.0 * (1.0 - (w * k as f64 / FPS).cos()) / 2.0;
+            row
+        })
+        .collect();
+    write_dataset(
+        &dir,
+        "v3.0",
+        &pos_names(&SO101_JOINTS),
+        "list",
+        &[(0, frames.clone())],
+    );
+    let cal = PathBuf::from(repo("tests/data/lerobot_so101_follower.json"));
+    let out = tmp.path().join("grip.json");
+    let result = import(
+        &dir,
+        &out,
+        &["--episode", "0", "--calibration", cal.to_str().unwrap()],
+    );
+    assert_eq!(result.status.code(), Some(0), "{}", show(&result));
+    let degrees = |p: f64| (p / 100.0 * 1172.0 - 586.0) * 360.0 / 4096.0;
+    let expected: Vec<Vec<f64>> = frames
+        .iter()
+        .map(|r| {
+            let mut r = r.clone();
+            r[5] = degrees(r[5]);
+            r
+        })
+        .collect();
+    let (_, worst, passed) = deviations(&out, Some(&cal), &expected);
+    assert!(
+        worst.iter().all(|w| *w <= TOLERANCE + TIME_SNAP_SLACK),
+        "largest deviation per joint ({SO101_JOINTS:?}): {worst:?}°"
+    );
+    assert!(passed, "the imported sequence must pass the limit check");
+}
+
 /// LeRobot's bimanual names (`bi_so_follower`: every feature of an arm prefixed `left_` or
 /// `right_`) for the SO-101's joints.
 fn bimanual_names() -> Vec<String> {

@@ -3,7 +3,9 @@
 //! and servo encodings derived bit by bit from the protocol documents.
 
 use glam::DVec3;
-use keypose::robot::{import_lerobot_calibration, PositionEncoding, Robot, BUILTIN_NAMES};
+use keypose::robot::{
+    import_lerobot_calibration, LimitsOrigin, PositionEncoding, Robot, BUILTIN_NAMES,
+};
 
 fn close(a: DVec3, b: [f64; 3], tol: f64) -> bool {
     (a - DVec3::from_array(b)).length() < tol
@@ -225,12 +227,14 @@ fn lerobot_calibration_sets_zero_at_the_range_midpoint() {
         ]
     );
     let pan = &robot.joints[0];
-    // Midpoint (758 + 3292)/2 = 2025; the range is ±1267 ticks = ±111.35°, wider than the
-    // joint's ±110°, so the limits stay.
+    // Midpoint (758 + 3292)/2 = 2025; the range is ±1267 ticks = ±111.357421875°: the limits,
+    // although wider than the robot's ±110°, since the recorded range is what the arm was
+    // moved through (and what LeRobot writes into the servo's position limits).
     assert_eq!(pan.servo.zero_tick, 2025.0);
     assert_eq!(pan.servo.tick(0.0).unwrap(), 2025);
     assert_eq!(pan.servo.homing_offset, Some(-1470));
-    assert_eq!(pan.limits.min, -110.0);
+    assert_eq!(pan.limits.min, -111.357421875);
+    assert_eq!(pan.limits.max, 111.357421875);
     // elbow: midpoint 2000; drive_mode 1 does not reverse it, since LeRobot's degrees never
     // apply drive_mode (docs/robots.md §8): 10° is 10 · 4096/360 = 113.8 ticks above the
     // midpoint. ±1000 ticks = ±87.89°, narrower than ±96.83°.
@@ -238,10 +242,12 @@ fn lerobot_calibration_sets_zero_at_the_range_midpoint() {
     assert_eq!(elbow.servo.tick(10.0).unwrap(), 2000 + 114);
     let limit = 1000.0 * 360.0 / 4096.0;
     assert!((elbow.limits.max - limit).abs() < 1e-9 && (elbow.limits.min + limit).abs() < 1e-9);
-    assert!(report
-        .narrowed
-        .iter()
-        .any(|(name, _, _)| name == "elbow_flex"));
+    assert_eq!(
+        elbow.limits_origin,
+        LimitsOrigin::RecordedRange {
+            file: "calibration.json".into()
+        }
+    );
 }
 
 #[test]

@@ -8,11 +8,19 @@
 //! encoder has 4096; keypose keeps the true 4096, which differs from LeRobot's degrees by at most
 //! 1/4096 of the angle (0.04° at 160°).
 //!
+//! The limits follow the zero into the calibrated frame. A joint whose range LeRobot recorded
+//! gets that range as its limits, wider or narrower than the robot's: it is the range the arm
+//! was moved through by hand, and LeRobot writes it into the servo's own Min/Max_Position_Limit
+//! registers (`write_calibration` in `feetech.py` and `dynamixel.py`), which bound the servo in
+//! position mode. A joint LeRobot gives the whole turn instead ([`WHOLE_TURN`]) keeps the robot's
+//! limits, moved by ticks from the robot's zero to the calibrated one: the same servo positions,
+//! within that turn. docs/robots.md §8.
+//!
 //! A calibration belongs to one arm: it must name every joint, with the servo id the robot
 //! gives that joint. A partial file or other ids mean it was made for another arm or another
 //! wiring, and applying it would move servos by another arm's offsets.
 
-use super::{CalibratedRange, Joint, LimitsOrigin, Robot, Vendor};
+use super::{CalibratedRange, Joint, LimitsOrigin, Robot, Servo, Vendor};
 use crate::json::{self, InputError, Node};
 
 /// The top-level arrays of LeRobot's old calibration format (one array per field, indexed by
@@ -25,6 +33,11 @@ const OLD_FORMAT_FIELDS: [&str; 6] = [
     "calib_mode",
     "motor_names",
 ];
+
+/// The range LeRobot writes for a motor it does not record a range for: the whole turn,
+/// 0 … 4095 (the SO arms' wrist_roll and the Koch's shoulder_pan and wrist_roll in their
+/// `calibrate()`, every motor of the OMX follower's).
+const WHOLE_TURN: (i64, i64) = (0, 4095);
 
 /// The sign of LeRobot's degrees against Present Position, whatever `drive_mode` says.
 /// LeRobot's `MotorNormMode.DEGREES` is `(raw − mid) · 360 / 4095` and reads no `drive_mode`
@@ -100,12 +113,27 @@ pub enum CalibrationMismatch {
     },
 }
 
-/// What an import changed, for the user to read.
+/// A whole-turn joint whose robot limits, moved to the calibrated zero, leave no room within
+/// the turn: the robot file's zero is not where the calibrated servo's ticks are.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "the robot's limits of {joint} ({min} … {max}) lie at ticks {low_tick:.1} … {high_tick:.1}, \
+     outside the whole turn 0 … 4095 the calibration gives it: expected the robot's zero_tick \
+     within that turn"
+)]
+pub struct OutsideTheTurn {
+    pub joint: String,
+    pub min: f64,
+    pub max: f64,
+    pub low_tick: f64,
+    pub high_tick: f64,
+}
+
+/// What an import changed, for the user to read; each joint's `limits_origin` says where its
+/// limits came from.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CalibrationReport {
     pub calibrated: Vec<String>,
-    /// Joints whose position limits were narrowed to the recorded range: (joint, min, max).
-    pub narrowed: Vec<(String, f64, f64)>,
 }
 
 /// Applies a LeRobot calibration (JSON text) to `robot`'s servo mapping and limits.
@@ -121,7 +149,6 @@ pub fn import_lerobot_calibration(
     };
     let mut report = CalibrationReport {
         calibrated: Vec::new(),
-        narrowed: Vec::new(),
     };
     let entries = root.entries()?;
     if let Some(old) = old_format(&entries) {
@@ -145,9 +172,7 @@ pub fn import_lerobot_calibration(
                 robot_id: joint.servo.id,
             });
         }
-        if let Some(narrowed) = apply_motor(joint, &motor, file, node)? {
-            report.narrowed.push(narrowed);
-        }
+        apply_motor(joint, &motor, file).map_err(|outside| node.error(outside.to_string()))?;
         report.calibrated.push(joint.name.clone());
     }
     if !mismatches.is_empty() {
@@ -220,13 +245,13 @@ fn read_motor(node: &Node) -> Result<MotorCalibration, InputError> {
 }
 
 /// Centres the joint's zero on the recorded range (where LeRobot's degrees are 0), keeps the
-/// range for percentages, and narrows the limits to it; returns the narrowed limits, if any.
+/// range for percentages, and sets the limits in that frame ([`calibrated_limits`]).
 fn apply_motor(
     joint: &mut Joint,
     motor: &MotorCalibration,
     file: &str,
-    node: &Node,
-) -> Result<Option<(String, f64, f64)>, InputError> {
+) -> Result<(), OutsideTheTurn> {
+    let uncalibrated = joint.servo.clone();
     joint.servo.zero_tick = (motor.range_min + motor.range_max) as f64 / 2.0;
     joint.servo.direction = LEROBOT_DEGREES_DIRECTION;
     joint.servo.homing_offset = Some(motor.homing_offset);
@@ -237,24 +262,44 @@ fn apply_motor(
         motor.drive_mode == 1,
     );
     joint.calibrated_range = Some(range);
-    let (low, high) = (range.at_0.min(range.at_100), range.at_0.max(range.at_100));
-    let min = joint.limits.min.max(low);
-    let max = joint.limits.max.min(high);
-    if min >= max {
-        return Err(node.error(format!(
-            "the recorded range ({low:.2} … {high:.2}) does not overlap the joint's limits ({} … {})",
-            joint.limits.min, joint.limits.max
-        )));
-    }
-    if min == joint.limits.min && max == joint.limits.max {
-        return Ok(None);
-    }
+    let (min, max, origin) = calibrated_limits(joint, &uncalibrated, motor, file)?;
     joint.limits.min = min;
     joint.limits.max = max;
-    joint.limits_origin = LimitsOrigin::Calibration {
-        file: file.to_string(),
-    };
-    Ok(Some((joint.name.clone(), min, max)))
+    joint.limits_origin = origin;
+    Ok(())
+}
+
+/// The position limits of `joint` (its servo mapping already calibrated) in the calibrated
+/// frame: the recorded range where LeRobot recorded one; for a whole-turn joint, the robot's
+/// limits at the same ticks as through `uncalibrated`, the robot's own mapping, within the turn.
+fn calibrated_limits(
+    joint: &Joint,
+    uncalibrated: &Servo,
+    motor: &MotorCalibration,
+    file: &str,
+) -> Result<(f64, f64, LimitsOrigin), OutsideTheTurn> {
+    let file = file.to_string();
+    let ends = [motor.range_min, motor.range_max].map(|tick| joint.servo.value(tick));
+    let (low, high) = (ends[0].min(ends[1]), ends[0].max(ends[1]));
+    if (motor.range_min, motor.range_max) != WHOLE_TURN {
+        return Ok((low, high, LimitsOrigin::RecordedRange { file }));
+    }
+    let ticks = [joint.limits.min, joint.limits.max].map(|value| uncalibrated.tick_exact(value));
+    let moved = ticks.map(|tick| joint.servo.value_exact(tick));
+    let (min, max) = (
+        moved[0].min(moved[1]).max(low),
+        moved[0].max(moved[1]).min(high),
+    );
+    if min >= max {
+        return Err(OutsideTheTurn {
+            joint: joint.name.clone(),
+            min: joint.limits.min,
+            max: joint.limits.max,
+            low_tick: ticks[0].min(ticks[1]),
+            high_tick: ticks[0].max(ticks[1]),
+        });
+    }
+    Ok((min, max, LimitsOrigin::Rebased { file }))
 }
 
 /// The joints a calibration must cover but does not: every joint of the robot.

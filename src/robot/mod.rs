@@ -16,7 +16,9 @@ use std::path::{Path, PathBuf};
 
 pub use builtin::BUILTIN_NAMES;
 pub use cell::{cell_joint_name, split_joint_name, Arm, CellError};
-pub use lerobot::{import_lerobot_calibration, CalibrationMismatch, CalibrationReport, IdMismatch};
+pub use lerobot::{
+    import_lerobot_calibration, CalibrationMismatch, CalibrationReport, IdMismatch, OutsideTheTurn,
+};
 pub use lerobot_names::{LeRobotRole, LeRobotType, NotBuiltIn};
 pub use servo::{PositionEncoding, Servo, ServoModel, TickError, Vendor};
 
@@ -112,8 +114,12 @@ impl Limits {
 pub enum LimitsOrigin {
     /// The robot description.
     Robot,
-    /// A LeRobot calibration whose recorded range is tighter than the robot's limits.
-    Calibration { file: String },
+    /// The range a LeRobot calibration recorded for the joint, which replaces the robot's
+    /// limits (src/robot/lerobot.rs).
+    RecordedRange { file: String },
+    /// The robot's limits moved into a LeRobot calibration's frame, for a joint it recorded no
+    /// range for (a whole-turn joint), kept within that turn.
+    Rebased { file: String },
 }
 
 impl LimitsOrigin {
@@ -122,9 +128,13 @@ impl LimitsOrigin {
     pub fn note(&self) -> String {
         match self {
             LimitsOrigin::Robot => String::new(),
-            LimitsOrigin::Calibration { file } => {
-                format!(" (narrowed by the calibration {file} to the range recorded there)")
+            LimitsOrigin::RecordedRange { file } => {
+                format!(" (the range recorded for it in the calibration {file})")
             }
+            LimitsOrigin::Rebased { file } => format!(
+                " (the robot's limits, moved to the zero of the calibration {file}, which \
+                 recorded no range for this joint)"
+            ),
         }
     }
 }

@@ -174,6 +174,11 @@ impl Servo {
 
     /// The joint value a tick stands for.
     pub fn value(&self, tick: i64) -> f64 {
-        (tick as f64 - self.zero_tick) * self.units_per_tick * self.direction
+        self.value_exact(tick as f64)
+    }
+
+    /// The joint value at a fractional tick: the inverse of [`Servo::tick_exact`].
+    pub fn value_exact(&self, tick: f64) -> f64 {
+        (tick - self.zero_tick) * self.units_per_tick * self.direction
     }
 }
