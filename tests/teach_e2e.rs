@@ -382,3 +382,64 @@ fn a_percent_key_is_saved_as_written() {
     assert_eq!(key["joints"]["gripper"], "40%", "{saved}");
     assert_eq!(key["joints"]["elbow_flex"], 10.0, "{saved}");
 }
+
+/// The terminal itself (a pseudo-terminal through `script`, keys as a terminal sends them):
+/// sixty shift-right presses arrive at once, then Ctrl-C, then `n` and `w`. The stop wins over
+/// the queued jogs — the pan stops within the jog it was on, where before the sixty ran one
+/// after another to the pan's limit, 110° — and the capture typed after it waits until the
+/// arm is at rest, so the key holds where it stopped.
+#[test]
+fn ctrl_c_in_the_terminal_drops_sixty_queued_jogs() {
+    let dir = tempfile::tempdir().unwrap();
+    // A pseudo-terminal of a real terminal's size (script's own has none without one).
+    let command = format!(
+        "stty cols 140 rows 45 && exec {} teach --port virtual stopped.json",
+        env!("CARGO_BIN_EXE_keypose")
+    );
+    let mut child = Command::new("script")
+        .args(["-qfec", &command, "/dev/null"])
+        .current_dir(dir.path())
+        .env("KEYPOSE_CACHE", dir.path().join("cache"))
+        .env("TERM", "xterm-256color")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("run keypose teach in a pseudo-terminal (script, from util-linux)");
+    // The screen is up (and the terminal raw) once the joint table is drawn.
+    let mut screen = BufReader::new(child.stdout.take().unwrap());
+    let mut seen = Vec::new();
+    while !String::from_utf8_lossy(&seen).contains("shoulder_pan") {
+        let mut chunk = Vec::new();
+        let read = screen.read_until(b'm', &mut chunk).unwrap();
+        assert!(read > 0, "teach ended before drawing its screen");
+        seen.extend(chunk);
+    }
+    // Whatever it draws from here on is read and dropped, so that it never blocks on a full
+    // pipe.
+    std::thread::spawn(move || std::io::copy(&mut screen, &mut std::io::sink()));
+    let mut keys = child.stdin.take().unwrap();
+    keys.write_all(&b"\x1b[1;2C".repeat(60)).unwrap();
+    keys.write_all(b"\x03nw").unwrap();
+    keys.flush().unwrap();
+    // The file appears once `w` has run, which it does only after the arm came to rest.
+    let written = dir.path().join("stopped.json");
+    let give_up = std::time::Instant::now() + std::time::Duration::from_secs(120);
+    while !written.exists() {
+        assert!(
+            std::time::Instant::now() < give_up,
+            "no file after two minutes"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    keys.write_all(b"q").unwrap();
+    keys.flush().unwrap();
+    drop(keys);
+    let status = child.wait().unwrap();
+    assert!(status.success(), "{status:?}");
+    let pan = read_json(&written)["keyframes"][0]["joints"]["shoulder_pan"]
+        .as_f64()
+        .unwrap();
+    // At most the jog running when Ctrl-C came and the one waiting behind it.
+    assert!((0.0..20.0).contains(&pan), "the pan went on to {pan}°");
+}
