@@ -4,13 +4,15 @@
 //! Property: no panic, and every goal position any servo received, as a joint value, is inside
 //! that joint's limits.
 //!
-//! Motions (`space`, `y`) are answered as a failed start instead of run: the player paces them
-//! in wall-clock time (seconds per input) and has its own limit guard, tested in
-//! tests/player.rs. File commands are answered as failed writes and reads: no files here.
+//! Jogs run on the player (a fraction of a second each, to the end); the other motions (`space`,
+//! `y`) are answered as a failed start instead of run: the player paces them in wall-clock time
+//! (seconds per input) and has its own limit guard, tested in tests/player.rs. File commands
+//! are answered as failed writes and reads: no files here.
 #![no_main]
 
 use keypose::bus::virtual_bus::VirtualBus;
 use keypose::sequence::{KeyframeList, Sequence};
+use keypose::teach::motion::MotionKind;
 use keypose::teach::{self, BusCommand, Command, Event, FileCommand, Key, Session, TeachState};
 use keypose_fuzz::{builtin_robot, Choices};
 use libfuzzer_sys::fuzz_target;
@@ -33,12 +35,17 @@ const KEYS: &[Key] = &[
 ];
 const CHARS: &str = " undN><.,][hvpy+=-tTqwi0123456789e";
 
-/// The state's commands carried out as `teach::apply` does, with motions and files answered
-/// by a refusal.
+/// The state's commands carried out as `teach::apply` does, a jog waited for to its end, the
+/// other motions and files answered by a refusal.
 fn apply(state: &mut TeachState, session: &mut Session, commands: Vec<Command>) {
     let mut queue = VecDeque::from(commands);
     while let Some(command) = queue.pop_front() {
         let events = match command {
+            Command::Bus(BusCommand::Run(plan)) if plan.kind == MotionKind::Jog => {
+                let mut events = session.execute(BusCommand::Run(plan));
+                events.extend(session.wait_motion().ok().flatten());
+                events
+            }
             Command::Bus(BusCommand::Run(_)) => {
                 vec![Event::BusError("motions are not run while fuzzing".into())]
             }
