@@ -90,13 +90,7 @@ fn a_stop_behind_sixty_queued_jogs_brakes_the_one_running_and_drops_the_rest() {
     // waited behind it had started — and every goal step stays within the pan's limits.
     assert!(last < 20.0, "the pan went on to {last}°");
     assert!(dropped >= 58, "{answers:?}");
-    assert!(
-        snapshot["status"]["text"]
-            .as_str()
-            .unwrap()
-            .contains("decelerated along its path"),
-        "{snapshot}"
-    );
+    assert_decelerated(&snapshot);
     let limit = pan.limits.velocity / robot.control_hz + 360.0 / 4096.0;
     for pair in pan_goals.windows(2) {
         assert!((pair[1] - pair[0]).abs() <= limit, "{pair:?}");
@@ -141,18 +135,18 @@ fn a_silent_controller_loses_control_and_playback_stops_softly() {
     let snapshot = wait_for(&hub, |s| {
         s["activity"]["kind"] == "idle" && s["status"]["text"].as_str().unwrap().contains("stopped")
     });
-    assert!(
-        snapshot["status"]["text"]
-            .as_str()
-            .unwrap()
-            .contains("decelerated along its path"),
-        "{snapshot}"
-    );
+    assert_decelerated(&snapshot);
     assert_eq!(snapshot["controlled"], Value::Bool(false));
     inputs.send(Input::Interrupt).unwrap();
     let (ended, state) = engine.join().unwrap().unwrap();
     assert_eq!(ended, Ended::Interrupted);
     assert!(state.torque().iter().all(|&t| t), "the arm holds");
+}
+
+/// The snapshot says the arm stopped along its path.
+fn assert_decelerated(snapshot: &Value) {
+    let text = snapshot["status"]["text"].as_str().unwrap();
+    assert!(text.contains("decelerated along its path"), "{snapshot}");
 }
 
 /// The first snapshot that satisfies `done` (a hang guard of a minute, not a timing check).

@@ -39,6 +39,29 @@ fn start(robot: &Robot, session: &mut Session) -> TeachState {
     state
 }
 
+/// The goals `joint`'s servo received after the first `before` goals of the bus, as values.
+fn goals_of(server: &PtyServer, joint: &keypose::robot::Joint, before: usize) -> Vec<f64> {
+    server.bus().lock().goals_received()[before..]
+        .iter()
+        .filter(|(id, _)| *id == joint.servo.id)
+        .map(|&(_, tick)| joint.servo.value(tick))
+        .collect()
+}
+
+/// The motion ended in a stop along its path.
+fn assert_stopped(ended: &Event) {
+    assert!(
+        matches!(
+            ended,
+            Event::MotionEnded {
+                outcome: Ok(Outcome::Stopped),
+                ..
+            }
+        ),
+        "{ended:?}"
+    );
+}
+
 /// A key press, then (as a script step does) waiting until the motion it started, a jog
 /// included, is over and the arm has arrived.
 fn press(state: &mut TeachState, session: &mut Session, key: Key) {
@@ -138,16 +161,7 @@ fn y_plays_and_a_second_y_stops_along_the_path() {
     assert!(state.status().error);
     let _ = teach::press(&mut state, &mut session, Key::Char('y'));
     let ended = session.wait_motion().expect("joined").expect("ended");
-    assert!(
-        matches!(
-            ended,
-            Event::MotionEnded {
-                outcome: Ok(Outcome::Stopped),
-                ..
-            }
-        ),
-        "{ended:?}"
-    );
+    assert_stopped(&ended);
     state.on_event(ended);
     assert!(!state.is_moving());
     assert!(state.torque().iter().all(|&t| t));
@@ -226,11 +240,7 @@ fn a_big_jog_moves_along_a_ramp_within_the_limits_not_in_one_jump() {
     let before = server.bus().lock().goals_received().len();
     // Shift+right: +10° on the selected joint (the pan), from 0°.
     press(&mut state, &mut session, Key::ShiftRight);
-    let pan_goals: Vec<f64> = server.bus().lock().goals_received()[before..]
-        .iter()
-        .filter(|(id, _)| *id == pan.servo.id)
-        .map(|&(_, tick)| pan.servo.value(tick))
-        .collect();
+    let pan_goals = goals_of(server, pan, before);
     // A minimum-jerk ramp at half the limits: 10° needs 15/8 · 10 / 57.5 = 0.326 s (velocity)
     // and √(5.774 · 10 / 172) = 0.579 s (acceleration), so about 58 goals at 100 Hz.
     assert!(
@@ -270,23 +280,10 @@ fn esc_brakes_a_jog_mid_ramp_and_drops_the_jog_waiting_behind_it() {
     assert_eq!(state.pending_jog(), Some(&Key::ShiftRight));
     teach::press(&mut state, &mut session, Key::Esc);
     let ended = session.wait_motion().unwrap().expect("a motion");
-    assert!(
-        matches!(
-            ended,
-            Event::MotionEnded {
-                outcome: Ok(Outcome::Stopped),
-                ..
-            }
-        ),
-        "{ended:?}"
-    );
+    assert_stopped(&ended);
     let follow = state.on_event(ended);
     assert!(follow.is_empty(), "nothing runs after the stop: {follow:?}");
-    let pan_goals: Vec<f64> = server.bus().lock().goals_received()[before..]
-        .iter()
-        .filter(|(id, _)| *id == pan.servo.id)
-        .map(|&(_, tick)| pan.servo.value(tick))
-        .collect();
+    let pan_goals = goals_of(server, pan, before);
     // Braked along the ramp, well short of 10°, never a step beyond 115 °/s over 10 ms.
     let last = *pan_goals.last().unwrap();
     assert!(last < 10.0 - 1.0, "{pan_goals:?}");

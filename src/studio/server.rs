@@ -173,6 +173,14 @@ fn control(request: Request, context: &Context, client: Option<String>) {
     respond(request, response)
 }
 
+/// Whether `client` controls the arm now.
+fn controls(context: &Context, client: &Option<String>) -> Result<(), ControlRefusal> {
+    context
+        .hub
+        .lease()
+        .check(client.as_deref().unwrap_or(""), Instant::now())
+}
+
 /// `POST /api/key` with `{"key": TOKEN}` or `{"line": TEXT}`: one action of the controller,
 /// or the Stop button of any page (the token is checked already: whoever may watch may stop).
 /// A stop brakes the arm here and now, then goes to the engine, where it drops whatever keys
@@ -185,14 +193,8 @@ fn key(mut request: Request, context: &Context, client: Option<String>) {
     };
     if action == Action::Stop {
         context.brake.soft_stop();
-    } else {
-        let checked = context
-            .hub
-            .lease()
-            .check(client.as_deref().unwrap_or(""), Instant::now());
-        if let Err(refusal) = checked {
-            return respond(request, control_refused(&refusal));
-        }
+    } else if let Err(refusal) = controls(context, &client) {
+        return respond(request, control_refused(&refusal));
     }
     let (reply, answer) = std::sync::mpsc::channel();
     let response = match context.inputs.send(Input::Action { action, reply }) {
@@ -208,11 +210,7 @@ fn key(mut request: Request, context: &Context, client: Option<String>) {
 /// `POST /api/simulate`: the list as it is now, played in MuJoCo (seconds to a minute); the
 /// arm is not involved, but only the controller may start it (it takes the machine).
 fn simulate(request: Request, context: &Context, client: Option<String>) {
-    let checked = context
-        .hub
-        .lease()
-        .check(client.as_deref().unwrap_or(""), Instant::now());
-    if let Err(refusal) = checked {
+    if let Err(refusal) = controls(context, &client) {
         return respond(request, control_refused(&refusal));
     }
     let Some(simulator) = &context.simulator else {
