@@ -4,6 +4,7 @@
 mod approach;
 mod check;
 mod retime;
+mod sampled;
 mod timeline;
 pub mod tool_keys;
 
@@ -15,8 +16,11 @@ use crate::sequence::{Ends, KeyValue, Sequence};
 use std::f64::consts::TAU;
 
 pub use approach::{Approach, APPROACH_LIMIT_SHARE, MIN_APPROACH_SECONDS};
-pub use check::{check, check_at_speed, CheckReport, JointSummary, LimitKind, Sampled, Violation};
+pub use check::{
+    check, check_at_speed, Cause, CheckReport, JointSummary, LimitKind, Violation,
+};
 pub use retime::{retime, RetimeOutcome};
+pub use sampled::Sampled;
 pub use timeline::{Loops, Phase, Timeline, TimelineOptions};
 
 /// Largest rotation off the joint axis (swing) accepted in a keyed transform, degrees. Hand-typed
