@@ -345,3 +345,116 @@ fn to_wall_clock(report: &mut CheckReport, robot: &Robot, rate: f64, speed: f64)
     }
 }
 
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sequence::Sequence;
+
+    /// The SO-101 (115 °/s, 344 °/s²) and `keys` as `(time, wrist_flex)` in `mode`.
+    fn wrist(mode: &str, keys: &[(f64, f64)]) -> (Trajectory, Robot) {
+        let robot = Robot::builtin("so101").unwrap();
+        let keys: Vec<String> = keys
+            .iter()
+            .map(|(t, v)| format!(r#"{{"time": {t}, "joints": {{"wrist_flex": {v}}}}}"#))
+            .collect();
+        let text = format!(
+            r#"{{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "{mode}",
+                "keyframes": [{}]}}"#,
+            keys.join(",")
+        );
+        let sequence = Sequence::from_json("wrist.json", &text).unwrap();
+        (Trajectory::build(&sequence, &robot).unwrap(), robot)
+    }
+
+    fn wrist_summary(report: &CheckReport) -> &JointSummary {
+        report.joints.iter().find(|j| j.joint == "wrist_flex").unwrap()
+    }
+
+    fn close(actual: f64, expected: f64) -> bool {
+        (actual - expected).abs() <= 1e-9 * expected.abs().max(1.0)
+    }
+
+    #[test]
+    fn a_spike_between_any_two_samples_is_measured_at_its_peaks_at_every_rate() {
+        // 0 → 60 → 0° with zero slopes at the keys: two smoothsteps 3f² − 2f³ of h seconds,
+        // whose velocity peaks at 1.5·60/h and acceleration at 6·60/h² (at their ends).
+        for h in [0.001, 0.0015, 0.002] {
+            let (trajectory, robot) = wrist("cubic", &[(0.0, 0.0), (h, 60.0), (2.0 * h, 0.0)]);
+            for rate in [10.0, 50.0, 100.0, 500.0, 1000.0] {
+                let report = check(&trajectory, &robot, rate);
+                assert!(!report.passed(), "h = {h}, {rate} Hz");
+                let wrist = wrist_summary(&report);
+                assert!(close(wrist.max_position, 60.0), "{wrist:?}");
+                assert!(close(wrist.peak_velocity, 1.5 * 60.0 / h), "{wrist:?}");
+                assert!(close(wrist.peak_acceleration, 6.0 * 60.0 / (h * h)), "{wrist:?}");
+                assert!(report.violations.iter().all(|v| v.cause == Cause::Curve));
+            }
+        }
+    }
+
+    #[test]
+    fn a_linear_corner_is_its_velocity_change_within_one_control_period() {
+        // 0 → 10° in 1 s: the velocity steps from 0 to 10 °/s at 0 s and back at 1 s.
+        let (trajectory, robot) = wrist("linear", &[(0.0, 0.0), (1.0, 10.0)]);
+        // 10 Hz: 10 °/s within 0.1 s is 100 °/s², inside 344.
+        let slow = check(&trajectory, &robot, 10.0);
+        assert!(slow.passed(), "{:?}", slow.violations);
+        assert!(close(wrist_summary(&slow).peak_acceleration, 100.0));
+        assert!(close(wrist_summary(&slow).peak_velocity, 10.0));
+        // 100 Hz: 1000 °/s², at the start (the segment that moves) and at the end.
+        let report = check(&trajectory, &robot, 100.0);
+        assert!(close(wrist_summary(&report).peak_acceleration, 1000.0));
+        let corners: Vec<(f64, f64)> = report
+            .violations
+            .iter()
+            .map(|v| (v.peak_time, v.peak))
+            .collect();
+        assert_eq!(corners.len(), 2, "{corners:?}");
+        assert!(close(corners[0].0, 0.0) && close(corners[0].1, 1000.0));
+        assert!(close(corners[1].0, 1.0) && close(corners[1].1, -1000.0));
+        for v in &report.violations {
+            assert_eq!((v.kind, v.cause, v.segment), (LimitKind::Acceleration, Cause::Corner, 0));
+            // The goals turn it within one period either side of the corner.
+            assert!(v.to - v.from <= 0.02 + 1e-12, "{v:?}");
+        }
+    }
+
+    #[test]
+    fn a_step_is_its_jump_within_one_control_period_however_small() {
+        // Holds 0 until 1 s, then 5°.
+        let (trajectory, robot) = wrist("step", &[(0.0, 0.0), (1.0, 5.0)]);
+        let report = check(&trajectory, &robot, 100.0);
+        let wrist = wrist_summary(&report);
+        // 5° within 10 ms: 500 °/s; up and down again in two periods: 5/0.01² = 50 000 °/s².
+        assert!(close(wrist.peak_velocity, 500.0), "{wrist:?}");
+        assert!(close(wrist.peak_acceleration, 50_000.0), "{wrist:?}");
+        assert!(!report.violations.is_empty());
+        for v in &report.violations {
+            assert_eq!((v.cause, v.segment), (Cause::Step, 0), "{v:?}");
+        }
+    }
+
+    #[test]
+    fn a_start_in_motion_is_a_corner_from_rest() {
+        // Control ends: the window starts at key 1, where the cubic moves at the central
+        // difference (20 − 0)/(2 − 0) = 10 °/s; the arm is at rest before it.
+        let robot = Robot::builtin("so101").unwrap();
+        let text = r#"{"format": "keypose-sequence/1", "robot": "so101", "ends": "control",
+            "keyframes": [{"time": 0, "joints": {"wrist_flex": 0}},
+                          {"time": 1, "joints": {"wrist_flex": 10}},
+                          {"time": 2, "joints": {"wrist_flex": 20}},
+                          {"time": 3, "joints": {"wrist_flex": 30}}]}"#;
+        let sequence = Sequence::from_json("control.json", text).unwrap();
+        let trajectory = Trajectory::build(&sequence, &robot).unwrap();
+        let report = check(&trajectory, &robot, 100.0);
+        let start = report
+            .violations
+            .iter()
+            .find(|v| close(v.peak_time, 1.0))
+            .unwrap_or_else(|| panic!("{:?}", report.violations));
+        // 10 °/s from rest within 10 ms: 1000 °/s².
+        assert_eq!((start.kind, start.cause), (LimitKind::Acceleration, Cause::Corner));
+        assert!(close(start.peak, 1000.0), "{start:?}");
+    }
+}
