@@ -207,6 +207,24 @@ impl Trajectory {
         }
     }
 
+    /// Where playback starts: the time of key `from_key` inside the played window, or the
+    /// window's start.
+    pub fn play_from(&self, from_key: Option<usize>) -> f64 {
+        from_key
+            .and_then(|k| self.key_times.get(k).copied())
+            .unwrap_or(self.start)
+            .clamp(self.start, self.end)
+    }
+
+    /// The trajectory as played from key `from_key` (`play --from`): the window starts there,
+    /// from rest, so the limit check sees the start the player makes.
+    pub fn from_key(&self, from_key: Option<usize>) -> Trajectory {
+        Trajectory {
+            start: self.play_from(from_key),
+            ..self.clone()
+        }
+    }
+
     pub fn tracks(&self) -> &[Track<f64>] {
         &self.tracks
     }
