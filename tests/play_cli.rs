@@ -239,9 +239,14 @@ fn from_a_name_two_keys_share_is_refused_listing_both_indices() {
         err.contains("2 keys have this name, at indices 0, 9"),
         "{err}"
     );
-    // A name one key has still starts there (the port is then the error).
+    // A name one key has still starts there: at 4 s, where the arm's joints (keyed at "down"
+    // and "lift" only) are on their way, so starting there from rest is a corner the check
+    // refuses, at 4 s.
     let out = play_without_port(&pick_place, &["--from", "grasp"]);
-    assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(err.contains("from key \"grasp\""), "{err}");
+    assert!(err.contains("segment 4 (grasp → lift), t = 4.000 s"), "{err}");
 }
 
 /// The first number after `prefix` in `text`.
