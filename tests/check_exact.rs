@@ -200,6 +200,33 @@ fn a_tool_line_out_and_back_between_two_samples_is_checked_as_solved() {
     );
 }
 
+#[test]
+fn the_fuzz_targets_seeds_hold_the_property() {
+    // fuzz/seeds/check_exact (written by fuzz/make-seeds): the repository's sequences and the
+    // steps, corners and spikes the check treats apart, each decoded as the target decodes it.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/check_exact");
+    let mut checked = 0;
+    for entry in std::fs::read_dir(&dir).expect("the check_exact seeds") {
+        let path = entry.unwrap().path();
+        let data = std::fs::read(&path).unwrap();
+        let (rate, offset, text) = player_differences::decode(&data).unwrap();
+        let sequence = Sequence::from_json("seed.json", text)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let robot = keypose::plan::builtin_robot_of(&sequence).unwrap();
+        let trajectory = Trajectory::build(&sequence, &robot).unwrap();
+        let report = check(&trajectory, &robot, rate);
+        let sampled = player_differences::player_extremes(
+            &trajectory,
+            rate,
+            player_differences::PHASES,
+            offset,
+        );
+        player_differences::assert_within_report(&report, &robot, &sampled);
+        checked += 1;
+    }
+    assert!(checked >= 20, "{checked} seeds in {}", dir.display());
+}
+
 /// A sequence of keys on the SO-101's wrist_flex and elbow_flex from `(time to the next key,
 /// share of it held, mode, wrist, elbow)`, with control ends when asked (and there are 4 keys
 /// or more).

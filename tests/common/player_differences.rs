@@ -6,6 +6,23 @@
 use keypose::plan::{CheckReport, Trajectory};
 use keypose::robot::Robot;
 
+/// Control rates a differential case is checked at, Hz: the range's ends, the usual 100 Hz and
+/// odd ones.
+pub const RATES: [f64; 7] = [10.0, 37.0, 50.0, 100.0, 250.0, 500.0, 1000.0];
+/// Phases sampled per control period.
+pub const PHASES: usize = 16;
+
+/// A differential case from bytes (the `check_exact` fuzz target's input and seeds): a rate
+/// byte (an index into [`RATES`], modulo its length), a phase byte (the offset of the sampled
+/// phases, in 256ths of their spacing), then sequence file text. None when the text is not
+/// UTF-8.
+pub fn decode(data: &[u8]) -> Option<(f64, f64, &str)> {
+    let rate = RATES[usize::from(*data.first().unwrap_or(&0)) % RATES.len()];
+    let offset = f64::from(*data.get(1).unwrap_or(&0)) / 256.0;
+    let text = std::str::from_utf8(data.get(2..).unwrap_or_default()).ok()?;
+    Some((rate, offset, text))
+}
+
 /// The extremes one joint reaches in the samples.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Extremes {
