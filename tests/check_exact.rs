@@ -60,7 +60,12 @@ fn a_spike_of_a_few_milliseconds_fails_at_every_rate_with_the_same_peaks() {
                 "--format",
                 "json",
             ]);
-            assert_eq!(out.status.code(), Some(1), "{ms} ms, {rate} Hz: {}", show(&out));
+            assert_eq!(
+                out.status.code(),
+                Some(1),
+                "{ms} ms, {rate} Hz: {}",
+                show(&out)
+            );
             let report: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
             assert_eq!(report["passed"], false);
             let wrist = wrist_json(&report);
@@ -90,8 +95,20 @@ fn play_refuses_the_spike_at_any_speed_and_a_start_in_motion() {
     let path = path.to_str().unwrap();
     // The refusal comes before the port is opened; a sequence that passes fails on the port.
     for speed in ["0.7", "1", "0.1"] {
-        let out = run(&["play", path, "--speed", speed, "--port", "/dev/keypose-no-such-port"]);
-        assert_eq!(out.status.code(), Some(1), "--speed {speed}: {}", show(&out));
+        let out = run(&[
+            "play",
+            path,
+            "--speed",
+            speed,
+            "--port",
+            "/dev/keypose-no-such-port",
+        ]);
+        assert_eq!(
+            out.status.code(),
+            Some(1),
+            "--speed {speed}: {}",
+            show(&out)
+        );
         let err = stderr(&out);
         assert!(err.contains("refusing to play"), "{err}");
         assert!(err.contains("wrist_flex     velocity"), "{err}");
@@ -110,11 +127,19 @@ fn play_refuses_the_spike_at_any_speed_and_a_start_in_motion() {
     let ramp = ramp.to_str().unwrap();
     let out = run(&["play", ramp, "--port", "/dev/keypose-no-such-port"]);
     assert_eq!(out.status.code(), Some(3), "{}", show(&out));
-    let out = run(&["play", ramp, "--from", "1", "--port", "/dev/keypose-no-such-port"]);
+    let out = run(&[
+        "play",
+        ramp,
+        "--from",
+        "1",
+        "--port",
+        "/dev/keypose-no-such-port",
+    ]);
     assert_eq!(out.status.code(), Some(1), "{}", show(&out));
     let err = stderr(&out);
     assert!(
-        err.contains("acceleration segment 1 (#1 → #2), t = 1.000 s") && err.contains(": 3029.700 deg/s²"),
+        err.contains("acceleration segment 1 (#1 → #2), t = 1.000 s")
+            && err.contains(": 3029.700 deg/s²"),
         "{err}"
     );
     assert!(err.contains("from key \"1\""), "{err}");
@@ -125,12 +150,19 @@ fn every_export_refuses_the_spike_listing_its_violations() {
     let dir = tempfile::tempdir().unwrap();
     let path = write(dir.path(), "spike.json", &spike(4.0));
     let path = path.to_str().unwrap();
-    for (format, file) in [("c", "seq.h"), ("ros2", "t.yaml"), ("play_motion2", "m.yaml")] {
+    for (format, file) in [
+        ("c", "seq.h"),
+        ("ros2", "t.yaml"),
+        ("play_motion2", "m.yaml"),
+    ] {
         let out_file = dir.path().join(file);
         let out = run(&["export", format, path, "-o", out_file.to_str().unwrap()]);
         assert_eq!(out.status.code(), Some(1), "{format}: {}", show(&out));
         let err = stderr(&out);
-        assert!(err.contains("FAILED: 6 limit violation(s)"), "{format}: {err}");
+        assert!(
+            err.contains("FAILED: 6 limit violation(s)"),
+            "{format}: {err}"
+        );
         assert!(
             err.contains("45000.000 deg/s > limit 115.000 deg/s"),
             "{format}: {err}"

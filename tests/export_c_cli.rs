@@ -326,7 +326,9 @@ fn a_jump_in_the_table_is_played_within_the_speed_and_acceleration_limits() {
     std::fs::write(&main, LIMITED_MAIN).unwrap();
     let program = dir.path().join("limited");
     let gcc = Command::new("gcc")
-        .args(["-std=c99", "-Wall", "-Wextra", "-Werror", "-I", &players, "-include"])
+        .args([
+            "-std=c99", "-Wall", "-Wextra", "-Werror", "-I", &players, "-include",
+        ])
         .arg(dir.path().join("seq.h"))
         .arg(&main)
         .arg(format!("{players}/keypose_player.c"))
@@ -359,7 +361,10 @@ fn a_jump_in_the_table_is_played_within_the_speed_and_acceleration_limits() {
             })
             .collect();
         // The table asks for the whole jump within one period.
-        let asked = rows.windows(2).map(|w| w[1][1] - w[0][1]).fold(0.0, f64::max);
+        let asked = rows
+            .windows(2)
+            .map(|w| w[1][1] - w[0][1])
+            .fold(0.0, f64::max);
         assert_eq!(asked, 600.0, "{rate} Hz");
         // What is written moves at most v·T per period and changes its step by at most a·T²
         // (1/1024 tick of slack for the fixed point).
@@ -394,7 +399,10 @@ fn a_jump_in_the_table_is_played_within_the_speed_and_acceleration_limits() {
 fn a_checked_table_passes_the_limiter_untouched() {
     // The exported sequences play as keypose samples them (the test above); the limiter never
     // changed a goal of them.
-    for sequence in ["sequences/so101_pick_place.json", "sequences/koch_wave.json"] {
+    for sequence in [
+        "sequences/so101_pick_place.json",
+        "sequences/koch_wave.json",
+    ] {
         let dir = tempfile::tempdir().unwrap();
         let program = build_player(&repo(sequence), dir.path(), &[]);
         let out = Command::new(&program)

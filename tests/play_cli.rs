@@ -246,7 +246,10 @@ fn from_a_name_two_keys_share_is_refused_listing_both_indices() {
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
     let err = stderr(&out);
     assert!(err.contains("from key \"grasp\""), "{err}");
-    assert!(err.contains("segment 4 (grasp → lift), t = 4.000 s"), "{err}");
+    assert!(
+        err.contains("segment 4 (grasp → lift), t = 4.000 s"),
+        "{err}"
+    );
 }
 
 /// The first number after `prefix` in `text`.

@@ -16,9 +16,7 @@ use crate::sequence::{Ends, KeyValue, Sequence};
 use std::f64::consts::TAU;
 
 pub use approach::{Approach, APPROACH_LIMIT_SHARE, MIN_APPROACH_SECONDS};
-pub use check::{
-    check, check_at_speed, Cause, CheckReport, JointSummary, LimitKind, Violation,
-};
+pub use check::{check, check_at_speed, Cause, CheckReport, JointSummary, LimitKind, Violation};
 pub use retime::{retime, RetimeOutcome};
 pub use sampled::Sampled;
 pub use timeline::{Loops, Phase, Timeline, TimelineOptions};

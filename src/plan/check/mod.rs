@@ -130,22 +130,25 @@ pub fn check(trajectory: &Trajectory, robot: &Robot, rate: f64) -> CheckReport {
         let q = Quantities::of(trajectory, j, period);
         let limits = joint.limits;
         let unit = joint.kind.unit();
-        let mut record = |spans: &[Attributed], kind: LimitKind, low: f64, high: f64| {
-            violations.extend(runs::outside(spans, low, high).into_iter().map(|run| Violation {
-                joint: joint.name.clone(),
-                unit,
-                kind,
-                segment: run.segment,
-                segment_label: trajectory.segment_label(run.segment),
-                from: run.from,
-                to: run.to,
-                peak_time: run.peak_time,
-                peak: run.peak,
-                limit: run.limit,
-                excess: run.excess,
-                cause: run.cause,
-            }));
-        };
+        let mut record =
+            |spans: &[Attributed], kind: LimitKind, low: f64, high: f64| {
+                violations.extend(runs::outside(spans, low, high).into_iter().map(|run| {
+                    Violation {
+                        joint: joint.name.clone(),
+                        unit,
+                        kind,
+                        segment: run.segment,
+                        segment_label: trajectory.segment_label(run.segment),
+                        from: run.from,
+                        to: run.to,
+                        peak_time: run.peak_time,
+                        peak: run.peak,
+                        limit: run.limit,
+                        excess: run.excess,
+                        cause: run.cause,
+                    }
+                }));
+            };
         record(&q.position, LimitKind::Position, limits.min, limits.max);
         record(
             &q.velocity,
@@ -213,8 +216,7 @@ impl Quantities {
         };
         let position: Vec<Attributed> = curve.played.iter().map(|s| in_segment(*s)).collect();
         let velocity_spans: Vec<Span> = curve.played.iter().map(Span::derivative).collect();
-        let mut velocity: Vec<Attributed> =
-            velocity_spans.iter().map(|s| in_segment(*s)).collect();
+        let mut velocity: Vec<Attributed> = velocity_spans.iter().map(|s| in_segment(*s)).collect();
         let mut acceleration: Vec<Attributed> = velocity_spans
             .iter()
             .map(|s| in_segment(s.derivative()))
@@ -345,7 +347,6 @@ fn to_wall_clock(report: &mut CheckReport, robot: &Robot, rate: f64, speed: f64)
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -368,7 +369,11 @@ mod tests {
     }
 
     fn wrist_summary(report: &CheckReport) -> &JointSummary {
-        report.joints.iter().find(|j| j.joint == "wrist_flex").unwrap()
+        report
+            .joints
+            .iter()
+            .find(|j| j.joint == "wrist_flex")
+            .unwrap()
     }
 
     fn close(actual: f64, expected: f64) -> bool {
@@ -387,7 +392,10 @@ mod tests {
                 let wrist = wrist_summary(&report);
                 assert!(close(wrist.max_position, 60.0), "{wrist:?}");
                 assert!(close(wrist.peak_velocity, 1.5 * 60.0 / h), "{wrist:?}");
-                assert!(close(wrist.peak_acceleration, 6.0 * 60.0 / (h * h)), "{wrist:?}");
+                assert!(
+                    close(wrist.peak_acceleration, 6.0 * 60.0 / (h * h)),
+                    "{wrist:?}"
+                );
                 assert!(report.violations.iter().all(|v| v.cause == Cause::Curve));
             }
         }
@@ -414,7 +422,10 @@ mod tests {
         assert!(close(corners[0].0, 0.0) && close(corners[0].1, 1000.0));
         assert!(close(corners[1].0, 1.0) && close(corners[1].1, -1000.0));
         for v in &report.violations {
-            assert_eq!((v.kind, v.cause, v.segment), (LimitKind::Acceleration, Cause::Corner, 0));
+            assert_eq!(
+                (v.kind, v.cause, v.segment),
+                (LimitKind::Acceleration, Cause::Corner, 0)
+            );
             // The goals turn it within one period either side of the corner.
             assert!(v.to - v.from <= 0.02 + 1e-12, "{v:?}");
         }
@@ -454,7 +465,10 @@ mod tests {
             .find(|v| close(v.peak_time, 1.0))
             .unwrap_or_else(|| panic!("{:?}", report.violations));
         // 10 °/s from rest within 10 ms: 1000 °/s².
-        assert_eq!((start.kind, start.cause), (LimitKind::Acceleration, Cause::Corner));
+        assert_eq!(
+            (start.kind, start.cause),
+            (LimitKind::Acceleration, Cause::Corner)
+        );
         assert!(close(start.peak, 1000.0), "{start:?}");
     }
 }

@@ -40,9 +40,10 @@ pub fn outside(spans: &[Attributed], low: f64, high: f64) -> Vec<Run> {
     let mut merged: Vec<Run> = Vec::with_capacity(runs.len());
     for run in runs {
         // Any earlier run of the same segment and bound that reaches this one absorbs it.
-        let joins = merged.iter_mut().rev().find(|m| {
-            m.segment == run.segment && m.limit == run.limit && run.from <= m.to + 1e-12
-        });
+        let joins = merged
+            .iter_mut()
+            .rev()
+            .find(|m| m.segment == run.segment && m.limit == run.limit && run.from <= m.to + 1e-12);
         match joins {
             Some(m) => {
                 m.to = m.to.max(run.to);
@@ -105,13 +106,15 @@ fn span_runs(attributed: &Attributed, low: f64, high: f64, slack: f64) -> Vec<Ru
 
 /// The smallest and largest value of the spans (∞ and −∞ without any).
 pub fn range(spans: &[Span]) -> (f64, f64) {
-    spans.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |r, s| {
-        s.poly
-            .monotone_breaks(s.len())
-            .into_iter()
-            .map(|x| s.poly.eval(x))
-            .fold(r, |(lo, hi), v| (lo.min(v), hi.max(v)))
-    })
+    spans
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |r, s| {
+            s.poly
+                .monotone_breaks(s.len())
+                .into_iter()
+                .map(|x| s.poly.eval(x))
+                .fold(r, |(lo, hi), v| (lo.min(v), hi.max(v)))
+        })
 }
 
 /// The largest magnitude on the spans (0 without any).
