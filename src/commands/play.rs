@@ -121,7 +121,12 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
 
     // Refuse what the servos would be asked to do beyond their limits at this speed and rate,
     // from where playback starts.
-    let report = check_at_speed(&trajectory.from_key(from_key), &robot, rate, args.speed);
+    let report = check_at_speed(
+        &trajectory.starting_at_key(from_key),
+        &robot,
+        rate,
+        args.speed,
+    );
     if !report.passed() {
         let text = report::check_text(&report, &sequence.file, &robot);
         eprint!("{}", escape_controls(&text));

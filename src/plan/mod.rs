@@ -216,7 +216,7 @@ impl Trajectory {
 
     /// The trajectory as played from key `from_key` (`play --from`): the window starts there,
     /// from rest, so the limit check sees the start the player makes.
-    pub fn from_key(&self, from_key: Option<usize>) -> Trajectory {
+    pub fn starting_at_key(&self, from_key: Option<usize>) -> Trajectory {
         Trajectory {
             start: self.play_from(from_key),
             ..self.clone()

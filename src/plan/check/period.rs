@@ -66,7 +66,7 @@ pub fn differences(
                 .fold(Cubic::ZERO, |sum, &(offset, weight)| {
                     let at = offset * period;
                     let span = curve.span_at(middle + at);
-                    sum.add_scaled(&span.from_time(u0 + at), weight)
+                    sum.add_scaled(&span.origin_at(u0 + at), weight)
                 });
             out.push(Span {
                 start: u0,

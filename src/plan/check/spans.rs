@@ -40,7 +40,7 @@ impl Span {
     }
 
     /// The polynomial with its origin at time `t`.
-    pub fn from_time(&self, t: f64) -> Cubic {
+    pub fn origin_at(&self, t: f64) -> Cubic {
         self.poly.shifted(t - self.start)
     }
 }
