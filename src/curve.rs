@@ -525,37 +525,13 @@ impl Track<f64> {
         self.move_start[i]
     }
 
-    /// Turning points inside moving segments, as (time, value): where a cubic overshoots, its
-    /// peak lies here, usually between any two samples of a fixed grid.
-    pub fn turning_points(&self) -> Vec<(f64, f64)> {
-        let mut points = Vec::new();
-        for (i, c) in self.segments.iter().enumerate() {
-            if self.inv_duration[i] == 0.0 {
-                continue;
-            }
-            // d/df of c0 + c1 f + c2 f² + c3 f³ is c1 + 2 c2 f + 3 c3 f².
-            let (a, b, k) = (3.0 * c[3], 2.0 * c[2], c[1]);
-            let roots: Vec<f64> = if a.abs() < 1e-300 {
-                if b.abs() < 1e-300 {
-                    Vec::new()
-                } else {
-                    vec![-k / b]
-                }
-            } else {
-                let disc = b * b - 4.0 * a * k;
-                if disc < 0.0 {
-                    Vec::new()
-                } else {
-                    let sq = disc.sqrt();
-                    vec![(-b - sq) / (2.0 * a), (-b + sq) / (2.0 * a)]
-                }
-            };
-            for f in roots.into_iter().filter(|f| *f > 0.0 && *f < 1.0) {
-                let t = self.move_start[i] + f / self.inv_duration[i];
-                points.push((t, f64::eval(c, f)));
-            }
-        }
-        points
+    /// Segment `i`'s motion as a polynomial in the seconds `s` since it starts moving
+    /// ([`Track::move_start`]), `c0 + c1·s + c2·s² + c3·s³`, valid until the next key's time; a
+    /// step's is its first value, held until the next key, where the value jumps.
+    pub fn segment_polynomial(&self, i: usize) -> [f64; 4] {
+        let c = &self.segments[i];
+        let k = self.inv_duration[i];
+        [c[0], c[1] * k, c[2] * k * k, c[3] * k * k * k]
     }
 }
 

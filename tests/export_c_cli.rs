@@ -268,3 +268,149 @@ fn the_example_firmwares_sync_writes_are_the_protocols_bytes() {
         String::from_utf8_lossy(&gcc.stderr)
     );
 }
+
+/// A hand-edited table for one SO-101 joint (115 °/s and 344 °/s² at 4096 ticks a turn:
+/// 1308.444 ticks/s, 3913.955 ticks/s²) that holds 2047 ticks for 1 s, then 2647: a 600-tick
+/// jump no check would pass.
+const JUMP_HEADER: &str = r#"
+#ifndef KP_SEQUENCE_H
+#define KP_SEQUENCE_H
+#include "keypose_player.h"
+static const uint8_t kp_seq_ids[1] = {1};
+static const int32_t kp_seq_tick_min[1] = {0};
+static const int32_t kp_seq_tick_max[1] = {4095};
+static const float kp_seq_max_speed[1] = {1308.444f};
+static const float kp_seq_max_accel[1] = {3913.955f};
+static const uint32_t kp_seq_piece_start_us[2] = {0, 1000000};
+static const uint32_t kp_seq_piece_duration_us[2] = {1000000, 5000000};
+static const int32_t kp_seq_coefficients[8] = {2047 * 65536, 0, 0, 0, 2647 * 65536, 0, 0, 0};
+static const kp_sequence kp_seq = {
+    1, 2, 6000000u, kp_seq_ids, kp_seq_tick_min, kp_seq_tick_max, kp_seq_max_speed,
+    kp_seq_max_accel, kp_seq_piece_start_us, kp_seq_piece_duration_us, kp_seq_coefficients};
+#endif
+"#;
+
+/// Plays `seq.h` every 1/rate s from 2047 ticks until the player says it is done; prints per
+/// call `t_us,goal before the limiter (ticks),goal written (Q16.16 ticks)`, then the state.
+const LIMITED_MAIN: &str = r#"
+#include <stdio.h>
+#include <stdlib.h>
+#include "keypose_player.h"
+static int sent(void *c, const uint8_t *ids, const int32_t *ticks, uint8_t n) {
+    (void)c; (void)ids; (void)ticks; (void)n; return 0;
+}
+int main(int argc, char **argv) {
+    uint32_t period = (uint32_t)(1e6 / atof(argv[1]) + 0.5);
+    int32_t present[1] = {2047};
+    kp_player player;
+    (void)argc;
+    if (kp_player_start(&player, &kp_seq, present, period, sent, NULL) != 0) return 2;
+    int state = 1;
+    for (uint32_t k = 0; state == 1 && k < 200000; k++) {
+        int32_t wanted[1];
+        kp_player_goals(&player, k * period, wanted);
+        state = kp_player_step(&player, k * period);
+        printf("%u,%d,%lld\n", k * period, wanted[0], (long long)player.last[0]);
+    }
+    printf("state %d, limited %u\n", state, player.limited);
+    return 0;
+}
+"#;
+
+#[test]
+fn a_jump_in_the_table_is_played_within_the_speed_and_acceleration_limits() {
+    let dir = tempfile::tempdir().unwrap();
+    let players = repo("players/c");
+    std::fs::write(dir.path().join("seq.h"), JUMP_HEADER).unwrap();
+    let main = dir.path().join("limited.c");
+    std::fs::write(&main, LIMITED_MAIN).unwrap();
+    let program = dir.path().join("limited");
+    let gcc = Command::new("gcc")
+        .args([
+            "-std=c99", "-Wall", "-Wextra", "-Werror", "-I", &players, "-include",
+        ])
+        .arg(dir.path().join("seq.h"))
+        .arg(&main)
+        .arg(format!("{players}/keypose_player.c"))
+        .args(["-lm", "-o"])
+        .arg(&program)
+        .output()
+        .expect("gcc is needed to build the C player");
+    assert!(
+        gcc.status.success(),
+        "gcc: {}",
+        String::from_utf8_lossy(&gcc.stderr)
+    );
+    // At the rate the limits were meant for, and at others (another rate or phase than a table
+    // was checked for).
+    for rate in [100.0, 30.0, 250.0] {
+        let out = Command::new(&program)
+            .arg(rate.to_string())
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout).into_owned();
+        let last = text.lines().last().unwrap();
+        // It arrives and says so: the limiter let the end through unchanged.
+        assert!(last.starts_with("state 0, limited "), "{rate} Hz: {last}");
+        let rows: Vec<[f64; 3]> = text
+            .lines()
+            .filter(|l| !l.starts_with("state"))
+            .map(|l| {
+                let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+                [v[0], v[1], v[2] / 65536.0]
+            })
+            .collect();
+        // The table asks for the whole jump within one period.
+        let asked = rows
+            .windows(2)
+            .map(|w| w[1][1] - w[0][1])
+            .fold(0.0, f64::max);
+        assert_eq!(asked, 600.0, "{rate} Hz");
+        // What is written moves at most v·T per period and changes its step by at most a·T²
+        // (1/1024 tick of slack for the fixed point).
+        let period = 1.0 / rate;
+        let (v_step, a_step) = (1308.444 * period, 3913.955 * period * period);
+        let slack = 1.0 / 1024.0;
+        let mut previous_step = 0.0;
+        let mut top_speed: f64 = 0.0;
+        for w in rows.windows(2) {
+            let step = w[1][2] - w[0][2];
+            assert!(
+                step.abs() <= v_step + slack,
+                "{rate} Hz, t = {} µs: step {step} ticks > {v_step}",
+                w[1][0]
+            );
+            assert!(
+                (step - previous_step).abs() <= a_step + slack,
+                "{rate} Hz, t = {} µs: step change {} ticks > {a_step}",
+                w[1][0],
+                step - previous_step
+            );
+            previous_step = step;
+            top_speed = top_speed.max(step.abs());
+        }
+        // It did move as fast as allowed, and ended at the table's value.
+        assert!(top_speed > v_step - a_step, "{rate} Hz: {top_speed}");
+        assert_eq!(rows.last().unwrap()[2], 2647.0, "{rate} Hz");
+    }
+}
+
+#[test]
+fn a_checked_table_passes_the_limiter_untouched() {
+    // The exported sequences play as keypose samples them (the test above); the limiter never
+    // changed a goal of them.
+    for sequence in [
+        "sequences/so101_pick_place.json",
+        "sequences/koch_wave.json",
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let program = build_player(&repo(sequence), dir.path(), &[]);
+        let out = Command::new(&program)
+            .args(["100", "1447,2047,2347,2047,2047,2047"])
+            .output()
+            .unwrap();
+        assert_eq!(stderr(&out).trim(), "limited 0", "{sequence} approach");
+        let out = Command::new(&program).arg("100").output().unwrap();
+        assert_eq!(stderr(&out).trim(), "limited 0", "{sequence}");
+    }
+}

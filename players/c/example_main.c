@@ -36,7 +36,9 @@ int keypose_play(void) {
     int32_t present[KP_MAX_JOINTS];
     kp_player player;
     if (board_read_present(kp_seq.ids, present, kp_seq.joints) != 0) return -1;
-    if (kp_player_start(&player, &kp_seq, present, sync_write, NULL) != 0) return -1;
+    if (kp_player_start(&player, &kp_seq, present, CONTROL_PERIOD_US, sync_write, NULL) != 0) {
+        return -1;
+    }
     uint32_t start = board_micros();
     uint32_t next = start;
     for (;;) {

@@ -1,8 +1,9 @@
-/* Prints the goals the player computes for a sequence at a control rate, as CSV rows
+/* Prints the goals the player writes for a sequence at a control rate, as CSV rows
  * `time,tick,...` from the sequence's start to its end: what `keypose sample --units ticks`
  * prints for the same sequence. Build: gcc -I. -include seq.h host_dump.c keypose_player.c -lm
  * (tests/export_c_cli.rs does, on the host). With a second argument, the approach from the
- * ticks given there (comma-separated) is printed instead, until the first pose. */
+ * ticks given there (comma-separated) is printed instead, until the first pose. How many goals
+ * the step limiter changed goes to standard error (`limited N`). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -32,7 +33,8 @@ int main(int argc, char **argv) {
     }
     kp_player player;
     double t = 0.0;
-    if (kp_player_start(&player, &kp_seq, present, print_goals, &t) != 0) return 2;
+    uint32_t period_us = (uint32_t)(1e6 / rate + 0.5);
+    if (kp_player_start(&player, &kp_seq, present, period_us, print_goals, &t) != 0) return 2;
     uint32_t from = approach ? 0 : player.approach_us;
     uint32_t until = approach ? player.approach_us : player.approach_us + kp_seq.duration_us;
     uint32_t last = from;
@@ -47,5 +49,6 @@ int main(int argc, char **argv) {
         t = (double)(until - from) / 1e6;
         kp_player_step(&player, until);
     }
+    fprintf(stderr, "limited %u\n", (unsigned)player.limited);
     return 0;
 }

@@ -1,4 +1,4 @@
-//! `keypose check`: the sampled curve against the robot's limits.
+//! `keypose check`: the curve against the robot's limits, exactly (`plan::check`).
 
 use super::{parse_check_rate, write_output, CommandError, SequenceInput, Verdict};
 use keypose::plan::tool_keys::{ToolKeyReport, ToolSolve};
@@ -9,8 +9,9 @@ use keypose::report;
 pub struct CheckArgs {
     #[command(flatten)]
     pub input: SequenceInput,
-    /// Rate at which velocity and acceleration are differenced [default: the robot's control
-    /// rate]; a lower rate is raised to the control rate, which would otherwise hide violations.
+    /// Accepted for scripts written for the sampled check of earlier versions: the check is
+    /// exact, so the rate changes neither the verdict nor the peaks (a step or a linear corner
+    /// is judged as the player turns it, within one period of the robot's control rate).
     #[arg(long, value_name = "HZ", value_parser = parse_check_rate, allow_negative_numbers = true)]
     pub rate: Option<f64>,
     /// Report format.
@@ -31,7 +32,7 @@ pub enum ReportFormat {
 pub fn run(args: &CheckArgs) -> Result<Verdict, CommandError> {
     let (sequence, robot) = args.input.load()?;
     let trajectory = Trajectory::build(&sequence, &robot)?;
-    let rate = super::limit_check_rate(args.rate, &robot);
+    let rate = robot.control_hz;
     super::check_sample_budget(&sequence.file, &trajectory, rate)?;
     let result = check(&trajectory, &robot, rate);
     let tools = &trajectory.tools;

@@ -119,14 +119,27 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
     let rate = super::control_rate(args.rate, &robot)?;
     super::check_sample_budget(&sequence.file, &trajectory, rate)?;
 
-    // Refuse what the servos would be asked to do beyond their limits at this speed.
-    let report = check_at_speed(&trajectory, &robot, rate, args.speed);
+    // Refuse what the servos would be asked to do beyond their limits at this speed and rate,
+    // from where playback starts.
+    let report = check_at_speed(
+        &trajectory.starting_at_key(from_key),
+        &robot,
+        rate,
+        args.speed,
+    );
     if !report.passed() {
         let text = report::check_text(&report, &sequence.file, &robot);
         eprint!("{}", escape_controls(&text));
+        let from = match &args.from {
+            Some(key) => format!(" from key {key:?} (the arm starts there from rest)"),
+            None => String::new(),
+        };
         eprintln!(
-            "refusing to play: the sequence breaks the limits above at speed {} (try `keypose retime`, or a lower --speed)",
-            args.speed
+            "{}",
+            escape_controls(&format!(
+                "refusing to play: the sequence breaks the limits above at speed {}{from} (try `keypose retime`, or a lower --speed)",
+                args.speed
+            ))
         );
         return Ok(Verdict::Fail);
     }

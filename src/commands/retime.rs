@@ -12,7 +12,8 @@ pub struct RetimeArgs {
     /// Where to write the retimed sequence [default: standard output].
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
-    /// Rate at which limits are checked [default: the robot's control rate]; never below it.
+    /// Control rate the result is for [default: the robot's control rate; never below it]: a
+    /// linear corner is turned within one period, so a faster rate needs a gentler corner.
     #[arg(long, value_name = "HZ", value_parser = parse_check_rate, allow_negative_numbers = true)]
     pub rate: Option<f64>,
 }

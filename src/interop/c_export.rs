@@ -1,6 +1,7 @@
 //! A checked trajectory as a C header for the stand-alone player (`players/c/`,
 //! docs/interop.md §4): per piece of time, every joint's cubic in servo ticks as fixed-point
-//! coefficients, the servo ids and the tick limits every goal is clamped to.
+//! coefficients, the servo ids, the tick limits every goal is clamped to and the speed and
+//! acceleration limits the player's step limiter bounds every step by.
 //!
 //! Between two breakpoints (key times and hold ends of any joint, [`ros2::breakpoints`]) each
 //! joint's curve is one polynomial of degree three at most, and ticks are a linear function of
@@ -134,9 +135,11 @@ fn write_joint_tables(out: &mut String, robot: &Robot) {
         let b = joint.servo.tick_exact(joint.limits.max);
         low.push((a.min(b)).ceil() as i64);
         high.push((a.max(b)).floor() as i64);
+        // Rounded down, to a float's precision: the player's step limiter bounds goals by them.
         let per_tick = 1.0 / joint.servo.units_per_tick;
-        speed.push(format!("{:.1}f", joint.limits.velocity * per_tick));
-        accel.push(format!("{:.1}f", joint.limits.acceleration * per_tick));
+        let down = |x: f64| format!("{:.3}f", (x * 1000.0).floor() / 1000.0);
+        speed.push(down(joint.limits.velocity * per_tick));
+        accel.push(down(joint.limits.acceleration * per_tick));
     }
     let join = |v: &[i64]| {
         v.iter()
@@ -156,7 +159,7 @@ fn write_joint_tables(out: &mut String, robot: &Robot) {
     );
     let _ = writeln!(
         out,
-        "/* Ticks per second and per second squared: the approach's bounds. */"
+        "/* Ticks per second and per second squared: the approach's and the step limiter's bounds. */"
     );
     let _ = writeln!(
         out,

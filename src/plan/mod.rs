@@ -4,6 +4,7 @@
 mod approach;
 mod check;
 mod retime;
+mod sampled;
 mod timeline;
 pub mod tool_keys;
 
@@ -15,8 +16,9 @@ use crate::sequence::{Ends, KeyValue, Sequence};
 use std::f64::consts::TAU;
 
 pub use approach::{Approach, APPROACH_LIMIT_SHARE, MIN_APPROACH_SECONDS};
-pub use check::{check, check_at_speed, CheckReport, JointSummary, LimitKind, Sampled, Violation};
+pub use check::{check, check_at_speed, Cause, CheckReport, JointSummary, LimitKind, Violation};
 pub use retime::{retime, RetimeOutcome};
+pub use sampled::Sampled;
 pub use timeline::{Loops, Phase, Timeline, TimelineOptions};
 
 /// Largest rotation off the joint axis (swing) accepted in a keyed transform, degrees. Hand-typed
@@ -200,6 +202,24 @@ impl Trajectory {
             key_times: self.key_times.clone(),
             key_labels: self.key_labels.clone(),
             tools: tool_keys::ToolSolve::default(),
+        }
+    }
+
+    /// Where playback starts: the time of key `from_key` inside the played window, or the
+    /// window's start.
+    pub fn play_from(&self, from_key: Option<usize>) -> f64 {
+        from_key
+            .and_then(|k| self.key_times.get(k).copied())
+            .unwrap_or(self.start)
+            .clamp(self.start, self.end)
+    }
+
+    /// The trajectory as played from key `from_key` (`play --from`): the window starts there,
+    /// from rest, so the limit check sees the start the player makes.
+    pub fn starting_at_key(&self, from_key: Option<usize>) -> Trajectory {
+        Trajectory {
+            start: self.play_from(from_key),
+            ..self.clone()
         }
     }
 

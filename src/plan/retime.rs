@@ -2,18 +2,21 @@
 //!
 //! Stretching a segment by a factor s divides its velocities by s and its accelerations by s²,
 //! so a segment whose worst velocity is r_v times its limit and worst acceleration r_a times its
-//! limit needs s = max(r_v, √r_a). Segments are not independent — a key's slope depends on both
-//! neighbours, and a linear corner's acceleration falls only as 1/s — so the stretch is applied
-//! and the check repeated until it passes. Only moving time is stretched: holds stay as written.
-//! Position violations and the jumps of step segments cannot be fixed by time and are returned.
+//! limit needs s = max(r_v, √r_a); a linear corner's acceleration is its velocity change turned
+//! within one control period, so it falls only as 1/s and needs s = r_a. Segments are not
+//! independent — a key's slope depends on both neighbours — so the stretch is applied and the
+//! check repeated until it passes. Only moving time is stretched: holds stay as written. The
+//! check's peaks are exact, so a stretch lands on the limit, not short of it. Position
+//! violations and the jumps of step segments cannot be fixed by time and are returned.
 
-use super::{check, CheckReport, LimitKind, Trajectory};
+use super::{check, Cause, CheckReport, LimitKind, Trajectory};
 use crate::json::InputError;
 use crate::robot::Robot;
 use crate::sequence::Sequence;
 
-/// Margin added to each stretch so the next round lands inside the limit, not on it.
-const MARGIN: f64 = 1.02;
+/// Margin added to each stretch: the peaks are exact, so this only keeps a round from landing
+/// on the limit by rounding.
+const MARGIN: f64 = 1.0 + 1e-6;
 const MAX_ROUNDS: usize = 100;
 
 #[derive(Debug, Clone)]
@@ -33,7 +36,8 @@ pub fn retime(sequence: &Sequence, robot: &Robot, rate: f64) -> Result<RetimeOut
     let original = current.key_times();
     let segments = original.len().saturating_sub(1);
     let mut previous_need = vec![1.0f64; segments];
-    // A segment whose need does not fall after a stretch (the jump of a step) is left alone.
+    // A segment whose need does not fall after a stretch (by a tenth of what it exceeds 1 by)
+    // is left alone; a step's is never stretched at all.
     let mut unfixable = vec![false; segments];
     let mut rounds = 0;
     let report = loop {
@@ -41,7 +45,7 @@ pub fn retime(sequence: &Sequence, robot: &Robot, rate: f64) -> Result<RetimeOut
         let report = check(&trajectory, robot, rate);
         let mut factors = stretch_factors(&report, current.keyframes.len());
         for i in 0..segments {
-            if previous_need[i] > 1.0 && factors[i] >= previous_need[i] * 0.99 {
+            if previous_need[i] > 1.0 && factors[i] - 1.0 > 0.9 * (previous_need[i] - 1.0) {
                 unfixable[i] = true;
             }
             previous_need[i] = factors[i];
@@ -76,10 +80,10 @@ fn stretch_factors(report: &CheckReport, keys: usize) -> Vec<f64> {
     let mut factors = vec![1.0f64; keys.saturating_sub(1)];
     for v in &report.violations {
         let ratio = v.peak.abs() / v.limit.abs();
-        let needed = match v.kind {
-            LimitKind::Position => continue,
-            LimitKind::Velocity => ratio,
-            LimitKind::Acceleration => ratio.sqrt(),
+        let needed = match (v.kind, v.cause) {
+            (LimitKind::Position, _) | (_, Cause::Step) => continue,
+            (LimitKind::Velocity, _) | (LimitKind::Acceleration, Cause::Corner) => ratio,
+            (LimitKind::Acceleration, Cause::Curve) => ratio.sqrt(),
         };
         if let Some(f) = factors.get_mut(v.segment) {
             *f = f.max(needed * MARGIN);

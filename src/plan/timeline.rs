@@ -135,11 +135,7 @@ impl<'a> Timeline<'a> {
         options: &TimelineOptions,
         measured: &[f64],
     ) -> Timeline<'a> {
-        let play_from = options
-            .from_key
-            .and_then(|k| trajectory.key_times.get(k).copied())
-            .unwrap_or(trajectory.start)
-            .clamp(trajectory.start, trajectory.end);
+        let play_from = trajectory.play_from(options.from_key);
         let first = trajectory.sample(play_from);
         let (state, approach_seconds) = if options.approach {
             let ramp = Approach::at_least(robot, measured, &first, options.shortest_approach);

@@ -4,7 +4,7 @@ pub mod log;
 pub mod plot;
 pub mod units;
 
-use crate::plan::{CheckReport, LimitKind, Sampled, Trajectory};
+use crate::plan::{Cause, CheckReport, LimitKind, Sampled, Trajectory};
 use crate::robot::{Robot, RobotSource};
 use serde_json::{json, Value};
 use std::fmt::Write;
@@ -14,7 +14,7 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "{sequence_file}: robot {} ({}), {:.3} s … {:.3} s, sampled at {} Hz",
+        "{sequence_file}: robot {} ({}), {:.3} s … {:.3} s, checked exactly, steps and corners at the {} Hz control rate",
         robot.name, robot.source, report.start, report.end, report.rate
     );
     if report.speed != 1.0 {
@@ -43,7 +43,7 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
             };
             let _ = writeln!(
                 out,
-                "  {:<14} {:<12} segment {} ({}), t = {:.3} s (from {:.3} to {:.3} s): {:.3} {unit} {relation} {bound} {:.3} {unit}, by {:.3} {unit}",
+                "  {:<14} {:<12} segment {} ({}), t = {:.3} s (from {:.3} to {:.3} s): {:.3} {unit} {relation} {bound} {:.3} {unit}, by {:.3} {unit}{}",
                 v.joint,
                 v.kind.name(),
                 v.segment,
@@ -53,7 +53,8 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
                 v.to,
                 v.peak * scale,
                 v.limit * scale,
-                v.excess * scale
+                v.excess * scale,
+                cause_note(v.cause, report.rate)
             );
         }
     }
@@ -74,8 +75,8 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
             out,
             "  {:<w$} {:>9.2} … {:>7.2} {:<3} {:>8.1} {:<6} ({:>4.0} %) {:>9.1} {:<7} ({:>4.0} %)",
             j.joint,
-            j.min_position * scale,
-            j.max_position * scale,
+            units::no_negative_zero(j.min_position * scale, 2),
+            units::no_negative_zero(j.max_position * scale, 2),
             unit,
             j.peak_velocity * scale,
             per_unit(unit, LimitKind::Velocity),
@@ -86,6 +87,17 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
         );
     }
     out
+}
+
+/// What a step or a corner asks of the servos, said after its violation ("" for the curve's own).
+fn cause_note(cause: Cause, rate: f64) -> String {
+    let period = format!("{:.1}", 1000.0 / rate);
+    let period = period.trim_end_matches(".0");
+    match cause {
+        Cause::Curve => String::new(),
+        Cause::Step => format!(" (a step: the goals jump within one {period} ms period)"),
+        Cause::Corner => format!(" (a corner: the velocity turns within one {period} ms period)"),
+    }
 }
 
 fn per_unit(unit: &str, kind: LimitKind) -> String {
@@ -124,6 +136,7 @@ pub fn check_json(report: &CheckReport, sequence_file: &str, robot: &Robot) -> V
             "peak": v.peak,
             "limit": v.limit,
             "excess": v.excess,
+            "cause": v.cause.name(),
         })).collect::<Vec<_>>(),
         "joints": report.joints.iter().map(|j| json!({
             "joint": j.joint,

@@ -43,6 +43,16 @@ pub fn display_scale(unit: &'static str) -> (f64, &'static str) {
     }
 }
 
+/// `value`, or 0 when it shows as zero at `decimals`: a value a hair below zero (the rounding
+/// of a curve that ends at 0) prints as 0.00, not −0.00.
+pub fn no_negative_zero(value: f64, decimals: i32) -> f64 {
+    if (value * 10f64.powi(decimals)).round() == 0.0 {
+        0.0
+    } else {
+        value
+    }
+}
+
 /// The unit of an actuator's force for a joint of `kind`.
 pub fn force_unit(kind: JointKind) -> &'static str {
     match kind {
@@ -78,5 +88,8 @@ mod tests {
             "[   2.00 mm]"
         );
         assert_eq!(force_unit(JointKind::Revolute), "N·m");
+        assert_eq!(format!("{:.2}", no_negative_zero(-7e-15, 2)), "0.00");
+        assert_eq!(format!("{:.2}", no_negative_zero(-0.004, 2)), "0.00");
+        assert_eq!(format!("{:.2}", no_negative_zero(-0.006, 2)), "-0.01");
     }
 }

@@ -1,0 +1,180 @@
+//! One joint's played curve as spans of polynomials, and where it jumps.
+//!
+//! A track is a polynomial between any two of its key times and hold ends (a step's is its first
+//! value, a hold's the key's); the trajectory plays it over its window and holds it still before
+//! and after. Splitting the curve there, and at every key time of the sequence (so that each span
+//! lies in one keyframe segment), gives spans on which position, velocity and acceleration are
+//! polynomials. Where two spans meet, the value may jump (the end of a step) and the slope may
+//! jump (a linear corner, a start in motion): those are the curve's discontinuities.
+
+use super::cubic::Cubic;
+use crate::curve::Track;
+
+/// A polynomial in the seconds since `start`, on [start, end].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Span {
+    pub start: f64,
+    pub end: f64,
+    pub poly: Cubic,
+}
+
+impl Span {
+    pub fn len(&self) -> f64 {
+        self.end - self.start
+    }
+
+    pub fn at_start(&self) -> f64 {
+        self.poly.eval(0.0)
+    }
+
+    pub fn at_end(&self) -> f64 {
+        self.poly.eval(self.len())
+    }
+
+    /// The span's derivative (per second).
+    pub fn derivative(&self) -> Span {
+        Span {
+            poly: self.poly.derivative(),
+            ..*self
+        }
+    }
+
+    /// The polynomial with its origin at time `t`.
+    pub fn origin_at(&self, t: f64) -> Cubic {
+        self.poly.shifted(t - self.start)
+    }
+}
+
+/// Where the curve jumps at `time`: in value (`jump`) and in slope (`kink`, per second); 0 for
+/// what does not jump. `moving` says whether the curve moves just before and just after it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Discontinuity {
+    pub time: f64,
+    pub jump: f64,
+    pub kink: f64,
+    pub moving: [bool; 2],
+}
+
+/// A joint's curve over the played window, with `margin` seconds of rest on either side.
+#[derive(Debug, Clone)]
+pub struct JointCurve {
+    /// The played window [start, end] in spans; empty when it lasts no time.
+    pub played: Vec<Span>,
+    /// The same with the rest before and after, each `margin` long.
+    pub extended: Vec<Span>,
+}
+
+impl JointCurve {
+    /// `track` played from `start` to `end`, split at `splits` (the sequence's key times).
+    pub fn new(track: &Track<f64>, start: f64, end: f64, splits: &[f64], margin: f64) -> Self {
+        let mut played = Vec::new();
+        for (from, to, poly) in track_pieces(track) {
+            let (a, b) = (from.max(start), to.min(end));
+            if b <= a {
+                continue;
+            }
+            // A piece reaching to ±∞ is constant: no origin to move.
+            let poly = if from.is_finite() {
+                poly.shifted(a - from)
+            } else {
+                poly
+            };
+            push_split(&mut played, a, b, poly, splits);
+        }
+        // The player holds the window's end values, which a track gives at those times.
+        let before = Span {
+            start: start - margin,
+            end: start,
+            poly: Cubic::constant(track.sample(start)),
+        };
+        let after = Span {
+            start: end,
+            end: end + margin,
+            poly: Cubic::constant(track.sample(end)),
+        };
+        let mut extended = Vec::with_capacity(played.len() + 2);
+        extended.push(before);
+        extended.extend_from_slice(&played);
+        extended.push(after);
+        JointCurve { played, extended }
+    }
+
+    /// The values the player holds before and after the window.
+    pub fn rest_values(&self) -> [f64; 2] {
+        let last = self.extended.len() - 1;
+        [self.extended[0].at_start(), self.extended[last].at_start()]
+    }
+
+    /// Every place where the curve (with its rest) jumps in value or in slope, beyond rounding.
+    pub fn discontinuities(&self) -> Vec<Discontinuity> {
+        self.extended
+            .windows(2)
+            .filter_map(|w| {
+                let (left, right) = (&w[0], &w[1]);
+                let (a, b) = (left.at_end(), right.at_start());
+                let (va, vb) = (left.derivative().at_end(), right.derivative().at_start());
+                // A jump within rounding of the values on either side is no jump.
+                let real = |x: f64, y: f64| {
+                    let d = y - x;
+                    if d.abs() > 1e-9 * (1.0 + x.abs() + y.abs()) {
+                        d
+                    } else {
+                        0.0
+                    }
+                };
+                let (jump, kink) = (real(a, b), real(va, vb));
+                (jump != 0.0 || kink != 0.0).then_some(Discontinuity {
+                    time: right.start,
+                    jump,
+                    kink,
+                    moving: [real(0.0, va) != 0.0, real(0.0, vb) != 0.0],
+                })
+            })
+            .collect()
+    }
+
+    /// The span of the extended curve that plays at `t` (the later one where two meet).
+    pub fn span_at(&self, t: f64) -> &Span {
+        let i = self.extended.partition_point(|s| s.start <= t);
+        &self.extended[i.saturating_sub(1)]
+    }
+}
+
+/// The track's pieces over all time, as (from, to, polynomial from `from`): the first value
+/// before the first key, each key's hold, each segment's motion, the last value after the last
+/// key.
+fn track_pieces(track: &Track<f64>) -> Vec<(f64, f64, Cubic)> {
+    let times = track.times();
+    let values = track.values();
+    let n = times.len();
+    let mut pieces = vec![(f64::NEG_INFINITY, times[0], Cubic::constant(values[0]))];
+    for i in 0..n - 1 {
+        let moving = track.move_start(i);
+        if moving > times[i] {
+            pieces.push((times[i], moving, Cubic::constant(values[i])));
+        }
+        let poly = Cubic(track.segment_polynomial(i));
+        pieces.push((moving, times[i + 1], poly));
+    }
+    pieces.push((times[n - 1], f64::INFINITY, Cubic::constant(values[n - 1])));
+    pieces
+}
+
+/// Pushes [a, b] of `poly` (from a) as spans split at the `splits` inside it.
+fn push_split(spans: &mut Vec<Span>, a: f64, b: f64, poly: Cubic, splits: &[f64]) {
+    let first = splits.partition_point(|&s| s <= a);
+    let mut from = a;
+    for &s in splits[first..].iter().take_while(|&&s| s < b) {
+        spans.push(Span {
+            start: from,
+            end: s,
+            poly: poly.shifted(from - a),
+        });
+        from = s;
+    }
+    spans.push(Span {
+        start: from,
+        end: b,
+        poly: poly.shifted(from - a),
+    });
+}
