@@ -86,7 +86,8 @@ pub fn to_key(robot: &Robot, sequence: &Sequence, index: usize) -> Result<Motion
 }
 
 /// `y`: `sequence` from key `from` at `speed`, at the robot's control rate, refused (as
-/// `keypose play` refuses) when anything goes beyond the limits at that speed.
+/// `keypose play --from` refuses) when anything played goes beyond the limits at that speed —
+/// the start at that key from rest included.
 pub fn play(
     robot: &Robot,
     sequence: &Sequence,
@@ -95,7 +96,8 @@ pub fn play(
 ) -> Result<MotionPlan, PlayRefusal> {
     let trajectory = Trajectory::build(sequence, robot).map_err(PlayRefusal::Unplayable)?;
     let rate = robot.control_hz;
-    let report = plan::check_at_speed(&trajectory, robot, rate, speed);
+    let played = trajectory.starting_at_key(Some(from));
+    let report = plan::check_at_speed(&played, robot, rate, speed);
     if !report.violations.is_empty() {
         return Err(PlayRefusal::Limits(report));
     }
@@ -236,6 +238,21 @@ mod tests {
             "{} vs {by_velocity} / {by_acceleration}",
             timeline.approach_seconds()
         );
+    }
+
+    #[test]
+    fn playback_from_a_key_the_arm_passes_at_speed_is_refused_as_play_from_refuses_it() {
+        let robot = Robot::builtin("so101").unwrap();
+        // 0 → 40 → 80° a second apart, from rest to rest: within the pan's limits from key 0,
+        // but it passes key 1 at some 60 °/s, which a start from rest there would have to
+        // reach within one 10 ms period (6000 °/s², far beyond its acceleration limit).
+        let mut sequence = pans(&[0.0, 40.0, 80.0]);
+        sequence.key_interval = Some(1.0);
+        assert!(play(&robot, &sequence, 0, 1.0).is_ok());
+        assert!(matches!(
+            play(&robot, &sequence, 1, 1.0),
+            Err(PlayRefusal::Limits(report)) if !report.violations.is_empty()
+        ));
     }
 
     #[test]

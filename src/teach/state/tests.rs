@@ -490,6 +490,8 @@ fn playback_beyond_the_limits_is_refused() {
     for _ in 0..19 {
         press(&mut state, Key::Char('-'));
     }
+    // From the first key: `y` checks what it plays, from the current key on.
+    press(&mut state, Key::Char('<'));
     assert!(press(&mut state, Key::Char('y')).is_empty());
     assert!(
         state.status().text.contains("refusing to play"),
