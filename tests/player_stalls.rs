@@ -61,7 +61,10 @@ impl Rng {
     }
 }
 
-/// Virtual time: waiting jumps to the deadline, plus jitter, plus now and then a stall.
+/// Virtual time: waiting jumps to the deadline, plus jitter, plus now and then a stall. The
+/// stall comes either before the thread wakes (the cycle begins late) or, with
+/// `after_wake`, right after the thread has read the clock on waking (the cycle began on time,
+/// then the thread was preempted before its goal went out).
 struct StallingClock {
     state: Mutex<ClockState>,
 }
@@ -74,6 +77,9 @@ struct ClockState {
     stall_chance: f64,
     stall_range: (f64, f64),
     stalls: u64,
+    after_wake: bool,
+    /// A stall drawn at the last wait, due after the next reading of the clock.
+    pending: f64,
 }
 
 impl StallingClock {
@@ -86,8 +92,15 @@ impl StallingClock {
                 stall_chance,
                 stall_range,
                 stalls: 0,
+                after_wake: false,
+                pending: 0.0,
             }),
         }
+    }
+    /// Stalls come right after the first reading of the clock that follows a wait.
+    fn after_wake(self) -> Self {
+        self.state.lock().unwrap().after_wake = true;
+        self
     }
     fn seconds(&self) -> f64 {
         self.state.lock().unwrap().now
@@ -99,7 +112,10 @@ impl StallingClock {
 
 impl Clock for StallingClock {
     fn now(&self) -> Duration {
-        Duration::from_secs_f64(self.seconds())
+        let mut s = self.state.lock().unwrap();
+        let now = s.now;
+        s.now += std::mem::take(&mut s.pending);
+        Duration::from_secs_f64(now)
     }
     fn sleep_until(&self, deadline: Duration, _: &StopSignal, _: u32) {
         let mut s = self.state.lock().unwrap();
@@ -110,7 +126,11 @@ impl Clock for StallingClock {
         if s.rng.next() < s.stall_chance {
             let (low, high) = s.stall_range;
             let stall = s.rng.range(low, high);
-            s.now += stall;
+            if s.after_wake {
+                s.pending = stall;
+            } else {
+                s.now += stall;
+            }
             s.stalls += 1;
         }
     }
@@ -354,6 +374,41 @@ fn after_thousands_of_stalls_no_goal_step_exceeds_the_limits_over_one_period() {
         worst_step, worst_step_net, worst_change
     );
     assert!(stalls >= 1000, "only {stalls} stalls injected");
+}
+
+#[test]
+fn a_delay_after_a_cycle_began_on_time_is_bounded_by_the_time_since_the_last_write() {
+    // The cycle begins on time, then the thread is preempted before its goal goes out: the gap
+    // between cycle starts looks ordinary, but the arm held the last goal for the whole delay.
+    // The same oracle as above, with the write times the clock gave, must hold.
+    let robot = Robot::builtin("so101").unwrap();
+    let mut late_writes = 0;
+    for case in 0..12u64 {
+        let mut rng = Rng::new(case + 1);
+        let rate = [50.0, 100.0][case as usize % 2];
+        let period = 1.0 / rate;
+        let trajectory = random_trajectory(&robot, &mut rng, rate, case % 3 != 0);
+        let clock =
+            StallingClock::new(case + 301, period, 0.12, (0.6 * period, 0.3)).after_wake();
+        let (mut native, virtual_bus) = VirtualBus::in_process(&robot);
+        let mut bus = TimedWrites {
+            inner: &mut native,
+            clock: &clock,
+            times: Vec::new(),
+        };
+        let options = PlayOptions {
+            readback_every: Some(4),
+            max_stall: 10.0,
+            ..PlayOptions::new(rate)
+        };
+        let (outcome, _) = play_on(&mut bus, &robot, &trajectory, &options, &clock)
+            .unwrap_or_else(|e| panic!("case {case}: {e}"));
+        assert_eq!(outcome, Outcome::Finished, "case {case}");
+        let times = bus.times.clone();
+        let checked = check_goals(&robot, rate, &times, &virtual_bus.lock().goals_received());
+        late_writes += checked.stalls_seen;
+    }
+    assert!(late_writes >= 100, "only {late_writes} late writes");
 }
 
 #[test]
