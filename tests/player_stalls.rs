@@ -341,6 +341,8 @@ fn after_thousands_of_stalls_no_goal_step_exceeds_the_limits_over_one_period() {
         let options = PlayOptions {
             readback_every: Some(4),
             max_stall: 10.0,
+            // Stalls in one wait in eight on purpose: not a machine to judge.
+            max_stalls_per_second: None,
             ..PlayOptions::new(rate)
         };
         let (outcome, stats) = play_on(&mut bus, &robot, &trajectory, &options, &clock)
@@ -399,6 +401,8 @@ fn a_delay_after_a_cycle_began_on_time_is_bounded_by_the_time_since_the_last_wri
         let options = PlayOptions {
             readback_every: Some(4),
             max_stall: 10.0,
+            // Stalls in one wait in eight on purpose: not a machine to judge.
+            max_stalls_per_second: None,
             ..PlayOptions::new(rate)
         };
         let (outcome, _) = play_on(&mut bus, &robot, &trajectory, &options, &clock)
@@ -480,6 +484,70 @@ fn a_stall_beyond_the_bound_brakes_to_rest_and_is_a_fault_naming_the_stall() {
     assert!(at_rest(cycles - 1), "still moving at the end");
     assert!(cycles > 201, "no braking after the stall: {cycles} writes");
     assert!(virtual_bus.lock().servos.iter().all(|s| s.motion.torque));
+}
+
+#[test]
+fn a_rate_the_machine_cannot_keep_up_with_is_said_within_the_first_second_and_braked() {
+    // Every wait ends 1.2 periods late (as at 1 kHz on a machine that wakes the thread 1.2 ms
+    // late): every goal is held two periods, and the path never gets back up to speed.
+    let robot = Robot::builtin("so101").unwrap();
+    let sequence = Sequence::load(std::path::Path::new("sequences/so101_wave.json")).unwrap();
+    let trajectory = Trajectory::build(&sequence, &robot).unwrap();
+    let rate = 1000.0;
+    let clock = Overrunning {
+        now: Mutex::new(0.0),
+        overrun: 1.2 / rate,
+    };
+    let (mut native, virtual_bus) = VirtualBus::in_process(&robot);
+    let played = play_on(
+        &mut native,
+        &robot,
+        &trajectory,
+        &PlayOptions::new(rate),
+        &clock,
+    );
+    let error = match played {
+        Err(error) => error,
+        Ok((outcome, stats)) => panic!(
+            "played on ({outcome:?}) through {} stalls, {:.1} s late",
+            stats.pacing.stalls, stats.pacing.time_lost
+        ),
+    };
+    match &error {
+        PlayError::CannotKeepUp { overrun, at } => {
+            // Told within the first second of playback: 20 stalls, one per cycle.
+            assert!(*at <= 1.0, "told at {at} s");
+            assert_eq!(overrun.stalls, 20);
+            assert_eq!(overrun.rate_hz, 1000.0);
+        }
+        other => panic!("expected the machine not to keep up, got {other}"),
+    }
+    let text = error.to_string();
+    assert!(text.contains("cannot keep up with 1000 Hz"), "{text}");
+    assert!(text.contains("lower rate"), "{text}");
+    // It braked along the path to rest, torque on.
+    let goals = virtual_bus.lock().goals_received();
+    let n = robot.joints.len();
+    let cycles = goals.len() / n;
+    let at_rest = |k: usize| (0..n).all(|j| goals[k * n + j].1 == goals[(k - 1) * n + j].1);
+    assert!(at_rest(cycles - 1), "still moving at the end");
+    assert!(virtual_bus.lock().servos.iter().all(|s| s.motion.torque));
+}
+
+/// Virtual time in which every wait ends `overrun` after its deadline.
+struct Overrunning {
+    now: Mutex<f64>,
+    overrun: f64,
+}
+
+impl Clock for Overrunning {
+    fn now(&self) -> Duration {
+        Duration::from_secs_f64(*self.now.lock().unwrap())
+    }
+    fn sleep_until(&self, deadline: Duration, _: &StopSignal, _: u32) {
+        let mut now = self.now.lock().unwrap();
+        *now = now.max(deadline.as_secs_f64()) + self.overrun;
+    }
 }
 
 /// Virtual time with a single stall at one chosen wait.

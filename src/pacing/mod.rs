@@ -6,14 +6,18 @@
 //! are skipped, not replayed back to back: replaying them is exactly the burst of goals, each a
 //! full period's step apart by only a few milliseconds, that the velocity limits forbid. The
 //! stall is measured here; the player hands it to the timeline, which resumes along the path
-//! from the rate the arm actually followed during the stall.
+//! from the rate the arm actually followed during the stall. Stalls that come too often for
+//! that to work ([`KeepUp`]) mean the machine cannot keep up with the rate, which is told at
+//! once.
 
 mod clock;
+mod keep_up;
 pub mod machine;
 pub mod precise;
 pub mod realtime;
 
 pub use clock::{Clock, WallClock};
+pub use keep_up::{KeepUp, Overrun, MAX_STALLS_PER_SECOND};
 
 use crate::stop::StopSignal;
 use std::time::Duration;

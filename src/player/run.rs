@@ -8,7 +8,7 @@ use super::{
     PlayError, PlayOptions, Stats, StepLimiter,
 };
 use crate::bus::{alarm_error, faulty_joint, BusError, ReadStreak, ServoBus};
-use crate::pacing::{followed_share, is_stall, Clock, CycleStart, Pacer};
+use crate::pacing::{followed_share, is_stall, Clock, CycleStart, KeepUp, Pacer};
 use crate::plan::{Phase, Timeline, Trajectory};
 use crate::robot::Robot;
 use crate::stop::StopSignal;
@@ -30,6 +30,8 @@ pub(super) struct Run<'a> {
     guard: GoalGuard<'a>,
     timeline: Timeline<'a>,
     pacer: Pacer,
+    /// Whether stalls leave the path time to come back up to speed (None: not judged).
+    keep_up: Option<KeepUp>,
     limiter: StepLimiter,
     log: Option<PlaybackLog>,
     stats: Stats,
@@ -85,6 +87,9 @@ impl<'a> Run<'a> {
                 ..Stats::default()
             },
             pacer: Pacer::new(clock, period),
+            keep_up: options
+                .max_stalls_per_second
+                .map(|bound| KeepUp::new(options.rate_hz, bound)),
             t0: clock.now().as_secs_f64(),
             limiter: StepLimiter::new(robot, period, &measured),
             pose: vec![0.0; robot.joints.len()],
@@ -119,6 +124,9 @@ impl<'a> Run<'a> {
             let start = self.pacer.wait(clock, stop, self.stops_seen);
             if let Some(outcome) = self.cycle(&start, stop, clock)? {
                 return Ok(outcome);
+            }
+            if let Some(keep_up) = &mut self.keep_up {
+                keep_up.worked(clock.now().as_secs_f64() - start.now);
             }
         }
     }
@@ -165,18 +173,35 @@ impl<'a> Run<'a> {
     }
 
     /// The last goal was held for the whole `gap` (`held` beyond its period): resume from the
-    /// rate really followed, and brake to a stop when the stall was beyond the bound.
+    /// rate really followed, and brake to a stop when the stall was beyond the bound or the
+    /// stalls come too often for the machine to keep up with the rate.
     fn after_stall(&mut self, gap: f64, held: f64, elapsed: f64) {
         self.timeline.after_stall(followed_share(gap, self.period));
-        if held > self.options.max_stall && self.pending_fault.is_none() {
-            self.pending_fault = Some(PlayError::Stall {
+        let overrun = self
+            .keep_up
+            .as_mut()
+            .and_then(|keep_up| keep_up.stalled(self.t0 + elapsed, held));
+        if self.pending_fault.is_some() {
+            return;
+        }
+        let fault = if held > self.options.max_stall {
+            PlayError::Stall {
                 held,
                 period: self.period,
                 bound: self.options.max_stall,
                 at: elapsed,
-            });
-            self.timeline.request_stop();
-        }
+            }
+        } else if let Some(overrun) = overrun.filter(|_| self.stops_seen == 0) {
+            // Already braking on request, the arm is coming to rest anyway.
+            PlayError::CannotKeepUp {
+                overrun,
+                at: elapsed,
+            }
+        } else {
+            return;
+        };
+        self.pending_fault = Some(fault);
+        self.timeline.request_stop();
     }
 
     /// A first request brakes along the path; a second holds at once.
