@@ -473,8 +473,19 @@ fn a_killed_playback_keeps_its_log_under_its_own_name_up_to_the_last_second() {
     // An earlier log of the same name: replaced whole by the new one.
     std::fs::write(&log, "an earlier log\n").unwrap();
     let mut child = keypose()
-        .args(["play", &repo("sequences/so101_wave.json"), "--port", "virtual"])
-        .args(["--quiet", "--max-stall", "5000", "--log", log.to_str().unwrap()])
+        .args([
+            "play",
+            &repo("sequences/so101_wave.json"),
+            "--port",
+            "virtual",
+        ])
+        .args([
+            "--quiet",
+            "--max-stall",
+            "5000",
+            "--log",
+            log.to_str().unwrap(),
+        ])
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
@@ -493,12 +504,14 @@ fn a_killed_playback_keeps_its_log_under_its_own_name_up_to_the_last_second() {
     }
     let out = child.wait_with_output().unwrap();
     // Killed, not ended on its own (after which its log is in place anyway).
-    let seen = seen.filter(|_| out.status.code().is_none()).unwrap_or_else(|| {
-        panic!(
-            "the log never showed 2 s of playback under its own name while playing: {}",
-            stderr(&out)
-        )
-    });
+    let seen = seen
+        .filter(|_| out.status.code().is_none())
+        .unwrap_or_else(|| {
+            panic!(
+                "the log never showed 2 s of playback under its own name while playing: {}",
+                stderr(&out)
+            )
+        });
     let rows = csv_rows(&log);
     assert!(rows[0].starts_with(&["time".to_string(), "phase".to_string()]));
     let columns = rows[0].len();

@@ -390,8 +390,7 @@ fn a_delay_after_a_cycle_began_on_time_is_bounded_by_the_time_since_the_last_wri
         let rate = [50.0, 100.0][case as usize % 2];
         let period = 1.0 / rate;
         let trajectory = random_trajectory(&robot, &mut rng, rate, case % 3 != 0);
-        let clock =
-            StallingClock::new(case + 301, period, 0.12, (0.6 * period, 0.3)).after_wake();
+        let clock = StallingClock::new(case + 301, period, 0.12, (0.6 * period, 0.3)).after_wake();
         let (mut native, virtual_bus) = VirtualBus::in_process(&robot);
         let mut bus = TimedWrites {
             inner: &mut native,

@@ -166,7 +166,12 @@ impl<'a> Run<'a> {
         self.command(followed_share(gap, self.period), elapsed)?;
         let measured = self.read_back(elapsed)?;
         self.check_health(elapsed)?;
-        self.record(start, elapsed, &Commanded { phase, stall }, measured.as_deref())?;
+        self.record(
+            start,
+            elapsed,
+            &Commanded { phase, stall },
+            measured.as_deref(),
+        )?;
         self.cycle += 1;
         self.stats.cycles = self.cycle;
         Ok(None)
