@@ -181,13 +181,12 @@ fn fault_after_start_on(
             writes_before
         })
     };
-    let played = play(
-        &mut bus,
-        &robot,
-        &traj,
-        &PlayOptions::new(100.0),
-        &StopSignal::default(),
-    );
+    // The bus's faults are the subject: a loaded machine's stall must not come first.
+    let options = PlayOptions {
+        max_stall: 10.0,
+        ..PlayOptions::new(100.0)
+    };
+    let played = play(&mut bus, &robot, &traj, &options, &StopSignal::default());
     let error = match played {
         Err(error) => error,
         Ok((outcome, stats)) => panic!(
@@ -369,7 +368,14 @@ proptest! {
         );
         let traj = trajectory(&robot, &text);
         let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
-        let options = PlayOptions { readback_every: Some(10), ..PlayOptions::new(200.0) };
+        // The guard is the subject, not the pacing: a loaded machine's stalls must not end
+        // the playback early.
+        let options = PlayOptions {
+            readback_every: Some(10),
+            max_stall: 10.0,
+            max_stalls_per_second: None,
+            ..PlayOptions::new(200.0)
+        };
         let result = play(&mut bus, &robot, &traj, &options, &StopSignal::default());
         for goals in goal_history(&robot, &virtual_bus) {
             for (value, joint) in goals.iter().zip(&robot.joints) {

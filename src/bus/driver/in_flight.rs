@@ -16,7 +16,8 @@
 //! register.
 //!
 //! A servo with [`TAGS`] unanswered reads gets no new read (it could not be told apart) until
-//! one is answered or [`FORGOTTEN_AFTER`] has passed since the oldest: its answers are that late.
+//! one is answered (the driver waits for that up to its timeout) or [`FORGOTTEN_AFTER`] has
+//! passed since the oldest.
 
 use std::collections::{HashMap, VecDeque};
 use std::time::{Duration, Instant};

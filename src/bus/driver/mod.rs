@@ -114,16 +114,17 @@ impl NativeBus {
         Ok(())
     }
 
-    /// Reads what has arrived since the last transaction (which [`Self::send`] would drop), so
-    /// that late answers settle their requests, and free their lengths, before a new read is
-    /// given one.
-    fn settle_input(&mut self) -> Result<(), BusError> {
+    /// Reads what has arrived since the last transaction (which [`Self::send`] would drop),
+    /// waiting until `until` for the first bytes when none are there yet, so that late answers
+    /// settle their requests, and free their lengths, before a new read is given one.
+    fn settle_input(&mut self, until: Instant) -> Result<(), BusError> {
         let mut chunk = [0u8; 512];
         // A bounded look: a line that keeps talking cannot hold the transaction up.
-        for _ in 0..16 {
+        for look in 0..16 {
+            let wait = if look == 0 { until } else { Instant::now() };
             let n = self
                 .transport
-                .read_until(&mut chunk, Instant::now())
+                .read_until(&mut chunk, wait)
                 .map_err(|e| self.port_error(e))?;
             if n == 0 {
                 break;
@@ -317,25 +318,33 @@ impl NativeBus {
     /// How many bytes more than its register a read answered by `ids` asks for, so that its
     /// answers fit none of their unanswered requests ([`InFlight`]); `answer_bytes` gives the
     /// data length of an answer for a number of extra bytes. When every length is taken, the
-    /// servo holding them answers too late to be read now.
+    /// late answers are waited for, as an answer would be, up to the timeout: a servo still
+    /// holding them then answers too late to be read now.
     fn extra_bytes(
         &mut self,
         ids: &[u8],
         answer_bytes: impl Fn(usize) -> usize,
     ) -> Result<u16, BusError> {
-        if self.in_flight.waiting() {
-            self.settle_input()?;
-        }
-        match self
-            .in_flight
-            .extra_bytes(ids, answer_bytes, Instant::now())
-        {
-            Ok(extra) => Ok(extra as u16),
-            Err((id, oldest)) => Err(BusError::Stale {
-                id,
-                timeout_ms: self.timeout.as_millis() as u64,
-                late_ms: oldest.as_millis() as u64,
-            }),
+        let deadline = Instant::now() + self.timeout;
+        let mut until = Instant::now();
+        loop {
+            if self.in_flight.waiting() {
+                self.settle_input(until)?;
+            }
+            match self
+                .in_flight
+                .extra_bytes(ids, &answer_bytes, Instant::now())
+            {
+                Ok(extra) => return Ok(extra as u16),
+                Err((id, oldest)) if Instant::now() >= deadline => {
+                    return Err(BusError::Stale {
+                        id,
+                        timeout_ms: self.timeout.as_millis() as u64,
+                        late_ms: oldest.as_millis() as u64,
+                    })
+                }
+                Err(_) => until = deadline,
+            }
         }
     }
 
