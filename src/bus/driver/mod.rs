@@ -234,8 +234,13 @@ impl NativeBus {
                             }
                         }
                     }
-                    // Another servo's late answer: not ours.
-                    Ok(Decoded::Packet(_)) => continue,
+                    // Another servo's late answer: not ours, but it settles that servo's
+                    // requests up to the one it answers.
+                    Ok(Decoded::Packet(packet)) => {
+                        let length = packet.params.len();
+                        self.in_flight.answered(packet.id, length, Instant::now());
+                        continue;
+                    }
                     Ok(Decoded::NeedMore) => break,
                     // The echo of our own instruction on a looped-back line.
                     Err(PacketError::Direction { .. }) => continue,
