@@ -13,6 +13,10 @@
 //! - private files (the teach journal, the cache) are created `0600` in `0700` directories;
 //! - a target that exists and is not a regular file (`/dev/stdout`, a FIFO) cannot be replaced
 //!   by a rename, so it is written straight through.
+//!
+//! A file written over a long time (a playback log) can be put in place early and then grow
+//! there ([`AtomicFile::publish`]): readers, and a kill at any moment, then see the old file or
+//! the new one up to its last write, so a writer that writes whole lines leaves whole lines.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, Write};
@@ -94,6 +98,8 @@ pub struct AtomicFile {
 struct Staged {
     temp: PathBuf,
     target: PathBuf,
+    /// Renamed over the target already ([`AtomicFile::publish`]): the writes go on there.
+    published: bool,
 }
 
 impl AtomicFile {
@@ -112,7 +118,11 @@ impl AtomicFile {
         let prefix = format!(".{name}{TEMP_MARK}");
         remove_orphans(&dir, &prefix);
         let (temp, file) = create_temp(&dir, &prefix, privacy)?;
-        let staged = Staged { temp, target };
+        let staged = Staged {
+            temp,
+            target,
+            published: false,
+        };
         // From here on, a failure removes the temporary (Drop).
         let atomic = AtomicFile {
             file,
@@ -130,6 +140,9 @@ impl AtomicFile {
         let Some(staged) = self.staged.take() else {
             return Ok(());
         };
+        if staged.published {
+            return self.file.sync_all();
+        }
         let result = self.file.sync_all().and_then(|_| {
             fs::rename(&staged.temp, &staged.target)?;
             sync_dir(&parent_dir(&staged.target))
@@ -140,9 +153,26 @@ impl AtomicFile {
         result
     }
 
-    /// The temporary being written (the target itself when written straight through).
+    /// Puts what is written so far in place of the target now, and goes on writing there: each
+    /// later write lands in the target itself, and [`AtomicFile::commit`] only flushes it to
+    /// disk. Dropped without a commit, a published file stays. Calling it again does nothing.
+    pub fn publish(&mut self) -> io::Result<()> {
+        self.file.flush()?;
+        let Some(staged) = self.staged.as_mut().filter(|s| !s.published) else {
+            return Ok(());
+        };
+        self.file.sync_all()?;
+        fs::rename(&staged.temp, &staged.target)?;
+        staged.published = true;
+        sync_dir(&parent_dir(&staged.target))
+    }
+
+    /// The temporary being written (`None` when written straight through or published).
     pub fn temp_path(&self) -> Option<&Path> {
-        self.staged.as_ref().map(|s| s.temp.as_path())
+        self.staged
+            .as_ref()
+            .filter(|s| !s.published)
+            .map(|s| s.temp.as_path())
     }
 }
 
@@ -158,7 +188,7 @@ impl Write for AtomicFile {
 
 impl Drop for AtomicFile {
     fn drop(&mut self) {
-        if let Some(staged) = &self.staged {
+        if let Some(staged) = self.staged.as_ref().filter(|s| !s.published) {
             let _ = fs::remove_file(&staged.temp);
         }
     }
@@ -487,6 +517,35 @@ mod tests {
         assert!(name.starts_with(".seq.json.keypose-tmp-"), "{name}");
         drop((a, b));
         assert_eq!(others(dir.path(), &[]), Vec::<String>::new());
+    }
+
+    #[test]
+    fn a_published_file_is_in_place_while_it_grows_and_stays_when_dropped() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("play.csv");
+        fs::write(&path, "an earlier log\n").unwrap();
+        let mut file = AtomicFile::create(&path, Privacy::Shared).unwrap();
+        file.write_all(b"time\n").unwrap();
+        // Not published yet: the earlier file is what a reader sees.
+        assert_eq!(fs::read_to_string(&path).unwrap(), "an earlier log\n");
+        file.publish().unwrap();
+        assert_eq!(fs::read_to_string(&path).unwrap(), "time\n");
+        assert_eq!(file.temp_path(), None);
+        file.write_all(b"0.01\n").unwrap();
+        file.publish().unwrap();
+        assert_eq!(fs::read_to_string(&path).unwrap(), "time\n0.01\n");
+        // A writer that stops without committing (a kill) leaves what it wrote, no temporary.
+        drop(file);
+        assert_eq!(fs::read_to_string(&path).unwrap(), "time\n0.01\n");
+        assert_eq!(others(dir.path(), &["play.csv"]), Vec::<String>::new());
+        // Committed after publishing: the same file, complete.
+        let mut file = AtomicFile::create(&path, Privacy::Shared).unwrap();
+        file.write_all(b"a\n").unwrap();
+        file.publish().unwrap();
+        file.write_all(b"b\n").unwrap();
+        file.commit().unwrap();
+        assert_eq!(fs::read_to_string(&path).unwrap(), "a\nb\n");
+        assert_eq!(others(dir.path(), &["play.csv"]), Vec::<String>::new());
     }
 
     #[test]

@@ -465,6 +465,78 @@ fn a_playback_log_overlays_on_its_sequence_and_a_broken_log_is_refused() {
     );
 }
 
+/// The rows of a playback log (the header first), split into fields.
+fn csv_rows(path: &std::path::Path) -> Vec<Vec<String>> {
+    std::fs::read_to_string(path)
+        .unwrap_or_default()
+        .lines()
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect()
+}
+
+#[test]
+fn a_killed_playback_keeps_its_log_under_its_own_name_up_to_the_last_second() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("wave.csv");
+    // An earlier log of the same name: replaced whole by the new one.
+    std::fs::write(&log, "an earlier log\n").unwrap();
+    let mut child = keypose()
+        .args([
+            "play",
+            &repo("sequences/so101_wave.json"),
+            "--port",
+            "virtual",
+        ])
+        .args([
+            "--quiet",
+            "--max-stall",
+            "5000",
+            "--log",
+            log.to_str().unwrap(),
+        ])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Watch the log under its own name while it plays; once it holds two seconds of
+    // playback, kill the process outright (SIGKILL: nothing of keypose's runs after it).
+    let time_of = |row: &Vec<String>| row[0].parse::<f64>().ok();
+    let mut seen = None;
+    while child.try_wait().unwrap().is_none() {
+        let rows = csv_rows(&log);
+        if let Some(t) = rows.last().and_then(time_of).filter(|&t| t >= 2.0) {
+            child.kill().unwrap();
+            seen = Some(t);
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let out = child.wait_with_output().unwrap();
+    // Killed, not ended on its own (after which its log is in place anyway).
+    let seen = seen
+        .filter(|_| out.status.code().is_none())
+        .unwrap_or_else(|| {
+            panic!(
+                "the log never showed 2 s of playback under its own name while playing: {}",
+                stderr(&out)
+            )
+        });
+    let rows = csv_rows(&log);
+    assert!(rows[0].starts_with(&["time".to_string(), "phase".to_string()]));
+    let columns = rows[0].len();
+    // Whole rows only, up to at least the row seen before the kill.
+    for row in &rows[1..] {
+        assert_eq!(row.len(), columns, "a torn row: {row:?}");
+    }
+    let last = rows.last().and_then(time_of).unwrap();
+    assert!(last >= seen, "the log shrank from {seen} s to {last} s");
+    // No hidden temporary is left beside it.
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, vec!["wave.csv".to_string()]);
+}
+
 /// Plays `so101_wave.json` with a log, stops the process (SIGSTOP) for `stall_ms` 1.5 s in,
 /// then lets it go on; returns the output and the log's rows.
 fn stopped_for(stall_ms: u64, extra: &[&str]) -> (Output, Vec<Vec<String>>, Vec<String>) {

@@ -61,7 +61,10 @@ impl Rng {
     }
 }
 
-/// Virtual time: waiting jumps to the deadline, plus jitter, plus now and then a stall.
+/// Virtual time: waiting jumps to the deadline, plus jitter, plus now and then a stall. The
+/// stall comes either before the thread wakes (the cycle begins late) or, with
+/// `after_wake`, right after the thread has read the clock on waking (the cycle began on time,
+/// then the thread was preempted before its goal went out).
 struct StallingClock {
     state: Mutex<ClockState>,
 }
@@ -74,6 +77,9 @@ struct ClockState {
     stall_chance: f64,
     stall_range: (f64, f64),
     stalls: u64,
+    after_wake: bool,
+    /// A stall drawn at the last wait, due after the next reading of the clock.
+    pending: f64,
 }
 
 impl StallingClock {
@@ -86,8 +92,15 @@ impl StallingClock {
                 stall_chance,
                 stall_range,
                 stalls: 0,
+                after_wake: false,
+                pending: 0.0,
             }),
         }
+    }
+    /// Stalls come right after the first reading of the clock that follows a wait.
+    fn after_wake(self) -> Self {
+        self.state.lock().unwrap().after_wake = true;
+        self
     }
     fn seconds(&self) -> f64 {
         self.state.lock().unwrap().now
@@ -99,7 +112,10 @@ impl StallingClock {
 
 impl Clock for StallingClock {
     fn now(&self) -> Duration {
-        Duration::from_secs_f64(self.seconds())
+        let mut s = self.state.lock().unwrap();
+        let now = s.now;
+        s.now += std::mem::take(&mut s.pending);
+        Duration::from_secs_f64(now)
     }
     fn sleep_until(&self, deadline: Duration, _: &StopSignal, _: u32) {
         let mut s = self.state.lock().unwrap();
@@ -110,7 +126,11 @@ impl Clock for StallingClock {
         if s.rng.next() < s.stall_chance {
             let (low, high) = s.stall_range;
             let stall = s.rng.range(low, high);
-            s.now += stall;
+            if s.after_wake {
+                s.pending = stall;
+            } else {
+                s.now += stall;
+            }
             s.stalls += 1;
         }
     }
@@ -321,6 +341,8 @@ fn after_thousands_of_stalls_no_goal_step_exceeds_the_limits_over_one_period() {
         let options = PlayOptions {
             readback_every: Some(4),
             max_stall: 10.0,
+            // Stalls in one wait in eight on purpose: not a machine to judge.
+            max_stalls_per_second: None,
             ..PlayOptions::new(rate)
         };
         let (outcome, stats) = play_on(&mut bus, &robot, &trajectory, &options, &clock)
@@ -354,6 +376,42 @@ fn after_thousands_of_stalls_no_goal_step_exceeds_the_limits_over_one_period() {
         worst_step, worst_step_net, worst_change
     );
     assert!(stalls >= 1000, "only {stalls} stalls injected");
+}
+
+#[test]
+fn a_delay_after_a_cycle_began_on_time_is_bounded_by_the_time_since_the_last_write() {
+    // The cycle begins on time, then the thread is preempted before its goal goes out: the gap
+    // between cycle starts looks ordinary, but the arm held the last goal for the whole delay.
+    // The same oracle as above, with the write times the clock gave, must hold.
+    let robot = Robot::builtin("so101").unwrap();
+    let mut late_writes = 0;
+    for case in 0..12u64 {
+        let mut rng = Rng::new(case + 1);
+        let rate = [50.0, 100.0][case as usize % 2];
+        let period = 1.0 / rate;
+        let trajectory = random_trajectory(&robot, &mut rng, rate, case % 3 != 0);
+        let clock = StallingClock::new(case + 301, period, 0.12, (0.6 * period, 0.3)).after_wake();
+        let (mut native, virtual_bus) = VirtualBus::in_process(&robot);
+        let mut bus = TimedWrites {
+            inner: &mut native,
+            clock: &clock,
+            times: Vec::new(),
+        };
+        let options = PlayOptions {
+            readback_every: Some(4),
+            max_stall: 10.0,
+            // Stalls in one wait in eight on purpose: not a machine to judge.
+            max_stalls_per_second: None,
+            ..PlayOptions::new(rate)
+        };
+        let (outcome, _) = play_on(&mut bus, &robot, &trajectory, &options, &clock)
+            .unwrap_or_else(|e| panic!("case {case}: {e}"));
+        assert_eq!(outcome, Outcome::Finished, "case {case}");
+        let times = bus.times.clone();
+        let checked = check_goals(&robot, rate, &times, &virtual_bus.lock().goals_received());
+        late_writes += checked.stalls_seen;
+    }
+    assert!(late_writes >= 100, "only {late_writes} late writes");
 }
 
 #[test]
@@ -425,6 +483,70 @@ fn a_stall_beyond_the_bound_brakes_to_rest_and_is_a_fault_naming_the_stall() {
     assert!(at_rest(cycles - 1), "still moving at the end");
     assert!(cycles > 201, "no braking after the stall: {cycles} writes");
     assert!(virtual_bus.lock().servos.iter().all(|s| s.motion.torque));
+}
+
+#[test]
+fn a_rate_the_machine_cannot_keep_up_with_is_said_within_the_first_second_and_braked() {
+    // Every wait ends 1.2 periods late (as at 1 kHz on a machine that wakes the thread 1.2 ms
+    // late): every goal is held two periods, and the path never gets back up to speed.
+    let robot = Robot::builtin("so101").unwrap();
+    let sequence = Sequence::load(std::path::Path::new("sequences/so101_wave.json")).unwrap();
+    let trajectory = Trajectory::build(&sequence, &robot).unwrap();
+    let rate = 1000.0;
+    let clock = Overrunning {
+        now: Mutex::new(0.0),
+        overrun: 1.2 / rate,
+    };
+    let (mut native, virtual_bus) = VirtualBus::in_process(&robot);
+    let played = play_on(
+        &mut native,
+        &robot,
+        &trajectory,
+        &PlayOptions::new(rate),
+        &clock,
+    );
+    let error = match played {
+        Err(error) => error,
+        Ok((outcome, stats)) => panic!(
+            "played on ({outcome:?}) through {} stalls, {:.1} s late",
+            stats.pacing.stalls, stats.pacing.time_lost
+        ),
+    };
+    match &error {
+        PlayError::CannotKeepUp { overrun, at } => {
+            // Told within the first second of playback: 50 stalls, one per cycle.
+            assert!(*at <= 1.0, "told at {at} s");
+            assert_eq!(overrun.stalls, 50);
+            assert_eq!(overrun.rate_hz, 1000.0);
+        }
+        other => panic!("expected the machine not to keep up, got {other}"),
+    }
+    let text = error.to_string();
+    assert!(text.contains("cannot keep up with 1000 Hz"), "{text}");
+    assert!(text.contains("lower rate"), "{text}");
+    // It braked along the path to rest, torque on.
+    let goals = virtual_bus.lock().goals_received();
+    let n = robot.joints.len();
+    let cycles = goals.len() / n;
+    let at_rest = |k: usize| (0..n).all(|j| goals[k * n + j].1 == goals[(k - 1) * n + j].1);
+    assert!(at_rest(cycles - 1), "still moving at the end");
+    assert!(virtual_bus.lock().servos.iter().all(|s| s.motion.torque));
+}
+
+/// Virtual time in which every wait ends `overrun` after its deadline.
+struct Overrunning {
+    now: Mutex<f64>,
+    overrun: f64,
+}
+
+impl Clock for Overrunning {
+    fn now(&self) -> Duration {
+        Duration::from_secs_f64(*self.now.lock().unwrap())
+    }
+    fn sleep_until(&self, deadline: Duration, _: &StopSignal, _: u32) {
+        let mut now = self.now.lock().unwrap();
+        *now = now.max(deadline.as_secs_f64()) + self.overrun;
+    }
 }
 
 /// Virtual time with a single stall at one chosen wait.

@@ -133,7 +133,10 @@ fn probe(bus: &mut dyn ServoBus, robot: &Robot, baud: u32) -> Result<(), BusErro
     // Any answer, even an alarm or a damaged one, shows the bus is alive: the command then
     // meets it as before.
     match bus.ping(first.servo.id) {
-        Err(BusError::Timeout { id, .. }) => Err(BusError::Silent { id, baud }),
+        Err(e) if e.is_no_answer() => Err(BusError::Silent {
+            id: first.servo.id,
+            baud,
+        }),
         _ => Ok(()),
     }
 }
@@ -178,7 +181,8 @@ pub fn scan(
         for id in 0..=max_id {
             match bus.ping(id) {
                 Ok(info) => found.push((protocol, info)),
-                Err(BusError::Timeout { .. } | BusError::Corrupt { .. }) => {}
+                Err(e) if e.is_no_answer() => {}
+                Err(BusError::Corrupt { .. }) => {}
                 Err(e) => return Err(e),
             }
         }

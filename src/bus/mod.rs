@@ -155,6 +155,22 @@ pub struct Health {
 pub enum BusError {
     #[error("servo {id}: no answer within {timeout_ms} ms")]
     Timeout { id: u8, timeout_ms: u64 },
+    /// No answer to the present request, but the servo answered earlier ones late: its answers
+    /// are too old to be its present state, and are not taken for it.
+    #[error("servo {id}: no answer within {timeout_ms} ms; it answers {late_ms} ms late (or later), too late to be its present state")]
+    Stale {
+        id: u8,
+        timeout_ms: u64,
+        late_ms: u64,
+    },
+    /// No answer, while keypose itself was not running for a good part of the wait: the machine
+    /// is overloaded, which the servo's silence may owe nothing to.
+    #[error("servo {id}: no answer within {timeout_ms} ms, but keypose itself did not run for {starved_ms} ms of that wait (CPU starvation: the machine is overloaded, not necessarily the servo)")]
+    Starved {
+        id: u8,
+        timeout_ms: u64,
+        starved_ms: u64,
+    },
     #[error("servo {id}: corrupt answer ({source})")]
     Corrupt {
         id: u8,
@@ -210,6 +226,8 @@ impl BusError {
     pub fn servo(&self) -> Option<u8> {
         match self {
             BusError::Timeout { id, .. }
+            | BusError::Stale { id, .. }
+            | BusError::Starved { id, .. }
             | BusError::Corrupt { id, .. }
             | BusError::Alarm { id, .. }
             | BusError::Refused { id, .. }
@@ -221,6 +239,15 @@ impl BusError {
             | BusError::Hung { .. }
             | BusError::Isolated { .. } => None,
         }
+    }
+
+    /// No usable answer came in time (silent, late, or keypose starved): a read may be tried
+    /// again, and a scan goes on.
+    pub fn is_no_answer(&self) -> bool {
+        matches!(
+            self.root(),
+            BusError::Timeout { .. } | BusError::Stale { .. } | BusError::Starved { .. }
+        )
     }
 
     /// The error itself, out of the arm that wraps it in a cell.

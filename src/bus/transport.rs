@@ -9,6 +9,8 @@ pub trait Transport: Send {
     fn describe(&self) -> String;
     fn write_all(&mut self, bytes: &[u8]) -> io::Result<()>;
     /// Reads what is available, waiting until `deadline` at most; `Ok(0)` means nothing came.
+    /// Bytes already received are read even when the deadline has passed: a caller that ran
+    /// late (its thread was not scheduled) must not take an answer waiting for it for silence.
     fn read_until(&mut self, buf: &mut [u8], deadline: Instant) -> io::Result<usize>;
     /// Drops any bytes already received (stale answers, line noise).
     fn discard_input(&mut self) -> io::Result<()>;
@@ -74,13 +76,10 @@ impl Transport for SerialTransport {
 
     fn read_until(&mut self, buf: &mut [u8], deadline: Instant) -> io::Result<usize> {
         loop {
-            let now = Instant::now();
-            if now >= deadline {
-                return Ok(0);
-            }
-            // serialport's timeout is per read call; keep it within the caller's deadline.
-            self.port
-                .set_timeout((deadline - now).min(Duration::from_millis(50)))?;
+            // serialport's timeout is per read call; keep it within the caller's deadline. Past
+            // the deadline it is zero: one look at what is already there.
+            let left = deadline.saturating_duration_since(Instant::now());
+            self.port.set_timeout(left.min(Duration::from_millis(50)))?;
             match self.port.read(buf) {
                 Ok(0) => {
                     return Err(io::Error::new(
@@ -89,7 +88,12 @@ impl Transport for SerialTransport {
                     ))
                 }
                 Ok(n) => return Ok(n),
-                Err(e) if e.kind() == io::ErrorKind::TimedOut => continue,
+                Err(e) if e.kind() == io::ErrorKind::TimedOut => {
+                    if Instant::now() >= deadline {
+                        return Ok(0);
+                    }
+                }
+                // Interrupted before it looked: look again.
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
                 Err(e) => return Err(e),
             }
@@ -119,13 +123,28 @@ pub trait Responder: Send {
 pub struct MemoryTransport<R: Responder> {
     responder: R,
     pending: Vec<(Instant, Vec<u8>)>,
+    /// Each answer when it is due, before earlier answers still to come; otherwise in order.
+    as_due: bool,
 }
 
 impl<R: Responder> MemoryTransport<R> {
+    /// Answers in the order they were produced, each no earlier than its delay: an adapter that
+    /// holds back what follows a late answer.
     pub fn new(responder: R) -> Self {
         Self {
             responder,
             pending: Vec::new(),
+            as_due: false,
+        }
+    }
+
+    /// Each answer as soon as it is due, whatever was produced before it for earlier packets: on
+    /// a shared line a servo that answers late does so after the answers other servos give to
+    /// later requests.
+    pub fn as_due(responder: R) -> Self {
+        Self {
+            as_due: true,
+            ..Self::new(responder)
         }
     }
 
@@ -147,9 +166,12 @@ impl<R: Responder> Transport for MemoryTransport<R> {
         if !self.responder.connected() {
             return Err(Self::gone());
         }
+        // The answers to one packet follow each other on the line: none before the one ahead.
         let now = Instant::now();
+        let mut at = now;
         for (delay, chunk) in self.responder.respond(bytes) {
-            self.pending.push((now + delay, chunk));
+            at = at.max(now + delay);
+            self.pending.push((at, chunk));
         }
         Ok(())
     }
@@ -158,13 +180,19 @@ impl<R: Responder> Transport for MemoryTransport<R> {
         if !self.responder.connected() {
             return Err(Self::gone());
         }
-        let Some(&(ready_at, _)) = self.pending.first() else {
+        // The next chunk: the first produced, or the first due (the first produced among equals).
+        let next = match self.as_due {
+            false => self.pending.first().map(|_| 0),
+            true => (0..self.pending.len()).min_by_key(|&i| self.pending[i].0),
+        };
+        let Some(next) = next else {
             let now = Instant::now();
             if deadline > now {
                 std::thread::sleep(deadline - now);
             }
             return Ok(0);
         };
+        let ready_at = self.pending[next].0;
         let now = Instant::now();
         if ready_at > now {
             std::thread::sleep(ready_at.min(deadline) - now);
@@ -172,12 +200,12 @@ impl<R: Responder> Transport for MemoryTransport<R> {
                 return Ok(0);
             }
         }
-        let (_, chunk) = &mut self.pending[0];
+        let (_, chunk) = &mut self.pending[next];
         let n = chunk.len().min(buf.len());
         buf[..n].copy_from_slice(&chunk[..n]);
         chunk.drain(..n);
         if chunk.is_empty() {
-            self.pending.remove(0);
+            self.pending.remove(next);
         }
         Ok(n)
     }
@@ -186,5 +214,32 @@ impl<R: Responder> Transport for MemoryTransport<R> {
         let now = Instant::now();
         self.pending.retain(|(ready_at, _)| *ready_at > now);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serialport::{SerialPort, TTYPort};
+
+    #[test]
+    fn an_answer_already_received_is_read_even_past_the_deadline() {
+        // A pseudo-terminal as the port; the answer is written on the other side.
+        let (mut master, slave) = TTYPort::pair().unwrap();
+        let path = slave.name().unwrap();
+        let mut port = SerialTransport::open(&path, 1_000_000).unwrap();
+        master.write_all(b"answer").unwrap();
+        // Wait until the bytes are in the port's input (a readiness check, not a time).
+        while slave.bytes_to_read().unwrap() < 6 {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        // The reading thread comes to it only after its deadline (it was not scheduled): the
+        // answer waiting there is still the answer, not silence.
+        let mut buf = [0u8; 16];
+        let past = Instant::now() - Duration::from_millis(5);
+        let n = port.read_until(&mut buf, past).unwrap();
+        assert_eq!(&buf[..n], b"answer");
+        // And with nothing there, past the deadline is nothing at once.
+        assert_eq!(port.read_until(&mut buf, past).unwrap(), 0);
     }
 }

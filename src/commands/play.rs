@@ -296,6 +296,11 @@ fn conclude(
             ))
         }
         Err(e @ PlayError::Log { .. }) => Err(CommandError::Usage(e.to_string())),
+        // The same words as any playback fault, and the options that cure it.
+        Err(e @ PlayError::CannotKeepUp { .. }) => Err(CommandError::Hardware(format!(
+            "{}\nhint: --realtime runs the control loop under SCHED_FIFO where permitted (see `keypose doctor`); --rate sets a lower rate; --readback N reads back every Nth cycle only",
+            CommandError::Play(e)
+        ))),
         Err(
             e @ PlayError::ServoProfile(
                 player::ServoProfileError::Units(_) | player::ServoProfileError::TimeBased { .. },

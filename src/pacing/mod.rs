@@ -6,14 +6,18 @@
 //! are skipped, not replayed back to back: replaying them is exactly the burst of goals, each a
 //! full period's step apart by only a few milliseconds, that the velocity limits forbid. The
 //! stall is measured here; the player hands it to the timeline, which resumes along the path
-//! from the rate the arm actually followed during the stall.
+//! from the rate the arm actually followed during the stall. Stalls that come too often for
+//! that to work ([`KeepUp`]) mean the machine cannot keep up with the rate, which is told at
+//! once.
 
 mod clock;
+mod keep_up;
 pub mod machine;
 pub mod precise;
 pub mod realtime;
 
 pub use clock::{Clock, WallClock};
+pub use keep_up::{KeepUp, Overrun, MAX_STALLS_PER_SECOND};
 
 use crate::stop::StopSignal;
 use std::time::Duration;
@@ -47,17 +51,28 @@ pub struct CycleStart {
 impl CycleStart {
     /// Whether the goal before this cycle was held long enough to count as a stall.
     pub fn stalled(&self, period: f64) -> bool {
-        self.gap > STALL_PERIODS * period
+        is_stall(self.gap, period)
     }
 
-    /// The share of the path rate the arm really followed since the previous cycle: after a
-    /// stall its goal was held for the whole gap, so `period / gap`; otherwise all of it.
+    /// The share of the path rate the arm really followed since the previous cycle
+    /// ([`followed_share`] over the gap between the two cycles' starts).
     pub fn followed_share(&self, period: f64) -> f64 {
-        if self.stalled(period) {
-            period / self.gap
-        } else {
-            1.0
-        }
+        followed_share(self.gap, period)
+    }
+}
+
+/// Whether a goal held `gap` seconds (from one goal to the next) counts as a stall.
+pub fn is_stall(gap: f64, period: f64) -> bool {
+    gap > STALL_PERIODS * period
+}
+
+/// The share of the path rate the arm really followed over a `gap` between two goals: after a
+/// stall the first goal was held for the whole gap, so `period / gap`; otherwise all of it.
+pub fn followed_share(gap: f64, period: f64) -> f64 {
+    if is_stall(gap, period) {
+        period / gap
+    } else {
+        1.0
     }
 }
 
@@ -103,6 +118,8 @@ pub struct Pacer {
     /// Index of the next deadline on the grid.
     next: u64,
     previous_start: Option<f64>,
+    /// Deadlines passed over by [`Pacer::served_until`] since the last cycle began.
+    served_over: u64,
     pub summary: LatenessSummary,
 }
 
@@ -114,6 +131,7 @@ impl Pacer {
             anchor: clock.now().as_secs_f64(),
             next: 0,
             previous_start: None,
+            served_over: 0,
             summary: LatenessSummary::default(),
         }
     }
@@ -135,8 +153,8 @@ impl Pacer {
         }
         let now = clock.now().as_secs_f64();
         // Past the deadline after this one too: skip to the latest deadline that has passed.
-        let latest = ((now - self.anchor) / self.period).floor().max(0.0) as u64;
-        let skipped = latest.saturating_sub(self.next);
+        let latest = self.index_at(now);
+        let skipped = latest.saturating_sub(self.next) + std::mem::take(&mut self.served_over);
         let start = CycleStart {
             now,
             lateness: (now - due).max(0.0),
@@ -147,6 +165,23 @@ impl Pacer {
         self.previous_start = Some(now);
         self.summary.add(&start, self.period);
         start
+    }
+
+    /// The cycle's work was done at `at` (clock time, seconds), later than it began when the
+    /// thread was delayed after waking: the deadlines up to then are served by it, so the next
+    /// cycle waits for the first one after `at` instead of running at once, a second goal
+    /// right behind the late one.
+    pub fn served_until(&mut self, at: f64) {
+        let after = self.index_at(at) + 1;
+        if after > self.next {
+            self.served_over += after - self.next;
+            self.next = after;
+        }
+    }
+
+    /// The index of the latest deadline at or before clock time `at` (0 before the first).
+    fn index_at(&self, at: f64) -> u64 {
+        ((at - self.anchor) / self.period).floor().max(0.0) as u64
     }
 }
 
@@ -211,6 +246,29 @@ mod tests {
         assert_eq!((summary.stalls, summary.skipped_deadlines), (1, 49));
         assert!((summary.time_lost - 0.49).abs() < 1e-9);
         assert!((summary.longest_stall - 0.49).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_cycle_whose_work_went_out_late_serves_the_deadlines_up_to_then() {
+        let clock = Jumps::default();
+        let stop = StopSignal::default();
+        let mut pacer = Pacer::new(&clock, 0.01);
+        pacer.wait(&clock, &stop, 0); // t = 0
+        let on_time = pacer.wait(&clock, &stop, 0); // t = 0.01, on time
+        assert_eq!(on_time.skipped, 0);
+        // Preempted after waking: the work went out at 0.255 s.
+        clock.stall(0.245);
+        pacer.served_until(0.255);
+        // The next cycle is deadline 0.26's, not one at once for 0.25's: deadlines 0.02 …
+        // 0.25 (24 of them) were served by the late one.
+        let next = pacer.wait(&clock, &stop, 0);
+        assert!((next.now - 0.26).abs() < 1e-9, "{next:?}");
+        assert_eq!(next.skipped, 24);
+        // Work done on time changes nothing.
+        pacer.served_until(0.2601);
+        let after = pacer.wait(&clock, &stop, 0);
+        assert!((after.now - 0.27).abs() < 1e-9, "{after:?}");
+        assert_eq!(after.skipped, 0);
     }
 
     #[test]

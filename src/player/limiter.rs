@@ -61,8 +61,9 @@ impl StepLimiter {
     }
 
     /// Saturates `goal` in place for a write after the previous one, `followed` being the
-    /// share of the path rate the arm really followed in between
-    /// ([`crate::pacing::CycleStart::followed_share`]: 1, or `period / gap` after a stall).
+    /// share of the path rate the arm really followed in between ([`crate::pacing::followed_share`]
+    /// of the time since the previous goal went out, not since the cycle's deadline: 1, or
+    /// `period / gap` after a stall).
     pub fn limit(&mut self, goal: &mut [f64], followed: f64) {
         let mut changed = false;
         for (j, limit) in self.limits.iter().enumerate() {

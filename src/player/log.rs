@@ -7,24 +7,33 @@
 //! `keypose plot
 //! --log` overlays the measured columns on the sequence, against `sequence_time`.
 //!
-//! The log is streamed to a temporary file and put in place when playback ends, however it ends
-//! (finished, stopped, a fault: [`PlaybackLog`] commits when dropped), so `--log` equal to an
-//! earlier log never leaves a torn file. A process killed outright leaves no log, only a
-//! temporary that the next write of the same log removes.
+//! The header is written to a temporary that is then put in place of the target at once
+//! ([`AtomicFile::publish`]), so an earlier log of the same name is replaced whole, never torn;
+//! the rows then grow the file in place, written whole rows at a time at least every
+//! [`PUBLISH_EVERY`], so a process killed outright (SIGKILL, a crash) leaves its log under its
+//! own name, complete up to the last second before the kill. However playback ends otherwise
+//! (finished, stopped, a fault: [`PlaybackLog`] finishes when dropped), every row is there.
 //!
 //! The rows are formatted and written on a thread of their own, so the control thread only
-//! copies a few numbers into a preallocated record and passes it on: a slow disk or a
-//! buffer flush never delays a cycle. Records come back to the control thread for reuse.
+//! copies a few numbers into a preallocated record and passes it on: a slow disk or a write
+//! never delays a cycle. Records come back to the control thread for reuse.
 
 use super::PlayError;
 use crate::atomic_file::{AtomicFile, Privacy};
 use crate::plan::Phase;
 use crate::robot::Robot;
 use std::fmt::Write as _;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Write};
 use std::path::Path;
-use std::sync::mpsc::{self, Receiver, SyncSender};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender};
 use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// The longest rows wait on the writer thread before they are in the file: a killed playback
+/// keeps its log up to this long before the kill.
+pub const PUBLISH_EVERY: Duration = Duration::from_secs(1);
+/// Formatted rows gathered for one write at most (whole rows: the file always ends with one).
+const GATHER_BYTES: usize = 64 * 1024;
 
 /// Records in flight between the control thread and the writer: seconds of cycles at 1 kHz,
 /// allocated once. Only a writer that far behind makes the control thread wait.
@@ -90,7 +99,7 @@ pub struct PlaybackLog {
     /// `None` once finished.
     records: Option<SyncSender<Record>>,
     spare: Receiver<Record>,
-    writer: Option<JoinHandle<io::Result<BufWriter<AtomicFile>>>>,
+    writer: Option<JoinHandle<io::Result<AtomicFile>>>,
     joints: usize,
 }
 
@@ -101,9 +110,10 @@ impl PlaybackLog {
             path: label.clone(),
             source,
         };
-        let file = AtomicFile::create(path, Privacy::Shared).map_err(log_error)?;
-        let mut out = BufWriter::new(file);
-        out.write_all(header(robot).as_bytes()).map_err(log_error)?;
+        let mut out = AtomicFile::create(path, Privacy::Shared).map_err(log_error)?;
+        out.write_all(header(robot).as_bytes())
+            .and_then(|()| out.publish())
+            .map_err(log_error)?;
         let joints = robot.joints.len();
         let (records, inbox) = mpsc::sync_channel(IN_FLIGHT);
         let (give_back, spare) = mpsc::sync_channel(IN_FLIGHT);
@@ -150,7 +160,6 @@ impl PlaybackLog {
             .join()
             .unwrap_or_else(|_| Err(io::Error::other("the log writer panicked")));
         written
-            .and_then(|out| out.into_inner().map_err(|e| e.into_error()))
             .and_then(AtomicFile::commit)
             .map_err(|source| PlayError::Log {
                 path: self.path.clone(),
@@ -170,25 +179,39 @@ fn header(robot: &Robot) -> String {
     header
 }
 
-/// The writer thread: formats and writes each record until the sender is gone, returning each
-/// record for reuse; stops at the first write error.
+/// The writer thread: formats each record until the sender is gone, returning each record for
+/// reuse, and writes the rows gathered whenever [`PUBLISH_EVERY`] has passed (rows or not: a
+/// control loop held up in a bus read must not hold back the rows before it) or
+/// [`GATHER_BYTES`] are waiting; stops at the first write error.
 fn write_records(
-    mut out: BufWriter<AtomicFile>,
+    mut out: AtomicFile,
     inbox: &Receiver<Record>,
     give_back: &SyncSender<Record>,
-) -> io::Result<BufWriter<AtomicFile>> {
+) -> io::Result<AtomicFile> {
     // Started by a real-time control thread, this thread would inherit its priority.
     crate::pacing::realtime::leave();
-    let mut line = String::new();
-    for record in inbox {
-        line.clear();
-        format_row(&mut line, &record);
-        out.write_all(line.as_bytes())?;
-        let _ = give_back.try_send(record);
+    let mut rows = String::with_capacity(GATHER_BYTES);
+    let mut written_at = Instant::now();
+    loop {
+        match inbox.recv_timeout(PUBLISH_EVERY.saturating_sub(written_at.elapsed())) {
+            Ok(record) => {
+                format_row(&mut rows, &record);
+                let _ = give_back.try_send(record);
+            }
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => break,
+        }
+        if rows.len() >= GATHER_BYTES || written_at.elapsed() >= PUBLISH_EVERY {
+            out.write_all(rows.as_bytes())?;
+            rows.clear();
+            written_at = Instant::now();
+        }
     }
+    out.write_all(rows.as_bytes())?;
     Ok(out)
 }
 
+/// Appends `row` as one line.
 fn format_row(line: &mut String, row: &Record) {
     let _ = write!(
         line,

@@ -11,7 +11,8 @@
 //!   once where the arm is;
 //! - a fault (alarm, failed write, repeated read failures, the port gone) stops streaming within
 //!   the cycle and is reported with the servo and the reason; a stall longer than the bound
-//!   brakes to rest first.
+//!   brakes to rest first, and so do stalls too frequent for the path to come back up to speed
+//!   between them (the machine cannot keep up with the rate: said at once, not at the end).
 
 mod guard;
 mod limiter;
@@ -21,7 +22,7 @@ mod run;
 mod servo_profile;
 mod warnings;
 
-pub use crate::pacing::{Clock, LatenessSummary, WallClock};
+pub use crate::pacing::{Clock, LatenessSummary, Overrun, WallClock, MAX_STALLS_PER_SECOND};
 pub use crate::stop::StopSignal;
 pub use guard::{GoalGuard, LimitBreach};
 pub use limiter::StepLimiter;
@@ -64,6 +65,10 @@ pub struct PlayOptions {
     /// Write the joints' limits into the servos' own motion profile for the playback, and put
     /// the previous values back afterwards ([`ProfileGuard`]).
     pub servo_profile: bool,
+    /// This many stalls within one second mean the machine cannot keep up with the rate: brake,
+    /// then stop ([`crate::pacing::KeepUp`]). `None`: never judged (tests that stall on
+    /// purpose).
+    pub max_stalls_per_second: Option<usize>,
 }
 
 impl PlayOptions {
@@ -95,6 +100,7 @@ impl PlayOptions {
             progress: false,
             max_stall: DEFAULT_MAX_STALL,
             servo_profile: false,
+            max_stalls_per_second: Some(MAX_STALLS_PER_SECOND),
         }
     }
 }
@@ -135,6 +141,9 @@ pub enum PlayError {
         bound: f64,
         at: f64,
     },
+    /// Stalls came too often for the path to come back up to speed between them.
+    #[error("cannot keep up with {:.0} Hz: {} stalls within {:.2} s (goals held over 1.5 periods, the longest {:.1} ms beyond its {:.1} ms period), so the sequence would crawl; braked to rest along the path and holding, torque on (at {at:.3} s); {}", overrun.rate_hz, overrun.stalls, overrun.within, overrun.longest_hold * 1e3, 1e3 / overrun.rate_hz, keep_up_advice(overrun))]
+    CannotKeepUp { overrun: Overrun, at: f64 },
     /// A fault on one arm's bus in a cell: nothing more went to that bus, and the other arms
     /// braked to rest along the path.
     #[error("{fault}; nothing more was sent to the {arm} bus, and the other arms braked to rest along the path and hold there, torque on")]
@@ -150,6 +159,23 @@ pub enum PlayError {
         path: String,
         source: std::io::Error,
     },
+}
+
+/// What the figures of an overrun point at: the cycle's own work, or the scheduler.
+fn keep_up_advice(overrun: &Overrun) -> String {
+    let work = format!(
+        "a cycle's own work (goal write, read-back, log) took {:.2} ms at the median",
+        overrun.median_work * 1e3
+    );
+    let lower = match overrun.fitting_rate() {
+        Some(rate) => format!("a lower rate ({rate:.0} Hz leaves that work half the period)"),
+        None => "a lower rate".into(),
+    };
+    if overrun.work_bound() {
+        format!("{work}, most of the period: play at {lower}, or read back less often")
+    } else {
+        format!("{work}, the rest was the thread waiting to run: use real-time scheduling, or play at {lower}")
+    }
 }
 
 /// Figures from one playback, for the report and the benchmarks.

@@ -8,7 +8,7 @@ use super::{
     PlayError, PlayOptions, Stats, StepLimiter,
 };
 use crate::bus::{alarm_error, faulty_joint, BusError, ReadStreak, ServoBus};
-use crate::pacing::{Clock, CycleStart, Pacer};
+use crate::pacing::{followed_share, is_stall, Clock, CycleStart, KeepUp, Pacer};
 use crate::plan::{Phase, Timeline, Trajectory};
 use crate::robot::Robot;
 use crate::stop::StopSignal;
@@ -30,6 +30,8 @@ pub(super) struct Run<'a> {
     guard: GoalGuard<'a>,
     timeline: Timeline<'a>,
     pacer: Pacer,
+    /// Whether stalls leave the path time to come back up to speed (None: not judged).
+    keep_up: Option<KeepUp>,
     limiter: StepLimiter,
     log: Option<PlaybackLog>,
     stats: Stats,
@@ -39,6 +41,8 @@ pub(super) struct Run<'a> {
     pose: Vec<f64>,
     /// This cycle's goals, (id, tick): allocated once.
     goals: Vec<(u8, i64)>,
+    /// Clock time at which the last goal went out (None before the first cycle's), seconds.
+    last_write: Option<f64>,
     last_goal: Vec<f64>,
     reads: ReadStreak,
     stops_seen: u32,
@@ -52,7 +56,8 @@ pub(super) struct Run<'a> {
 /// What one cycle did to the arm.
 struct Commanded {
     phase: Phase,
-    stalled: bool,
+    /// After a stall: how much longer than one period the previous goal was held, seconds.
+    stall: Option<f64>,
 }
 
 impl<'a> Run<'a> {
@@ -82,10 +87,14 @@ impl<'a> Run<'a> {
                 ..Stats::default()
             },
             pacer: Pacer::new(clock, period),
+            keep_up: options
+                .max_stalls_per_second
+                .map(|bound| KeepUp::new(options.rate_hz, bound)),
             t0: clock.now().as_secs_f64(),
             limiter: StepLimiter::new(robot, period, &measured),
             pose: vec![0.0; robot.joints.len()],
             goals: Vec::with_capacity(robot.joints.len()),
+            last_write: None,
             last_goal: measured,
             bus,
             robot,
@@ -113,8 +122,11 @@ impl<'a> Run<'a> {
     ) -> Result<Outcome, PlayError> {
         loop {
             let start = self.pacer.wait(clock, stop, self.stops_seen);
-            if let Some(outcome) = self.cycle(&start, stop)? {
+            if let Some(outcome) = self.cycle(&start, stop, clock)? {
                 return Ok(outcome);
+            }
+            if let Some(keep_up) = &mut self.keep_up {
+                keep_up.worked(clock.now().as_secs_f64() - start.now);
             }
         }
     }
@@ -123,14 +135,21 @@ impl<'a> Run<'a> {
         &mut self,
         start: &CycleStart,
         stop: &StopSignal,
+        clock: &dyn Clock,
     ) -> Result<Option<Outcome>, PlayError> {
         let elapsed = start.now - self.t0;
-        let stalled = self.cycle > 0 && start.stalled(self.period);
-        if stalled {
-            self.after_stall(start, elapsed);
-        }
         if let Some(outcome) = self.on_stop_requests(stop, elapsed)? {
             return Ok(Some(outcome));
+        }
+        // The goal goes out now: what counts is how long the arm has held the last one, which
+        // a delay after the cycle began (the thread preempted between its wake-up and here)
+        // makes longer than the gap between cycle starts. Only the pose's computation lies
+        // between this reading and the write.
+        let write_at = clock.now().as_secs_f64();
+        let gap = self.last_write.map_or(self.period, |last| write_at - last);
+        let stall = is_stall(gap, self.period).then_some(gap - self.period);
+        if let Some(held) = stall {
+            self.after_stall(gap, held, elapsed);
         }
         if self.cycle > 0 {
             self.timeline.advance(self.period);
@@ -142,13 +161,15 @@ impl<'a> Run<'a> {
                 Outcome::Finished
             }));
         };
-        self.command(start.followed_share(self.period), elapsed)?;
+        self.last_write = Some(write_at);
+        self.pacer.served_until(write_at);
+        self.command(followed_share(gap, self.period), elapsed)?;
         let measured = self.read_back(elapsed)?;
         self.check_health(elapsed)?;
         self.record(
             start,
             elapsed,
-            &Commanded { phase, stalled },
+            &Commanded { phase, stall },
             measured.as_deref(),
         )?;
         self.cycle += 1;
@@ -156,20 +177,36 @@ impl<'a> Run<'a> {
         Ok(None)
     }
 
-    /// The last goal was held for the whole gap: resume from the rate really followed, and
-    /// brake to a stop when the stall was beyond the bound.
-    fn after_stall(&mut self, start: &CycleStart, elapsed: f64) {
-        self.timeline.after_stall(start.followed_share(self.period));
-        let held = start.gap - self.period;
-        if held > self.options.max_stall && self.pending_fault.is_none() {
-            self.pending_fault = Some(PlayError::Stall {
+    /// The last goal was held for the whole `gap` (`held` beyond its period): resume from the
+    /// rate really followed, and brake to a stop when the stall was beyond the bound or the
+    /// stalls come too often for the machine to keep up with the rate.
+    fn after_stall(&mut self, gap: f64, held: f64, elapsed: f64) {
+        self.timeline.after_stall(followed_share(gap, self.period));
+        let overrun = self
+            .keep_up
+            .as_mut()
+            .and_then(|keep_up| keep_up.stalled(self.t0 + elapsed, held));
+        if self.pending_fault.is_some() {
+            return;
+        }
+        let fault = if held > self.options.max_stall {
+            PlayError::Stall {
                 held,
                 period: self.period,
                 bound: self.options.max_stall,
                 at: elapsed,
-            });
-            self.timeline.request_stop();
-        }
+            }
+        } else if let Some(overrun) = overrun.filter(|_| self.stops_seen == 0) {
+            // Already braking on request, the arm is coming to rest anyway.
+            PlayError::CannotKeepUp {
+                overrun,
+                at: elapsed,
+            }
+        } else {
+            return;
+        };
+        self.pending_fault = Some(fault);
+        self.timeline.request_stop();
     }
 
     /// A first request brakes along the path; a second holds at once.
@@ -345,7 +382,7 @@ impl<'a> Run<'a> {
                 commanded: &self.pose,
                 measured,
                 lateness: start.lateness,
-                stall: commanded.stalled.then_some(start.gap - self.period),
+                stall: commanded.stall,
             })?;
         }
         if self.options.progress

@@ -3,8 +3,13 @@
 //! One transaction at a time, half duplex: discard stale input, send, then collect answers until
 //! a deadline. Reads are retried a bounded number of times; writes never are. Echoes of our own
 //! packets (some half-duplex adapters loop the line back, see [`super::echo`]) and answers from
-//! other ids are skipped, corrupt packets are counted and the search goes on behind them.
+//! other ids are skipped, corrupt packets are counted and the search goes on behind them. A
+//! servo's late answer to an earlier request is never taken for the present one
+//! ([`in_flight`]), and a wait that keypose itself overslept is told apart from a silent servo.
 
+mod in_flight;
+
+use self::in_flight::{Answer, InFlight};
 use super::echo::{Echoes, Front};
 use super::models::Servos;
 use super::protocol::packet::{Decoded, Direction, Packet, PacketError};
@@ -21,6 +26,10 @@ use std::time::{Duration, Instant};
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_millis(40);
 /// Extra attempts for a read that got no valid answer.
 pub const DEFAULT_READ_RETRIES: u32 = 2;
+/// A wait for an answer that ends this long after its deadline was not the servo's silence
+/// alone: keypose's thread was not running (CPU starvation). Far beyond a loaded machine's
+/// ordinary wake-up delay, well within the timeout.
+pub const STARVED_AFTER: Duration = Duration::from_millis(10);
 
 pub struct NativeBus {
     transport: Box<dyn Transport>,
@@ -34,6 +43,8 @@ pub struct NativeBus {
     rx: Vec<u8>,
     /// Packets sent whose echo may still come back.
     echoes: Echoes,
+    /// Requests whose answers have not come yet.
+    in_flight: InFlight,
 }
 
 impl NativeBus {
@@ -53,6 +64,7 @@ impl NativeBus {
             fast_sync_read: false,
             rx: Vec::new(),
             echoes: Echoes::default(),
+            in_flight: InFlight::default(),
         }
     }
 
@@ -102,6 +114,45 @@ impl NativeBus {
         Ok(())
     }
 
+    /// Reads what has arrived since the last transaction (which [`Self::send`] would drop),
+    /// waiting until `until` for the first bytes when none are there yet, so that late answers
+    /// settle their requests, and free their lengths, before a new read is given one.
+    fn settle_input(&mut self, until: Instant) -> Result<(), BusError> {
+        let mut chunk = [0u8; 512];
+        // A bounded look: a line that keeps talking cannot hold the transaction up.
+        for look in 0..16 {
+            let wait = if look == 0 { until } else { Instant::now() };
+            let n = self
+                .transport
+                .read_until(&mut chunk, wait)
+                .map_err(|e| self.port_error(e))?;
+            if n == 0 {
+                break;
+            }
+            self.rx.extend_from_slice(&chunk[..n]);
+        }
+        let now = Instant::now();
+        loop {
+            match self.echoes.strip(&mut self.rx) {
+                Front::Undecided => break,
+                Front::Echo(_) => continue,
+                Front::NotEcho => {}
+            }
+            match self
+                .codec
+                .framing()
+                .decode(&mut self.rx, Direction::FromServo)
+            {
+                Ok(Decoded::Packet(packet)) => {
+                    self.in_flight.answered(packet.id, packet.params.len(), now);
+                }
+                Ok(Decoded::NeedMore) => break,
+                Err(_) => continue,
+            }
+        }
+        Ok(())
+    }
+
     /// The next status packet from `id`, or a timeout.
     fn receive(&mut self, id: u8) -> Result<Packet, BusError> {
         self.receive_answer(id, None)
@@ -112,11 +163,16 @@ impl NativeBus {
         self.collect_answer(id, data_bytes, false)
     }
 
-    /// The next status packet from `id` carrying `data_bytes` bytes (when given), or a timeout.
-    /// Status packets carry no request number, so a packet from the right servo with another
-    /// length and no error is a late answer to an earlier request (the input was cleared when
-    /// this one was sent, but a servo can answer after that): it is skipped, and named only if
-    /// nothing better comes.
+    /// The next status packet from `id` carrying `data_bytes` bytes (when given), or an error
+    /// once the timeout has passed. Status packets carry no request number: an answer is matched
+    /// to its request by [`InFlight`] (the late answer to an earlier request is skipped, and
+    /// named only if nothing better comes), and a packet from the right servo that fits no
+    /// request, with another length and no error, is skipped as well.
+    ///
+    /// A wait that ends long after its deadline ([`STARVED_AFTER`]) is keypose's own: the
+    /// thread was not running. The answer may be in the input already (it is always read, even
+    /// past the deadline) or, from an emulated bus starved with this process, still to come, so
+    /// the wait is given once more; nothing then is [`BusError::Starved`], not a timeout.
     ///
     /// `copy_may_answer`: the answer can be byte for byte the request (a Feetech PING answered
     /// with error byte 0x01, input voltage, is the PING itself). A copy of the request is then
@@ -128,9 +184,11 @@ impl NativeBus {
         data_bytes: Option<usize>,
         copy_may_answer: bool,
     ) -> Result<Packet, BusError> {
-        let deadline = Instant::now() + self.timeout;
+        let mut deadline = Instant::now() + self.timeout;
+        let mut starved: Option<Duration> = None;
         let mut corrupt: Option<PacketError> = None;
         let mut stale: Option<usize> = None;
+        let mut late: Option<Duration> = None;
         let mut own_copy: Option<Packet> = None;
         let mut chunk = [0u8; 512];
         loop {
@@ -156,19 +214,33 @@ impl NativeBus {
                     .framing()
                     .decode(&mut self.rx, Direction::FromServo)
                 {
-                    Ok(Decoded::Packet(packet))
-                        if packet.id == id
-                            && data_bytes.is_some_and(|n| packet.params.len() != n)
-                            && packet.error().unwrap_or(0) == 0 =>
-                    {
-                        stale = Some(packet.params.len());
-                    }
                     Ok(Decoded::Packet(packet)) if packet.id == id => {
-                        self.echoes.answered();
-                        return Ok(packet);
+                        let length = packet.params.len();
+                        let errorless = packet.error().unwrap_or(0) == 0;
+                        match self.in_flight.answered(id, length, Instant::now()) {
+                            Answer::Earlier { late: by } => {
+                                late = late.max(Some(by));
+                                continue;
+                            }
+                            Answer::Unknown
+                                if errorless && data_bytes.is_some_and(|n| length != n) =>
+                            {
+                                stale = Some(length);
+                                continue;
+                            }
+                            Answer::Current | Answer::Unknown => {
+                                self.echoes.answered();
+                                return Ok(packet);
+                            }
+                        }
                     }
-                    // Another servo's late answer: not ours.
-                    Ok(Decoded::Packet(_)) => continue,
+                    // Another servo's late answer: not ours, but it settles that servo's
+                    // requests up to the one it answers.
+                    Ok(Decoded::Packet(packet)) => {
+                        let length = packet.params.len();
+                        self.in_flight.answered(packet.id, length, Instant::now());
+                        continue;
+                    }
                     Ok(Decoded::NeedMore) => break,
                     // The echo of our own instruction on a looped-back line.
                     Err(PacketError::Direction { .. }) => continue,
@@ -179,24 +251,41 @@ impl NativeBus {
                 .transport
                 .read_until(&mut chunk, deadline)
                 .map_err(|e| self.port_error(e))?;
-            if n == 0 {
-                // Anything else after the copy, even corrupt, shows the copy was an echo.
-                if let Some(packet) = own_copy.filter(|_| corrupt.is_none() && stale.is_none()) {
-                    self.echoes.answered();
-                    return Ok(packet);
-                }
-                return Err(match (corrupt, stale, data_bytes) {
-                    (Some(e), _, _) => BusError::corrupt(id, e),
-                    (None, Some(found), Some(expected)) => {
-                        BusError::corrupt(id, CorruptAnswer::DataLength { expected, found })
-                    }
-                    _ => BusError::Timeout {
-                        id,
-                        timeout_ms: self.timeout.as_millis() as u64,
-                    },
-                });
+            if n > 0 {
+                self.rx.extend_from_slice(&chunk[..n]);
+                continue;
             }
-            self.rx.extend_from_slice(&chunk[..n]);
+            let overslept = Instant::now().saturating_duration_since(deadline);
+            if overslept > STARVED_AFTER && starved.is_none() {
+                starved = Some(overslept);
+                deadline = Instant::now() + self.timeout;
+                continue;
+            }
+            // Anything else after the copy, even corrupt, shows the copy was an echo.
+            if let Some(packet) = own_copy.filter(|_| corrupt.is_none() && stale.is_none()) {
+                self.echoes.answered();
+                return Ok(packet);
+            }
+            let timeout_ms = self.timeout.as_millis() as u64;
+            return Err(match (corrupt, late, stale, data_bytes) {
+                (Some(e), _, _, _) => BusError::corrupt(id, e),
+                (None, Some(late), _, _) => BusError::Stale {
+                    id,
+                    timeout_ms,
+                    late_ms: late.as_millis() as u64,
+                },
+                (None, None, Some(found), Some(expected)) => {
+                    BusError::corrupt(id, CorruptAnswer::DataLength { expected, found })
+                }
+                _ => match starved {
+                    Some(asleep) => BusError::Starved {
+                        id,
+                        timeout_ms,
+                        starved_ms: asleep.as_millis() as u64,
+                    },
+                    None => BusError::Timeout { id, timeout_ms },
+                },
+            });
         }
     }
 
@@ -217,13 +306,51 @@ impl NativeBus {
     }
 
     /// One READ of `register` from servo `id`, its answer unchecked: the status byte is the
-    /// caller's to judge.
+    /// caller's to judge. Its data is the register's bytes.
     fn read_register(&mut self, id: u8, register: Register) -> Result<Packet, BusError> {
         let size = u16::from(register.size);
-        let params = self.codec.fields().read(register.address, size);
+        let asked = size + self.extra_bytes(&[id], |extra| usize::from(size) + extra)?;
+        let params = self.codec.fields().read(register.address, asked);
         let params = params.map_err(|e| self.protocol_error(e))?;
         self.send(id, self.instructions().read, &params)?;
-        self.receive_answer(id, Some(usize::from(register.size)))
+        self.in_flight
+            .sent(&[id], usize::from(asked), Instant::now());
+        let mut packet = self.receive_answer(id, Some(usize::from(asked)))?;
+        packet.params.truncate(usize::from(size));
+        Ok(packet)
+    }
+
+    /// How many bytes more than its register a read answered by `ids` asks for, so that its
+    /// answers fit none of their unanswered requests ([`InFlight`]); `answer_bytes` gives the
+    /// data length of an answer for a number of extra bytes. When every length is taken, the
+    /// late answers are waited for, as an answer would be, up to the timeout: a servo still
+    /// holding them then answers too late to be read now.
+    fn extra_bytes(
+        &mut self,
+        ids: &[u8],
+        answer_bytes: impl Fn(usize) -> usize,
+    ) -> Result<u16, BusError> {
+        let deadline = Instant::now() + self.timeout;
+        let mut until = Instant::now();
+        loop {
+            if self.in_flight.waiting() {
+                self.settle_input(until)?;
+            }
+            match self
+                .in_flight
+                .extra_bytes(ids, &answer_bytes, Instant::now())
+            {
+                Ok(extra) => return Ok(extra as u16),
+                Err((id, oldest)) if Instant::now() >= deadline => {
+                    return Err(BusError::Stale {
+                        id,
+                        timeout_ms: self.timeout.as_millis() as u64,
+                        late_ms: oldest.as_millis() as u64,
+                    })
+                }
+                Err(_) => until = deadline,
+            }
+        }
     }
 
     /// One instruction to one servo and its answer (with `data_bytes` of data, when given),
@@ -255,7 +382,7 @@ impl NativeBus {
         for _ in 0..=self.read_retries {
             match self.read_block_once(ids, address, length) {
                 Ok(blocks) => return Ok(blocks),
-                Err(e @ (BusError::Timeout { .. } | BusError::Corrupt { .. })) => {
+                Err(e) if e.is_no_answer() || matches!(e, BusError::Corrupt { .. }) => {
                     first_failure.get_or_insert(e);
                 }
                 Err(e) => return Err(e),
@@ -264,20 +391,25 @@ impl NativeBus {
         Err(first_failure.unwrap_or_else(|| BusError::Protocol("read failed".into())))
     }
 
+    /// One attempt of [`Self::read_block`]. Each read asks for `length` bytes and as many more
+    /// as [`Self::extra_bytes`] says, so that its answers are told from late ones; the blocks
+    /// returned hold the `length` bytes asked for.
     fn read_block_once(
         &mut self,
         ids: &[u8],
         address: u16,
         length: u16,
     ) -> Result<Vec<Vec<u8>>, BusError> {
-        let check_length = |packet: &Packet| {
-            if packet.params.len() == usize::from(length) {
-                Ok(())
+        let block = |packet: Packet, asked: u16| {
+            if packet.params.len() == usize::from(asked) {
+                let mut data = packet.params;
+                data.truncate(usize::from(length));
+                Ok(data)
             } else {
                 Err(BusError::corrupt(
                     packet.id,
                     CorruptAnswer::DataLength {
-                        expected: usize::from(length),
+                        expected: usize::from(asked),
                         found: packet.params.len(),
                     },
                 ))
@@ -287,30 +419,36 @@ impl NativeBus {
         let Some(sync_read) = self.instructions().sync_read else {
             let read = self.instructions().read;
             for &id in ids {
-                let params = self.codec.fields().read(address, length);
+                let asked =
+                    length + self.extra_bytes(&[id], |extra| usize::from(length) + extra)?;
+                let params = self.codec.fields().read(address, asked);
                 let params = params.map_err(|e| self.protocol_error(e))?;
-                let packet = self.transaction(id, read, &params, Some(usize::from(length)))?;
-                check_length(&packet)?;
-                blocks.push(packet.params);
+                self.send(id, read, &params)?;
+                self.in_flight
+                    .sent(&[id], usize::from(asked), Instant::now());
+                let packet = self.receive_answer(id, Some(usize::from(asked)))?;
+                self.check_status(&packet)?;
+                blocks.push(block(packet, asked)?);
             }
             return Ok(blocks);
         };
         if self.fast_sync_read && self.codec.fast_sync_read().is_some() {
             return self.fast_sync_read_once(ids, address, length);
         }
-        let params = self.codec.fields().sync_read(address, length, ids);
+        let asked = length + self.extra_bytes(ids, |extra| usize::from(length) + extra)?;
+        let params = self.codec.fields().sync_read(address, asked, ids);
         let params = params.map_err(|e| self.protocol_error(e))?;
         let broadcast = self.codec.framing().broadcast_id();
         self.send(broadcast, sync_read, &params)?;
+        self.in_flight.sent(ids, usize::from(asked), Instant::now());
         // Each servo answers with its own status packet, in list order.
         let mut first_error = None;
         for &id in ids {
-            let packet = self.receive_answer(id, Some(usize::from(length)))?;
+            let packet = self.receive_answer(id, Some(usize::from(asked)))?;
             if let Err(e) = self.check_status_passive(&packet) {
                 first_error.get_or_insert(e);
             }
-            check_length(&packet)?;
-            blocks.push(packet.params);
+            blocks.push(block(packet, asked)?);
         }
         match first_error {
             Some(e) => Err(self.resolve_alarm(e)),
@@ -329,13 +467,25 @@ impl NativeBus {
         let Some(fast) = self.codec.fast_sync_read() else {
             return Err(self.protocol_error("the protocol has no fast sync read"));
         };
-        let params = self.codec.fields().sync_read(address, length, ids);
+        // One combined answer: `ERR ID DATA CRC` per servo on the wire, less the first ERR and
+        // the last CRC in the decoded packet (see `parse_fast_sync_read`).
+        let answer_bytes = |data: usize| (ids.len() * (data + 4)).saturating_sub(3);
+        let asked = length
+            + self.extra_bytes(&[broadcast], |extra| {
+                answer_bytes(usize::from(length) + extra)
+            })?;
+        let params = self.codec.fields().sync_read(address, asked, ids);
         let params = params.map_err(|e| self.protocol_error(e))?;
         self.send(broadcast, fast.instruction(), &params)?;
-        let packet = self.receive(broadcast)?;
-        let entries = fast
-            .parse(&packet, length)
+        let expected = answer_bytes(usize::from(asked));
+        self.in_flight.sent(&[broadcast], expected, Instant::now());
+        let packet = self.receive_answer(broadcast, Some(expected))?;
+        let mut entries = fast
+            .parse(&packet, asked)
             .map_err(|e| e.corrupt_answer(ids.first().copied().unwrap_or(broadcast)))?;
+        for entry in &mut entries {
+            entry.data.truncate(usize::from(length));
+        }
         // The split into blocks depends only on the length asked for, so check that the ids
         // that came back are the ones asked for, in order.
         let got: Vec<u8> = entries.iter().map(|e| e.id).collect();
