@@ -358,6 +358,20 @@ fn after_thousands_of_stalls_no_goal_step_exceeds_the_limits_over_one_period() {
             "case {case}: {unseen} stalls not seen on the wire"
         );
         assert!(stats.pacing.time_lost > 0.0);
+        // How late the playback really ran, on the test's clock: from the first goal to the
+        // last, against the approach and the trajectory's own time. What the player tells
+        // says the same, to a few periods (each end's cycle, the approach's last step); the
+        // stalls' held time alone falls seconds short of it (the time lost coming back up to
+        // speed after each).
+        let wall = times.last().unwrap() - times.first().unwrap();
+        let planned = stats.approach_seconds + trajectory.duration();
+        let late = wall - planned;
+        assert!(
+            (late - stats.late).abs() <= 3.0 * period,
+            "case {case}: ran {late:.3} s late, told {:.3} s ({:.3} s of stalls)",
+            stats.late,
+            stats.pacing.time_lost
+        );
         stalls += clock.stalls();
         worst_step = worst_step.max(checked.step_after_stall);
         worst_step_net = worst_step_net.max(checked.step_after_stall_net);

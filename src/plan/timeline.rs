@@ -126,6 +126,9 @@ pub struct Timeline<'a> {
     stopped: bool,
     approach_seconds: f64,
     joints: usize,
+    /// Wall-clock seconds lost coming back up to speed after stalls (the path followed at a
+    /// share of the rate): the stalls themselves are counted by the pacer.
+    resuming_lost: f64,
 }
 
 impl<'a> Timeline<'a> {
@@ -169,6 +172,7 @@ impl<'a> Timeline<'a> {
             stopped: false,
             approach_seconds,
             joints: robot.joints.len(),
+            resuming_lost: 0.0,
         }
     }
 
@@ -178,6 +182,12 @@ impl<'a> Timeline<'a> {
 
     pub fn stopped(&self) -> bool {
         self.stopped
+    }
+
+    /// Seconds the timeline fell behind the clock while coming back up to speed after stalls
+    /// (beside the stalls' own held time, which the pacer counts).
+    pub fn resuming_lost(&self) -> f64 {
+        self.resuming_lost
     }
 
     /// Sequence time of the commanded pose.
@@ -245,6 +255,8 @@ impl<'a> Timeline<'a> {
                 if self.rate.factor < 1.0 {
                     let climb = self.resume_rate() * dt;
                     self.rate.factor = (self.rate.factor + climb).min(1.0);
+                    // The path moves dt · factor below: the rest of dt is lost.
+                    self.resuming_lost += dt * (1.0 - self.rate.factor);
                 }
                 self.rate.factor
             }

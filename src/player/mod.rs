@@ -195,6 +195,10 @@ pub struct Stats {
     pub largest_limiter_correction: f64,
     /// A cell: how far apart the arms' buses started each cycle's goal write.
     pub write_offsets: Option<WriteOffsets>,
+    /// How much later than planned the sequence ran, seconds, as the clock saw it: what stalls
+    /// held beyond their periods and what coming back up to speed after them lost
+    /// ([`crate::plan::Timeline::resuming_lost`]).
+    pub late: f64,
 }
 
 impl Stats {

@@ -41,6 +41,8 @@ pub(super) struct Run<'a> {
     pose: Vec<f64>,
     /// This cycle's goals, (id, tick): allocated once.
     goals: Vec<(u8, i64)>,
+    /// Clock time of the first cycle's goal, for how late the sequence ran.
+    first_write: Option<f64>,
     /// Clock time at which the last goal went out (None before the first cycle's), seconds.
     last_write: Option<f64>,
     last_goal: Vec<f64>,
@@ -94,6 +96,7 @@ impl<'a> Run<'a> {
             limiter: StepLimiter::new(robot, period, &measured),
             pose: vec![0.0; robot.joints.len()],
             goals: Vec::with_capacity(robot.joints.len()),
+            first_write: None,
             last_write: None,
             last_goal: measured,
             bus,
@@ -161,6 +164,7 @@ impl<'a> Run<'a> {
                 Outcome::Finished
             }));
         };
+        self.first_write.get_or_insert(write_at);
         self.last_write = Some(write_at);
         self.pacer.served_until(write_at);
         self.command(followed_share(gap, self.period), elapsed)?;
@@ -396,9 +400,24 @@ impl<'a> Run<'a> {
         Ok(())
     }
 
+    /// How much later than planned the sequence ran: the time from the first goal to the last
+    /// beyond the periods the timeline advanced by (stalls held goals longer; a deadline after
+    /// a stall may come sooner), plus what it lost coming back up to speed. Braking is not
+    /// lateness: its slowing is not counted.
+    fn late(&self) -> f64 {
+        match (self.first_write, self.last_write) {
+            (Some(first), Some(last)) => {
+                let advanced = self.cycle.saturating_sub(1) as f64 * self.period;
+                (last - first - advanced) + self.timeline.resuming_lost()
+            }
+            _ => 0.0,
+        }
+    }
+
     /// The summary, the log closed, and `--release-at-end` once the arm has arrived.
     pub(super) fn finish(mut self, outcome: Outcome) -> Result<(Outcome, Stats), PlayError> {
         self.stats.pacing = std::mem::take(&mut self.pacer.summary);
+        self.stats.late = self.late();
         self.stats.limited_goals = self.limiter.engaged;
         self.stats.largest_limiter_correction = self.limiter.largest_correction;
         if self.options.progress {

@@ -16,7 +16,7 @@ impl Stats {
                 pacing.stalls,
                 pacing.longest_stall * 1e3,
                 pacing.skipped_deadlines,
-                pacing.time_lost,
+                self.late,
                 pacing.max_lateness * 1e3
             ));
         }
@@ -41,7 +41,7 @@ mod tests {
         stats.pacing.stalls = 3;
         stats.pacing.longest_stall = 0.120;
         stats.pacing.skipped_deadlines = 30;
-        stats.pacing.time_lost = 3.2;
+        stats.late = 3.2;
         stats.pacing.max_lateness = 0.1204;
         stats.limited_goals = 2;
         stats.largest_limiter_correction = 0.25;
