@@ -92,8 +92,12 @@ fn start_studio(dir: &Path, args: &[&str]) -> (Studio, String) {
 }
 
 /// Runs the browser script `script` (in tests/studio/) with `args` and returns the JSON line
-/// of results it prints last.
+/// of results it prints last. One browser at a time: each renders its 3D view on the CPU
+/// (SwiftShader), and three at once on a small machine starve one another and the studios
+/// they drive.
 fn browser_run(script: &str, args: &[&Path]) -> Value {
+    static ONE_BROWSER: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _turn = ONE_BROWSER.lock().unwrap_or_else(|e| e.into_inner());
     let out = Command::new("node")
         .arg(test_dir().join(script))
         .args(args)
@@ -482,11 +486,17 @@ fn a_playback_that_stalled_in_the_studio_says_how_late_it_ran() {
         }
         std::thread::sleep(std::time::Duration::from_millis(100));
     };
+    // Played to the end, later by the stall, and saying so — or, on a machine so loaded that
+    // the stall and the load together passed the 250 ms bound, braked and saying that. Never
+    // the plain "played to the end" it said before.
     let text = state["status"]["text"].as_str().unwrap();
-    assert!(text.starts_with("played to the end"), "{state}");
-    assert!(
-        text.contains("stall(s)") && text.contains("s late"),
-        "{text}"
-    );
     assert_eq!(state["status"]["error"], json!(true), "{state}");
+    if text.starts_with("played to the end") {
+        assert!(
+            text.contains("stall(s)") && text.contains("s late"),
+            "{text}"
+        );
+    } else {
+        assert!(text.contains("stalled: the goal was held"), "{text}");
+    }
 }

@@ -9,6 +9,7 @@ const FILES: &[(&str, &str, &[u8])] = &[
     ("/view3d.js", JS, include_bytes!("web/view3d.js")),
     ("/timeline.js", JS, include_bytes!("web/timeline.js")),
     ("/handle.js", JS, include_bytes!("web/handle.js")),
+    ("/heartbeat.js", JS, include_bytes!("web/heartbeat.js")),
     (
         "/style.css",
         "text/css; charset=utf-8",

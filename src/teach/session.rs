@@ -146,6 +146,14 @@ impl Brake {
         }
     }
 
+    /// Waits until no motion plays (the player has returned), for at most `longest`.
+    pub fn wait_until_at_rest(&self, longest: Duration) {
+        let give_up = Instant::now() + longest;
+        while lock(&self.0).is_some() && Instant::now() < give_up {
+            std::thread::sleep(SETTLE_POLL);
+        }
+    }
+
     fn set(&self, running: Option<StopSignal>) {
         *lock(&self.0) = running;
     }
@@ -317,6 +325,9 @@ impl Session {
             end_pose,
         } = plan;
         let thread_stop = stop.clone();
+        let brake = self.brake.clone();
+        // Armed before the thread starts, which disarms it when the player returns.
+        self.brake.set(Some(stop.clone()));
         let mut bus = ObservedBus {
             inner,
             ids,
@@ -327,18 +338,20 @@ impl Session {
             .spawn(move || {
                 let result = player::play(&mut bus, &robot, &trajectory, &options, &thread_stop)
                     .map(|(outcome, stats)| (outcome, stats.warnings()));
+                // At rest (or given up on): nothing more for the brake to stop.
+                brake.set(None);
                 (bus.inner, result)
             });
         let handle = match handle {
             Ok(handle) => handle,
             Err(e) => {
                 // The closure (and the bus in it) is gone with the failed spawn.
+                self.brake.set(None);
                 return Err(BusError::Protocol(format!(
                     "cannot start the motion thread: {e}"
                 )));
             }
         };
-        self.brake.set(Some(stop.clone()));
         self.motion = Some(RunningMotion {
             stop,
             joints: joints.clone(),

@@ -6,7 +6,7 @@
 //! `try_init` installs a hook that restores the terminal before the panic message prints).
 
 use super::format;
-use super::inputs::InputQueue;
+use super::inputs::{InputQueue, MAX_WAITING};
 use super::keys::{Key, BINDINGS};
 use super::motion::MotionKind;
 use super::state::{Activity, TeachState};
@@ -18,13 +18,13 @@ use ratatui::style::{Color, Modifier, Style};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Cell, Paragraph, Row, Table, TableState, Wrap};
 use ratatui::Frame;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// How often the present pose is read while idle: 20 Hz, smooth to watch and a small share of
 /// the bus.
 pub const READ_PERIOD: Duration = Duration::from_millis(50);
+/// The longest a signal waits for the arm to brake to rest before the session ends anyway.
+const SIGNAL_BRAKE_WAIT: Duration = Duration::from_secs(10);
 /// How often the end of a jog is looked for while keys wait for it.
 const WAITING_POLL: Duration = Duration::from_millis(2);
 /// Width of the limit bar, in cells.
@@ -48,21 +48,22 @@ impl Drop for RestoreTerminal {
 pub fn run(state: &mut TeachState, session: &mut Session) -> Result<(), TeachError> {
     // The guard comes first so that a failure half-way through initialisation still restores.
     let _restore = RestoreTerminal;
-    // SIGTERM (kill) or SIGHUP (a closed terminal window) brakes a moving arm at once, on the
-    // handler's thread, and ends the session once the arm is at rest. Nothing is lost by
-    // ending then: every edit is already in the journal, and the servos hold their last goal.
-    // (Ctrl-C in raw mode is a key, not a signal.)
-    let killed = Arc::new(AtomicBool::new(false));
-    let (brake, signalled) = (session.brake(), killed.clone());
+    // SIGTERM (kill) or SIGHUP (a closed terminal window) brakes a moving arm at once and ends
+    // the session once it is at rest, all on the handler's thread: the terminal may be gone,
+    // and the key loop with it. Nothing is lost by ending then: every edit is already in the
+    // journal, and the servos hold their last goal. (Ctrl-C in raw mode is a key, not a
+    // signal.)
+    let brake = session.brake();
     crate::stop::on_signal(move || {
         brake.soft_stop();
-        signalled.store(true, Ordering::SeqCst);
+        brake.wait_until_at_rest(SIGNAL_BRAKE_WAIT);
+        ratatui::restore();
+        std::process::exit(EXIT_KILLED);
     });
     let mut terminal = ratatui::try_init()?;
     let bus = session.describe().to_string();
     let mut queue = InputQueue::default();
     let mut next_read = Instant::now();
-    let mut stopping_for_signal = false;
     loop {
         if let Some(event) = session.poll()? {
             let follow = state.on_event(event);
@@ -72,10 +73,6 @@ pub fn run(state: &mut TeachState, session: &mut Session) -> Result<(), TeachErr
             refresh(state, session);
             next_read = Instant::now() + READ_PERIOD;
         }
-        if killed.load(Ordering::SeqCst) && !stopping_for_signal {
-            stopping_for_signal = true;
-            queue.push(Key::Esc);
-        }
         while let Some(key) = queue.next(state.is_jogging()) {
             press(state, session, key);
         }
@@ -83,18 +80,18 @@ pub fn run(state: &mut TeachState, session: &mut Session) -> Result<(), TeachErr
         if state.should_quit() {
             return Ok(());
         }
-        if stopping_for_signal && !state.is_moving() {
-            ratatui::restore();
-            std::process::exit(EXIT_KILLED);
-        }
         let mut timeout = next_read.saturating_duration_since(Instant::now());
-        if !queue.is_empty() || stopping_for_signal {
+        if !queue.is_empty() {
             timeout = timeout.min(WAITING_POLL);
         }
         // Every key that has arrived, before any is carried out: a stop among them drops the
-        // ones before it.
+        // ones before it. At most a queue's worth at a time: a terminal that hung up is always
+        // "ready", and the loop must still come round to the signal that follows.
         let mut wait = timeout;
-        while event::poll(wait)? {
+        for _ in 0..MAX_WAITING {
+            if !event::poll(wait)? {
+                break;
+            }
             if let event::Event::Key(key_event) = event::read()? {
                 if key_event.kind != KeyEventKind::Release {
                     if let Some(key) = map_key(key_event) {

@@ -6,8 +6,9 @@
 import { launchChromium } from './browser.mjs';
 
 const [url] = process.argv.slice(2);
-// A hang guard, not a timing check.
-setTimeout(() => fail('no result after 240 s'), 240000).unref();
+// A hang guard, not a timing check; it says which step it was at.
+let step = 'start';
+setTimeout(() => fail(`no result after 300 s, at: ${step}`), 300000).unref();
 
 function fail(message) {
   console.error(`stop: ${message}`);
@@ -30,7 +31,7 @@ try {
     setInterval(() => {
       const s = window.studio.snapshot;
       window.panTrace.push({ t: performance.now(), pan: s.joints[0].present, kind: s.activity.kind });
-    }, 5);
+    }, 10);
   });
   await a.evaluate(() => window.studio.send({ key: 'select-joint:0' }));
   await a.evaluate(() => window.studio.sent());
@@ -47,6 +48,7 @@ try {
   });
 
   // ----- an arrow key held for 2 s (auto-repeat at ~30 Hz), let go, then Stop -----
+  step = 'held key';
   const heldUntil = Date.now() + 2000;
   await a.keyboard.down('ArrowRight');
   while (Date.now() < heldUntil) {
@@ -55,12 +57,14 @@ try {
   }
   await a.keyboard.up('ArrowRight');
   results.heldDegrees = await a.evaluate(() => window.studio.snapshot.joints[0].present);
+  step = 'held key: Stop';
   await a.click('#stop');
   await waitFor(() => window.studio.snapshot.activity.kind === 'idle');
   await a.waitForTimeout(300);
   results.held = await afterStop();
 
   // ----- sixty shift-right jogs posted at once, past the page's queue, then Stop -----
+  step = 'sixty jogs';
   await a.evaluate(() => window.studio.send({ key: 'shift-left' }));
   await waitFor(() => window.studio.snapshot.activity.kind === 'jog');
   await waitFor(() => window.studio.snapshot.activity.kind === 'idle');
@@ -68,13 +72,16 @@ try {
     window.flood = Array.from({ length: 60 }, () => window.studio.postRaw({ key: 'shift-right' }));
   });
   await waitFor(() => window.studio.snapshot.activity.kind === 'jog');
+  step = 'sixty jogs: Stop';
   await a.evaluate(() => window.studio.stop());
+  step = 'sixty jogs: their answers';
   await a.evaluate(() => Promise.all(window.flood));
   await waitFor(() => window.studio.snapshot.activity.kind === 'idle');
   await a.waitForTimeout(300);
   results.flood = await afterStop();
 
   // ----- a page that only watches may stop (not move) -----
+  step = 'watcher';
   const b = await (await browser.newContext()).newPage();
   b.on('console', m => {
     if (m.type() === 'error' && !/status of 409/.test(m.text())) errors.push(`watcher console: ${m.text()}`);

@@ -115,6 +115,7 @@ async function claim() {
 
 function setController(on, reason) {
   studio.controller = on;
+  beating();
   $('control').textContent = on ? 'in control' : 'watching';
   $('control').className = 'badge ' + (on ? 'controller' : 'watcher');
   $('control').title = reason || '';
@@ -123,13 +124,24 @@ function setController(on, reason) {
   if (!on && reason) showStatus(reason, true);
 }
 
-setInterval(() => { if (studio.controller) claim(); }, HEARTBEAT_MS);
-// A hidden tab's timers are slowed down until its lease lapses (and a playback stops, since
-// nobody sees the Stop button). Back in view, the page asks again, unless another one took it.
+// The heartbeat beats on a worker's thread, so that drawing never starves it; only while
+// this page controls and is seen. A hidden page lets its lease lapse (and a playback stop,
+// since nobody sees the Stop button); back in view, it asks again, unless another one took it.
+const heart = new Worker('/heartbeat.js');
+heart.onmessage = ({ data }) => {
+  if (data.ok !== studio.controller) setController(data.ok, data.ok ? '' : data.answer.error);
+};
+let beats = false;
+function beating() {
+  const on = studio.controller && !document.hidden;
+  if (on !== beats) heart.postMessage({ beat: on, headers, ms: HEARTBEAT_MS });
+  beats = on;
+}
 let hadControl = false;
 document.addEventListener('visibilitychange', () => {
   if (document.hidden) hadControl = studio.controller;
   else if (hadControl && !studio.controller) claim();
+  beating();
 });
 $('take').onclick = claim;
 window.addEventListener('pagehide', () => {
