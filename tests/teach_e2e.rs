@@ -419,7 +419,12 @@ fn ctrl_c_in_the_terminal_drops_sixty_queued_jogs() {
     // pipe.
     std::thread::spawn(move || std::io::copy(&mut screen, &mut std::io::sink()));
     let mut keys = child.stdin.take().unwrap();
-    keys.write_all(&b"\x1b[1;2C".repeat(60)).unwrap();
+    // One press, which usually has its jog running before the rest arrive (the pause only
+    // makes that likely; either way the assertion below holds), then 59 more, Ctrl-C, n, w.
+    keys.write_all(b"\x1b[1;2C").unwrap();
+    keys.flush().unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    keys.write_all(&b"\x1b[1;2C".repeat(59)).unwrap();
     keys.write_all(b"\x03nw").unwrap();
     keys.flush().unwrap();
     // The file appears once `w` has run, which it does only after the arm came to rest.

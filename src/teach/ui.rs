@@ -95,12 +95,22 @@ pub fn run(state: &mut TeachState, session: &mut Session) -> Result<(), TeachErr
             if let event::Event::Key(key_event) = event::read()? {
                 if key_event.kind != KeyEventKind::Release {
                     if let Some(key) = map_key(key_event) {
-                        queue.push(key);
+                        queue.push(stop_not_quit(key, &queue));
                     }
                 }
             }
             wait = Duration::ZERO;
         }
+    }
+}
+
+/// Ctrl-C with keys still waiting is a stop (it drops them, as Esc does), not the quit it is
+/// in an idle session with nothing queued: whoever presses it behind a flood of jogs wants the
+/// arm to stop, not the session to end.
+fn stop_not_quit(key: Key, queue: &InputQueue<Key>) -> Key {
+    match key {
+        Key::Interrupt if !queue.is_empty() => Key::Esc,
+        key => key,
     }
 }
 
