@@ -7,10 +7,10 @@ mod common;
 
 use common::{keypose, repo, run, stderr};
 use keypose::bus::virtual_bus::{PtyServer, ServoFault};
-use keypose::bus::{Alarms, MAX_READ_FAILURES};
+use keypose::bus::{Alarms, SILENT_FOR};
 use keypose::robot::Robot;
 use std::process::{Child, Command, Output, Stdio};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// Two SO-101 side by side, 7.2 s: both raise and wave, the right one reaches.
 const WAVE: &str = "sequences/bimanual_wave.json";
@@ -254,13 +254,24 @@ fn two_buses_play_in_step_each_within_its_arms_limits_and_the_log_has_both_arms(
             assert!(at.abs() < 1e-6, "{column} at {at}° when the approach ended");
         }
     }
+    // Every arm measured on a row, or — a read one bus did not answer within the cycle, which
+    // the other arms are not held for (a busy machine) — none.
     for row in &rows {
+        if measured.iter().all(|&c| row[c].is_empty()) {
+            continue;
+        }
         for &c in &measured {
             row[c]
                 .parse::<f64>()
                 .unwrap_or_else(|_| panic!("{}: {row:?}", header[c]));
         }
     }
+    let read = rows
+        .iter()
+        .filter(|row| !row[measured[0]].is_empty())
+        .count();
+    assert!(read > 0, "no row measured");
+    println!("{read} of {} rows measured", rows.len());
 }
 
 /// What a playback with a fault injected on the right bus left behind.
@@ -349,9 +360,12 @@ fn a_fault_on_one_bus_stops_both_arms_the_other_braking_to_rest() {
         assert_within_limits("left", &left, &followed);
         assert_at_rest("left", &left);
         // The faulty bus got nothing once the streak of failed reads (or the alarm) was
-        // seen: at most one goal per cycle of the streak, and the cycle under way.
+        // seen: at most one goal per cycle of the streak (cycles take their deadlines one
+        // period apart, so SILENT_FOR holds at most SILENT_FOR / T + 2 of them), the cycle
+        // under way when the fault came and the one that found the streak over.
         let after = right.iter().map(Vec::len).sum::<usize>() - before;
-        let bound = (MAX_READ_FAILURES as usize + 1) * 6;
+        let streak_cycles = (SILENT_FOR.as_secs_f64() * RATE_HZ).ceil() as usize + 2;
+        let bound = (streak_cycles + 2) * 6;
         assert!(
             after <= bound,
             "{fault:?}: {after} goals reached the faulty bus after the fault, expected at most {bound}"
@@ -364,6 +378,104 @@ fn a_fault_on_one_bus_stops_both_arms_the_other_braking_to_rest() {
             after
         );
     }
+}
+
+/// Instants of `times` within `from ..= to`.
+fn within(times: &[Instant], from: Instant, to: Instant) -> Vec<Instant> {
+    times
+        .iter()
+        .copied()
+        .filter(|t| (from..=to).contains(t))
+        .collect()
+}
+
+#[test]
+fn a_silent_bus_does_not_hold_the_other_arms_goals() {
+    let (left, right) = (arm_bus(), arm_bus());
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("silent.csv");
+    let child = play(&left, &right, &logged_quietly(&log));
+    // Mid-motion (after the 0.5 s approach the arms raise until 1.5 s of the sequence, then
+    // the wrists wave out until 2.6 s), the right bus goes silent as a stopped server or a bus
+    // without power does: no servo on it answers any more.
+    std::thread::sleep(Duration::from_millis(2500));
+    let silent_from = {
+        let mut servos = right.bus().lock();
+        for joint in so101().joints {
+            servos.set_fault(joint.servo.id, Some(ServoFault::NoAnswer));
+        }
+        servos.received.len()
+    };
+    let out = child.wait_with_output().unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("joint right/shoulder_pan: right bus: servo 1: no answer within"),
+        "{err}"
+    );
+    assert!(
+        err.contains("nothing more was sent to the right bus, and the other arms braked to rest"),
+        "{err}"
+    );
+
+    // What the silent bus received after it went silent: goal writes, and reads that the
+    // binary waited on for an answer that never came.
+    let (right_times, right_writes) = {
+        let servos = right.bus().lock();
+        (
+            servos.received_at[silent_from..].to_vec(),
+            servos.goal_writes_at(),
+        )
+    };
+    let reads: Vec<Instant> = right_times
+        .iter()
+        .copied()
+        .filter(|t| !right_writes.contains(t))
+        .collect();
+    assert!(
+        reads.len() >= 2,
+        "{} reads went to the silent bus",
+        reads.len()
+    );
+    let (first, last) = (reads[0], reads[reads.len() - 1]);
+    // While the binary waited on the silent bus, the left bus went on receiving its goals:
+    // every read of the right bus, cut short within its cycle, is followed by the left arm's
+    // next goal (a cycle of a position read and, every quarter second, a health read gives at
+    // most two reads a goal). A loop held by the silent bus waits a whole answer timeout per
+    // read (three tries of 40 ms, while the cycles are 10 ms), and gives the left bus one goal
+    // per three reads or fewer.
+    let left_writes = left.bus().lock().goal_writes_at();
+    let during = within(&left_writes, first, last);
+    assert!(
+        2 * during.len() + 2 >= reads.len(),
+        "the left bus got {} goals while the silent right bus was read {} times",
+        during.len(),
+        reads.len()
+    );
+    // Then it braked from its real velocity, within its limits, to rest; the braking is logged.
+    let left_goals = goals_by_joint(&left);
+    let followed = followed_shares(&log);
+    assert_within_limits("left", &left_goals, &followed);
+    assert_at_rest("left", &left_goals);
+
+    // For the record: the longest the left arm waited for a goal from the bus's silence on.
+    let gaps = within(
+        &left_writes,
+        first - Duration::from_millis(100),
+        Instant::now(),
+    );
+    let longest = gaps
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .max()
+        .unwrap_or_default();
+    println!(
+        "while the right bus was silent: {} reads of it, {} goals to the left bus; the left arm's longest wait for a goal {:.1} ms ({:.2} periods)",
+        reads.len(),
+        during.len(),
+        longest.as_secs_f64() * 1e3,
+        longest.as_secs_f64() * RATE_HZ
+    );
 }
 
 #[test]

@@ -3,16 +3,30 @@
 //! Shared by everything that reads servos over time (playback, recording): the tolerance for a
 //! lost answer is a property of the bus, not of what the reading is for.
 
+use super::driver::{DEFAULT_READ_RETRIES, DEFAULT_TIMEOUT};
 use super::{BusError, Health};
 use crate::robot::Robot;
+use std::time::{Duration, Instant};
 
 /// Consecutive failed read-backs that count as a fault.
 pub const MAX_READ_FAILURES: u32 = 3;
 
-/// Consecutive failed reads. One lost answer is skipped; [`MAX_READ_FAILURES`] in a row are a
-/// fault, reported by the failure that began the streak: on a shared bus a late answer from one
-/// servo delays the others' answers, so the later failures name servos that did nothing wrong.
-/// A port that is gone, a hung bus (in a cell) or an alarm is a fault at once.
+/// How long one read takes to fail on its own: every attempt waited out (3 × 40 ms).
+const FAILED_READ: Duration = DEFAULT_TIMEOUT.saturating_mul(DEFAULT_READ_RETRIES + 1);
+
+/// The shortest streak of failed reads that counts as a fault, from its first failure to the
+/// one that ends it: as long as that takes when each of the [`MAX_READ_FAILURES`] reads fails
+/// on its own ((3 − 1) × 3 × 40 ms). A read a cell cut short (see [`super::cell`]) fails
+/// sooner, so a streak of those is a fault only once it has lasted this long: a bus that is
+/// silent for a moment (a busy machine) is not taken for a dead one because its period is
+/// short, and a dead one is found as soon as before.
+pub const SILENT_FOR: Duration = FAILED_READ.saturating_mul(MAX_READ_FAILURES - 1);
+
+/// Consecutive failed reads. One lost answer is skipped; [`MAX_READ_FAILURES`] in a row, over
+/// at least [`SILENT_FOR`], are a fault, reported by the failure that began the streak: on a
+/// shared bus a late answer from one servo delays the others' answers, so the later failures
+/// name servos that did nothing wrong. A port that is gone, a hung bus (in a cell) or an alarm
+/// is a fault at once.
 ///
 /// In a cell each arm's bus has a streak of its own ([`BusError::Arm`] says whose failure it
 /// is): a lost answer on one bus says nothing of another, and the fault must name the arm
@@ -28,6 +42,8 @@ struct Streak {
     arm: Option<String>,
     failures: u32,
     first: BusError,
+    /// When the first failure was counted.
+    since: Instant,
 }
 
 impl ReadStreak {
@@ -38,6 +54,11 @@ impl ReadStreak {
 
     /// Counts a failed read; returns the error to stop with when it ends the tolerance.
     pub fn failed(&mut self, error: BusError) -> Option<BusError> {
+        self.failed_at(error, Instant::now())
+    }
+
+    /// [`ReadStreak::failed`], the failure counted at `now`.
+    fn failed_at(&mut self, error: BusError, now: Instant) -> Option<BusError> {
         if matches!(
             error.root(),
             BusError::Port { .. } | BusError::Alarm { .. } | BusError::Hung { .. }
@@ -53,17 +74,21 @@ impl ReadStreak {
                 arm,
                 failures: 1,
                 first: error,
+                since: now,
             });
-            return self.ended(self.buses.len() - 1);
+            return self.ended(self.buses.len() - 1, now);
         };
         self.buses[index].failures += 1;
-        self.ended(index)
+        self.ended(index, now)
     }
 
     /// The streak at `index`, when it has reached the tolerance: its first failure, and the
     /// streak begun again.
-    fn ended(&mut self, index: usize) -> Option<BusError> {
-        (self.buses[index].failures >= MAX_READ_FAILURES).then(|| self.buses.remove(index).first)
+    fn ended(&mut self, index: usize, now: Instant) -> Option<BusError> {
+        let streak = &self.buses[index];
+        let lasted = now.saturating_duration_since(streak.since);
+        let over = streak.failures >= MAX_READ_FAILURES && lasted >= SILENT_FOR;
+        over.then(|| self.buses.remove(index).first)
     }
 }
 
@@ -117,18 +142,43 @@ mod tests {
     #[test]
     fn each_arms_bus_keeps_its_own_streak() {
         let mut streak = ReadStreak::default();
+        // Reads one failed read's time apart (each waited out its three attempts).
+        let t0 = Instant::now();
+        let at = |k: u32| t0 + FAILED_READ * k;
         // One lost answer on the left, then the right bus fails three times in a row.
-        assert!(streak.failed(timeout("left", 1)).is_none());
-        assert!(streak.failed(timeout("right", 4)).is_none());
-        assert!(streak.failed(timeout("right", 10)).is_none());
-        let fault = streak.failed(timeout("right", 11)).unwrap();
+        assert!(streak.failed_at(timeout("left", 1), at(0)).is_none());
+        assert!(streak.failed_at(timeout("right", 4), at(1)).is_none());
+        assert!(streak.failed_at(timeout("right", 10), at(2)).is_none());
+        let fault = streak.failed_at(timeout("right", 11), at(3)).unwrap();
         // The right bus's first failure, not the left's.
         assert!(matches!(&fault, BusError::Arm { arm, servo: Some(4), .. } if arm == "right"));
         // The left streak goes on; a read every bus answered ends it.
-        assert!(streak.failed(timeout("left", 2)).is_none());
+        assert!(streak.failed_at(timeout("left", 2), at(4)).is_none());
         streak.succeeded();
-        assert!(streak.failed(timeout("left", 3)).is_none());
-        assert!(streak.failed(timeout("left", 3)).is_none());
-        assert!(streak.failed(timeout("left", 3)).is_some());
+        assert!(streak.failed_at(timeout("left", 3), at(5)).is_none());
+        assert!(streak.failed_at(timeout("left", 3), at(6)).is_none());
+        assert!(streak.failed_at(timeout("left", 3), at(7)).is_some());
+    }
+
+    #[test]
+    fn reads_cut_short_fail_as_a_streak_only_once_it_has_lasted_a_read_s_attempts() {
+        let mut streak = ReadStreak::default();
+        let t0 = Instant::now();
+        // A cell at 100 Hz cuts a silent arm's read within its 10 ms period: one failure a
+        // period. Three of them in 20 ms are not yet a dead bus, nor any number short of the
+        // time three reads take to fail on their own.
+        let period = Duration::from_millis(10);
+        let periods = SILENT_FOR.as_millis() / period.as_millis();
+        for k in 0..periods as u32 {
+            assert!(
+                streak
+                    .failed_at(timeout("right", 1), t0 + period * k)
+                    .is_none(),
+                "a fault after {k} periods"
+            );
+        }
+        // (3 − 1) × 3 × 40 ms after the first failure, it is.
+        let fault = streak.failed_at(timeout("right", 1), t0 + SILENT_FOR);
+        assert!(matches!(fault, Some(BusError::Arm { arm, .. }) if arm == "right"));
     }
 }

@@ -13,6 +13,7 @@
 
 pub mod cell;
 mod connect;
+pub mod cutoff;
 pub mod driver;
 mod echo;
 mod faults;
@@ -28,10 +29,14 @@ pub mod virtual_bus;
 
 pub use cell::{connect_cell, CellBus, WriteOffsets};
 pub use connect::{connect, connect_with, scan, BusOptions, Connection, Driver, VIRTUAL_PORT};
-pub use faults::{alarm_error, faulty_joint, joint_prefix, ReadStreak, MAX_READ_FAILURES};
+pub use faults::{
+    alarm_error, faulty_joint, joint_prefix, ReadStreak, MAX_READ_FAILURES, SILENT_FOR,
+};
 pub use ports::{latency_timers, list_ports, PortInfo};
 
 use std::fmt;
+use std::sync::Arc;
+use std::time::Duration;
 
 /// What a servo says about itself when pinged.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -325,6 +330,19 @@ pub trait ServoBus: Send {
     fn isolate(&mut self, error: &BusError) -> Option<Vec<u8>> {
         let _ = error;
         None
+    }
+    /// Reads stop waiting for answers once `cutoff` has passed (it is set from another
+    /// thread: a cell cuts short the read of an arm whose answers are late, see [`cell`]). An
+    /// answer not in by then is a timeout, and a cut read is not retried. A bus that cannot cut
+    /// a read short ignores it.
+    fn set_read_cutoff(&mut self, cutoff: Arc<cutoff::ReadCutoff>) {
+        let _ = cutoff;
+    }
+    /// A bus made of several arms' buses (a cell): the control period of the loop that drives
+    /// it, from which it judges when an arm's read would hold the others (see [`cell`]).
+    /// `None`: every arm's read is waited for as long as its own bus waits.
+    fn pace(&mut self, period: Option<Duration>) {
+        let _ = period;
     }
     /// How far apart the arms' buses started each goal write (a cell); `None` on one bus.
     fn write_offsets(&self) -> Option<WriteOffsets> {

@@ -305,9 +305,13 @@ fn stream(
     stop: &StopSignal,
     clock: &dyn Clock,
 ) -> Result<(Outcome, Stats), PlayError> {
-    let mut run = run::Run::start(bus, robot, trajectory, options, clock)?;
-    let outcome = run.cycles(stop, clock)?;
-    run.finish(outcome)
+    let played = run::Run::start(bus, robot, trajectory, options, clock).and_then(|mut run| {
+        let outcome = run.cycles(stop, clock)?;
+        run.finish(outcome)
+    });
+    // What follows (restoring the servos' profile, a teach session's jogs) waits for every arm.
+    bus.pace(None);
+    played
 }
 
 /// The present pose in joint values, clamped into the limits when it is only just outside.

@@ -83,6 +83,8 @@ impl<'a> Run<'a> {
             None => None,
         };
         let period = 1.0 / options.rate_hz;
+        // From here on, a cell does not let one arm's late answers hold the others' goals.
+        bus.pace(Some(Duration::from_secs_f64(period)));
         Ok(Run {
             stats: Stats {
                 approach_seconds: timeline.approach_seconds(),

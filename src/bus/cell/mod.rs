@@ -8,6 +8,15 @@
 //! on every arm together, once every arm's thread is at the start gate ([`gate`]), and how far
 //! apart the writes really started is measured ([`WriteOffsets`]).
 //!
+//! No arm's silent bus holds the others: while the player drives the cell it gives the control
+//! period ([`ServoBus::pace`]), and in a read of positions or health where one arm's answers
+//! came in promptly (within an answer timeout), the arms whose answers have not come by
+//! [`READ_SHARE`] of the period after the cycle's goal write began, and at least
+//! [`STRAGGLER_SHARE`] of it after that arm's, are cut short ([`ReadCutoff`], set ahead of
+//! time): their reads fail as timeouts (lost answers, counted like any other) and their threads
+//! are free for their next goals, which go out in their period with the others'. When no arm's
+//! answers come promptly the machine is slow for all of them, and every arm is waited for.
+//!
 //! Errors come back naming the arm ([`BusError::Arm`]) with the servo's cell id, so a fault
 //! names `right/wrist_flex`. On a fault the player isolates that arm
 //! ([`ServoBus::isolate`]): nothing more is sent to its bus while the others brake to rest.
@@ -18,19 +27,29 @@ mod worker;
 
 pub use offsets::WriteOffsets;
 
+use super::cutoff::ReadCutoff;
+use super::driver::DEFAULT_TIMEOUT;
 use super::profile::Setting;
 use super::virtual_bus::PtyServer;
 use super::{connect_with, BusError, BusOptions, Connection, Health, PingInfo, ServoBus};
 use crate::robot::{Arm, Robot, ServoModel};
 use gate::Gate;
 use offsets::OffsetRecord;
+use std::sync::mpsc::{self, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use worker::Worker;
+use worker::{Done, Worker};
 
 /// The longest one arm's transaction may take before its bus counts as hung: far beyond any
 /// read's retries, well short of a user's patience.
 pub const HUNG_AFTER: Duration = Duration::from_secs(1);
+/// The share of the control period, from the start of the cycle's goal write, that an arm's
+/// read may take while another arm's is done: the rest is the loop's own work before the next
+/// cycle's goals are due.
+pub const READ_SHARE: f64 = 0.9;
+/// The share of the control period an arm's read still gets once another arm's has come in,
+/// however late in the cycle: arms on alike buses answer close together.
+pub const STRAGGLER_SHARE: f64 = 0.25;
 
 /// One arm's bus in the cell.
 struct ArmBus {
@@ -39,6 +58,8 @@ struct ArmBus {
     /// (cell id, the servo's id on this arm's bus), in joint order.
     ids: Vec<(u8, u8)>,
     isolated: bool,
+    /// Cuts its reads short when it would hold the other arms.
+    cutoff: Arc<ReadCutoff>,
     /// Declared before the emulated servos: the bus closes before they stop.
     worker: Worker,
     _virtual_bus: Option<PtyServer>,
@@ -50,6 +71,10 @@ pub struct CellBus {
     /// By cell id − 1: the arm and the servo's id on its bus.
     route: Vec<(usize, u8)>,
     offsets: OffsetRecord,
+    /// The control period, while a player drives the cell ([`ServoBus::pace`]).
+    period: Option<Duration>,
+    /// When the last goal write began: the start of the cycle its reads belong to.
+    last_write: Option<Instant>,
 }
 
 /// The share of a transaction that goes to one arm.
@@ -116,6 +141,21 @@ fn in_arm(arm: &str, ids: &[(u8, u8)], error: BusError) -> BusError {
     }
 }
 
+/// When a paced read of the cell cuts short the arms whose answers are late.
+#[derive(Debug, Clone, Copy)]
+struct CutPlan {
+    /// The earliest cut: [`READ_SHARE`] of the period into the cycle, and a straggler's grace
+    /// into the read.
+    from: Instant,
+    /// The first arm's read must be in by then (within one answer timeout,
+    /// [`DEFAULT_TIMEOUT`]), or the machine is slow for every arm (a starved scheduler, an
+    /// adapter's latency): then no arm holds another, every arm is waited for, and one read cut
+    /// short after another would take a slow bus for a dead one.
+    prompt_by: Instant,
+    /// How long the others are still waited for once an arm's read is in.
+    grace: Duration,
+}
+
 impl CellBus {
     /// The cell over `connections`, one per arm of `cell` in its order (arms without one are
     /// not served: their servos' transactions fail).
@@ -131,12 +171,16 @@ impl CellBus {
                 for &(cell_id, own) in &ids {
                     route[usize::from(cell_id) - 1] = (index, own);
                 }
+                let mut bus = connection.bus;
+                let cutoff = Arc::new(ReadCutoff::default());
+                bus.set_read_cutoff(Arc::clone(&cutoff));
                 ArmBus {
                     name: arm.name.clone(),
-                    description: connection.bus.describe(),
+                    description: bus.describe(),
                     ids,
                     isolated: false,
-                    worker: Worker::new(&arm.name, connection.bus),
+                    cutoff,
+                    worker: Worker::new(&arm.name, bus),
                     _virtual_bus: connection.virtual_bus,
                 }
             })
@@ -145,6 +189,8 @@ impl CellBus {
             arms,
             route,
             offsets: OffsetRecord::default(),
+            period: None,
+            last_write: None,
         }
     }
 
@@ -189,33 +235,77 @@ impl CellBus {
     }
 
     /// Runs `job` of each part on its arm's thread, all at once, and waits for every one (so no
-    /// answer is left behind); the first error in arm order is the result. The part of an
-    /// isolated arm is not sent: it fails, after the other arms' parts are done (restoring the
-    /// servos' profile after a fault still reaches the healthy arms).
-    fn each<T, F>(&mut self, parts: &[Part], job: impl Fn(&Part) -> F) -> Result<Vec<T>, BusError>
+    /// answer is left behind), up to [`HUNG_AFTER`]; the first error in arm order is the
+    /// result. The part of an isolated arm is not sent: it fails, after the other arms' parts
+    /// are done (restoring the servos' profile after a fault still reaches the healthy arms).
+    /// `cuttable`: a read of the control loop, whose stragglers are cut short ([`CutPlan`]).
+    fn each<T, F>(
+        &mut self,
+        parts: &[Part],
+        cuttable: bool,
+        job: impl Fn(&Part) -> F,
+    ) -> Result<Vec<T>, BusError>
     where
         T: Send + 'static,
         F: FnOnce(&mut dyn ServoBus) -> Result<T, BusError> + Send + 'static,
     {
-        let pending: Vec<_> = parts
-            .iter()
-            .map(|part| {
-                let arm = &mut self.arms[part.arm];
-                (!arm.isolated).then(|| arm.worker.start(job(part)))
-            })
-            .collect();
-        let deadline = Instant::now() + HUNG_AFTER;
-        let mut results = Vec::with_capacity(parts.len());
+        let began = Instant::now();
+        let hung_at = began + HUNG_AFTER;
+        let (results, done) = mpsc::channel::<Done<T>>();
+        let mut outcomes: Vec<Option<Result<T, BusError>>> = parts.iter().map(|_| None).collect();
+        let served = parts.iter().filter(|p| !self.arms[p.arm].isolated).count();
+        // One arm alone holds no other: nothing to cut.
+        let plan = self.cut_plan(began).filter(|_| cuttable && served >= 2);
+        let mut waiting = 0;
+        for (place, part) in parts.iter().enumerate() {
+            let arm = &mut self.arms[part.arm];
+            if arm.isolated {
+                let arm = arm.name.clone();
+                outcomes[place] = Some(Err(BusError::Isolated { arm }));
+                continue;
+            }
+            if let Some(plan) = &plan {
+                arm.cutoff.watch(plan.from, plan.grace);
+            }
+            arm.worker.start(job(part), &results, place);
+            waiting += 1;
+        }
+        drop(results);
+        // Watching until the first arm's read is in, or the machine is found slow for all.
+        let mut watching = plan;
+        while waiting > 0 {
+            let until = watching.map_or(hung_at, |plan| plan.prompt_by.min(hung_at));
+            match done.recv_timeout(until.saturating_duration_since(Instant::now())) {
+                Ok((place, result)) => {
+                    outcomes[place] = Some(result);
+                    waiting -= 1;
+                    if let Some(plan) = watching.take() {
+                        let now = Instant::now();
+                        if now <= plan.prompt_by {
+                            self.cut_short(parts, &outcomes, plan.from.max(now + plan.grace));
+                        } else {
+                            self.uncut(parts);
+                        }
+                    }
+                }
+                Err(RecvTimeoutError::Timeout) if watching.is_some() => {
+                    watching = None;
+                    self.uncut(parts);
+                }
+                Err(_) => break,
+            }
+        }
+        if plan.is_some() {
+            self.uncut(parts);
+        }
+        let mut values = Vec::with_capacity(parts.len());
         let mut first_error = None;
-        for (part, pending) in parts.iter().zip(pending) {
-            let result = match pending {
-                Some(pending) => pending.wait(deadline, HUNG_AFTER),
-                None => Err(BusError::Isolated {
-                    arm: self.arms[part.arm].name.clone(),
-                }),
-            };
-            match result {
-                Ok(value) => results.push(value),
+        for (part, outcome) in parts.iter().zip(outcomes) {
+            let outcome = outcome.unwrap_or(Err(BusError::Hung {
+                waited_ms: HUNG_AFTER.as_millis() as u64,
+            }));
+            match outcome {
+                Ok(value) => values.push(value),
                 Err(error) => {
                     let arm = &self.arms[part.arm];
                     first_error.get_or_insert_with(|| in_arm(&arm.name, &arm.ids, error));
@@ -224,8 +314,37 @@ impl CellBus {
         }
         match first_error {
             Some(error) => Err(error),
-            None => Ok(results),
+            None => Ok(values),
         }
+    }
+
+    /// Cuts short at `at` the reads of the parts not done yet.
+    fn cut_short<T>(&self, parts: &[Part], outcomes: &[Option<T>], at: Instant) {
+        for (part, outcome) in parts.iter().zip(outcomes) {
+            if outcome.is_none() {
+                self.arms[part.arm].cutoff.cut(at);
+            }
+        }
+    }
+
+    /// Every part's read waits as long as its bus does.
+    fn uncut(&self, parts: &[Part]) {
+        for part in parts {
+            self.arms[part.arm].cutoff.clear();
+        }
+    }
+
+    /// When a read begun at `began` may cut its stragglers short; `None` unless a player paces
+    /// the cell.
+    fn cut_plan(&self, began: Instant) -> Option<CutPlan> {
+        let period = self.period?;
+        let grace = period.mul_f64(STRAGGLER_SHARE);
+        let in_cycle = self.last_write.unwrap_or(began) + period.mul_f64(READ_SHARE);
+        Some(CutPlan {
+            from: in_cycle.max(began + grace),
+            prompt_by: began + DEFAULT_TIMEOUT,
+            grace,
+        })
     }
 
     /// Each part's values put back in the places of the transaction.
@@ -260,7 +379,7 @@ impl ServoBus for CellBus {
 
     fn ping(&mut self, id: u8) -> Result<PingInfo, BusError> {
         let parts = self.split([id])?;
-        let mut info = self.each(&parts, |part| {
+        let mut info = self.each(&parts, false, |part| {
             let own = part.ids[0];
             move |bus: &mut dyn ServoBus| bus.ping(own)
         })?;
@@ -271,7 +390,7 @@ impl ServoBus for CellBus {
 
     fn read_positions(&mut self, ids: &[u8]) -> Result<Vec<i64>, BusError> {
         let parts = self.split(ids.iter().copied())?;
-        let values = self.each(&parts, |part| {
+        let values = self.each(&parts, true, |part| {
             let ids = part.ids.clone();
             move |bus: &mut dyn ServoBus| bus.read_positions(&ids)
         })?;
@@ -284,7 +403,8 @@ impl ServoBus for CellBus {
         let parts = self.split(goals.iter().map(|(id, _)| *id))?;
         let served = parts.iter().filter(|p| !self.arms[p.arm].isolated).count();
         let gate = Arc::new(Gate::new(served));
-        let starts = self.each(&parts, |part| {
+        self.last_write = Some(Instant::now());
+        let starts = self.each(&parts, false, |part| {
             let own = part.own(goals);
             let gate = Arc::clone(&gate);
             move |bus: &mut dyn ServoBus| {
@@ -299,7 +419,7 @@ impl ServoBus for CellBus {
 
     fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError> {
         let parts = self.split(ids.iter().copied())?;
-        self.each(&parts, |part| {
+        self.each(&parts, false, |part| {
             let ids = part.ids.clone();
             move |bus: &mut dyn ServoBus| bus.set_torque(&ids, on)
         })?;
@@ -308,7 +428,7 @@ impl ServoBus for CellBus {
 
     fn read_health(&mut self, ids: &[u8]) -> Result<Vec<Health>, BusError> {
         let parts = self.split(ids.iter().copied())?;
-        let mut health = self.each(&parts, |part| {
+        let mut health = self.each(&parts, true, |part| {
             let ids = part.ids.clone();
             move |bus: &mut dyn ServoBus| bus.read_health(&ids)
         })?;
@@ -322,7 +442,7 @@ impl ServoBus for CellBus {
 
     fn read_homing_offsets(&mut self, servos: &[(u8, ServoModel)]) -> Result<Vec<i64>, BusError> {
         let parts = self.split(servos.iter().map(|(id, _)| *id))?;
-        let values = self.each(&parts, |part| {
+        let values = self.each(&parts, false, |part| {
             let own = part.own(servos);
             move |bus: &mut dyn ServoBus| bus.read_homing_offsets(&own)
         })?;
@@ -331,7 +451,7 @@ impl ServoBus for CellBus {
 
     fn read_setting(&mut self, ids: &[u8], setting: Setting) -> Result<Vec<i64>, BusError> {
         let parts = self.split(ids.iter().copied())?;
-        let values = self.each(&parts, |part| {
+        let values = self.each(&parts, false, |part| {
             let ids = part.ids.clone();
             move |bus: &mut dyn ServoBus| bus.read_setting(&ids, setting)
         })?;
@@ -340,7 +460,7 @@ impl ServoBus for CellBus {
 
     fn write_setting(&mut self, values: &[(u8, i64)], setting: Setting) -> Result<(), BusError> {
         let parts = self.split(values.iter().map(|(id, _)| *id))?;
-        self.each(&parts, |part| {
+        self.each(&parts, false, |part| {
             let own = part.own(values);
             move |bus: &mut dyn ServoBus| bus.write_setting(&own, setting)
         })?;
@@ -368,6 +488,10 @@ impl ServoBus for CellBus {
 
     fn write_offsets(&self) -> Option<WriteOffsets> {
         Some(self.offsets.summary())
+    }
+
+    fn pace(&mut self, period: Option<Duration>) {
+        self.period = period;
     }
 }
 
@@ -415,6 +539,46 @@ mod tests {
         assert_eq!(health.iter().map(|h| h.id).collect::<Vec<_>>(), vec![12, 6]);
         // One write to both arms: one offset measured.
         assert_eq!(bus.write_offsets().unwrap().cycles, 1);
+    }
+
+    #[test]
+    fn a_paced_read_cuts_a_silent_arm_short_instead_of_retrying_it() {
+        let (_, mut bus, _, right) = two_arms();
+        for id in 1..=6 {
+            right.lock().set_fault(id, Some(ServoFault::NoAnswer));
+        }
+        let ids: Vec<u8> = (1..=12).collect();
+        let asked = |since: usize| right.lock().received.len() - since;
+        // Unpaced (teach, record): the silent arm's read is tried three times, each waited
+        // out, as on a bus of one arm.
+        let before = right.lock().received.len();
+        let error = bus.read_positions(&ids).unwrap_err();
+        assert!(
+            error
+                .to_string()
+                .starts_with("right bus: servo 1: no answer within 40 ms"),
+            "{error}"
+        );
+        assert_eq!(asked(before), 3);
+        // Paced by a player at 100 Hz: once the left arm's read is in, the right one's is cut
+        // short within the cycle, and not tried again.
+        bus.pace(Some(Duration::from_millis(10)));
+        bus.write_goals(&[(1, 2048), (7, 2048)]).unwrap();
+        let before = right.lock().received.len();
+        let error = bus.read_positions(&ids).unwrap_err();
+        assert!(
+            matches!(error.root(), BusError::Timeout { id: 1, timeout_ms } if *timeout_ms < 40),
+            "{error}"
+        );
+        assert_eq!(asked(before), 1);
+        // The next goal reaches both arms, and so would every one after.
+        bus.write_goals(&[(1, 2048), (7, 2049)]).unwrap();
+        assert_eq!(right.lock().goals_received().last(), Some(&(1, 2049)));
+        // Unpaced again (after playback): waited out as before.
+        bus.pace(None);
+        let before = right.lock().received.len();
+        assert!(bus.read_positions(&ids).is_err());
+        assert_eq!(asked(before), 3);
     }
 
     #[test]

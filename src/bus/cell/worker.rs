@@ -6,7 +6,7 @@
 //! control loop does.
 
 use crate::bus::{BusError, ServoBus};
-use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};
+use std::sync::mpsc::{self, Sender};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -15,6 +15,9 @@ const JOIN_WAIT: Duration = Duration::from_secs(1);
 
 type Job = Box<dyn FnOnce(&mut dyn ServoBus) + Send>;
 
+/// The result of part `.0` of a cell's transaction.
+pub(super) type Done<T> = (usize, Result<T, BusError>);
+
 pub(super) struct Worker {
     name: String,
     /// The bus until the thread starts.
@@ -22,9 +25,6 @@ pub(super) struct Worker {
     jobs: Option<Sender<Job>>,
     thread: Option<JoinHandle<()>>,
 }
-
-/// A transaction under way on a worker.
-pub(super) struct Pending<T>(Receiver<Result<T, BusError>>);
 
 impl Worker {
     pub(super) fn new(name: &str, bus: Box<dyn ServoBus>) -> Worker {
@@ -36,21 +36,24 @@ impl Worker {
         }
     }
 
-    /// Hands `job` to the thread; its result comes through [`Pending::wait`].
+    /// Hands `job` to the thread; its result comes to `results` as part `place`, so that the
+    /// cell takes each arm's result as it comes.
     pub(super) fn start<T: Send + 'static>(
         &mut self,
         job: impl FnOnce(&mut dyn ServoBus) -> Result<T, BusError> + Send + 'static,
-    ) -> Pending<T> {
-        let (done, result) = mpsc::sync_channel(1);
+        results: &Sender<Done<T>>,
+        place: usize,
+    ) {
+        let sender = results.clone();
         let job: Job = Box::new(move |bus| {
-            let _ = done.send(job(bus));
+            let _ = sender.send((place, job(bus)));
         });
-        // A thread that cannot start or has ended drops the job, and with it `done`: the
-        // wait then reports the bus as gone rather than hanging.
-        if let Some(jobs) = self.jobs() {
-            let _ = jobs.send(job);
+        let handed = self.jobs().is_some_and(|jobs| jobs.send(job).is_ok());
+        if !handed {
+            // A thread that cannot start or has ended: said at once rather than waited for.
+            let ended = BusError::Protocol("the bus's thread has ended".into());
+            let _ = results.send((place, Err(ended)));
         }
-        Pending(result)
     }
 
     fn jobs(&mut self) -> Option<&Sender<Job>> {
@@ -69,25 +72,6 @@ impl Worker {
             }
         }
         self.jobs.as_ref()
-    }
-}
-
-impl<T> Pending<T> {
-    /// The transaction's result, or [`BusError::Hung`] when it takes past `deadline`.
-    pub(super) fn wait(self, deadline: Instant, allowed: Duration) -> Result<T, BusError> {
-        let hung = || BusError::Hung {
-            waited_ms: allowed.as_millis() as u64,
-        };
-        match self
-            .0
-            .recv_timeout(deadline.saturating_duration_since(Instant::now()))
-        {
-            Ok(result) => result,
-            Err(RecvTimeoutError::Timeout) => Err(hung()),
-            Err(RecvTimeoutError::Disconnected) => {
-                Err(BusError::Protocol("the bus's thread has ended".into()))
-            }
-        }
     }
 }
 

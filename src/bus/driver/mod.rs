@@ -6,10 +6,13 @@
 //! other ids are skipped, corrupt packets are counted and the search goes on behind them. A
 //! servo's late answer to an earlier request is never taken for the present one
 //! ([`in_flight`]), and a wait that keypose itself overslept is told apart from a silent servo.
+//! A cell can cut a read short from another thread when it would hold the other arms
+//! ([`super::cutoff`]); a read cut short is not waited for again nor retried.
 
 mod in_flight;
 
 use self::in_flight::{Answer, InFlight};
+use super::cutoff::ReadCutoff;
 use super::echo::{Echoes, Front};
 use super::models::Servos;
 use super::protocol::packet::{Decoded, Direction, Packet, PacketError};
@@ -19,6 +22,7 @@ use super::transport::Transport;
 use super::{profile, Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
 use crate::robot::{Protocol, ServoModel};
 use std::collections::HashMap;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// How long to wait for one answer. Generous against the wire time of any packet here (under
@@ -45,6 +49,8 @@ pub struct NativeBus {
     echoes: Echoes,
     /// Requests whose answers have not come yet.
     in_flight: InFlight,
+    /// Set from another thread to stop waiting for answers ([`ServoBus::set_read_cutoff`]).
+    read_cutoff: Option<Arc<ReadCutoff>>,
 }
 
 impl NativeBus {
@@ -65,6 +71,7 @@ impl NativeBus {
             rx: Vec::new(),
             echoes: Echoes::default(),
             in_flight: InFlight::default(),
+            read_cutoff: None,
         }
     }
 
@@ -119,13 +126,11 @@ impl NativeBus {
     /// settle their requests, and free their lengths, before a new read is given one.
     fn settle_input(&mut self, until: Instant) -> Result<(), BusError> {
         let mut chunk = [0u8; 512];
+        let asked = Instant::now();
         // A bounded look: a line that keeps talking cannot hold the transaction up.
         for look in 0..16 {
             let wait = if look == 0 { until } else { Instant::now() };
-            let n = self
-                .transport
-                .read_until(&mut chunk, wait)
-                .map_err(|e| self.port_error(e))?;
+            let n = self.wait_input(&mut chunk, asked, wait)?;
             if n == 0 {
                 break;
             }
@@ -184,7 +189,8 @@ impl NativeBus {
         data_bytes: Option<usize>,
         copy_may_answer: bool,
     ) -> Result<Packet, BusError> {
-        let mut deadline = Instant::now() + self.timeout;
+        let asked = Instant::now();
+        let mut deadline = asked + self.timeout;
         let mut starved: Option<Duration> = None;
         let mut corrupt: Option<PacketError> = None;
         let mut stale: Option<usize> = None;
@@ -247,16 +253,15 @@ impl NativeBus {
                     Err(e) => corrupt = Some(e),
                 }
             }
-            let n = self
-                .transport
-                .read_until(&mut chunk, deadline)
-                .map_err(|e| self.port_error(e))?;
+            let n = self.wait_input(&mut chunk, asked, deadline)?;
             if n > 0 {
                 self.rx.extend_from_slice(&chunk[..n]);
                 continue;
             }
+            // Cut short (a cell's other arms are not held for it): no second wait.
+            let cut = self.cut_off();
             let overslept = Instant::now().saturating_duration_since(deadline);
-            if overslept > STARVED_AFTER && starved.is_none() {
+            if overslept > STARVED_AFTER && starved.is_none() && !cut {
                 starved = Some(overslept);
                 deadline = Instant::now() + self.timeout;
                 continue;
@@ -266,7 +271,12 @@ impl NativeBus {
                 self.echoes.answered();
                 return Ok(packet);
             }
-            let timeout_ms = self.timeout.as_millis() as u64;
+            // How long it waited: less than the timeout when cut short.
+            let waited = match cut {
+                true => asked.elapsed().min(self.timeout),
+                false => self.timeout,
+            };
+            let timeout_ms = waited.as_millis() as u64;
             return Err(match (corrupt, late, stale, data_bytes) {
                 (Some(e), _, _, _) => BusError::corrupt(id, e),
                 (None, Some(late), _, _) => BusError::Stale {
@@ -287,6 +297,43 @@ impl NativeBus {
                 },
             });
         }
+    }
+
+    /// What arrives before `deadline`, or, when the read cutoff passes first for a request sent
+    /// at `asked`, before that (waited up to when the cutoff says, see [`super::cutoff`]); 0
+    /// bytes when either has come. What has arrived by then is still read: a thread that was
+    /// not running when its answer came does not call that silence.
+    fn wait_input(
+        &mut self,
+        buf: &mut [u8],
+        asked: Instant,
+        deadline: Instant,
+    ) -> Result<usize, BusError> {
+        let cutoff = self.read_cutoff.clone();
+        loop {
+            let now = Instant::now();
+            let cut = cutoff.as_ref().is_some_and(|c| c.passed(asked, now));
+            // One wait up to the cut, or to when one may come (an answer ends it sooner).
+            let look = cutoff
+                .as_ref()
+                .and_then(|c| c.next_look(asked, now))
+                .map_or(deadline, |look| look.min(deadline));
+            let until = if cut { now } else { look };
+            let n = self
+                .transport
+                .read_until(buf, until)
+                .map_err(|e| self.port_error(e))?;
+            if n > 0 || cut || Instant::now() >= deadline {
+                return Ok(n);
+            }
+        }
+    }
+
+    /// Whether the read cutoff has come: a read is then not waited for or tried again.
+    fn cut_off(&self) -> bool {
+        self.read_cutoff
+            .as_ref()
+            .is_some_and(|cutoff| cutoff.reached(Instant::now()))
     }
 
     /// Turns a status packet's error byte into an error, reading the alarm register when a
@@ -341,7 +388,7 @@ impl NativeBus {
                 .extra_bytes(ids, &answer_bytes, Instant::now())
             {
                 Ok(extra) => return Ok(extra as u16),
-                Err((id, oldest)) if Instant::now() >= deadline => {
+                Err((id, oldest)) if Instant::now() >= deadline || self.cut_off() => {
                     return Err(BusError::Stale {
                         id,
                         timeout_ms: self.timeout.as_millis() as u64,
@@ -384,6 +431,9 @@ impl NativeBus {
                 Ok(blocks) => return Ok(blocks),
                 Err(e) if e.is_no_answer() || matches!(e, BusError::Corrupt { .. }) => {
                     first_failure.get_or_insert(e);
+                    if self.cut_off() {
+                        break;
+                    }
                 }
                 Err(e) => return Err(e),
             }
@@ -690,6 +740,10 @@ impl ServoBus for NativeBus {
 
     fn read_positions(&mut self, ids: &[u8]) -> Result<Vec<i64>, BusError> {
         self.read_values(ids, |t| t.present_position)
+    }
+
+    fn set_read_cutoff(&mut self, cutoff: Arc<ReadCutoff>) {
+        self.read_cutoff = Some(cutoff);
     }
 
     fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError> {

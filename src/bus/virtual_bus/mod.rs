@@ -31,7 +31,7 @@ use super::Alarms;
 use crate::robot::{Protocol, Robot};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, MutexGuard};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// Size of each emulated control table; every register of the supported models lies below.
 pub(crate) const MEMORY_SIZE: usize = 256;
@@ -64,6 +64,8 @@ pub struct VirtualServos {
     /// The instruction packets decoded, in order: at least the last `received_capacity` (the
     /// oldest are dropped in batches, so a push stays cheap).
     pub received: Vec<Packet>,
+    /// When each packet of `received` was decoded (the same index).
+    pub received_at: Vec<Instant>,
     /// How many packets `received` keeps ([`RECEIVED_LOG_CAPACITY`]).
     pub received_capacity: usize,
     /// Packets dropped from the front of `received`.
@@ -103,6 +105,7 @@ impl VirtualServos {
             codec: codec(protocol),
             servos,
             received: Vec::new(),
+            received_at: Vec::new(),
             received_capacity: RECEIVED_LOG_CAPACITY,
             received_dropped: 0,
             corrupt_packets: 0,
@@ -138,20 +141,35 @@ impl VirtualServos {
 
     /// Every goal position written, in order: (servo id, ticks).
     pub fn goals_received(&self) -> Vec<(u8, i64)> {
+        self.received
+            .iter()
+            .flat_map(|packet| self.goals_in(packet))
+            .collect()
+    }
+
+    /// When each packet that wrote a goal position arrived, in order.
+    pub fn goal_writes_at(&self) -> Vec<Instant> {
+        self.received
+            .iter()
+            .zip(&self.received_at)
+            .filter(|(packet, _)| !self.goals_in(packet).is_empty())
+            .map(|(_, &at)| at)
+            .collect()
+    }
+
+    /// The goal positions an instruction packet writes: (servo id, ticks).
+    fn goals_in(&self, packet: &Packet) -> Vec<(u8, i64)> {
         let mut goals = Vec::new();
-        for packet in &self.received {
-            for (id, address, data) in self.writes_in(packet) {
-                if let Some(servo) = self.servos.iter().find(|s| s.id == id) {
-                    let table = servo.table();
-                    let register = table.goal_position;
-                    if address == usize::from(register.address)
-                        && data.len() >= usize::from(register.size)
+        for (id, address, data) in self.writes_in(packet) {
+            if let Some(servo) = self.servos.iter().find(|s| s.id == id) {
+                let table = servo.table();
+                let register = table.goal_position;
+                if address == usize::from(register.address)
+                    && data.len() >= usize::from(register.size)
+                {
+                    if let Ok(value) = table.decode(&register, &data[..usize::from(register.size)])
                     {
-                        if let Ok(value) =
-                            table.decode(&register, &data[..usize::from(register.size)])
-                        {
-                            goals.push((id, value));
-                        }
+                        goals.push((id, value));
                     }
                 }
             }
@@ -203,10 +221,16 @@ impl VirtualServos {
     /// drop is spread over as many pushes.
     fn record(&mut self, packet: Packet) {
         self.received.push(packet);
+        // `received` may have been emptied from outside (a test clearing it): the times of the
+        // packets it no longer holds go too.
+        let gone = (self.received_at.len() + 1).saturating_sub(self.received.len());
+        self.received_at.drain(..gone);
+        self.received_at.push(Instant::now());
         let slack = (self.received_capacity / 4).max(1);
         if self.received.len() > self.received_capacity + slack {
             let excess = self.received.len() - self.received_capacity;
             self.received.drain(..excess);
+            self.received_at.drain(..excess);
             self.received_dropped += excess;
         }
     }
