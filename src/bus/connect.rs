@@ -116,8 +116,15 @@ pub fn connect_with(
             Box::new(sdk.map_err(BusError::from)?)
         }
     };
+    // Emulated servos are always there: silence from them is their thread not yet run on a
+    // loaded machine, not a missing arm, so they are asked a few times.
+    let attempts = if virtual_bus.is_some() {
+        VIRTUAL_PROBES
+    } else {
+        1
+    };
     let mut connection = Connection { bus, virtual_bus };
-    probe(connection.bus.as_mut(), robot, baud)?;
+    probe(connection.bus.as_mut(), robot, baud, attempts)?;
     // Before anything can move: the servos must hold the homing offsets the ticks assume.
     super::homing::check_homing_offsets(connection.bus.as_mut(), robot)?;
     Ok(connection)
@@ -126,20 +133,26 @@ pub fn connect_with(
 /// Pings the robot's first servo once the port is open, so that a bus where nothing answers
 /// (no power, another baud rate or protocol, other ids) is told as such, instead of surfacing
 /// as a timeout of whatever the command reads first.
-fn probe(bus: &mut dyn ServoBus, robot: &Robot, baud: u32) -> Result<(), BusError> {
+fn probe(bus: &mut dyn ServoBus, robot: &Robot, baud: u32, attempts: u32) -> Result<(), BusError> {
     let Some(first) = robot.joints.first() else {
         return Ok(());
     };
     // Any answer, even an alarm or a damaged one, shows the bus is alive: the command then
     // meets it as before.
-    match bus.ping(first.servo.id) {
-        Err(e) if e.is_no_answer() => Err(BusError::Silent {
-            id: first.servo.id,
-            baud,
-        }),
-        _ => Ok(()),
+    for _ in 0..attempts {
+        match bus.ping(first.servo.id) {
+            Err(e) if e.is_no_answer() => continue,
+            _ => return Ok(()),
+        }
     }
+    Err(BusError::Silent {
+        id: first.servo.id,
+        baud,
+    })
 }
+
+/// How many times emulated servos are pinged before they count as silent.
+const VIRTUAL_PROBES: u32 = 5;
 
 /// Pings every id with each protocol; returns who answered.
 pub fn scan(
