@@ -408,9 +408,9 @@ fn the_page_simulates_the_list_in_mujoco() {
     }
 }
 
-/// Stop through the real page wins over everything queued: after an arrow key held for 2 s,
-/// and after sixty jogs posted at once, the arm stops within the jog it was on (before, the
-/// queued jogs ran on for 13–47°); a watching page's Stop is taken, its jog is not.
+/// Stop through the real page wins over everything queued: after an arrow key held for 2 s
+/// the arm stops within the jog it was on (before, the queued jogs ran on for 13–47°); a
+/// watching page's Stop is taken, its jog is not.
 #[test]
 fn the_pages_stop_wins_over_every_queued_jog() {
     require_browser_tools();
@@ -423,10 +423,6 @@ fn the_pages_stop_wins_over_every_queued_jog() {
     // within it; without the stop winning the queued repeats ran on for tens of degrees.
     let held = results["held"]["degrees"].as_f64().unwrap();
     assert!(held.abs() < 3.0, "{results}");
-    // Sixty 10° jogs: the pan stopped within the jog it was on and the one waiting, short of
-    // 20°, not at its limit.
-    let flood = results["flood"]["degrees"].as_f64().unwrap();
-    assert!(flood.abs() < 20.0, "{results}");
     assert_eq!(results["watcherControls"], json!(false));
     assert_eq!(
         results["watcherJog"],

@@ -149,11 +149,19 @@ pub fn jog(
         options: PlayOptions {
             progress: false,
             shortest_approach: 0.0,
+            // A jog has no timing to keep: after a long stall it resumes along its ramp (the
+            // limiter bounding every step) rather than stopping with a fault, which on a busy
+            // machine would leave the arm short of where the key asked. Stalls too frequent to
+            // keep up with still stop it.
+            max_stall: JOG_MAX_STALL,
             ..PlayOptions::new(robot.control_hz)
         },
         end_pose,
     })
 }
+
+/// The longest stall a jog plays on through, seconds.
+pub const JOG_MAX_STALL: f64 = 2.0;
 
 #[cfg(test)]
 mod tests {

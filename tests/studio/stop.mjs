@@ -1,6 +1,8 @@
 // Stop through the real page (run by tests/studio.rs as `node stop.mjs URL`): an arrow key
-// held for two seconds and let go, then the Stop button; sixty jogs posted at once past the
-// page's queue, then Stop; and the Stop of a page that only watches. Prints one JSON line:
+// held for two seconds and let go, then the Stop button; and the Stop of a page that only
+// watches. (Sixty jogs queued at once are tested on the engine, tests/studio_engine.rs: a
+// browser sends no more than six requests at a time to one server, so a flood from a page
+// arrives over seconds, not at once.) Prints one JSON line:
 // for each stop, how far the pan went after it and how long until the arm was at rest, as
 // the page's snapshots saw it.
 import { launchChromium } from './browser.mjs';
@@ -62,23 +64,6 @@ try {
   await waitFor(() => window.studio.snapshot.activity.kind === 'idle');
   await a.waitForTimeout(300);
   results.held = await afterStop();
-
-  // ----- sixty shift-right jogs posted at once, past the page's queue, then Stop -----
-  step = 'sixty jogs';
-  await a.evaluate(() => window.studio.send({ key: 'shift-left' }));
-  await waitFor(() => window.studio.snapshot.activity.kind === 'jog');
-  await waitFor(() => window.studio.snapshot.activity.kind === 'idle');
-  await a.evaluate(() => {
-    window.flood = Array.from({ length: 60 }, () => window.studio.postRaw({ key: 'shift-right' }));
-  });
-  await waitFor(() => window.studio.snapshot.activity.kind === 'jog');
-  step = 'sixty jogs: Stop';
-  await a.evaluate(() => window.studio.stop());
-  step = 'sixty jogs: their answers';
-  await a.evaluate(() => Promise.all(window.flood));
-  await waitFor(() => window.studio.snapshot.activity.kind === 'idle');
-  await a.waitForTimeout(300);
-  results.flood = await afterStop();
 
   // ----- a page that only watches may stop (not move) -----
   step = 'watcher';
