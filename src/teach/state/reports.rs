@@ -147,9 +147,10 @@ impl TeachState {
                 self.fail(message);
             }
         }
-        if !warnings.is_empty() {
+        if !warnings.is_empty() && matches!(kind, MotionKind::Play { .. }) {
             // Said as `keypose play` says it, beside what happened: a playback that ran late
-            // did not simply play "to the end".
+            // did not simply play "to the end". A jog or a move to a key keeps no timing, so
+            // its stalls are nothing to warn of.
             let text = format!("{}; but: {}", self.status.text, warnings.join("; "));
             self.warn(text);
         }
