@@ -182,10 +182,9 @@ pub fn run(
             next_read = Instant::now() + READ_PERIOD;
         }
         while let Some(input) = queue.next(state.is_jogging()) {
-            interrupted |= carry_out(state, session, input, &mut waiting_jog);
-            // Published before the answer of the next: whoever asks for the state once
-            // answered sees what the action did.
-            hub.publish(state, &bus);
+            interrupted |= carry_out(state, session, input, &mut waiting_jog, &|state| {
+                hub.publish(state, &bus)
+            });
         }
         hub.publish(state, &bus);
         waiting_jog.answer_when_taken(state);
@@ -270,13 +269,15 @@ fn status(state: &TeachState) -> Value {
     })
 }
 
-/// Hands one input to the state; true for an interruption (the session then ends once the
-/// arm is at rest).
+/// Hands one input to the state and publishes what it did before answering it (whoever asks
+/// for the state once answered sees what the action did); true for an interruption (the
+/// session then ends once the arm is at rest).
 fn carry_out(
     state: &mut TeachState,
     session: &mut Session,
     input: Input,
     waiting_jog: &mut WaitingJog,
+    publish: &dyn Fn(&TeachState),
 ) -> bool {
     match input {
         Input::Action { action, reply } => {
@@ -285,6 +286,7 @@ fn carry_out(
                 _ => None,
             };
             act(state, session, action);
+            publish(state);
             if jog.is_some() && state.pending_jog() == jog.as_ref() {
                 waiting_jog.wait(reply);
             } else {
@@ -295,6 +297,7 @@ fn carry_out(
         }
         Input::Interrupt => {
             interrupt(state, session);
+            publish(state);
             true
         }
     }
