@@ -48,6 +48,20 @@ fn goals_of(server: &PtyServer, joint: &keypose::robot::Joint, before: usize) ->
         .collect()
 }
 
+/// Every step of the pan's goals, from `start`, within 115 °/s over 10 ms and a tick of
+/// rounding: no jump.
+fn assert_pan_steps_within_its_speed(start: f64, goals: &[f64]) {
+    let tick = 360.0 / 4096.0;
+    let mut previous = start;
+    for &goal in goals {
+        assert!(
+            (goal - previous).abs() <= 1.15 + tick,
+            "{previous} → {goal}"
+        );
+        previous = goal;
+    }
+}
+
 /// The motion ended in a stop along its path.
 fn assert_stopped(ended: &Event) {
     assert!(
@@ -249,15 +263,7 @@ fn a_big_jog_moves_along_a_ramp_within_the_limits_not_in_one_jump() {
         pan_goals.len()
     );
     let tick = 360.0 / 4096.0;
-    let mut previous = 0.0;
-    for goal in &pan_goals {
-        // 115 °/s over 10 ms, and a tick of rounding.
-        assert!(
-            (goal - previous).abs() <= 1.15 + tick,
-            "{previous} → {goal}"
-        );
-        previous = *goal;
-    }
+    assert_pan_steps_within_its_speed(0.0, &pan_goals);
     assert!((pan_goals.last().unwrap() - 10.0).abs() <= tick / 2.0);
 }
 
@@ -288,9 +294,7 @@ fn esc_brakes_a_jog_mid_ramp_and_drops_the_jog_waiting_behind_it() {
     let last = *pan_goals.last().unwrap();
     assert!(last < 10.0 - 1.0, "{pan_goals:?}");
     let tick = 360.0 / 4096.0;
-    for pair in pan_goals.windows(2) {
-        assert!((pair[1] - pair[0]).abs() <= 1.15 + tick, "{pair:?}");
-    }
+    assert_pan_steps_within_its_speed(0.0, &pan_goals);
     assert!(
         (state.goals()[0] - last).abs() <= tick,
         "the screen holds where it stopped"
