@@ -6,7 +6,7 @@
 //!
 //! Jogs run on the player (a fraction of a second each, to the end); the other motions (`space`,
 //! `y`) are answered as a failed start instead of run: the player paces them in wall-clock time
-//! (seconds per input) and has its own limit guard, tested in tests/player.rs. File commands
+//! (seconds per input) and has its own limit guard, tested in tests/servos/player.rs. File commands
 //! are answered as failed writes and reads: no files here.
 #![no_main]
 

@@ -1,7 +1,7 @@
 /* Prints the goals the player writes for a sequence at a control rate, as CSV rows
  * `time,tick,...` from the sequence's start to its end: what `keypose sample --units ticks`
  * prints for the same sequence. Build: gcc -I. -include seq.h host_dump.c keypose_player.c -lm
- * (tests/export_c_cli.rs does, on the host). With a second argument, the approach from the
+ * (tests/commands/export_c.rs does, on the host). With a second argument, the approach from the
  * ticks given there (comma-separated) is printed instead, until the first pose. How many goals
  * the step limiter changed goes to standard error (`limited N`). */
 #include <stdio.h>

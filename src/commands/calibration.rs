@@ -19,7 +19,7 @@ pub struct CalibrationArgs {
     pub calibration: Vec<String>,
     /// Apply the calibration LeRobot keeps for this arm (the --robot.id or --teleop.id it was
     /// calibrated with), where LeRobot keeps it: $HF_LEROBOT_CALIBRATION/robots/so_follower/NAME.json
-    /// for an SO-101, robots/koch_follower/ for a Koch, leaders under teleoperators/ (README
+    /// for an SO-101, robots/koch_follower/ for a Koch, leaders under teleoperators/ (docs/formats.md,
     /// "LeRobot calibration"). ARM=NAME for an arm of a sequence of several.
     #[arg(long, value_name = "[ARM=]NAME")]
     pub robot_id: Vec<String>,

@@ -59,7 +59,7 @@
 //! top-down greedy insertion in the same run, about 30 % fewer keys for 4–10× its time
 //! (`cargo bench --bench record`).
 //!
-//! It is a heuristic, not guaranteed minimal: `tests/record_extract.rs` checks that recordings
+//! It is a heuristic, not guaranteed minimal: `tests/motion/record_extract.rs` checks that recordings
 //! made from five keys come back with at most five, and that a four times looser tolerance
 //! never needs more keys; between close tolerances the count can now and then go up by one.
 

@@ -77,7 +77,7 @@ pub enum NotBuiltIn {
     #[error(
         "{name:?} is LeRobot's OMX {role}, ROBOTIS's 6-servo OMX arm (IDs 11-16), not the \
          OpenMANIPULATOR-X that keypose's built-in \"omx\" describes (docs/robots.md §3); it is not \
-         built in: describe it in a robot file (README \"Robot: keypose-robot/1\") and give its \
+         built in: describe it in a robot file (docs/formats.md, \"Robot: keypose-robot/1\") and give its \
          path, e.g. --robot ./omx_lerobot.json"
     )]
     Omx { name: String, role: &'static str },

@@ -24,17 +24,18 @@ pub fn run(args: &[&str]) -> Output {
     keypose().args(args).output().expect("run keypose")
 }
 
-/// The Python environment (with MuJoCo) the simulation suites share, under target/: built on
-/// first use, by whichever needs it first.
-pub fn sim_cache() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("sim_cli_cache")
+/// The Python environment every suite shares (MuJoCo, the vendor SDKs, pyarrow), under
+/// target/: built once, on first use, by whichever test needs it first. keypose builds it under a
+/// private name and renames it into place, so tests racing to build it are safe.
+pub fn python_cache() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("python_cache")
 }
 
 /// Runs `keypose ARGS` to the end with the simulation suites' Python environment.
 pub fn run_sim(args: &[&str]) -> Output {
     keypose()
         .args(args)
-        .env("KEYPOSE_CACHE", sim_cache())
+        .env("KEYPOSE_CACHE", python_cache())
         .output()
         .expect("run keypose")
 }

@@ -1,4 +1,4 @@
-//! The brute-force side of the exact limit check's differential tests (tests/check_exact.rs and
+//! The brute-force side of the exact limit check's differential tests (tests/motion/check_exact.rs and
 //! the `check_exact` fuzz target): what the player asks of each joint, found by sampling the
 //! trajectory (`Trajectory::sample`, which evaluates the tracks and knows nothing of the check's
 //! spans) at many phases of every control period, and how it compares with a check report.

@@ -1,6 +1,6 @@
 """Writes a LeRobotDataset v3.0 folder from a JSON description on stdin, with pyarrow, the way
 LeRobot lays one out (meta/info.json, meta/episodes/chunk-000/file-000.parquet,
-data/chunk-000/file-NNN.parquet; docs/interop.md §1). For tests/lerobot_import.rs.
+data/chunk-000/file-NNN.parquet; docs/interop.md §1). For tests/commands/lerobot_import.rs.
 
 {"root": DIR, "version": "v3.0", "robot_type": "so101_follower", "fps": 30,
  "names": ["shoulder_pan.pos", ...], "column": "list" | "fixed",

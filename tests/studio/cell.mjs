@@ -1,5 +1,5 @@
 // Drives `keypose studio` on a cell of two arms in Debian's Chromium (headless, WebGL through
-// SwiftShader) with playwright-core; run by tests/studio.rs as `node cell.mjs URL`. Bends the
+// SwiftShader) with playwright-core; run by tests/teaching/studio.rs as `node cell.mjs URL`. Bends the
 // right arm, reads where the page draws its tool, moves the tool handle 10 mm along the
 // scene's x, and prints one JSON line of results for the Rust side to check.
 import { launchChromium } from './browser.mjs';

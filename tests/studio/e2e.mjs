@@ -1,5 +1,5 @@
 // Drives `keypose studio` in Debian's Chromium (headless, WebGL through SwiftShader) with
-// playwright-core; run by tests/studio.rs as `node e2e.mjs URL ARTIFACT_DIR`. Prints one
+// playwright-core; run by tests/teaching/studio.rs as `node e2e.mjs URL ARTIFACT_DIR`. Prints one
 // JSON line of results for the Rust side, which checks the file the keys wrote.
 import { launchChromium } from './browser.mjs';
 import { writeFileSync } from 'node:fs';

@@ -1,6 +1,6 @@
-// Stop through the real page (run by tests/studio.rs as `node stop.mjs URL`): an arrow key
+// Stop through the real page (run by tests/teaching/studio.rs as `node stop.mjs URL`): an arrow key
 // held for two seconds and let go, then the Stop button; and the Stop of a page that only
-// watches. (Sixty jogs queued at once are tested on the engine, tests/studio_engine.rs: a
+// watches. (Sixty jogs queued at once are tested on the engine, tests/teaching/studio_engine.rs: a
 // browser sends no more than six requests at a time to one server, so a flood from a page
 // arrives over seconds, not at once.) Prints one JSON line:
 // for each stop, how far the pan went after it and how long until the arm was at rest, as

@@ -345,7 +345,7 @@ async function sendTargets() {
       const started = performance.now();
       const { ok, answer } = await post({ key: `tool-target:${mm}` });
       const refused = !ok || answer.status.error;
-      // How long the server took to solve, check and ramp it (for the README's figures).
+      // How long the server took to solve, check and ramp it (for the documented figures).
       const ms = performance.now() - started;
       studio.targets.push({ mm, refused, ms, text: ok ? answer.status.text : answer.error });
       if (studio.targets.length > 200) studio.targets.shift();

@@ -1,0 +1,16 @@
+//! The motion library, through its API and the binary: keyframe lists and their editing, interpolation, kinematics, the built-in robots, cells of arms, the exact limit check, loaders under random input, and keys fitted to recordings.
+//!
+//! One test crate of several: each links the library once (tests/README.md).
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod cell_sequences;
+mod check_exact;
+mod editing;
+mod fuzz_loader;
+mod interpolation;
+mod kinematics;
+mod record_extract;
+mod record_keyframes;
+mod robots;

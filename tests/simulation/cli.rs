@@ -1,0 +1,414 @@
+//! Simulation-backed tests: the real binary, the real harness, real MuJoCo. Every example must
+//! pass in physics, and each kind of violation has a deliberately bad sequence that the
+//! simulation must catch. (The verdict logic itself is unit-tested on synthetic traces in
+//! `src/sim/verdict.rs`.)
+
+use crate::common::repo;
+use std::path::Path;
+use std::process::Output;
+
+use crate::common::{png_size, run_sim as keypose};
+
+fn text(out: &Output) -> String {
+    format!(
+        "{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}
+
+fn sequence(dir: &Path, name: &str, robot: &str, keyframes: &str) -> String {
+    let path = dir.join(name);
+    std::fs::write(
+        &path,
+        format!(r#"{{"format":"keypose-sequence/1","robot":"{robot}","keyframes":[{keyframes}]}}"#),
+    )
+    .unwrap();
+    path.display().to_string()
+}
+
+/// The built-in so101 with some joint limits replaced, as a user's robot file might be.
+fn so101_with(dir: &Path, replace: &[(&str, &str)]) -> String {
+    let mut text = std::fs::read_to_string(repo("robots/so101.json")).unwrap();
+    for (from, to) in replace {
+        assert!(text.contains(from), "{from} not in so101.json");
+        text = text.replacen(from, to, 1);
+    }
+    let path = dir.join("so101_edited.json");
+    std::fs::write(&path, text).unwrap();
+    path.display().to_string()
+}
+
+fn findings(out: &Output) -> String {
+    text(out)
+        .lines()
+        .filter(|l| l.trim_start().starts_with("t ="))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+#[test]
+fn every_example_sequence_passes_in_physics() {
+    for entry in std::fs::read_dir(repo("sequences")).unwrap() {
+        let path = entry.unwrap().path();
+        let out = keypose(&["sim", path.to_str().unwrap()]);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{}: {}",
+            path.display(),
+            text(&out)
+        );
+        assert!(text(&out).contains("PASSED"));
+    }
+}
+
+#[test]
+fn a_pose_through_the_floor_is_caught() {
+    let dir = tempfile::tempdir().unwrap();
+    // Tipping the whole arm 90° forward from its upright zero puts the gripper below the base.
+    let seq = sequence(
+        dir.path(),
+        "floor.json",
+        "so101",
+        r#"{"time":0,"joints":{"shoulder_lift":0}},{"time":2.5,"hold":0.5,"joints":{"shoulder_lift":90}},
+           {"time":5,"joints":{"shoulder_lift":0}}"#,
+    );
+    let out = keypose(&["sim", &seq]);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    assert!(findings(&out).contains("floor collision"), "{}", text(&out));
+}
+
+#[test]
+fn a_self_collision_is_caught() {
+    let dir = tempfile::tempdir().unwrap();
+    // Elbow and wrist both folded to their stops curl the gripper back onto the base.
+    let seq = sequence(
+        dir.path(),
+        "self.json",
+        "so101",
+        r#"{"time":0,"joints":{"elbow_flex":0,"wrist_flex":0}},
+           {"time":2.5,"hold":0.5,"joints":{"elbow_flex":96,"wrist_flex":95}},
+           {"time":5,"joints":{"elbow_flex":0,"wrist_flex":0}}"#,
+    );
+    let out = keypose(&["sim", &seq]);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    assert!(findings(&out).contains("self collision"), "{}", text(&out));
+}
+
+#[test]
+fn a_target_past_a_joint_stop_is_caught() {
+    let dir = tempfile::tempdir().unwrap();
+    // A robot file that allows wrist_flex to ±150° on an arm whose wrist stops at ±95°.
+    let robot = so101_with(
+        dir.path(),
+        &[(
+            r#""min": -95.0,
+        "max": 95.0"#,
+            r#""min": -150.0,
+        "max": 150.0"#,
+        )],
+    );
+    let seq = sequence(
+        dir.path(),
+        "stop.json",
+        "so101",
+        r#"{"time":0,"joints":{"wrist_flex":0}},{"time":2,"hold":0.5,"joints":{"wrist_flex":120}},
+           {"time":4,"joints":{"wrist_flex":0}}"#,
+    );
+    let out = keypose(&["sim", &seq, "--robot", &robot]);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    let f = findings(&out);
+    assert!(
+        f.contains("joint limit") && f.contains("wrist_flex"),
+        "{}",
+        text(&out)
+    );
+}
+
+#[test]
+fn a_move_too_fast_for_the_servo_is_caught() {
+    let dir = tempfile::tempdir().unwrap();
+    // A robot file whose limits allow 1000 °/s; the STS3215 on 5 V manages 200 °/s.
+    let robot = so101_with(
+        dir.path(),
+        &[(
+            r#""velocity": 115.0,
+        "acceleration": 344.0"#,
+            r#""velocity": 1000.0,
+        "acceleration": 20000.0"#,
+        )],
+    );
+    // 0 → 150° in 0.4 s: a cubic peaks at 1.5·150/0.4 = 562 °/s.
+    let seq = sequence(
+        dir.path(),
+        "fast.json",
+        "so101",
+        r#"{"time":0,"joints":{"shoulder_pan":0}},{"time":0.4,"hold":1,"joints":{"shoulder_pan":100}},
+           {"time":3,"joints":{"shoulder_pan":0}}"#,
+    );
+    let out = keypose(&["sim", &seq, "--robot", &robot]);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    let f = findings(&out);
+    assert!(
+        f.contains("speed") && f.contains("shoulder_pan"),
+        "{}",
+        text(&out)
+    );
+}
+
+#[test]
+fn play_without_a_port_simulates_with_progress_and_a_verdict() {
+    let out = keypose(&["play", &repo("sequences/so101_sweep_control.json")]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let all = text(&out);
+    assert!(
+        all.contains("in MuJoCo (no --port)") && all.contains("loop 1/1") && all.contains("PASSED"),
+        "{all}"
+    );
+}
+
+#[test]
+fn render_writes_a_contact_sheet_and_report_writes_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("wave.png");
+    let report = dir.path().join("wave.json");
+    let out = keypose(&[
+        "sim",
+        &repo("sequences/so101_wave.json"),
+        "--render",
+        png.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    // 8 keys in 4 columns of 320 × 240 tiles: 1280 × 480.
+    assert_eq!(png_size(&png), (1280, 480));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(json["passed"], true);
+    assert_eq!(json["tracking"].as_array().unwrap().len(), 6);
+    assert!(json["simulated_seconds"].as_f64().unwrap() > 8.8);
+}
+
+#[test]
+fn a_model_whose_joints_do_not_match_is_bad_input() {
+    let out = keypose(&[
+        "sim",
+        &repo("sequences/so101_nod.json"),
+        "--mjcf",
+        &repo("sim/models/omx.xml"),
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    assert!(
+        text(&out).contains("has no joint(s) shoulder_pan"),
+        "{}",
+        text(&out)
+    );
+}
+
+/// The sim's JSON report of `seq` (and the exit code), with `extra` arguments.
+fn report(dir: &Path, seq: &str, extra: &[&str]) -> (Option<i32>, serde_json::Value, String) {
+    let path = dir.join("report.json");
+    let mut args = vec!["sim", seq, "--report", path.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    let out = keypose(&args);
+    let json = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    (out.status.code(), json, text(&out))
+}
+
+/// A joint's entry in a report's tracking list.
+fn tracking<'a>(report: &'a serde_json::Value, joint: &str) -> &'a serde_json::Value {
+    report["tracking"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["joint"] == joint)
+        .unwrap()
+}
+
+#[test]
+fn a_move_retimed_to_the_limits_passes_the_simulation_too() {
+    // The user's report: elbow 0 → −90° in 0.1 s, retimed to the limits. `check` passes it;
+    // `sim` used to fail it with "4.571 deg off key #0 0.50 s after it" while the elbow was
+    // still moving along the retimed path.
+    let dir = tempfile::tempdir().unwrap();
+    let seq = sequence(
+        dir.path(),
+        "elbow.json",
+        "so101",
+        r#"{"time":0,"joints":{"elbow_flex":0}},{"time":0.1,"joints":{"elbow_flex":-90}}"#,
+    );
+    let retimed = dir.path().join("elbow_retimed.json");
+    let out = keypose(&["retime", &seq, "-o", retimed.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let retimed = retimed.to_str().unwrap();
+    let out = keypose(&["check", retimed]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let (code, json, all) = report(dir.path(), retimed, &[]);
+    assert_eq!(code, Some(0), "{all}");
+    let elbow = tracking(&json, "elbow_flex");
+    // While moving, a P servo without velocity feed-forward lags damping·v/kp: at the
+    // retimed peak of ~106 °/s (1.86 rad/s), 0.608 · 1.86 / 17.8 = 0.064 rad = 3.6°, plus
+    // the lag the acceleration adds; well within the 15° allowed while moving and beyond the
+    // 3° allowed at rest — the case the settling rule mistook for a failure.
+    let moving = elbow["max_error"].as_f64().unwrap();
+    assert!((3.0..15.0).contains(&moving), "{moving}");
+    // Key #0 is left at once, so only the last key (−90°, where the command rests) is judged.
+    let settled = elbow["settled"].as_array().unwrap();
+    assert_eq!(settled.len(), 1, "{settled:?}");
+    assert_eq!(settled[0]["key"], "#1");
+    assert!(settled[0]["error"].as_f64().unwrap() < 3.0, "{all}");
+}
+
+#[test]
+fn a_joint_too_weak_to_reach_a_held_key_fails_settling() {
+    // The so101 model with the shoulder's servo at the standard-BOM gain, kp 6 N·m/rad instead
+    // of 17.8: gravity at home, which sags the stiff shoulder 1.8°, sags it 1.8 · 17.8 / 6 =
+    // 5.3° (the model's comment: 5.5°), beyond the 3° allowed once settled.
+    let dir = tempfile::tempdir().unwrap();
+    let model = std::fs::read_to_string(repo("sim/models/so101.xml")).unwrap();
+    let stiff = r#"<position name="shoulder_lift" joint="shoulder_lift" class="sts3215"/>"#;
+    assert!(model.contains(stiff));
+    let weak = model.replace(
+        stiff,
+        r#"<position name="shoulder_lift" joint="shoulder_lift" class="sts3215" kp="6"/>"#,
+    );
+    let mjcf = dir.path().join("so101_weak.xml");
+    std::fs::write(&mjcf, weak).unwrap();
+    // Home held for two seconds: the command never moves.
+    let seq = sequence(
+        dir.path(),
+        "hold.json",
+        "so101",
+        r#"{"time":0,"hold":2,"joints":{"shoulder_lift":0}},{"time":2.5,"joints":{"shoulder_lift":0}}"#,
+    );
+    let (code, json, all) = report(dir.path(), &seq, &["--mjcf", mjcf.to_str().unwrap()]);
+    assert_eq!(code, Some(1), "{all}");
+    let f = findings_of(&json, "settling");
+    assert_eq!(f[0]["joint"], "shoulder_lift", "{all}");
+    // Judged at the end of the hold of key #0: sequence time 2.0 s.
+    assert!(
+        (f[0]["time"].as_f64().unwrap() - 2.0).abs() < 0.011,
+        "{all}"
+    );
+    let shoulder = tracking(&json, "shoulder_lift");
+    let sag = shoulder["settled"][0]["error"].as_f64().unwrap();
+    assert!((4.8..6.2).contains(&sag), "{sag}");
+}
+
+/// The findings of one kind in a report.
+fn findings_of<'a>(report: &'a serde_json::Value, kind: &str) -> Vec<&'a serde_json::Value> {
+    report["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| f["kind"] == kind)
+        .collect()
+}
+
+/// A CSV log's header and its rows, split on commas.
+fn csv(path: &Path) -> (String, Vec<Vec<String>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().to_string();
+    let rows = lines
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    (header, rows)
+}
+
+#[test]
+fn play_in_simulation_writes_the_servo_log_and_plot_reads_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let nod = repo("sequences/so101_nod.json");
+    let servo_log = dir.path().join("servos.csv");
+    let sim_log = dir.path().join("sim.csv");
+    let out = keypose(
+        &["play", &nod, "--port", "virtual", "-q", "--log"]
+            .into_iter()
+            .chain([servo_log.to_str().unwrap()])
+            .collect::<Vec<_>>(),
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let out = keypose(&["play", &nod, "--log", sim_log.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    // The progress line is the player's: phase, time, key and loop.
+    assert!(text(&out).contains("loop 1/1"), "{}", text(&out));
+
+    let (servo_header, _) = csv(&servo_log);
+    let (header, rows) = csv(&sim_log);
+    assert_eq!(header, servo_header);
+    let columns: Vec<&str> = header.split(',').collect();
+    let column = |name: &str| columns.iter().position(|c| *c == name).unwrap();
+    let (cmd, meas) = (column("shoulder_lift_cmd"), column("shoulder_lift_meas"));
+    for (i, row) in rows.iter().enumerate() {
+        assert_eq!(row.len(), columns.len());
+        // Every cycle measured: the simulation reads every joint every cycle.
+        for c in &columns {
+            if c.ends_with("_meas") {
+                row[column(c)].parse::<f64>().unwrap();
+            }
+        }
+        // Cycles on the exact 100 Hz grid, never late.
+        let time: f64 = row[0].parse().unwrap();
+        assert!((time - i as f64 / 100.0).abs() < 1e-6, "row {i}: {time}");
+        assert_eq!(row[column("lateness_ms")], "0.000");
+    }
+    // The sequence runs 0 … 6 s (its last key) after the approach ramp.
+    assert_eq!(rows[0][1], "approach");
+    assert_eq!(rows.last().unwrap()[2].parse::<f64>().unwrap(), 6.0);
+    // Measured is physics, not a copy of the command: at the end (home, arm upright) gravity
+    // sags the shoulder (docs/commands.md: 1.8° once settled), well inside the 3° settled bound.
+    let last = rows.last().unwrap();
+    let sag = (last[meas].parse::<f64>().unwrap() - last[cmd].parse::<f64>().unwrap()).abs();
+    assert!((0.5..3.0).contains(&sag), "{sag}");
+
+    let svg = dir.path().join("sim.svg");
+    let out = keypose(&[
+        "plot",
+        &nod,
+        "--log",
+        sim_log.to_str().unwrap(),
+        "-o",
+        svg.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    // Position, velocity and the measured trace of each of the 6 joints.
+    let polylines = std::fs::read_to_string(&svg)
+        .unwrap()
+        .matches("<polyline")
+        .count();
+    assert_eq!(polylines, 18);
+}
+
+#[test]
+fn the_prismatic_gripper_is_shown_in_millimetres() {
+    let dir = tempfile::tempdir().unwrap();
+    // The OMX gripper (metres in files) opened 19 mm in 0.3 s: faster than it follows.
+    let seq = sequence(
+        dir.path(),
+        "grip.json",
+        "omx",
+        r#"{"time":0,"joints":{"gripper_left_joint":0}},
+           {"time":0.3,"hold":1,"joints":{"gripper_left_joint":0.019}},
+           {"time":1.6,"joints":{"gripper_left_joint":0}}"#,
+    );
+    let (code, json, all) = report(dir.path(), &seq, &[]);
+    assert_eq!(code, Some(1), "{all}");
+    // docs/commands.md's bound while moving, 5 mm, in millimetres.
+    assert!(all.contains("exceeds 5.00 mm while moving"), "{all}");
+    // The report keeps the file's unit (metres); the table shows the same figure in mm.
+    let gripper = tracking(&json, "gripper_left_joint");
+    assert_eq!(gripper["unit"], "m");
+    let mm = gripper["max_error"].as_f64().unwrap() * 1000.0;
+    let row = all
+        .lines()
+        .find(|l| l.trim_start().starts_with("gripper_left_joint"))
+        .unwrap();
+    assert!(row.contains(&format!("{mm:.2} mm ")), "{row}");
+    // The prismatic actuator's force limit is in newtons.
+    if let Some(f) = findings_of(&json, "saturation").first() {
+        assert!(f["message"].as_str().unwrap().contains(" N)"), "{f}");
+    }
+}

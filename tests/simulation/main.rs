@@ -1,0 +1,12 @@
+//! MuJoCo simulation: the harness, the official models, the joint maps, `keypose sim` on one arm and on a cell.
+//!
+//! One test crate of several: each links the library once (tests/README.md).
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod cell;
+mod cli;
+mod harness;
+mod joint_map;
+mod models;

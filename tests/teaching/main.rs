@@ -1,0 +1,11 @@
+//! Teaching: the terminal pendant in a pseudo-terminal, the session state machine, and the studio (its engine, its server, and its page in headless Chromium).
+//!
+//! One test crate of several: each links the library once (tests/README.md).
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod session;
+mod studio;
+mod studio_engine;
+mod terminal;
