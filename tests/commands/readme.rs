@@ -618,11 +618,14 @@ const README_FIXTURES: [(&str, &str); 3] = [
 /// command reference.
 const DOCUMENTS: [&str; 2] = ["README.md", "docs/commands.md"];
 
+/// Pairs of text: a command and what it prints, or a file's name and its text.
+type Pairs = Vec<(String, String)>;
+
 /// Every `$ command` of the documents' `console` blocks with the lines printed under it, and
 /// the files their `sh` blocks write with `cat > NAME <<'EOF'`.
-fn readme_console_examples() -> (Vec<(String, String)>, Vec<(String, String)>) {
-    let mut examples: Vec<(String, String)> = Vec::new();
-    let mut files: Vec<(String, String)> = Vec::new();
+fn readme_console_examples() -> (Pairs, Pairs) {
+    let mut examples: Pairs = Vec::new();
+    let mut files: Pairs = Vec::new();
     for document in DOCUMENTS {
         let text = std::fs::read_to_string(repo(document)).unwrap();
         let mut block = "";
