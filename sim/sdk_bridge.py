@@ -64,6 +64,15 @@ from harness_io import (
 
 PROTOCOLS = ("dynamixel-2", "feetech-sts", "feetech-scs")
 
+# How long one of the SDK's port reads may wait for bytes, seconds. Both SDKs open the port
+# non-blocking (pyserial timeout=0) and poll `readPort` in a loop until the packet is complete
+# or their packet timeout passes: a spin that keeps a core busy for every answer. On a loaded
+# machine that spin competes with the servos (or the emulator) it waits for, and the bridge
+# lost 85 % of its cycles beside six busy loops. With a read timeout, each `readPort` sleeps in
+# select() until the bytes it asks for (the rest of the packet) have come or this much time
+# has passed; the SDK's own timeout logic is unchanged, and ends at most this much later.
+READ_WAIT_S = 0.002
+
 
 class BridgeError(RequestError):
     pass
@@ -158,6 +167,8 @@ class Bus:
         if not baud_ok:
             self.close()
             raise BridgeError("request", f"{self.sdk_name} does not support {baud} baud (its PortHandler.getCFlagBaud list)", port=self.port_name)
+        # setBaudRate reopens the port with timeout=0, so this comes after it.
+        self.port.ser.timeout = READ_WAIT_S
 
     def close(self):
         try:

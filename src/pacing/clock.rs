@@ -66,3 +66,52 @@ impl Clock for WallClock {
         super::precise::sleep_until(at);
     }
 }
+
+/// Time that passes only by waiting: each wait ends at once, at its deadline. On it the player
+/// sends exactly what it would on a machine that never kept it waiting, as fast as it can
+/// compute it, so a test of what reaches the servos (not of the scheduler) neither waits the
+/// sequence out nor depends on how busy the machine is.
+#[derive(Debug, Default)]
+pub struct VirtualClock {
+    now: std::sync::Mutex<Duration>,
+}
+
+impl VirtualClock {
+    pub fn new() -> Self {
+        Self::default()
+    }
+}
+
+impl Clock for VirtualClock {
+    fn now(&self) -> Duration {
+        *self
+            .now
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+
+    fn sleep_until(&self, deadline: Duration, _stop: &StopSignal, _seen: u32) {
+        let mut now = self
+            .now
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        *now = (*now).max(deadline);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_virtual_clock_moves_only_to_the_deadlines_it_waits_for() {
+        let clock = VirtualClock::new();
+        let stop = StopSignal::default();
+        assert_eq!(clock.now(), Duration::ZERO);
+        clock.sleep_until(Duration::from_millis(10), &stop, 0);
+        assert_eq!(clock.now(), Duration::from_millis(10));
+        // A deadline already past leaves the time where it is: it never goes backwards.
+        clock.sleep_until(Duration::from_millis(4), &stop, 0);
+        assert_eq!(clock.now(), Duration::from_millis(10));
+    }
+}

@@ -16,7 +16,7 @@ pub mod machine;
 pub mod precise;
 pub mod realtime;
 
-pub use clock::{Clock, WallClock};
+pub use clock::{Clock, VirtualClock, WallClock};
 pub use keep_up::{KeepUp, Overrun, MAX_STALLS_PER_SECOND};
 
 use crate::stop::StopSignal;

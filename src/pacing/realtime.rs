@@ -78,6 +78,42 @@ fn set_fifo(priority: i32) -> Result<i32, io::Error> {
     }
 }
 
+/// The SCHED_FIFO priority of a thread that stands in for hardware ([`serve_promptly`]): the
+/// lowest, below a `--realtime` control thread ([`PRIORITY`]).
+pub const SERVING_PRIORITY: i32 = 1;
+
+/// The nice value [`serve_promptly`] falls back to where SCHED_FIFO is refused.
+pub const SERVING_NICE: i32 = -10;
+
+/// The scheduling [`serve_promptly`] obtained.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Serving {
+    /// SCHED_FIFO at this priority.
+    Fifo(i32),
+    /// The ordinary scheduler at this nice value.
+    Nice(i32),
+}
+
+/// Lets the calling thread answer promptly on a busy machine, for a thread that stands in for
+/// hardware (the emulated servos): a real servo answers on time whatever the computer is
+/// doing, and an emulator starved behind other processes would make its clients see timeouts
+/// no real bus gives. SCHED_FIFO at [`SERVING_PRIORITY`] where permitted, else a nice value of
+/// [`SERVING_NICE`], else nothing (an ordinary user: the thread runs as before). What it got,
+/// for the caller to mention or not.
+pub fn serve_promptly() -> Result<Serving, io::Error> {
+    if let Ok(priority) = set_fifo(SERVING_PRIORITY) {
+        return Ok(Serving::Fifo(priority));
+    }
+    // SAFETY: gettid has no preconditions; setpriority takes plain integers. PRIO_PROCESS with
+    // a thread id sets that thread's nice value on Linux.
+    let tid = unsafe { libc::gettid() };
+    if unsafe { libc::setpriority(libc::PRIO_PROCESS, tid as libc::id_t, SERVING_NICE) } == 0 {
+        Ok(Serving::Nice(SERVING_NICE))
+    } else {
+        Err(io::Error::last_os_error())
+    }
+}
+
 /// `mlockall(MCL_CURRENT | MCL_FUTURE)`, only where every later allocation can be locked too:
 /// with a finite `memlock` limit, MCL_FUTURE makes the allocation that crosses it fail, which
 /// would abort the process mid-playback, so the memory is then left unlocked.

@@ -229,6 +229,7 @@ fn play_takes_a_gripper_resting_low_in_its_range_through_0_10_and_100_percent() 
     let log = dir.path().join("grip.csv");
     let out = keypose()
         .args(["play", &seq, "--calibration", &calibration()])
+        .args(crate::common::TOLERATED_STALL)
         .args(["--port", &server.path, "--quiet", "--log"])
         .arg(&log)
         .output()

@@ -103,8 +103,7 @@ fn play_with_the_arms_calibration_plays() {
     let robot = Robot::builtin("so101").unwrap();
     let cal = dir.path().join("cal.json");
     std::fs::write(&cal, calibration(&robot, &OFFSETS)).unwrap();
-    let out = run(&[
-        "play",
+    let out = crate::common::play_patiently(&[
         &repo("sequences/so101_nod.json"),
         "--port",
         "virtual",

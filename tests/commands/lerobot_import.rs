@@ -230,6 +230,8 @@ fn degree_episodes_from_list_columns_become_few_keys_within_tolerance() {
         "--port",
         "virtual",
         "-q",
+        crate::common::TOLERATED_STALL[0],
+        crate::common::TOLERATED_STALL[1],
     ]);
     assert_eq!(played.status.code(), Some(0), "{}", show(&played));
     assert!(stderr(&played).contains("samples →"), "{}", show(&played));

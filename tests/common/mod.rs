@@ -19,6 +19,32 @@ pub fn keypose() -> Command {
     Command::new(env!("CARGO_BIN_EXE_keypose"))
 }
 
+/// `play`'s stall bound for tests about something else than stalls. On a loaded machine (CI
+/// beside busy loops) a process is kept off the CPU for over a second now and then, which the
+/// default 250 ms bound rightly calls a fault; stalls have their own tests, on virtual clocks
+/// (servos/player_stalls.rs) and by SIGSTOP (servos/play.rs).
+pub const TOLERATED_STALL: [&str; 2] = ["--max-stall", "10000"];
+
+/// Runs `keypose play ARGS` to the end with [`TOLERATED_STALL`].
+pub fn play_patiently(args: &[&str]) -> Output {
+    keypose()
+        .arg("play")
+        .args(args)
+        .args(TOLERATED_STALL)
+        .output()
+        .expect("run keypose")
+}
+
+/// Options for a MuJoCo harness started by a test: the product's 10 s wait for a reply is
+/// meant for an interactive user; a render beside busy loops on a 2-core machine takes longer,
+/// and a test is about the reply, not how soon it comes.
+pub fn patient_harness() -> keypose::python::HarnessOptions {
+    keypose::python::HarnessOptions {
+        request_timeout: std::time::Duration::from_secs(300),
+        ..keypose::python::HarnessOptions::default()
+    }
+}
+
 /// Runs `keypose ARGS` to the end.
 pub fn run(args: &[&str]) -> Output {
     keypose().args(args).output().expect("run keypose")

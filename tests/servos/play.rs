@@ -2,7 +2,9 @@
 //! code, emulated servos on a pseudo-terminal (`--port virtual`, or a `keypose virtual-bus`
 //! process), real signals.
 
-use crate::common::{keypose, repo, run, stderr, VirtualBusProcess};
+use crate::common::{
+    keypose, play_patiently, repo, run, stderr, VirtualBusProcess, TOLERATED_STALL,
+};
 use std::process::{Command, Output, Stdio};
 use std::time::Duration;
 
@@ -23,8 +25,7 @@ fn long_sequence(dir: &std::path::Path, robot: &str, joint: &str) -> String {
 #[test]
 fn every_example_plays_end_to_end_on_the_virtual_bus() {
     for example in ["so101_nod", "koch_wave", "omx_reach"] {
-        let out = run(&[
-            "play",
+        let out = play_patiently(&[
             &repo(&format!("sequences/{example}.json")),
             "--port",
             "virtual",
@@ -54,13 +55,7 @@ fn a_virtual_bus_process_serves_play_read_torque_and_scan() {
     );
     assert_eq!(pose["joints"]["elbow_flex"], 0.0);
 
-    let out = run(&[
-        "play",
-        &repo("sequences/koch_wave.json"),
-        "--port",
-        port,
-        "--quiet",
-    ]);
+    let out = play_patiently(&[&repo("sequences/koch_wave.json"), "--port", port, "--quiet"]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     let out = run(&[
         "torque", "off", "--robot", "koch", "--port", port, "--joints", "gripper",
@@ -125,7 +120,7 @@ fn every_injected_fault_ends_playback_with_a_report_and_exit_code_3() {
                     "--fault-after",
                     "1.5",
                 ]);
-                let out = run(&["play", &sequence, "--port", &server.path, "--quiet"]);
+                let out = play_patiently(&[&sequence, "--port", &server.path, "--quiet"]);
                 (out, server.path.clone())
             })
         })
@@ -159,7 +154,7 @@ fn interrupted(signals: usize) -> Output {
         // The test is about Ctrl-C: a loaded test machine can stall the process past the
         // default bound, which is a different fault (tests/servos/player_stalls.rs), so it is raised.
         .args(["play", &sequence, "--port", "virtual", "--quiet"])
-        .args(["--max-stall", "5000"])
+        .args(TOLERATED_STALL)
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
@@ -299,12 +294,7 @@ fn a_refusal_at_speed_reports_the_robots_limits_and_the_servos_velocities() {
 
 #[test]
 fn the_progress_line_reaches_the_last_key_and_the_summary_names_the_joint_and_unit() {
-    let out = run(&[
-        "play",
-        &repo("sequences/so101_nod.json"),
-        "--port",
-        "virtual",
-    ]);
+    let out = play_patiently(&[&repo("sequences/so101_nod.json"), "--port", "virtual"]);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(0), "{err}");
     // The last redraw of the progress line, at the end: all six keys passed, the last is "rest".
@@ -410,6 +400,7 @@ fn a_playback_log_overlays_on_its_sequence_and_a_broken_log_is_refused() {
             "virtual",
             "--quiet",
         ])
+        .args(TOLERATED_STALL)
         .args(["--log", log.to_str().unwrap()])
         .output()
         .unwrap();
@@ -485,13 +476,8 @@ fn a_killed_playback_keeps_its_log_under_its_own_name_up_to_the_last_second() {
             "--port",
             "virtual",
         ])
-        .args([
-            "--quiet",
-            "--max-stall",
-            "5000",
-            "--log",
-            log.to_str().unwrap(),
-        ])
+        .args(TOLERATED_STALL)
+        .args(["--quiet", "--log", log.to_str().unwrap()])
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();

@@ -3,7 +3,7 @@
 //! (`PtyServer`, wire-timed at the SO-101's 1 Mbps), so the test reads what each bus received
 //! and injects faults into one of them while the binary plays. Nothing is mocked.
 
-use crate::common::{keypose, repo, run, stderr};
+use crate::common::{keypose, repo, run, stderr, TOLERATED_STALL};
 use keypose::bus::virtual_bus::{PtyServer, ServoFault};
 use keypose::bus::{Alarms, SILENT_FOR};
 use keypose::robot::Robot;
@@ -308,13 +308,9 @@ fn fault_on_the_right(fault: ServoFault) -> FaultRun {
 /// `--quiet --log LOG`, and a stall bound a loaded test machine does not reach (a stall is
 /// another fault, tests/servos/player_stalls.rs).
 fn logged_quietly(log: &std::path::Path) -> Vec<&str> {
-    vec![
-        "--quiet",
-        "--log",
-        log.to_str().unwrap(),
-        "--max-stall",
-        "5000",
-    ]
+    let mut args = vec!["--quiet", "--log", log.to_str().unwrap()];
+    args.extend(TOLERATED_STALL);
+    args
 }
 
 #[test]
@@ -625,8 +621,8 @@ fn each_arm_is_checked_against_its_own_calibration() {
             "--quiet",
             "--calibration",
             &calibration,
-            "--max-stall",
-            "5000",
+            TOLERATED_STALL[0],
+            TOLERATED_STALL[1],
         ],
     )
     .wait_with_output()

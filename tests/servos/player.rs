@@ -6,9 +6,10 @@ use keypose::bus::driver::NativeBus;
 use keypose::bus::transport::MemoryTransport;
 use keypose::bus::virtual_bus::{ServoFault, VirtualBus, VirtualServos};
 use keypose::bus::{Alarms, BusError};
+use keypose::pacing::{Clock, VirtualClock};
 use keypose::plan::Loops;
 use keypose::plan::Trajectory;
-use keypose::player::{play, Outcome, PlayError, PlayOptions, StopSignal};
+use keypose::player::{play, play_with_clock, Outcome, PlayError, PlayOptions, StopSignal};
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
 use proptest::prelude::*;
@@ -37,6 +38,38 @@ fn goal_history(robot: &Robot, bus: &VirtualBus) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// A virtual clock that requests a stop once its time reaches `at`, as a person pressing
+/// Ctrl-C at that moment of the playback would.
+struct StopAt {
+    clock: VirtualClock,
+    at: Duration,
+    stop: StopSignal,
+}
+
+impl Clock for StopAt {
+    fn now(&self) -> Duration {
+        self.clock.now()
+    }
+    fn sleep_until(&self, deadline: Duration, stop: &StopSignal, seen: u32) {
+        self.clock.sleep_until(deadline, stop, seen);
+        if self.clock.now() >= self.at && self.stop.count() == 0 {
+            self.stop.request();
+        }
+    }
+}
+
+/// Options for a playback on the wall clock whose subject is not its timing: on a loaded
+/// machine (CI beside busy loops) the test process is kept off the CPU for over a second now
+/// and then, which the default stall bound rightly calls a fault (stalls have their own tests,
+/// tests/servos/player_stalls.rs).
+fn patient(rate: f64) -> PlayOptions {
+    PlayOptions {
+        max_stall: 30.0,
+        max_stalls_per_second: None,
+        ..PlayOptions::new(rate)
+    }
+}
+
 const ELBOW_SWING: &str = r#"{"format":"keypose-sequence/1","robot":"so101","keyframes":[
   {"time":0,"joints":{"elbow_flex":-20}},{"time":1.0,"joints":{"elbow_flex":20}}]}"#;
 
@@ -53,7 +86,7 @@ fn plays_to_the_last_key_after_a_ramp_from_where_the_arm_was() {
         .motion
         .push_to(start_tick);
     let traj = trajectory(&robot, ELBOW_SWING);
-    let options = PlayOptions::new(100.0);
+    let options = patient(100.0);
     let (outcome, stats) = play(&mut bus, &robot, &traj, &options, &StopSignal::default()).unwrap();
     assert_eq!(outcome, Outcome::Finished);
 
@@ -97,14 +130,22 @@ fn a_stop_request_decelerates_along_the_path_and_holds_with_torque_on() {
           {"time":0,"joints":{"shoulder_pan":0}},{"time":4.0,"joints":{"shoulder_pan":80}}]}"#,
     );
     let stop = StopSignal::default();
-    let requester = stop.clone();
-    let timer = std::thread::spawn(move || {
-        // The ramp is 0.5 s (already at the first key); stop 1 s into the motion.
-        std::thread::sleep(Duration::from_millis(1500));
-        requester.request();
-    });
-    let (outcome, _) = play(&mut bus, &robot, &traj, &PlayOptions::new(100.0), &stop).unwrap();
-    timer.join().unwrap();
+    // The ramp is 0.5 s (already at the first key); stop 1 s into the motion, on the player's
+    // own (virtual) time, so that a busy machine cannot move the stop elsewhere.
+    let clock = StopAt {
+        clock: VirtualClock::new(),
+        at: Duration::from_millis(1500),
+        stop: stop.clone(),
+    };
+    let (outcome, _) = play_with_clock(
+        &mut bus,
+        &robot,
+        &traj,
+        &PlayOptions::new(100.0),
+        &stop,
+        &clock,
+    )
+    .unwrap();
     assert_eq!(outcome, Outcome::Stopped);
     let pan: Vec<f64> = goal_history(&robot, &virtual_bus)
         .iter()
@@ -132,7 +173,7 @@ fn a_second_stop_request_holds_at_once() {
     let stop = StopSignal::default();
     stop.request();
     stop.request();
-    let (outcome, stats) = play(&mut bus, &robot, &traj, &PlayOptions::new(100.0), &stop).unwrap();
+    let (outcome, stats) = play(&mut bus, &robot, &traj, &patient(100.0), &stop).unwrap();
     assert_eq!(outcome, Outcome::Held);
     assert_eq!(stats.cycles, 0);
     assert!(virtual_bus.lock().servos.iter().all(|s| s.motion.torque));
@@ -182,10 +223,7 @@ fn fault_after_start_on(
         })
     };
     // The bus's faults are the subject: a loaded machine's stall must not come first.
-    let options = PlayOptions {
-        max_stall: 10.0,
-        ..PlayOptions::new(100.0)
-    };
+    let options = patient(100.0);
     let played = play(&mut bus, &robot, &traj, &options, &StopSignal::default());
     let error = match played {
         Err(error) => error,
@@ -314,7 +352,7 @@ fn loops_and_ping_pong_pass_through_every_key() {
         let options = PlayOptions {
             loops: Loops::Count(3),
             ping_pong,
-            ..PlayOptions::new(100.0)
+            ..patient(100.0)
         };
         play(&mut bus, &robot, &traj, &options, &StopSignal::default()).unwrap();
         let elbow: Vec<f64> = goal_history(&robot, &virtual_bus)
@@ -368,15 +406,20 @@ proptest! {
         );
         let traj = trajectory(&robot, &text);
         let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
-        // The guard is the subject, not the pacing: a loaded machine's stalls must not end
-        // the playback early.
+        // The guard is the subject, not the pacing: on a virtual clock the playback has the
+        // timing of an idle machine whatever this one is doing, and takes no wall time.
         let options = PlayOptions {
             readback_every: Some(10),
-            max_stall: 10.0,
-            max_stalls_per_second: None,
             ..PlayOptions::new(200.0)
         };
-        let result = play(&mut bus, &robot, &traj, &options, &StopSignal::default());
+        let result = play_with_clock(
+            &mut bus,
+            &robot,
+            &traj,
+            &options,
+            &StopSignal::default(),
+            &VirtualClock::new(),
+        );
         for goals in goal_history(&robot, &virtual_bus) {
             for (value, joint) in goals.iter().zip(&robot.joints) {
                 prop_assert!(joint.limits.contains(*value), "{} received {value}", joint.name);
@@ -403,7 +446,7 @@ fn from_a_key_ramps_to_that_key_and_release_at_end_lets_go_only_at_the_end() {
     let options = PlayOptions {
         from_key: Some(1),
         release_at_end: true,
-        ..PlayOptions::new(100.0)
+        ..patient(100.0)
     };
     play(&mut bus, &robot, &traj, &options, &StopSignal::default()).unwrap();
     let elbow: Vec<f64> = goal_history(&robot, &virtual_bus)

@@ -152,8 +152,11 @@ fn a_hand_moved_elbow_is_recorded_and_its_keys_trace_the_path() {
     let hand = hand.join().unwrap();
     assert!(recording.hold_error.is_none());
     assert!(recording.recorded[elbow] && recording.recorded[wrist]);
+    // About 200 samples at 100 Hz on an idle machine; a loaded one (CI beside busy loops)
+    // keeps the recorder off the CPU for some of them, which is not what this test is about:
+    // enough samples to trace the path is.
     assert!(
-        recording.times.len() > 150,
+        recording.times.len() > 40,
         "{} samples",
         recording.times.len()
     );

@@ -11,7 +11,7 @@
 //! without python3, PyPI or MuJoCo these tests fail and say so, never skip.
 
 use crate::common::{python_cache, run_sim as keypose, show};
-use keypose::python::{Harness, HarnessOptions, PyConfig};
+use keypose::python::{Harness, PyConfig};
 use serde_json::{json, Value};
 use std::collections::HashMap;
 use std::path::Path;
@@ -53,7 +53,7 @@ fn harness(dir: &Path) -> (Harness, String, String) {
     config
         .ensure_python()
         .unwrap_or_else(|e| panic!("keypose's Python environment (MuJoCo) is needed: {e}"));
-    let harness = Harness::start_in(&config, "sim_harness.py", HarnessOptions::default())
+    let harness = Harness::start_in(&config, "sim_harness.py", crate::common::patient_harness())
         .unwrap_or_else(|e| panic!("the MuJoCo harness did not start: {e}"));
     let path = dir.join("pair.xml");
     std::fs::write(&path, PAIR_MJCF).unwrap();

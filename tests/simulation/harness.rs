@@ -131,7 +131,7 @@ fn model(name: &str) -> String {
 fn start(gl: &str) -> Harness {
     let options = HarnessOptions {
         env: vec![("MUJOCO_GL".to_string(), gl.to_string())],
-        ..HarnessOptions::default()
+        ..crate::common::patient_harness()
     };
     let harness = Harness::start_in(&shared().config, "sim_harness.py", options)
         .unwrap_or_else(|e| panic!("the MuJoCo harness did not start with MUJOCO_GL={gl}: {e}"));

@@ -15,7 +15,7 @@
 //! (a changed `sim/requirements.txt` builds a new one beside it). Without python3 (3.10+, with venv)
 //! or without PyPI these tests fail and say so: they never skip.
 
-use keypose::python::{Harness, HarnessOptions, PyConfig};
+use keypose::python::{Harness, PyConfig};
 use keypose::robot::{JointKind, Robot};
 use serde_json::{json, Map, Value};
 use std::sync::OnceLock;
@@ -98,7 +98,7 @@ fn config() -> &'static PyConfig {
 }
 
 fn harness() -> Harness {
-    Harness::start_in(config(), "sim_harness.py", HarnessOptions::default())
+    Harness::start_in(config(), "sim_harness.py", crate::common::patient_harness())
         .unwrap_or_else(|e| panic!("the MuJoCo harness did not start: {e}"))
 }
 

@@ -567,7 +567,9 @@ mod tests {
         let before = right.lock().received.len();
         let error = bus.read_positions(&ids).unwrap_err();
         assert!(
-            matches!(error.root(), BusError::Timeout { id: 1, timeout_ms } if *timeout_ms < 40),
+            // Starved too: on a loaded machine this process may not run for part of the wait.
+            matches!(error.root(), BusError::Timeout { id: 1, timeout_ms }
+                | BusError::Starved { id: 1, timeout_ms, .. } if *timeout_ms < 40),
             "{error}"
         );
         assert_eq!(asked(before), 1);
@@ -587,7 +589,7 @@ mod tests {
             Some("right/wrist_flex")
         );
         assert!(
-            matches!(error.root(), BusError::Timeout { id: 4, .. }),
+            error.is_no_answer() && error.root().servo() == Some(4),
             "{error}"
         );
         assert!(

@@ -37,7 +37,12 @@ impl Hand {
         let started = Arc::new(AtomicBool::new(false));
         let thread = {
             let (stop, started) = (stop.clone(), started.clone());
-            std::thread::spawn(move || run(&bus, &ids, duration, path, &stop, &started))
+            std::thread::spawn(move || {
+                // The hand is outside the computer: it moves on time however busy it is (as
+                // far as the system lets this thread run first).
+                let _ = crate::pacing::realtime::serve_promptly();
+                run(&bus, &ids, duration, path, &stop, &started)
+            })
         };
         Hand {
             stop,

@@ -58,7 +58,12 @@ impl PtyServer {
             let stop = stop.clone();
             let bus = bus.clone();
             let mut wire = wire.map(Wire::new);
-            std::thread::spawn(move || serve_loop(&mut master, &bus, &stop, wire.as_mut()))
+            std::thread::spawn(move || {
+                // Best effort: without the privilege the emulator runs as an ordinary thread,
+                // and a loaded machine may then make it answer late.
+                let _ = crate::pacing::realtime::serve_promptly();
+                serve_loop(&mut master, &bus, &stop, wire.as_mut())
+            })
         };
         Ok(PtyServer {
             path,
