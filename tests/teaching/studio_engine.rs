@@ -133,10 +133,18 @@ fn a_silent_controller_loses_control_and_playback_stops_softly() {
     );
     // No heartbeat from here on: the engine lets the page go and stops the arm.
     let snapshot = wait_for(&hub, |s| {
-        s["activity"]["kind"] == "idle" && s["status"]["text"].as_str().unwrap().contains("stopped")
+        s["activity"]["kind"] == "idle"
+            && s["status"]["text"].as_str().unwrap().contains("stopped")
+            && s["controlled"] == Value::Bool(false)
     });
-    assert_decelerated(&snapshot);
-    assert_eq!(snapshot["controlled"], Value::Bool(false));
+    // Along its path: stopped for the lapsed lease, or, on a machine loaded enough to stall
+    // the playback first (CI beside busy loops), braked by the stall guard. Either way softly.
+    let text = snapshot["status"]["text"].as_str().unwrap();
+    assert!(
+        text.contains("decelerated along its path")
+            || text.contains("braked to rest along the path"),
+        "{snapshot}"
+    );
     inputs.send(Input::Interrupt).unwrap();
     let (ended, state) = engine.join().unwrap().unwrap();
     assert_eq!(ended, Ended::Interrupted);
