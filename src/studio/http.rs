@@ -240,17 +240,15 @@ fn parse_head<'a>(head: &'a str, limits: &Limits) -> Result<Head<'a>, HttpError>
         m if !m.is_empty() && m.bytes().all(is_token_byte) => Method::Other,
         _ => return Err(HttpError::Malformed("the method is not a token")),
     };
-    let header_lines: Vec<&str> = lines.collect();
-    if header_lines.len() > limits.header_lines {
+    // Counted before any is kept: a head of thousands of tiny lines allocates nothing more.
+    let found = lines.clone().count();
+    if found > limits.header_lines {
         return Err(HttpError::TooManyHeaderLines {
             limit: limits.header_lines,
-            found: header_lines.len(),
+            found,
         });
     }
-    let headers = header_lines
-        .into_iter()
-        .map(parse_header)
-        .collect::<Result<_, _>>()?;
+    let headers = lines.map(parse_header).collect::<Result<_, _>>()?;
     Ok((method, target, headers))
 }
 
