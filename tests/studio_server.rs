@@ -78,10 +78,14 @@ fn start(dir: &Path, how: Start) -> Studio {
     });
     let mut url = String::new();
     BufReader::new(stdout).read_line(&mut url).unwrap();
-    let rest = url
-        .trim()
-        .strip_prefix("http://")
-        .unwrap_or_else(|| panic!("the first line is the page's URL, got {url:?}"));
+    let Some(rest) = url.trim().strip_prefix("http://") else {
+        let said: Vec<String> =
+            std::iter::from_fn(|| received.recv_timeout(HANG_GUARD).ok()).collect();
+        panic!(
+            "the first line is not the page's URL but {url:?}; standard error:\n{}",
+            said.join("\n")
+        );
+    };
     let (addr, token) = rest.split_once("/?token=").unwrap();
     Studio {
         addr: addr.to_string(),
@@ -490,7 +494,13 @@ fn a_server_fault_brakes_the_arm_and_ends_the_studio(fault: &str) {
     let said = studio.rest_of_stderr();
     assert_eq!(exit.code(), Some(3), "{said}");
     assert!(said.contains("the studio's server failed"), "{said}");
-    assert!(said.contains("decelerated along its path"), "{said}");
+    // Braked along its path: by the fault — or, on a machine so loaded that the player's own
+    // stall bound (250 ms) tripped first, by the player, which brakes along the path too.
+    assert!(
+        said.contains("decelerated along its path")
+            || said.contains("braked to rest along the path"),
+        "{said}"
+    );
     assert!(
         !said.contains(&studio.token),
         "the token was printed:\n{said}"
