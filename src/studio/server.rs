@@ -63,11 +63,7 @@ pub fn spawn(listener: TcpListener, context: Context, limits: Limits) {
 /// Runs `work`; a panic in it is a server fault (the panic hook has printed it already).
 fn fault_on_panic(context: &Context, thread: &str, work: impl FnOnce()) {
     if let Err(panic) = std::panic::catch_unwind(AssertUnwindSafe(work)) {
-        let message = panic
-            .downcast_ref::<String>()
-            .cloned()
-            .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
-            .unwrap_or_else(|| "a panic".into());
+        let message = crate::teach::session::panic_message(panic.as_ref());
         context.fault(format!("{thread} panicked: {message}"));
     }
 }
