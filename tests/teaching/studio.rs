@@ -176,7 +176,9 @@ fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
     );
     let referers = results["referers"].as_array().unwrap();
     assert!(
-        referers.iter().all(|r| !r.as_str().unwrap().contains(token)),
+        referers
+            .iter()
+            .all(|r| !r.as_str().unwrap().contains(token)),
         "{referers:?}"
     );
     for refused in ["noToken", "noTokenPage", "foreignOrigin", "reboundHost"] {
