@@ -7,8 +7,7 @@
 //!
 //! No timing thresholds: every wait is a hang guard of a minute that fails the test.
 
-mod common;
-
+use crate::common;
 use serde_json::Value;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{Shutdown, TcpStream};
