@@ -17,7 +17,8 @@ pub struct StudioArgs {
     #[command(flatten)]
     pub session: SessionArgs,
     /// Address to serve the page on; port 0 picks a free one. Anything but a loopback address
-    /// lets other machines reach the studio (with the token).
+    /// lets other machines reach the studio (with the token, which then crosses the network
+    /// in clear: plain HTTP); the studio warns about it.
     #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:0")]
     pub listen: SocketAddr,
 }
@@ -38,6 +39,14 @@ pub fn run(args: &StudioArgs) -> Result<Verdict, CommandError> {
         })?;
     drop(stdout);
     eprintln!("studio: open the URL above in a browser; Ctrl-C stops the arm and ends the studio");
+    if !studio.addr().ip().is_loopback() {
+        eprintln!(
+            "studio: WARNING: {} is not a loopback address: other machines can reach the studio, \
+             and the page's token crosses the network in clear (plain HTTP) with every request; \
+             anyone who can see the traffic can drive the arm. Use it on a trusted network only",
+            studio.addr()
+        );
+    }
     let ended = studio
         .run(&mut opened.state, &mut opened.session, Some(simulator()))
         .map_err(|e| match e {
@@ -45,6 +54,11 @@ pub fn run(args: &StudioArgs) -> Result<Verdict, CommandError> {
             other => CommandError::Hardware(other.to_string()),
         })?;
     let status = opened.state.status().text.clone();
+    let unsaved = if opened.state.is_dirty() && opened.state.journal().is_some() {
+        " (unsaved changes stay in the journal: the next studio or teach of this file offers them)"
+    } else {
+        ""
+    };
     match ended {
         Ended::Quit => {
             eprintln!(
@@ -54,13 +68,20 @@ pub fn run(args: &StudioArgs) -> Result<Verdict, CommandError> {
             Ok(Verdict::Pass)
         }
         Ended::Interrupted => Err(CommandError::Interrupted(format!(
-            "studio ended by Ctrl-C; the arm holds where it is{}",
-            if opened.state.is_dirty() && opened.state.journal().is_some() {
-                " (unsaved changes stay in the journal: the next studio or teach of this file offers them)"
-            } else {
-                ""
-            }
+            "studio ended by Ctrl-C; the arm holds where it is{unsaved}"
         ))),
+        Ended::ServerFault(what) => {
+            // What the braked arm did, then why the studio ended.
+            eprintln!(
+                "studio: {}",
+                keypose::terminal_text::escape_controls(&status)
+            );
+            Err(CommandError::Hardware(format!(
+                "the studio's server failed ({}); the arm was braked and holds where it \
+                 stopped{unsaved}",
+                keypose::terminal_text::escape_controls(&what)
+            )))
+        }
     }
 }
 

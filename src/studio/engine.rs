@@ -44,12 +44,15 @@ pub enum Input {
     },
     /// Ctrl-C, SIGTERM or SIGHUP in the terminal.
     Interrupt,
+    /// A fault of the server (a panic in one of its threads), which has braked the arm
+    /// already: the session ends once the arm is at rest, saying this.
+    Fault(String),
 }
 
 impl inputs::Input for Input {
     fn is_stop(&self) -> bool {
         match self {
-            Input::Interrupt => true,
+            Input::Interrupt | Input::Fault(_) => true,
             Input::Action { action, .. } => match action {
                 Action::Stop => true,
                 Action::Key(key) => key.is_stop(),
@@ -155,15 +158,18 @@ fn unix_ms() -> f64 {
 }
 
 /// How a studio session ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Ended {
     /// The page quit it (`q`).
     Quit,
     /// Ctrl-C (or SIGTERM, SIGHUP) in the terminal, once the arm was at rest.
     Interrupted,
+    /// The server failed (what it said), once the arm was at rest.
+    ServerFault(String),
 }
 
-/// Runs the session until the page quits it (`q`) or Ctrl-C ends it with the arm at rest.
+/// Runs the session until the page quits it (`q`), or Ctrl-C or a server fault ends it with
+/// the arm at rest.
 pub fn run(
     state: &mut TeachState,
     session: &mut Session,
@@ -174,7 +180,8 @@ pub fn run(
     let mut queue = InputQueue::default();
     let mut waiting_jog = WaitingJog::default();
     let mut next_read = Instant::now();
-    let mut interrupted = false;
+    // Set by Ctrl-C or a fault: the session ends so once the arm is at rest.
+    let mut ending: Option<Ended> = None;
     let result = loop {
         follow_the_drivers(state, session, hub, &mut queue)?;
         if Instant::now() >= next_read {
@@ -182,9 +189,13 @@ pub fn run(
             next_read = Instant::now() + READ_PERIOD;
         }
         while let Some(input) = queue.next(state.is_jogging()) {
-            interrupted |= carry_out(state, session, input, &mut waiting_jog, &|state| {
+            let ends = carry_out(state, session, input, &mut waiting_jog, &|state| {
                 hub.publish(state, &bus)
             });
+            // A fault is what the session ends with, whatever else asked it to end.
+            if !matches!(ending, Some(Ended::ServerFault(_))) {
+                ending = ends.or(ending);
+            }
         }
         hub.publish(state, &bus);
         waiting_jog.answer_when_taken(state);
@@ -192,8 +203,8 @@ pub fn run(
         if state.should_quit() {
             break Ok(Ended::Quit);
         }
-        if interrupted && !state.is_moving() {
-            break Ok(Ended::Interrupted);
+        if let Some(ended) = ending.as_ref().filter(|_| !state.is_moving()) {
+            break Ok(ended.clone());
         }
         let mut timeout = next_read.saturating_duration_since(Instant::now());
         if !queue.is_empty() {
@@ -270,15 +281,15 @@ fn status(state: &TeachState) -> Value {
 }
 
 /// Hands one input to the state and publishes what it did before answering it (whoever asks
-/// for the state once answered sees what the action did); true for an interruption (the
-/// session then ends once the arm is at rest).
+/// for the state once answered sees what the action did); for an interruption or a fault,
+/// how the session is to end (once the arm is at rest).
 fn carry_out(
     state: &mut TeachState,
     session: &mut Session,
     input: Input,
     waiting_jog: &mut WaitingJog,
     publish: &dyn Fn(&TeachState),
-) -> bool {
+) -> Option<Ended> {
     match input {
         Input::Action { action, reply } => {
             let jog = match &action {
@@ -293,12 +304,17 @@ fn carry_out(
                 let _ = reply.send(status(state));
             }
             waiting_jog.answer_when_taken(state);
-            false
+            None
         }
         Input::Interrupt => {
             interrupt(state, session);
             publish(state);
-            true
+            Some(Ended::Interrupted)
+        }
+        Input::Fault(what) => {
+            interrupt(state, session);
+            publish(state);
+            Some(Ended::ServerFault(what))
         }
     }
 }

@@ -1,397 +1,206 @@
-//! The HTTP side: one thread accepts, one thread per request answers (an event stream keeps
-//! its thread while the page is open). Every request passes [`Guard`]'s Host and Origin
-//! checks; the page and `/api/` also need the token. Handlers only read the published
-//! snapshot or hand an action to the engine: no rule of the session is here.
+//! The studio's sockets: one thread accepts, one thread per connection reads one request
+//! ([`http::read_request`]), answers it ([`routes::route`]) and closes (an event stream keeps
+//! its thread while the page is open).
+//!
+//! What a client can take is bounded before any token is checked, so that no client — a
+//! flood of half-open connections, a slow one, a huge header — can stop the server answering
+//! the page that holds the arm (its heartbeat keeps the lease; a lapsed lease stops the arm):
+//! - at most [`MAX_CONNECTIONS`] connections at once; the next ones are answered 503 at once
+//!   and closed, by the accepting thread, which reads nothing from them;
+//! - each request within [`http::Limits`]: its head, its header lines and its body in size,
+//!   and the whole request in time (a deadline from the moment it is accepted, however
+//!   slowly its bytes trickle in); answers must be taken within [`WRITE_TIMEOUT`];
+//! - accepting that fails (no file descriptor left: EMFILE, ENFILE; or anything else) is
+//!   retried with a growing pause, said once on standard error, and never ends the loop.
+//!
+//! A panic in any server thread is a fault ([`Context::fault`]): the arm is braked and the
+//! session ends once it is at rest. (An allocation failure aborts a Rust process without
+//! unwinding, and nothing can brake then; the bounds above are what keep a client from
+//! causing one: nothing the server holds grows with what a client sends.)
 
-use super::assets;
-use super::auth::{Credentials, Guard, Refusal, TOKEN_HEADER};
-use super::control::ControlRefusal;
-use super::engine::{self, Action, Hub, Input, News};
-use crate::robot::Robot;
-use crate::teach::Brake;
-use serde_json::{json, Value};
-use std::io::{Read, Write};
+use super::http::{self, HttpError, Limits};
+use super::routes::{self, Context, Reply};
+use serde_json::json;
+use std::io::{self, Read};
+use std::net::{Shutdown, TcpListener, TcpStream};
+use std::panic::AssertUnwindSafe;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::mpsc::Sender;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use tiny_http::{Header, Method, Request, Response};
 
-/// The header the page sends its client id in (for control).
-pub const CLIENT_HEADER: &str = "X-Keypose-Client";
-/// Largest request body: a key or a typed line is a few bytes.
-const MAX_BODY: u64 = 4096;
-/// Event streams open at once; more are refused (each holds a thread).
-const MAX_STREAMS: usize = 16;
-/// How long a stream stays silent before a comment line checks the connection.
-const KEEPALIVE: Duration = Duration::from_secs(1);
-/// How long a request waits for the engine to carry out its action.
-const ACTION_TIMEOUT: Duration = Duration::from_secs(10);
+/// Connections open at once. A page uses a few (its requests, its heartbeat, its event
+/// stream), and at most [`routes::MAX_STREAMS`] pages stream at once.
+pub const MAX_CONNECTIONS: usize = 64;
+/// How long an answer (or a part of an event stream) may wait for the client to take it.
+const WRITE_TIMEOUT: Duration = Duration::from_secs(10);
+/// First and longest pause after a failed accept.
+const BACKOFF: (Duration, Duration) = (Duration::from_millis(5), Duration::from_secs(1));
+/// After refusing a request, what is still read (and dropped) for at most this long and this
+/// many bytes, so that the client can read the refusal before the connection closes (closing
+/// with unread bytes would reset it).
+const LINGER: (Duration, usize) = (Duration::from_secs(1), 64 * 1024);
 
-/// What the request handlers share.
-pub struct Context {
-    pub guard: Guard,
-    pub hub: Arc<Hub>,
-    pub inputs: Sender<Input>,
-    /// Brakes the moving arm from the request's own thread: a Stop never waits for the
-    /// engine.
-    pub brake: Brake,
-    pub robot: Robot,
-    /// `GET /api/robot`, built once.
-    pub robot_model: String,
-    /// `POST /api/simulate`, when the binary gives one; one run at a time.
-    pub simulator: Option<super::Simulator>,
-    simulating: std::sync::Mutex<()>,
-    streams: AtomicUsize,
-}
-
-impl Context {
-    pub fn new(guard: Guard, hub: Arc<Hub>, inputs: Sender<Input>, robot: Robot) -> Context {
-        let robot_model = super::robot_model::model(&robot).to_string();
-        Context {
-            guard,
-            hub,
-            inputs,
-            brake: Brake::default(),
-            robot,
-            robot_model,
-            simulator: None,
-            simulating: std::sync::Mutex::new(()),
-            streams: AtomicUsize::new(0),
-        }
-    }
-}
-
-/// Serves `http` on a thread of its own until the process ends.
-pub fn spawn(http: tiny_http::Server, context: Context) {
+/// Serves `listener` on a thread of its own until the process ends.
+pub fn spawn(listener: TcpListener, context: Context, limits: Limits) {
     let context = Arc::new(context);
-    std::thread::spawn(move || {
-        for request in http.incoming_requests() {
+    let spawned = std::thread::Builder::new()
+        .name("keypose-studio-accept".into())
+        .spawn({
             let context = context.clone();
-            std::thread::spawn(move || handle(request, &context));
-        }
-    });
-}
-
-/// A request's header value.
-fn header<'a>(request: &'a Request, name: &str) -> Option<&'a str> {
-    request
-        .headers()
-        .iter()
-        .find(|h| h.field.as_str().as_str().eq_ignore_ascii_case(name))
-        .map(|h| h.value.as_str())
-}
-
-/// The path and query parameters of a URL (the page's values need no percent-decoding: hex
-/// tokens and letter-digit ids; anything else simply does not match).
-fn split_url(url: &str) -> (&str, Vec<(&str, &str)>) {
-    let (path, query) = url.split_once('?').unwrap_or((url, ""));
-    let params = query
-        .split('&')
-        .filter_map(|pair| pair.split_once('='))
-        .collect();
-    (path, params)
-}
-
-fn param<'a>(params: &[(&'a str, &'a str)], name: &str) -> Option<&'a str> {
-    params.iter().find(|(k, _)| *k == name).map(|(_, v)| *v)
-}
-
-fn handle(request: Request, context: &Context) {
-    let url = request.url().to_string();
-    let (path, params) = split_url(&url);
-    let credentials = Credentials {
-        host: header(&request, "Host"),
-        origin: header(&request, "Origin"),
-        token: header(&request, TOKEN_HEADER).or_else(|| param(&params, "token")),
-    };
-    let asset = assets::file(path);
-    let access = match asset {
-        Some(_) => context.guard.check_origin(&credentials),
-        None => context.guard.check(&credentials),
-    };
-    if let Err(refusal) = access {
-        return respond(request, refused(&refusal));
-    }
-    if let Some((kind, bytes)) = asset {
-        return respond(request, bytes_response(200, kind, bytes));
-    }
-    let client = header(&request, CLIENT_HEADER)
-        .or_else(|| param(&params, "client"))
-        .map(str::to_string);
-    route(request, context, path, client);
-}
-
-/// A request that passed the guard, to its handler.
-fn route(request: Request, context: &Context, path: &str, client: Option<String>) {
-    let method = request.method().clone();
-    match (method, path) {
-        (Method::Get, "/") => {
-            let response = bytes_response(200, "text/html; charset=utf-8", assets::INDEX);
-            respond(request, response)
-        }
-        (Method::Get, "/api/robot") => {
-            respond(request, json_text(200, context.robot_model.clone()))
-        }
-        (Method::Get, "/api/state") => {
-            let text = context.hub.published().json.to_string();
-            respond(request, json_text(200, text))
-        }
-        (Method::Get, "/api/timeline") => {
-            let sequence = context.hub.published().sequence.clone();
-            let value = super::timeline::timeline(sequence.as_ref(), &context.robot);
-            respond(request, json_response(200, &value))
-        }
-        (Method::Get, "/api/events") => events(request, context, client),
-        (Method::Post, "/api/control") => control(request, context, client),
-        (Method::Post, "/api/release") => {
-            if let Some(client) = &client {
-                // The page is closing: as good as a lost connection (playback stops).
-                context.hub.lease().release(client, true);
+            move || {
+                fault_on_panic(&context, "the thread that accepts connections", || {
+                    accept_loop(&listener, &context, limits)
+                })
             }
-            respond(request, json_response(200, &json!({"released": true})))
-        }
-        (Method::Post, "/api/key") => key(request, context, client),
-        (Method::Post, "/api/simulate") => simulate(request, context, client),
-        _ => respond(
-            request,
-            json_response(404, &json!({"error": format!("no route {path}")})),
-        ),
+        });
+    if let Err(e) = spawned {
+        context.fault(format!(
+            "cannot start the thread that accepts connections: {e}"
+        ));
     }
 }
 
-/// `POST /api/control`: take the lease, or renew it (the page's heartbeat).
-fn control(request: Request, context: &Context, client: Option<String>) {
-    let result = context
-        .hub
-        .lease()
-        .claim(client.as_deref().unwrap_or(""), Instant::now());
-    let response = match result {
-        Ok(()) => json_response(200, &json!({"control": true})),
-        Err(refusal) => control_refused(&refusal),
-    };
-    respond(request, response)
+/// Runs `work`; a panic in it is a server fault (the panic hook has printed it already).
+fn fault_on_panic(context: &Context, thread: &str, work: impl FnOnce()) {
+    if let Err(panic) = std::panic::catch_unwind(AssertUnwindSafe(work)) {
+        let message = crate::teach::session::panic_message(panic.as_ref());
+        context.fault(format!("{thread} panicked: {message}"));
+    }
 }
 
-/// Whether `client` controls the arm now.
-fn controls(context: &Context, client: &Option<String>) -> Result<(), ControlRefusal> {
-    context
-        .hub
-        .lease()
-        .check(client.as_deref().unwrap_or(""), Instant::now())
-}
-
-/// `POST /api/key` with `{"key": TOKEN}` or `{"line": TEXT}`: one action of the controller,
-/// or the Stop button of any page (the token is checked already: whoever may watch may stop).
-/// A stop brakes the arm here and now, then goes to the engine, where it drops whatever keys
-/// are still queued.
-fn key(mut request: Request, context: &Context, client: Option<String>) {
-    let action = read_body(&mut request).and_then(|body| parse_action(&body));
-    let action = match action {
-        Ok(action) => action,
-        Err(message) => return respond(request, json_response(400, &json!({"error": message}))),
-    };
-    if action == Action::Stop {
-        context.brake.soft_stop();
-    } else if let Err(refusal) = controls(context, &client) {
-        return respond(request, control_refused(&refusal));
-    }
-    let (reply, answer) = std::sync::mpsc::channel();
-    let response = match context.inputs.send(Input::Action { action, reply }) {
-        Err(_) => json_response(503, &json!({"error": "the session has ended"})),
-        Ok(()) => match answer.recv_timeout(ACTION_TIMEOUT) {
-            Ok(status) => json_response(200, &json!({"status": status})),
-            Err(_) => json_response(503, &json!({"error": "the session did not answer"})),
-        },
-    };
-    respond(request, response)
-}
-
-/// `POST /api/simulate`: the list as it is now, played in MuJoCo (seconds to a minute); the
-/// arm is not involved, but only the controller may start it (it takes the machine).
-fn simulate(request: Request, context: &Context, client: Option<String>) {
-    if let Err(refusal) = controls(context, &client) {
-        return respond(request, control_refused(&refusal));
-    }
-    let Some(simulator) = &context.simulator else {
-        let error = json!({"error": "this studio cannot simulate"});
-        return respond(request, json_response(501, &error));
-    };
-    let Ok(_running) = context.simulating.try_lock() else {
-        let error = json!({"error": "a simulation is running already"});
-        return respond(request, json_response(409, &error));
-    };
-    let sequence = context.hub.published().sequence.clone();
-    let response = match sequence.filter(|s| !s.keyframes.is_empty()) {
-        None => json_response(400, &json!({"error": "no keys to simulate: n adds one"})),
-        Some(sequence) => match simulator(&sequence, &context.robot) {
-            Ok(value) => json_response(200, &value),
-            Err(message) => json_response(422, &json!({"error": message})),
-        },
-    };
-    respond(request, response)
-}
-
-fn read_body(request: &mut Request) -> Result<Value, String> {
-    let mut body = String::new();
-    request
-        .as_reader()
-        .take(MAX_BODY + 1)
-        .read_to_string(&mut body)
-        .map_err(|e| format!("cannot read the request: {e}"))?;
-    if body.len() as u64 > MAX_BODY {
-        return Err(format!("request body over {MAX_BODY} bytes"));
-    }
-    serde_json::from_str(&body).map_err(|e| format!("request body: expected JSON ({e})"))
-}
-
-fn parse_action(body: &Value) -> Result<Action, String> {
-    if let Some(token) = body.get("key").and_then(Value::as_str) {
-        if token == "stop" {
-            return Ok(Action::Stop);
-        }
-        return engine::parse_key(token).map(Action::Key);
-    }
-    if let Some(text) = body.get("line").and_then(Value::as_str) {
-        return Ok(Action::Line(text.to_string()));
-    }
-    Err(r#"expected {"key": TOKEN} or {"line": TEXT}"#.into())
-}
-
-/// `GET /api/events`: the snapshots as a server-sent event stream. The controller's stream
-/// breaking releases control (and the engine stops playback softly).
-fn events(request: Request, context: &Context, client: Option<String>) {
-    if context.streams.fetch_add(1, Ordering::SeqCst) >= MAX_STREAMS {
-        context.streams.fetch_sub(1, Ordering::SeqCst);
-        let error = json!({"error": format!("more than {MAX_STREAMS} pages are open")});
-        return respond(request, json_response(503, &error));
-    }
-    let mut writer = request.into_writer();
-    let head = "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\n\
-                X-Content-Type-Options: nosniff\r\nConnection: close\r\n\r\n";
-    let mut seen = 0;
-    let mut result = writer
-        .write_all(head.as_bytes())
-        .and_then(|_| writer.flush());
-    while result.is_ok() {
-        let chunk = match context.hub.wait_news(seen, KEEPALIVE) {
-            News::Snapshot(seq, json) => {
-                seen = seq;
-                format!("id: {seq}\ndata: {json}\n\n")
+fn accept_loop(listener: &TcpListener, context: &Arc<Context>, limits: Limits) {
+    let open = Arc::new(AtomicUsize::new(0));
+    let mut pause: Option<Duration> = None;
+    loop {
+        match listener.accept() {
+            Ok((stream, _)) => {
+                pause = None;
+                if context.accept_fault_armed.load(Ordering::SeqCst) {
+                    panic!("test fault: a panic in the accept loop (KEYPOSE_STUDIO_TEST_FAULT)");
+                }
+                admit(stream, context, &open, limits);
             }
-            News::Quiet => ": keepalive\n\n".to_string(),
-            News::Ended => {
-                let _ = writer.write_all(b"event: end\ndata: {}\n\n");
-                let _ = writer.flush();
-                break;
+            Err(e) => {
+                // Said once per run of failures: a flood must not flood the terminal too.
+                if pause.is_none() {
+                    eprintln!("studio: cannot accept a connection ({e}); trying again");
+                }
+                let next = pause.map_or(BACKOFF.0, |p| (p * 2).min(BACKOFF.1));
+                pause = Some(next);
+                std::thread::sleep(next);
             }
-        };
-        result = writer
-            .write_all(chunk.as_bytes())
-            .and_then(|_| writer.flush());
-    }
-    if result.is_err() {
-        if let Some(client) = &client {
-            context.hub.lease().release(client, true);
         }
     }
-    context.streams.fetch_sub(1, Ordering::SeqCst);
 }
 
-fn respond<R: Read>(request: Request, response: Response<R>) {
-    // A page that went away mid-answer is not the server's problem.
-    let _ = request.respond(response);
+/// A connection's place among [`MAX_CONNECTIONS`], given back when dropped.
+struct Place(Arc<AtomicUsize>);
+
+impl Place {
+    fn take(open: &Arc<AtomicUsize>) -> Option<Place> {
+        let taken = open.fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| {
+            (n < MAX_CONNECTIONS).then_some(n + 1)
+        });
+        taken.ok().map(|_| Place(open.clone()))
+    }
 }
 
-fn refused(refusal: &Refusal) -> Response<std::io::Cursor<Vec<u8>>> {
-    json_response(403, &json!({"error": refusal.to_string()}))
+impl Drop for Place {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::SeqCst);
+    }
 }
 
-fn control_refused(refusal: &ControlRefusal) -> Response<std::io::Cursor<Vec<u8>>> {
-    let status = match refusal {
-        ControlRefusal::BadClient(_) => 400,
-        _ => 409,
+/// A thread for `stream`, or a refusal when every place is taken. (When no thread can
+/// start, the connection closes unanswered.)
+fn admit(stream: TcpStream, context: &Arc<Context>, open: &Arc<AtomicUsize>, limits: Limits) {
+    let Some(place) = Place::take(open) else {
+        let error = format!("more than {MAX_CONNECTIONS} connections are open; try again");
+        return refuse_at_once(stream, &error);
     };
-    json_response(
-        status,
-        &json!({"error": refusal.to_string(), "watching": true}),
-    )
+    let deadline = Instant::now() + limits.time;
+    let context = context.clone();
+    let _ = std::thread::Builder::new()
+        .name("keypose-studio-http".into())
+        .spawn(move || {
+            let _place = place;
+            fault_on_panic(&context, "a request's thread", || {
+                serve(stream, &context, limits, deadline)
+            });
+        });
 }
 
-fn json_response(status: u16, value: &Value) -> Response<std::io::Cursor<Vec<u8>>> {
-    json_text(status, value.to_string())
+/// Answers 503 without reading, from the accepting thread, which must not wait: the socket
+/// is non-blocking, and what does not fit in its buffer at once is not sent.
+fn refuse_at_once(mut stream: TcpStream, error: &str) {
+    let _ = stream.set_nonblocking(true);
+    let answer = routes::json_response(503, &json!({ "error": error }));
+    let _ = answer.write_to(&mut stream);
+    let _ = stream.shutdown(Shutdown::Write);
 }
 
-fn json_text(status: u16, text: String) -> Response<std::io::Cursor<Vec<u8>>> {
-    with_headers(
-        Response::from_data(text.into_bytes()).with_status_code(status),
-        "application/json",
-    )
-}
-
-fn bytes_response(
-    status: u16,
-    kind: &str,
-    bytes: &'static [u8],
-) -> Response<std::io::Cursor<Vec<u8>>> {
-    with_headers(
-        Response::from_data(bytes.to_vec()).with_status_code(status),
-        kind,
-    )
-}
-
-/// The headers every answer carries: its type, no caching (the page holds a token), no
-/// framing by other sites, and a policy that runs only the studio's own scripts.
-fn with_headers<R: Read>(response: Response<R>, kind: &str) -> Response<R> {
-    let policy = format!(
-        "default-src 'self'; script-src 'self' 'sha256-{}'; style-src 'self'; \
-         img-src 'self' data: blob:; connect-src 'self'; frame-ancestors 'none'; base-uri 'none'; \
-         form-action 'none'",
-        assets::IMPORTMAP_SHA256
-    );
-    let headers = [
-        ("Content-Type", kind.to_string()),
-        ("Cache-Control", "no-store".to_string()),
-        ("X-Content-Type-Options", "nosniff".to_string()),
-        ("X-Frame-Options", "DENY".to_string()),
-        ("Referrer-Policy", "no-referrer".to_string()),
-        ("Content-Security-Policy", policy),
-    ];
-    headers.into_iter().fold(response, |r, (name, value)| {
-        match Header::from_bytes(name.as_bytes(), value.as_bytes()) {
-            Ok(h) => r.with_header(h),
-            Err(()) => r,
+/// One connection: its request read by `deadline`, answered, closed.
+fn serve(stream: TcpStream, context: &Context, limits: Limits, deadline: Instant) {
+    let _ = stream.set_write_timeout(Some(WRITE_TIMEOUT));
+    let mut source = Deadline {
+        stream: &stream,
+        deadline,
+    };
+    let request = match http::read_request(&mut source, &limits) {
+        Ok(request) => request,
+        Err(error) => return refuse(&stream, &error),
+    };
+    let mut out = &stream;
+    match routes::route(&request, context) {
+        Reply::Answer(answer) => {
+            let _ = answer.write_to(&mut out);
         }
-    })
+        Reply::Events(events) => routes::stream_events(events, &mut out, context),
+    }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::teach::Key;
+/// Answers a request that could not be read (if anyone is there to answer), then lets the
+/// client read it.
+fn refuse(stream: &TcpStream, error: &HttpError) {
+    let Some(status) = error.status() else { return };
+    let answer = routes::json_response(status, &json!({ "error": error.to_string() }));
+    let _ = answer.write_to(&mut &*stream);
+    let _ = stream.shutdown(Shutdown::Write);
+    linger(stream);
+}
 
-    #[test]
-    fn urls_split_into_path_and_parameters() {
-        let (path, params) = split_url("/api/events?token=ab12&client=page-1");
-        assert_eq!(path, "/api/events");
-        assert_eq!(param(&params, "token"), Some("ab12"));
-        assert_eq!(param(&params, "client"), Some("page-1"));
-        assert_eq!(param(&params, "other"), None);
-        assert_eq!(split_url("/").0, "/");
+/// Reads and drops what the client still sends, within [`LINGER`], in a small buffer.
+fn linger(mut stream: &TcpStream) {
+    let until = Instant::now() + LINGER.0;
+    let mut scratch = [0u8; 4096];
+    let mut dropped = 0;
+    while dropped < LINGER.1 {
+        let left = until.saturating_duration_since(Instant::now());
+        if left.is_zero() || stream.set_read_timeout(Some(left)).is_err() {
+            return;
+        }
+        match stream.read(&mut scratch) {
+            Ok(0) | Err(_) => return,
+            Ok(n) => dropped += n,
+        }
     }
+}
 
-    #[test]
-    fn a_body_is_a_key_a_line_or_the_stop_button() {
-        assert_eq!(
-            parse_action(&json!({"key": "u"})),
-            Ok(Action::Key(Key::Char('u')))
-        );
-        assert_eq!(parse_action(&json!({"key": "stop"})), Ok(Action::Stop));
-        assert_eq!(
-            parse_action(&json!({"line": "wave"})),
-            Ok(Action::Line("wave".into()))
-        );
-        assert!(parse_action(&json!({"key": "write:/tmp/x.json"})).is_err());
-        assert!(parse_action(&json!({"keys": "u"})).is_err());
+/// A connection read against a deadline for the whole request: each read waits at most
+/// until then, so a client that trickles a byte at a time cannot hold its place longer.
+struct Deadline<'a> {
+    stream: &'a TcpStream,
+    deadline: Instant,
+}
+
+impl Read for Deadline<'_> {
+    fn read(&mut self, into: &mut [u8]) -> io::Result<usize> {
+        let left = self.deadline.saturating_duration_since(Instant::now());
+        // A zero timeout means none at all to the socket; past the deadline, what is already
+        // there is still taken (the request may have arrived whole while this thread waited
+        // for the processor), but nothing is waited for.
+        self.stream
+            .set_read_timeout(Some(left.max(Duration::from_millis(1))))?;
+        self.stream.read(into)
     }
 }

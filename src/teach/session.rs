@@ -387,14 +387,10 @@ impl Session {
             return Err(SessionError::BusLost("no motion".into()));
         };
         self.brake.set(None);
-        let (bus, result) = motion.handle.join().map_err(|panic| {
-            let message = panic
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_else(|| "panic".into());
-            SessionError::BusLost(message)
-        })?;
+        let (bus, result) = motion
+            .handle
+            .join()
+            .map_err(|panic| SessionError::BusLost(panic_message(panic.as_ref())))?;
         self.bus = Some(bus);
         let observed = lock(&motion.shared);
         // The player turned torque on for the joints it drives; its last goals are what those
@@ -454,6 +450,15 @@ impl Session {
             std::thread::sleep(SETTLE_POLL);
         }
     }
+}
+
+/// What a thread's panic said (its payload is a message for every `panic!` with one).
+pub fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
+    panic
+        .downcast_ref::<String>()
+        .cloned()
+        .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+        .unwrap_or_else(|| "panic".into())
 }
 
 impl Drop for Session {

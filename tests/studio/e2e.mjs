@@ -73,8 +73,13 @@ try {
   const errors = [];
   a.on('pageerror', e => errors.push(`page error: ${e.message}`));
   a.on('console', m => { if (m.type() === 'error') errors.push(`console: ${m.text()}`); });
+  // Every Referer the page's requests carry (none may hold the token).
+  const referers = [];
+  a.on('request', r => { const referer = r.headers()['referer']; if (referer) referers.push(referer); });
   await a.goto(url);
   await a.waitForFunction(() => window.studio && window.studio.snapshot && window.studio.controller && window.studio.loadMs !== null);
+  // The address bar once the page has loaded: the token has left it.
+  results.addressBar = await a.evaluate(() => location.href);
   const snapshot = () => a.evaluate(() => window.studio.snapshot);
   // On a timeout, say what the page showed and what went wrong in it.
   const waitFor = (fn, arg) => a.waitForFunction(fn, arg, { timeout: 15000 }).catch(async e => {
@@ -254,6 +259,7 @@ try {
   }
   await b.waitForFunction(() => window.studio.controller, null, { timeout: 1000 });
   results.takenOver = await b.evaluate(() => window.studio.press('>'));
+  results.referers = referers;
   results.errors = errors.concat(errorsB);
 } finally {
   await browser.close();

@@ -8,4 +8,5 @@ mod common;
 mod session;
 mod studio;
 mod studio_engine;
+mod studio_server;
 mod terminal;

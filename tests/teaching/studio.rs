@@ -165,6 +165,22 @@ fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
     assert_eq!(times, [0.0, 3.0]);
     assert_eq!(results["timelineJoints"], json!(6));
     tool_handle_followed_the_drag(&results);
+    // The token left the address bar once the page had loaded, and no request carried the
+    // page's URL as its Referer.
+    let token = url.rsplit_once("token=").unwrap().1;
+    let address_bar = results["addressBar"].as_str().unwrap();
+    assert_eq!(
+        address_bar,
+        url.split_once('?').unwrap().0,
+        "the address bar still shows {address_bar}"
+    );
+    let referers = results["referers"].as_array().unwrap();
+    assert!(
+        referers
+            .iter()
+            .all(|r| !r.as_str().unwrap().contains(token)),
+        "{referers:?}"
+    );
     for refused in ["noToken", "noTokenPage", "foreignOrigin", "reboundHost"] {
         assert_eq!(results[refused], json!(403), "{refused}");
     }

@@ -5,6 +5,10 @@ import { Timeline } from '/timeline.js';
 import { ToolHandle } from '/handle.js';
 
 const token = new URLSearchParams(location.search).get('token') || '';
+// The token was in the URL only to bring the page here: it leaves the address bar (and this
+// history entry) at once, so that it is not on the screen, in a screenshot or a shared screen,
+// nor taken along with a copied URL. (A reload then needs the URL the studio printed.)
+history.replaceState(null, '', location.pathname);
 const client = Array.from(crypto.getRandomValues(new Uint8Array(12)), b => b.toString(16).padStart(2, '0')).join('');
 const $ = id => document.getElementById(id);
 const headers = { 'X-Keypose-Token': token, 'X-Keypose-Client': client, 'Content-Type': 'application/json' };
