@@ -65,10 +65,9 @@ pub enum LeRobotError {
         problem: PathProblem,
     },
     /// A file the dataset's layout names (meta/episodes) lies outside the dataset folder.
-    #[error("{dataset}: {path}: {problem}")]
+    #[error("{dataset}: {problem}")]
     Layout {
         dataset: String,
-        path: String,
         problem: PathProblem,
     },
     #[error("{dir}: {message}")]
@@ -275,8 +274,10 @@ pub enum Problem {
     #[error("timestamp is {found}; expected a finite number of seconds")]
     TimestampNotFinite { found: String },
     #[error(
-        "timestamp {value} s does not come after the previous frame's {previous} s; expected \
-         increasing timestamps"
+        "timestamp {} s does not come after the previous frame's {} s; expected increasing \
+         timestamps",
+        seconds_text(*.value),
+        seconds_text(*.previous)
     )]
     NotIncreasing { previous: f64, value: f64 },
     #[error(
@@ -292,9 +293,11 @@ pub enum Problem {
         tolerance_percent: f64,
     },
     #[error(
-        "timestamp {value} s is {step} s after the previous frame's {previous} s, {periods:.1} \
-         frame periods at fps {fps}; expected at most {max} (frames missing, or a corrupt \
-         timestamp)"
+        "timestamp {} s is {} s after the previous frame's {} s, {periods:.1} frame periods at \
+         fps {fps}; expected at most {max} (frames missing, or a corrupt timestamp)",
+        seconds_text(*.value),
+        seconds_text(*.step),
+        seconds_text(*.previous)
     )]
     Gap {
         previous: f64,

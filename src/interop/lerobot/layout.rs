@@ -7,7 +7,7 @@
 //! what else on the machine to read.
 
 use super::error::PathProblem;
-use super::LeRobotError;
+use super::{DatasetInfo, EpisodeSpan, LeRobotError};
 use std::path::{Component, Path, PathBuf};
 
 /// `template` (Python's `str.format` syntax, as LeRobot writes `data_path`) with its
@@ -131,26 +131,30 @@ pub fn inside(dir: &Path, relative: &str) -> Result<PathBuf, PathProblem> {
     Ok(path)
 }
 
-/// The data file of an episode: `data_path` filled in with its chunk and file index, inside
-/// the dataset. Returns the path relative to the dataset, as written.
-pub fn data_file(
-    dir: &Path,
-    info_file: &str,
-    template: &str,
-    episode: u64,
-    chunk_index: u64,
-    file_index: u64,
-) -> Result<String, LeRobotError> {
-    let error = |problem| LeRobotError::DataPath {
-        file: info_file.to_string(),
-        template: template.to_string(),
-        episode,
-        problem,
-    };
-    let relative = fill_template(template, chunk_index, file_index)
-        .map_err(|reason| error(PathProblem::Template { reason }))?;
-    inside(dir, &relative).map_err(error)?;
+/// The data file of `span`'s episode: `info`'s `data_path` filled in with its chunk and file
+/// index, inside the dataset at `dir`. Returns the path relative to the dataset, as written.
+pub fn data_file(dir: &Path, info: &DatasetInfo, span: &EpisodeSpan) -> Result<String, LeRobotError> {
+    let relative = data_path(info, span)?;
+    inside(dir, &relative).map_err(|problem| data_path_error(info, span, problem))?;
     Ok(relative)
+}
+
+/// [`data_file`] as written, without looking at the disk: filled in and [`check_relative`].
+pub fn data_path(info: &DatasetInfo, span: &EpisodeSpan) -> Result<String, LeRobotError> {
+    let (chunk_index, file_index) = span.data_file();
+    let relative = fill_template(&info.data_path, chunk_index, file_index)
+        .map_err(|reason| data_path_error(info, span, PathProblem::Template { reason }))?;
+    check_relative(&relative).map_err(|problem| data_path_error(info, span, problem))?;
+    Ok(relative)
+}
+
+fn data_path_error(info: &DatasetInfo, span: &EpisodeSpan, problem: PathProblem) -> LeRobotError {
+    LeRobotError::DataPath {
+        file: info.file.clone(),
+        template: info.data_path.clone(),
+        episode: span.episode(),
+        problem,
+    }
 }
 
 /// `meta/episodes/chunk-*/file-*.parquet` relative to `dir`, sorted, each inside the dataset.
@@ -171,7 +175,6 @@ pub fn episode_files(dir: &Path) -> Result<Vec<String>, LeRobotError> {
     for file in &files {
         inside(dir, file).map_err(|problem| LeRobotError::Layout {
             dataset: dataset.clone(),
-            path: file.clone(),
             problem,
         })?;
     }

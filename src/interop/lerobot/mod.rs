@@ -148,35 +148,38 @@ pub fn import(
 ) -> Result<Imported, LeRobotError> {
     let names = info.names(&options.field)?;
     let columns = map_names(info, &options.field, &names, robot)?;
+    let (place, span, frames) = read_episode(dir, info, &names, options)?;
+    let episode = Episode {
+        dataset: dataset_name(dir),
+        info,
+        place,
+        span,
+        names: &names,
+        columns: &columns,
+        frames,
+    };
+    fit(&episode, robot, options)
+}
+
+/// The episode's frames out of the dataset, judged, with where they are; the reader process
+/// has ended when this returns, so that its memory is free while the keys are fitted.
+fn read_episode(
+    dir: &Path,
+    info: &DatasetInfo,
+    names: &[String],
+    options: &ImportOptions,
+) -> Result<(Place, EpisodeSpan, Frames), LeRobotError> {
     let place = Place::episode(&dir.display().to_string(), options.episode);
     let files = layout::episode_files(dir)?;
     let mut reader = reader::Reader::start()?;
-    let span = EpisodeSpan::from_reply(&place, info.fps, &reader.episode(dir, &files, options.episode)?)?;
-    let (chunk_index, file_index) = span.data_file();
-    let data_file = layout::data_file(
-        dir,
-        &info.file,
-        &info.data_path,
-        options.episode,
-        chunk_index,
-        file_index,
-    )?;
+    let meta = reader.episode(dir, &files, options.episode)?;
+    let span = EpisodeSpan::from_reply(&place, info.fps, &meta)?;
+    let data_file = layout::data_file(dir, info, &span)?;
     let place = place.in_file(&data_file);
     let reply = reader.rows(dir, &data_file, &span, &options.field)?;
-    let frames = Frames::from_reply(&place, &span, &options.field, &names, &reply)?;
-    fit(
-        &Episode {
-            dataset: dataset_name(dir),
-            info,
-            place,
-            span,
-            names: &names,
-            columns: &columns,
-            frames,
-        },
-        robot,
-        options,
-    )
+    drop(reader);
+    let frames = Frames::from_reply(&place, &span, &options.field, names, &reply)?;
+    Ok((place, span, frames))
 }
 
 /// The folder's own name, for the sequence's description.
