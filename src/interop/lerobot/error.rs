@@ -186,6 +186,9 @@ pub enum PathProblem {
 /// What is wrong with an episode's metadata or rows, with what was expected and found.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum Problem {
+    /// The reader could not get what it needs out of a file: the message names the file.
+    #[error("{message}")]
+    Unreadable { message: String },
     #[error("not in meta/episodes (episodes there: {known})")]
     NotListed { known: String },
     #[error("listed {count} times in meta/episodes ({rows}); expected once")]

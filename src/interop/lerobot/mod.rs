@@ -172,7 +172,7 @@ fn read_episode(
     let place = Place::episode(&dir.display().to_string(), options.episode);
     let files = layout::episode_files(dir)?;
     let mut reader = reader::Reader::start()?;
-    let meta = reader.episode(dir, &files, options.episode)?;
+    let meta = reader.episode(dir, &files, &place)?;
     let span = EpisodeSpan::from_reply(&place, info.fps, &meta)?;
     let data_file = layout::data_file(dir, info, &span)?;
     let place = place.in_file(&data_file);

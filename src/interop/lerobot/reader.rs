@@ -7,6 +7,7 @@
 //! [`super::frames`].
 
 use super::episode::EpisodeSpan;
+use super::error::{Place, Problem};
 use super::LeRobotError;
 use crate::python::{Harness, HarnessError};
 use serde_json::{json, Value};
@@ -29,20 +30,20 @@ impl Reader {
         })
     }
 
-    /// The meta/episodes rows of `episode` in `files` (relative to `dir`), as read.
+    /// The meta/episodes rows of `place`'s episode in `files` (relative to `dir`), as read.
     pub fn episode(
         &mut self,
         dir: &Path,
         files: &[String],
-        episode: u64,
+        place: &Place,
     ) -> Result<Value, LeRobotError> {
         self.ask(
-            dir,
+            place,
             json!({
                 "op": "episode",
                 "root": dir.display().to_string(),
                 "files": files,
-                "episode": episode,
+                "episode": place.episode,
             }),
         )
     }
@@ -57,7 +58,7 @@ impl Reader {
         field: &str,
     ) -> Result<Value, LeRobotError> {
         self.ask(
-            dir,
+            &Place::episode(&dir.display().to_string(), span.episode()),
             json!({
                 "op": "rows",
                 "root": dir.display().to_string(),
@@ -71,21 +72,21 @@ impl Reader {
         )
     }
 
-    fn ask(&mut self, dir: &Path, request: Value) -> Result<Value, LeRobotError> {
+    /// The answer to `request`; `place` names the episode when the files are to blame.
+    fn ask(&mut self, place: &Place, request: Value) -> Result<Value, LeRobotError> {
         self.harness
             .request_within(&request, READ_TIMEOUT)
-            .map_err(|e| dataset_error(dir, e))
+            .map_err(|e| dataset_error(place, e))
     }
 }
 
 /// A reply of kind "dataset" is the dataset's fault (bad input); anything else the reader's.
-fn dataset_error(dir: &Path, error: HarnessError) -> LeRobotError {
+fn dataset_error(place: &Place, error: HarnessError) -> LeRobotError {
     if let HarnessError::Failed { reply, message, .. } = &error {
         if reply.get("kind").and_then(Value::as_str) == Some("dataset") {
-            return LeRobotError::Dataset {
-                dir: dir.display().to_string(),
+            return place.error(Problem::Unreadable {
                 message: message.clone(),
-            };
+            });
         }
     }
     LeRobotError::Reader(error)
