@@ -706,7 +706,11 @@ fn assert_refused(dir: &Path, episode: &str, extra: &[&str], says: &[&str]) {
     let result = import(dir, &out, &args);
     assert_eq!(result.status.code(), Some(2), "{}", show(&result));
     for said in says {
-        assert!(stderr(&result).contains(said), "{said:?}: {}", show(&result));
+        assert!(
+            stderr(&result).contains(said),
+            "{said:?}: {}",
+            show(&result)
+        );
     }
     assert!(!out.exists(), "{} was written", out.display());
 }
@@ -743,7 +747,11 @@ fn two_values_naming_one_joint_are_refused() {
 fn a_corrupt_frame_is_refused_by_frame_and_value_and_clipped_only_when_asked() {
     let tmp = tempfile::tempdir().unwrap();
     let limits = Robot::builtin("so101").unwrap().joints[3].limits;
-    assert_eq!((limits.min, limits.max), (-95.0, 95.0), "wrist_flex's limits");
+    assert_eq!(
+        (limits.min, limits.max),
+        (-95.0, 95.0),
+        "wrist_flex's limits"
+    );
     // 1e30 in a float32 column reads back as 1.0000000150474662e30.
     let huge = tmp.path().join("huge");
     write_with(
@@ -786,7 +794,10 @@ fn a_corrupt_frame_is_refused_by_frame_and_value_and_clipped_only_when_asked() {
         &past,
         "0",
         &[],
-        &[&format!("{}: action wrist_flex.pos is 150 deg", frame_of(&past, 0, 40, 40))],
+        &[&format!(
+            "{}: action wrist_flex.pos is 150 deg",
+            frame_of(&past, 0, 40, 40)
+        )],
     );
     let out = tmp.path().join("clipped.json");
     let result = import(&past, &out, &["--episode", "0", "--clip"]);
@@ -830,9 +841,24 @@ fn timestamps_that_do_not_rise_or_are_no_numbers_are_refused() {
     let mut nan = at_fps.clone();
     nan[10] = json!("nan");
     for (case, timestamps, frame, says) in [
-        ("backwards", backwards, 1, "does not come after the previous frame's 3 s"),
-        ("repeated", repeated, 50, "does not come after the previous frame's"),
-        ("nan", nan, 10, "timestamp is NaN; expected a finite number of seconds"),
+        (
+            "backwards",
+            backwards,
+            1,
+            "does not come after the previous frame's 3 s",
+        ),
+        (
+            "repeated",
+            repeated,
+            50,
+            "does not come after the previous frame's",
+        ),
+        (
+            "nan",
+            nan,
+            10,
+            "timestamp is NaN; expected a finite number of seconds",
+        ),
     ] {
         let dir = tmp.path().join(case);
         write_with(
@@ -872,13 +898,21 @@ fn data_paths_leading_out_of_the_dataset_are_not_followed() {
     let template = "chunk-{chunk_index:03d}/file-{file_index:03d}.parquet";
     let absolute = format!("{}/data/{template}", outside.display());
     let cases = [
-        ("absolute", absolute, "is an absolute path; expected a path inside the dataset folder"),
+        (
+            "absolute",
+            absolute,
+            "is an absolute path; expected a path inside the dataset folder",
+        ),
         (
             "dotdot",
             format!("../outside/data/{template}"),
             "leads out of the dataset folder through \"..\"",
         ),
-        ("linked", format!("data/link/{template}"), "(through a symbolic link), outside the dataset folder"),
+        (
+            "linked",
+            format!("data/link/{template}"),
+            "(through a symbolic link), outside the dataset folder",
+        ),
     ];
     for (case, data_path, says) in cases {
         let dir = tmp.path().join(case);
@@ -895,8 +929,11 @@ fn data_paths_leading_out_of_the_dataset_are_not_followed() {
     write_with(&dir, json!({}));
     let file = dir.join("meta/episodes/chunk-000/file-000.parquet");
     std::fs::remove_file(&file).unwrap();
-    std::os::unix::fs::symlink(outside.join("meta/episodes/chunk-000/file-000.parquet"), &file)
-        .unwrap();
+    std::os::unix::fs::symlink(
+        outside.join("meta/episodes/chunk-000/file-000.parquet"),
+        &file,
+    )
+    .unwrap();
     let says = format!(
         "{}: \"meta/episodes/chunk-000/file-000.parquet\" resolves to",
         dir.display()
@@ -1001,7 +1038,11 @@ fn feature_names_in_lerobots_older_motors_form_are_read() {
         .collect();
     let (_, worst, passed) = deviations(&out, None, &expected);
     for (j, w) in worst.iter().enumerate() {
-        assert!(*w <= TOLERANCE + TIME_SNAP_SLACK, "{}: {w}°", SO101_JOINTS[j]);
+        assert!(
+            *w <= TOLERANCE + TIME_SNAP_SLACK,
+            "{}: {w}°",
+            SO101_JOINTS[j]
+        );
     }
     assert!(passed);
 }

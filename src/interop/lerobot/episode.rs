@@ -111,7 +111,8 @@ impl EpisodeSpan {
     /// Refuses a span of more than [`MAX_FRAMES`] frames or [`MAX_SECONDS`] at `fps`.
     fn check_length(&self, place: &Place, fps: f64) -> Result<(), LeRobotError> {
         let seconds = (self.frames() - 1) as f64 / fps;
-        if self.frames() > MAX_FRAMES || !(seconds <= MAX_SECONDS) {
+        // NaN seconds (an fps of 0 cannot pass info.rs, but this is no place to rely on it).
+        if self.frames() > MAX_FRAMES || seconds.is_nan() || seconds > MAX_SECONDS {
             return Err(place.error(Problem::TooLong {
                 frames: self.frames(),
                 seconds,
@@ -187,7 +188,10 @@ mod tests {
     #[test]
     fn a_sound_row_gives_the_span() {
         let span = EpisodeSpan::from_reply(&place(), 30.0, &row(json!(100), json!(190))).unwrap();
-        assert_eq!((span.data_file(), span.from(), span.to()), ((0, 1), 100, 190));
+        assert_eq!(
+            (span.data_file(), span.from(), span.to()),
+            ((0, 1), 100, 190)
+        );
         assert_eq!(span.frames(), 90);
     }
 
@@ -232,6 +236,9 @@ mod tests {
         let text = EpisodeSpan::from_reply(&place(), 30.0, &none)
             .unwrap_err()
             .to_string();
-        assert!(text.contains("not in meta/episodes (episodes there: 0, 1)"), "{text}");
+        assert!(
+            text.contains("not in meta/episodes (episodes there: 0, 1)"),
+            "{text}"
+        );
     }
 }

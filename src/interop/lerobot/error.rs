@@ -40,21 +40,8 @@ pub enum LeRobotError {
         robot: String,
         names: String,
     },
-    /// Two values of a feature that would drive one joint: the second would silently replace
-    /// the first.
-    #[error(
-        "{file}: {field} value {second} ({second_name:?}) names joint {joint}, as value {first} \
-         ({first_name:?}) does; expected each joint named once"
-    )]
-    DuplicateJoint {
-        file: String,
-        field: String,
-        joint: String,
-        first: usize,
-        first_name: String,
-        second: usize,
-        second_name: String,
-    },
+    #[error(transparent)]
+    DuplicateJoint(Box<DuplicateJoint>),
     /// `data_path` of meta/info.json, filled in for an episode, names no file inside the
     /// dataset.
     #[error("{file}: $.data_path {template:?} for episode {episode}: {problem}")]
@@ -62,19 +49,22 @@ pub enum LeRobotError {
         file: String,
         template: String,
         episode: u64,
-        problem: PathProblem,
+        problem: Box<PathProblem>,
     },
     /// A file the dataset's layout names (meta/episodes) lies outside the dataset folder.
     #[error("{dataset}: {problem}")]
     Layout {
         dataset: String,
-        problem: PathProblem,
+        problem: Box<PathProblem>,
     },
     #[error("{dir}: {message}")]
     Dataset { dir: String, message: String },
     /// What an episode's metadata or rows hold is wrong, at `place`.
     #[error("{place}: {problem}")]
-    Episode { place: Place, problem: Problem },
+    Episode {
+        place: Box<Place>,
+        problem: Box<Problem>,
+    },
     #[error(
         "joint {joint}: values in LeRobot's −100…100 range normalisation need the arm's \
          calibration: give --calibration {arm}FILE or --robot-id {arm}NAME"
@@ -95,6 +85,23 @@ impl LeRobotError {
     pub fn is_bad_input(&self) -> bool {
         !matches!(self, LeRobotError::Reader(_))
     }
+}
+
+/// Two values of a feature that would drive one joint: the second would silently replace the
+/// first.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "{file}: {field} value {second} ({second_name:?}) names joint {joint}, as value {first} \
+     ({first_name:?}) does; expected each joint named once"
+)]
+pub struct DuplicateJoint {
+    pub file: String,
+    pub field: String,
+    pub joint: String,
+    pub first: usize,
+    pub first_name: String,
+    pub second: usize,
+    pub second_name: String,
 }
 
 /// Where in a dataset a problem is: the folder, the episode, and where known the data file and
@@ -145,8 +152,8 @@ impl Place {
 
     pub fn error(&self, problem: Problem) -> LeRobotError {
         LeRobotError::Episode {
-            place: self.clone(),
-            problem,
+            place: Box::new(self.clone()),
+            problem: Box::new(problem),
         }
     }
 }

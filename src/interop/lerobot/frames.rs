@@ -19,12 +19,74 @@ pub struct Frames {
     pub values: Vec<Vec<f64>>,
 }
 
-/// What the answer's arrays hold for one row read.
-struct Row<'a> {
-    index: &'a Value,
-    episode: &'a Value,
-    timestamp: Option<&'a Value>,
-    length: &'a Value,
+/// The reader's answer to "rows", its arrays checked to be of one length (the reader's
+/// promise: a broken one is the reader's fault, not the dataset's).
+struct Reply<'a> {
+    whole: &'a Value,
+    index: &'a [Value],
+    episode: &'a [Value],
+    timestamps: Option<&'a [Value]>,
+    lengths: &'a [Value],
+    /// Every row's values, one row after the other.
+    flat: &'a [Value],
+    episode_rows: u64,
+    column_type: &'a str,
+}
+
+impl<'a> Reply<'a> {
+    fn parse(reply: &'a Value) -> Result<Reply<'a>, LeRobotError> {
+        let array = |name: &str| {
+            reply
+                .get(name)
+                .and_then(Value::as_array)
+                .map(Vec::as_slice)
+                .ok_or_else(|| bad_reply(name, reply))
+        };
+        let timestamps = match reply.get("timestamp") {
+            None | Some(Value::Null) => None,
+            Some(Value::Array(ts)) => Some(ts.as_slice()),
+            Some(_) => return Err(bad_reply("timestamp", reply)),
+        };
+        let parsed = Reply {
+            whole: reply,
+            index: array("index")?,
+            episode: array("episode_index")?,
+            timestamps,
+            lengths: array("lengths")?,
+            flat: array("values")?,
+            episode_rows: reply
+                .get("episode_rows")
+                .and_then(Value::as_u64)
+                .ok_or_else(|| bad_reply("episode_rows", reply))?,
+            column_type: reply
+                .get("column_type")
+                .and_then(Value::as_str)
+                .ok_or_else(|| bad_reply("column_type", reply))?,
+        };
+        let rows = parsed.index.len();
+        if parsed.episode.len() != rows
+            || parsed.lengths.len() != rows
+            || timestamps.is_some_and(|t| t.len() != rows)
+        {
+            return Err(bad_reply("arrays of one length", reply));
+        }
+        Ok(parsed)
+    }
+
+    fn rows(&self) -> usize {
+        self.index.len()
+    }
+}
+
+/// A row's values and timestamp, once judged.
+type Judged = (Vec<f64>, Option<f64>);
+
+/// What the rows are judged against: the episode and the feature read.
+struct Judge<'a> {
+    place: &'a Place,
+    span: &'a EpisodeSpan,
+    field: &'a str,
+    names: &'a [String],
 }
 
 impl Frames {
@@ -37,76 +99,146 @@ impl Frames {
         names: &[String],
         reply: &Value,
     ) -> Result<Frames, LeRobotError> {
-        let array = |name: &str| {
-            reply
-                .get(name)
-                .and_then(Value::as_array)
-                .ok_or_else(|| bad_reply(name, reply))
+        let reply = Reply::parse(reply)?;
+        let judge = Judge {
+            place,
+            span,
+            field,
+            names,
         };
-        let (index, episode, lengths, flat) = (
-            array("index")?,
-            array("episode_index")?,
-            array("lengths")?,
-            array("values")?,
-        );
-        let timestamps = match reply.get("timestamp") {
-            None | Some(Value::Null) => None,
-            Some(Value::Array(ts)) => Some(ts),
-            Some(_) => return Err(bad_reply("timestamp", reply)),
-        };
-        let rows = index.len();
-        if episode.len() != rows
-            || lengths.len() != rows
-            || timestamps.is_some_and(|t| t.len() != rows)
-        {
-            return Err(bad_reply("arrays of one length", reply));
-        }
-        let episode_rows = reply
-            .get("episode_rows")
-            .and_then(Value::as_u64)
-            .ok_or_else(|| bad_reply("episode_rows", reply))?;
-        let column_type = reply
-            .get("column_type")
-            .and_then(Value::as_str)
-            .ok_or_else(|| bad_reply("column_type", reply))?
-            .to_string();
-
-        let mut slots: Vec<Option<(Vec<f64>, Option<f64>)>> = Vec::new();
+        // One slot per frame of the span (at most MAX_FRAMES: the span was judged).
+        let mut slots: Vec<Option<Judged>> = Vec::new();
         slots.resize_with(span.frames() as usize, || None);
         let mut offset = 0usize;
-        for k in 0..rows {
-            let row = Row {
-                index: &index[k],
-                episode: &episode[k],
-                timestamp: timestamps.map(|t| &t[k]),
-                length: &lengths[k],
-            };
-            let (slot, values, timestamp) =
-                read_row(place, span, field, names, &row, flat, &mut offset, reply)?;
+        for k in 0..reply.rows() {
+            let (slot, judged) = judge.row(&reply, k, &mut offset)?;
             if slots[slot].is_some() {
-                let at = place.at_index(span.from(), span.from() + slot as u64);
-                return Err(at.error(Problem::DuplicateIndex {
-                    index: span.from() + slot as u64,
-                }));
+                let index = span.from() + slot as u64;
+                return Err(place
+                    .at_index(span.from(), index)
+                    .error(Problem::DuplicateIndex { index }));
             }
-            slots[slot] = Some((values, timestamp));
+            slots[slot] = Some(judged);
         }
-        if offset != flat.len() {
-            return Err(bad_reply("values of the lengths given", reply));
+        if offset != reply.flat.len() {
+            return Err(bad_reply("values of the lengths given", reply.whole));
         }
-        let found = slots.iter().filter(|s| s.is_some()).count() as u64;
-        if let Some(missing) = slots.iter().position(Option::is_none) {
-            let index = span.from() + missing as u64;
-            return Err(place.at_index(span.from(), index).error(Problem::MissingIndex {
+        judge.complete(&slots, reply.episode_rows)?;
+        let (values, stamps): (Vec<Vec<f64>>, Vec<Option<f64>>) =
+            slots.into_iter().flatten().unzip();
+        Ok(Frames {
+            column_type: reply.column_type.to_string(),
+            timestamps: reply
+                .timestamps
+                .map(|_| stamps.into_iter().flatten().collect()),
+            values,
+        })
+    }
+}
+
+impl Judge<'_> {
+    /// Row `k` judged: its slot in the episode, its values and its timestamp. `offset` walks
+    /// the flat values.
+    fn row(
+        &self,
+        reply: &Reply,
+        k: usize,
+        offset: &mut usize,
+    ) -> Result<(usize, Judged), LeRobotError> {
+        let (span, place) = (self.span, self.place);
+        let index = reply.index[k].as_u64().ok_or_else(|| {
+            place.error(Problem::RowNumber {
+                column: "index",
+                found: crate::json::describe(&reply.index[k]),
+            })
+        })?;
+        if !(span.from()..span.to()).contains(&index) {
+            return Err(place.error(Problem::IndexOutside {
                 index,
-                found,
-                expected: span.frames(),
                 from: span.from(),
                 to: span.to(),
             }));
         }
+        let at = place.at_index(span.from(), index);
+        if reply.episode[k].as_u64() != Some(span.episode()) {
+            return Err(at.error(Problem::OtherEpisode {
+                found: crate::json::describe(&reply.episode[k]),
+                expected: span.episode(),
+            }));
+        }
+        let values = self.values(reply, k, offset, &at)?;
+        let timestamp = match reply.timestamps.map(|t| &t[k]) {
+            None => None,
+            Some(t) => Some(finite(t).ok_or_else(|| {
+                at.error(Problem::TimestampNotFinite {
+                    found: describe_number(t),
+                })
+            })?),
+        };
+        Ok(((index - span.from()) as usize, (values, timestamp)))
+    }
+
+    /// Row `k`'s values, as wide as the names and every one finite.
+    fn values(
+        &self,
+        reply: &Reply,
+        k: usize,
+        offset: &mut usize,
+        at: &Place,
+    ) -> Result<Vec<f64>, LeRobotError> {
+        // A missing row (null) has no values among the flat ones.
+        let width = match &reply.lengths[k] {
+            Value::Null => None,
+            length => Some(
+                length
+                    .as_u64()
+                    .and_then(|n| usize::try_from(n).ok())
+                    .filter(|&n| n <= reply.flat.len() - *offset)
+                    .ok_or_else(|| bad_reply("lengths", reply.whole))?,
+            ),
+        };
+        if width != Some(self.names.len()) {
+            return Err(at.error(Problem::Width {
+                field: self.field.to_string(),
+                found: width.map_or("no list (null)".to_string(), |n| n.to_string()),
+                expected: self.names.len(),
+            }));
+        }
+        let row = &reply.flat[*offset..*offset + self.names.len()];
+        *offset += self.names.len();
+        row.iter()
+            .zip(self.names)
+            .map(|(value, name)| {
+                finite(value).ok_or_else(|| {
+                    at.error(Problem::NotFinite {
+                        field: self.field.to_string(),
+                        name: name.clone(),
+                        found: describe_number(value),
+                    })
+                })
+            })
+            .collect()
+    }
+
+    /// Refuses a span with a frame no row gave, or whose episode has another count of rows in
+    /// the file than the span says.
+    fn complete(&self, slots: &[Option<Judged>], episode_rows: u64) -> Result<(), LeRobotError> {
+        let span = self.span;
+        if let Some(missing) = slots.iter().position(Option::is_none) {
+            let index = span.from() + missing as u64;
+            return Err(self
+                .place
+                .at_index(span.from(), index)
+                .error(Problem::MissingIndex {
+                    index,
+                    found: slots.iter().filter(|s| s.is_some()).count() as u64,
+                    expected: span.frames(),
+                    from: span.from(),
+                    to: span.to(),
+                }));
+        }
         if episode_rows != span.frames() {
-            return Err(place.error(Problem::EpisodeRows {
+            return Err(self.place.error(Problem::EpisodeRows {
                 episode: span.episode(),
                 found: episode_rows,
                 expected: span.frames(),
@@ -114,93 +246,8 @@ impl Frames {
                 to: span.to(),
             }));
         }
-        let (values, stamps): (Vec<Vec<f64>>, Vec<Option<f64>>) =
-            slots.into_iter().flatten().unzip();
-        Ok(Frames {
-            column_type,
-            timestamps: timestamps.map(|_| stamps.into_iter().flatten().collect()),
-            values,
-        })
+        Ok(())
     }
-}
-
-/// One row judged: its slot in the episode, its values and its timestamp. `offset` walks the
-/// flat values.
-#[allow(clippy::too_many_arguments)]
-fn read_row(
-    place: &Place,
-    span: &EpisodeSpan,
-    field: &str,
-    names: &[String],
-    row: &Row,
-    flat: &[Value],
-    offset: &mut usize,
-    reply: &Value,
-) -> Result<(usize, Vec<f64>, Option<f64>), LeRobotError> {
-    let index = row.index.as_u64().ok_or_else(|| {
-        place.error(Problem::RowNumber {
-            column: "index",
-            found: crate::json::describe(row.index),
-        })
-    })?;
-    if !(span.from()..span.to()).contains(&index) {
-        return Err(place.error(Problem::IndexOutside {
-            index,
-            from: span.from(),
-            to: span.to(),
-        }));
-    }
-    let at = place.at_index(span.from(), index);
-    if row.episode.as_u64() != Some(span.episode()) {
-        return Err(at.error(Problem::OtherEpisode {
-            found: crate::json::describe(row.episode),
-            expected: span.episode(),
-        }));
-    }
-    // A missing row (null) has no values among the flat ones.
-    let width = match row.length {
-        Value::Null => None,
-        length => Some(
-            length
-                .as_u64()
-                .and_then(|n| usize::try_from(n).ok())
-                .ok_or_else(|| bad_reply("lengths", reply))?,
-        ),
-    };
-    if let Some(n) = width {
-        if flat.len() - *offset < n {
-            return Err(bad_reply("values of the lengths given", reply));
-        }
-    }
-    if width != Some(names.len()) {
-        *offset += width.unwrap_or(0);
-        return Err(at.error(Problem::Width {
-            field: field.to_string(),
-            found: width.map_or("no list (null)".to_string(), |n| n.to_string()),
-            expected: names.len(),
-        }));
-    }
-    let mut values = Vec::with_capacity(names.len());
-    for name in names {
-        let value = &flat[*offset];
-        *offset += 1;
-        values.push(finite(value).ok_or_else(|| {
-            at.error(Problem::NotFinite {
-                field: field.to_string(),
-                name: name.clone(),
-                found: describe_number(value),
-            })
-        })?);
-    }
-    let timestamp = match row.timestamp {
-        None => None,
-        Some(t) => Some(finite(t).ok_or_else(|| {
-            at.error(Problem::TimestampNotFinite {
-                found: describe_number(t),
-            })
-        })?),
-    };
-    Ok((usize::try_from(index - span.from()).unwrap_or(usize::MAX), values, timestamp))
 }
 
 /// A JSON number as a finite f64; anything else (the reader's "nan", "inf", null for a
@@ -244,19 +291,46 @@ mod tests {
 
     #[test]
     fn rows_in_any_order_become_frames_in_index_order() {
-        let reply = reply(json!([12, 10, 11]), json!([1, 1, 1]), json!([5, 6, 1, 2, 3, 4]));
+        let reply = reply(
+            json!([12, 10, 11]),
+            json!([1, 1, 1]),
+            json!([5, 6, 1, 2, 3, 4]),
+        );
         let frames = Frames::from_reply(&place(), &span(), "action", &names(), &reply).unwrap();
-        assert_eq!(frames.values, vec![vec![1.0, 2.0], vec![3.0, 4.0], vec![5.0, 6.0]]);
+        assert_eq!(
+            frames.values,
+            vec![vec![1.0, 2.0], vec![3.0, 4.0], vec![5.0, 6.0]]
+        );
         assert_eq!(frames.timestamps, Some(vec![0.0, 0.1, 0.2]));
     }
 
     #[test]
     fn a_corrupt_row_is_named_by_episode_frame_and_field() {
         let cases = [
-            (json!([10, 11, 11]), json!([1, 1, 1]), json!([1, 2, 3, 4, 5, 6]), "frame 1 (index 11): a second row of index 11"),
-            (json!([10, 11, 12]), json!([1, 2, 1]), json!([1, 2, 3, 4, 5, 6]), "frame 1 (index 11): episode_index is 2, expected 1"),
-            (json!([10, 11, 12]), json!([1, 1, 1]), json!([1, 2, 3, "nan", 5, 6]), "frame 1 (index 11): action b.pos is NaN"),
-            (json!([10, 11, 12]), json!([1, 1, 1]), json!([1, 2, null, 4, 5, 6]), "frame 1 (index 11): action a.pos is missing (null)"),
+            (
+                json!([10, 11, 11]),
+                json!([1, 1, 1]),
+                json!([1, 2, 3, 4, 5, 6]),
+                "frame 1 (index 11): a second row of index 11",
+            ),
+            (
+                json!([10, 11, 12]),
+                json!([1, 2, 1]),
+                json!([1, 2, 3, 4, 5, 6]),
+                "frame 1 (index 11): episode_index is 2, expected 1",
+            ),
+            (
+                json!([10, 11, 12]),
+                json!([1, 1, 1]),
+                json!([1, 2, 3, "nan", 5, 6]),
+                "frame 1 (index 11): action b.pos is NaN",
+            ),
+            (
+                json!([10, 11, 12]),
+                json!([1, 1, 1]),
+                json!([1, 2, null, 4, 5, 6]),
+                "frame 1 (index 11): action a.pos is missing (null)",
+            ),
         ];
         for (index, episode, values, says) in cases {
             let reply = reply(index, episode, values);
@@ -280,8 +354,15 @@ mod tests {
         let text = Frames::from_reply(&place(), &span(), "action", &names(), &two)
             .unwrap_err()
             .to_string();
-        assert!(text.contains("frame 1 (index 11): no row of index 11"), "{text}");
-        let mut more = reply(json!([10, 11, 12]), json!([1, 1, 1]), json!([1, 2, 3, 4, 5, 6]));
+        assert!(
+            text.contains("frame 1 (index 11): no row of index 11"),
+            "{text}"
+        );
+        let mut more = reply(
+            json!([10, 11, 12]),
+            json!([1, 1, 1]),
+            json!([1, 2, 3, 4, 5, 6]),
+        );
         more["episode_rows"] = json!(5);
         let text = Frames::from_reply(&place(), &span(), "action", &names(), &more)
             .unwrap_err()

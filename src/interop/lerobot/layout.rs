@@ -133,7 +133,11 @@ pub fn inside(dir: &Path, relative: &str) -> Result<PathBuf, PathProblem> {
 
 /// The data file of `span`'s episode: `info`'s `data_path` filled in with its chunk and file
 /// index, inside the dataset at `dir`. Returns the path relative to the dataset, as written.
-pub fn data_file(dir: &Path, info: &DatasetInfo, span: &EpisodeSpan) -> Result<String, LeRobotError> {
+pub fn data_file(
+    dir: &Path,
+    info: &DatasetInfo,
+    span: &EpisodeSpan,
+) -> Result<String, LeRobotError> {
     let relative = data_path(info, span)?;
     inside(dir, &relative).map_err(|problem| data_path_error(info, span, problem))?;
     Ok(relative)
@@ -153,7 +157,7 @@ fn data_path_error(info: &DatasetInfo, span: &EpisodeSpan, problem: PathProblem)
         file: info.file.clone(),
         template: info.data_path.clone(),
         episode: span.episode(),
-        problem,
+        problem: Box::new(problem),
     }
 }
 
@@ -175,7 +179,7 @@ pub fn episode_files(dir: &Path) -> Result<Vec<String>, LeRobotError> {
     for file in &files {
         inside(dir, file).map_err(|problem| LeRobotError::Layout {
             dataset: dataset.clone(),
-            problem,
+            problem: Box::new(problem),
         })?;
     }
     Ok(files)
@@ -215,8 +219,17 @@ mod tests {
         );
         assert_eq!(fill_template("{file_index}/{{x}}", 0, 7).unwrap(), "7/{x}");
         assert_eq!(fill_template("{file_index:4}", 0, 7).unwrap(), "   7");
-        assert_eq!(fill_template("{file_index:03d}", 0, 12345).unwrap(), "12345");
-        for bad in ["{episode}", "{chunk_index", "a}b", "{file_index:x}", "{file_index:>3}"] {
+        assert_eq!(
+            fill_template("{file_index:03d}", 0, 12345).unwrap(),
+            "12345"
+        );
+        for bad in [
+            "{episode}",
+            "{chunk_index",
+            "a}b",
+            "{file_index:x}",
+            "{file_index:>3}",
+        ] {
             assert!(fill_template(bad, 0, 0).is_err(), "{bad}");
         }
     }

@@ -67,8 +67,9 @@ pub fn judge(
     let unit = column.joint.kind.unit();
     let mut clipped: Option<Clipped> = None;
     for (k, v) in values.iter_mut().enumerate() {
+        // The values are finite (frames.rs judged them), so a comparison says all.
         let excess = (*v - max).max(min - *v);
-        if !(excess > 0.0) {
+        if excess <= 0.0 {
             continue;
         }
         if !column.clip {
@@ -134,7 +135,10 @@ mod tests {
         let place = Place::episode("ds", 0);
         // Within the tolerance: left for the fit.
         let mut within = vec![0.0, max + 0.9, 0.0];
-        assert_eq!(judge(&place, 50, &column(&joint, false), &mut within).unwrap(), None);
+        assert_eq!(
+            judge(&place, 50, &column(&joint, false), &mut within).unwrap(),
+            None
+        );
         assert_eq!(within[1], max + 0.9);
         let mut corrupt = vec![0.0, 1e30, 0.0];
         let text = judge(&place, 50, &column(&joint, false), &mut corrupt)
@@ -152,10 +156,18 @@ mod tests {
         let joint = wrist_flex();
         let (min, max) = (joint.limits.min, joint.limits.max);
         let mut values = vec![0.0, max + 0.5, min - 20.0, 1e30, 0.0];
-        let clipped = judge(&Place::episode("ds", 0), 0, &column(&joint, true), &mut values)
-            .unwrap()
-            .unwrap();
-        assert_eq!((clipped.frames, clipped.worst, clipped.worst_frame), (3, 1e30, 3));
+        let clipped = judge(
+            &Place::episode("ds", 0),
+            0,
+            &column(&joint, true),
+            &mut values,
+        )
+        .unwrap()
+        .unwrap();
+        assert_eq!(
+            (clipped.frames, clipped.worst, clipped.worst_frame),
+            (3, 1e30, 3)
+        );
         assert_eq!(values, vec![0.0, max, min, max, 0.0]);
     }
 }

@@ -115,15 +115,17 @@ pub fn map_names(
                     .join(", "),
             })?;
         if let Some(first) = columns.iter().position(|&c| c == Some(index)) {
-            return Err(LeRobotError::DuplicateJoint {
-                file: info.file.clone(),
-                field: field.to_string(),
-                joint: robot.joints[index].name.clone(),
-                first,
-                first_name: names[first].clone(),
-                second: k,
-                second_name: name.clone(),
-            });
+            return Err(LeRobotError::DuplicateJoint(Box::new(
+                error::DuplicateJoint {
+                    file: info.file.clone(),
+                    field: field.to_string(),
+                    joint: robot.joints[index].name.clone(),
+                    first,
+                    first_name: names[first].clone(),
+                    second: k,
+                    second_name: name.clone(),
+                },
+            )));
         }
         columns.push(Some(index));
     }

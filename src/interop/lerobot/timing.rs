@@ -31,8 +31,14 @@ pub fn frame_times(
         return Ok((0..frames).map(|k| k as f64 / fps).collect());
     };
     let at = |k: usize| place.at_index(from, from + k as u64);
+    // frames.rs refuses these already; judged again for frames made otherwise.
+    if let Some(k) = ts.iter().position(|t| !t.is_finite()) {
+        return Err(at(k).error(Problem::TimestampNotFinite {
+            found: ts[k].to_string(),
+        }));
+    }
     for k in 1..ts.len() {
-        if !(ts[k] > ts[k - 1]) {
+        if ts[k] <= ts[k - 1] {
             return Err(at(k).error(Problem::NotIncreasing {
                 previous: ts[k - 1],
                 value: ts[k],
@@ -41,7 +47,7 @@ pub fn frame_times(
     }
     let period = 1.0 / fps;
     if let Some(median) = median_step(ts) {
-        if !((median - period).abs() <= FPS_TOLERANCE * period) {
+        if (median - period).abs() > FPS_TOLERANCE * period {
             return Err(place.error(Problem::FpsMismatch {
                 fps,
                 median,
