@@ -2,11 +2,13 @@
 //! frames and which global indices they have, judged as pyarrow read them.
 
 use super::error::{Place, Problem};
+use super::reader::bad_reply;
 use super::LeRobotError;
 use serde_json::Value;
 
 /// Most frames an episode may have: an hour at LeRobot's usual 30 fps. Fitting keys takes time
-/// about linear in the frames; longer episodes are refused before any row is read.
+/// about linear in the frames (this many took 43–50 s on a busy 2-core machine, docs/interop.md
+/// §1.6); longer episodes are refused before any row is read.
 pub const MAX_FRAMES: u64 = 108_000;
 /// Longest episode by its fps, seconds: the longest recording `keypose record` makes.
 pub const MAX_SECONDS: f64 = crate::record::MAX_SECONDS;
@@ -151,15 +153,6 @@ fn known_episodes(episodes: &[Value]) -> String {
         return "none".into();
     }
     text.join(", ")
-}
-
-/// The reader's answer lacks what the protocol promises: the reader's fault, not the dataset's.
-pub(super) fn bad_reply(what: &str, reply: &Value) -> LeRobotError {
-    LeRobotError::Reader(crate::python::HarnessError::BadReply {
-        script: super::reader::SCRIPT.into(),
-        detail: format!("{what} missing or malformed"),
-        line: reply.to_string().chars().take(200).collect(),
-    })
 }
 
 /// The span of episode `episode` over [from, to) in data file 0, for tests of what reads it.

@@ -3,8 +3,9 @@
 //! row of the episode, as many rows of the episode in the file as the span says, each row as
 //! wide as the feature's names, every value and timestamp a finite number.
 
-use super::episode::{bad_reply, EpisodeSpan};
+use super::episode::EpisodeSpan;
 use super::error::{Place, Problem};
+use super::reader::bad_reply;
 use super::LeRobotError;
 use serde_json::Value;
 

@@ -7,10 +7,11 @@
 //! frame rate, [`limits`] its values against the joints' limits once [`units`] has turned
 //! LeRobot's normalised values into joint values. The frames then go through the same fitting
 //! as a recording made by hand ([`crate::record::keyframes`]): the fewest keys within the
-//! tolerance, clamped into the limits, retimed until the limit check passes.
+//! tolerance, retimed until the limit check passes.
 //!
-//! Every problem of the dataset is a [`LeRobotError`] that names the dataset, the episode, the
-//! frame where there is one and the field (exit 2), and nothing is written.
+//! Every problem of the dataset is a [`LeRobotError`] that names the file (meta/info.json) or
+//! the dataset, the episode and the frame where there is one, and the field (exit 2); nothing
+//! is written.
 
 pub mod arms;
 pub mod episode;

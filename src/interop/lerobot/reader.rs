@@ -14,7 +14,7 @@ use serde_json::{json, Value};
 use std::path::Path;
 use std::time::Duration;
 
-pub(super) const SCRIPT: &str = "dataset_reader.py";
+const SCRIPT: &str = "dataset_reader.py";
 /// Reading a data file of LeRobot's default 100 MB takes seconds; a minute is generous.
 const READ_TIMEOUT: Duration = Duration::from_secs(60);
 
@@ -90,4 +90,13 @@ fn dataset_error(place: &Place, error: HarnessError) -> LeRobotError {
         }
     }
     LeRobotError::Reader(error)
+}
+
+/// The reader's answer lacks what the protocol promises: the reader's fault, not the dataset's.
+pub(super) fn bad_reply(what: &str, reply: &Value) -> LeRobotError {
+    LeRobotError::Reader(HarnessError::BadReply {
+        script: SCRIPT.into(),
+        detail: format!("{what} missing or malformed"),
+        line: reply.to_string().chars().take(200).collect(),
+    })
 }
