@@ -1,29 +1,42 @@
 #!/usr/bin/env python3
 """keypose's reader of LeRobotDataset v3.0 parquet files, through pyarrow.
 
-keypose (src/interop/lerobot/) reads meta/info.json itself and asks this process only for what
-is inside parquet files, in JSON lines (harness_io). Ready line:
+keypose (src/interop/lerobot/) reads meta/info.json itself, decides which files may be read
+(inside the dataset folder) and judges every value; this process only gets columns out of
+parquet files, in JSON lines (harness_io). Ready line:
 
     {"ready": true, "pyarrow": "26.0.1", "python": ..., "executable": ...,
      "packages": {"pyarrow": "26.0.1"}}
 
-Request:
+Requests:
 
-    {"op": "episode", "root": DIR, "episode": N, "field": "action",
-     "data_path": "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"}
+    {"op": "episode", "root": DIR, "files": ["meta/episodes/chunk-000/file-000.parquet", ...],
+     "episode": N}
 
-finds episode N in meta/episodes/chunk-*/file-*.parquet (its dataset_from_index,
-dataset_to_index and data/chunk_index, data/file_index), reads that data file's rows whose
-global "index" is in [from, to), ordered by "index", and replies
+reads those meta/episodes files and replies with every row whose episode_index is N, as read,
+and every episode index seen:
 
-    {"ok": true, "file": "data/chunk-000/file-000.parquet", "from": A, "to": B,
-     "column_type": "list<element: float>", "timestamps": [...] | null, "values": [[...], ...],
-     "episodes": [every episode index found]}
+    {"ok": true, "rows": [{"file": F, "row": R, "episode_index": N, "data/chunk_index": ...,
+     "data/file_index": ..., "dataset_from_index": ..., "dataset_to_index": ..., "length": ...}],
+     "episodes": [...]}
 
-Errors: kind "dataset" (the files do not hold what the layout says), "request", "internal".
+    {"op": "rows", "root": DIR, "file": "data/chunk-000/file-000.parquet", "field": "action",
+     "episode": N, "from": A, "to": B, "limit": L}
+
+reads the data file in batches, keeps the rows whose global "index" is in [A, B) in file order
+(at most L of them), counts the rows whose episode_index is N in the whole file, and replies
+
+    {"ok": true, "column_type": "list<element: float>", "index": [...], "episode_index": [...],
+     "timestamp": [...] | null, "lengths": [values per row, null for a missing row],
+     "values": [every row's values, one after the other], "episode_rows": COUNT}
+
+Numbers go out as read: a float that is not finite as the string "nan", "inf" or "-inf" (JSON
+has no such numbers), a missing value as null. keypose judges them.
+
+Errors: kind "dataset" (a file cannot be read, or lacks a column or has one of the wrong type),
+"request", "internal".
 """
 
-import glob
 import json
 import math
 import os
@@ -36,7 +49,6 @@ from harness_io import (
     handle_line,
     ignore_sigint,
     integer_in,
-    is_integer,
     interpreter,
     member,
     not_ready,
@@ -45,6 +57,8 @@ from harness_io import (
 )
 
 EPISODE_COLUMNS = ("episode_index", "data/chunk_index", "data/file_index", "dataset_from_index", "dataset_to_index")
+# Rows decoded at a time: memory stays bounded however large the data file is.
+BATCH_ROWS = 65536
 
 
 def dataset_error(message, **fields):
@@ -58,105 +72,144 @@ def text_member(req, name):
     return value
 
 
+def plain(value):
+    """A value read from parquet as JSON can carry it: non-finite floats as text."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return repr(value)
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    return str(value)
+
+
+def plain_list(values):
+    if any(isinstance(v, float) and not math.isfinite(v) for v in values):
+        return [plain(v) for v in values]
+    return values
+
+
 class Reader:
-    def __init__(self, pa, pq):
+    def __init__(self, pa, pq, pc):
         self.pa = pa
         self.pq = pq
+        self.pc = pc
 
     def handle_line(self, line):
         return handle_line(line, self.dispatch)
 
     def dispatch(self, req):
-        if req.get("op") == "episode":
+        op = req.get("op")
+        if op == "episode":
             return self.episode(req)
-        raise RequestError("request", f"unknown op {req.get('op')!r}; expected \"episode\"")
+        if op == "rows":
+            return self.rows(req)
+        raise RequestError("request", f"unknown op {op!r}; expected \"episode\" or \"rows\"")
 
     def episode(self, req):
         root = text_member(req, "root")
-        field = text_member(req, "field")
-        template = text_member(req, "data_path")
         number = integer_in("episode", member(req, "episode"), 0, 2**62)
-        row, known = self.find_episode(root, number)
-        try:
-            relative = template.format(chunk_index=row["data/chunk_index"], file_index=row["data/file_index"])
-        except (KeyError, IndexError, ValueError, TypeError) as e:
-            raise dataset_error(f"meta/info.json: data_path {template!r} cannot be filled in: {e}")
-        first, last = row["dataset_from_index"], row["dataset_to_index"]
-        table = self.read(os.path.join(root, relative), relative)
-        column_type, timestamps, values = self.rows(table, relative, field, first, last)
-        return {
-            "file": relative,
-            "from": first,
-            "to": last,
-            "column_type": column_type,
-            "timestamps": timestamps,
-            "values": values,
-            "episodes": known,
-        }
-
-    def find_episode(self, root, number):
-        """The meta/episodes row of episode `number`, and every episode index seen."""
-        files = sorted(glob.glob(os.path.join(root, "meta", "episodes", "chunk-*", "file-*.parquet")))
+        files = member(req, "files")
+        if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
+            raise RequestError("request", "'files' must be a list of paths")
         if not files:
             raise dataset_error("no meta/episodes/chunk-*/file-*.parquet: not a LeRobotDataset v3.0 layout")
-        known = []
-        found = None
-        for path in files:
-            relative = os.path.relpath(path, root)
-            table = self.read(path, relative)
-            missing = [c for c in EPISODE_COLUMNS if c not in table.column_names]
+        known = set()
+        rows = []
+        for relative in files:
+            parquet = self.open(root, relative)
+            names = parquet.schema_arrow.names
+            missing = [c for c in EPISODE_COLUMNS if c not in names]
             if missing:
                 raise dataset_error(f"{relative}: lacks column(s) {', '.join(missing)}; expected {', '.join(EPISODE_COLUMNS)}")
-            columns = {c: table.column(c).to_pylist() for c in EPISODE_COLUMNS}
+            wanted = list(EPISODE_COLUMNS) + (["length"] if "length" in names else [])
+            table = self.read(parquet, relative, wanted)
+            columns = {c: table.column(c).to_pylist() for c in wanted}
             for i, index in enumerate(columns["episode_index"]):
-                if is_integer(index):
-                    known.append(index)
-                if index == number and found is None:
-                    found = {c: columns[c][i] for c in EPISODE_COLUMNS}
-        if found is None:
-            raise dataset_error(f"episode {number} is not in meta/episodes", episodes=sorted(known))
-        bad = [c for c in EPISODE_COLUMNS if not is_integer(found[c]) or found[c] < 0]
-        if bad or found["dataset_to_index"] < found["dataset_from_index"]:
-            raise dataset_error(
-                f"meta/episodes: episode {number} has {', '.join(f'{c} = {found[c]!r}' for c in EPISODE_COLUMNS)}; "
-                "expected whole numbers from 0, dataset_to_index at least dataset_from_index"
-            )
-        return found, sorted(known)
+                if isinstance(index, int) and not isinstance(index, bool):
+                    known.add(index)
+                if index == number:
+                    row = {c: plain(columns[c][i]) for c in wanted}
+                    rows.append({"file": relative, "row": i, **row})
+        return {"rows": rows, "episodes": sorted(known)}
 
-    def read(self, path, relative):
+    def open(self, root, relative):
         try:
-            return self.pq.read_table(path)
+            return self.pq.ParquetFile(os.path.join(root, relative))
         except FileNotFoundError:
             raise dataset_error(f"{relative}: no such file")
         except (OSError, self.pa.ArrowException) as e:
             raise dataset_error(f"{relative}: not a readable parquet file: {e}")
 
-    def rows(self, table, relative, field, first, last):
-        names = table.column_names
-        for needed in (field, "index"):
+    def read(self, parquet, relative, columns):
+        try:
+            return parquet.read(columns=columns)
+        except (OSError, self.pa.ArrowException) as e:
+            raise dataset_error(f"{relative}: not a readable parquet file: {e}")
+
+    def rows(self, req):
+        root = text_member(req, "root")
+        relative = text_member(req, "file")
+        field = text_member(req, "field")
+        number = integer_in("episode", member(req, "episode"), 0, 2**62)
+        first = integer_in("from", member(req, "from"), 0, 2**62)
+        last = integer_in("to", member(req, "to"), first, 2**62)
+        limit = integer_in("limit", member(req, "limit"), 0, 2**62)
+        parquet = self.open(root, relative)
+        schema = parquet.schema_arrow
+        kind = self.check_columns(schema, relative, field)
+        columns = ["index", "episode_index", field] + (["timestamp"] if "timestamp" in schema.names else [])
+        picked = {c: [] for c in columns}
+        kept = 0
+        episode_rows = 0
+        try:
+            for batch in parquet.iter_batches(batch_size=BATCH_ROWS, columns=columns):
+                episode = batch.column("episode_index")
+                episode_rows += self.pc.sum(self.pc.equal(episode, number)).as_py() or 0
+                if kept >= limit:
+                    continue
+                index = batch.column("index")
+                inside = self.pc.and_(self.pc.greater_equal(index, first), self.pc.less(index, last))
+                chosen = batch.filter(inside).slice(0, limit - kept)
+                kept += chosen.num_rows
+                for c in columns:
+                    picked[c].extend(chosen.column(c).to_pylist())
+        except (OSError, self.pa.ArrowException) as e:
+            raise dataset_error(f"{relative}: not a readable parquet file: {e}")
+        rows = picked[field]
+        values = []
+        for row in rows:
+            if row is not None:
+                values.extend(row)
+        return {
+            "column_type": str(kind),
+            "index": picked["index"],
+            "episode_index": picked["episode_index"],
+            "timestamp": plain_list(picked["timestamp"]) if "timestamp" in picked else None,
+            "lengths": [None if row is None else len(row) for row in rows],
+            "values": plain_list(values),
+            "episode_rows": episode_rows,
+        }
+
+    def check_columns(self, schema, relative, field):
+        """The field's Arrow type, once every column read is there with a type keypose reads."""
+        types = self.pa.types
+        names = schema.names
+        for needed in ("index", "episode_index", field):
             if needed not in names:
                 raise dataset_error(f"{relative}: no column {needed!r}; columns: {', '.join(names)}")
-        kind = table.schema.field(field).type
-        if not (self.pa.types.is_list(kind) or self.pa.types.is_large_list(kind) or self.pa.types.is_fixed_size_list(kind)):
-            raise dataset_error(f"{relative}: column {field!r} is {kind}, expected a list of numbers per row")
-        if not (self.pa.types.is_floating(kind.value_type) or self.pa.types.is_integer(kind.value_type)):
-            raise dataset_error(f"{relative}: column {field!r} holds {kind.value_type}, expected numbers")
-        index = table.column("index").to_pylist()
-        chosen = sorted((g, k) for k, g in enumerate(index) if first <= g < last)
-        if len(chosen) != last - first:
-            raise dataset_error(
-                f"{relative}: {len(chosen)} rows with index in [{first}, {last}) for the episode, "
-                f"meta/episodes says {last - first}"
-            )
-        order = [k for _, k in chosen]
-        values = table.column(field).take(order).to_pylist()
-        for k, row in enumerate(values):
-            if row is None or any(v is None or not math.isfinite(v) for v in row):
-                raise dataset_error(f"{relative}: column {field!r}, row of index {first + k}: not all values are finite numbers")
-        timestamps = None
+        for whole in ("index", "episode_index"):
+            kind = schema.field(whole).type
+            if not types.is_integer(kind):
+                raise dataset_error(f"{relative}: column {whole!r} is {kind}, expected whole numbers")
         if "timestamp" in names:
-            timestamps = table.column("timestamp").take(order).to_pylist()
-        return str(kind), timestamps, values
+            kind = schema.field("timestamp").type
+            if not (types.is_floating(kind) or types.is_integer(kind)):
+                raise dataset_error(f"{relative}: column 'timestamp' is {kind}, expected seconds")
+        kind = schema.field(field).type
+        if not (types.is_list(kind) or types.is_large_list(kind) or types.is_fixed_size_list(kind)):
+            raise dataset_error(f"{relative}: column {field!r} is {kind}, expected a list of numbers per row")
+        if not (types.is_floating(kind.value_type) or types.is_integer(kind.value_type)):
+            raise dataset_error(f"{relative}: column {field!r} holds {kind.value_type}, expected numbers")
+        return kind
 
 
 def main():
@@ -164,12 +217,13 @@ def main():
     ignore_sigint()
     try:
         import pyarrow
+        import pyarrow.compute
         import pyarrow.parquet
     except ImportError as e:
         return not_ready(f"missing Python package: {e}", missing=getattr(e, "name", None))
     packages = {"pyarrow": distribution_version("pyarrow")}
     emit({"ready": True, "pyarrow": packages["pyarrow"], **interpreter(), "packages": packages})
-    serve(Reader(pyarrow, pyarrow.parquet))
+    serve(Reader(pyarrow, pyarrow.parquet, pyarrow.compute))
     return 0
 
 

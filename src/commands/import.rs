@@ -42,6 +42,10 @@ pub struct EpisodeArgs {
     /// Largest deviation for prismatic joints, metres.
     #[arg(long, value_name = "M", default_value = "0.001", value_parser = parse_tolerance_m, allow_negative_numbers = true)]
     pub tolerance_m: f64,
+    /// Clip values outside a joint's limits to the limits (each clipped joint is reported)
+    /// instead of refusing the episode.
+    #[arg(long)]
+    pub clip: bool,
 }
 
 /// Where the robot comes from and how the keys interpolate.
@@ -135,12 +139,18 @@ pub fn import_episode(
     let names = info.names(&args.field).map_err(CommandError::LeRobot)?;
     let arms = lerobot::dataset_arms(&info, &args.field, &names).map_err(CommandError::LeRobot)?;
     let spec = robot_spec(&info, choice.robot, !arms.is_empty())?;
-    // A name from the dataset is the dataset's to blame, one from --robot the option's.
+    // A name from the dataset is the dataset's to blame, one from --robot the option's; a
+    // bimanual robot_type is named as the dataset gives it, not only its arms' type.
     let resolve = |name: &str| {
         Robot::resolve(name, None).map_err(|e| {
-            super::resolve_error(e, |m| match choice.robot {
-                Some(_) => InputError::new("--robot", Location::File, m),
-                None => InputError::at_path(&info.file, "$.robot_type", m),
+            super::resolve_error(e, |m| match (choice.robot, &info.robot_type) {
+                (Some(_), _) => InputError::new("--robot", Location::File, m),
+                (None, Some(bimanual)) if !arms.is_empty() => InputError::at_path(
+                    &info.file,
+                    "$.robot_type",
+                    format!("{bimanual:?} is LeRobot's bimanual robot of two {name:?} arms: {m}"),
+                ),
+                (None, _) => InputError::at_path(&info.file, "$.robot_type", m),
             })
         })
     };
@@ -154,6 +164,7 @@ pub fn import_episode(
         episode,
         field: args.field.clone(),
         units: args.units,
+        clip: args.clip,
         keyframes: KeyframeOptions {
             interpolation: choice.interpolation,
             tolerance_deg: args.tolerance,
@@ -163,6 +174,8 @@ pub fn import_episode(
     };
     let mut imported =
         lerobot::import(dir, &info, &robot, &options).map_err(CommandError::LeRobot)?;
+    let clipped = imported.clipped.iter().map(|c| c.notice());
+    imported.notices.extend(clipped.collect::<Vec<_>>());
     let sequence = &mut imported.keyframes.sequence;
     if arm_specs.is_empty() {
         sequence.robot = robot_reference(&spec);

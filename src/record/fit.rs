@@ -27,6 +27,16 @@ pub struct KeyframeOptions {
     pub check_rate_hz: f64,
 }
 
+impl KeyframeOptions {
+    /// The largest deviation allowed for a joint of `kind`, in its unit.
+    pub fn tolerance(&self, kind: JointKind) -> f64 {
+        match kind {
+            JointKind::Revolute => self.tolerance_deg,
+            JointKind::Prismatic => self.tolerance_m,
+        }
+    }
+}
+
 /// The largest deviation of one joint's curve from its recording.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Deviation {
@@ -156,7 +166,7 @@ pub fn keyframes(
         options,
         tolerances: recorded
             .iter()
-            .map(|&j| tolerance_of(robot.joints[j].kind, options))
+            .map(|&j| options.tolerance(robot.joints[j].kind))
             .collect(),
         series: recorded.iter().map(|&j| values[j].clone()).collect(),
         times,
@@ -269,7 +279,7 @@ fn drifts(
             let moved = values[j]
                 .iter()
                 .fold(0.0f64, |m, v| m.max((v - first).abs()));
-            (moved > tolerance_of(joint.kind, options)).then(|| Drift {
+            (moved > options.tolerance(joint.kind)).then(|| Drift {
                 joint: joint.name.clone(),
                 unit: joint.kind.unit(),
                 moved,
@@ -459,13 +469,6 @@ fn make_overshoots_monotone(report: &CheckReport, keys: &[usize], modes: &mut [I
         }
     }
     changed
-}
-
-fn tolerance_of(kind: JointKind, options: &KeyframeOptions) -> f64 {
-    match kind {
-        JointKind::Revolute => options.tolerance_deg,
-        JointKind::Prismatic => options.tolerance_m,
-    }
 }
 
 /// Sample times in whole milliseconds (what the file will say, so that the deviations are those

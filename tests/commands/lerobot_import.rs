@@ -6,7 +6,7 @@
 use crate::common::{python_cache, repo, run_sim, show, stderr, stdout, SO101_JOINTS};
 use keypose::plan::{check, Trajectory};
 use keypose::robot::Robot;
-use keypose::sequence::Sequence;
+use keypose::sequence::{KeyValue, Sequence};
 use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -56,7 +56,7 @@ fn write_dataset_of(
     column: &str,
     episodes: &[(u32, Vec<Vec<f64>>)],
 ) {
-    let spec = json!({
+    write_spec(&json!({
         "root": root,
         "version": version,
         "robot_type": robot_type,
@@ -64,7 +64,11 @@ fn write_dataset_of(
         "names": names,
         "column": column,
         "episodes": episodes.iter().map(|(file, values)| json!({"file_index": file, "values": values})).collect::<Vec<_>>(),
-    });
+    }));
+}
+
+/// Runs tests/data/make_lerobot_dataset.py on `spec` (its docstring says what a spec holds).
+fn write_spec(spec: &serde_json::Value) {
     let mut child = Command::new(python())
         .arg(repo("tests/data/make_lerobot_dataset.py"))
         .stdin(Stdio::piped())
@@ -239,7 +243,7 @@ fn degree_episodes_from_list_columns_become_few_keys_within_tolerance() {
     let missing = import(&dir, &tmp.path().join("x.json"), &["--episode", "7"]);
     assert_eq!(missing.status.code(), Some(2), "{}", show(&missing));
     assert!(
-        stderr(&missing).contains("episode 7 is not in meta/episodes"),
+        stderr(&missing).contains("episode 7: not in meta/episodes (episodes there: 0, 1, 2)"),
         "{}",
         show(&missing)
     );
@@ -494,6 +498,14 @@ fn bimanual_episode_becomes_a_two_arm_cell_with_each_arms_calibration() {
         "{}",
         show(&refused)
     );
+    // The type the dataset gives is named, not only its arms' type.
+    assert!(
+        stderr(&refused).contains(
+            "$.robot_type: \"bi_so_follower\" is LeRobot's bimanual robot of two \"so_follower\" arms"
+        ),
+        "{}",
+        show(&refused)
+    );
     assert!(!out.exists());
 
     args.extend_from_slice(&["--robot", "so101"]);
@@ -653,4 +665,386 @@ fn mixed_arm_names_and_older_datasets_are_refused_with_the_reason() {
         "{}",
         show(&result)
     );
+}
+
+// Corrupt datasets: each refused with exit 2, naming the dataset, the episode, the frame where
+// there is one and the field, with nothing written.
+
+/// A dataset of the SO-101 at `dir`: one episode of `motion(3.0, 60.0)` in degrees (91 frames
+/// at 30 fps) in data file 0, with `changes`'s members over these (make_lerobot_dataset.py's
+/// docstring says what they may be).
+fn write_with(dir: &Path, changes: serde_json::Value) {
+    let mut spec = json!({
+        "root": dir,
+        "version": "v3.0",
+        "robot_type": "so101_follower",
+        "fps": FPS,
+        "names": pos_names(&SO101_JOINTS),
+        "column": "list",
+        "episodes": [{"file_index": 0, "values": motion(3.0, 60.0)}],
+    });
+    for (key, value) in changes.as_object().expect("an object of changes") {
+        spec[key] = value.clone();
+    }
+    write_spec(&spec);
+}
+
+/// Motion rows (`motion(3.0, 60.0)`) with `joint`'s value replaced at the given frames (JSON
+/// numbers, or "nan", "inf").
+fn motion_with(joint: usize, frames: &[(usize, serde_json::Value)]) -> serde_json::Value {
+    let mut rows = json!(motion(3.0, 60.0));
+    for (frame, value) in frames {
+        rows[frame][joint] = value.clone();
+    }
+    rows
+}
+
+/// Imports episode `episode` of `dir` with `extra` options; asserts exit 2, that standard error
+/// says each of `says`, and that no file was written.
+fn assert_refused(dir: &Path, episode: &str, extra: &[&str], says: &[&str]) {
+    let out = dir.with_extension("json");
+    let mut args = vec!["--episode", episode];
+    args.extend_from_slice(extra);
+    let result = import(dir, &out, &args);
+    assert_eq!(result.status.code(), Some(2), "{}", show(&result));
+    for said in says {
+        assert!(
+            stderr(&result).contains(said),
+            "{said:?}: {}",
+            show(&result)
+        );
+    }
+    assert!(!out.exists(), "{} was written", out.display());
+}
+
+/// "DIR: episode N, data/chunk-000/file-000.parquet, frame K (index K)": how a frame of the
+/// first data file is named.
+fn frame_of(dir: &Path, episode: u64, frame: u64, index: u64) -> String {
+    format!(
+        "{}: episode {episode}, data/chunk-000/file-000.parquet, frame {frame} (index {index})",
+        dir.display()
+    )
+}
+
+#[test]
+fn two_values_naming_one_joint_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    // The lift's column named as the pan (with and without LeRobot's .pos): before, the lift's
+    // motion drove the pan.
+    for (case, second) in [("same", "shoulder_pan.pos"), ("bare", "shoulder_pan")] {
+        let dir = tmp.path().join(case);
+        let mut names = pos_names(&SO101_JOINTS);
+        names[1] = second.to_string();
+        write_with(&dir, json!({ "names": names }));
+        let says = format!(
+            "{}: action value 1 ({second:?}) names joint shoulder_pan, as value 0 \
+             (\"shoulder_pan.pos\") does; expected each joint named once",
+            dir.join("meta/info.json").display()
+        );
+        assert_refused(&dir, "0", &[], &[&says]);
+    }
+}
+
+#[test]
+fn a_corrupt_frame_is_refused_by_frame_and_value_and_clipped_only_when_asked() {
+    let tmp = tempfile::tempdir().unwrap();
+    let limits = Robot::builtin("so101").unwrap().joints[3].limits;
+    assert_eq!(
+        (limits.min, limits.max),
+        (-95.0, 95.0),
+        "wrist_flex's limits"
+    );
+    // 1e30 in a float32 column reads back as 1.0000000150474662e30.
+    let huge = tmp.path().join("huge");
+    write_with(
+        &huge,
+        json!({"episodes": [{"file_index": 0, "values": motion_with(3, &[(40, json!(1e30))])}]}),
+    );
+    let frame = frame_of(&huge, 0, 40, 40);
+    assert_refused(
+        &huge,
+        "0",
+        &[],
+        &[&format!(
+            "{frame}: action wrist_flex.pos is 1.0000000150474662e30 deg as joint wrist_flex, \
+             outside its limits -95 … 95 deg by more than the tolerance (1 deg); give --clip"
+        )],
+    );
+    for (case, value, shown) in [("nan", "nan", "NaN"), ("inf", "inf", "inf")] {
+        let dir = tmp.path().join(case);
+        write_with(
+            &dir,
+            json!({"episodes": [{"file_index": 0, "values": motion_with(3, &[(41, json!(value))])}]}),
+        );
+        let says = format!(
+            "{}: action wrist_flex.pos is {shown}; expected a finite number",
+            frame_of(&dir, 0, 41, 41)
+        );
+        // Clipping does not make a number of what is none.
+        assert_refused(&dir, "0", &["--clip"], &[&says]);
+    }
+
+    // Three frames past the upper limit: refused at the first, or with --clip clipped and
+    // reported — 3 frames, the worst 160° at frame 41.
+    let past = tmp.path().join("past");
+    let bad = [(40, json!(150.0)), (41, json!(160.0)), (42, json!(155.0))];
+    write_with(
+        &past,
+        json!({"episodes": [{"file_index": 0, "values": motion_with(3, &bad)}]}),
+    );
+    assert_refused(
+        &past,
+        "0",
+        &[],
+        &[&format!(
+            "{}: action wrist_flex.pos is 150 deg",
+            frame_of(&past, 0, 40, 40)
+        )],
+    );
+    let out = tmp.path().join("clipped.json");
+    let result = import(&past, &out, &["--episode", "0", "--clip"]);
+    assert!(result.status.code() == Some(0), "{}", show(&result));
+    assert!(
+        stderr(&result).contains(
+            "clipped wrist_flex: 3 frame(s) outside its limits -95 … 95 deg, the worst 160 deg \
+             (frame 41)"
+        ),
+        "{}",
+        show(&result)
+    );
+    // The keys stay within the limits, and reach the limit where the frames were clipped to
+    // it: a monotone curve keeps between its keys, and it passes within the tolerance (1°) of
+    // the clipped frames at 95°.
+    let saved = Sequence::load(&out).unwrap();
+    let wrist: Vec<f64> = saved
+        .keyframes
+        .iter()
+        .filter_map(|key| match key.value("wrist_flex") {
+            Some(KeyValue::Joint(v)) => Some(*v),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        wrist.iter().all(|v| (limits.min..=limits.max).contains(v)),
+        "a key outside wrist_flex's limits: {wrist:?}"
+    );
+    let highest = wrist.iter().fold(f64::MIN, |a, &b| a.max(b));
+    assert!(highest >= limits.max - TOLERANCE, "{wrist:?}");
+}
+
+#[test]
+fn timestamps_that_do_not_rise_or_are_no_numbers_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let rows = motion(3.0, 60.0);
+    let at_fps: Vec<serde_json::Value> = (0..rows.len()).map(|k| json!(k as f64 / FPS)).collect();
+    let backwards: Vec<serde_json::Value> = at_fps.iter().rev().cloned().collect();
+    let mut repeated = at_fps.clone();
+    repeated[50] = repeated[49].clone();
+    let mut nan = at_fps.clone();
+    nan[10] = json!("nan");
+    for (case, timestamps, frame, says) in [
+        (
+            "backwards",
+            backwards,
+            1,
+            "does not come after the previous frame's 3 s",
+        ),
+        (
+            "repeated",
+            repeated,
+            50,
+            "does not come after the previous frame's",
+        ),
+        (
+            "nan",
+            nan,
+            10,
+            "timestamp is NaN; expected a finite number of seconds",
+        ),
+    ] {
+        let dir = tmp.path().join(case);
+        write_with(
+            &dir,
+            json!({"episodes": [{"file_index": 0, "values": rows, "timestamps": timestamps}]}),
+        );
+        let at = format!("{}: ", frame_of(&dir, 0, frame, frame));
+        assert_refused(&dir, "0", &[], &[&at, says]);
+    }
+}
+
+#[test]
+fn an_fps_the_timestamps_contradict_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("ds");
+    let rows = motion(3.0, 60.0);
+    // info.json says 30 fps; the timestamps step by 0.1 s (10 fps).
+    let tenth: Vec<f64> = (0..rows.len()).map(|k| k as f64 / 10.0).collect();
+    write_with(
+        &dir,
+        json!({"episodes": [{"file_index": 0, "values": rows, "timestamps": tenth}]}),
+    );
+    let says = format!(
+        "{}: episode 0, data/chunk-000/file-000.parquet: the timestamps step by 0.1 s (the \
+         median step), but meta/info.json's fps 30 means 0.033333 s; expected within 5 % of it",
+        dir.display()
+    );
+    assert_refused(&dir, "0", &[], &[&says]);
+}
+
+#[test]
+fn data_paths_leading_out_of_the_dataset_are_not_followed() {
+    let tmp = tempfile::tempdir().unwrap();
+    // A sound dataset beside the one imported: every path below reaches its data file.
+    let outside = tmp.path().join("outside");
+    write_with(&outside, json!({}));
+    let template = "chunk-{chunk_index:03d}/file-{file_index:03d}.parquet";
+    let absolute = format!("{}/data/{template}", outside.display());
+    let cases = [
+        (
+            "absolute",
+            absolute,
+            "is an absolute path; expected a path inside the dataset folder",
+        ),
+        (
+            "dotdot",
+            format!("../outside/data/{template}"),
+            "leads out of the dataset folder through \"..\"",
+        ),
+        (
+            "linked",
+            format!("data/link/{template}"),
+            "(through a symbolic link), outside the dataset folder",
+        ),
+    ];
+    for (case, data_path, says) in cases {
+        let dir = tmp.path().join(case);
+        write_with(&dir, json!({"info": {"data_path": data_path}}));
+        std::os::unix::fs::symlink(outside.join("data"), dir.join("data/link")).unwrap();
+        let at = format!(
+            "{}: $.data_path {data_path:?} for episode 0: ",
+            dir.join("meta/info.json").display()
+        );
+        assert_refused(&dir, "0", &[], &[&at, says]);
+    }
+    // meta/episodes through a link out of the dataset: not read either.
+    let dir = tmp.path().join("episodes_linked");
+    write_with(&dir, json!({}));
+    let file = dir.join("meta/episodes/chunk-000/file-000.parquet");
+    std::fs::remove_file(&file).unwrap();
+    std::os::unix::fs::symlink(
+        outside.join("meta/episodes/chunk-000/file-000.parquet"),
+        &file,
+    )
+    .unwrap();
+    let says = format!(
+        "{}: \"meta/episodes/chunk-000/file-000.parquet\" resolves to",
+        dir.display()
+    );
+    assert_refused(&dir, "0", &[], &[&says]);
+}
+
+#[test]
+fn episode_bounds_that_take_a_neighbours_rows_or_leave_its_own_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    // Two episodes of 91 frames in one data file: episode 0 is rows 0 … 90, episode 1 91 … 181.
+    let episodes = |meta: serde_json::Value| {
+        json!([
+            {"file_index": 0, "values": motion(3.0, 60.0), "meta": meta},
+            {"file_index": 0, "values": motion(3.0, 30.0)},
+        ])
+    };
+    let into = tmp.path().join("into");
+    write_with(
+        &into,
+        json!({"episodes": episodes(json!({"dataset_to_index": 96, "length": 96}))}),
+    );
+    let says = format!(
+        "{}: episode_index is 1, expected 0: meta/episodes' dataset_from_index … dataset_to_index \
+         reach into another episode's rows",
+        frame_of(&into, 0, 91, 91)
+    );
+    assert_refused(&into, "0", &[], &[&says]);
+
+    let short = tmp.path().join("short");
+    write_with(
+        &short,
+        json!({"episodes": episodes(json!({"dataset_to_index": 86, "length": 86}))}),
+    );
+    let says = format!(
+        "{}: episode 0, data/chunk-000/file-000.parquet: the data file holds 91 rows of \
+         episode_index 0, but meta/episodes gives the episode 86 (dataset_from_index 0 … \
+         dataset_to_index 86)",
+        short.display()
+    );
+    assert_refused(&short, "0", &[], &[&says]);
+}
+
+#[test]
+fn an_empty_episode_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("ds");
+    write_with(
+        &dir,
+        json!({"episodes": [
+            {"file_index": 0, "values": motion(3.0, 60.0)},
+            {"file_index": 0, "values": []},
+        ]}),
+    );
+    let says = format!(
+        "{}: episode 1: meta/episodes gives dataset_from_index 91 and dataset_to_index 91: no frames",
+        dir.display()
+    );
+    assert_refused(&dir, "1", &[], &[&says]);
+}
+
+#[test]
+fn an_episode_beyond_the_frame_cap_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("ds");
+    // One frame more than keypose imports (an hour at 30 fps): before, 2 M frames took 1.8 GB
+    // and more than 10 minutes.
+    let frames = keypose::interop::lerobot::MAX_FRAMES + 1;
+    write_with(
+        &dir,
+        json!({"episodes": [{"file_index": 0, "values": {"row": [0.0, 0.0, 0.0, 0.0, 0.0, 50.0], "count": frames}}]}),
+    );
+    let says = format!(
+        "{}: episode 0: 108001 frames, 3600.0 s at fps 30 (dataset_from_index 0 … \
+         dataset_to_index 108001); keypose imports episodes of at most 108000 frames and 3600 s",
+        dir.display()
+    );
+    assert_refused(&dir, "0", &[], &[&says]);
+}
+
+#[test]
+fn feature_names_in_lerobots_older_motors_form_are_read() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("ds");
+    // "names": {"motors": [...]}, the motors' bare names, as LeRobot wrote them before `.pos`;
+    // over 6 s, a motion the fit need not retime (see `motion`).
+    let rows = motion(6.0, 60.0);
+    write_with(
+        &dir,
+        json!({"names": {"motors": SO101_JOINTS}, "episodes": [{"file_index": 0, "values": rows}]}),
+    );
+    let out = tmp.path().join("motors.json");
+    let result = import(&dir, &out, &["--episode", "0"]);
+    assert_eq!(result.status.code(), Some(0), "{}", show(&result));
+    // The gripper's % onto the built-in limits −10 … 100: −10 + p · 1.1.
+    let expected: Vec<Vec<f64>> = rows
+        .into_iter()
+        .map(|mut r| {
+            r[5] = -10.0 + r[5] * 1.1;
+            r
+        })
+        .collect();
+    let (_, worst, passed) = deviations(&out, None, &expected);
+    for (j, w) in worst.iter().enumerate() {
+        assert!(
+            *w <= TOLERANCE + TIME_SNAP_SLACK,
+            "{}: {w}°",
+            SO101_JOINTS[j]
+        );
+    }
+    assert!(passed);
 }

@@ -5,6 +5,13 @@ data/chunk-000/file-NNN.parquet; docs/interop.md §1). For tests/commands/lerobo
 {"root": DIR, "version": "v3.0", "robot_type": "so101_follower", "fps": 30,
  "names": ["shoulder_pan.pos", ...], "column": "list" | "fixed",
  "episodes": [{"file_index": 0, "values": [[...], ...]}, ...]}
+
+What a test of bad data changes (all optional):
+- "names" may be an object of lists, LeRobot's older form ({"motors": [...]});
+- "info": members put into meta/info.json over the ones written (a "data_path", an "fps");
+- an episode's "values" (rows of numbers, or the strings "nan", "inf", "-inf") may instead be
+  {"row": [...], "count": N}, N copies of one row; its "timestamps" replace frame / fps; its
+  "meta" members replace those of its meta/episodes row.
 """
 
 import json
@@ -21,27 +28,40 @@ def column(rows, width, kind):
     return pa.array(rows, type=pa.list_(pa.float32()))
 
 
+def as_float(v):
+    return float(v) if isinstance(v, str) else v
+
+
+def rows_of(values):
+    if isinstance(values, dict):
+        return [values["row"]] * values["count"]
+    return [[as_float(v) for v in row] for row in values]
+
+
 def main():
     spec = json.load(sys.stdin)
     root, fps, names = spec["root"], spec["fps"], spec["names"]
-    width = len(names)
+    width = sum(len(group) for group in names.values()) if isinstance(names, dict) else len(names)
     files = {}
     episodes = {k: [] for k in ("episode_index", "length", "data/chunk_index", "data/file_index",
                                 "dataset_from_index", "dataset_to_index")}
     index = 0
     for number, episode in enumerate(spec["episodes"]):
-        rows = episode["values"]
+        rows = rows_of(episode["values"])
+        timestamps = [as_float(t) for t in episode.get("timestamps", [k / fps for k in range(len(rows))])]
         data = files.setdefault(episode["file_index"], {"index": [], "episode_index": [], "frame_index": [],
                                                         "timestamp": [], "values": []})
         for frame, row in enumerate(rows):
             data["index"].append(index + frame)
             data["episode_index"].append(number)
             data["frame_index"].append(frame)
-            data["timestamp"].append(frame / fps)
+            data["timestamp"].append(timestamps[frame])
             data["values"].append(row)
-        for key, value in (("episode_index", number), ("length", len(rows)), ("data/chunk_index", 0),
-                           ("data/file_index", episode["file_index"]), ("dataset_from_index", index),
-                           ("dataset_to_index", index + len(rows))):
+        meta = {"episode_index": number, "length": len(rows), "data/chunk_index": 0,
+                "data/file_index": episode["file_index"], "dataset_from_index": index,
+                "dataset_to_index": index + len(rows)}
+        meta.update(episode.get("meta", {}))
+        for key, value in meta.items():
             episodes[key].append(value)
         index += len(rows)
     for file_index, data in files.items():
@@ -71,6 +91,7 @@ def main():
         "features": {"action": feature, "observation.state": feature,
                      "timestamp": {"dtype": "float32", "shape": [1], "names": None}},
     }
+    info.update(spec.get("info", {}))
     with open(os.path.join(root, "meta", "info.json"), "w") as f:
         json.dump(info, f, indent=2)
 

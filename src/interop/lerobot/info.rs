@@ -28,7 +28,13 @@ impl DatasetInfo {
         let path = dir.join("meta").join("info.json");
         let file = path.display().to_string();
         let text = json::read_text(&path)?;
-        let value = json::parse(&file, &text)?;
+        DatasetInfo::from_text(&file, &text)
+    }
+
+    /// The info.json text of `file` (named in messages).
+    pub fn from_text(file: &str, text: &str) -> Result<DatasetInfo, LeRobotError> {
+        let file = file.to_string();
+        let value = json::parse(&file, text)?;
         let root = Node::root(&file, &value);
         let version = root.require("codebase_version", "the dataset's version")?;
         let found = version.str("a version such as \"v3.0\"")?;
@@ -83,8 +89,9 @@ impl DatasetInfo {
         }
     }
 
-    /// The names of `field`'s values (`features.<field>.names`), as LeRobot writes them
-    /// (`shoulder_pan.pos`, …).
+    /// The names of `field`'s values (`features.<field>.names`), as LeRobot writes them: a list
+    /// (`["shoulder_pan.pos", …]`), or in the older form an object of lists
+    /// (`{"motors": ["shoulder_pan", …]}`), whose lists are the names in order.
     pub fn names(&self, field: &str) -> Result<Vec<String>, LeRobotError> {
         let root = Node::root(&self.file, &self.features);
         let Some(feature) = root.get(field) else {
@@ -104,14 +111,29 @@ impl DatasetInfo {
             .into());
         };
         let names = feature.require("names", "the names of the feature's values")?;
-        let items = names.items()?;
-        let mut out = Vec::with_capacity(items.len());
-        for item in &items {
-            out.push(
-                item.str("a value name such as \"shoulder_pan.pos\"")?
-                    .to_string(),
-            );
+        let mut out = Vec::new();
+        match names.value {
+            serde_json::Value::Object(_) => {
+                for (_, group) in names.entries()? {
+                    push_names(&group, &mut out)?;
+                }
+            }
+            _ => push_names(&names, &mut out)?,
         }
         Ok(out)
     }
+}
+
+/// The names in the list `node`.
+fn push_names(node: &Node, out: &mut Vec<String>) -> Result<(), LeRobotError> {
+    let items = node.items().map_err(|_| {
+        node.expected("a list of value names, or an object of such lists (\"motors\": […])")
+    })?;
+    for item in &items {
+        out.push(
+            item.str("a value name such as \"shoulder_pan.pos\"")?
+                .to_string(),
+        );
+    }
+    Ok(())
 }

@@ -1,86 +1,43 @@
 //! A LeRobotDataset v3.0 episode as editable keyframes (docs/interop.md §1).
 //!
-//! [`info`] reads `meta/info.json`, [`reader`] gets the episode's rows out of the parquet files
-//! (through pyarrow), [`units`] turns LeRobot's normalised motor values into joint values; the
-//! frames then go through the same fitting as a recording made by hand
-//! ([`crate::record::keyframes`]): the fewest keys within the tolerance, clamped into the
-//! limits, retimed until the limit check passes.
+//! [`info`] reads `meta/info.json`, [`layout`] decides which files are read (all inside the
+//! dataset), [`reader`] gets the episode's metadata and rows out of the parquet files (through
+//! pyarrow); everything pyarrow returns is judged here, in Rust, before anything is made of it:
+//! [`episode`] the episode's span, [`frames`] its rows, [`timing`] its timestamps against the
+//! frame rate, [`limits`] its values against the joints' limits once [`units`] has turned
+//! LeRobot's normalised values into joint values. The frames then go through the same fitting
+//! as a recording made by hand ([`crate::record::keyframes`]): the fewest keys within the
+//! tolerance, retimed until the limit check passes.
+//!
+//! Every problem of the dataset is a [`LeRobotError`] that names the file (meta/info.json) or
+//! the dataset, the episode and the frame where there is one, and the field (exit 2); nothing
+//! is written.
 
 pub mod arms;
+pub mod episode;
+pub mod error;
+pub mod frames;
 pub mod info;
+pub mod layout;
+pub mod limits;
 pub mod reader;
+pub mod timing;
 pub mod units;
 
 pub use arms::dataset_arms;
+pub use episode::{EpisodeSpan, MAX_FRAMES};
+pub use error::{LeRobotError, PathProblem, Place, Problem};
+pub use frames::Frames;
 pub use info::DatasetInfo;
-pub use reader::{read_episode, EpisodeRows};
+pub use limits::Clipped;
 pub use units::{BodyUnits, UnitsPerArm};
 
-use crate::json::InputError;
-use crate::python::HarnessError;
-use crate::record::{self, KeyframeOptions, Keyframes, RecordError, Recording, StopReason};
+use crate::record::{self, KeyframeOptions, Keyframes, Recording, StopReason};
 use crate::robot::Robot;
 use std::path::Path;
 
 /// LeRobot's suffix of a motor's position value in feature names (`shoulder_pan.pos`).
 const POSITION_SUFFIX: &str = ".pos";
-
-#[derive(Debug, thiserror::Error)]
-pub enum LeRobotError {
-    #[error(transparent)]
-    Input(#[from] InputError),
-    #[error(
-        "{file}: codebase_version is {found:?}; keypose reads LeRobotDataset v3.0 only: convert \
-         the dataset with LeRobot's convert_dataset_v21_to_v30"
-    )]
-    Version { file: String, found: String },
-    #[error(
-        "{file}: {field} names values of an arm (left_…, right_…) and values of none ({unprefixed}); \
-         expected every name to start with left_ or right_ (a bimanual dataset) or none to (one arm)"
-    )]
-    MixedArms {
-        file: String,
-        field: String,
-        unprefixed: String,
-    },
-    #[error("{file}: {field} names {name:?}, which is not a joint of {robot}; expected names from: {expected}")]
-    UnknownName {
-        file: String,
-        field: String,
-        name: String,
-        robot: String,
-        expected: String,
-    },
-    #[error("{file}: {field} names no joint of {robot} (names: {names})")]
-    NoJoints {
-        file: String,
-        field: String,
-        robot: String,
-        names: String,
-    },
-    #[error("{dir}: {message}")]
-    Dataset { dir: String, message: String },
-    #[error(
-        "joint {joint}: values in LeRobot's −100…100 range normalisation need the arm's \
-         calibration: give --calibration {arm}FILE or --robot-id {arm}NAME"
-    )]
-    NeedsCalibration {
-        joint: String,
-        /// `left=` for an arm of a cell, else empty: how the options name the arm.
-        arm: String,
-    },
-    #[error("reading the dataset: {0}")]
-    Reader(HarnessError),
-    #[error(transparent)]
-    Record(#[from] RecordError),
-}
-
-impl LeRobotError {
-    /// Whether the dataset or the options are to blame (exit 2), not the Python environment.
-    pub fn is_bad_input(&self) -> bool {
-        !matches!(self, LeRobotError::Reader(_))
-    }
-}
 
 /// What to import and how.
 #[derive(Debug, Clone)]
@@ -90,6 +47,8 @@ pub struct ImportOptions {
     pub field: String,
     /// The units of the body joints; `None`: decided from the values.
     pub units: Option<BodyUnits>,
+    /// Clip values outside a joint's limits to them (and say so) instead of refusing them.
+    pub clip: bool,
     pub keyframes: KeyframeOptions,
 }
 
@@ -101,6 +60,8 @@ pub struct Imported {
     pub units: UnitsPerArm,
     pub column_type: String,
     pub data_file: String,
+    /// The joints whose values were clipped (`clip`), each once.
+    pub clipped: Vec<Clipped>,
     pub notices: Vec<String>,
 }
 
@@ -119,7 +80,8 @@ impl Imported {
 }
 
 /// The robot joint each of `names` denotes (`None` for a motor's other quantities). On a cell
-/// (a bimanual dataset) `left_shoulder_pan.pos` denotes `left/shoulder_pan`.
+/// (a bimanual dataset) `left_shoulder_pan.pos` denotes `left/shoulder_pan`. Two names of one
+/// joint are refused: one would silently drive the joint with the other's values.
 pub fn map_names(
     info: &DatasetInfo,
     field: &str,
@@ -127,8 +89,8 @@ pub fn map_names(
     robot: &Robot,
 ) -> Result<Vec<Option<usize>>, LeRobotError> {
     dataset_arms(info, field, names)?;
-    let mut columns = Vec::with_capacity(names.len());
-    for name in names {
+    let mut columns: Vec<Option<usize>> = Vec::with_capacity(names.len());
+    for (k, name) in names.iter().enumerate() {
         let on_robot = arms::robot_name(name, robot.is_cell());
         // Another quantity of a motor (`.vel`, `.effort`) is not a position: left out.
         let joint = match on_robot.split_once('.') {
@@ -153,6 +115,19 @@ pub fn map_names(
                     .collect::<Vec<_>>()
                     .join(", "),
             })?;
+        if let Some(first) = columns.iter().position(|&c| c == Some(index)) {
+            return Err(LeRobotError::DuplicateJoint(Box::new(
+                error::DuplicateJoint {
+                    file: info.file.clone(),
+                    field: field.to_string(),
+                    joint: robot.joints[index].name.clone(),
+                    first,
+                    first_name: names[first].clone(),
+                    second: k,
+                    second_name: name.clone(),
+                },
+            )));
+        }
         columns.push(Some(index));
     }
     if columns.iter().all(Option::is_none) {
@@ -176,67 +151,110 @@ pub fn import(
 ) -> Result<Imported, LeRobotError> {
     let names = info.names(&options.field)?;
     let columns = map_names(info, &options.field, &names, robot)?;
-    let rows = read_episode(dir, info, options.episode, &options.field)?;
-    check_widths(dir, &rows, names.len())?;
-    let (recording, units, notices) = recording(info, robot, &columns, &rows, options)?;
+    let (place, span, frames) = read_episode(dir, info, &names, options)?;
+    let episode = Episode {
+        dataset: dataset_name(dir),
+        info,
+        place,
+        span,
+        names: &names,
+        columns: &columns,
+        frames,
+    };
+    fit(&episode, robot, options)
+}
+
+/// The episode's frames out of the dataset, judged, with where they are; the reader process
+/// has ended when this returns, so that its memory is free while the keys are fitted.
+fn read_episode(
+    dir: &Path,
+    info: &DatasetInfo,
+    names: &[String],
+    options: &ImportOptions,
+) -> Result<(Place, EpisodeSpan, Frames), LeRobotError> {
+    let place = Place::episode(&dir.display().to_string(), options.episode);
+    let files = layout::episode_files(dir)?;
+    let mut reader = reader::Reader::start()?;
+    let meta = reader.episode(dir, &files, &place)?;
+    let span = EpisodeSpan::from_reply(&place, info.fps, &meta)?;
+    let data_file = layout::data_file(dir, info, &span)?;
+    let place = place.in_file(&data_file);
+    let reply = reader.rows(dir, &data_file, &span, &options.field)?;
+    drop(reader);
+    let frames = Frames::from_reply(&place, &span, &options.field, names, &reply)?;
+    Ok((place, span, frames))
+}
+
+/// The folder's own name, for the sequence's description.
+fn dataset_name(dir: &Path) -> String {
+    dir.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+/// An episode's frames as read and judged, with what they are frames of.
+#[derive(Debug, Clone)]
+pub struct Episode<'a> {
+    /// The dataset's name, for the sequence's description.
+    pub dataset: String,
+    pub info: &'a DatasetInfo,
+    /// The dataset, episode and data file, for messages.
+    pub place: Place,
+    pub span: EpisodeSpan,
+    /// The feature's value names and the joint each drives ([`map_names`]).
+    pub names: &'a [String],
+    pub columns: &'a [Option<usize>],
+    pub frames: Frames,
+}
+
+/// The keys of an episode's frames: units decided, values converted and judged against the
+/// limits, times judged against the frame rate, then fitted as a recording.
+pub fn fit(
+    episode: &Episode,
+    robot: &Robot,
+    options: &ImportOptions,
+) -> Result<Imported, LeRobotError> {
+    let rows = &episode.frames.values;
+    let times = timing::frame_times(
+        &episode.place,
+        episode.span.from(),
+        episode.info.fps,
+        episode.frames.timestamps.as_deref(),
+        rows.len(),
+    )?;
+    let (recording, units, clipped, notices) = recording(episode, robot, times, options)?;
     let mut keyframes = record::keyframes(&recording, robot, &options.keyframes)?;
     keyframes.sequence.description = Some(format!(
         "LeRobot dataset {}, episode {}, {}: {} frames → {} keys within {}°",
-        dir.file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default(),
+        episode.dataset,
         options.episode,
         options.field,
-        rows.values.len(),
+        rows.len(),
         keyframes.keys(),
         options.keyframes.tolerance_deg
     ));
     Ok(Imported {
-        frames: rows.values.len(),
+        frames: rows.len(),
         keyframes,
         units,
-        column_type: rows.column_type,
-        data_file: rows.file,
+        column_type: episode.frames.column_type.clone(),
+        data_file: episode.place.file.clone().unwrap_or_default(),
+        clipped,
         notices,
     })
 }
 
-fn check_widths(dir: &Path, rows: &EpisodeRows, width: usize) -> Result<(), LeRobotError> {
-    if rows.values.is_empty() {
-        return Err(LeRobotError::Dataset {
-            dir: dir.display().to_string(),
-            message: format!("{}: the episode has no frames", rows.file),
-        });
-    }
-    if let Some((k, row)) = rows
-        .values
-        .iter()
-        .enumerate()
-        .find(|(_, r)| r.len() != width)
-    {
-        return Err(LeRobotError::Dataset {
-            dir: dir.display().to_string(),
-            message: format!(
-                "{}: row of index {} has {} values, meta/info.json names {width}",
-                rows.file,
-                rows.from + k as u64,
-                row.len()
-            ),
-        });
-    }
-    Ok(())
-}
-
-/// The episode as a [`Recording`] of joint values: joints the dataset does not name keep the
-/// robot's home and are not fitted. The units are decided per arm.
+/// The episode as a [`Recording`] of joint values at `times`: joints the dataset does not name
+/// keep the robot's home and are not fitted. The units are decided per arm; values past a
+/// limit are refused or clipped ([`limits`]).
 fn recording(
-    info: &DatasetInfo,
+    episode: &Episode,
     robot: &Robot,
-    columns: &[Option<usize>],
-    rows: &EpisodeRows,
+    times: Vec<f64>,
     options: &ImportOptions,
-) -> Result<(Recording, UnitsPerArm, Vec<String>), LeRobotError> {
-    let n = rows.values.len();
+) -> Result<(Recording, UnitsPerArm, Vec<Clipped>, Vec<String>), LeRobotError> {
+    let (rows, columns) = (&episode.frames.values, episode.columns);
+    let n = rows.len();
     let mut notices = Vec::new();
     let mut units = Vec::new();
     let mut joint_units = vec![BodyUnits::Degrees; robot.joints.len()];
@@ -247,32 +265,46 @@ fn recording(
                     .is_some_and(|j| joints.contains(&j) && !units::is_gripper(&robot.joints[j]))
             })
             .collect();
-        let (decided, notice) = units::decide(options.units, &rows.values, &body, &arm);
+        let (decided, notice) = units::decide(options.units, rows, &body, &arm);
         notices.extend(notice);
         joint_units[joints].fill(decided);
         units.push((arm, decided));
     }
     let mut values: Vec<Vec<f64>> = robot.home.iter().map(|&h| vec![h; n]).collect();
     let mut recorded = vec![false; robot.joints.len()];
+    let mut clipped = Vec::new();
     for (c, joint) in columns.iter().enumerate() {
         let Some(j) = *joint else { continue };
         let (conversion, notice) = units::conversion(&robot.joints[j], joint_units[j])?;
         notices.extend(notice);
-        values[j] = rows.values.iter().map(|r| conversion.apply(r[c])).collect();
+        values[j] = rows.iter().map(|r| conversion.apply(r[c])).collect();
+        let column = limits::ColumnLimits {
+            joint: &robot.joints[j],
+            field: &options.field,
+            name: &episode.names[c],
+            slack: options.keyframes.tolerance(robot.joints[j].kind),
+            clip: options.clip,
+        };
+        clipped.extend(limits::judge(
+            &episode.place,
+            episode.span.from(),
+            &column,
+            &mut values[j],
+        )?);
         recorded[j] = true;
     }
-    let times = frame_times(info, rows);
     Ok((
         Recording {
             times,
             values,
             recorded,
-            rate_hz: info.fps,
+            rate_hz: episode.info.fps,
             stopped: StopReason::Duration,
             gaps: Default::default(),
             hold_error: None,
         },
         units,
+        clipped,
         notices,
     ))
 }
@@ -287,14 +319,4 @@ fn arm_joints(robot: &Robot) -> Vec<(String, std::ops::Range<usize>)> {
             .collect();
     }
     vec![(String::new(), 0..robot.joints.len())]
-}
-
-/// Seconds from the episode's first frame: its timestamps, else frame number over fps.
-fn frame_times(info: &DatasetInfo, rows: &EpisodeRows) -> Vec<f64> {
-    match &rows.timestamps {
-        Some(ts) if ts.len() == rows.values.len() => ts.iter().map(|t| t - ts[0]).collect(),
-        _ => (0..rows.values.len())
-            .map(|k| k as f64 / info.fps)
-            .collect(),
-    }
 }

@@ -1,8 +1,13 @@
-//! One episode's rows out of the dataset's parquet files, read by `sim/dataset_reader.py`
-//! (pyarrow) in keypose's Python environment: parquet is read by a well-kept library, and the
-//! Rust build carries no parquet crate (docs/interop.md §1.3).
+//! The conversation with `sim/dataset_reader.py` (pyarrow) in keypose's Python environment:
+//! parquet is read by a well-kept library, and the Rust build carries no parquet crate
+//! (docs/interop.md §1.3).
+//!
+//! The script only gets columns out of the files keypose names (already checked to lie inside
+//! the dataset, [`super::layout`]); its answers are judged by [`super::episode`] and
+//! [`super::frames`].
 
-use super::info::DatasetInfo;
+use super::episode::EpisodeSpan;
+use super::error::{Place, Problem};
 use super::LeRobotError;
 use crate::python::{Harness, HarnessError};
 use serde_json::{json, Value};
@@ -13,94 +18,85 @@ const SCRIPT: &str = "dataset_reader.py";
 /// Reading a data file of LeRobot's default 100 MB takes seconds; a minute is generous.
 const READ_TIMEOUT: Duration = Duration::from_secs(60);
 
-/// The rows of one episode, in frame order.
-#[derive(Debug, Clone, PartialEq)]
-pub struct EpisodeRows {
-    /// The data file, relative to the dataset.
-    pub file: String,
-    /// Global frame indices [from, to).
-    pub from: u64,
-    pub to: u64,
-    /// The column's Arrow type (`list<element: float>`, `fixed_size_list<…>[6]`).
-    pub column_type: String,
-    /// Seconds from the episode's start as the `timestamp` column says, if it has one.
-    pub timestamps: Option<Vec<f64>>,
-    /// One row of the field per frame.
-    pub values: Vec<Vec<f64>>,
+/// The reader script, running.
+pub struct Reader {
+    harness: Harness,
 }
 
-/// Reads episode `episode`'s `field` from the dataset at `dir`.
-pub fn read_episode(
-    dir: &Path,
-    info: &DatasetInfo,
-    episode: u64,
-    field: &str,
-) -> Result<EpisodeRows, LeRobotError> {
-    let mut harness = Harness::start(SCRIPT).map_err(LeRobotError::Reader)?;
-    let request = json!({
-        "op": "episode",
-        "root": dir.display().to_string(),
-        "episode": episode,
-        "field": field,
-        "data_path": info.data_path,
-    });
-    let reply = harness
-        .request_within(&request, READ_TIMEOUT)
-        .map_err(|e| dataset_error(dir, e))?;
-    parse_reply(&reply)
+impl Reader {
+    pub fn start() -> Result<Reader, LeRobotError> {
+        Ok(Reader {
+            harness: Harness::start(SCRIPT).map_err(LeRobotError::Reader)?,
+        })
+    }
+
+    /// The meta/episodes rows of `place`'s episode in `files` (relative to `dir`), as read.
+    pub fn episode(
+        &mut self,
+        dir: &Path,
+        files: &[String],
+        place: &Place,
+    ) -> Result<Value, LeRobotError> {
+        self.ask(
+            place,
+            json!({
+                "op": "episode",
+                "root": dir.display().to_string(),
+                "files": files,
+                "episode": place.episode,
+            }),
+        )
+    }
+
+    /// The rows of `span` in the data file `file` (relative to `dir`), as read: at most one
+    /// more than the span holds, so that a row too many shows.
+    pub fn rows(
+        &mut self,
+        dir: &Path,
+        file: &str,
+        span: &EpisodeSpan,
+        field: &str,
+    ) -> Result<Value, LeRobotError> {
+        self.ask(
+            &Place::episode(&dir.display().to_string(), span.episode()),
+            json!({
+                "op": "rows",
+                "root": dir.display().to_string(),
+                "file": file,
+                "field": field,
+                "episode": span.episode(),
+                "from": span.from(),
+                "to": span.to(),
+                "limit": span.frames() + 1,
+            }),
+        )
+    }
+
+    /// The answer to `request`; `place` names the episode when the files are to blame.
+    fn ask(&mut self, place: &Place, request: Value) -> Result<Value, LeRobotError> {
+        self.harness
+            .request_within(&request, READ_TIMEOUT)
+            .map_err(|e| dataset_error(place, e))
+    }
 }
 
 /// A reply of kind "dataset" is the dataset's fault (bad input); anything else the reader's.
-fn dataset_error(dir: &Path, error: HarnessError) -> LeRobotError {
+fn dataset_error(place: &Place, error: HarnessError) -> LeRobotError {
     if let HarnessError::Failed { reply, message, .. } = &error {
         if reply.get("kind").and_then(Value::as_str) == Some("dataset") {
-            return LeRobotError::Dataset {
-                dir: dir.display().to_string(),
+            return place.error(Problem::Unreadable {
                 message: message.clone(),
-            };
+            });
         }
     }
     LeRobotError::Reader(error)
 }
 
-fn parse_reply(reply: &Value) -> Result<EpisodeRows, LeRobotError> {
-    let bad = |what: &str| {
-        LeRobotError::Reader(HarnessError::BadReply {
-            script: SCRIPT.into(),
-            detail: format!("{what} missing or malformed"),
-            line: reply.to_string().chars().take(200).collect(),
-        })
-    };
-    let number = |v: &Value| v.as_f64();
-    let values = reply
-        .get("values")
-        .and_then(Value::as_array)
-        .ok_or_else(|| bad("values"))?
-        .iter()
-        .map(|row| {
-            row.as_array()
-                .and_then(|r| r.iter().map(number).collect::<Option<Vec<f64>>>())
-        })
-        .collect::<Option<Vec<_>>>()
-        .ok_or_else(|| bad("values"))?;
-    let timestamps = match reply.get("timestamps") {
-        None | Some(Value::Null) => None,
-        Some(Value::Array(ts)) => Some(
-            ts.iter()
-                .map(number)
-                .collect::<Option<Vec<f64>>>()
-                .ok_or_else(|| bad("timestamps"))?,
-        ),
-        Some(_) => return Err(bad("timestamps")),
-    };
-    let text = |name: &str| reply.get(name).and_then(Value::as_str).map(str::to_string);
-    let index = |name: &str| reply.get(name).and_then(Value::as_u64);
-    Ok(EpisodeRows {
-        file: text("file").ok_or_else(|| bad("file"))?,
-        from: index("from").ok_or_else(|| bad("from"))?,
-        to: index("to").ok_or_else(|| bad("to"))?,
-        column_type: text("column_type").ok_or_else(|| bad("column_type"))?,
-        timestamps,
-        values,
+/// The reader's answer lacks what the protocol promises: the reader's fault, not the dataset's.
+pub(super) fn bad_reply(what: &str, reply: &Value) -> LeRobotError {
+    LeRobotError::Reader(HarnessError::BadReply {
+        script: SCRIPT.into(),
+        detail: format!("{what} missing or malformed"),
+        line: reply.to_string().chars().take(200).collect(),
     })
 }
