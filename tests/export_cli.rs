@@ -177,7 +177,9 @@ fn play_motion2_positions_are_keyposes_samples() {
     assert_eq!(result.status.code(), Some(0), "{}", show(&result));
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(
-        text.starts_with("/play_motion2:\n  ros__parameters:\n    motions:\n      so101_nod:\n"),
+        text.starts_with(
+            "/play_motion2:\n  ros__parameters:\n    motions:\n      \"so101_nod\":\n"
+        ),
         "{text}"
     );
     let positions = text.lines().find_map(|l| list(l, "positions:")).unwrap();

@@ -172,7 +172,8 @@ fn header(robot: &Robot) -> String {
     let mut header = String::from("time,phase,sequence_time");
     for suffix in ["cmd", "meas"] {
         for joint in &robot.joints {
-            let _ = write!(header, ",{}_{suffix}", joint.name);
+            let column = format!("{}_{suffix}", joint.name);
+            let _ = write!(header, ",{}", crate::csv::field(&column));
         }
     }
     header.push_str(",lateness_ms,stall_ms\n");

@@ -32,6 +32,13 @@ impl TeachState {
     /// Names the current key (empty: no name). A name another key has is kept but warned
     /// of, since `play --from NAME` refuses a name two keys share.
     pub(super) fn name_key(&mut self, text: &str) -> Vec<Command> {
+        // The file would hold a name no keypose command loads (the studio's page can send
+        // any character).
+        if text.chars().any(crate::terminal_text::is_layout_control) {
+            return self.fail(format!(
+                "{text:?} holds a control character; a key name is text on one line: name unchanged"
+            ));
+        }
         let index = self.list.current_index();
         let name = (!text.is_empty()).then(|| text.to_string());
         self.list.set_name(name);

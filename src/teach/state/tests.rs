@@ -626,6 +626,28 @@ fn a_key_is_named_renamed_and_unnamed_and_a_shared_name_is_warned_of() {
 }
 
 #[test]
+fn a_key_name_with_a_control_character_is_refused_and_the_journal_still_loads() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = two_keys_at_the_first(dir.path());
+    edit(&mut state, 'N', "wave");
+    // What the studio's page may send as a line: a line break, an escape sequence, U+2028.
+    for name in ["two\nlines", "red\u{1b}[31m", "a\u{2028}b"] {
+        edit(&mut state, 'N', name);
+        assert_eq!(key_name(&state, 0), Some("wave"), "{name:?}");
+        assert!(state.status().error, "{name:?}");
+        assert!(
+            state.status().text.contains("control character"),
+            "{}",
+            state.status().text
+        );
+    }
+    // Every name the session keeps loads back from its journal (load refuses control
+    // characters in names).
+    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    assert_eq!(journal.keyframes[0].name.as_deref(), Some("wave"));
+}
+
+#[test]
 fn a_hold_is_set_cleared_and_refused_when_it_reaches_the_next_key() {
     let dir = tempfile::tempdir().unwrap();
     let mut state = two_keys_at_the_first(dir.path());
