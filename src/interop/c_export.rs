@@ -103,7 +103,7 @@ pub fn header(
     out.push_str("#ifndef KP_SEQUENCE_H\n#define KP_SEQUENCE_H\n#include \"keypose_player.h\"\n\n");
     let _ = writeln!(
         out,
-        "static const char kp_seq_source[] = {};",
+        "static const char kp_seq_source[] = {};\n",
         c_string(source)
     );
     let joints = robot.joints.len();
