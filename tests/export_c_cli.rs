@@ -439,32 +439,61 @@ int main(void) {
 }
 "#;
 
-#[test]
-fn joint_names_reach_the_header_as_string_literals_and_never_as_code() {
-    let dir = tempfile::tempdir().unwrap();
-    // The SO-101 with every joint renamed, and a sequence moving two of them.
+/// A sequence moving joints 1 and 2 of the SO-101 with its joints renamed to `names`, in
+/// `dir` under a file name holding a quote, a backslash and a trigraph (`??=` is `#`).
+fn sequence_with_joints_named(dir: &Path, names: [&str; 6]) -> PathBuf {
     let mut robot: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(repo("robots/so101.json")).unwrap()).unwrap();
     robot.as_object_mut().unwrap().remove("home");
-    robot["tcp"]["parent"] = HOSTILE_NAMES[4].into();
+    robot["tcp"]["parent"] = names[4].into();
     for (joint, name) in robot["joints"]
         .as_array_mut()
         .unwrap()
         .iter_mut()
-        .zip(HOSTILE_NAMES)
+        .zip(names)
     {
         joint["name"] = name.into();
     }
-    let robot_path = dir.path().join("hostile robot.json");
+    let robot_path = dir.join("hostile robot.json");
     std::fs::write(&robot_path, robot.to_string()).unwrap();
     let sequence = serde_json::json!({"format": "keypose-sequence/1",
         "robot": robot_path.to_str().unwrap(),
-        "keyframes": [{"time": 0, "joints": {HOSTILE_NAMES[1]: 0, HOSTILE_NAMES[2]: 0}},
-                      {"time": 2, "joints": {HOSTILE_NAMES[1]: 20, HOSTILE_NAMES[2]: -20}}]});
-    let sequence_path = dir.path().join("seq \"*\\ ??=.json");
+        "keyframes": [{"time": 0, "joints": {names[1]: 0, names[2]: 0}},
+                      {"time": 2, "joints": {names[1]: 20, names[2]: -20}}]});
+    let sequence_path = dir.join("seq \"*\\ ??=.json");
     std::fs::write(&sequence_path, sequence.to_string()).unwrap();
+    sequence_path
+}
 
-    // The names program and the player, built with -std=c99 (trigraphs on) and -Werror.
+#[test]
+fn a_joint_name_closing_the_comment_it_was_in_runs_nothing() {
+    // The issue's injection without its line breaks (a name with one is refused at load,
+    // tests/hostile_input.rs): written raw into the header's comment of joint names, it
+    // compiled with -Wall -Werror and ran before main.
+    let dir = tempfile::tempdir().unwrap();
+    let mut names = [
+        "shoulder_pan",
+        "shoulder_lift",
+        "elbow_flex",
+        "wrist_flex",
+        "wrist_roll",
+        "gripper",
+    ];
+    names[0] = HOSTILE_NAMES[0];
+    let sequence = sequence_with_joints_named(dir.path(), names);
+    let program = build_player(sequence.to_str().unwrap(), dir.path(), &[]);
+    let played = Command::new(&program).arg("100").output().unwrap();
+    assert!(played.status.success(), "{}", show(&played));
+    assert!(!stdout(&played).contains("INJECTED"), "{}", show(&played));
+    assert_eq!(rows(&stdout(&played)).len(), 201, "2 s at 100 Hz");
+}
+
+#[test]
+fn joint_names_reach_the_header_as_string_literals_and_never_as_code() {
+    let dir = tempfile::tempdir().unwrap();
+    let sequence_path = sequence_with_joints_named(dir.path(), HOSTILE_NAMES);
+
+    // The names program, built with -std=c99 (trigraphs on) and -Werror.
     let header = dir.path().join("seq.h");
     let out = run(&[
         "export",
@@ -504,9 +533,54 @@ fn joint_names_reach_the_header_as_string_literals_and_never_as_code() {
     let mut expected: Vec<String> = HOSTILE_NAMES.iter().map(|n| hex(n)).collect();
     expected.push(hex(sequence_path.to_str().unwrap()));
     assert_eq!(printed.lines().collect::<Vec<_>>(), expected, "{text}");
-    // And the player itself plays it.
-    let program = build_player(sequence_path.to_str().unwrap(), dir.path(), &[]);
-    let played = Command::new(&program).arg("100").output().unwrap();
-    assert!(played.status.success(), "{}", show(&played));
-    assert!(!stdout(&played).contains("INJECTED"));
+    // The header's code is keypose's own: with the string literals taken out, it is the
+    // header of the same sequence with the SO-101's own names.
+    let plain = tempfile::tempdir().unwrap();
+    let plain_sequence = sequence_with_joints_named(
+        plain.path(),
+        [
+            "shoulder_pan",
+            "shoulder_lift",
+            "elbow_flex",
+            "wrist_flex",
+            "wrist_roll",
+            "gripper",
+        ],
+    );
+    let plain_header = plain.path().join("seq.h");
+    let out = run(&[
+        "export",
+        "c",
+        plain_sequence.to_str().unwrap(),
+        "-o",
+        plain_header.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let plain_text = std::fs::read_to_string(&plain_header).unwrap();
+    assert_eq!(without_strings(&text), without_strings(&plain_text));
+}
+
+/// C text with the content of every string literal dropped (`"…"` becomes `""`). Escapes
+/// are skipped whole (a backslash and the character after it), so an escaped quote does not
+/// end a literal.
+fn without_strings(c: &str) -> String {
+    let mut out = String::new();
+    let mut chars = c.chars();
+    while let Some(ch) = chars.next() {
+        out.push(ch);
+        if ch != '"' {
+            continue;
+        }
+        loop {
+            match chars.next() {
+                Some('\\') => {
+                    chars.next();
+                }
+                Some('"') | None => break,
+                Some(_) => {}
+            }
+        }
+        out.push('"');
+    }
+    out
 }
