@@ -285,10 +285,6 @@ fn a_line_break_in_an_error_message_is_escaped_like_an_escape() {
     assert_no_control_bytes(&out.stderr);
 }
 
-fn stdout_has(out: &Output, text: &str) -> bool {
-    String::from_utf8_lossy(&out.stdout).contains(text)
-}
-
 /// Asserts a refused option value: exit 2, the option named, `expected` in the message, and
 /// not clap's tip about `-- -1` for a negative number.
 fn refused_option(args: &[&str], option: &str, expected: &str) {
