@@ -85,8 +85,10 @@ fn written_and_read(robot: &Robot, choices: &mut Choices) {
         }
         let phase = choices.pick(&PHASES);
         let sequence_time = value(choices);
-        let measured: Option<Vec<f64>> =
-            (choices.byte() % 2 == 0).then(|| (0..joints).map(|_| value(choices)).collect());
+        let measured: Option<Vec<f64>> = choices
+            .byte()
+            .is_multiple_of(2)
+            .then(|| (0..joints).map(|_| value(choices)).collect());
         log.row(&LogRow {
             time: k as f64 * 0.01,
             phase,

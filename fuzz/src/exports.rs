@@ -49,7 +49,7 @@ pub fn trajectory(choices: &mut Choices) -> Option<(&'static Robot, Trajectory)>
         let gap = 0.05 + 2.95 * share(choices);
         key.time = Some(time);
         key.interp = choices.pick(&MODES);
-        if k + 1 < keys && choices.byte() % 4 == 0 {
+        if k + 1 < keys && choices.byte().is_multiple_of(4) {
             key.hold = (gap * 0.5 * 1000.0).round() / 1000.0;
         }
         sequence.keyframes.push(key);
