@@ -84,13 +84,21 @@ impl TeachState {
         }
         let index = self.list.current_index();
         if !self.list.set_hold(hold) {
-            // The hold is a valid number, so only the next key can have refused it.
-            let gap =
-                self.list.sequence().key_time(index + 1) - self.list.sequence().key_time(index);
-            return self.fail(format!(
-                "a {hold} s hold runs into key {}, {gap:.2} s later: hold unchanged",
-                index + 1
-            ));
+            // The hold is a valid number, so only the next key (or, after the last key of a
+            // uniformly spaced list, the interval a new key would come at) refused it.
+            let sequence = self.list.sequence();
+            let gap = sequence.key_time(index + 1) - sequence.key_time(index);
+            return self.fail(if index + 1 < self.list.len() {
+                format!(
+                    "a {hold} s hold runs into key {}, {gap:.2} s later: hold unchanged",
+                    index + 1
+                )
+            } else {
+                format!(
+                    "a {hold} s hold is as long as the {gap:.2} s between keys (a key added \
+                     after it would come then): hold unchanged"
+                )
+            });
         }
         let label = self.key_label(index);
         if hold == 0.0 {

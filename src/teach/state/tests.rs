@@ -676,6 +676,21 @@ fn a_hold_is_set_cleared_and_refused_when_it_reaches_the_next_key() {
     edit(&mut state, 'h', "0");
     assert_eq!(state.list().sequence().keyframes[0].hold, 0.0);
     assert_eq!(state.status().text, "key 0 holds no longer");
+
+    // The last key too: a key added after it comes one interval, 2 s, later (found by the
+    // journal fuzz target: a 5 s hold there, then `n`, was journaled and did not load).
+    press(&mut state, Key::Char('>'));
+    edit(&mut state, 'h', "5");
+    assert_eq!(
+        state.status().text,
+        "a 5 s hold is as long as the 2.00 s between keys (a key added after it would come \
+         then): hold unchanged"
+    );
+    edit(&mut state, 'h', "1.5");
+    press(&mut state, Key::Char('n'));
+    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    assert_eq!(journal.keyframes.len(), 3);
+    assert_eq!(journal.keyframes[1].hold, 1.5);
 }
 
 #[test]
