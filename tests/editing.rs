@@ -94,6 +94,20 @@ fn inserting_into_a_timed_list_goes_halfway_or_one_gap_on() {
 }
 
 #[test]
+fn a_key_added_after_a_long_final_hold_comes_after_the_hold() {
+    // A file may hold its last key as long as it likes; uniformly spaced, a key added after it
+    // one interval (2 s) later would be inside the 5 s hold.
+    let text = r#"{"format":"keypose-sequence/1","robot":"so101","key_interval":2,"keyframes":[
+        {"joints":{"elbow_flex":0}}, {"hold":5,"joints":{"elbow_flex":10}}]}"#;
+    let mut list = KeyframeList::new(Sequence::from_json("t.json", text).unwrap());
+    assert!(list.select(1));
+    list.insert_after(pose(20.0));
+    // The spacing made explicit, and the new key one interval after the hold: 2 + 5 + 2.
+    assert_eq!(list.sequence().key_times(), [0.0, 2.0, 9.0]);
+    Sequence::from_json("t.json", &list.sequence().to_json()).unwrap();
+}
+
+#[test]
 fn save_is_atomic_and_round_trips() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("taught.json");

@@ -123,10 +123,19 @@ impl KeyframeList {
     ///
     /// In a uniformly spaced list, later keys simply move one interval on. With absolute times
     /// the new key goes halfway to the next key, or one interval (the last gap, else the default
-    /// interval) after the last key.
+    /// interval) after the last key. A uniformly spaced list whose last key holds as long as
+    /// the interval or longer (a file may have it so) gets absolute times first when a key is
+    /// added after that one: one interval later would be inside the hold.
     pub fn insert_after(&mut self, values: Vec<(String, KeyValue)>) {
         let mut key = Keyframe::new(values);
         let at = if self.is_empty() { 0 } else { self.current + 1 };
+        if let (Some(interval), Some(last)) =
+            (self.sequence.key_interval, self.sequence.keyframes.last())
+        {
+            if at == self.len() && last.hold > interval - super::MIN_GAP {
+                self.sequence.make_times_absolute();
+            }
+        }
         if self.sequence.key_interval.is_none() {
             let times = self.sequence.key_times();
             let time = match (at.checked_sub(1).map(|i| times[i]), times.get(at)) {
