@@ -22,6 +22,7 @@
 
 pub mod atomic_file;
 pub mod bus;
+pub mod csv;
 pub mod curve;
 pub mod interop;
 

@@ -125,9 +125,10 @@ fn main() -> ExitCode {
     let code = match result {
         Ok(verdict) => verdict.exit_code(),
         Err(error) => {
-            // Messages quote file text (names, values): no escape sequence reaches the terminal.
+            // Messages quote file text (names, values, paths): no escape sequence reaches the
+            // terminal, and no line break but those before another program's quoted output.
             let text = error.to_string();
-            let message = keypose::terminal_text::escape_controls(&text);
+            let message = keypose::terminal_text::escape_message(&text);
             // A stop the user asked for is not an error: it is said plainly (exit 130 still
             // tells a script that the command did not run to its end).
             if matches!(error, CommandError::Interrupted(_)) {

@@ -1,7 +1,10 @@
 //! Helpers the fuzz targets share: reading structured choices from the fuzzer's bytes, the
-//! built-in robots, and the packet properties both decoder targets check.
+//! built-in robots, the packet properties both decoder targets check, trajectories and names
+//! for the export targets and a C reader for the header's.
 
+pub mod c_text;
 pub mod decoding;
+pub mod exports;
 
 use keypose::robot::{Robot, BUILTIN_NAMES};
 use keypose::sequence::Sequence;

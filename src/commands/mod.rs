@@ -54,7 +54,7 @@ pub const DEFAULT_ROBOT: &str = "so101";
 pub fn announce_robot(robot: &Robot) {
     if !verbose() {
         let line = format!("robot {} ({})", robot.name, robot.source);
-        eprintln!("{}", keypose::terminal_text::escape_controls(&line));
+        eprintln!("{}", keypose::terminal_text::escape_message(&line));
     }
 }
 

@@ -127,7 +127,7 @@ fn to_csv(joint_names: &[String], rows: &[Vec<f64>]) -> String {
     let mut out = String::from("time");
     for name in joint_names {
         out.push(',');
-        out.push_str(name);
+        out.push_str(&keypose::csv::field(name));
     }
     out.push('\n');
     for row in rows {

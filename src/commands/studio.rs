@@ -63,7 +63,7 @@ pub fn run(args: &StudioArgs) -> Result<Verdict, CommandError> {
         Ended::Quit => {
             eprintln!(
                 "studio: {}",
-                keypose::terminal_text::escape_controls(&status)
+                keypose::terminal_text::escape_message(&status)
             );
             Ok(Verdict::Pass)
         }

@@ -135,7 +135,7 @@ fn open_journal(output: &Path) -> (Option<Journal>, Option<Pending>) {
             let message = e.to_string();
             eprintln!(
                 "warning: the journal cannot be read, it is ignored: {}",
-                keypose::terminal_text::escape_controls(&message)
+                keypose::terminal_text::escape_message(&message)
             );
             None
         }),

@@ -36,7 +36,7 @@ pub fn motion_yaml(
     yaml::open(&mut out, 0, "/play_motion2");
     yaml::open(&mut out, 2, "ros__parameters");
     yaml::open(&mut out, 4, "motions");
-    yaml::open(&mut out, 6, name);
+    yaml::open_named(&mut out, 6, name);
     let names = super::ros2::joint_names(robot);
     yaml::line(
         &mut out,

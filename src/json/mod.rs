@@ -174,6 +174,17 @@ impl<'de> serde::de::Visitor<'de> for UniqueKeysVisitor {
     }
 }
 
+/// What a name may not hold, for messages.
+const NO_CONTROLS: &str = "without control characters (line breaks, tabs, escapes, \
+                           bidirectional overrides)";
+
+/// Whether `text` holds a layout control; with `text_breaks`, line breaks and tabs are allowed.
+fn has_control(text: &str, text_breaks: bool) -> bool {
+    text.chars().any(|c| {
+        crate::terminal_text::is_layout_control(c) && !(text_breaks && matches!(c, '\n' | '\t'))
+    })
+}
+
 /// A short description of a JSON value for "found …" in messages.
 pub fn describe(value: &Value) -> String {
     match value {
@@ -315,6 +326,41 @@ impl<'a> Node<'a> {
 
     pub fn str(&self, what: &str) -> Result<&'a str, InputError> {
         self.value.as_str().ok_or_else(|| self.expected(what))
+    }
+
+    /// A name (of a robot, a joint, a key, a motor): a string on one line that shows as it
+    /// reads, so no control characters (see [`crate::terminal_text::is_layout_control`]).
+    /// Names are printed, put in tables and logs, exported: a line break or an escape in one
+    /// would change what they show as, or were turned into something else.
+    pub fn name(&self, what: &str) -> Result<&'a str, InputError> {
+        let name = self.str(what)?;
+        if has_control(name, false) {
+            return Err(self.expected(&format!("{what} {NO_CONTROLS}")));
+        }
+        Ok(name)
+    }
+
+    /// A text (a description): line breaks and tabs allowed, no other control characters.
+    pub fn text(&self, what: &str) -> Result<&'a str, InputError> {
+        let text = self.str(what)?;
+        if has_control(text, true) {
+            return Err(self.expected(&format!(
+                "{what} without control characters other than line breaks and tabs"
+            )));
+        }
+        Ok(text)
+    }
+
+    /// [`Node::entries`] of an object whose field names are names ([`Node::name`]): joints by
+    /// name, motors by name.
+    pub fn named_entries(&'a self, what: &str) -> Result<Vec<(&'a str, Node<'a>)>, InputError> {
+        let entries = self.entries()?;
+        if let Some((name, node)) = entries.iter().find(|(name, _)| has_control(name, false)) {
+            return Err(node.error(format!(
+                "expected {what} {NO_CONTROLS}, found the name {name:?}"
+            )));
+        }
+        Ok(entries)
     }
 
     /// A finite number. JSON cannot spell NaN or infinity, but numbers too large for f64 and

@@ -172,7 +172,8 @@ fn header(robot: &Robot) -> String {
     let mut header = String::from("time,phase,sequence_time");
     for suffix in ["cmd", "meas"] {
         for joint in &robot.joints {
-            let _ = write!(header, ",{}_{suffix}", joint.name);
+            let column = format!("{}_{suffix}", joint.name);
+            let _ = write!(header, ",{}", crate::csv::field(&column));
         }
     }
     header.push_str(",lateness_ms,stall_ms\n");
@@ -247,5 +248,51 @@ impl Drop for PlaybackLog {
     /// Playback that ends in a fault returns early: its log is the one most worth keeping.
     fn drop(&mut self) {
         let _ = self.finish();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Joint names with a comma and a quote stay one column each: what the log writes, `plot
+    /// --log` reads back (split at every comma, they were three columns under other names).
+    #[test]
+    fn measured_values_of_joints_named_with_commas_and_quotes_read_back() {
+        let mut robot = Robot::builtin("so101").unwrap();
+        robot.joints[0].name = "pan, base".into();
+        robot.joints[1].name = "lift \"1\"".into();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("log.csv");
+        let mut log = PlaybackLog::create(&path, &robot).unwrap();
+        let commanded = [0.0; 6];
+        for (k, measured) in [
+            [1.5, -2.25, 0.0, 0.0, 0.0, 0.0],
+            [3.0, 4.5, 0.0, 0.0, 0.0, 0.0],
+        ]
+        .iter()
+        .enumerate()
+        {
+            log.row(&Row {
+                time: k as f64 * 0.01,
+                phase: Phase::Play,
+                sequence_time: k as f64 * 0.01,
+                commanded: &commanded,
+                measured: Some(measured),
+                lateness: 0.0,
+                stall: None,
+            })
+            .unwrap();
+        }
+        log.finish().unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(
+            text.starts_with("time,phase,sequence_time,\"pan, base_cmd\",\"lift \"\"1\"\"_cmd\","),
+            "{text}"
+        );
+        let names: Vec<String> = robot.joint_names().iter().map(|n| n.to_string()).collect();
+        let traces = crate::report::log::measured_traces(&path, &names).unwrap();
+        assert_eq!(traces[0], Some(vec![(0.0, 1.5), (0.01, 3.0)]));
+        assert_eq!(traces[1], Some(vec![(0.0, -2.25), (0.01, 4.5)]));
     }
 }

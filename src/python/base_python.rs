@@ -116,7 +116,8 @@ fn last_lines(text: &str, count: usize) -> String {
         .lines()
         .filter(|line| !line.trim().is_empty())
         .collect();
-    lines[lines.len().saturating_sub(count)..].join("\n")
+    // Lines of their own under the message, as an error quotes another program's output.
+    crate::terminal_text::quoted_lines(lines[lines.len().saturating_sub(count)..].iter().copied())
 }
 
 #[cfg(test)]

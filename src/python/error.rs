@@ -3,6 +3,7 @@
 //! Knows nothing about harness processes or JSON lines ([`super::HarnessError`] wraps these).
 
 use super::base_python::MIN_PYTHON;
+use crate::terminal_text::quoted_lines;
 use std::io;
 use std::path::{Path, PathBuf};
 
@@ -45,7 +46,8 @@ pub enum PyEnvError {
     #[error(
         "creating a virtual environment with `{python} -m venv` failed ({status}); on \
          Debian/Ubuntu install python3-venv, or set KEYPOSE_PYTHON to an interpreter that has \
-         the packages of sim/requirements.txt. Its last output:\n{tail}"
+         the packages of sim/requirements.txt. Its last output:{}",
+        quoted_lines(tail.lines())
     )]
     Venv {
         python: String,
@@ -55,7 +57,8 @@ pub enum PyEnvError {
     #[error(
         "installing the Python packages of sim/requirements.txt into {venv} failed ({status}); \
          check access to PyPI (pip honours PIP_INDEX_URL and its config files), or set \
-         KEYPOSE_PYTHON to an interpreter that has them. pip's last output:\n{tail}"
+         KEYPOSE_PYTHON to an interpreter that has them. pip's last output:{}",
+        quoted_lines(tail.lines())
     )]
     Pip {
         venv: PathBuf,

@@ -381,7 +381,10 @@ impl Harness {
         if lines.is_empty() {
             String::new()
         } else {
-            format!("; its stderr ends with:\n  {}", lines.join("\n  "))
+            format!(
+                "; its stderr ends with:{}",
+                crate::terminal_text::quoted_lines(lines.iter().map(String::as_str))
+            )
         }
     }
 }

@@ -12,16 +12,34 @@ pub type Trace = Vec<(f64, f64)>;
 pub fn measured_traces(path: &Path, joints: &[String]) -> Result<Vec<Option<Trace>>, InputError> {
     let file = path.display().to_string();
     let text = crate::json::input_file::read_text(path, crate::json::input_file::MAX_LOG_BYTES)?;
+    parse_traces(&file, &text, joints)
+}
+
+/// [`measured_traces`] of a log's text; `file` names it in errors.
+pub fn parse_traces(
+    file: &str,
+    text: &str,
+    joints: &[String],
+) -> Result<Vec<Option<Trace>>, InputError> {
     let mut lines = text.lines();
-    let header: Vec<&str> = lines
+    let first = lines
         .next()
-        .ok_or_else(|| InputError::new(&file, Location::File, "empty log: expected a CSV header"))?
-        .split(',')
-        .collect();
-    let column = |name: &str| header.iter().position(|h| *h == name);
+        .ok_or_else(|| InputError::new(file, Location::File, "empty log: expected a CSV header"))?;
+    // Column names hold joint names, quoted when they hold a comma or a quote.
+    let header = crate::csv::split_record(first).map_err(|e| {
+        InputError::new(
+            file,
+            Location::Syntax {
+                line: 1,
+                column: e.column,
+            },
+            format!("expected a CSV header: {e}"),
+        )
+    })?;
+    let column = |name: &str| header.iter().position(|h| h == name);
     let missing = |name: &str| {
         InputError::new(
-            &file,
+            file,
             Location::Syntax { line: 1, column: 1 },
             format!("expected a keypose playback log with a {name:?} column"),
         )
@@ -48,7 +66,7 @@ pub fn measured_traces(path: &Path, joints: &[String]) -> Result<Vec<Option<Trac
                 .filter(|x| x.is_finite())
                 .ok_or_else(|| {
                     InputError::new(
-                        &file,
+                        file,
                         Location::Syntax {
                             line: index + 2,
                             column: col + 1,

@@ -150,7 +150,7 @@ pub fn import_lerobot_calibration(
     let mut report = CalibrationReport {
         calibrated: Vec::new(),
     };
-    let entries = root.entries()?;
+    let entries = root.named_entries("motor names")?;
     if let Some(old) = old_format(&entries) {
         return Err(whole_file(old));
     }

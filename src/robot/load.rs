@@ -21,9 +21,9 @@ pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
         "tcp",
         "home",
     ])?;
-    let name = root.require("name", "the robot's name")?.str("a name")?;
+    let name = root.require("name", "the robot's name")?.name("a name")?;
     let description = match root.get("description") {
-        Some(d) => d.str("a text")?.to_string(),
+        Some(d) => d.text("a text")?.to_string(),
         None => String::new(),
     };
     let bus = parse_bus(&root.require("bus", "protocol and baud rate")?)?;
@@ -60,7 +60,7 @@ pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
 
     let mut home: Vec<f64> = vec![0.0; joints.len()];
     if let Some(home_node) = root.get("home") {
-        for (joint_name, value_node) in home_node.entries()? {
+        for (joint_name, value_node) in home_node.named_entries("joint names")? {
             let Some(index) = joints.iter().position(|j| j.name == joint_name) else {
                 return Err(value_node.error(format!(
                     "unknown joint {joint_name:?}; expected one of: {}",
@@ -125,7 +125,7 @@ fn parse_bus(node: &Node) -> Result<BusSettings, InputError> {
 
 fn parse_joint(node: &Node, protocol: Protocol) -> Result<Joint, InputError> {
     node.only_fields(&["name", "kind", "axis", "origin", "limits", "servo"])?;
-    let name = node.require("name", "the joint's name")?.str("a name")?;
+    let name = node.require("name", "the joint's name")?.name("a name")?;
     if name.is_empty() {
         return Err(node.error("a joint name must not be empty"));
     }
@@ -294,7 +294,7 @@ fn parse_servo(node: &Node, kind: JointKind, protocol: Protocol) -> Result<Servo
 fn parse_tcp(node: &Node, joints: &[Joint]) -> Result<FixedFrame, InputError> {
     node.only_fields(&["parent", "xyz", "rpy", "quat"])?;
     let parent_node = node.require("parent", "the joint that carries the TCP")?;
-    let parent_name = parent_node.str("a joint name")?;
+    let parent_name = parent_node.name("a joint name")?;
     let parent = joints
         .iter()
         .position(|j| j.name == parent_name)

@@ -123,10 +123,19 @@ impl KeyframeList {
     ///
     /// In a uniformly spaced list, later keys simply move one interval on. With absolute times
     /// the new key goes halfway to the next key, or one interval (the last gap, else the default
-    /// interval) after the last key.
+    /// interval) after the last key. A uniformly spaced list whose last key holds as long as
+    /// the interval or longer (a file may have it so) gets absolute times first when a key is
+    /// added after that one: one interval later would be inside the hold.
     pub fn insert_after(&mut self, values: Vec<(String, KeyValue)>) {
         let mut key = Keyframe::new(values);
         let at = if self.is_empty() { 0 } else { self.current + 1 };
+        if let (Some(interval), Some(last)) =
+            (self.sequence.key_interval, self.sequence.keyframes.last())
+        {
+            if at == self.len() && last.hold > interval - super::MIN_GAP {
+                self.sequence.make_times_absolute();
+            }
+        }
         if self.sequence.key_interval.is_none() {
             let times = self.sequence.key_times();
             let time = match (at.checked_sub(1).map(|i| times[i]), times.get(at)) {
@@ -165,7 +174,9 @@ impl KeyframeList {
 
     /// Moves the current key `delta` places earlier (negative) or later (positive) and keeps it
     /// current. With absolute times the keys trade places but the times stay where they were, so
-    /// the rhythm of the sequence is unchanged. False when the move would leave the list.
+    /// the rhythm of the sequence is unchanged. False when the move would leave the list, or
+    /// would bring a key's hold into the key after it (a held key moved to a shorter gap, the
+    /// last key's hold moved before another key): the list stays one that loads.
     pub fn move_by(&mut self, delta: isize) -> bool {
         let Some(target) = self.current.checked_add_signed(delta) else {
             return false;
@@ -173,6 +184,7 @@ impl KeyframeList {
         if target >= self.len() || delta == 0 {
             return false;
         }
+        let before = self.sequence.keyframes.clone();
         let keys = &mut self.sequence.keyframes;
         let times: Vec<Option<f64>> = keys.iter().map(|k| k.time).collect();
         let key = keys.remove(self.current);
@@ -180,9 +192,21 @@ impl KeyframeList {
         for (k, t) in keys.iter_mut().zip(times) {
             k.time = t;
         }
+        if !self.holds_fit() {
+            self.sequence.keyframes = before;
+            return false;
+        }
         self.current = target;
         self.dirty = true;
         true
+    }
+
+    /// Whether every key's hold ends at least [`super::MIN_GAP`] before the next key, as a
+    /// sequence file must have it.
+    fn holds_fit(&self) -> bool {
+        let times = self.sequence.key_times();
+        (self.sequence.keyframes.iter().zip(times.windows(2)))
+            .all(|(key, pair)| key.hold <= pair[1] - pair[0] - super::MIN_GAP)
     }
 
     pub fn set_name(&mut self, name: Option<String>) -> bool {
@@ -230,10 +254,13 @@ impl KeyframeList {
         })
     }
 
-    /// Sets the current key's hold; refused when it would overrun the next key.
+    /// Sets the current key's hold; refused when it would overrun the next key. In a uniformly
+    /// spaced list the last key's hold is held to the interval too: a key added after it comes
+    /// one interval later (and [`KeyframeList::set_key_interval`] holds every key to it).
     pub fn set_hold(&mut self, hold: f64) -> bool {
         let times = self.sequence.key_times();
-        let gap = times.get(self.current + 1).map(|t| t - times[self.current]);
+        let gap = (times.get(self.current + 1).map(|t| t - times[self.current]))
+            .or(self.sequence.key_interval);
         if !(hold.is_finite() && hold >= 0.0) || gap.is_some_and(|g| hold > g - super::MIN_GAP) {
             return false;
         }

@@ -39,7 +39,7 @@ pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputEr
     ])?;
     let (robot, arms) = parse_robots(&root)?;
     let description = match root.get("description") {
-        Some(n) => Some(n.str("a text")?.to_string()),
+        Some(n) => Some(n.text("a text")?.to_string()),
         None => None,
     };
     let interpolation = match root.get("interpolation") {
@@ -74,7 +74,7 @@ fn parse_robots(root: &Node) -> Result<(String, Vec<ArmSpec>), InputError> {
         (Some(_), Some(robots)) => Err(robots.error(
             "both \"robot\" and \"robots\" are given; expected \"robot\" for one arm or \"robots\" for several",
         )),
-        (Some(robot), None) => Ok((robot.str(ROBOT)?.to_string(), Vec::new())),
+        (Some(robot), None) => Ok((robot.name(ROBOT)?.to_string(), Vec::new())),
         (None, Some(robots)) => Ok((String::new(), parse_arms(&robots)?)),
         (None, None) => Err(root.error(
             "missing field \"robot\" (a robot name or file, or \"robots\" naming several arms)",
@@ -114,7 +114,7 @@ fn parse_arm(name: &str, node: &Node) -> Result<ArmSpec, InputError> {
     if node.value.is_string() {
         return Ok(ArmSpec {
             name: name.to_string(),
-            robot: node.str(ROBOT)?.to_string(),
+            robot: node.name(ROBOT)?.to_string(),
             base: None,
         });
     }
@@ -127,7 +127,7 @@ fn parse_arm(name: &str, node: &Node) -> Result<ArmSpec, InputError> {
     };
     Ok(ArmSpec {
         name: name.to_string(),
-        robot: robot.str("a robot name or file")?.to_string(),
+        robot: robot.name("a robot name or file")?.to_string(),
         base,
     })
 }
@@ -344,7 +344,7 @@ fn parse_keyframe(node: &Node, arms: &[ArmSpec]) -> Result<Keyframe, InputError>
     ])?;
     let mut key = Keyframe::new(Vec::new());
     if let Some(n) = node.get("name") {
-        key.name = Some(n.str("a key name")?.to_string());
+        key.name = Some(n.name("a key name")?.to_string());
     }
     if let Some(n) = node.get("time") {
         key.time = Some(n.number("seconds")?);
@@ -371,13 +371,13 @@ fn parse_keyframe(node: &Node, arms: &[ArmSpec]) -> Result<Keyframe, InputError>
         }
     }
     if let Some(joints) = node.get("joints") {
-        for (name, value) in joints.entries()? {
+        for (name, value) in joints.named_entries("joint names")? {
             key.values
                 .push((name.to_string(), parse_joint_value(&value)?));
         }
     }
     if let Some(transforms) = node.get("transforms") {
-        for (name, value) in transforms.entries()? {
+        for (name, value) in transforms.named_entries("joint names")? {
             if key.value(name).is_some() {
                 return Err(value.error(format!(
                     "joint {name:?} is given both in \"joints\" and in \"transforms\"; expected one"

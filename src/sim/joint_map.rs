@@ -86,10 +86,10 @@ impl JointMap {
         root.check_format(FORMAT)?;
         let joints = root.require("joints", "robot joint → model joint names")?;
         let mut pairs = Vec::new();
-        for (robot, node) in joints.entries()? {
+        for (robot, node) in joints.named_entries("robot joint names")? {
             pairs.push((
                 robot.to_string(),
-                node.str("a model joint name")?.to_string(),
+                node.name("a model joint name")?.to_string(),
             ));
         }
         Ok(JointMap { pairs })

@@ -443,7 +443,13 @@ impl TeachState {
         let label = self.key_label(self.list.current_index());
         let direction = if delta > 0 { "later" } else { "earlier" };
         if !self.list.move_by(delta) {
-            return self.fail(format!("{label} cannot move {direction}"));
+            let target = self.list.current_index().checked_add_signed(delta);
+            let within = target.is_some_and(|t| t < self.list.len());
+            return self.fail(if within {
+                format!("{label} cannot move {direction}: a hold would run into the key after it")
+            } else {
+                format!("{label} cannot move {direction}")
+            });
         }
         self.info(format!(
             "moved {label} {direction}: it is key {} now",

@@ -175,7 +175,9 @@ fn play_motion2_positions_are_keyposes_samples() {
     assert_eq!(result.status.code(), Some(0), "{}", show(&result));
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(
-        text.starts_with("/play_motion2:\n  ros__parameters:\n    motions:\n      so101_nod:\n"),
+        text.starts_with(
+            "/play_motion2:\n  ros__parameters:\n    motions:\n      \"so101_nod\":\n"
+        ),
         "{text}"
     );
     let positions = text.lines().find_map(|l| list(l, "positions:")).unwrap();
@@ -216,4 +218,146 @@ fn a_sequence_that_breaks_the_limits_is_not_exported() {
     ]);
     assert_eq!(result.status.code(), Some(1), "{}", show(&result));
     assert!(!out.exists());
+}
+
+/// Joint names YAML would read as something else if they were written plain or single-quoted
+/// carelessly: quotes, a comment, a mapping, a list item, flow collections, an anchor, an
+/// alias, a tag, a boolean and a number in YAML 1.1, a backslash, spaces at the ends, letters
+/// beyond ASCII.
+const YAML_NAMES: [&str; 6] = [
+    "it's \"q\" # not a comment",
+    "key: value",
+    "- [a, b] {x: 1} &anchor *alias !tag",
+    "on",
+    "12",
+    " back\\slash épaule 🦾 ",
+];
+
+/// A parsed YAML document (libyaml's parser, as ROS 2's parameter files and PyYAML use).
+fn yaml(path: &Path) -> serde_norway::Value {
+    serde_norway::from_str(&std::fs::read_to_string(path).unwrap())
+        .unwrap_or_else(|e| panic!("{}: not YAML: {e}", path.display()))
+}
+
+fn strings(value: &serde_norway::Value) -> Vec<&str> {
+    let items = value.as_sequence().expect("a list");
+    items
+        .iter()
+        .map(|v| v.as_str().expect("a string"))
+        .collect()
+}
+
+fn numbers(value: &serde_norway::Value) -> Vec<f64> {
+    let items = value.as_sequence().expect("a list");
+    items.iter().map(|v| v.as_f64().expect("a float")).collect()
+}
+
+#[test]
+fn names_descriptions_and_motion_names_of_any_length_read_back_from_the_yaml() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut robot: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(repo("robots/so101.json")).unwrap()).unwrap();
+    robot.as_object_mut().unwrap().remove("home");
+    robot["tcp"]["parent"] = YAML_NAMES[4].into();
+    for (joint, name) in robot["joints"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .zip(YAML_NAMES)
+    {
+        joint["name"] = name.into();
+    }
+    let robot_path = dir.path().join("robot.json");
+    std::fs::write(&robot_path, robot.to_string()).unwrap();
+    let description = "two\nlines,\ta 'single' and a \"double\" quote # : - \\";
+    let sequence = serde_json::json!({"format": "keypose-sequence/1",
+        "robot": robot_path.to_str().unwrap(), "description": description,
+        "keyframes": [{"time": 0, "joints": {YAML_NAMES[1]: 0, YAML_NAMES[3]: 0}},
+                      {"time": 2, "joints": {YAML_NAMES[1]: 20, YAML_NAMES[3]: -30}}]});
+    let sequence_path = dir.path().join("seq.json");
+    std::fs::write(&sequence_path, sequence.to_string()).unwrap();
+    let seq = sequence_path.to_str().unwrap();
+    let rows = samples(seq, "10");
+
+    let out = dir.path().join("t.yaml");
+    export_ros2(seq, &out);
+    let message = yaml(&out);
+    assert_eq!(strings(&message["joint_names"]), YAML_NAMES);
+    // The first and the last point are at the first and the last key (20° and −30° there).
+    let points = message["points"].as_sequence().unwrap();
+    for (point, row) in [
+        (&points[0], &rows[0]),
+        (points.last().unwrap(), rows.last().unwrap()),
+    ] {
+        let positions = numbers(&point["positions"]);
+        assert_eq!(positions.len(), 6);
+        for (have, want) in positions.iter().zip(&row[1..]) {
+            assert!((have - want).abs() < 1e-9, "{have} against {want}");
+        }
+    }
+    assert!((rows.last().unwrap()[2] - 20f64.to_radians()).abs() < 1e-9);
+
+    // Names as long as anyone types them: YAML readers look 1024 characters ahead for a
+    // plain key's colon. "on" is a boolean to YAML 1.1 unless quoted.
+    for name in ["x".repeat(3000), "on".to_string()] {
+        let out = dir.path().join("m.yaml");
+        let result = run(&[
+            "export",
+            "play_motion2",
+            seq,
+            "--rate",
+            "10",
+            "--name",
+            &name,
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(result.status.code(), Some(0), "{}", show(&result));
+        let file = yaml(&out);
+        let motions = file["/play_motion2"]["ros__parameters"]["motions"]
+            .as_mapping()
+            .unwrap();
+        assert_eq!(motions.len(), 1);
+        let (key, motion) = motions.iter().next().unwrap();
+        assert_eq!(key.as_str(), Some(name.as_str()), "the motion's key");
+        assert_eq!(motion["meta"]["name"].as_str(), Some(name.as_str()));
+        assert_eq!(motion["meta"]["description"].as_str(), Some(description));
+        assert_eq!(strings(&motion["joints"]), YAML_NAMES);
+        let positions = numbers(&motion["positions"]);
+        let times = numbers(&motion["times_from_start"]);
+        assert_eq!(times.len(), rows.len());
+        for (k, row) in rows.iter().enumerate() {
+            assert!((times[k] - (row[0] - rows[0][0])).abs() < 1e-9);
+            for j in 0..6 {
+                assert!((positions[k * 6 + j] - row[1 + j]).abs() < 1e-9);
+            }
+        }
+    }
+}
+
+#[test]
+fn sampled_csv_columns_named_with_commas_or_quotes_stay_one_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut robot: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(repo("robots/so101.json")).unwrap()).unwrap();
+    robot.as_object_mut().unwrap().remove("home");
+    robot["joints"][0]["name"] = "pan, base".into();
+    robot["joints"][1]["name"] = "lift \"1\"".into();
+    let robot_path = dir.path().join("robot.json");
+    std::fs::write(&robot_path, robot.to_string()).unwrap();
+    let sequence = serde_json::json!({"format": "keypose-sequence/1",
+        "robot": robot_path.to_str().unwrap(),
+        "keyframes": [{"time": 0, "joints": {"pan, base": 0}}, {"time": 1, "joints": {"pan, base": 10}}]});
+    let path = dir.path().join("seq.json");
+    std::fs::write(&path, sequence.to_string()).unwrap();
+    let out = run(&["sample", path.to_str().unwrap(), "--rate", "1"]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    // RFC 4180: a field holding a comma or a quote is quoted, a quote in it doubled.
+    let text = stdout(&out);
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some(r#"time,"pan, base","lift ""1""",elbow_flex,wrist_flex,wrist_roll,gripper"#)
+    );
+    assert_eq!(lines.last(), Some("1,10,0,0,0,0,0"));
 }

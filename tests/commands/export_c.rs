@@ -412,3 +412,173 @@ fn a_checked_table_passes_the_limiter_untouched() {
         assert_eq!(stderr(&out).trim(), "limited 0", "{sequence}");
     }
 }
+
+/// Joint names that would be C if they were written raw: a comment closed and code after it
+/// (a constructor runs before `main`), a quote and a trailing backslash that would end or
+/// continue a string literal, `??/` (a backslash as a trigraph under -std=c99), `#include`,
+/// non-ASCII letters.
+const HOSTILE_NAMES: [&str; 6] = [
+    "pan */ extern int puts(const char *); __attribute__((constructor)) static void kp_injected(void) { puts(\"INJECTED\"); } /*",
+    "lift\" }; static int kp_x = 1; //",
+    "elbow\\",
+    "wrist ??/ #include <stdio.h>",
+    "épaule roll 🦾",
+    "gripper // /* '",
+];
+
+/// Prints every joint name and the source of the header as hex, one per line.
+const NAMES_MAIN: &str = r#"
+#include <stdio.h>
+static void hex(const char *s) { for (; *s; s++) printf("%02x", (unsigned char)*s); printf("\n"); }
+int main(void) {
+    for (int j = 0; j < KP_SEQ_JOINTS; j++) hex(kp_seq_joint_names[j]);
+    hex(kp_seq_source);
+    return kp_seq.joints == KP_SEQ_JOINTS ? 0 : 1;
+}
+"#;
+
+/// A sequence moving joints 1 and 2 of the SO-101 with its joints renamed to `names`, in
+/// `dir` under a file name holding a quote, a backslash and a trigraph (`??=` is `#`).
+fn sequence_with_joints_named(dir: &Path, names: [&str; 6]) -> PathBuf {
+    let mut robot: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(repo("robots/so101.json")).unwrap()).unwrap();
+    robot.as_object_mut().unwrap().remove("home");
+    robot["tcp"]["parent"] = names[4].into();
+    for (joint, name) in robot["joints"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .zip(names)
+    {
+        joint["name"] = name.into();
+    }
+    let robot_path = dir.join("hostile robot.json");
+    std::fs::write(&robot_path, robot.to_string()).unwrap();
+    let sequence = serde_json::json!({"format": "keypose-sequence/1",
+        "robot": robot_path.to_str().unwrap(),
+        "keyframes": [{"time": 0, "joints": {names[1]: 0, names[2]: 0}},
+                      {"time": 2, "joints": {names[1]: 20, names[2]: -20}}]});
+    let sequence_path = dir.join("seq \"*\\ ??=.json");
+    std::fs::write(&sequence_path, sequence.to_string()).unwrap();
+    sequence_path
+}
+
+#[test]
+fn a_joint_name_closing_the_comment_it_was_in_runs_nothing() {
+    // The issue's injection without its line breaks (a name with one is refused at load,
+    // tests/hostile_input.rs): written raw into the header's comment of joint names, it
+    // compiled with -Wall -Werror and ran before main.
+    let dir = tempfile::tempdir().unwrap();
+    let mut names = [
+        "shoulder_pan",
+        "shoulder_lift",
+        "elbow_flex",
+        "wrist_flex",
+        "wrist_roll",
+        "gripper",
+    ];
+    names[0] = HOSTILE_NAMES[0];
+    let sequence = sequence_with_joints_named(dir.path(), names);
+    let program = build_player(sequence.to_str().unwrap(), dir.path(), &[]);
+    let played = Command::new(&program).arg("100").output().unwrap();
+    assert!(played.status.success(), "{}", show(&played));
+    assert!(!stdout(&played).contains("INJECTED"), "{}", show(&played));
+    assert_eq!(rows(&stdout(&played)).len(), 201, "2 s at 100 Hz");
+}
+
+#[test]
+fn joint_names_reach_the_header_as_string_literals_and_never_as_code() {
+    let dir = tempfile::tempdir().unwrap();
+    let sequence_path = sequence_with_joints_named(dir.path(), HOSTILE_NAMES);
+
+    // The names program, built with -std=c99 (trigraphs on) and -Werror.
+    let header = dir.path().join("seq.h");
+    let out = run(&[
+        "export",
+        "c",
+        sequence_path.to_str().unwrap(),
+        "-o",
+        header.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let main = dir.path().join("names.c");
+    std::fs::write(&main, NAMES_MAIN).unwrap();
+    let players = repo("players/c");
+    let program = dir.path().join("names");
+    let gcc = Command::new("gcc")
+        .args([
+            "-std=c99", "-Wall", "-Wextra", "-Werror", "-I", &players, "-include",
+        ])
+        .arg(&header)
+        .arg(&main)
+        .arg(format!("{players}/keypose_player.c"))
+        .args(["-lm", "-o"])
+        .arg(&program)
+        .output()
+        .expect("gcc is needed to build the C player");
+    let text = std::fs::read_to_string(&header).unwrap();
+    assert!(
+        gcc.status.success(),
+        "gcc: {}\n{text}",
+        String::from_utf8_lossy(&gcc.stderr)
+    );
+    let ran = Command::new(&program).output().unwrap();
+    assert!(ran.status.success(), "{}", show(&ran));
+    let printed = stdout(&ran);
+    // Nothing from a name ran; each name reads back, byte for byte, as the robot file has it.
+    assert!(!printed.contains("INJECTED"), "{printed}");
+    let hex = |s: &str| s.bytes().map(|b| format!("{b:02x}")).collect::<String>();
+    let mut expected: Vec<String> = HOSTILE_NAMES.iter().map(|n| hex(n)).collect();
+    expected.push(hex(sequence_path.to_str().unwrap()));
+    assert_eq!(printed.lines().collect::<Vec<_>>(), expected, "{text}");
+    // The header's code is keypose's own: with the string literals taken out, it is the
+    // header of the same sequence with the SO-101's own names.
+    let plain = tempfile::tempdir().unwrap();
+    let plain_sequence = sequence_with_joints_named(
+        plain.path(),
+        [
+            "shoulder_pan",
+            "shoulder_lift",
+            "elbow_flex",
+            "wrist_flex",
+            "wrist_roll",
+            "gripper",
+        ],
+    );
+    let plain_header = plain.path().join("seq.h");
+    let out = run(&[
+        "export",
+        "c",
+        plain_sequence.to_str().unwrap(),
+        "-o",
+        plain_header.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let plain_text = std::fs::read_to_string(&plain_header).unwrap();
+    assert_eq!(without_strings(&text), without_strings(&plain_text));
+}
+
+/// C text with the content of every string literal dropped (`"…"` becomes `""`). Escapes
+/// are skipped whole (a backslash and the character after it), so an escaped quote does not
+/// end a literal.
+fn without_strings(c: &str) -> String {
+    let mut out = String::new();
+    let mut chars = c.chars();
+    while let Some(ch) = chars.next() {
+        out.push(ch);
+        if ch != '"' {
+            continue;
+        }
+        loop {
+            match chars.next() {
+                Some('\\') => {
+                    chars.next();
+                }
+                Some('"') | None => break,
+                Some(_) => {}
+            }
+        }
+        out.push('"');
+    }
+    out
+}

@@ -1,5 +1,5 @@
 //! Hostile and huge input through the binary: duplicate keys, files that are not files, files
-//! too big, too many keys, escape sequences in names, absurd option values. Each is bad input:
+//! too big, too many keys, control characters in names, absurd option values. Each is bad input:
 //! exit 2, a message naming the file or option and what was expected, no panic.
 
 use crate::common::{repo, run as keypose, show, stderr};
@@ -99,12 +99,10 @@ const CRAFTED: &str = r#"{"format":"keypose-sequence/1","robot":"so101","keyfram
   {"name":"a\u001b[2J","time":0,"joints":{"elbow_flex":0}},
   {"name":"b\u001b]0;owned\u0007","time":0.5,"joints":{"elbow_flex":90}}]}"#;
 
+/// Asserts no control byte but the line break that ends the last line.
 fn assert_no_control_bytes(text: &[u8]) {
-    let bad: Vec<u8> = text
-        .iter()
-        .copied()
-        .filter(|&b| b < 0x20 && b != b'\n')
-        .collect();
+    let body = text.strip_suffix(b"\n").unwrap_or(text);
+    let bad: Vec<u8> = body.iter().copied().filter(|&b| b < 0x20).collect();
     assert!(
         bad.is_empty(),
         "control bytes {bad:?} in {:?}",
@@ -112,44 +110,177 @@ fn assert_no_control_bytes(text: &[u8]) {
     );
 }
 
-#[test]
-fn key_names_with_escape_sequences_are_printed_escaped() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = write(dir.path(), "crafted.json", CRAFTED);
-    let p = path.to_str().unwrap();
-    // check: the violation names segment 0 (a… → b…).
-    let out = keypose(&["check", p]);
-    assert_eq!(out.status.code(), Some(1), "{}", show(&out));
-    assert_no_control_bytes(&out.stdout);
-    assert!(
-        stdout_has(&out, r"a\x1b[2J → b\x1b]0;owned\x07"),
-        "{}",
-        show(&out)
-    );
-    // retime reports the same segment on stderr.
-    let out = keypose(&[
-        "retime",
-        p,
-        "-o",
-        dir.path().join("o.json").to_str().unwrap(),
-    ]);
-    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
-    assert_no_control_bytes(&out.stderr);
-    assert!(
-        stderr(&out).contains(r"segment 0 (a\x1b[2J → b\x1b]0;owned\x07)"),
-        "{}",
-        show(&out)
-    );
-    // An error message quoting a name.
-    let text = CRAFTED.replace("elbow_flex\":90", "elbow\u{1b}[31m\":90");
-    let path = write(dir.path(), "bad.json", &text);
-    let out = keypose(&["check", path.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
-    assert_no_control_bytes(&out.stderr);
+/// The SO-101's robot file with joint 0 renamed to `name` (and its home entry with it).
+fn robot_with_joint_named(dir: &Path, file: &str, name: &str) -> PathBuf {
+    let mut robot: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(repo("robots/so101.json")).unwrap()).unwrap();
+    let old = robot["joints"][0]["name"].as_str().unwrap().to_string();
+    robot["joints"][0]["name"] = name.into();
+    if let Some(home) = robot["home"].as_object_mut() {
+        if let Some(value) = home.remove(&old) {
+            home.insert(name.to_string(), value);
+        }
+    }
+    write(dir, file, &robot.to_string())
 }
 
-fn stdout_has(out: &Output, text: &str) -> bool {
-    String::from_utf8_lossy(&out.stdout).contains(text)
+/// A two-key sequence for `robot` (a file or a built-in name) moving shoulder_lift.
+fn sequence_for(dir: &Path, file: &str, robot: &str) -> PathBuf {
+    let sequence = serde_json::json!({"format": "keypose-sequence/1", "robot": robot,
+        "keyframes": [{"time": 0, "joints": {"shoulder_lift": 0}},
+                      {"time": 2, "joints": {"shoulder_lift": 20}}]});
+    write(dir, file, &sequence.to_string())
+}
+
+/// Every command that reads the file refuses it the same way: exit 2, on one line, the file,
+/// the JSON path and what was expected; nothing written.
+fn refused_by_every_command(dir: &Path, sequence: &Path, expected: &str) {
+    let seq = sequence.to_str().unwrap();
+    let out_file = dir.join("out");
+    let o = out_file.to_str().unwrap();
+    let svg_file = dir.join("out.svg");
+    let svg = svg_file.to_str().unwrap();
+    let keys = write(dir, "quit.keys", "q\n");
+    let commands: Vec<Vec<&str>> = vec![
+        vec!["check", seq],
+        vec!["sample", seq, "-o", o],
+        vec!["plot", seq, "-o", svg],
+        vec!["retime", seq, "-o", o],
+        vec!["mirror", seq, "-o", o],
+        vec!["export", "ros2", seq, "-o", o],
+        vec!["export", "play_motion2", seq, "-o", o],
+        vec!["export", "c", seq, "-o", o],
+        vec!["sim", seq],
+        vec!["play", seq, "--port", "virtual"],
+        vec![
+            "teach",
+            seq,
+            "--port",
+            "virtual",
+            "-o",
+            o,
+            "--keys",
+            keys.to_str().unwrap(),
+        ],
+    ];
+    for args in commands {
+        let out = keypose(&args);
+        let err = bad_input(&out, expected);
+        assert_no_control_bytes(&out.stderr);
+        assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
+        assert!(
+            !out_file.exists() && !svg_file.exists(),
+            "{args:?} wrote its output"
+        );
+    }
+}
+
+#[test]
+fn control_characters_in_names_are_refused_at_load_by_every_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Key names (escape sequences), from the sequence file.
+    let crafted = write(d, "crafted.json", CRAFTED);
+    refused_by_every_command(
+        d,
+        &crafted,
+        r#"crafted.json: $.keyframes[0].name: expected a key name without control characters (line breaks, tabs, escapes, bidirectional overrides), found "a\u{1b}[2J""#,
+    );
+    // A joint name with a line break, from the robot file the sequence names: the issue's
+    // injection into the C header's comment.
+    let robot = robot_with_joint_named(d, "two_lines.json", "pan */\n#include \"/etc/passwd\"\n/*");
+    let sequence = sequence_for(d, "seq.json", robot.to_str().unwrap());
+    refused_by_every_command(
+        d,
+        &sequence,
+        r#"two_lines.json: $.joints[0].name: expected a name without control characters"#,
+    );
+    // A right-to-left override in a joint named in a key.
+    let text = CRAFTED
+        .replace("a\\u001b[2J", "a")
+        .replace("b\\u001b]0;owned\\u0007", "b")
+        .replace("\"elbow_flex\":90", "\"elbow\\u202eflex\":90");
+    let path = write(d, "rtl.json", &text);
+    refused_by_every_command(
+        d,
+        &path,
+        r#"rtl.json: $.keyframes[1].joints["elbow\u{202e}flex"]: expected joint names without control characters"#,
+    );
+    // A tab in the robot's name; an escape in a description (a description may hold line
+    // breaks and tabs, nothing else).
+    let mut robot: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(repo("robots/so101.json")).unwrap()).unwrap();
+    robot["name"] = "so\t101".into();
+    let tabbed = write(d, "tabbed.json", &robot.to_string());
+    let sequence = sequence_for(d, "seq.json", tabbed.to_str().unwrap());
+    refused_by_every_command(
+        d,
+        &sequence,
+        r#"tabbed.json: $.name: expected a name without"#,
+    );
+    let text = CRAFTED
+        .replace("a\\u001b[2J", "a")
+        .replace("b\\u001b]0;owned\\u0007", "b")
+        .replace(
+            "\"robot\":\"so101\"",
+            "\"robot\":\"so101\",\"description\":\"two\\nlines\\u001b[2J\"",
+        );
+    let path = write(d, "described.json", &text);
+    refused_by_every_command(
+        d,
+        &path,
+        r#"described.json: $.description: expected a text without control characters other than line breaks and tabs, found "two\nlines\u{1b}[2J""#,
+    );
+}
+
+#[test]
+fn control_characters_in_a_calibration_or_a_robot_given_alone_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    // A LeRobot calibration whose motor name holds an escape.
+    let mut calibration: serde_json::Value = serde_json::from_str(
+        &fs::read_to_string(repo("tests/data/lerobot_so101_follower.json")).unwrap(),
+    )
+    .unwrap();
+    let motors = calibration.as_object_mut().unwrap();
+    let wrist = motors.remove("wrist_flex").unwrap();
+    motors.insert("wrist\u{1b}[2J".into(), wrist);
+    let path = write(dir.path(), "cal.json", &calibration.to_string());
+    let out = keypose(&[
+        "check",
+        &repo("sequences/so101_nod.json"),
+        "--calibration",
+        path.to_str().unwrap(),
+    ]);
+    bad_input(
+        &out,
+        r#"cal.json: $["wrist\u{1b}[2J"]: expected motor names without control characters"#,
+    );
+    assert_no_control_bytes(&out.stderr);
+    // A robot file given to the commands that take no sequence.
+    let robot = robot_with_joint_named(dir.path(), "bell.json", "pan\u{7}");
+    let r = robot.to_str().unwrap();
+    for args in [
+        vec!["pose", "--robot", r],
+        vec!["virtual-bus", "--robot", r],
+    ] {
+        let out = keypose(&args);
+        bad_input(
+            &out,
+            r#"bell.json: $.joints[0].name: expected a name without control characters"#,
+        );
+        assert_no_control_bytes(&out.stderr);
+    }
+}
+
+#[test]
+fn a_line_break_in_an_error_message_is_escaped_like_an_escape() {
+    // A file name can hold anything: it is quoted in the message, on its one line.
+    let dir = tempfile::tempdir().unwrap();
+    let name = dir.path().join("x\nerror: all is well\u{1b}[2J.json");
+    let out = keypose(&["check", name.to_str().unwrap()]);
+    let err = bad_input(&out, r"x\x0aerror: all is well\x1b[2J.json");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert_no_control_bytes(&out.stderr);
 }
 
 /// Asserts a refused option value: exit 2, the option named, `expected` in the message, and

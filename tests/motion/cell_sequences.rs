@@ -255,8 +255,8 @@ fn ros_exports_of_a_cell_name_joints_as_ros_descriptions_of_two_arms_do() {
         assert_eq!(out.status.code(), Some(0), "{}", show(&out));
         let text = std::fs::read_to_string(&output).unwrap();
         assert!(
-            text.contains("['left_shoulder_pan', 'left_shoulder_lift'")
-                && text.contains("'right_wrist_roll', 'right_gripper']"),
+            text.contains(r#"["left_shoulder_pan", "left_shoulder_lift""#)
+                && text.contains(r#""right_wrist_roll", "right_gripper"]"#),
             "{format}: {text}"
         );
         assert!(!text.contains("left/"), "{format}: {text}");

@@ -54,6 +54,14 @@ fn build_navigate_reorder_and_delete_in_a_uniform_list() {
         !list.set_key_interval(0.05),
         "accepted an interval below 0.1 s"
     );
+    // The last key holds at most the interval (less 1 ms): a key added after it comes one
+    // interval later (found by the journal fuzz target: a 5 s hold on the last key, then a new
+    // key 2 s later, was journaled and did not load).
+    assert!(!list.set_hold(1.5));
+    assert!(list.set_hold(1.499));
+    list.insert_after(pose(40.0));
+    let saved = list.sequence().to_json();
+    Sequence::from_json("t.json", &saved).unwrap();
 }
 
 #[test]
@@ -69,8 +77,13 @@ fn inserting_into_a_timed_list_goes_halfway_or_one_gap_on() {
     assert!(list.next_key());
     list.insert_after(pose(20.0));
     assert_eq!(list.current_time(), Some(4.0));
-    // Moving a key keeps the times where they were: the rhythm does not change.
+    // Moving a key keeps the times where they were: the rhythm does not change. So a's 1 s
+    // hold, moved to 2 s with b at 3 s, would end where b begins: refused until it is shorter
+    // (found by the journal fuzz target: such a list was journaled and did not load).
     assert!(list.select(0));
+    assert!(!list.move_by(1));
+    assert_eq!(list.current_index(), 0);
+    assert!(list.set_hold(0.5));
     assert!(list.move_by(1));
     let times: Vec<f64> = list.sequence().key_times();
     assert_eq!(times, [0.0, 2.0, 3.0, 4.0]);
@@ -78,6 +91,20 @@ fn inserting_into_a_timed_list_goes_halfway_or_one_gap_on() {
     // A hold that would overrun the next key is refused.
     assert!(!list.set_hold(1.0));
     assert!(list.set_hold(0.5));
+}
+
+#[test]
+fn a_key_added_after_a_long_final_hold_comes_after_the_hold() {
+    // A file may hold its last key as long as it likes; uniformly spaced, a key added after it
+    // one interval (2 s) later would be inside the 5 s hold.
+    let text = r#"{"format":"keypose-sequence/1","robot":"so101","key_interval":2,"keyframes":[
+        {"joints":{"elbow_flex":0}}, {"hold":5,"joints":{"elbow_flex":10}}]}"#;
+    let mut list = KeyframeList::new(Sequence::from_json("t.json", text).unwrap());
+    assert!(list.select(1));
+    list.insert_after(pose(20.0));
+    // The spacing made explicit, and the new key one interval after the hold: 2 + 5 + 2.
+    assert_eq!(list.sequence().key_times(), [0.0, 2.0, 9.0]);
+    Sequence::from_json("t.json", &list.sequence().to_json()).unwrap();
 }
 
 #[test]

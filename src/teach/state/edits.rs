@@ -32,6 +32,13 @@ impl TeachState {
     /// Names the current key (empty: no name). A name another key has is kept but warned
     /// of, since `play --from NAME` refuses a name two keys share.
     pub(super) fn name_key(&mut self, text: &str) -> Vec<Command> {
+        // The file would hold a name no keypose command loads (the studio's page can send
+        // any character).
+        if text.chars().any(crate::terminal_text::is_layout_control) {
+            return self.fail(format!(
+                "{text:?} holds a control character; a key name is text on one line: name unchanged"
+            ));
+        }
         let index = self.list.current_index();
         let name = (!text.is_empty()).then(|| text.to_string());
         self.list.set_name(name);
@@ -77,13 +84,21 @@ impl TeachState {
         }
         let index = self.list.current_index();
         if !self.list.set_hold(hold) {
-            // The hold is a valid number, so only the next key can have refused it.
-            let gap =
-                self.list.sequence().key_time(index + 1) - self.list.sequence().key_time(index);
-            return self.fail(format!(
-                "a {hold} s hold runs into key {}, {gap:.2} s later: hold unchanged",
-                index + 1
-            ));
+            // The hold is a valid number, so only the next key (or, after the last key of a
+            // uniformly spaced list, the interval a new key would come at) refused it.
+            let sequence = self.list.sequence();
+            let gap = sequence.key_time(index + 1) - sequence.key_time(index);
+            return self.fail(if index + 1 < self.list.len() {
+                format!(
+                    "a {hold} s hold runs into key {}, {gap:.2} s later: hold unchanged",
+                    index + 1
+                )
+            } else {
+                format!(
+                    "a {hold} s hold is as long as the {gap:.2} s between keys (a key added \
+                     after it would come then): hold unchanged"
+                )
+            });
         }
         let label = self.key_label(index);
         if hold == 0.0 {

@@ -626,6 +626,28 @@ fn a_key_is_named_renamed_and_unnamed_and_a_shared_name_is_warned_of() {
 }
 
 #[test]
+fn a_key_name_with_a_control_character_is_refused_and_the_journal_still_loads() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = two_keys_at_the_first(dir.path());
+    edit(&mut state, 'N', "wave");
+    // What the studio's page may send as a line: a line break, an escape sequence, U+2028.
+    for name in ["two\nlines", "red\u{1b}[31m", "a\u{2028}b"] {
+        edit(&mut state, 'N', name);
+        assert_eq!(key_name(&state, 0), Some("wave"), "{name:?}");
+        assert!(state.status().error, "{name:?}");
+        assert!(
+            state.status().text.contains("control character"),
+            "{}",
+            state.status().text
+        );
+    }
+    // Every name the session keeps loads back from its journal (load refuses control
+    // characters in names).
+    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    assert_eq!(journal.keyframes[0].name.as_deref(), Some("wave"));
+}
+
+#[test]
 fn a_hold_is_set_cleared_and_refused_when_it_reaches_the_next_key() {
     let dir = tempfile::tempdir().unwrap();
     let mut state = two_keys_at_the_first(dir.path());
@@ -654,6 +676,21 @@ fn a_hold_is_set_cleared_and_refused_when_it_reaches_the_next_key() {
     edit(&mut state, 'h', "0");
     assert_eq!(state.list().sequence().keyframes[0].hold, 0.0);
     assert_eq!(state.status().text, "key 0 holds no longer");
+
+    // The last key too: a key added after it comes one interval, 2 s, later (found by the
+    // journal fuzz target: a 5 s hold there, then `n`, was journaled and did not load).
+    press(&mut state, Key::Char('>'));
+    edit(&mut state, 'h', "5");
+    assert_eq!(
+        state.status().text,
+        "a 5 s hold is as long as the 2.00 s between keys (a key added after it would come \
+         then): hold unchanged"
+    );
+    edit(&mut state, 'h', "1.5");
+    press(&mut state, Key::Char('n'));
+    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    assert_eq!(journal.keyframes.len(), 3);
+    assert_eq!(journal.keyframes[1].hold, 1.5);
 }
 
 #[test]
