@@ -4,7 +4,7 @@
 //! literals: `keypose_fuzz::c_text`), its string literals are exactly the include, the source
 //! and every joint's name, byte for byte, and everything else — code and comments — is the
 //! header of the same trajectory under the robot's own names: no name reaches the code.
-//! (That the header compiles with gcc -Wall -Werror and runs is tests/export_c_cli.rs's.)
+//! (That the header compiles with gcc -Wall -Werror and runs is tests/commands/export_c.rs's.)
 #![no_main]
 
 use keypose::interop::c_export;

@@ -466,7 +466,7 @@ fn sequence_with_joints_named(dir: &Path, names: [&str; 6]) -> PathBuf {
 #[test]
 fn a_joint_name_closing_the_comment_it_was_in_runs_nothing() {
     // The injection without its line breaks (a name with one is refused at load,
-    // tests/hostile_input.rs): written raw into the header's comment of joint names, it
+    // tests/commands/hostile_input.rs): written raw into the header's comment of joint names, it
     // compiled with -Wall -Werror and ran before main.
     let dir = tempfile::tempdir().unwrap();
     let mut names = [
