@@ -44,6 +44,7 @@ the global again; every Feetech operation also checks the global before touching
 """
 
 import json
+import os
 import sys
 import time
 
@@ -72,6 +73,40 @@ PROTOCOLS = ("dynamixel-2", "feetech-sts", "feetech-scs")
 # select() until the bytes it asks for (the rest of the packet) have come or this much time
 # has passed; the SDK's own timeout logic is unchanged, and ends at most this much later.
 READ_WAIT_S = 0.002
+
+
+def timeout_scale():
+    """KEYPOSE_SDK_TIMEOUT_SCALE: a factor (1 or more) on the vendor SDKs' packet timeouts.
+
+    The SDKs allow an answer a few milliseconds beyond its wire time (Dynamixel: twice the USB
+    latency timer plus 2 ms; Feetech, as fixed upstream: 50 ms). On a machine loaded enough to
+    delay the kernel's own delivery of bytes through a pseudo-terminal (CI beside busy loops),
+    that is too short for an answer the emulated servos gave on time; the test command sets a
+    larger factor there. Unset, or anything but a number of at least 1, leaves the SDKs' own.
+    """
+    try:
+        return max(1.0, float(os.environ.get("KEYPOSE_SDK_TIMEOUT_SCALE", "1")))
+    except ValueError:
+        return 1.0
+
+
+def scale_packet_timeouts(port_handler, port_handler_class, scale):
+    """Multiply every packet timeout the port handler sets by `scale` (after the SDK computed it)."""
+    if scale == 1.0:
+        return
+    by_length = port_handler.setPacketTimeout
+    by_millis = port_handler.setPacketTimeoutMillis
+
+    def set_packet_timeout(self, packet_length):  # noqa: N802 (SDK naming)
+        by_length(packet_length)
+        self.packet_timeout *= scale
+
+    def set_packet_timeout_millis(self, msec):  # noqa: N802 (SDK naming)
+        by_millis(msec)
+        self.packet_timeout *= scale
+
+    port_handler.setPacketTimeout = set_packet_timeout.__get__(port_handler, port_handler_class)
+    port_handler.setPacketTimeoutMillis = set_packet_timeout_millis.__get__(port_handler, port_handler_class)
 
 
 class BridgeError(RequestError):
@@ -145,6 +180,7 @@ class Bus:
         self.port = sdk.PortHandler(port_name)
         if not self.dynamixel:
             patch_feetech_packet_timeout(self.port, sdk.PortHandler)
+        scale_packet_timeouts(self.port, sdk.PortHandler, timeout_scale())
         self._open(baud)
 
     def _open(self, baud):
