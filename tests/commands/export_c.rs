@@ -8,6 +8,21 @@ use keypose::robot::Robot;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+/// Runs gcc with the strict flags every C test here uses (`-std=c99 -Wall -Wextra -Werror`),
+/// then `args`; fails the test with gcc's messages, and `context`, unless it compiles.
+fn gcc(args: &[&str], context: &str) {
+    let out = Command::new("gcc")
+        .args(["-std=c99", "-Wall", "-Wextra", "-Werror"])
+        .args(args)
+        .output()
+        .expect("gcc is needed to build the C player");
+    assert!(
+        out.status.success(),
+        "gcc: {}\n{context}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 /// Compiles the player with the header exported from `sequence`; returns the program.
 fn build_player(sequence: &str, dir: &Path, extra: &[&str]) -> PathBuf {
     let header = dir.join("seq.h");
@@ -17,21 +32,20 @@ fn build_player(sequence: &str, dir: &Path, extra: &[&str]) -> PathBuf {
     assert_eq!(out.status.code(), Some(0), "{}", show(&out));
     let program = dir.join("player");
     let players = repo("players/c");
-    let gcc = Command::new("gcc")
-        .args([
-            "-std=c99", "-Wall", "-Wextra", "-Werror", "-O2", "-I", &players, "-include",
-        ])
-        .arg(&header)
-        .arg(format!("{players}/host_dump.c"))
-        .arg(format!("{players}/keypose_player.c"))
-        .args(["-lm", "-o"])
-        .arg(&program)
-        .output()
-        .expect("gcc is needed to build the C player");
-    assert!(
-        gcc.status.success(),
-        "gcc: {}",
-        String::from_utf8_lossy(&gcc.stderr)
+    gcc(
+        &[
+            "-O2",
+            "-I",
+            &players,
+            "-include",
+            header.to_str().unwrap(),
+            &format!("{players}/host_dump.c"),
+            &format!("{players}/keypose_player.c"),
+            "-lm",
+            "-o",
+            program.to_str().unwrap(),
+        ],
+        "",
     );
     program
 }
@@ -178,18 +192,16 @@ fn the_example_firmwares_sync_writes_are_the_protocols_bytes() {
     let main = dir.path().join("packets.c");
     std::fs::write(&main, PACKETS_MAIN).unwrap();
     let program = dir.path().join("packets");
-    let gcc = Command::new("gcc")
-        .args(["-std=c99", "-Wall", "-Wextra", "-Werror", "-I", &players])
-        .arg(&main)
-        .arg(format!("{players}/keypose_bus.c"))
-        .arg("-o")
-        .arg(&program)
-        .output()
-        .expect("gcc");
-    assert!(
-        gcc.status.success(),
-        "{}",
-        String::from_utf8_lossy(&gcc.stderr)
+    gcc(
+        &[
+            "-I",
+            &players,
+            main.to_str().unwrap(),
+            &format!("{players}/keypose_bus.c"),
+            "-o",
+            program.to_str().unwrap(),
+        ],
+        "",
     );
     // 2047 and 1024; then −131073 = 0xFFFDFFFF, whose little-endian bytes FF FF FD FF make
     // Dynamixel's header pattern and must be stuffed.
@@ -242,28 +254,19 @@ fn the_example_firmwares_sync_writes_are_the_protocols_bytes() {
         header_dir.path().join("seq.h").to_str().unwrap(),
     ]);
     assert_eq!(out.status.code(), Some(0), "{}", show(&out));
-    let gcc = Command::new("gcc")
-        .args([
-            "-std=c99",
-            "-Wall",
-            "-Wextra",
-            "-Werror",
+    gcc(
+        &[
             "-DKP_DYNAMIXEL",
             "-c",
             "-I",
             &players,
             "-I",
-        ])
-        .arg(header_dir.path())
-        .arg(format!("{players}/example_main.c"))
-        .arg("-o")
-        .arg(header_dir.path().join("example.o"))
-        .output()
-        .expect("gcc");
-    assert!(
-        gcc.status.success(),
-        "{}",
-        String::from_utf8_lossy(&gcc.stderr)
+            header_dir.path().to_str().unwrap(),
+            &format!("{players}/example_main.c"),
+            "-o",
+            header_dir.path().join("example.o").to_str().unwrap(),
+        ],
+        "",
     );
 }
 
@@ -323,21 +326,19 @@ fn a_jump_in_the_table_is_played_within_the_speed_and_acceleration_limits() {
     let main = dir.path().join("limited.c");
     std::fs::write(&main, LIMITED_MAIN).unwrap();
     let program = dir.path().join("limited");
-    let gcc = Command::new("gcc")
-        .args([
-            "-std=c99", "-Wall", "-Wextra", "-Werror", "-I", &players, "-include",
-        ])
-        .arg(dir.path().join("seq.h"))
-        .arg(&main)
-        .arg(format!("{players}/keypose_player.c"))
-        .args(["-lm", "-o"])
-        .arg(&program)
-        .output()
-        .expect("gcc is needed to build the C player");
-    assert!(
-        gcc.status.success(),
-        "gcc: {}",
-        String::from_utf8_lossy(&gcc.stderr)
+    gcc(
+        &[
+            "-I",
+            &players,
+            "-include",
+            dir.path().join("seq.h").to_str().unwrap(),
+            main.to_str().unwrap(),
+            &format!("{players}/keypose_player.c"),
+            "-lm",
+            "-o",
+            program.to_str().unwrap(),
+        ],
+        "",
     );
     // At the rate the limits were meant for, and at others (another rate or phase than a table
     // was checked for).
@@ -505,22 +506,20 @@ fn joint_names_reach_the_header_as_string_literals_and_never_as_code() {
     std::fs::write(&main, NAMES_MAIN).unwrap();
     let players = repo("players/c");
     let program = dir.path().join("names");
-    let gcc = Command::new("gcc")
-        .args([
-            "-std=c99", "-Wall", "-Wextra", "-Werror", "-I", &players, "-include",
-        ])
-        .arg(&header)
-        .arg(&main)
-        .arg(format!("{players}/keypose_player.c"))
-        .args(["-lm", "-o"])
-        .arg(&program)
-        .output()
-        .expect("gcc is needed to build the C player");
     let text = std::fs::read_to_string(&header).unwrap();
-    assert!(
-        gcc.status.success(),
-        "gcc: {}\n{text}",
-        String::from_utf8_lossy(&gcc.stderr)
+    gcc(
+        &[
+            "-I",
+            &players,
+            "-include",
+            header.to_str().unwrap(),
+            main.to_str().unwrap(),
+            &format!("{players}/keypose_player.c"),
+            "-lm",
+            "-o",
+            program.to_str().unwrap(),
+        ],
+        &text,
     );
     let ran = Command::new(&program).output().unwrap();
     assert!(ran.status.success(), "{}", show(&ran));
