@@ -263,7 +263,7 @@ fn finish_robot(mut robot: Robot, calibration: &CalibrationArgs) -> Result<Robot
         eprintln!(
             "note: {} is LeRobot's leader arm, read as the built-in {} (the follower's joints, \
              servo ids and kinematics; its limits are the follower's)",
-            lerobot.name, lerobot.builtin
+            lerobot.name, robot.name
         );
     }
     if verbose() {

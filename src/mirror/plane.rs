@@ -229,12 +229,12 @@ mod tests {
         // Orientations depend on the axis directions alone, which classify within 0.002° on
         // the SO-101, SO-100 and OMX and 1.5° on the Koch (whose pitch axes are 1.5° off the
         // plane's normal): the rule's joints reach the reflected orientation that closely.
-        for (name, tolerance_deg) in [
-            ("so101", 0.01),
-            ("so100", 0.01),
-            ("omx", 0.01),
-            ("koch", 6.0),
-        ] {
+        for name in crate::robot::BUILTIN_NAMES {
+            let tolerance_deg = match name {
+                "so101" | "so100" | "omx" => 0.01,
+                "koch" => 6.0,
+                other => panic!("{other}: a new built-in needs its tolerance here"),
+            };
             let robot = Robot::builtin(name).unwrap();
             let mirror = ArmMirror::of(&robot).unwrap();
             let n = robot.joints.len();

@@ -6,6 +6,7 @@
 //! that denote an arm keypose has built in resolve to it; the others are refused with a reason,
 //! never aliased to a look-alike.
 
+use super::builtin::{BuiltinRobot, BUILTINS};
 use std::ffi::OsString;
 use std::path::PathBuf;
 
@@ -18,58 +19,24 @@ pub enum LeRobotRole {
     Leader,
 }
 
-/// A LeRobot robot type that is one of keypose's built-in arms.
+/// A LeRobot robot type that is one of keypose's built-in arms (its entry in
+/// [`super::builtin::BUILTINS`] says which).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct LeRobotType {
     /// LeRobot's `--robot.type` / `--teleop.type` name.
     pub name: &'static str,
-    /// The keypose built-in with the same joints, servo ids and kinematics.
-    pub builtin: &'static str,
+    /// Follower or leader.
     pub role: LeRobotRole,
-    /// Calibration directories under `HF_LEROBOT_CALIBRATION`, the current LeRobot's first. The
-    /// SO arms' classes were merged on 2026-01-12 (S6 d791a431f): since then both SO-100 and
-    /// SO-101 use the class names `so_follower` and `so_leader`, before that the type names.
+    /// Calibration directories under `HF_LEROBOT_CALIBRATION`, the current LeRobot's first.
     pub calibration_dirs: &'static [&'static str],
 }
 
-const TYPES: [LeRobotType; 6] = [
-    LeRobotType {
-        name: "so101_follower",
-        builtin: "so101",
-        role: LeRobotRole::Follower,
-        calibration_dirs: &["robots/so_follower", "robots/so101_follower"],
-    },
-    LeRobotType {
-        name: "so101_leader",
-        builtin: "so101",
-        role: LeRobotRole::Leader,
-        calibration_dirs: &["teleoperators/so_leader", "teleoperators/so101_leader"],
-    },
-    LeRobotType {
-        name: "so100_follower",
-        builtin: "so100",
-        role: LeRobotRole::Follower,
-        calibration_dirs: &["robots/so_follower", "robots/so100_follower"],
-    },
-    LeRobotType {
-        name: "so100_leader",
-        builtin: "so100",
-        role: LeRobotRole::Leader,
-        calibration_dirs: &["teleoperators/so_leader", "teleoperators/so100_leader"],
-    },
-    LeRobotType {
-        name: "koch_follower",
-        builtin: "koch",
-        role: LeRobotRole::Follower,
-        calibration_dirs: &["robots/koch_follower"],
-    },
-    LeRobotType {
-        name: "koch_leader",
-        builtin: "koch",
-        role: LeRobotRole::Leader,
-        calibration_dirs: &["teleoperators/koch_leader"],
-    },
-];
+/// Every LeRobot type that is a built-in arm, with that arm.
+fn types() -> impl Iterator<Item = (&'static BuiltinRobot, &'static LeRobotType)> {
+    BUILTINS
+        .iter()
+        .flat_map(|robot| robot.lerobot.iter().map(move |t| (robot, t)))
+}
 
 /// A LeRobot type whose arm keypose has not built in.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -93,12 +60,15 @@ pub enum NotBuiltIn {
 
 /// The LeRobot type names that resolve to a built-in, for messages.
 pub fn builtin_type_names() -> Vec<&'static str> {
-    TYPES.iter().map(|t| t.name).collect()
+    types().map(|(_, t)| t.name).collect()
 }
 
-/// The built-in a LeRobot type name stands for; None when it is no LeRobot type keypose knows.
-pub fn lerobot_type(name: &str) -> Option<Result<&'static LeRobotType, NotBuiltIn>> {
-    if let Some(known) = TYPES.iter().find(|t| t.name == name) {
+/// The built-in a LeRobot type name stands for, and the type; None when it is no LeRobot type
+/// keypose knows.
+pub fn lerobot_type(
+    name: &str,
+) -> Option<Result<(&'static BuiltinRobot, &'static LeRobotType), NotBuiltIn>> {
+    if let Some(known) = types().find(|(_, t)| t.name == name) {
         return Some(Ok(known));
     }
     let role = if name.ends_with("_leader") {
@@ -123,9 +93,7 @@ pub fn lerobot_type(name: &str) -> Option<Result<&'static LeRobotType, NotBuiltI
 /// The follower type of a built-in, for a robot named the keypose way; None for a built-in
 /// LeRobot has no driver for (the OpenMANIPULATOR-X).
 pub fn follower_type_of(builtin: &str) -> Option<&'static LeRobotType> {
-    TYPES
-        .iter()
-        .find(|t| t.builtin == builtin && t.role == LeRobotRole::Follower)
+    super::builtin::find(builtin)?.follower()
 }
 
 /// The environment variables that decide LeRobot's calibration root, in the order LeRobot
@@ -262,7 +230,7 @@ mod tests {
     #[test]
     fn so_calibrations_are_looked_for_where_current_lerobot_writes_them_first() {
         let root = root_with(&[("HF_LEROBOT_CALIBRATION", "/c")]).unwrap();
-        let leader = lerobot_type("so101_leader").unwrap().unwrap();
+        let (_, leader) = lerobot_type("so101_leader").unwrap().unwrap();
         assert_eq!(
             calibration_candidates(&root, leader, "blue").unwrap(),
             [
@@ -282,12 +250,9 @@ mod tests {
 
     #[test]
     fn only_arms_keypose_has_are_aliased() {
+        assert_eq!(lerobot_type("koch_leader").unwrap().unwrap().0.name, "koch");
         assert_eq!(
-            lerobot_type("koch_leader").unwrap().unwrap().builtin,
-            "koch"
-        );
-        assert_eq!(
-            lerobot_type("so100_follower").unwrap().unwrap().builtin,
+            lerobot_type("so100_follower").unwrap().unwrap().0.name,
             "so100"
         );
         assert!(matches!(

@@ -1,6 +1,6 @@
 //! Robot descriptions: the joint chain, limits, servo mapping and forward kinematics.
 
-mod builtin;
+pub mod builtin;
 pub mod cell;
 mod gravity;
 mod lerobot;
@@ -14,7 +14,7 @@ use glam::{DQuat, DVec3};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-pub use builtin::BUILTIN_NAMES;
+pub use builtin::{BuiltinRobot, BUILTINS, BUILTIN_NAMES};
 pub use cell::{cell_joint_name, split_joint_name, Arm, CellError};
 pub use lerobot::{
     import_lerobot_calibration, CalibrationMismatch, CalibrationReport, IdMismatch, OutsideTheTurn,
@@ -337,9 +337,9 @@ impl Robot {
         let unknown = || UnknownRobot {
             spec: spec.to_string(),
         };
-        let lerobot = lerobot_names::lerobot_type(spec).ok_or_else(unknown)??;
-        // The table names built-ins only, so this is found; refuse rather than panic if not.
-        let mut robot = Robot::builtin(lerobot.builtin).ok_or_else(unknown)?;
+        let (builtin, lerobot) = lerobot_names::lerobot_type(spec).ok_or_else(unknown)??;
+        // The registry holds built-ins that load (its tests say so); refuse rather than panic.
+        let mut robot = Robot::builtin(builtin.name).ok_or_else(unknown)?;
         robot.lerobot = Some(lerobot);
         Ok(robot)
     }

@@ -1,36 +1,24 @@
-//! The built-in robots' MJCF models, compiled into the binary and written to the cache when a
-//! simulation needs them (MuJoCo loads models from files).
+//! The built-in robots' MJCF models (held by the robot registry, `robot::builtin`), written to
+//! the cache when a simulation needs them (MuJoCo loads models from files), and the check of a
+//! model given with `--mjcf`.
 
 use super::SimError;
 use crate::json::{InputError, Location};
 use crate::python::PyConfig;
 use std::path::{Path, PathBuf};
 
-const MODELS: [(&str, &str); 4] = [
-    ("so101", include_str!("../../sim/models/so101.xml")),
-    ("so100", include_str!("../../sim/models/so100.xml")),
-    ("koch", include_str!("../../sim/models/koch.xml")),
-    ("omx", include_str!("../../sim/models/omx.xml")),
-];
-
 /// The MJCF text of the built-in model of `robot`, if keypose has one (the studio draws its
 /// geometry).
 pub fn builtin_model(robot: &str) -> Option<&'static str> {
-    MODELS
-        .iter()
-        .find(|(name, _)| *name == robot)
-        .map(|(_, text)| *text)
+    crate::robot::builtin::find(robot).map(|b| b.mjcf)
 }
 
 /// The path of the built-in model of `robot`, written out when missing or different.
 pub fn model_path(config: &PyConfig, robot: &str) -> Result<PathBuf, SimError> {
-    let (_, text) = MODELS
-        .iter()
-        .find(|(name, _)| *name == robot)
-        .ok_or_else(|| SimError::Model {
-            model: robot.to_string(),
-            message: "keypose has no built-in model of this robot; give one with --mjcf".into(),
-        })?;
+    let text = builtin_model(robot).ok_or_else(|| SimError::Model {
+        model: robot.to_string(),
+        message: "keypose has no built-in model of this robot; give one with --mjcf".into(),
+    })?;
     let dir = config.sim_dir().join("models");
     let path = dir.join(format!("{robot}.xml"));
     if std::fs::read(&path).is_ok_and(|on_disk| on_disk == text.as_bytes()) {

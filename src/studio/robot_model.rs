@@ -311,7 +311,7 @@ mod tests {
     /// puts the joints (the oracle: robots/*.json, which the models were written from).
     #[test]
     fn every_built_in_model_matches_its_robot_and_has_shapes() {
-        for name in ["so101", "so100", "koch", "omx"] {
+        for name in crate::robot::BUILTIN_NAMES {
             let robot = Robot::builtin(name).unwrap();
             let model = model(&robot);
             assert_eq!(
