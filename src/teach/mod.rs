@@ -7,9 +7,10 @@
 //!   play, [`capture`] rounds a pose into a key, [`prompt`] holds the questions;
 //! - the drivers: [`session`] carries out the bus commands on a [`crate::bus::ServoBus`],
 //!   playback through the player on its own thread; [`files`] carries out the file ones;
-//! - the front ends: [`ui`] draws the state in a terminal (ratatui + crossterm) and maps key
-//!   presses; [`script`] feeds it the keys of a `--keys` file, for tests and demos; both word
-//!   things through [`format`]. The terminal and the studio queue what arrives in
+//! - the front ends: the binary's terminal UI (`src/commands/teach/ui.rs`, ratatui +
+//!   crossterm) draws the state and maps key presses, the studio does so in a browser;
+//!   [`script`] feeds the keys of a `--keys` file, for tests and demos; all word things through
+//!   [`format`]. The terminal and the studio queue what arrives in
 //!   [`inputs::InputQueue`], where a stop wins over everything queued before it.
 //!
 //! Every edit is journaled ([`journal`]) so a crash loses nothing.
@@ -26,7 +27,6 @@ pub mod prompt;
 pub mod script;
 pub mod session;
 pub mod state;
-pub mod ui;
 
 pub use journal::{Journal, Pending};
 pub use keys::{help_text, Key, BINDINGS};

@@ -5,13 +5,13 @@
 //! on every way out: a normal return, an error (a guard's `Drop`), and a panic (ratatui's
 //! `try_init` installs a hook that restores the terminal before the panic message prints).
 
-use super::format;
-use super::inputs::{InputQueue, MAX_WAITING};
-use super::keys::{Key, BINDINGS};
-use super::motion::MotionKind;
-use super::state::{Activity, TeachState};
-use super::{apply, press, refresh, Session, TeachError};
-use crate::terminal_text::escape_field;
+use keypose::teach::format;
+use keypose::teach::inputs::{InputQueue, MAX_WAITING};
+use keypose::teach::keys::{Key, BINDINGS};
+use keypose::teach::motion::MotionKind;
+use keypose::teach::state::{Activity, TeachState};
+use keypose::teach::{apply, press, refresh, Session, TeachError};
+use keypose::terminal_text::escape_field;
 use ratatui::crossterm::event::{self, KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Modifier, Style};
@@ -54,7 +54,7 @@ pub fn run(state: &mut TeachState, session: &mut Session) -> Result<(), TeachErr
     // journal, and the servos hold their last goal. (Ctrl-C in raw mode is a key, not a
     // signal.)
     let brake = session.brake();
-    crate::stop::on_signal(move || {
+    keypose::stop::on_signal(move || {
         brake.soft_stop();
         brake.wait_until_at_rest(SIGNAL_BRAKE_WAIT);
         ratatui::restore();
@@ -247,7 +247,7 @@ fn tool_title(state: &TeachState) -> String {
     if present.len() != state.robot().joints.len() || present.iter().any(|v| !v.is_finite()) {
         return String::new();
     }
-    let tools: Vec<String> = super::state::tool_positions(state.robot(), present)
+    let tools: Vec<String> = keypose::teach::state::tool_positions(state.robot(), present)
         .into_iter()
         .map(|(arm, p)| {
             let p = p * 1000.0;
@@ -273,7 +273,7 @@ fn no_negative_zero(v: f64) -> f64 {
 }
 
 /// `[──◆───●──]`: where the present value (●) and the key's value (◆) sit between the limits.
-fn limit_bar(joint: &crate::robot::Joint, present: f64, key: Option<f64>) -> Line<'static> {
+fn limit_bar(joint: &keypose::robot::Joint, present: f64, key: Option<f64>) -> Line<'static> {
     let (min, max) = (joint.limits.min, joint.limits.max);
     let cell = |v: f64| -> Option<usize> {
         v.is_finite().then(|| {
@@ -341,7 +341,7 @@ fn draw_keys(frame: &mut Frame, area: Rect, state: &TeachState) {
 
 /// The mode of the segment from key `i` (none after the last key); `*` marks a key's own
 /// mode, the rest follow the default shown in the title.
-fn segment_mode(sequence: &crate::sequence::Sequence, i: usize) -> String {
+fn segment_mode(sequence: &keypose::sequence::Sequence, i: usize) -> String {
     if i + 1 >= sequence.keyframes.len() {
         return String::new();
     }
@@ -421,8 +421,8 @@ fn help_lines(width: usize) -> Vec<Line<'static>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::robot::Robot;
-    use crate::sequence::{KeyframeList, Sequence};
+    use keypose::robot::Robot;
+    use keypose::sequence::{KeyframeList, Sequence};
 
     /// On a cell the tool line gives each arm's tool in its own base frame: at home both are
     /// where docs/robots.md §1.3 measured MuJoCo's gripperframe, 391.4 mm ahead, wherever the
@@ -431,7 +431,7 @@ mod tests {
     fn the_tool_line_of_a_cell_names_each_arm() {
         let so101 = Robot::builtin("so101").expect("built in");
         let apart = |y: f64| {
-            crate::pose::RigidTransform::new(glam::DVec3::new(0.0, y, 0.0), glam::DQuat::IDENTITY)
+            keypose::pose::RigidTransform::new(glam::DVec3::new(0.0, y, 0.0), glam::DQuat::IDENTITY)
         };
         let cell = Robot::cell(vec![
             ("left".into(), so101.clone(), apart(0.2)),

@@ -1,5 +1,7 @@
 //! `keypose teach`: the key-by-key teaching session, in a terminal or driven by a key script.
 
+mod ui;
+
 use super::BusArgs;
 use super::{CommandError, SequenceOptions, Verdict};
 use keypose::robot::Robot;
@@ -59,7 +61,7 @@ pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
     let (state, session) = (&mut opened.state, &mut opened.session);
     let result = match script {
         Some(input) => teach::script::run(state, session, input, &mut std::io::stderr()),
-        None => teach::ui::run(state, session),
+        None => ui::run(state, session),
     };
     result.map_err(CommandError::Teach)?;
     Ok(Verdict::Pass)
