@@ -21,7 +21,7 @@ use glam::{DQuat, DVec3};
 
 pub use closed_form::ArmGeometry;
 pub use dls::Dls;
-pub use line::{solve_line, LineError, LineSolution};
+pub use line::{solve_line, LineError, LineSolution, JOINT_JUMP_DEG};
 
 /// Where the tool frame (the robot's `tcp`) should be, in the robot's base frame.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -152,7 +152,7 @@ impl Keyframes {
     }
 }
 
-/// The fewest keys whose curve stays within tolerance of `recording` (see [`extract`]), as a
+/// The fewest keys whose curve stays within tolerance of `recording` (see [`extract()`](fn@crate::record::extract)), as a
 /// sequence with absolute key times (the recorded times, in whole milliseconds, from 0) that
 /// passes the limit check:
 /// - samples past a position limit are clamped to it first (with a [`Clamp`] to warn about);
