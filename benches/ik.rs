@@ -6,7 +6,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use glam::DVec3;
 use k::InverseKinematicsSolver;
-use keypose::kinematics::{dls::Dls, line, Solver, ToolTarget};
+use keypose::kinematics::{solve_line, Dls, Solver, ToolTarget};
 use keypose::robot::Robot;
 use std::hint::black_box;
 
@@ -246,7 +246,7 @@ fn bench(c: &mut Criterion) {
     let end = ToolTarget::position(from + DVec3::new(-0.1, 0.0, -0.05));
     let params: Vec<f64> = (1..=100).map(|k| k as f64 / 100.0).collect();
     c.bench_function("ik so101 line of 100 samples", |b| {
-        b.iter(|| black_box(line::solve_line(&robot, &start, &end, &start, &params).ok()))
+        b.iter(|| black_box(solve_line(&robot, &start, &end, &start, &params).ok()))
     });
 }
 

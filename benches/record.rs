@@ -15,7 +15,7 @@
 //! with `summary:`. Nothing is asserted about time: the machine is shared.
 
 use keypose::curve::Interp;
-use keypose::record::extract::{deviations, extract};
+use keypose::record::{deviations, extract};
 use std::time::Instant;
 
 const RATE: f64 = 100.0;

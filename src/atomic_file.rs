@@ -15,7 +15,7 @@
 //!   by a rename, so it is written straight through.
 //!
 //! A file written over a long time (a playback log) can be put in place early and then grow
-//! there ([`AtomicFile::publish`]): readers, and a kill at any moment, then see the old file or
+//! there (`AtomicFile::publish`): readers, and a kill at any moment, then see the old file or
 //! the new one up to its last write, so a writer that writes whole lines leaves whole lines.
 
 use std::fs::{self, File, OpenOptions};
@@ -25,7 +25,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Who may read the file once written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Privacy {
+pub(crate) enum Privacy {
     /// A new file gets the usual mode (0666 less the umask); an existing one keeps its own.
     Shared,
     /// Only the user: mode 0600, whatever the file had before (journals hold unsaved work).
@@ -45,13 +45,13 @@ pub fn write(path: &Path, bytes: &[u8]) -> io::Result<()> {
 }
 
 /// Writes `bytes` to `path` atomically, readable by the user only.
-pub fn write_private(path: &Path, bytes: &[u8]) -> io::Result<()> {
+pub(crate) fn write_private(path: &Path, bytes: &[u8]) -> io::Result<()> {
     write_with(path, Privacy::Private, |out| out.write_all(bytes))
 }
 
 /// Writes what `fill` produces to `path` atomically. If `fill` fails, the target is untouched
 /// and the temporary removed.
-pub fn write_with(
+fn write_with(
     path: &Path,
     privacy: Privacy,
     fill: impl FnOnce(&mut AtomicFile) -> io::Result<()>,
@@ -64,7 +64,7 @@ pub fn write_with(
 /// Creates `dir` and its missing parents as `0700`: they hold the user's private data. An
 /// existing directory is left as it is (it may be one the user chose to share, such as
 /// `$KEYPOSE_CACHE=/tmp/k`); use [`make_private_dir`] for a directory keypose alone owns.
-pub fn create_private_dir(dir: &Path) -> io::Result<()> {
+pub(crate) fn create_private_dir(dir: &Path) -> io::Result<()> {
     let mut builder = fs::DirBuilder::new();
     builder.recursive(true);
     #[cfg(unix)]
@@ -74,7 +74,7 @@ pub fn create_private_dir(dir: &Path) -> io::Result<()> {
 
 /// Creates `dir` as [`create_private_dir`] does and, when it already existed with wider
 /// permissions (made by an older keypose), narrows it to `0700`.
-pub fn make_private_dir(dir: &Path) -> io::Result<()> {
+pub(crate) fn make_private_dir(dir: &Path) -> io::Result<()> {
     create_private_dir(dir)?;
     #[cfg(unix)]
     {
@@ -89,7 +89,7 @@ pub fn make_private_dir(dir: &Path) -> io::Result<()> {
 
 /// A file being written: bytes go to the temporary until [`AtomicFile::commit`] renames it over
 /// the target. Dropped without a commit, the temporary is removed and the target untouched.
-pub struct AtomicFile {
+pub(crate) struct AtomicFile {
     file: File,
     /// `None` when the target is not a regular file and is written straight through.
     staged: Option<Staged>,
@@ -168,7 +168,8 @@ impl AtomicFile {
     }
 
     /// The temporary being written (`None` when written straight through or published).
-    pub fn temp_path(&self) -> Option<&Path> {
+    #[cfg(test)]
+    fn temp_path(&self) -> Option<&Path> {
         self.staged
             .as_ref()
             .filter(|s| !s.published)
@@ -267,7 +268,7 @@ fn create_temp(dir: &Path, prefix: &str, privacy: Privacy) -> io::Result<(PathBu
 
 /// An unpredictable number: std's `RandomState` is seeded from the operating system's random
 /// source; the counter and the clock make successive values differ within a process.
-pub fn random_u64() -> u64 {
+fn random_u64() -> u64 {
     use std::hash::{BuildHasher, Hasher};
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let mut hasher = std::collections::hash_map::RandomState::new().build_hasher();

@@ -20,13 +20,13 @@ pub fn field(text: &str) -> Cow<'_, str> {
     "the quoted field at column {column} does not end with a quote before the next comma or \
      the line's end"
 )]
-pub struct QuoteError {
+pub(crate) struct QuoteError {
     /// Where the field starts: 1-based, in characters.
     pub column: usize,
 }
 
 /// The fields of one line (a record without line breaks), quoted ones unquoted.
-pub fn split_record(line: &str) -> Result<Vec<Cow<'_, str>>, QuoteError> {
+pub(crate) fn split_record(line: &str) -> Result<Vec<Cow<'_, str>>, QuoteError> {
     let mut fields = Vec::new();
     let mut rest = line;
     let mut column = 1;

@@ -28,6 +28,7 @@ pub enum Interp {
 }
 
 impl Interp {
+    /// Every mode, in the order the help text lists them.
     pub const ALL: [Interp; 4] = [
         Interp::Step,
         Interp::Linear,
@@ -35,6 +36,7 @@ impl Interp {
         Interp::Monotone,
     ];
 
+    /// The mode's name in sequence files and on the command line (`"cubic"`).
     pub fn name(self) -> &'static str {
         match self {
             Interp::Step => "step",
@@ -44,6 +46,7 @@ impl Interp {
         }
     }
 
+    /// The mode named `s` ([`Interp::name`]); `None` for any other text.
     pub fn parse(s: &str) -> Option<Interp> {
         Interp::ALL.into_iter().find(|m| m.name() == s)
     }
@@ -62,14 +65,18 @@ impl fmt::Display for Interp {
 /// One key of a track. `interp` is the mode of the segment that starts at this key.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TrackKey<V> {
+    /// When the key is reached, seconds from the start of the track.
     pub time: f64,
+    /// The value at the key.
     pub value: V,
     /// Seconds the value stays at this key before the segment to the next key begins.
     pub hold: f64,
+    /// How the segment from this key to the next one moves.
     pub interp: Interp,
 }
 
 impl<V> TrackKey<V> {
+    /// A key at `time` seconds with no hold.
     pub fn new(time: f64, value: V, interp: Interp) -> Self {
         Self {
             time,
@@ -79,6 +86,7 @@ impl<V> TrackKey<V> {
         }
     }
 
+    /// The same key, staying at its value for `hold` seconds before it moves on.
     pub fn with_hold(mut self, hold: f64) -> Self {
         self.hold = hold;
         self
@@ -88,22 +96,45 @@ impl<V> TrackKey<V> {
 /// Why a list of keys cannot form a track. `index` is the key's position in time order.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum CurveError {
+    /// No keys were given.
     #[error("a track needs at least one key")]
     Empty,
+    /// A key's time is NaN or infinite.
     #[error("key {index}: time must be a finite number of seconds")]
-    NonFiniteTime { index: usize },
+    NonFiniteTime {
+        /// Position of the key.
+        index: usize,
+    },
+    /// A key's time is not after the previous key's.
     #[error("key {index}: time {time} s is not after the previous key's {previous} s")]
     NotIncreasing {
+        /// Position of the key.
         index: usize,
+        /// The key's time, seconds.
         time: f64,
+        /// The previous key's time, seconds.
         previous: f64,
     },
+    /// A hold is negative, NaN or infinite.
     #[error("key {index}: hold must be finite and at least 0 s, found {hold}")]
-    BadHold { index: usize, hold: f64 },
+    BadHold {
+        /// Position of the key.
+        index: usize,
+        /// The hold found, seconds.
+        hold: f64,
+    },
+    /// A hold leaves less than [`MIN_MOVING_TIME`] to move to the next key.
     #[error(
         "key {index}: hold {hold} s does not end at least {MIN_MOVING_TIME} s before the next key, {gap} s later"
     )]
-    HoldOverrun { index: usize, hold: f64, gap: f64 },
+    HoldOverrun {
+        /// Position of the key that holds.
+        index: usize,
+        /// Its hold, seconds.
+        hold: f64,
+        /// Seconds from this key to the next.
+        gap: f64,
+    },
 }
 
 /// Shortest moving time of a segment, seconds. Below it 1/duration loses all precision (and
@@ -134,9 +165,13 @@ pub trait Interpolant: Copy + fmt::Debug {
 
 /// The vector-space operations that slope computation needs.
 pub trait Rate: Copy + fmt::Debug {
+    /// At rest.
     const ZERO: Self;
+    /// This rate multiplied by `s`.
     fn scale(self, s: f64) -> Self;
+    /// The sum of two rates.
     fn add(self, other: Self) -> Self;
+    /// The inner product, whose sign says whether two rates point the same way.
     fn dot(self, other: Self) -> f64;
 }
 
@@ -228,8 +263,11 @@ impl Interpolant for DVec3 {
 /// the end rates exactly as a scalar Bézier's come from its slopes (`c1 = a + ra·h/3`).
 #[derive(Debug, Clone, Copy)]
 pub enum RotationSegment {
+    /// A step: the first key's rotation until the next key.
     Hold(DQuat),
+    /// Linear: slerp from the first rotation to the second.
     Slerp(DQuat, DQuat),
+    /// Cubic or monotone: the four control rotations of a spherical Bézier.
     Bezier([DQuat; 4]),
 }
 
@@ -401,22 +439,27 @@ impl<V: Interpolant> Track<V> {
         })
     }
 
+    /// Number of keys (at least one).
     pub fn len(&self) -> usize {
         self.times.len()
     }
 
+    /// Never true: [`Track::new`] refuses an empty list of keys.
     pub fn is_empty(&self) -> bool {
         self.times.is_empty()
     }
 
+    /// Each key's time, seconds, increasing.
     pub fn times(&self) -> &[f64] {
         &self.times
     }
 
+    /// Each key's value.
     pub fn values(&self) -> &[V] {
         &self.values
     }
 
+    /// Each key's hold, seconds.
     pub fn holds(&self) -> &[f64] {
         &self.holds
     }
@@ -431,6 +474,7 @@ impl<V: Interpolant> Track<V> {
         &self.rates
     }
 
+    /// Time of the first key, seconds.
     pub fn start_time(&self) -> f64 {
         self.times[0]
     }
@@ -460,6 +504,7 @@ impl<V: Interpolant> Track<V> {
         Place::Moving(key, f)
     }
 
+    /// Where time `t` (seconds) falls: before, at a key or its hold, moving, or after.
     pub fn place(&self, t: f64) -> Place {
         self.place_from(self.key_index_at(t), t)
     }
@@ -544,6 +589,7 @@ pub struct Cursor<'a, V: Interpolant> {
 }
 
 impl<V: Interpolant> Cursor<'_, V> {
+    /// The value at `t` seconds, the same as [`Track::sample`].
     pub fn sample(&mut self, t: f64) -> V {
         let times = &self.track.times;
         if t >= times[self.key] {

@@ -10,16 +10,20 @@ use std::f64::consts::{PI, TAU};
 /// A joint's pose relative to its zero pose: translation in metres, rotation as a unit quaternion.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RigidTransform {
+    /// Translation, metres.
     pub t: DVec3,
+    /// Rotation, a unit quaternion.
     pub r: DQuat,
 }
 
 impl RigidTransform {
+    /// No translation, no rotation: the zero pose.
     pub const IDENTITY: Self = Self {
         t: DVec3::ZERO,
         r: DQuat::IDENTITY,
     };
 
+    /// The transform that rotates by `r`, then translates by `t` (metres).
     pub fn new(t: DVec3, r: DQuat) -> Self {
         Self { t, r }
     }
@@ -46,13 +50,14 @@ impl RigidTransform {
     }
 }
 
+/// The point at fraction `f` of the straight line from `a` to `b` (`f` = 0 is `a`, 1 is `b`).
 pub fn lerp(a: DVec3, b: DVec3, f: f64) -> DVec3 {
     a * (1.0 - f) + b * f
 }
 
 /// Returns `b` or `-b`, whichever lies in the same hemisphere as `a`: q and −q are the same
 /// rotation, and interpolating towards the nearer one takes the short arc.
-pub fn same_hemisphere(a: DQuat, b: DQuat) -> DQuat {
+pub(crate) fn same_hemisphere(a: DQuat, b: DQuat) -> DQuat {
     if a.dot(b) < 0.0 {
         -b
     } else {
@@ -87,12 +92,12 @@ pub fn slerp_power(a: DQuat, b: DQuat, f: f64) -> DQuat {
 }
 
 /// Logarithm of a unit quaternion as the rotation vector (axis · angle, radians), angle in [0, 2π].
-pub fn rotation_vector(q: DQuat) -> DVec3 {
+pub(crate) fn rotation_vector(q: DQuat) -> DVec3 {
     quat_log(q) * 2.0
 }
 
 /// Unit quaternion from a rotation vector (axis · angle, radians).
-pub fn from_rotation_vector(v: DVec3) -> DQuat {
+pub(crate) fn from_rotation_vector(v: DVec3) -> DQuat {
     quat_exp(v * 0.5)
 }
 
@@ -130,7 +135,7 @@ pub fn twist_swing(q: DQuat, axis: DVec3) -> (f64, f64) {
 }
 
 /// Wraps an angle in radians to (−π, π].
-pub fn wrap_pi(a: f64) -> f64 {
+pub(crate) fn wrap_pi(a: f64) -> f64 {
     let w = a.rem_euclid(TAU);
     if w > PI {
         w - TAU
@@ -144,7 +149,13 @@ pub fn wrap_pi(a: f64) -> f64 {
 /// A revolute joint cannot pass through its mechanical stop, so the representative must lie
 /// inside the limits; among those, the one continuous with the previous sample is the one the
 /// arm actually reaches without a full turn. `None` when no representative lies inside.
-pub fn unwrap_within(angle: f64, previous: f64, min: f64, max: f64, period: f64) -> Option<f64> {
+pub(crate) fn unwrap_within(
+    angle: f64,
+    previous: f64,
+    min: f64,
+    max: f64,
+    period: f64,
+) -> Option<f64> {
     if !(angle.is_finite() && previous.is_finite() && min <= max && period > 0.0) {
         return None;
     }

@@ -46,6 +46,8 @@ pub fn on_signal(action: impl Fn() + Send + 'static) -> bool {
     })
 }
 
+/// A count of stop requests shared by clones: the one who asks and the ones who act, across
+/// threads.
 #[derive(Debug, Clone, Default)]
 pub struct StopSignal(Arc<Shared>);
 
@@ -80,6 +82,7 @@ impl StopSignal {
         self.request_to(1);
     }
 
+    /// How many stops were requested so far: 0 none, 1 decelerate, 2 or more hold at once.
     pub fn count(&self) -> u32 {
         *self.lock()
     }

@@ -26,7 +26,7 @@ pub fn escape_controls(text: &str) -> Cow<'_, str> {
 }
 
 /// A single field (a name in a table cell): line breaks escaped too, so it stays on its line.
-pub fn escape_field(text: &str) -> Cow<'_, str> {
+pub(crate) fn escape_field(text: &str) -> Cow<'_, str> {
     escape_where(text, is_layout_control)
 }
 
@@ -56,7 +56,7 @@ pub fn escape_message(text: &str) -> Cow<'_, str> {
 
 /// Lines of another program's output for an error message: each on a line of its own,
 /// indented by two spaces, as [`escape_message`] keeps them.
-pub fn quoted_lines<'a>(lines: impl IntoIterator<Item = &'a str>) -> String {
+pub(crate) fn quoted_lines<'a>(lines: impl IntoIterator<Item = &'a str>) -> String {
     lines
         .into_iter()
         .map(|line| format!("\n  {line}"))

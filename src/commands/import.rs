@@ -196,9 +196,7 @@ fn robot_spec(
 ) -> Result<String, CommandError> {
     match (option, &info.robot_type) {
         (Some(spec), _) => Ok(spec.to_string()),
-        (None, Some(robot_type)) if bimanual => {
-            Ok(lerobot::arms::arm_robot_type(robot_type).to_string())
-        }
+        (None, Some(robot_type)) if bimanual => Ok(lerobot::arm_robot_type(robot_type).to_string()),
         (None, Some(robot_type)) => Ok(robot_type.clone()),
         (None, None) => Err(CommandError::Usage(format!(
             "{}: no robot_type: give --robot",

@@ -3,7 +3,7 @@
 //! coefficients, the servo ids, the tick limits every goal is clamped to and the speed and
 //! acceleration limits the player's step limiter bounds every step by.
 //!
-//! Between two breakpoints (key times and hold ends of any joint, [`ros2::breakpoints`]) each
+//! Between two breakpoints (key times and hold ends of any joint) each
 //! joint's curve is one polynomial of degree three at most, and ticks are a linear function of
 //! the joint value (`zero_tick + direction · value / units_per_tick`), so each piece is exactly
 //! the Hermite through its ends' ticks and tick rates. With u = (t − start)/duration in
@@ -12,7 +12,7 @@
 //!
 //! Nothing from a file becomes C code: the header's identifiers and comments are keypose's
 //! own, and the names it carries (the joints', the source file's) are in string literals only,
-//! every byte outside a few safe characters written as an octal escape ([`c_string`]). So a
+//! every byte outside a few safe characters written as an octal escape. So a
 //! name holding `*/`, a quote, a backslash, `??/` or a line break reads back as itself.
 
 use super::ros2;
@@ -22,21 +22,30 @@ use crate::robot::{Joint, Robot};
 use std::fmt::Write;
 
 /// Fixed-point scale of the coefficients: Q16.16.
-pub const ONE: f64 = 65536.0;
+const ONE: f64 = 65536.0;
 /// The player counts time in microseconds in 32 bits: 71 minutes.
 const MAX_SECONDS: f64 = u32::MAX as f64 / 1e6;
 
+/// Why a trajectory cannot become a header for the C player.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum CExportError {
+    /// The trajectory lasts longer than the player's 32-bit microsecond clock counts.
     #[error("{seconds:.1} s is longer than the player's {MAX_SECONDS:.0} s (32-bit microseconds)")]
-    TooLong { seconds: f64 },
+    TooLong {
+        /// The trajectory's duration, seconds.
+        seconds: f64,
+    },
+    /// A coefficient does not fit the player's Q16.16 fixed point.
     #[error(
         "joint {joint}: a coefficient of {ticks:.0} ticks (t = {time:.3} s) does not fit the \
          player's Q16.16 (±32767 ticks)"
     )]
     Overflow {
+        /// The joint.
         joint: String,
+        /// The coefficient, ticks.
         ticks: f64,
+        /// Start of the piece it belongs to, seconds from the played start.
         time: f64,
     },
 }
@@ -45,8 +54,11 @@ pub enum CExportError {
 /// tick polynomial's coefficients in u.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Piece {
+    /// Seconds from the played start.
     pub start: f64,
+    /// Seconds.
     pub duration: f64,
+    /// Per joint, `[c0, c1, c2, c3]` of ticks = c0 + c1·u + c2·u² + c3·u³, u from 0 to 1.
     pub coefficients: Vec<[f64; 4]>,
 }
 
@@ -232,7 +244,7 @@ fn write_piece_tables(
 /// as they are and every other byte as a three-digit octal escape (`\"` is `\042`). An octal
 /// escape ends after three digits, so no following character extends it; `?` is escaped, so
 /// no trigraph (`??/` is a backslash in C89 and C99) forms.
-pub fn c_string(text: &str) -> String {
+pub(crate) fn c_string(text: &str) -> String {
     let mut out = String::with_capacity(text.len() + 2);
     out.push('"');
     for &byte in text.as_bytes() {

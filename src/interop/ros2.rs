@@ -26,15 +26,20 @@ const CORNER_SLOPE: f64 = 1e-9;
 /// One point: seconds from the start, and per joint a position (rad or m) and velocity.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Point {
+    /// Seconds from the start.
     pub time: f64,
+    /// Per joint: radians for a revolute joint, metres for a prismatic one.
     pub positions: Vec<f64>,
+    /// Per joint: radians or metres per second.
     pub velocities: Vec<f64>,
 }
 
 /// The message's content.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointTrajectory {
+    /// The joints, in the order of each point's values ([`joint_names`]).
     pub joint_names: Vec<String>,
+    /// The points, in time order.
     pub points: Vec<Point>,
 }
 
@@ -102,7 +107,7 @@ pub fn joint_trajectory(
 
 /// Every joint's key times and hold ends, a point one period before every corner, and the
 /// played window's ends; sorted, each once, within the window.
-pub fn point_times(trajectory: &Trajectory, corner_rate: f64) -> Vec<f64> {
+fn point_times(trajectory: &Trajectory, corner_rate: f64) -> Vec<f64> {
     let period = 1.0 / corner_rate;
     let mut times = breakpoints(trajectory);
     let corners: Vec<f64> = times
@@ -117,7 +122,7 @@ pub fn point_times(trajectory: &Trajectory, corner_rate: f64) -> Vec<f64> {
 
 /// Every joint's key times and hold ends and the played window's ends, sorted, each once,
 /// within the window: between two of them every joint's curve is one polynomial.
-pub fn breakpoints(trajectory: &Trajectory) -> Vec<f64> {
+pub(crate) fn breakpoints(trajectory: &Trajectory) -> Vec<f64> {
     let mut times = vec![trajectory.start, trajectory.end];
     for track in trajectory.tracks() {
         for (i, &t) in track.times().iter().enumerate() {
@@ -186,7 +191,7 @@ pub fn to_yaml(message: &JointTrajectory) -> String {
 }
 
 /// `builtin_interfaces/Duration`: whole seconds and nanoseconds 0 … 999 999 999.
-pub fn sec_nanosec(t: f64) -> (i64, u32) {
+fn sec_nanosec(t: f64) -> (i64, u32) {
     let total = (t * 1e9).round() as i64;
     (
         total.div_euclid(1_000_000_000),

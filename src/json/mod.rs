@@ -2,9 +2,11 @@
 //!
 //! serde_json gives line and column for syntax errors. For errors of meaning (a wrong type, a
 //! value out of range, an unknown joint) the useful position is the JSON path of the field, so
-//! input is walked through [`Node`]s that carry their path and build [`InputError`]s.
+//! input is walked through nodes that carry their path and build [`InputError`]s.
 
-pub mod input_file;
+pub(crate) mod input_file;
+
+pub use input_file::{open_regular, MAX_INPUT_BYTES};
 
 use serde_json::{Map, Value};
 use std::fmt;
@@ -16,7 +18,12 @@ pub enum Location {
     /// The file as a whole (it cannot be read, say).
     File,
     /// A syntax error, 1-based.
-    Syntax { line: usize, column: usize },
+    Syntax {
+        /// Line, from 1.
+        line: usize,
+        /// Column, from 1.
+        column: usize,
+    },
     /// A JSON path such as `$.keyframes[2].joints.elbow_flex`.
     Path(String),
 }
@@ -34,8 +41,12 @@ impl fmt::Display for Location {
 /// Bad input: which file, where in it, and what was expected.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub struct InputError {
+    /// The file as the user named it (or the option, such as `--robot`, for a value given on
+    /// the command line).
     pub file: String,
+    /// Where in the file.
     pub location: Location,
+    /// What is wrong, and what was expected.
     pub message: String,
 }
 
@@ -53,6 +64,7 @@ impl fmt::Display for InputError {
 }
 
 impl InputError {
+    /// The error `message` at `location` in `file`.
     pub fn new(file: &str, location: Location, message: impl Into<String>) -> Self {
         Self {
             file: file.to_string(),
@@ -61,13 +73,14 @@ impl InputError {
         }
     }
 
+    /// The error `message` at the JSON path `path` (`$.keyframes[2]`) in `file`.
     pub fn at_path(file: &str, path: &str, message: impl Into<String>) -> Self {
         Self::new(file, Location::Path(path.to_string()), message)
     }
 }
 
 /// Reads an input file (a sequence, a robot, a calibration) as UTF-8 text: a regular file of
-/// at most [`crate::json::input_file::MAX_INPUT_BYTES`].
+/// at most [`MAX_INPUT_BYTES`].
 pub fn read_text(path: &Path) -> Result<String, InputError> {
     crate::json::input_file::read_text(path, crate::json::input_file::MAX_INPUT_BYTES)
 }
@@ -75,7 +88,7 @@ pub fn read_text(path: &Path) -> Result<String, InputError> {
 /// Parses JSON text, mapping syntax errors to line:column. An object that names a key twice is
 /// refused (serde_json alone would keep the last value silently: a pasted-in second `"robot"`
 /// or `"joints"` would override the first without a word).
-pub fn parse(file: &str, text: &str) -> Result<Value, InputError> {
+pub(crate) fn parse(file: &str, text: &str) -> Result<Value, InputError> {
     parse_unique(text).map_err(|e| {
         let message = e.to_string();
         // serde_json appends " at line L column C"; the location is reported separately.
@@ -186,7 +199,7 @@ fn has_control(text: &str, text_breaks: bool) -> bool {
 }
 
 /// A short description of a JSON value for "found …" in messages.
-pub fn describe(value: &Value) -> String {
+pub(crate) fn describe(value: &Value) -> String {
     match value {
         Value::Null => "null".into(),
         Value::Bool(b) => format!("{b}"),
@@ -202,7 +215,7 @@ pub fn describe(value: &Value) -> String {
 
 /// A value in a document together with its JSON path.
 #[derive(Debug, Clone, Copy)]
-pub struct Node<'a> {
+pub(crate) struct Node<'a> {
     pub value: &'a Value,
     file: &'a str,
     path: PathRef<'a>,
@@ -377,10 +390,6 @@ impl<'a> Node<'a> {
             Some(x) if (min..=max).contains(&x) => Ok(x),
             _ => Err(self.expected(&format!("an integer from {min} to {max} ({what})"))),
         }
-    }
-
-    pub fn bool(&self, what: &str) -> Result<bool, InputError> {
-        self.value.as_bool().ok_or_else(|| self.expected(what))
     }
 
     /// An array of exactly N finite numbers.

@@ -170,6 +170,7 @@ impl ArmGeometry {
         (p - self.pan_axis * p.dot(self.pan_axis)).length()
     }
 
+    /// Whether the arm has a roll joint after its three pitches.
     pub fn has_roll(&self) -> bool {
         self.roll.is_some()
     }
@@ -180,7 +181,7 @@ impl ArmGeometry {
     }
 
     /// [`ArmGeometry::solve`] without the floor rule, to tell "below the floor" from "out of reach".
-    pub fn solve_ignoring_floor(
+    pub(crate) fn solve_ignoring_floor(
         &self,
         robot: &Robot,
         target: &ToolTarget,

@@ -45,6 +45,7 @@ struct Jacobian {
 }
 
 impl Dls {
+    /// The solver for `robot`.
     pub fn new(robot: &Robot) -> Dls {
         Dls {
             tool_joints: tool_joints(robot),
@@ -62,7 +63,8 @@ impl Dls {
         self.solve_with(robot, target, seed, held, true)
     }
 
-    pub fn solve_ignoring_floor(
+    /// [`Dls::solve`] without the floor rule, to tell "below the floor" from "out of reach".
+    pub(crate) fn solve_ignoring_floor(
         &self,
         robot: &Robot,
         target: &ToolTarget,
@@ -129,7 +131,12 @@ fn starts(robot: &Robot, seed: &[f64], free: &[usize]) -> Vec<Vec<f64>> {
 
 /// The reachable tool position nearest to `position` that the solver finds (the limits
 /// clamping it) from each of its [`starts`].
-pub fn nearest_reachable(robot: &Robot, position: DVec3, seed: &[f64], held: &[bool]) -> DVec3 {
+pub(crate) fn nearest_reachable(
+    robot: &Robot,
+    position: DVec3,
+    seed: &[f64],
+    held: &[bool],
+) -> DVec3 {
     let free = Dls::new(robot).free_joints(held);
     let target = ToolTarget::position(position);
     starts(robot, seed, &free)

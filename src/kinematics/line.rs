@@ -21,20 +21,26 @@ pub struct LineSolution {
 /// Why a line cannot be followed, and how much of it can.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LineError {
+    /// A sample of the line cannot be reached.
     #[error("the line leaves the workspace after {:.0} % of its length: {source}", fraction * 100.0)]
     LeavesWorkspace {
         /// Share of the path (0 … 1) solved before the first sample that is not.
         fraction: f64,
+        /// Why that sample cannot be reached.
         source: IkError,
     },
+    /// A joint would move more than [`JOINT_JUMP_DEG`] between two samples.
     #[error(
         "the line needs a joint jump after {:.0} % of its length: {joint} moves {jump:.1}° in one sample \
          (a singularity or a change of branch; at most {JOINT_JUMP_DEG}° expected)",
         fraction * 100.0
     )]
     JointJump {
+        /// Share of the path (0 … 1) solved before the jump.
         fraction: f64,
+        /// The joint that jumps.
         joint: String,
+        /// How far it jumps in one sample, degrees (millimetres for a prismatic joint).
         jump: f64,
     },
 }
@@ -53,7 +59,7 @@ impl LineError {
 /// Where the line is at parameter `s` (0 … 1) from `start` to `end`: the start and end poses
 /// and whether the orientation is followed (else only the position, the solver keeping the
 /// tool pitch and roll of the previous sample).
-pub fn point_on_line(
+fn point_on_line(
     start: (glam::DVec3, DQuat),
     end: (glam::DVec3, DQuat),
     s: f64,
@@ -87,7 +93,7 @@ pub fn solve_line(
     let end_orientation = end.orientation.unwrap_or(start.r);
     let tool = super::tool_joints(robot);
     let held: Vec<bool> = tool.iter().map(|t| !t).collect();
-    let solver = Solver::General(super::dls::Dls::new(robot));
+    let solver = Solver::General(super::Dls::new(robot));
     let mut samples: Vec<Vec<f64>> = Vec::with_capacity(params.len());
     let mut previous = from.to_vec();
     for &s in params {

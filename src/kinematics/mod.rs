@@ -2,16 +2,16 @@
 //!
 //! Forward kinematics is the robot's own ([`Robot::tcp_frame`]). Inverse kinematics comes in
 //! two kinds behind one [`Solver`]: a closed form for arms built like the built-ins (a pan, three
-//! parallel pitch joints, optionally a roll; [`closed_form`]), with its geometry derived from the
+//! parallel pitch joints, optionally a roll; [`ArmGeometry`]), with its geometry derived from the
 //! robot's joint origins and axes rather than typed in, and damped least squares on the forward
-//! kinematics for any other robot file ([`dls`]). Straight tool lines are in [`line`].
+//! kinematics for any other robot file ([`Dls`]). Straight tool lines: [`solve_line`].
 //!
 //! This module knows nothing about servos or files: targets come in as positions and
 //! rotations, solutions go out as joint values in the robot's units (degrees, metres).
 
-pub mod closed_form;
-pub mod dls;
-pub mod line;
+pub(crate) mod closed_form;
+pub(crate) mod dls;
+pub(crate) mod line;
 mod planar;
 
 use crate::pose::rotation_vector;
@@ -20,7 +20,8 @@ use crate::robot::{JointKind, Robot};
 use glam::{DQuat, DVec3};
 
 pub use closed_form::ArmGeometry;
-pub use line::{solve_line, LineError, LineSolution};
+pub use dls::Dls;
+pub use line::{solve_line, LineError, LineSolution, JOINT_JUMP_DEG};
 
 /// Where the tool frame (the robot's `tcp`) should be, in the robot's base frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -32,6 +33,7 @@ pub struct ToolTarget {
 }
 
 impl ToolTarget {
+    /// A tool position (metres) with the orientation left to the solver.
     pub fn position(position: DVec3) -> Self {
         Self {
             position,
@@ -39,6 +41,7 @@ impl ToolTarget {
         }
     }
 
+    /// A tool position (metres) and orientation.
     pub fn pose(position: DVec3, orientation: DQuat) -> Self {
         Self {
             position,
@@ -78,16 +81,21 @@ pub enum IkError {
         mm3(*nearest)
     )]
     OutOfReach {
+        /// The tool position asked for, metres.
         target: DVec3,
-        /// Metres.
+        /// Distance from the target to the nearest reachable point, metres.
         miss: f64,
+        /// The nearest tool position the solver reached, metres.
         nearest: DVec3,
     },
     /// Reachable, but only with the arm below the floor (the base frame's z = 0 plane).
     #[error("the tool reaches ({}) only with {part} {depth_mm:.1} mm below the floor (z = 0)", mm3(*target))]
     BelowFloor {
+        /// The tool position asked for, metres.
         target: DVec3,
+        /// The lowest part: a joint's name, or "the tool point".
         part: String,
+        /// How far that part is below the floor, millimetres.
         depth_mm: f64,
     },
     /// The position is reachable, but no orientation near the one asked is inside the limits.
@@ -96,14 +104,20 @@ pub enum IkError {
          drop \"r\" to let the arm choose, or turn the tool less",
         mm3(*target)
     )]
-    OrientationOutOfReach { target: DVec3 },
+    OrientationOutOfReach {
+        /// The tool position asked for, metres.
+        target: DVec3,
+    },
     /// The robot has no joint that moves the tool.
     #[error("robot {robot} has no joint that moves its tool frame")]
-    NoToolJoints { robot: String },
+    NoToolJoints {
+        /// The robot's name.
+        robot: String,
+    },
 }
 
 /// A position in millimetres, for messages.
-pub fn mm3(p: DVec3) -> String {
+pub(crate) fn mm3(p: DVec3) -> String {
     format!(
         "{:.1}, {:.1}, {:.1} mm",
         p.x * 1000.0,
@@ -130,6 +144,7 @@ impl Solver {
         }
     }
 
+    /// Whether this robot got the exact closed-form solver.
     pub fn is_closed_form(&self) -> bool {
         matches!(self, Solver::ClosedForm(_))
     }
@@ -314,7 +329,7 @@ pub fn joint_distance(robot: &Robot, a: &[f64], b: &[f64]) -> f64 {
 
 /// The factor that makes a joint's unit comparable with degrees: 1 for revolute joints,
 /// 1000 for prismatic ones (millimetres), whose travel is centimetres.
-pub fn comparable_unit(kind: JointKind) -> f64 {
+pub(crate) fn comparable_unit(kind: JointKind) -> f64 {
     match kind {
         JointKind::Revolute => 1.0,
         JointKind::Prismatic => 1000.0,
@@ -322,7 +337,7 @@ pub fn comparable_unit(kind: JointKind) -> f64 {
 }
 
 /// Whether every value is inside its joint's limits.
-pub fn within_limits(robot: &Robot, values: &[f64]) -> bool {
+pub(crate) fn within_limits(robot: &Robot, values: &[f64]) -> bool {
     robot
         .joints
         .iter()

@@ -8,6 +8,7 @@
 use crate::stop::StopSignal;
 use std::time::{Duration, Instant};
 
+/// A source of time for a paced loop: the wall clock, or a virtual one in tests.
 pub trait Clock: Send + Sync {
     /// Time since the clock began; never goes backwards.
     fn now(&self) -> Duration;
@@ -27,6 +28,7 @@ pub struct WallClock {
 }
 
 impl WallClock {
+    /// A clock whose time starts at 0 now.
     pub fn new() -> Self {
         Self {
             epoch: Instant::now(),
@@ -77,6 +79,7 @@ pub struct VirtualClock {
 }
 
 impl VirtualClock {
+    /// A clock at time 0.
     pub fn new() -> Self {
         Self::default()
     }

@@ -24,7 +24,9 @@ const KEPT_WORK: usize = 256;
 /// The machine did not keep up: `stalls` stalls within `within` seconds.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Overrun {
+    /// The loop's rate, hertz.
     pub rate_hz: f64,
+    /// Stalls within `within` seconds (the bound the loop was judged by).
     pub stalls: usize,
     /// Seconds from the first of those stalls to the last.
     pub within: f64,

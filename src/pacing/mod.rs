@@ -13,7 +13,7 @@
 mod clock;
 mod keep_up;
 pub mod machine;
-pub mod precise;
+pub(crate) mod precise;
 pub mod realtime;
 
 pub use clock::{Clock, VirtualClock, WallClock};
@@ -36,7 +36,7 @@ const KEPT_LATENESS: usize = 1 << 20;
 
 /// The start of one control cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CycleStart {
+pub(crate) struct CycleStart {
     /// Clock time the cycle began, seconds.
     pub now: f64,
     /// How late it began against its own deadline, seconds.
@@ -53,22 +53,16 @@ impl CycleStart {
     pub fn stalled(&self, period: f64) -> bool {
         is_stall(self.gap, period)
     }
-
-    /// The share of the path rate the arm really followed since the previous cycle
-    /// ([`followed_share`] over the gap between the two cycles' starts).
-    pub fn followed_share(&self, period: f64) -> f64 {
-        followed_share(self.gap, period)
-    }
 }
 
 /// Whether a goal held `gap` seconds (from one goal to the next) counts as a stall.
-pub fn is_stall(gap: f64, period: f64) -> bool {
+pub(crate) fn is_stall(gap: f64, period: f64) -> bool {
     gap > STALL_PERIODS * period
 }
 
 /// The share of the path rate the arm really followed over a `gap` between two goals: after a
 /// stall the first goal was held for the whole gap, so `period / gap`; otherwise all of it.
-pub fn followed_share(gap: f64, period: f64) -> f64 {
+pub(crate) fn followed_share(gap: f64, period: f64) -> f64 {
     if is_stall(gap, period) {
         period / gap
     } else {
@@ -80,12 +74,15 @@ pub fn followed_share(gap: f64, period: f64) -> f64 {
 /// first cycles for percentiles (bounded, so `--loop forever` cannot grow it without end).
 #[derive(Debug, Clone, Default)]
 pub struct LatenessSummary {
+    /// Cycles run.
     pub cycles: u64,
     /// Cycles that began after a stall (see [`STALL_PERIODS`]).
     pub stalls: u64,
+    /// Deadlines passed over after stalls.
     pub skipped_deadlines: u64,
     /// The longest time a goal was held beyond its period, seconds.
     pub longest_stall: f64,
+    /// The latest any cycle began against its deadline, seconds.
     pub max_lateness: f64,
     /// Time by which stalls held the path, seconds: the timeline runs that much later.
     pub time_lost: f64,
@@ -110,8 +107,9 @@ impl LatenessSummary {
     }
 }
 
+/// The deadlines of one paced loop, and how late its cycles began.
 #[derive(Debug)]
-pub struct Pacer {
+pub(crate) struct Pacer {
     period: f64,
     /// Clock time of deadline 0, seconds.
     anchor: f64,
@@ -120,6 +118,7 @@ pub struct Pacer {
     previous_start: Option<f64>,
     /// Deadlines passed over by [`Pacer::served_until`] since the last cycle began.
     served_over: u64,
+    /// Lateness of every cycle so far.
     pub summary: LatenessSummary,
 }
 
@@ -134,10 +133,6 @@ impl Pacer {
             served_over: 0,
             summary: LatenessSummary::default(),
         }
-    }
-
-    pub fn period(&self) -> f64 {
-        self.period
     }
 
     fn deadline(&self, index: u64) -> f64 {

@@ -16,8 +16,11 @@ pub const MAX_RATE_HZ: f64 = 1000.0;
 /// Longest recording, seconds: an hour of teaching by hand is far beyond any sequence, and the
 /// bound keeps memory and extraction time (about linear in length) in reason.
 pub const MAX_SECONDS: f64 = 3600.0;
+
+/// What to record, how fast and for how long.
 #[derive(Debug, Clone)]
 pub struct RecordOptions {
+    /// Sampling rate, hertz (at most [`MAX_RATE_HZ`]).
     pub rate_hz: f64,
     /// Indices (robot joint order) of the joints to record: their torque goes off. The others
     /// are read too but left as they are.
@@ -42,7 +45,7 @@ pub fn record(
 }
 
 /// [`record`] on a given clock (tests make it stall).
-pub fn record_with_clock(
+pub(crate) fn record_with_clock(
     bus: &mut dyn ServoBus,
     robot: &Robot,
     options: &RecordOptions,
@@ -245,6 +248,7 @@ fn print_progress(seconds: f64, samples: usize) {
 /// Why the limp joints could not all be made to hold again.
 #[derive(Debug, thiserror::Error)]
 pub enum HoldError {
+    /// The bus failed while reading the present positions or writing the goals.
     #[error(transparent)]
     Bus(#[from] BusError),
     /// Holding these where they are would need a goal outside their limits, and pulling them

@@ -84,34 +84,74 @@ const SLIDE_AFTER: usize = 2;
 /// split, and removal joins them again.
 const MAX_START_SPAN: usize = 256;
 
+/// Why keys cannot be extracted from a recording. Joints and samples are counted from 0.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ExtractError {
+    /// No sample times were given.
     #[error("the recording has no samples")]
     Empty,
+    /// No joint values were given.
     #[error("the recording has no joints")]
     NoJoints,
+    /// A joint has not one value per sample time.
     #[error("joint {joint}: {found} values for {expected} sample times")]
     LengthMismatch {
+        /// The joint.
         joint: usize,
+        /// Its number of values.
         found: usize,
+        /// The number of sample times.
         expected: usize,
     },
+    /// A sample time is NaN or infinite.
     #[error("sample {index}: time must be a finite number of seconds")]
-    NonFiniteTime { index: usize },
+    NonFiniteTime {
+        /// The sample.
+        index: usize,
+    },
+    /// A sample time is not after the previous one.
     #[error("sample {index}: time {time} s is not after the previous sample's {previous} s")]
     NotIncreasing {
+        /// The sample.
         index: usize,
+        /// Its time, seconds.
         time: f64,
+        /// The previous sample's time, seconds.
         previous: f64,
     },
+    /// A value is NaN or infinite.
     #[error("joint {joint}, sample {index}: the value is not a finite number")]
-    NonFiniteValue { joint: usize, index: usize },
+    NonFiniteValue {
+        /// The joint.
+        joint: usize,
+        /// The sample.
+        index: usize,
+    },
+    /// A tolerance is not a finite number above 0.
     #[error("joint {joint}: the tolerance must be a finite number above 0, found {tolerance}")]
-    BadTolerance { joint: usize, tolerance: f64 },
+    BadTolerance {
+        /// The joint.
+        joint: usize,
+        /// The tolerance given, in the joint's unit.
+        tolerance: f64,
+    },
+    /// Not one tolerance per joint.
     #[error("{expected} tolerances needed (one per joint), found {found}")]
-    ToleranceCount { expected: usize, found: usize },
+    ToleranceCount {
+        /// The number of joints.
+        expected: usize,
+        /// The number of tolerances.
+        found: usize,
+    },
+    /// Not one segment mode per sample.
     #[error("{expected} segment modes needed (one per sample), found {found}")]
-    ModeCount { expected: usize, found: usize },
+    ModeCount {
+        /// The number of samples.
+        expected: usize,
+        /// The number of modes.
+        found: usize,
+    },
+    /// The keys chosen do not make a track (a bug if it happens).
     #[error("the curve through the keys cannot be built: {0}")]
     Curve(#[from] CurveError),
 }
@@ -149,7 +189,7 @@ pub fn extract(
 
 /// As [`extract`], with the mode of each segment given by the sample its first key sits on:
 /// `modes[k]` is the mode of the segment after a key at sample k.
-pub fn extract_with_modes(
+pub(crate) fn extract_with_modes(
     times: &[f64],
     values: &[Vec<f64>],
     tolerances: &[f64],
@@ -208,7 +248,7 @@ pub fn deviations(
 }
 
 /// As [`deviations`], with per-sample segment modes as in [`extract_with_modes`].
-pub fn deviations_with_modes(
+pub(crate) fn deviations_with_modes(
     times: &[f64],
     values: &[Vec<f64>],
     keys: &[usize],

@@ -15,6 +15,7 @@ const MAX_LIMIT_ROUNDS: usize = 20;
 /// Calls of `plan::retime` at most, each continuing from the last one's result.
 const MAX_RETIME_CALLS: usize = 10;
 
+/// How keyframes are fitted to a recording.
 #[derive(Debug, Clone, Copy)]
 pub struct KeyframeOptions {
     /// Mode of the sequence. Step is refused: its jumps never pass the limit check.
@@ -40,9 +41,11 @@ impl KeyframeOptions {
 /// The largest deviation of one joint's curve from its recording.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Deviation {
+    /// The joint's name.
     pub joint: String,
-    /// In the joint's unit ("deg" or "m").
+    /// The joint's unit, `"deg"` or `"m"`.
     pub unit: &'static str,
+    /// The largest |curve − recording|, in `unit`.
     pub value: f64,
     /// Sample time (seconds from the first key) where it occurs.
     pub time: f64,
@@ -53,31 +56,39 @@ pub struct Deviation {
 /// A joint pushed past a software limit while recording: its samples there were clamped.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Clamp {
+    /// The joint's name.
     pub joint: String,
+    /// The joint's unit, `"deg"` or `"m"`.
     pub unit: &'static str,
-    /// The limit crossed.
+    /// The limit crossed, in `unit`.
     pub limit: f64,
-    /// How far past it at the worst, and when.
+    /// How far past it at the worst, in `unit`.
     pub excess: f64,
+    /// When the worst excess was, seconds from the first sample.
     pub time: f64,
 }
 
 /// A joint that was not recorded but moved while recording (the file holds its first value).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Drift {
+    /// The joint's name.
     pub joint: String,
+    /// The joint's unit, `"deg"` or `"m"`.
     pub unit: &'static str,
+    /// How far it moved from its first value at the most, in `unit`.
     pub moved: f64,
 }
 
 /// How retiming changed the key times.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Retimed {
-    /// Every key's time as recorded, and after retiming.
+    /// Every key's time as recorded, seconds.
     pub key_times_before: Vec<f64>,
+    /// Every key's time after retiming, seconds.
     pub key_times_after: Vec<f64>,
-    /// Segments stretched, of all.
+    /// Segments stretched.
     pub stretched: usize,
+    /// Segments in all.
     pub segments: usize,
 }
 
@@ -96,6 +107,7 @@ impl Retimed {
 /// A recording turned into keyframes.
 #[derive(Debug, Clone)]
 pub struct Keyframes {
+    /// The keyframes, with absolute times.
     pub sequence: Sequence,
     /// Samples used (after snapping their times to milliseconds).
     pub samples: usize,
@@ -103,8 +115,11 @@ pub struct Keyframes {
     pub deviations: Vec<Deviation>,
     /// The recorded joint whose largest deviation is the largest share of its tolerance.
     pub worst: usize,
+    /// Joints pushed past a limit, whose samples were clamped to it.
     pub clamps: Vec<Clamp>,
+    /// Joints not recorded that moved while recording.
     pub drifts: Vec<Drift>,
+    /// How retiming changed the key times; `None` when the recorded timing passed the check.
     pub retimed: Option<Retimed>,
     /// Cubic segments made monotone because they overshot a limit.
     pub made_monotone: usize,
@@ -113,6 +128,7 @@ pub struct Keyframes {
 }
 
 impl Keyframes {
+    /// Number of keys.
     pub fn keys(&self) -> usize {
         self.sequence.keyframes.len()
     }
@@ -136,7 +152,7 @@ impl Keyframes {
     }
 }
 
-/// The fewest keys whose curve stays within tolerance of `recording` (see [`extract`]), as a
+/// The fewest keys whose curve stays within tolerance of `recording` (see [`extract()`](fn@crate::record::extract)), as a
 /// sequence with absolute key times (the recorded times, in whole milliseconds, from 0) that
 /// passes the limit check:
 /// - samples past a position limit are clamped to it first (with a [`Clamp`] to warn about);

@@ -1,32 +1,34 @@
 //! Recording by hand and turning a recording into keyframes, in two halves that share only the
 //! [`Recording`]:
 //!
-//! - [`capture`] is live, on the bus: [`record`] limps the chosen joints (torque off) and
+//! - capture is live, on the bus: [`record`] limps the chosen joints (torque off) and
 //!   samples the present pose of the whole arm at the control rate until a stop request or a
 //!   duration, then makes the limp joints hold where they were left;
-//! - [`fit`] is pure: [`keyframes`] turns the recording into a keyframe list, the fewest keys
-//!   whose curve stays within a tolerance of the recording ([`extract`]), as a [`Sequence`]
+//! - fitting is pure: [`keyframes`] turns the recording into a keyframe list, the fewest keys
+//!   whose curve stays within a tolerance of the recording ([`extract()`]), as a [`Sequence`]
 //!   that passes `plan::check` — retimed where a hand moved faster than the limits allow,
 //!   clamped where it pushed a joint past a software limit.
 //!
 //! [`Sequence`]: crate::sequence::Sequence
 
-pub mod capture;
-pub mod extract;
-pub mod fit;
+mod capture;
+mod extract;
+mod fit;
 
 use crate::bus::joint_prefix;
 use crate::bus::BusError;
 use crate::json::InputError;
-use extract::ExtractError;
 
-pub use capture::{record, record_with_clock, HoldError, RecordOptions, MAX_RATE_HZ, MAX_SECONDS};
+pub use capture::{record, HoldError, RecordOptions, MAX_RATE_HZ, MAX_SECONDS};
+pub use extract::{deviations, extract, ExtractError, Fit, JointDeviation};
 pub use fit::{keyframes, Clamp, Deviation, Drift, KeyframeOptions, Keyframes, Retimed};
 
 /// Why a recording ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum StopReason {
+    /// A stop was requested (Ctrl-C).
     Requested,
+    /// The duration asked for passed.
     Duration,
     /// [`MAX_SECONDS`] reached.
     Longest,
@@ -41,7 +43,9 @@ pub struct Recording {
     pub values: Vec<Vec<f64>>,
     /// Which joints were recorded (limp); the others kept their torque.
     pub recorded: Vec<bool>,
+    /// Sampling rate asked for, hertz.
     pub rate_hz: f64,
+    /// Why the recording ended.
     pub stopped: StopReason,
     /// Samples missing from the recording, and the longest gap between two.
     pub gaps: SampleGaps,
@@ -50,17 +54,23 @@ pub struct Recording {
     pub hold_error: Option<HoldError>,
 }
 
+/// Why a recording, or the keyframes made from it, failed.
 #[derive(Debug, thiserror::Error)]
 pub enum RecordError {
+    /// The options or the recording do not make sense (the message says which and why).
     #[error("{0}")]
     Invalid(String),
     /// The bus failed while recording; the limp joints were asked to hold where they were.
     #[error("{}{error} (at {at:.3} s)", joint_prefix(joint))]
     Fault {
+        /// The joint whose servo failed; `None` when the error names no servo.
         joint: Option<String>,
+        /// What failed.
         error: BusError,
+        /// Recording time of the failure, seconds.
         at: f64,
     },
+    /// The keys could not be extracted from the recording.
     #[error("keyframes: {0}")]
     Extract(#[from] ExtractError),
     /// The keyframes do not make a valid sequence for the robot (a bug if it happens).
@@ -76,9 +86,11 @@ pub struct SampleGaps {
     pub failed_reads: u64,
     /// Cycles that began late after a stall of the process, and the deadlines passed over.
     pub stalls: u64,
+    /// Control deadlines passed over in those stalls (each one a sample missing).
     pub skipped_deadlines: u64,
     /// The longest time between two samples, seconds, and where it ended (recording time).
     pub longest: f64,
+    /// Recording time at which the longest gap ended, seconds.
     pub longest_at: f64,
 }
 

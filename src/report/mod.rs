@@ -2,7 +2,7 @@
 
 pub mod log;
 pub mod plot;
-pub mod units;
+pub(crate) mod units;
 
 use crate::plan::{Cause, CheckReport, LimitKind, Sampled, Trajectory};
 use crate::robot::{Robot, RobotSource};

@@ -12,8 +12,11 @@ use std::fmt;
 /// A joint value (degrees or metres) as shown: padded as a whole when given a width.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Shown {
+    /// The value in `unit`.
     pub value: f64,
+    /// `"deg"` or `"mm"`.
     pub unit: &'static str,
+    /// Decimals it is printed with.
     pub decimals: usize,
 }
 

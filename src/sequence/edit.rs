@@ -9,14 +9,27 @@ use std::path::Path;
 /// Why [`KeyframeList::set_time`] left a key where it was.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum TimeRefusal {
+    /// The list is empty.
     #[error("there is no key")]
     NoKey,
+    /// The time is not a number from 0 to [`MAX_TIME`](super::MAX_TIME).
     #[error("{time} s is outside 0 … {max} s", max = super::MAX_TIME)]
-    OutOfRange { time: f64 },
+    OutOfRange {
+        /// The time asked for, seconds.
+        time: f64,
+    },
+    /// The time is before the previous key and its hold end.
     #[error("the previous key (and its hold) ends later: {earliest:.3} s is the earliest")]
-    Previous { earliest: f64 },
+    Previous {
+        /// The earliest time the key can have, seconds.
+        earliest: f64,
+    },
+    /// The time, plus the key's hold, reaches the next key.
     #[error("the next key comes sooner: {latest:.3} s is the latest")]
-    Next { latest: f64 },
+    Next {
+        /// The latest time the key can have, seconds.
+        latest: f64,
+    },
 }
 
 /// A sequence being edited, with its current key and whether it has unsaved changes.
@@ -28,6 +41,7 @@ pub struct KeyframeList {
 }
 
 impl KeyframeList {
+    /// The list of `sequence`'s keys, clean, with the first key current.
     pub fn new(sequence: Sequence) -> Self {
         Self {
             sequence,
@@ -36,6 +50,7 @@ impl KeyframeList {
         }
     }
 
+    /// The list of the sequence in the file at `path` ([`Sequence::load`]).
     pub fn load(path: &Path) -> Result<Self, InputError> {
         Ok(Self::new(Sequence::load(path)?))
     }
@@ -48,18 +63,22 @@ impl KeyframeList {
         Ok(())
     }
 
+    /// The sequence as edited so far.
     pub fn sequence(&self) -> &Sequence {
         &self.sequence
     }
 
+    /// Number of keys.
     pub fn len(&self) -> usize {
         self.sequence.keyframes.len()
     }
 
+    /// Whether there are no keys.
     pub fn is_empty(&self) -> bool {
         self.sequence.keyframes.is_empty()
     }
 
+    /// Whether there are changes not saved yet.
     pub fn is_dirty(&self) -> bool {
         self.dirty
     }
@@ -209,6 +228,7 @@ impl KeyframeList {
             .all(|(key, pair)| key.hold <= pair[1] - pair[0] - super::MIN_GAP)
     }
 
+    /// Names (or unnames) the current key; false when there is no key.
     pub fn set_name(&mut self, name: Option<String>) -> bool {
         self.edit_current(|k| k.name = name)
     }

@@ -17,12 +17,15 @@ use std::path::Path;
 pub use edit::{KeyframeList, TimeRefusal};
 pub use load::{valid_arm_name, MAX_TIME, MIN_GAP};
 
+/// The `"format"` field of a sequence file this version reads and writes.
 pub const SEQUENCE_FORMAT: &str = "keypose-sequence/1";
+/// Seconds between untimed keys when the file gives no `key_interval`.
 pub const DEFAULT_KEY_INTERVAL: f64 = 2.0;
 
 /// Whether the first and last keys are played, or only shape the curve.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Ends {
+    /// Every key is played, the first and last included (the default).
     Played,
     /// The first and last keys are control points: playback runs from the second key to the
     /// second-to-last.
@@ -52,6 +55,7 @@ pub enum ToolOrientation {
 }
 
 impl ToolOrientation {
+    /// The orientation as a unit quaternion, whichever way it was written.
     pub fn quaternion(&self) -> DQuat {
         match *self {
             ToolOrientation::Quaternion(q) => q,
@@ -66,11 +70,15 @@ impl ToolOrientation {
 pub struct ToolKey {
     /// Metres.
     pub xyz: DVec3,
+    /// The tool frame's orientation; `None` leaves it to the solver.
     pub orientation: Option<ToolOrientation>,
 }
 
+/// One key of a sequence: a pose (joint values, a tool target, or both), when it is reached
+/// and how the motion leaves it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Keyframe {
+    /// The key's name, shown by the teach pendant and in messages; `None` for an unnamed key.
     pub name: Option<String>,
     /// Absolute time in seconds; `None` in a uniformly spaced sequence.
     pub time: Option<f64>,
@@ -92,6 +100,7 @@ pub struct Keyframe {
 }
 
 impl Keyframe {
+    /// An untimed, unnamed key with these joint values, no hold and no tool target.
     pub fn new(values: Vec<(String, KeyValue)>) -> Self {
         Self {
             name: None,
@@ -106,6 +115,7 @@ impl Keyframe {
         }
     }
 
+    /// The value this key gives `joint`; `None` when it does not name the joint.
     pub fn value(&self, joint: &str) -> Option<&KeyValue> {
         self.values
             .iter()
@@ -134,6 +144,7 @@ impl Keyframe {
 /// joints (`ARM/JOINT`), its robot, and where its base stands in the cell.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ArmSpec {
+    /// The arm's name (`left`, `right`, …), the prefix of its joints.
     pub name: String,
     /// A built-in robot, a LeRobot type or a robot file, as for `"robot"`.
     pub robot: String,
@@ -145,7 +156,9 @@ pub struct ArmSpec {
 /// radians, URDF order, or `quat` `[w, x, y, z]`), kept as written so saving gives it back.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Placement {
+    /// Position, metres.
     pub xyz: DVec3,
+    /// Rotation; `None` is no rotation.
     pub rotation: Option<ToolOrientation>,
 }
 
@@ -180,12 +193,15 @@ impl Placement {
         }
     }
 
+    /// The placement as a rigid transform (identity rotation when none is written).
     pub fn transform(&self) -> RigidTransform {
         let r = self.rotation.map_or(DQuat::IDENTITY, |o| o.quaternion());
         RigidTransform::new(self.xyz, r)
     }
 }
 
+/// A sequence file in memory: which robot (or arms), how keys are interpolated and spaced, and
+/// the keyframes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sequence {
     /// Where it came from, for messages (`"<new>"` when built in memory).
@@ -194,8 +210,11 @@ pub struct Sequence {
     pub robot: String,
     /// The arms of a sequence for several (`"robots"`), in the order written; empty for one.
     pub arms: Vec<ArmSpec>,
+    /// Free text about the sequence; `None` when the file has none.
     pub description: Option<String>,
+    /// Mode of every segment whose key does not set its own.
     pub interpolation: Interp,
+    /// Whether the first and last keys are played.
     pub ends: Ends,
     /// Spacing of untimed keys; `None` when keys carry absolute times.
     pub key_interval: Option<f64>,
@@ -219,6 +238,7 @@ impl Sequence {
         }
     }
 
+    /// Reads and checks a sequence file (the rules that hold for any robot).
     pub fn load(path: &Path) -> Result<Sequence, InputError> {
         let text = crate::json::read_text(path)?;
         load::parse_sequence(&path.display().to_string(), &text)
@@ -229,6 +249,7 @@ impl Sequence {
         load::parse_sequence(file, text)
     }
 
+    /// The sequence as `keypose-sequence/1` JSON text, as [`Sequence::save`] writes it.
     pub fn to_json(&self) -> String {
         save::to_json(self)
     }
@@ -267,6 +288,7 @@ impl Sequence {
         }
     }
 
+    /// Every keyframe's time, seconds, in order.
     pub fn key_times(&self) -> Vec<f64> {
         (0..self.keyframes.len())
             .map(|i| self.key_time(i))

@@ -3,7 +3,7 @@
 //! errors for targets out of reach and below the floor. (The tool positions of solved joints
 //! are measured in the official MuJoCo models by tests/simulation/models.rs.)
 
-use keypose::kinematics::{dls::Dls, lowest_below_floor, IkError, Solver, ToolTarget};
+use keypose::kinematics::{lowest_below_floor, Dls, IkError, Solver, ToolTarget};
 use keypose::robot::Robot;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};

@@ -3,7 +3,7 @@
 //! keys, sampled at every recorded time, compared with every recorded value.
 
 use keypose::curve::{Interp, Track, TrackKey};
-use keypose::record::extract::{deviations, extract, ExtractError, Fit};
+use keypose::record::{deviations, extract, ExtractError, Fit};
 use proptest::prelude::*;
 
 const RATE: f64 = 100.0;

@@ -200,6 +200,6 @@ fn open_script(path: &Path) -> Result<Box<dyn BufRead>, CommandError> {
     }
     // A regular file: a script is read line by line, and a device such as /dev/zero has no end
     // of line (`-` reads standard input, for a pipe).
-    let file = keypose::json::input_file::open_regular(path)?;
+    let file = keypose::json::open_regular(path)?;
     Ok(Box::new(BufReader::new(file)))
 }

@@ -25,6 +25,7 @@ pub struct EpisodeSpan {
 }
 
 impl EpisodeSpan {
+    /// The episode's index.
     pub fn episode(&self) -> u64 {
         self.episode
     }
@@ -44,6 +45,7 @@ impl EpisodeSpan {
         self.to
     }
 
+    /// Number of frames (at least one).
     pub fn frames(&self) -> u64 {
         self.to - self.from
     }

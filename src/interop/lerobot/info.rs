@@ -15,9 +15,13 @@ pub const DEFAULT_DATA_PATH: &str = "data/chunk-{chunk_index:03d}/file-{file_ind
 pub struct DatasetInfo {
     /// The file read, for messages.
     pub file: String,
+    /// Frames per second (above 0, at most 10 000).
     pub fps: f64,
+    /// LeRobot's robot type (`so101_follower`); `None` when not given as a string.
     pub robot_type: Option<String>,
+    /// The data files' path template (LeRobot's default when not given).
     pub data_path: String,
+    /// Episodes in the dataset; `None` when not given.
     pub total_episodes: Option<u64>,
     features: serde_json::Value,
 }

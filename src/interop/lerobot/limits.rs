@@ -13,14 +13,19 @@ use crate::robot::Joint;
 /// A joint whose values were clipped into its limits (`--clip`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Clipped {
+    /// The joint's name.
     pub joint: String,
+    /// The joint's unit, `"deg"` or `"m"`.
     pub unit: &'static str,
     /// Frames whose value was outside the limits.
     pub frames: usize,
-    /// The value furthest outside, and its frame number.
+    /// The value furthest outside, in `unit`.
     pub worst: f64,
+    /// Its frame number, from the episode's first.
     pub worst_frame: u64,
+    /// The joint's lower limit, in `unit`.
     pub min: f64,
+    /// The joint's upper limit, in `unit`.
     pub max: f64,
 }
 

@@ -1,11 +1,11 @@
 //! A LeRobotDataset v3.0 episode as editable keyframes (docs/interop.md §1).
 //!
-//! [`info`] reads `meta/info.json`, [`layout`] decides which files are read (all inside the
-//! dataset), [`reader`] gets the episode's metadata and rows out of the parquet files (through
-//! pyarrow); everything pyarrow returns is judged here, in Rust, before anything is made of it:
-//! [`episode`] the episode's span, [`frames`] its rows, [`timing`] its timestamps against the
-//! frame rate, [`limits`] its values against the joints' limits once [`units`] has turned
-//! LeRobot's normalised values into joint values. The frames then go through the same fitting
+//! [`DatasetInfo`] reads `meta/info.json`, [`layout`] decides which files are read (all inside
+//! the dataset), a reader gets the episode's metadata and rows out of the parquet files
+//! (through pyarrow); everything pyarrow returns is judged here, in Rust, before anything is
+//! made of it: the episode's span ([`EpisodeSpan`]), its rows ([`Frames`]), its timestamps
+//! against the frame rate, its values against the joints' limits once they are turned from
+//! LeRobot's normalisation ([`BodyUnits`]) into joint values. The frames then go through the same fitting
 //! as a recording made by hand ([`crate::record::keyframes`]): the fewest keys within the
 //! tolerance, retimed until the limit check passes.
 //!
@@ -13,20 +13,20 @@
 //! the dataset, the episode and the frame where there is one, and the field (exit 2); nothing
 //! is written.
 
-pub mod arms;
-pub mod episode;
-pub mod error;
-pub mod frames;
-pub mod info;
+mod arms;
+mod episode;
+mod error;
+mod frames;
+mod info;
 pub mod layout;
-pub mod limits;
-pub mod reader;
-pub mod timing;
-pub mod units;
+mod limits;
+mod reader;
+mod timing;
+mod units;
 
-pub use arms::dataset_arms;
+pub use arms::{arm_robot_type, dataset_arms};
 pub use episode::{EpisodeSpan, MAX_FRAMES};
-pub use error::{LeRobotError, PathProblem, Place, Problem};
+pub use error::{DuplicateJoint, Frame, LeRobotError, PathProblem, Place, Problem};
 pub use frames::Frames;
 pub use info::DatasetInfo;
 pub use limits::Clipped;
@@ -42,6 +42,7 @@ const POSITION_SUFFIX: &str = ".pos";
 /// What to import and how.
 #[derive(Debug, Clone)]
 pub struct ImportOptions {
+    /// The episode's index in the dataset.
     pub episode: u64,
     /// `action` or `observation.state`.
     pub field: String,
@@ -49,19 +50,26 @@ pub struct ImportOptions {
     pub units: Option<BodyUnits>,
     /// Clip values outside a joint's limits to them (and say so) instead of refusing them.
     pub clip: bool,
+    /// How the keys are fitted to the frames.
     pub keyframes: KeyframeOptions,
 }
 
 /// An imported episode: the keys, and the notices the user should read.
 #[derive(Debug, Clone)]
 pub struct Imported {
+    /// The keys fitted to the frames, as a sequence, with how well they fit.
     pub keyframes: Keyframes,
+    /// Frames read.
     pub frames: usize,
+    /// The units the body joints' values were read in, per arm.
     pub units: UnitsPerArm,
+    /// The feature column's Arrow type (`fixed_size_list<…>[6]`).
     pub column_type: String,
+    /// The data file read, relative to the dataset.
     pub data_file: String,
     /// The joints whose values were clipped (`clip`), each once.
     pub clipped: Vec<Clipped>,
+    /// Notes for the user (units guessed, values clipped), one line each.
     pub notices: Vec<String>,
 }
 
@@ -197,13 +205,17 @@ fn dataset_name(dir: &Path) -> String {
 pub struct Episode<'a> {
     /// The dataset's name, for the sequence's description.
     pub dataset: String,
+    /// The dataset's meta/info.json.
     pub info: &'a DatasetInfo,
     /// The dataset, episode and data file, for messages.
     pub place: Place,
+    /// Which frames of the dataset are the episode's.
     pub span: EpisodeSpan,
     /// The feature's value names and the joint each drives ([`map_names`]).
     pub names: &'a [String],
+    /// The robot joint each value drives; `None` for a value that is not a joint position.
     pub columns: &'a [Option<usize>],
+    /// The episode's rows.
     pub frames: Frames,
 }
 

@@ -21,6 +21,7 @@ pub enum BodyUnits {
 }
 
 impl BodyUnits {
+    /// The name `--units` takes: `degrees` or `range`.
     pub fn name(self) -> &'static str {
         match self {
             BodyUnits::Degrees => "degrees",

@@ -37,6 +37,7 @@ pub struct PlotJoint {
     pub measured: Option<Vec<(f64, f64)>>,
 }
 
+/// Everything one SVG plot shows: commanded curves of every joint, keys, and measured traces.
 #[derive(Debug, Clone, Default)]
 pub struct PlotData {
     /// Shown at the top and as the document `<title>`.
