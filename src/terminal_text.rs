@@ -26,7 +26,7 @@ pub fn escape_controls(text: &str) -> Cow<'_, str> {
 }
 
 /// A single field (a name in a table cell): line breaks escaped too, so it stays on its line.
-pub(crate) fn escape_field(text: &str) -> Cow<'_, str> {
+pub fn escape_field(text: &str) -> Cow<'_, str> {
     escape_where(text, is_layout_control)
 }
 
