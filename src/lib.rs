@@ -4,7 +4,8 @@
 //! Data flows one way, from files to bytes (docs/architecture.md has the whole map):
 //!
 //! - [`sequence`] and [`robot`] read the files: keyframe lists, arm descriptions, LeRobot
-//!   calibrations; [`pose`] is the rigid-transform math under them;
+//!   calibrations; [`pose`] is the rigid-transform math under them; [`servo`] is the catalogue
+//!   of servo models (control tables, units, resolution) that the robot and the bus read;
 //! - [`curve`] interpolates one degree of freedom over key times ([`curve::Track`]);
 //! - [`plan`] turns a sequence into a [`plan::Trajectory`] for a robot, checks it against the
 //!   joint limits, retimes it, and says what the arm should do at each moment of playback
@@ -38,6 +39,7 @@ pub mod record;
 pub mod report;
 pub mod robot;
 pub mod sequence;
+pub mod servo;
 pub mod sim;
 pub mod stop;
 pub mod studio;

@@ -10,7 +10,7 @@
 use keypose::bus::driver::NativeBus;
 use keypose::bus::protocol::packet::{Decoded, Direction, Framing};
 use keypose::bus::protocol::{codec, Codec};
-use keypose::bus::registers::{Register, RegisterTable};
+use keypose::bus::registers::{DecodeAnswer, Register, RegisterTable};
 use keypose::bus::transport::Transport;
 use keypose::bus::virtual_bus::VirtualServos;
 use keypose::bus::ServoBus;

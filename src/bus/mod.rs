@@ -2,14 +2,16 @@
 //! knowing the vendor, and its implementations — our own Dynamixel 2.0 and Feetech STS/SCS
 //! drivers over a serial port, the vendor SDKs through the Python bridge, and virtual servos.
 //!
-//! Layers, bottom up: `protocol` (one folder per vendor protocol behind the [`protocol::Codec`]
-//! trait: framing, instruction codes, parameter layouts, status bytes), `registers` (what a
-//! register is and how its values are encoded), `models` (one static description per servo
-//! model: number, control table, units, speeds), `transport` (a serial port with deadlines and
-//! resynchronisation), `driver` (the native [`ServoBus`] over a transport), `virtual_bus`
-//! (emulated servos that answer the real protocols byte for byte), `sdk` (the vendor SDKs
-//! through the Python bridge). Neither the driver nor the emulated servos ask which vendor they
-//! talk to: the codec and the model description answer for them.
+//! Layers, bottom up: the servo catalogue ([`crate::servo`]: one static description per model,
+//! its control table, units and speeds) beneath the bus; `protocol` (one folder per vendor
+//! protocol behind the [`protocol::Codec`] trait: framing, instruction codes, parameter
+//! layouts, status bytes, and the vendor's firmware rules), `registers` (the catalogue's
+//! register vocabulary, and a servo's answer read into a value), `models` (which model each
+//! servo of a bus is), `transport` (a serial port with deadlines and resynchronisation),
+//! `driver` (the native [`ServoBus`] over a transport), `virtual_bus` (emulated servos that
+//! answer the real protocols byte for byte), `sdk` (the vendor SDKs through the Python bridge).
+//! Neither the driver nor the emulated servos ask which vendor they talk to: the codec, its
+//! firmware and the model description answer for them.
 
 pub mod cell;
 mod connect;
@@ -27,6 +29,9 @@ pub mod sdk;
 pub mod transport;
 pub mod virtual_bus;
 
+/// The alarms are the catalogue's vocabulary (a model's alarm register has their bits); the
+/// bus reports them.
+pub use crate::servo::{AlarmBits, Alarms};
 pub use cell::{connect_cell, CellBus, WriteOffsets};
 pub use connect::{connect, connect_with, scan, BusOptions, Connection, Driver, VIRTUAL_PORT};
 pub use faults::{
@@ -34,7 +39,6 @@ pub use faults::{
 };
 pub use ports::{latency_timers, list_ports, PortInfo};
 
-use std::fmt;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -47,102 +51,6 @@ pub struct PingInfo {
     pub firmware: Option<u8>,
     /// The alarms the servo reported while answering: a servo in alarm still says what it is.
     pub alarms: Alarms,
-}
-
-/// Alarm conditions a servo reports, common to both vendors.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Alarms {
-    pub input_voltage: bool,
-    pub overheating: bool,
-    /// Magnetic encoder / angle sensor fault.
-    pub encoder: bool,
-    /// Dynamixel "electrical shock"; Feetech over-current.
-    pub electrical: bool,
-    pub overload: bool,
-}
-
-impl Alarms {
-    pub fn any(&self) -> bool {
-        self.input_voltage || self.overheating || self.encoder || self.electrical || self.overload
-    }
-}
-
-/// Which bit of a vendor's alarm byte stands for each alarm.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct AlarmBits {
-    pub input_voltage: u8,
-    pub overheating: u8,
-    pub encoder: u8,
-    pub electrical: u8,
-    pub overload: u8,
-}
-
-impl AlarmBits {
-    fn pairs(&self) -> [u8; 5] {
-        [
-            self.input_voltage,
-            self.overheating,
-            self.encoder,
-            self.electrical,
-            self.overload,
-        ]
-    }
-
-    /// The alarms set in `bits`; bits this layout does not use are ignored.
-    pub fn decode(&self, bits: u8) -> Alarms {
-        let [input_voltage, overheating, encoder, electrical, overload] =
-            self.pairs().map(|mask| bits & mask != 0);
-        Alarms {
-            input_voltage,
-            overheating,
-            encoder,
-            electrical,
-            overload,
-        }
-    }
-
-    /// The byte a servo reports for `alarms`.
-    pub fn encode(&self, alarms: &Alarms) -> u8 {
-        let on = [
-            alarms.input_voltage,
-            alarms.overheating,
-            alarms.encoder,
-            alarms.electrical,
-            alarms.overload,
-        ];
-        self.pairs()
-            .into_iter()
-            .zip(on)
-            .filter(|(_, on)| *on)
-            .fold(0, |bits, (mask, _)| bits | mask)
-    }
-}
-
-impl Alarms {
-    /// The name of every alarm that is set.
-    pub fn names(&self) -> Vec<&'static str> {
-        [
-            (self.input_voltage, "input voltage"),
-            (self.overheating, "overheating"),
-            (self.encoder, "encoder"),
-            (self.electrical, "electrical / over-current"),
-            (self.overload, "overload"),
-        ]
-        .into_iter()
-        .filter_map(|(on, name)| on.then_some(name))
-        .collect()
-    }
-}
-
-impl fmt::Display for Alarms {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let names = self.names();
-        if names.is_empty() {
-            f.write_str("none")
-        } else {
-            f.write_str(&names.join(", "))
-        }
-    }
 }
 
 /// One servo's condition.

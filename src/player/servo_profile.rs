@@ -6,9 +6,9 @@
 //! remembered values when told to ([`ProfileGuard::restore`], which reports a failure) or,
 //! failing that, when dropped: after an error return or a panic too.
 
-use crate::bus::profile::{settings_for, time_based, ProfileError, Setting};
+use crate::bus::profile::{settings_for, ProfileError, Setting};
 use crate::bus::{BusError, ServoBus};
-use crate::robot::{Robot, Vendor};
+use crate::robot::Robot;
 
 /// One profile register's values, (id, value) per servo: the values found before playback, or
 /// the ones to write.
@@ -96,22 +96,26 @@ impl Drop for ProfileGuard<'_> {
     }
 }
 
-/// Refuses a Dynamixel servo whose Drive_Mode selects the time-based profile (as ROBOTIS's
-/// OpenMANIPULATOR-X set-up does): the limits, in velocity-based units, would be taken as move
-/// times there.
+/// Refuses a servo whose Drive_Mode selects the time-based profile (a Dynamixel set up as
+/// ROBOTIS's OpenMANIPULATOR-X is): the limits, in velocity-based units, would be taken as move
+/// times there. Models without a Drive_Mode register are not asked.
 fn refuse_time_based(bus: &mut dyn ServoBus, robot: &Robot) -> Result<(), ServoProfileError> {
     let joints: Vec<_> = robot
         .joints
         .iter()
-        .filter(|j| j.servo.model.vendor() == Vendor::Dynamixel)
+        .filter_map(|j| j.servo.model.spec().drive_mode.map(|bits| (j, bits)))
         .collect();
     if joints.is_empty() {
         return Ok(());
     }
-    let ids: Vec<u8> = joints.iter().map(|j| j.servo.id).collect();
+    let ids: Vec<u8> = joints.iter().map(|(j, _)| j.servo.id).collect();
     let modes = bus.read_setting(&ids, Setting::DriveMode)?;
-    match joints.iter().zip(modes).find(|(_, mode)| time_based(*mode)) {
-        Some((joint, drive_mode)) => Err(ServoProfileError::TimeBased {
+    let time_based = joints
+        .iter()
+        .zip(modes)
+        .find(|((_, bits), mode)| bits.time_based(*mode));
+    match time_based {
+        Some(((joint, _), drive_mode)) => Err(ServoProfileError::TimeBased {
             joint: joint.name.clone(),
             servo: joint.servo.id,
             drive_mode,

@@ -20,7 +20,7 @@
 //! gives that joint. A partial file or other ids mean it was made for another arm or another
 //! wiring, and applying it would move servos by another arm's offsets.
 
-use super::{CalibratedRange, Joint, LimitsOrigin, Robot, Servo, Vendor};
+use super::{CalibratedRange, Joint, LimitsOrigin, Robot, Servo};
 use crate::json::{self, InputError, Node};
 
 /// The top-level arrays of LeRobot's old calibration format (one array per field, indexed by
@@ -53,7 +53,8 @@ const LEROBOT_DEGREES_DIRECTION: f64 = 1.0;
 /// servo mapping already set from this calibration). LeRobot's `MotorNormMode.RANGE_0_100`
 /// (S6 `motors_bus.py::_normalize`): `(raw − range_min) / (range_max − range_min) · 100`,
 /// then `100 − x` when `apply_drive_mode and drive_mode`, which only Feetech applies: a
-/// Dynamixel's drive_mode 1 has mirrored the ticks in the servo already.
+/// Dynamixel's drive_mode 1 has mirrored the ticks in the servo already. So the range is
+/// mirrored here for a model whose firmware has no Drive_Mode reverse bit.
 fn calibrated_range(
     joint: &Joint,
     range_min: i64,
@@ -61,7 +62,7 @@ fn calibrated_range(
     drive_mode_one: bool,
 ) -> CalibratedRange {
     let (at_0, at_100) = (joint.servo.value(range_min), joint.servo.value(range_max));
-    if drive_mode_one && joint.servo.model.vendor() == Vendor::Feetech {
+    if drive_mode_one && joint.servo.model.spec().drive_mode.is_none() {
         CalibratedRange {
             at_0: at_100,
             at_100: at_0,

@@ -1,6 +1,6 @@
 //! The `keypose-robot/1` file format.
 
-use super::servo::{Servo, ServoModel, DEGREES_PER_TICK};
+use super::servo::{Servo, ServoModel};
 use super::{BusSettings, FixedFrame, Joint, JointKind, Limits, Protocol, Robot, ROBOT_FORMAT};
 use crate::json::{self, InputError, Node};
 use crate::pose::{quat_from_rpy, RigidTransform};
@@ -262,7 +262,7 @@ fn parse_servo(node: &Node, kind: JointKind, protocol: Protocol) -> Result<Servo
         _ => return Err(direction_node.expected("1 or -1")),
     };
     let units_per_tick = match (kind, node.get("metres_per_tick")) {
-        (JointKind::Revolute, None) => DEGREES_PER_TICK,
+        (JointKind::Revolute, None) => model.spec().degrees_per_tick(),
         (JointKind::Revolute, Some(n)) => {
             return Err(n.error("metres_per_tick is only for prismatic joints"))
         }

@@ -6,6 +6,7 @@ mod gravity;
 mod lerobot;
 pub mod lerobot_names;
 mod load;
+pub mod profile;
 pub mod servo;
 
 use crate::json::InputError;
@@ -14,6 +15,7 @@ use glam::{DQuat, DVec3};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+pub use crate::servo::Protocol;
 pub use builtin::{BuiltinRobot, BUILTINS, BUILTIN_NAMES};
 pub use cell::{cell_joint_name, split_joint_name, Arm, CellError};
 pub use lerobot::{
@@ -23,46 +25,6 @@ pub use lerobot_names::{LeRobotRole, LeRobotType, NotBuiltIn};
 pub use servo::{PositionEncoding, Servo, ServoModel, TickError, Vendor};
 
 pub const ROBOT_FORMAT: &str = "keypose-robot/1";
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Protocol {
-    Dynamixel2,
-    FeetechSts,
-    FeetechScs,
-}
-
-impl Protocol {
-    pub const ALL: [Protocol; 3] = [
-        Protocol::Dynamixel2,
-        Protocol::FeetechSts,
-        Protocol::FeetechScs,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Protocol::Dynamixel2 => "dynamixel-2",
-            Protocol::FeetechSts => "feetech-sts",
-            Protocol::FeetechScs => "feetech-scs",
-        }
-    }
-
-    /// Whose servos this protocol addresses (SCS and STS are both Feetech's).
-    pub fn vendor(self) -> Vendor {
-        match self {
-            Protocol::Dynamixel2 => Vendor::Dynamixel,
-            Protocol::FeetechSts | Protocol::FeetechScs => Vendor::Feetech,
-        }
-    }
-
-    /// How this protocol puts a signed position on the wire.
-    pub fn position_encoding(self) -> PositionEncoding {
-        match self {
-            Protocol::Dynamixel2 => PositionEncoding::TwosComplement32,
-            Protocol::FeetechSts => PositionEncoding::SignMagnitude16 { sign_bit: 15 },
-            Protocol::FeetechScs => PositionEncoding::Unsigned16,
-        }
-    }
-}
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum JointKind {

@@ -319,16 +319,16 @@ impl Simulation {
     }
 
     /// Models the servos' own profile from now on, as `play --servo-profile` sets it
-    /// ([`crate::bus::profile::applied_limits`]): each servo follows its goal within these
+    /// ([`crate::robot::profile::applied_limits`]): each servo follows its goal within these
     /// acceleration and velocity limits.
     pub fn model_servo_profile(
         &mut self,
         robot: &Robot,
-    ) -> Result<(), crate::bus::profile::ProfileError> {
+    ) -> Result<(), crate::robot::profile::ProfileError> {
         let limits = robot
             .joints
             .iter()
-            .map(crate::bus::profile::applied_limits)
+            .map(crate::robot::profile::applied_limits)
             .collect::<Result<Vec<_>, _>>()?;
         let accelerations: Vec<f64> = limits.iter().map(|(a, _)| *a).collect();
         // Rates convert like positions: to_model only scales.

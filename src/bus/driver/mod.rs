@@ -17,7 +17,7 @@ use super::echo::{Echoes, Front};
 use super::models::Servos;
 use super::protocol::packet::{Decoded, Direction, Packet, PacketError};
 use super::protocol::{codec, Codec, Instructions, Status};
-use super::registers::{self, Register, RegisterTable};
+use super::registers::{self, DecodeAnswer, Register, RegisterTable};
 use super::transport::Transport;
 use super::{profile, Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
 use crate::robot::{Protocol, ServoModel};

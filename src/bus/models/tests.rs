@@ -1,9 +1,10 @@
 //! The model descriptions: hand-computed register values and the tables' consistency.
 
-use super::*;
 use crate::bus::protocol::codec;
-use crate::bus::registers::{span, ByteOrder, RegisterError};
-use crate::robot::Vendor;
+use crate::servo::{
+    item, model_from_number, span, ByteOrder, Encoding, Protocol, Register, RegisterError,
+    RegisterTable, ServoModel, Vendor,
+};
 
 fn table(model: ServoModel) -> &'static RegisterTable {
     model.spec().table

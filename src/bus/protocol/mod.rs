@@ -1,19 +1,25 @@
 //! The vendors' protocols, one folder each: `dynamixel` (Protocol 2.0) and `feetech` (SCS and
-//! STS), over the framing vocabulary both share (`packet`) and the parameter layouts that differ
-//! only in field width (`fields`).
+//! STS), over the framing vocabulary every protocol shares (`packet`), the `FF FF` framing of
+//! Protocol 1.0's format that Feetech uses (`ff_framing`, where another protocol of that
+//! format finds it) and the parameter layouts that differ only in field width (`fields`).
 //!
 //! A [`Codec`] is everything the driver and the emulated servos need to know about a protocol:
-//! instruction codes, parameter layout, framing, the meaning of a status byte, the ping answer.
-//! Neither of them asks which vendor it talks to; [`codec`] is the one place a robot file's
-//! protocol picks one. Adding a protocol means a folder here, a [`Codec`] for it and an arm in
-//! [`codec`].
+//! instruction codes, parameter layout, framing, the meaning of a status byte, the ping answer,
+//! and the rules its servos' firmware follows ([`Firmware`], `firmware`; each vendor's in its
+//! folder). Neither the driver nor the emulated servos ask which vendor they talk to; [`codec`]
+//! is the one place a protocol picks one. Adding a protocol means a folder here (codec,
+//! firmware, status byte), an arm in [`codec`], and its variant and models in the servo
+//! catalogue ([`crate::servo`]).
 
 pub mod dynamixel;
 pub mod feetech;
+pub mod ff_framing;
 mod fields;
+pub mod firmware;
 pub mod packet;
 
 pub use fields::Fields;
+pub use firmware::Firmware;
 
 use super::registers::{ByteOrder, Register};
 use super::{AlarmBits, Alarms, PingInfo};
@@ -118,6 +124,9 @@ pub trait Codec: Sync + std::fmt::Debug {
     /// Whether a status packet can be byte for byte an instruction (Feetech: one layout for
     /// both), so that a copy of what was sent may be the answer rather than its echo.
     fn status_may_equal_instruction(&self) -> bool;
+    /// The rules the firmware of the protocol's servos follows, which the emulated servos act
+    /// out.
+    fn firmware(&self) -> &'static dyn Firmware;
     /// The combined read, where the protocol has one.
     fn fast_sync_read(&self) -> Option<&dyn FastSyncRead> {
         None

@@ -478,14 +478,15 @@ impl VirtualServos {
 }
 
 /// Firmware version reported in Dynamixel ping answers, as register 6 holds it.
-const FIRMWARE_VERSION: u8 = super::models::DYNAMIXEL_FIRMWARE_VERSION as u8;
+const FIRMWARE_VERSION: u8 = crate::servo::dynamixel_x::FIRMWARE_VERSION as u8;
 
-/// The servo of `joint` at joint value `home`. A Dynamixel servo is put in extended position
-/// mode (4) when the joint's ticks leave one turn or its offset exceeds what position mode
-/// accepts (±1024): the way LeRobot configures the Koch arm, and the only way such a joint
-/// works on a real servo.
+/// The servo of `joint` at joint value `home`. A servo that has an extended (multi-turn)
+/// position mode is put in it when the joint's ticks leave the position mode's range or its
+/// offset exceeds what position mode accepts (Dynamixel: ±1024): the way LeRobot configures the
+/// Koch arm, and the only way such a joint works on a real servo.
 fn servo_for_joint(joint: &crate::robot::Joint, home: f64) -> VirtualServo {
     let servo_spec = &joint.servo;
+    let modes = servo_spec.model.spec().modes;
     let tick = servo_spec.tick_exact(home);
     let mut servo = VirtualServo::new(servo_spec.id, servo_spec.model, tick);
     let offset = servo_spec.homing_offset.unwrap_or(0);
@@ -493,18 +494,21 @@ fn servo_for_joint(joint: &crate::robot::Joint, home: f64) -> VirtualServo {
         servo.set_homing_offset(offset);
     }
     let ticks = [joint.limits.min, joint.limits.max, home].map(|v| servo_spec.tick_exact(v));
-    let one_turn = ticks.iter().all(|t| (0.0..=4095.0).contains(t));
-    if servo_spec.model.vendor() == crate::robot::Vendor::Dynamixel
-        && (!one_turn || offset.abs() > 1024)
-    {
-        servo.set_operating_mode(EXTENDED_POSITION_MODE);
+    let (first, last) = modes.position;
+    let one_turn = ticks
+        .iter()
+        .all(|t| (first as f64..=last as f64).contains(t));
+    let offset_ignored = modes
+        .position_mode_offset_limit
+        .is_some_and(|limit| offset.abs() > limit);
+    if let Some(extended) = modes.extended_position {
+        if !one_turn || offset_ignored {
+            servo.set_operating_mode(extended.mode);
+        }
     }
     servo.place_at(tick);
     servo
 }
-
-/// Dynamixel Extended Position Control Mode (Operating Mode 4).
-const EXTENDED_POSITION_MODE: i64 = 4;
 
 impl Responder for VirtualServos {
     fn respond(&mut self, written: &[u8]) -> Vec<(Duration, Vec<u8>)> {

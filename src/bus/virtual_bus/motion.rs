@@ -4,7 +4,8 @@
 //! servo's profile or speed/acceleration registers) bounds the speed further and limits the
 //! acceleration, braking in time to stop at the goal.
 
-use crate::robot::{servo::TICKS_PER_REVOLUTION, ServoModel};
+pub use crate::bus::protocol::firmware::Profile;
+use crate::servo::ServoModel;
 use std::time::Instant;
 
 /// Time constant of the proportional approach, seconds: a hobby servo's position loop settles
@@ -13,42 +14,6 @@ const TIME_CONSTANT: f64 = 0.03;
 /// Longest integration step, seconds: an acceleration bound needs small steps, and a servo is
 /// read at arbitrary intervals.
 const MAX_STEP: f64 = 0.001;
-
-/// Bounds on a move, ticks per second and per second²; `None` is no bound beyond the motor's.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Profile {
-    pub max_speed: Option<f64>,
-    pub acceleration: Option<f64>,
-}
-
-impl Profile {
-    /// A speed and an acceleration bound, 0 meaning none (as the registers say).
-    pub fn bounded(speed: f64, acceleration: f64) -> Profile {
-        let positive = |v: f64| (v > 0.0).then_some(v);
-        Profile {
-            max_speed: positive(speed),
-            acceleration: positive(acceleration),
-        }
-    }
-
-    /// A time-based profile (Dynamixel Drive Mode bit 2): the move of `distance` ticks takes
-    /// `total` seconds, accelerating for `accelerating` seconds (at most half of it) and
-    /// braking as long; 0 s total is no profile. The trapezoid's top speed is
-    /// distance / (total − accelerating).
-    pub fn timed(distance: f64, total: f64, accelerating: f64) -> Profile {
-        if total <= 0.0 {
-            return Profile::default();
-        }
-        let accelerating = accelerating.clamp(0.0, total / 2.0);
-        let speed = distance / (total - accelerating);
-        let acceleration = if accelerating > 0.0 {
-            speed / accelerating
-        } else {
-            0.0
-        };
-        Profile::bounded(speed.max(f64::MIN_POSITIVE), acceleration)
-    }
-}
 
 #[derive(Debug, Clone)]
 pub struct Motion {
@@ -72,7 +37,7 @@ impl Motion {
             torque: false,
             velocity: 0.0,
             profile: Profile::default(),
-            max_speed: model.spec().no_load_speed_deg_s * TICKS_PER_REVOLUTION / 360.0,
+            max_speed: model.spec().no_load_speed_ticks_s(),
             last_update: Instant::now(),
         }
     }

@@ -1,35 +1,24 @@
 //! One emulated servo: its control-table memory, laid out and filled with factory values from
-//! the model's full table (`models::item`), the checks a write must pass (access, EEPROM lock,
+//! the model's full table (`servo::item`), the checks a write must pass (access, EEPROM lock,
 //! range), and what the registers do: homing offset and drive mode between the shaft and the
 //! reported positions, position limits, operating modes, motion profiles, torque.
 //!
 //! Positions have two frames. The *actual* position is the shaft's (what [`Motion`] moves);
-//! the *present* frame is what Present/Goal Position carry, after the vendor's homing offset
-//! and direction (docs/protocols.md §1.8, §2.6):
-//! - Dynamixel: Present = direction(actual) + Homing_Offset, where Drive Mode bit 0 mirrors the
-//!   direction; in position mode (3) an offset beyond ±1024 is ignored.
-//! - Feetech: Present = actual − Homing_Offset, wrapped into one turn in position mode (0).
+//! the *present* frame is what Present/Goal Position carry, after the homing offset and
+//! direction. How the two combine, how the profile registers bound a move and what a mode
+//! change resets are the vendor firmware's rules ([`Firmware`], beside each codec;
+//! docs/protocols.md §1.8, §2.6); every number (ticks per revolution, position mode, units,
+//! the recalibrate value) is the model's, from the servo catalogue. Nothing here asks which
+//! vendor the servo is.
 
-use super::motion::{Motion, Profile};
+use super::motion::Motion;
 use super::{ServoFault, MEMORY_SIZE, ROOM_TEMPERATURE_C, SUPPLY_DECIVOLTS};
-use crate::bus::models::item::{Access, Default, Item};
-use crate::bus::models::{ModelSpec, TORQUE_RECALIBRATE};
-use crate::bus::profile;
-use crate::bus::protocol::Refusal;
-use crate::bus::registers::{Register, RegisterTable};
+use crate::bus::protocol::firmware::ControlTable;
+use crate::bus::protocol::{codec, Firmware, Refusal};
 use crate::bus::Alarms;
-use crate::robot::{ServoModel, Vendor};
+use crate::servo::item::{Access, Default, Item};
+use crate::servo::{ModelSpec, Register, RegisterTable, ServoModel};
 use std::time::Duration;
-
-const TICKS_PER_TURN: f64 = 4096.0;
-/// Drive Mode bit 0 (e-Manual `control_table_drivemode.md`); bit 2 is [`profile::time_based`].
-const DRIVE_REVERSE: i64 = 1 << 0;
-/// Dynamixel position control mode, the factory one; Feetech's is 0.
-const DYNAMIXEL_POSITION_MODE: i64 = 3;
-const FEETECH_POSITION_MODE: i64 = 0;
-/// In Dynamixel position mode a Homing Offset beyond this is ignored (e-Manual
-/// `control_table_homingoffset.md`).
-const POSITION_MODE_OFFSET_LIMIT: i64 = 1024;
 
 #[derive(Debug, Clone)]
 pub struct VirtualServo {
@@ -71,16 +60,13 @@ impl VirtualServo {
         servo
     }
 
-    fn spec(&self) -> &'static ModelSpec {
-        self.model.spec()
-    }
-
     pub(super) fn table(&self) -> &'static RegisterTable {
         self.spec().table
     }
 
-    fn is_dynamixel(&self) -> bool {
-        self.model.vendor() == Vendor::Dynamixel
+    /// The rules of the firmware the model runs: its protocol's.
+    fn firmware(&self) -> &'static dyn Firmware {
+        codec(self.spec().protocol).firmware()
     }
 
     /// Sets the Homing_Offset register, as a calibration tool writes it: from now on Present
@@ -123,9 +109,7 @@ impl VirtualServo {
 
     /// The value of the control-table item `name`; 0 for an item the model does not have.
     pub fn value(&self, name: &str) -> i64 {
-        self.spec()
-            .item(name)
-            .map_or(0, |item| self.load(item.register))
+        ControlTable::value(self, name)
     }
 
     /// Writes `value` to the item `name` as a Write instruction would: with the servo's checks
@@ -140,14 +124,14 @@ impl VirtualServo {
         self.write(usize::from(item.register.address), &bytes)
     }
 
-    /// How long the servo waits before answering: Return_Delay_Time × 2 µs on Dynamixel;
-    /// none on the STS3215, whose memory table says the register has no function there.
+    /// How long the servo waits before answering: Return_Delay_Time in the model's unit (2 µs
+    /// on Dynamixel; none on the STS3215, whose memory table says the register has no function
+    /// there).
     pub fn return_delay(&self) -> Duration {
-        if !self.is_dynamixel() {
-            return Duration::ZERO;
-        }
-        let units = self.load(self.table().return_delay).max(0) as u64;
-        Duration::from_micros(2 * units)
+        let units = self
+            .load(self.table().return_delay)
+            .clamp(0, i64::from(u32::MAX));
+        self.spec().return_delay_unit * units as u32
     }
 
     pub(super) fn store(&mut self, register: Register, value: i64) {
@@ -174,74 +158,12 @@ impl VirtualServo {
         }
     }
 
-    fn operating_mode(&self) -> i64 {
-        self.load(self.table().operating_mode)
-    }
-
-    fn in_position_mode(&self) -> bool {
-        let position = if self.is_dynamixel() {
-            DYNAMIXEL_POSITION_MODE
-        } else {
-            FEETECH_POSITION_MODE
-        };
-        self.operating_mode() == position
-    }
-
-    fn drive_mode(&self) -> i64 {
-        self.table().drive_mode.map_or(0, |r| self.load(r))
-    }
-
-    /// The homing offset the servo applies now.
-    fn effective_offset(&self) -> f64 {
-        let offset = self.load(self.table().homing_offset);
-        let ignored = self.is_dynamixel()
-            && self.in_position_mode()
-            && offset.abs() > POSITION_MODE_OFFSET_LIMIT;
-        if ignored {
-            0.0
-        } else {
-            offset as f64
-        }
-    }
-
-    /// Drive Mode reverse mirrors the direction within one turn (Dynamixel only). Its own
-    /// inverse.
-    fn direction(&self, ticks: f64) -> f64 {
-        if self.drive_mode() & DRIVE_REVERSE != 0 {
-            TICKS_PER_TURN - 1.0 - ticks
-        } else {
-            ticks
-        }
-    }
-
-    /// Whether both position limits are 0: Feetech multi-turn, where positions leave one turn.
-    fn multi_turn(&self) -> bool {
-        self.value("Min_Position_Limit") == 0 && self.value("Max_Position_Limit") == 0
-    }
-
-    /// Feetech reports one turn in (single-turn) position mode.
-    fn wrap(&self, ticks: f64) -> f64 {
-        if !self.is_dynamixel() && self.in_position_mode() && !self.multi_turn() {
-            ticks.rem_euclid(TICKS_PER_TURN)
-        } else {
-            ticks
-        }
-    }
-
     fn present_of(&self, actual: f64) -> f64 {
-        if self.is_dynamixel() {
-            self.direction(actual) + self.effective_offset()
-        } else {
-            self.wrap(actual - self.effective_offset())
-        }
+        self.firmware().present_of(self, actual)
     }
 
     fn actual_of(&self, present: f64) -> f64 {
-        if self.is_dynamixel() {
-            self.direction(present - self.effective_offset())
-        } else {
-            self.wrap(present + self.effective_offset())
-        }
+        self.firmware().actual_of(self, present)
     }
 
     /// Brings the present-value registers up to date with the motion.
@@ -258,17 +180,14 @@ impl VirtualServo {
         self.store(table.hardware_error, i64::from(alarm_bits));
     }
 
-    /// Present Velocity in the register's unit (0.229 rpm Dynamixel, steps/s Feetech), in the
+    /// Present Velocity in the model's unit (0.229 rpm Dynamixel, steps/s Feetech), in the
     /// present frame's direction.
     fn present_velocity(&self) -> i64 {
         let mut velocity = self.motion.velocity;
-        if self.drive_mode() & DRIVE_REVERSE != 0 {
+        if self.reversed() {
             velocity = -velocity;
         }
-        if self.is_dynamixel() {
-            velocity /= profile::dxl_velocity_unit();
-        }
-        velocity.round() as i64
+        (velocity / self.spec().velocity_unit).round() as i64
     }
 
     pub(super) fn read(&mut self, address: usize, length: usize) -> Option<Vec<u8>> {
@@ -336,14 +255,8 @@ impl VirtualServo {
     fn apply(&mut self, start: usize, end: usize) {
         let table = self.table();
         let touches = |r: Register| usize::from(r.address) < end && usize::from(r.end()) > start;
-        if touches(table.operating_mode) && self.is_dynamixel() {
-            // A mode change resets the profile (e-Manual `control_table_opmode_six_2.md`).
-            for register in [table.profile_velocity, table.profile_acceleration]
-                .into_iter()
-                .flatten()
-            {
-                self.store(register, 0);
-            }
+        if touches(table.operating_mode) {
+            self.firmware().mode_changed(self);
         }
         if touches(table.torque_enable) {
             self.apply_torque_enable();
@@ -356,7 +269,7 @@ impl VirtualServo {
     fn apply_torque_enable(&mut self) {
         let table = self.table();
         let value = self.load(table.torque_enable);
-        if !self.is_dynamixel() && value == TORQUE_RECALIBRATE {
+        if self.spec().recalibrate == Some(value) {
             self.recalibrate();
             return;
         }
@@ -369,12 +282,21 @@ impl VirtualServo {
         self.motion.set_torque(on && !shut_down);
     }
 
-    /// Feetech Torque_Enable 128: the present position becomes 2048, by the offset that makes
-    /// it so (Present = actual − offset); the torque stays as it was.
+    /// The model's recalibrate value (Feetech Torque_Enable 128): the present position becomes
+    /// half a turn (2048), by the offset that makes it so, within the offset's range; the
+    /// torque stays as it was.
     fn recalibrate(&mut self) {
         self.motion.update();
-        let offset = (self.motion.position.round() as i64 - 2048).clamp(-2047, 2047);
-        self.set_homing_offset(offset);
+        let half_turn = (self.spec().ticks_per_revolution / 2.0).round();
+        let offset = self
+            .firmware()
+            .offset_for(self, self.motion.position.round(), half_turn);
+        let register = self.table().homing_offset;
+        let (min, max) = self
+            .spec()
+            .item(register.name)
+            .map_or(register.range(), |item| item.range);
+        self.set_homing_offset((offset as i64).clamp(min, max));
         self.store(self.table().torque_enable, i64::from(self.motion.torque));
     }
 
@@ -384,7 +306,9 @@ impl VirtualServo {
         let goal = self.load(self.table().goal_position) as f64;
         let target = self.actual_of(self.within_limits(goal));
         self.motion.update();
-        let profile = self.profile((target - self.motion.position).abs());
+        let profile = self
+            .firmware()
+            .profile(self, (target - self.motion.position).abs());
         self.motion.set_goal_with(target, profile);
     }
 
@@ -398,23 +322,18 @@ impl VirtualServo {
         }
         goal.clamp(min, max)
     }
+}
 
-    /// The speed and acceleration bounds of a move of `distance` ticks.
-    fn profile(&self, distance: f64) -> Profile {
-        if !self.is_dynamixel() {
-            // Goal_Speed and Acceleration 0 mean "as fast as it can".
-            let speed = self.value("Goal_Speed").unsigned_abs() as f64;
-            let acceleration = self.value("Acceleration") as f64 * profile::STS_ACCELERATION_UNIT;
-            return Profile::bounded(speed, acceleration);
-        }
-        let velocity = self.value("Profile_Velocity") as f64;
-        let acceleration = self.value("Profile_Acceleration") as f64;
-        if profile::time_based(self.drive_mode()) {
-            return Profile::timed(distance, velocity / 1000.0, acceleration / 1000.0);
-        }
-        Profile::bounded(
-            velocity * profile::dxl_velocity_unit(),
-            acceleration * profile::dxl_acceleration_unit(),
-        )
+impl ControlTable for VirtualServo {
+    fn spec(&self) -> &'static ModelSpec {
+        self.model.spec()
+    }
+
+    fn load(&self, register: Register) -> i64 {
+        VirtualServo::load(self, register)
+    }
+
+    fn store(&mut self, register: Register, value: i64) {
+        VirtualServo::store(self, register, value)
     }
 }

@@ -5,17 +5,17 @@
 
 use super::column::{peak, Column};
 use super::{Finding, FindingKind};
-use crate::robot::servo::DEGREES_PER_TICK;
 
 impl Column<'_> {
     /// `v` (joint units per second) at the servo's shaft, through its tick mapping, °/s.
     fn servo_speed(&self, v: f64) -> f64 {
-        (v / self.joint.servo.units_per_tick).abs() * DEGREES_PER_TICK
+        let degrees_per_tick = self.joint.servo.model.spec().degrees_per_tick();
+        (v / self.joint.servo.units_per_tick).abs() * degrees_per_tick
     }
 
     /// The servo's no-load speed, °/s.
     pub fn servo_speed_limit(&self) -> f64 {
-        crate::bus::models::spec(self.joint.servo.model).no_load_speed_deg_s
+        self.joint.servo.model.spec().no_load_speed_deg_s
     }
 
     /// The commanded speed at the servo between `row - 1` and `row`, when time advanced.

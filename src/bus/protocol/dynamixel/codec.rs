@@ -2,12 +2,14 @@
 
 use super::{
     encode_fast_sync_read, parse_fast_sync_read, parse_ping_answer, ping_answer_params, Dynamixel2,
-    ErrorNumber, FastSyncReadEntry, StatusByte, ALERT_BIT, BULK_READ, BULK_WRITE, FAST_SYNC_READ,
-    FIELDS, HARDWARE_ERROR_BITS, HARDWARE_ERROR_STATUS, MAX_DEVICE_ID, PING, READ, REBOOT,
-    SYNC_READ, SYNC_WRITE, WRITE,
+    ErrorNumber, FastSyncReadEntry, StatusByte, XSeriesFirmware, ALERT_BIT, BULK_READ, BULK_WRITE,
+    FAST_SYNC_READ, FIELDS, HARDWARE_ERROR_BITS, HARDWARE_ERROR_STATUS, MAX_DEVICE_ID, PING, READ,
+    REBOOT, SYNC_READ, SYNC_WRITE, WRITE,
 };
 use crate::bus::protocol::packet::{Framing, Packet, PacketError};
-use crate::bus::protocol::{Codec, FastSyncRead, Fields, Instructions, Refusal, Status, Vendor};
+use crate::bus::protocol::{
+    Codec, FastSyncRead, Fields, Firmware, Instructions, Refusal, Status, Vendor,
+};
 use crate::bus::registers::{ByteOrder, Encoding, Register};
 use crate::bus::{AlarmBits, Alarms, PingInfo};
 use crate::robot::Protocol;
@@ -97,6 +99,10 @@ impl Codec for Dynamixel2 {
     /// A status carries instruction 0x55, which no instruction packet does.
     fn status_may_equal_instruction(&self) -> bool {
         false
+    }
+
+    fn firmware(&self) -> &'static dyn Firmware {
+        &XSeriesFirmware
     }
 
     fn fast_sync_read(&self) -> Option<&dyn FastSyncRead> {

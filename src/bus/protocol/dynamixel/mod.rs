@@ -11,6 +11,7 @@ mod bulk;
 mod codec;
 mod crc;
 mod fast_sync_read;
+mod firmware;
 mod framing;
 mod status;
 mod stuffing;
@@ -22,6 +23,7 @@ pub use bulk::{
 };
 pub use crc::{crc16, crc16_update};
 pub use fast_sync_read::{encode_fast_sync_read, parse_fast_sync_read, FastSyncReadEntry};
+pub use firmware::XSeriesFirmware;
 pub use framing::Dynamixel2;
 pub use status::{
     hardware_error_alarms, hardware_error_bits, ErrorNumber, StatusByte, ALERT_BIT,

@@ -2,7 +2,7 @@
 //! Status register (ROBOTIS e-Manual, Protocol 2.0 "Status Packet" and the X series control
 //! tables, address 70).
 
-use crate::bus::{AlarmBits, Alarms, BusError};
+use crate::bus::{Alarms, BusError};
 
 /// The error number in bits 6..0 of a status error byte.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -93,21 +93,11 @@ impl StatusByte {
     }
 }
 
-/// Address of the X series Hardware Error Status register.
-pub const HARDWARE_ERROR_STATUS: u16 = 70;
-pub const HW_INPUT_VOLTAGE: u8 = 1 << 0;
-pub const HW_OVERHEATING: u8 = 1 << 2;
-pub const HW_MOTOR_ENCODER: u8 = 1 << 3;
-pub const HW_ELECTRICAL_SHOCK: u8 = 1 << 4;
-pub const HW_OVERLOAD: u8 = 1 << 5;
-
-/// Hardware Error Status bits (bits 1, 6 and 7 are unused).
-pub const HARDWARE_ERROR_BITS: AlarmBits = AlarmBits {
-    input_voltage: HW_INPUT_VOLTAGE,
-    overheating: HW_OVERHEATING,
-    encoder: HW_MOTOR_ENCODER,
-    electrical: HW_ELECTRICAL_SHOCK,
-    overload: HW_OVERLOAD,
+/// The X series Hardware Error Status register (70) and its bits are control-table data, in
+/// the servo catalogue.
+pub use crate::servo::dynamixel_x::{
+    HARDWARE_ERROR_BITS, HARDWARE_ERROR_STATUS, HW_ELECTRICAL_SHOCK, HW_INPUT_VOLTAGE,
+    HW_MOTOR_ENCODER, HW_OVERHEATING, HW_OVERLOAD,
 };
 
 /// The alarms in a Hardware Error Status value.

@@ -1,11 +1,12 @@
 //! Feetech SCS and STS as a [`Codec`]: one framing, two byte orders.
 
 use super::{
-    status_alarms, status_bits, Feetech, Series, FIELDS, MAX_DEVICE_ID, PING, READ, STATUS_BITS,
-    SYNC_READ, SYNC_WRITE, WRITE,
+    status_alarms, status_bits, Series, StsFirmware, FIELDS, MAX_DEVICE_ID, PING, READ,
+    STATUS_BITS, SYNC_READ, SYNC_WRITE, WRITE,
 };
+use crate::bus::protocol::ff_framing::FfFraming;
 use crate::bus::protocol::packet::{Framing, Packet, PacketError};
-use crate::bus::protocol::{Codec, Fields, Instructions, Refusal, Status, Vendor};
+use crate::bus::protocol::{Codec, Fields, Firmware, Instructions, Refusal, Status, Vendor};
 use crate::bus::registers::{ByteOrder, Encoding, Register};
 use crate::bus::{AlarmBits, Alarms, PingInfo};
 use crate::robot::Protocol;
@@ -41,7 +42,7 @@ impl Codec for Series {
     }
 
     fn framing(&self) -> &dyn Framing {
-        &Feetech
+        &FfFraming
     }
 
     fn instructions(&self) -> &'static Instructions {
@@ -105,6 +106,11 @@ impl Codec for Series {
 
     fn ping_answer_params(&self, _model_number: u16, _firmware: u8) -> Vec<u8> {
         Vec::new()
+    }
+
+    /// SCS servos are taken to follow the STS rules; keypose's catalogue has no SCS model.
+    fn firmware(&self) -> &'static dyn Firmware {
+        &StsFirmware
     }
 
     /// Instruction and status packets share one layout: a PING to id 1 and the answer of id 1

@@ -1,18 +1,23 @@
 //! Feetech SCS/STS protocol ("FT-SCS", the Dynamixel 1.0 packet format): instruction codes,
-//! parameter layouts, the two series, the status byte (`status`), the framing with its
-//! one-byte inverted-sum checksum (`framing`) and the codec (`codec`).
+//! parameter layouts, the two series, the status byte (`status`), the codec (`codec`) and the
+//! firmware's rules (`firmware`). The framing, with its one-byte inverted-sum checksum, is the
+//! shared FF FF one (`protocol::ff_framing`).
 //!
 //! From the Feetech protocol manual and STS3215 memory table and the `scservo_sdk` Python SDK;
 //! see also docs/protocols.md. Packet fields are single bytes, so framing has no byte order;
 //! register values do, and it depends on the series ([`Series`]).
 
 mod codec;
-mod framing;
+mod firmware;
 mod status;
 #[cfg(test)]
 mod tests;
 
-pub use framing::{checksum, Feetech};
+/// Feetech's packets are the FF FF framing, its limits and its checksum.
+pub use super::ff_framing::{
+    checksum, FfFraming as Feetech, BROADCAST_ID, HEADER, MAX_DEVICE_ID, MAX_ERROR_BYTE, MAX_PARAMS,
+};
+pub use firmware::StsFirmware;
 pub use status::{
     status_alarms, status_bits, ERR_ANGLE_SENSOR, ERR_OVERHEAT, ERR_OVERLOAD, ERR_OVER_CURRENT,
     ERR_VOLTAGE, STATUS_BITS,
@@ -28,18 +33,6 @@ pub const ACTION: u8 = 0x05;
 /// STS/SMS only; SCS servos do not answer it.
 pub const SYNC_READ: u8 = 0x82;
 pub const SYNC_WRITE: u8 = 0x83;
-
-pub const BROADCAST_ID: u8 = 0xFE;
-/// Highest id a servo answers with; the SDK rejects status packets from higher ids.
-pub const MAX_DEVICE_ID: u8 = 0xFD;
-pub const HEADER: [u8; 2] = [0xFF, 0xFF];
-/// The length byte counts the parameters plus INST/ERR and the checksum, and is one byte.
-pub const MAX_PARAMS: usize = u8::MAX as usize - 2;
-/// Status error bytes with bit 7 set do not exist; the SDK treats them as noise.
-pub const MAX_ERROR_BYTE: u8 = 0x7F;
-
-/// Header, id and length.
-const PREFIX: usize = 4;
 
 /// The two Feetech families, which differ in byte order and in which instructions they know.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

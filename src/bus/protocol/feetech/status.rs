@@ -1,21 +1,11 @@
 //! The status ERR byte and the Status register (65): alarm bits, one layout for both (Feetech
 //! protocol manual, "status packet"; STS3215 memory table).
 
-use crate::bus::{AlarmBits, Alarms};
+use crate::bus::Alarms;
 
-pub const ERR_VOLTAGE: u8 = 1 << 0;
-pub const ERR_ANGLE_SENSOR: u8 = 1 << 1;
-pub const ERR_OVERHEAT: u8 = 1 << 2;
-pub const ERR_OVER_CURRENT: u8 = 1 << 3;
-pub const ERR_OVERLOAD: u8 = 1 << 5;
-
-/// Status ERR byte and Status register (65) bits.
-pub const STATUS_BITS: AlarmBits = AlarmBits {
-    input_voltage: ERR_VOLTAGE,
-    overheating: ERR_OVERHEAT,
-    encoder: ERR_ANGLE_SENSOR,
-    electrical: ERR_OVER_CURRENT,
-    overload: ERR_OVERLOAD,
+/// The bits are the Status register's (65), control-table data in the servo catalogue.
+pub use crate::servo::sts3215::{
+    ERR_ANGLE_SENSOR, ERR_OVERHEAT, ERR_OVERLOAD, ERR_OVER_CURRENT, ERR_VOLTAGE, STATUS_BITS,
 };
 
 /// The alarms in a status ERR byte, or in the Status register (65), which uses the same bits.

@@ -1,6 +1,7 @@
 //! Feetech codec tests: hand-computed packets and properties.
 
 use super::*;
+use crate::bus::protocol::ff_framing::PREFIX;
 use crate::bus::protocol::packet::PacketError;
 use crate::bus::protocol::packet::{Decoded, Direction, Framing, Packet};
 use crate::bus::protocol::{codec, Codec, Vendor};

@@ -1,11 +1,39 @@
 //! The Feetech STS3215 (SO-100/SO-101 arms): control table from the STS3215 memory table
 //! rev. 220328, model number 777 as `scservo_sdk` and LeRobot read it.
 
+use super::alarms::AlarmBits;
 use super::item::{eeprom, live, ram, read_only, writable, Area, Default, Item};
-use super::{sign_magnitude, unsigned, ModelSpec, Modes};
-use crate::bus::protocol::feetech;
-use crate::bus::registers::{ByteOrder, LoadUnit, RegisterTable};
-use crate::robot::ServoModel;
+use super::model::{ModelSpec, Modes, ServoModel};
+use super::profile::{Limit, ProfileRegister, Setting};
+use super::protocol::Protocol;
+use super::register::{sign_magnitude, unsigned, ByteOrder};
+use super::table::{LoadUnit, RegisterTable};
+use std::time::Duration;
+
+pub const ERR_VOLTAGE: u8 = 1 << 0;
+pub const ERR_ANGLE_SENSOR: u8 = 1 << 1;
+pub const ERR_OVERHEAT: u8 = 1 << 2;
+pub const ERR_OVER_CURRENT: u8 = 1 << 3;
+pub const ERR_OVERLOAD: u8 = 1 << 5;
+
+/// Status register (65) bits, which the status packet's ERR byte carries too (Feetech protocol
+/// manual, "status packet"; STS3215 memory table).
+pub const STATUS_BITS: AlarmBits = AlarmBits {
+    input_voltage: ERR_VOLTAGE,
+    overheating: ERR_OVERHEAT,
+    encoder: ERR_ANGLE_SENSOR,
+    electrical: ERR_OVER_CURRENT,
+    overload: ERR_OVERLOAD,
+};
+
+/// Acceleration (41): 100 steps/s² per unit, 0–254; 0 = no limit. keypose writes no
+/// Goal_Speed: 0 there is "as fast as it can".
+static STS3215_PROFILE: [ProfileRegister; 1] = [ProfileRegister {
+    setting: Setting::Acceleration,
+    limit: Limit::Acceleration,
+    unit: 100.0,
+    max: 254,
+}];
 
 /// STS3215 (Feetech STS3215 memory table rev. 220328); negative values are sign-magnitude with
 /// the sign at the bit given per register (`scservo_sdk` `SCS_TOSCS`).
@@ -35,27 +63,38 @@ static STS3215_TABLE: RegisterTable = RegisterTable {
     acceleration: Some(unsigned("Acceleration", 41, 1)),
     goal_speed: Some(sign_magnitude("Goal_Speed", 46, 15)),
     lock: Some(unsigned("Lock", 55, 1)),
-    alarm_bits: feetech::STATUS_BITS,
+    alarm_bits: STATUS_BITS,
     torque_locked_below: 0,
     shuts_down_on_alarm: false,
     factory_status_return_level: 1,
 };
 
 /// No-load speed about 34 rpm on the SO-101's 5 V supply: Feetech rates the STS3215 at 7.4 V,
-/// and the speed scales with the supply.
+/// and the speed scales with the supply. Present_Velocity counts steps (ticks) per second;
+/// Return_Delay_Time has "no function on STS" (FT-MEM).
 pub(super) static STS3215: ModelSpec = ModelSpec {
     model: ServoModel::Sts3215,
+    name: "sts3215",
+    protocol: Protocol::FeetechSts,
     model_number: 777,
+    ticks_per_revolution: 4096.0,
     table: &STS3215_TABLE,
     no_load_speed_deg_s: 200.0,
     // Operating mode 0 (position) spans one turn; keypose uses no other mode.
     modes: Modes {
+        position_mode: 0,
         position: (0, 4095),
         extended_position: None,
+        position_mode_offset_limit: None,
     },
     items: &STS3215_ITEMS,
     extra_items: &[],
     operating_modes: &[0, 1, 2, 3],
+    velocity_unit: 1.0,
+    return_delay_unit: Duration::ZERO,
+    recalibrate: Some(TORQUE_RECALIBRATE),
+    profile: &STS3215_PROFILE,
+    drive_mode: None,
 };
 
 /// Firmware version the emulated STS3215 reports (registers 0 and 1), **UNVERIFIED**: no
@@ -63,7 +102,7 @@ pub(super) static STS3215: ModelSpec = ModelSpec {
 pub const FIRMWARE: (i64, i64) = (3, 10);
 
 /// Torque_Enable 128: the servo takes its present position as 2048 (FT-MEM address 40).
-pub const TORQUE_RECALIBRATE: i64 = 128;
+const TORQUE_RECALIBRATE: i64 = 128;
 
 /// Magnitudes of the sign-magnitude positions and speeds (sign at bit 15): FT-MEM gives ±32766
 /// for the goal.

@@ -4,16 +4,75 @@
 //! page and `_data/dxl_x_info.yml`). The four share one control table; only what address 126
 //! measures differs (current on XL330 and XM430, load on XL430).
 
+use super::alarms::AlarmBits;
 use super::item::{eeprom, live, ram, read_only, writable, Area, Default, Item};
-use super::{signed, unsigned, ModelSpec, Modes};
-use crate::bus::protocol::dynamixel;
-use crate::bus::registers::{ByteOrder, LoadUnit, Register, RegisterTable};
-use crate::robot::ServoModel;
+use super::model::{ExtendedMode, ModelSpec, Modes, ServoModel};
+use super::profile::{DriveModeBits, Limit, ProfileRegister, Setting};
+use super::protocol::Protocol;
+use super::register::{signed, unsigned, ByteOrder, Register};
+use super::table::{LoadUnit, RegisterTable};
+use std::time::Duration;
 
-/// Operating Mode 3 spans one turn; Extended Position Control Mode (4) ±256 turns.
+/// Address of the X series Hardware Error Status register.
+pub const HARDWARE_ERROR_STATUS: u16 = 70;
+pub const HW_INPUT_VOLTAGE: u8 = 1 << 0;
+pub const HW_OVERHEATING: u8 = 1 << 2;
+pub const HW_MOTOR_ENCODER: u8 = 1 << 3;
+pub const HW_ELECTRICAL_SHOCK: u8 = 1 << 4;
+pub const HW_OVERLOAD: u8 = 1 << 5;
+
+/// Hardware Error Status bits (bits 1, 6 and 7 are unused).
+pub const HARDWARE_ERROR_BITS: AlarmBits = AlarmBits {
+    input_voltage: HW_INPUT_VOLTAGE,
+    overheating: HW_OVERHEATING,
+    encoder: HW_MOTOR_ENCODER,
+    electrical: HW_ELECTRICAL_SHOCK,
+    overload: HW_OVERLOAD,
+};
+
+/// Position ticks per revolution of every X series model.
+const TICKS_PER_REVOLUTION: f64 = 4096.0;
+
+/// Operating Mode 3 (the factory mode) spans one turn; Extended Position Control Mode (4)
+/// ±256 turns. In position mode a Homing Offset beyond ±1024 is ignored (e-Manual
+/// `control_table_homingoffset.md`).
 const X_SERIES_MODES: Modes = Modes {
+    position_mode: 3,
     position: (0, 4095),
-    extended_position: Some((-1_048_575, 1_048_575)),
+    extended_position: Some(ExtendedMode {
+        mode: 4,
+        range: (-1_048_575, 1_048_575),
+    }),
+    position_mode_offset_limit: Some(1024),
+};
+
+/// Profile_Velocity and Present_Velocity: 0.229 rev/min per unit, in ticks/s.
+const VELOCITY_UNIT: f64 = 0.229 * TICKS_PER_REVOLUTION / 60.0;
+
+/// The velocity-based profile (Drive Mode bit 2 clear, the factory setting): Profile_Velocity
+/// (112) 0.229 rev/min per unit and Profile_Acceleration (108) 214.577 rev/min² per unit, both
+/// up to 32 767. The e-Manual's profile table: while Profile_Velocity is 0 no profile is used
+/// at all (a step, the acceleration ignored), so `--servo-profile` writes both.
+static X_SERIES_PROFILE: [ProfileRegister; 2] = [
+    ProfileRegister {
+        setting: Setting::ProfileVelocity,
+        limit: Limit::Velocity,
+        unit: VELOCITY_UNIT,
+        max: 32_767,
+    },
+    ProfileRegister {
+        setting: Setting::ProfileAcceleration,
+        limit: Limit::Acceleration,
+        unit: 214.577 * TICKS_PER_REVOLUTION / 3600.0,
+        max: 32_767,
+    },
+];
+
+/// Drive Mode bit 0 reverses the direction, bit 2 selects the time-based profile (e-Manual
+/// `control_table_drivemode.md`).
+const X_SERIES_DRIVE_MODE: DriveModeBits = DriveModeBits {
+    reverse: 1 << 0,
+    time_based: 1 << 2,
 };
 
 /// The X series control table (ROBOTIS e-Manual, XL330-M288, XL430-W250 and XM430-W350
@@ -31,7 +90,7 @@ const DXL_X: RegisterTable = RegisterTable {
     operating_mode: unsigned("Operating_Mode", 11, 1),
     homing_offset: signed("Homing_Offset", 20, 4),
     torque_enable: unsigned("Torque_Enable", 64, 1),
-    hardware_error: unsigned("Hardware_Error_Status", dynamixel::HARDWARE_ERROR_STATUS, 1),
+    hardware_error: unsigned("Hardware_Error_Status", HARDWARE_ERROR_STATUS, 1),
     goal_position: signed("Goal_Position", 116, 4),
     present_position: signed("Present_Position", 132, 4),
     present_velocity: signed("Present_Velocity", 128, 4),
@@ -45,7 +104,7 @@ const DXL_X: RegisterTable = RegisterTable {
     acceleration: None,
     goal_speed: None,
     lock: None,
-    alarm_bits: dynamixel::HARDWARE_ERROR_BITS,
+    alarm_bits: HARDWARE_ERROR_BITS,
     torque_locked_below: 64,
     shuts_down_on_alarm: true,
     factory_status_return_level: 2,
@@ -61,14 +120,14 @@ const XL330_CURRENT: LoadUnit = LoadUnit::Current {
     stall_milliamps: 1470.0,
 };
 
-static XL430_W250: RegisterTable = RegisterTable {
+static XL430_W250_TABLE: RegisterTable = RegisterTable {
     present_load: signed("Present_Load", 126, 2),
     load_unit: LoadUnit::TenthPercent,
     ..DXL_X
 };
 
 /// XM430-W350: 2.69 mA per unit, stall current 2.3 A at 12 V (ROBOTIS e-Manual, XM430-W350).
-static XM430_W350: RegisterTable = RegisterTable {
+static XM430_W350_TABLE: RegisterTable = RegisterTable {
     load_unit: LoadUnit::Current {
         milliamps_per_unit: 2.69,
         stall_milliamps: 2300.0,
@@ -78,28 +137,39 @@ static XM430_W350: RegisterTable = RegisterTable {
 
 /// No-load speeds: XL330 at 5 V (103 and 383 rpm), XL430 and XM430 at 12 V (61 and 46 rpm),
 /// the supplies these arms use.
+/// Return_Delay_Time is 2 µs per unit; no Torque_Enable value recalibrates.
 pub(super) static XL330_M288: ModelSpec = ModelSpec {
     model: ServoModel::Xl330M288,
+    name: "xl330-m288",
+    protocol: Protocol::Dynamixel2,
     model_number: 1200,
+    ticks_per_revolution: TICKS_PER_REVOLUTION,
     table: &DXL_X,
     no_load_speed_deg_s: 618.0,
     modes: X_SERIES_MODES,
     items: &XL330_ITEMS,
     extra_items: &XL330_EXTRA_ITEMS,
     operating_modes: &[0, 1, 3, 4, 5, 16],
+    velocity_unit: VELOCITY_UNIT,
+    return_delay_unit: Duration::from_micros(2),
+    recalibrate: None,
+    profile: &X_SERIES_PROFILE,
+    drive_mode: Some(X_SERIES_DRIVE_MODE),
 };
 
 pub(super) static XL330_M077: ModelSpec = ModelSpec {
     model: ServoModel::Xl330M077,
+    name: "xl330-m077",
     model_number: 1190,
     no_load_speed_deg_s: 2298.0,
     ..XL330_M288
 };
 
-pub(super) static XL430_W250_SPEC: ModelSpec = ModelSpec {
+pub(super) static XL430_W250: ModelSpec = ModelSpec {
     model: ServoModel::Xl430W250,
+    name: "xl430-w250",
     model_number: 1060,
-    table: &XL430_W250,
+    table: &XL430_W250_TABLE,
     no_load_speed_deg_s: 366.0,
     items: &XL430_ITEMS,
     extra_items: &XL430_EXTRA_ITEMS,
@@ -108,10 +178,11 @@ pub(super) static XL430_W250_SPEC: ModelSpec = ModelSpec {
     ..XL330_M288
 };
 
-pub(super) static XM430_W350_SPEC: ModelSpec = ModelSpec {
+pub(super) static XM430_W350: ModelSpec = ModelSpec {
     model: ServoModel::Xm430W350,
+    name: "xm430-w350",
     model_number: 1020,
-    table: &XM430_W350,
+    table: &XM430_W350_TABLE,
     no_load_speed_deg_s: 276.0,
     items: &XM430_ITEMS,
     extra_items: &XM430_EXTRA_ITEMS,
@@ -202,7 +273,7 @@ const fn x_series(f: XFactory) -> [Item; 50] {
             Default::Value(0),
         ),
         read_only(
-            unsigned("Hardware_Error_Status", dynamixel::HARDWARE_ERROR_STATUS, 1),
+            unsigned("Hardware_Error_Status", HARDWARE_ERROR_STATUS, 1),
             Ram,
             Default::Live,
         ),

@@ -1,11 +1,11 @@
 //! One entry of a model's full control table, as the vendor's manual lists it: the register
 //! (name, address, size, encoding), who may write it, where it lives, what it holds from the
 //! factory and which values a write may carry. The tables themselves are data in the model
-//! files; the emulated servos (`virtual_bus::servo`) read them, and a unit test checks that the
-//! registers the drivers use ([`RegisterTable`](crate::bus::registers::RegisterTable)) agree
-//! with them.
+//! files; the emulated servos (`bus::virtual_bus::servo`) read them, and a unit test checks
+//! that the registers the drivers use ([`RegisterTable`](super::RegisterTable)) agree with
+//! them.
 
-use crate::bus::registers::{Encoding, Register};
+use super::register::{Encoding, Register};
 
 /// Who may write the item.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,20 +1,33 @@
-//! Feetech framing: `FF FF ID LEN INST/ERR params CHK`.
+//! The `FF FF ID LEN INST/ERR params CHK` framing, with its one-byte inverted-sum checksum:
+//! Robotis Protocol 1.0's packet format, which Feetech SCS/STS took over ("FT-SCS"). Here, not
+//! in a vendor's folder, so that every protocol of this format shares it: Feetech today,
+//! Protocol 1.0 (AX-12) if it comes. Packet fields are single bytes, so the framing has no
+//! byte order.
 
-use super::{BROADCAST_ID, HEADER, MAX_DEVICE_ID, MAX_ERROR_BYTE, MAX_PARAMS, PREFIX};
-use crate::bus::protocol::packet::{
-    seek_header, Decoded, Direction, Framing, Packet, PacketError, PacketKind,
-};
+use super::packet::{seek_header, Decoded, Direction, Framing, Packet, PacketError, PacketKind};
+
+pub const HEADER: [u8; 2] = [0xFF, 0xFF];
+pub const BROADCAST_ID: u8 = 0xFE;
+/// Highest id a servo answers with; the SDKs reject status packets from higher ids.
+pub const MAX_DEVICE_ID: u8 = 0xFD;
+/// The length byte counts the parameters plus INST/ERR and the checksum, and is one byte.
+pub const MAX_PARAMS: usize = u8::MAX as usize - 2;
+/// Status error bytes with bit 7 set do not exist; the SDKs treat them as noise.
+pub const MAX_ERROR_BYTE: u8 = 0x7F;
+
+/// Header, id and length.
+pub(super) const PREFIX: usize = 4;
 
 /// The inverted sum over id, length, instruction or error, and parameters.
 pub fn checksum(bytes: &[u8]) -> u8 {
     !bytes.iter().fold(0u8, |sum, &b| sum.wrapping_add(b))
 }
 
-/// Feetech framing: `FF FF ID LEN INST/ERR params CHK`.
+/// The framing `FF FF ID LEN INST/ERR params CHK`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Feetech;
+pub struct FfFraming;
 
-impl Feetech {
+impl FfFraming {
     fn encode_body(&self, id: u8, code: u8, params: &[u8]) -> Result<Vec<u8>, PacketError> {
         if params.len() > MAX_PARAMS {
             return Err(PacketError::TooLong {
@@ -35,7 +48,7 @@ impl Feetech {
     }
 }
 
-impl Framing for Feetech {
+impl Framing for FfFraming {
     fn broadcast_id(&self) -> u8 {
         BROADCAST_ID
     }

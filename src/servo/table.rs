@@ -1,0 +1,169 @@
+//! One model's control table as the drivers and the emulator use it: the registers with a
+//! role, their units, and the firmware behaviours around them. The full table, as the manual
+//! lists it, is [`super::item`].
+
+use super::register::{ByteOrder, Register, RegisterError};
+use super::{AlarmBits, Alarms};
+
+/// What the present load/current register measures and how to express it as a percentage.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LoadUnit {
+    /// Signed tenths of a percent of the maximum (Feetech STS: of PWM duty; XL430: of torque).
+    TenthPercent,
+    /// Signed current. Expressed as a percentage of the stall current at the rated voltage,
+    /// which is what "100 % load" means for a servo held still at full effort.
+    Current {
+        milliamps_per_unit: f64,
+        stall_milliamps: f64,
+    },
+}
+
+/// One model's control table: the registers the drivers and the emulator use, their units,
+/// and the firmware behaviours around them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RegisterTable {
+    pub byte_order: ByteOrder,
+    /// Sign of the homing offset: Present = Actual + sign · Homing_Offset (+1 Dynamixel,
+    /// −1 Feetech).
+    pub homing_offset_sign: i64,
+    pub model_number_register: Register,
+    pub id: Register,
+    pub baud_rate: Register,
+    /// Unit 2 µs. FT-MEM says it has no function on STS.
+    pub return_delay: Register,
+    /// Which instructions are answered (Dynamixel Status Return Level, Feetech response level).
+    pub status_return_level: Register,
+    /// Dynamixel only: bit 0 reverses the direction of goal and present position.
+    pub drive_mode: Option<Register>,
+    pub operating_mode: Register,
+    pub homing_offset: Register,
+    pub torque_enable: Register,
+    /// Dynamixel Hardware Error Status (70) or Feetech Status (65); see [`Self::alarms`].
+    pub hardware_error: Register,
+    pub goal_position: Register,
+    pub present_position: Register,
+    pub present_velocity: Register,
+    /// Present Load (XL430, STS) or Present Current (XL330, XM430); see [`Self::load_unit`].
+    pub present_load: Register,
+    pub load_unit: LoadUnit,
+    /// 0.1 V per unit on every model.
+    pub present_voltage: Register,
+    /// °C.
+    pub present_temperature: Register,
+    pub moving: Register,
+    /// Dynamixel only.
+    pub profile_velocity: Option<Register>,
+    /// Dynamixel only.
+    pub profile_acceleration: Option<Register>,
+    /// Feetech only: 100 steps/s² per unit.
+    pub acceleration: Option<Register>,
+    /// Feetech only: steps/s.
+    pub goal_speed: Option<Register>,
+    /// Feetech only: 0 lets EEPROM writes persist, 1 locks.
+    pub lock: Option<Register>,
+    /// The bits of [`Self::hardware_error`].
+    pub alarm_bits: AlarmBits,
+    /// Registers below this address (EEPROM) are writable only with torque off: 64 on the X
+    /// series, 0 (no such lock) on the STS3215.
+    pub torque_locked_below: u16,
+    /// Whether an alarm switches the torque off until a reboot (X series Shutdown register,
+    /// factory default).
+    pub shuts_down_on_alarm: bool,
+    /// What the status return level register holds from the factory: 2 (answer every
+    /// instruction) on the X series, 1 on the STS3215.
+    pub factory_status_return_level: i64,
+}
+
+impl RegisterTable {
+    /// Every register of the model, EEPROM first.
+    pub fn registers(&self) -> Vec<Register> {
+        let mut all: Vec<Register> = [
+            Some(self.model_number_register),
+            Some(self.id),
+            Some(self.baud_rate),
+            Some(self.return_delay),
+            Some(self.status_return_level),
+            self.drive_mode,
+            Some(self.operating_mode),
+            Some(self.homing_offset),
+            Some(self.torque_enable),
+            Some(self.hardware_error),
+            Some(self.goal_position),
+            Some(self.present_position),
+            Some(self.present_velocity),
+            Some(self.present_load),
+            Some(self.present_voltage),
+            Some(self.present_temperature),
+            Some(self.moving),
+            self.profile_velocity,
+            self.profile_acceleration,
+            self.acceleration,
+            self.goal_speed,
+            self.lock,
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        all.sort_by_key(|r| r.address);
+        all
+    }
+
+    pub fn find(&self, name: &str) -> Option<Register> {
+        self.registers().into_iter().find(|r| r.name == name)
+    }
+
+    pub fn encode(&self, register: &Register, value: i64) -> Result<Vec<u8>, RegisterError> {
+        register.encode(value, self.byte_order)
+    }
+
+    pub fn decode(&self, register: &Register, bytes: &[u8]) -> Result<i64, RegisterError> {
+        register.decode(bytes, self.byte_order)
+    }
+
+    /// The alarms in a [`Self::hardware_error`] value.
+    pub fn alarms(&self, raw: u8) -> Alarms {
+        self.alarm_bits.decode(raw)
+    }
+
+    /// Signed percentage of full load for a decoded [`Self::present_load`] value.
+    pub fn load_percent(&self, value: i64) -> f64 {
+        match self.load_unit {
+            LoadUnit::TenthPercent => value as f64 / 10.0,
+            LoadUnit::Current {
+                milliamps_per_unit,
+                stall_milliamps,
+            } => value as f64 * milliamps_per_unit / stall_milliamps * 100.0,
+        }
+    }
+
+    /// Current in mA, for the models whose load register measures current.
+    pub fn current_milliamps(&self, value: i64) -> Option<f64> {
+        match self.load_unit {
+            LoadUnit::TenthPercent => None,
+            LoadUnit::Current {
+                milliamps_per_unit, ..
+            } => Some(value as f64 * milliamps_per_unit),
+        }
+    }
+
+    /// Volts for a decoded [`Self::present_voltage`] value.
+    pub fn voltage_v(&self, value: i64) -> f64 {
+        value as f64 / 10.0
+    }
+
+    /// °C for a decoded [`Self::present_temperature`] value.
+    pub fn temperature_c(&self, value: i64) -> f64 {
+        value as f64
+    }
+
+    /// The registers a health reading needs, for [`span`]: load, voltage, temperature and the
+    /// alarm register.
+    pub fn health_registers(&self) -> [Register; 4] {
+        [
+            self.present_load,
+            self.present_voltage,
+            self.present_temperature,
+            self.hardware_error,
+        ]
+    }
+}
