@@ -185,7 +185,9 @@ impl fmt::Display for Place {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum PathProblem {
     #[error("{reason}; expected a template such as {example:?}", example = super::info::DEFAULT_DATA_PATH)]
-    Template { reason: String },
+    Template {
+        reason: super::layout::TemplateError,
+    },
     #[error("{path:?} is an absolute path; expected a path inside the dataset folder")]
     Absolute { path: String },
     #[error("{path:?} leads out of the dataset folder through \"..\"; expected a path inside it")]
