@@ -147,7 +147,7 @@ impl Harness {
             .and_then(|line| parse_ready(&line))
             .map_err(|reason| HarnessError::NotReady {
                 script: self.script.clone(),
-                reason,
+                reason: Box::new(reason),
                 hint: String::new(),
                 stderr: self.stderr_block(),
             })

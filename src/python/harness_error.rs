@@ -19,7 +19,7 @@ pub enum HarnessError {
     #[error("{script} did not start: {reason}{hint}{stderr}")]
     NotReady {
         script: String,
-        reason: NotReady,
+        reason: Box<NotReady>,
         /// Empty, or a sentence that starts with "; ".
         hint: String,
         /// Empty, or the child's last stderr lines on lines of their own.
