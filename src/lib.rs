@@ -25,6 +25,7 @@ pub mod atomic_file;
 pub mod bus;
 pub mod csv;
 pub mod curve;
+pub mod error;
 pub mod interop;
 
 pub mod json;

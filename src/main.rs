@@ -127,7 +127,8 @@ fn main() -> ExitCode {
         Err(error) => {
             // Messages quote file text (names, values, paths): no escape sequence reaches the
             // terminal, and no line break but those before another program's quoted output.
-            let text = error.to_string();
+            // Each layer says its own part; the report joins the chain of causes.
+            let text = keypose::error::Report(&error).to_string();
             let message = keypose::terminal_text::escape_message(&text);
             // A stop the user asked for is not an error: it is said plainly (exit 130 still
             // tells a script that the command did not run to its end).

@@ -39,6 +39,7 @@ pub use faults::{
 };
 pub use ports::{latency_timers, list_ports, PortInfo};
 
+use crate::error::ErrorKind;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -103,8 +104,80 @@ pub enum BusError {
     /// which is a set-up problem far more often than a servo fault.
     #[error("no answer from servo {id} at {baud} baud: is the arm powered, is the id right? try `keypose scan`")]
     Silent { id: u8, baud: u32 },
-    #[error("{0}")]
-    Protocol(String),
+    /// A servo id the robot (and so the bus) does not have.
+    #[error("servo {id} is not part of this robot")]
+    UnknownServo { id: u8 },
+    /// A servo id outside a cell's numbering (1 … `servos`).
+    #[error("servo {id} is not in the cell (ids 1 … {servos})")]
+    NotInCell { id: u8, servos: usize },
+    /// A transaction over several servos was given none.
+    #[error("no servos given")]
+    NoServos,
+    /// Two servos of one sync transfer keep the register at different addresses or sizes.
+    #[error("servos {first} and {other} keep {register} at different addresses; they cannot share a sync transfer")]
+    SplitRegister {
+        first: u8,
+        other: u8,
+        register: &'static str,
+    },
+    /// The servo's model has no such register (a profile setting of the other vendor).
+    #[error("servo {id} has no {register} register")]
+    MissingRegister { id: u8, register: &'static str },
+    /// A value that does not fit the servo's register: nothing was sent.
+    #[error("servo {id}: {error}")]
+    Unencodable {
+        id: u8,
+        error: registers::RegisterError,
+    },
+    /// A goal tick the servo's position register cannot hold: nothing was sent.
+    #[error("servo {id}: goal not sent: {error}")]
+    GoalUnencodable {
+        id: u8,
+        error: crate::robot::TickError,
+    },
+    /// A packet the protocol cannot frame (too long, an id it cannot address): nothing was
+    /// sent.
+    #[error("{protocol}: {error}")]
+    Unframable {
+        protocol: &'static str,
+        error: protocol::packet::PacketError,
+    },
+    /// An instruction the protocol does not have.
+    #[error("{protocol}: {instruction}")]
+    NoInstruction {
+        protocol: &'static str,
+        instruction: &'static str,
+    },
+    /// A register written and read back with another value.
+    #[error("servo {id}: {register} reads {found} after writing {expected}")]
+    RegisterMismatch {
+        id: u8,
+        register: &'static str,
+        expected: i64,
+        found: i64,
+    },
+    /// A profile register this driver cannot reach.
+    #[error("{bus}: this driver does not reach the {register} register (use --driver native)")]
+    Unreachable { bus: String, register: &'static str },
+    /// The thread that drives one arm's bus in a cell has ended.
+    #[error("the bus's thread has ended")]
+    ThreadEnded,
+    /// The vendor SDK bridge process failed (it did not start, exited, or did not answer).
+    #[error("vendor SDK bridge: {error}")]
+    Bridge {
+        error: Box<crate::python::HarnessError>,
+    },
+    /// The vendor SDK (or the bridge) refused a request for a reason no other variant
+    /// names: `by` is the SDK's module name, or "vendor SDK bridge".
+    #[error("{by}: {message}")]
+    Sdk { by: &'static str, message: String },
+    /// A reply of the SDK bridge without what it should carry.
+    #[error("{}the SDK bridge's {what}: {reply}", servo.map_or(String::new(), |id| format!("servo {id}: ")))]
+    BridgeReply {
+        servo: Option<u8>,
+        what: String,
+        reply: String,
+    },
     /// The servos hold other homing offsets than the description: not a fault of the bus but
     /// of the input (a calibration made on another arm), found by reading the servos.
     #[error(transparent)]
@@ -147,10 +220,33 @@ impl BusError {
             | BusError::Silent { id, .. } => Some(*id),
             BusError::HomingOffset(m) => m.mismatches.first().map(|m| m.servo),
             BusError::Arm { servo, .. } => *servo,
+            BusError::UnknownServo { id }
+            | BusError::NotInCell { id, .. }
+            | BusError::MissingRegister { id, .. }
+            | BusError::Unencodable { id, .. }
+            | BusError::GoalUnencodable { id, .. }
+            | BusError::RegisterMismatch { id, .. } => Some(*id),
+            BusError::BridgeReply { servo, .. } => *servo,
             BusError::Port { .. }
-            | BusError::Protocol(_)
+            | BusError::NoServos
+            | BusError::SplitRegister { .. }
+            | BusError::Unframable { .. }
+            | BusError::NoInstruction { .. }
+            | BusError::Unreachable { .. }
+            | BusError::ThreadEnded
+            | BusError::Bridge { .. }
+            | BusError::Sdk { .. }
             | BusError::Hung { .. }
             | BusError::Isolated { .. } => None,
+        }
+    }
+
+    /// What kind of failure this is: the servos hold another calibration than the input's
+    /// (in a cell, one arm's) is bad input; anything else is the hardware's.
+    pub fn kind(&self) -> ErrorKind {
+        match self.root() {
+            BusError::HomingOffset(_) => ErrorKind::BadInput,
+            _ => ErrorKind::Hardware,
         }
     }
 
@@ -259,8 +355,8 @@ pub trait ServoBus: Send {
 }
 
 fn setting_unsupported(bus: &str, setting: profile::Setting) -> BusError {
-    BusError::Protocol(format!(
-        "{bus}: this driver does not reach the {} register (use --driver native)",
-        setting.name()
-    ))
+    BusError::Unreachable {
+        bus: bus.to_string(),
+        register: setting.name(),
+    }
 }

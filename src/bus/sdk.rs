@@ -16,14 +16,16 @@ use super::registers::{Register, RegisterTable};
 use super::{Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
 use crate::python::{Harness, HarnessError, HarnessOptions, PyConfig};
 use crate::robot::{PositionEncoding, Protocol, ServoModel};
-use serde_json::{json, Value};
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
 use std::io;
 
 /// The bridge script, as embedded by [`crate::python`].
 pub const BRIDGE_SCRIPT: &str = "sdk_bridge.py";
 
 /// A control-table register as the bridge takes it: address and size in bytes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 struct Reg {
     addr: u16,
     len: u8,
@@ -36,6 +38,120 @@ impl From<Register> for Reg {
             len: register.size,
         }
     }
+}
+
+/// A request line of the bridge (`sim/sdk_bridge.py` documents them); the harness adds `seq`.
+#[derive(Debug, Serialize)]
+#[serde(tag = "op", rename_all = "snake_case")]
+enum Request<'a> {
+    Open {
+        port: &'a str,
+        baud: u32,
+        protocol: &'static str,
+    },
+    Ping {
+        id: u8,
+    },
+    Read {
+        id: u8,
+        #[serde(flatten)]
+        reg: Reg,
+    },
+    Write {
+        id: u8,
+        #[serde(flatten)]
+        reg: Reg,
+        value: u32,
+    },
+    SyncRead {
+        #[serde(flatten)]
+        reg: Reg,
+        ids: &'a [u8],
+    },
+    SyncWrite {
+        #[serde(flatten)]
+        reg: Reg,
+        values: Vec<(u8, u32)>,
+    },
+}
+
+/// The reply to a `read`.
+#[derive(Debug, Deserialize)]
+struct ValueReply {
+    value: u32,
+}
+
+/// The reply to a `sync_read`.
+#[derive(Debug, Deserialize)]
+struct ValuesReply {
+    values: Vec<u32>,
+}
+
+/// The reply to a `ping`: what the servo is.
+#[derive(Debug, Deserialize)]
+struct PingReply {
+    model_number: u16,
+    /// Feetech's ping carries none; a number that is no byte is taken as none too.
+    firmware: Option<u64>,
+}
+
+/// A reply with `"ok": false`, by its `kind`: the members that map it onto [`BusError`].
+#[derive(Debug, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+enum Failure {
+    /// The SDK's communication result.
+    Comm {
+        comm: Option<String>,
+        comm_kind: Option<CommKind>,
+        servo: Option<u8>,
+        elapsed_ms: Option<f64>,
+    },
+    /// The status packet's error byte was not zero.
+    Servo {
+        servo_error: Option<String>,
+        servo_error_code: Option<u8>,
+        servo: Option<u8>,
+        /// What the answer carried: a read's register value, a ping's model and firmware.
+        value: Option<Value>,
+    },
+    /// The serial port could not be opened.
+    Port {
+        errno: Option<i32>,
+        error: Option<String>,
+    },
+    /// A malformed request, a state, an unsupported or internal error.
+    #[serde(other)]
+    Other,
+}
+
+/// The SDKs' communication results keypose tells apart.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum CommKind {
+    Timeout,
+    Corrupt,
+    TxFail,
+    #[serde(other)]
+    Other,
+}
+
+/// The bridge's account of a refused request (a reply whose members do not fit its kind is
+/// taken for its message alone); `None` when the bridge did not answer.
+fn failure(error: &HarnessError) -> Option<Failure> {
+    Some(Failure::deserialize(error.reply()?).unwrap_or(Failure::Other))
+}
+
+/// A successful reply as the type its request expects; `what` says what it lacks otherwise.
+fn parse_reply<R: DeserializeOwned>(
+    reply: Value,
+    servo: Option<u8>,
+    what: impl FnOnce() -> String,
+) -> Result<R, BusError> {
+    R::deserialize(&reply).map_err(|_| BusError::BridgeReply {
+        servo,
+        what: what(),
+        reply: reply.to_string(),
+    })
 }
 
 /// Opening a bus through the SDKs: the Python side, or the bus itself.
@@ -51,7 +167,9 @@ impl From<SdkError> for BusError {
     fn from(error: SdkError) -> BusError {
         match error {
             SdkError::Bus(error) => error,
-            SdkError::Harness(error) => BusError::Protocol(format!("vendor SDK bridge: {error}")),
+            SdkError::Harness(error) => BusError::Bridge {
+                error: Box::new(error),
+            },
         }
     }
 }
@@ -101,20 +219,18 @@ impl SdkBus {
         protocol: Protocol,
         servos: &[(u8, ServoModel)],
     ) -> Result<SdkBus, SdkError> {
-        let request = json!({
-            "op": "open",
-            "port": port,
-            "baud": baud,
-            "protocol": protocol.name(),
-        });
-        match harness.request(&request) {
-            Ok(_) => {}
-            Err(HarnessError::Failed { reply, .. })
-                if reply.get("kind").and_then(Value::as_str) == Some("port") =>
-            {
-                return Err(SdkError::Bus(port_error(port, &reply)));
-            }
-            Err(error) => return Err(SdkError::Harness(error)),
+        let request = Request::Open {
+            port,
+            baud,
+            protocol: protocol.name(),
+        };
+        if let Err(error) = harness.request(&request) {
+            return Err(match failure(&error) {
+                Some(Failure::Port { errno, error }) => {
+                    SdkError::Bus(port_error(port, errno, error.as_deref()))
+                }
+                _ => SdkError::Harness(error),
+            });
         }
         Ok(SdkBus {
             harness,
@@ -142,8 +258,8 @@ impl SdkBus {
         self.codec.vendor().sdk_module()
     }
 
-    fn call(&mut self, request: Value, about: Option<u8>) -> Result<Value, BusError> {
-        match self.harness.request(&request) {
+    fn call(&mut self, request: &Request, about: Option<u8>) -> Result<Value, BusError> {
+        match self.harness.request(request) {
             Ok(reply) => Ok(reply),
             Err(error) => Err(self.bus_error(error, about, true)),
         }
@@ -152,10 +268,10 @@ impl SdkBus {
     /// A register read that still yields the value when the status packet only carried alarm
     /// bits: the data is valid then, and health reports the alarms from their register.
     fn read_reg_despite_alarms(&mut self, id: u8, reg: Reg) -> Result<u32, BusError> {
-        match self.harness.request(&read_request(id, reg)) {
-            Ok(reply) => raw_value(&reply, id),
+        match self.harness.request(&Request::Read { id, reg }) {
+            Ok(reply) => raw_value(reply, id),
             Err(error) => match self.alarm_only_value(&error) {
-                Some(value) => raw_value(&json!({ "value": value }), id),
+                Some(value) => raw_value(Value::from_iter([("value", value)]), id),
                 None => Err(self.bus_error(error, Some(id), false)),
             },
         }
@@ -165,15 +281,12 @@ impl SdkBus {
     /// out. The codec says which status bytes are refusals (none on Feetech, an error number on
     /// Dynamixel).
     fn alarm_only(&self, error: &HarnessError) -> bool {
-        let Some(reply) = error.reply() else {
-            return false;
-        };
-        if reply.get("kind").and_then(Value::as_str) != Some("servo") {
-            return false;
-        }
-        match servo_error_code(reply) {
-            Some(code) => !matches!(self.codec.status(code), Status::Refused(_)),
-            None => false,
+        match failure(error) {
+            Some(Failure::Servo {
+                servo_error_code: Some(code),
+                ..
+            }) => !matches!(self.codec.status(code), Status::Refused(_)),
+            _ => false,
         }
     }
 
@@ -182,11 +295,10 @@ impl SdkBus {
         if !self.alarm_only(error) {
             return None;
         }
-        error
-            .reply()?
-            .get("value")
-            .filter(|value| !value.is_null())
-            .cloned()
+        match failure(error)? {
+            Failure::Servo { value, .. } => value.filter(|value| !value.is_null()),
+            _ => None,
+        }
     }
 
     /// Maps a failed request onto [`BusError`]. `follow_alert` allows one extra read of the
@@ -197,84 +309,89 @@ impl SdkBus {
         about: Option<u8>,
         follow_alert: bool,
     ) -> BusError {
-        let HarnessError::Failed { reply, message, .. } = &error else {
-            return BusError::Protocol(format!("vendor SDK bridge: {error}"));
+        let (Some(failure), HarnessError::Failed { message, .. }) = (failure(&error), &error)
+        else {
+            return BusError::Bridge {
+                error: Box::new(error),
+            };
         };
-        let servo = reply
-            .get("servo")
-            .and_then(Value::as_u64)
-            .and_then(|id| u8::try_from(id).ok())
-            .or(about);
-        let text = |key: &str| {
-            reply
-                .get(key)
-                .and_then(Value::as_str)
-                .unwrap_or(message)
-                .to_string()
-        };
-        match reply.get("kind").and_then(Value::as_str) {
-            Some("comm") => {
-                let comm_kind = reply.get("comm_kind").and_then(Value::as_str);
-                match (comm_kind, servo) {
-                    (Some("timeout"), Some(id)) => BusError::Timeout {
-                        id,
-                        timeout_ms: reply
-                            .get("elapsed_ms")
-                            .and_then(Value::as_f64)
-                            .map(|ms| ms.round().max(0.0) as u64)
-                            .unwrap_or(0),
-                    },
-                    (Some("corrupt"), Some(id)) => {
-                        BusError::corrupt(id, CorruptAnswer::Sdk(text("comm")))
-                    }
-                    (Some("tx_fail"), _) => BusError::Port {
-                        port: self.port.clone(),
-                        source: io::Error::other(text("comm")),
-                    },
-                    _ => BusError::Protocol(format!("{}: {message}", self.sdk_name())),
+        // The SDK's own words when the reply has them, else the bridge's message.
+        let said = |text: Option<String>| text.unwrap_or_else(|| message.clone());
+        match failure {
+            Failure::Comm {
+                comm,
+                comm_kind,
+                servo,
+                elapsed_ms,
+            } => match (comm_kind, servo.or(about)) {
+                (Some(CommKind::Timeout), Some(id)) => BusError::Timeout {
+                    id,
+                    timeout_ms: elapsed_ms.map_or(0, |ms| ms.round().max(0.0) as u64),
+                },
+                (Some(CommKind::Corrupt), Some(id)) => {
+                    BusError::corrupt(id, CorruptAnswer::Sdk(said(comm)))
+                }
+                (Some(CommKind::TxFail), _) => BusError::Port {
+                    port: self.port.clone(),
+                    source: io::Error::other(said(comm)),
+                },
+                _ => self.sdk_failed(message),
+            },
+            Failure::Servo {
+                servo_error,
+                servo_error_code,
+                servo,
+                ..
+            } => match servo.or(about) {
+                Some(id) => self.servo_error(
+                    id,
+                    servo_error_code.unwrap_or(0),
+                    said(servo_error),
+                    follow_alert,
+                ),
+                None => self.sdk_failed(message),
+            },
+            Failure::Port { errno, error } => port_error(&self.port, errno, error.as_deref()),
+            Failure::Other => BusError::Sdk {
+                by: "vendor SDK bridge",
+                message: message.clone(),
+            },
+        }
+    }
+
+    fn sdk_failed(&self, message: &str) -> BusError {
+        BusError::Sdk {
+            by: self.sdk_name(),
+            message: message.to_string(),
+        }
+    }
+
+    /// A status packet's error byte `code` from servo `id`, `text` the SDK's words for it.
+    fn servo_error(&mut self, id: u8, code: u8, text: String, follow_alert: bool) -> BusError {
+        match self.codec.status(code) {
+            Status::Refused(_) => return BusError::Refused { id, reason: text },
+            Status::Alarms(alarms) => return BusError::Alarm { id, alarms },
+            // Only bits that stand for no alarm.
+            Status::Done => {
+                return BusError::Alarm {
+                    id,
+                    alarms: Alarms::default(),
                 }
             }
-            Some("servo") => {
-                let code = servo_error_code(reply).unwrap_or(0);
-                let Some(id) = servo else {
-                    return BusError::Protocol(format!("{}: {message}", self.sdk_name()));
-                };
-                match self.codec.status(code) {
-                    Status::Refused(_) => {
-                        return BusError::Refused {
-                            id,
-                            reason: text("servo_error"),
-                        }
-                    }
-                    Status::Alarms(alarms) => return BusError::Alarm { id, alarms },
-                    // Only bits that stand for no alarm.
-                    Status::Done => {
-                        return BusError::Alarm {
-                            id,
-                            alarms: Alarms::default(),
-                        }
-                    }
-                    Status::Alert => {}
-                }
-                let (register, bits) = self.codec.alarm_register();
-                let alarms = if follow_alert {
-                    self.read_reg_despite_alarms(id, register.into())
-                        .ok()
-                        .map(|raw| bits.decode(raw as u8))
-                } else {
-                    None
-                };
-                match alarms {
-                    Some(alarms) => BusError::Alarm { id, alarms },
-                    // The alarms could not be named: say what the servo said.
-                    None => BusError::Refused {
-                        id,
-                        reason: text("servo_error"),
-                    },
-                }
-            }
-            Some("port") => port_error(&self.port, reply),
-            _ => BusError::Protocol(format!("vendor SDK bridge: {message}")),
+            Status::Alert => {}
+        }
+        let (register, bits) = self.codec.alarm_register();
+        let alarms = if follow_alert {
+            self.read_reg_despite_alarms(id, register.into())
+                .ok()
+                .map(|raw| bits.decode(raw as u8))
+        } else {
+            None
+        };
+        match alarms {
+            Some(alarms) => BusError::Alarm { id, alarms },
+            // The alarms could not be named: say what the servo said.
+            None => BusError::Refused { id, reason: text },
         }
     }
 
@@ -314,46 +431,19 @@ impl SdkBus {
     }
 }
 
-/// The servo's status error byte in a failed reply.
-fn servo_error_code(reply: &Value) -> Option<u8> {
-    reply
-        .get("servo_error_code")
-        .and_then(Value::as_u64)
-        .and_then(|code| u8::try_from(code).ok())
+fn raw_value(reply: Value, id: u8) -> Result<u32, BusError> {
+    parse_reply(reply, Some(id), || "reply has no register value".into())
+        .map(|reply: ValueReply| reply.value)
 }
 
-fn read_request(id: u8, reg: Reg) -> Value {
-    json!({ "op": "read", "id": id, "addr": reg.addr, "len": reg.len })
-}
-
-fn raw_value(reply: &Value, id: u8) -> Result<u32, BusError> {
-    reply
-        .get("value")
-        .and_then(Value::as_u64)
-        .and_then(|value| u32::try_from(value).ok())
-        .ok_or_else(|| {
-            BusError::Protocol(format!(
-                "servo {id}: the SDK bridge's reply has no register value: {reply}"
-            ))
-        })
-}
-
-fn port_error(port: &str, reply: &Value) -> BusError {
-    let source = match reply
-        .get("errno")
-        .and_then(Value::as_i64)
-        .and_then(|errno| i32::try_from(errno).ok())
-    {
+/// The port that could not be opened: the OS's error when the bridge passed its number on,
+/// else the bridge's words.
+fn port_error(port: &str, errno: Option<i32>, error: Option<&str>) -> BusError {
+    let source = match errno {
         // pyserial passes the OS's errno on; as an io::Error it keeps its kind (NotFound,
         // PermissionDenied, ResourceBusy) for callers that advise on it.
         Some(errno) => io::Error::from_raw_os_error(errno),
-        None => io::Error::other(
-            reply
-                .get("error")
-                .and_then(Value::as_str)
-                .unwrap_or("cannot open the port")
-                .to_string(),
-        ),
+        None => io::Error::other(error.unwrap_or("cannot open the port").to_string()),
     };
     BusError::Port {
         port: port.to_string(),
@@ -379,10 +469,9 @@ impl ServoBus for SdkBus {
     }
 
     fn ping(&mut self, id: u8) -> Result<PingInfo, BusError> {
-        let request = json!({ "op": "ping", "id": id });
         // A servo with an alarm still answers a ping with what it is: the alarms go into the
         // answer, so they do not make the servo missing.
-        let (found, alarms) = match self.harness.request(&request) {
+        let (found, alarms) = match self.harness.request(&Request::Ping { id }) {
             Ok(reply) => (reply, Alarms::default()),
             Err(error) => match self.alarm_only_value(&error) {
                 Some(found) => match self.bus_error(error, Some(id), true) {
@@ -393,23 +482,14 @@ impl ServoBus for SdkBus {
                 None => return Err(self.bus_error(error, Some(id), true)),
             },
         };
-        let model_number = found
-            .get("model_number")
-            .and_then(Value::as_u64)
-            .and_then(|model| u16::try_from(model).ok())
-            .ok_or_else(|| {
-                BusError::Protocol(format!(
-                    "servo {id}: the SDK bridge's ping reply has no model number: {found}"
-                ))
-            })?;
-        let firmware = found
-            .get("firmware")
-            .and_then(Value::as_u64)
-            .and_then(|firmware| u8::try_from(firmware).ok());
+        let found: PingReply =
+            parse_reply(found, Some(id), || "ping reply has no model number".into())?;
         Ok(PingInfo {
             id,
-            model_number,
-            firmware,
+            model_number: found.model_number,
+            firmware: found
+                .firmware
+                .and_then(|firmware| u8::try_from(firmware).ok()),
             alarms,
         })
     }
@@ -427,23 +507,18 @@ impl ServoBus for SdkBus {
                 .map(|&id| self.read_reg_despite_alarms(id, reg))
                 .collect::<Result<_, _>>()?
         } else {
-            let request =
-                json!({ "op": "sync_read", "addr": reg.addr, "len": reg.len, "ids": ids });
-            let reply = self.call(request, None)?;
-            let values = reply
-                .get("values")
-                .and_then(Value::as_array)
-                .filter(|values| values.len() == ids.len())
-                .ok_or_else(|| {
-                    BusError::Protocol(format!(
-                        "the SDK bridge's sync read reply does not hold {} values: {reply}",
-                        ids.len()
-                    ))
-                })?;
-            ids.iter()
-                .zip(values)
-                .map(|(&id, value)| raw_value(&json!({ "value": value }), id))
-                .collect::<Result<_, _>>()?
+            let reply = self.call(&Request::SyncRead { reg, ids }, None)?;
+            let what = || format!("sync read reply does not hold {} values", ids.len());
+            let text = reply.to_string();
+            let ValuesReply { values } = parse_reply(reply, None, what)?;
+            if values.len() != ids.len() {
+                return Err(BusError::BridgeReply {
+                    servo: None,
+                    what: what(),
+                    reply: text,
+                });
+            }
+            values
         };
         let encoding = self.encoding();
         Ok(raws.into_iter().map(|raw| encoding.decode(raw)).collect())
@@ -461,15 +536,12 @@ impl ServoBus for SdkBus {
             .map(|&(id, tick)| {
                 encoding
                     .encode(tick)
-                    .map(|raw| json!([id, raw]))
-                    .map_err(|error| {
-                        BusError::Protocol(format!("servo {id}: goal not sent: {error}"))
-                    })
+                    .map(|raw| (id, raw))
+                    .map_err(|error| BusError::GoalUnencodable { id, error })
             })
             .collect::<Result<Vec<_>, _>>()?;
-        let request =
-            json!({ "op": "sync_write", "addr": reg.addr, "len": reg.len, "values": values });
-        self.call(request, None).map(drop)
+        self.call(&Request::SyncWrite { reg, values }, None)
+            .map(drop)
     }
 
     fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError> {
@@ -478,9 +550,11 @@ impl ServoBus for SdkBus {
             let reg = Reg::from(self.servos.table(id)?.torque_enable);
             // One confirmed write per servo rather than an unanswered sync write: torque is
             // the safety switch, and its failure must name the servo.
-            let request = json!({
-                "op": "write", "id": id, "addr": reg.addr, "len": reg.len, "value": u32::from(on),
-            });
+            let request = Request::Write {
+                id,
+                reg,
+                value: u32::from(on),
+            };
             let error = match self.harness.request(&request) {
                 Ok(_) => continue,
                 // A servo with an alarm did release: that is what a stop after a fault needs,
@@ -516,10 +590,31 @@ impl ServoBus for SdkBus {
 mod tests {
     use super::*;
 
+    use serde_json::json;
+
+    /// `reply` as the harness hands a refused request over.
+    fn refused(reply: Value) -> HarnessError {
+        HarnessError::Failed {
+            script: BRIDGE_SCRIPT.into(),
+            op: "open".into(),
+            message: "x".into(),
+            reply: Box::new(reply),
+        }
+    }
+
+    fn port_failure(reply: Value) -> BusError {
+        match failure(&refused(reply)) {
+            Some(Failure::Port { errno, error }) => {
+                port_error("/dev/ttyNOPE", errno, error.as_deref())
+            }
+            other => panic!("expected a port failure, got {other:?}"),
+        }
+    }
+
     #[test]
     fn port_errors_keep_the_os_error_kind() {
         let reply = json!({"ok": false, "kind": "port", "error": "x", "errno": 2});
-        let error = port_error("/dev/ttyNOPE", &reply);
+        let error = port_failure(reply);
         let text = error.to_string();
         assert!(text.contains("/dev/ttyNOPE"), "{text}");
         match error {
@@ -527,16 +622,59 @@ mod tests {
             other => panic!("expected a port error, got {other:?}"),
         }
         let reply = json!({"ok": false, "kind": "port", "error": "Could not configure port", "errno": null});
-        assert!(port_error("/dev/null", &reply)
+        assert!(port_failure(reply)
             .to_string()
             .contains("Could not configure port"));
     }
 
     #[test]
     fn raw_values_must_be_unsigned_32_bit() {
-        assert_eq!(raw_value(&json!({"value": 4095}), 1).ok(), Some(4095));
-        assert!(raw_value(&json!({"value": -1}), 1).is_err());
-        assert!(raw_value(&json!({"value": 1u64 << 32}), 1).is_err());
-        assert!(raw_value(&json!({}), 1).is_err());
+        assert_eq!(raw_value(json!({"value": 4095}), 1).ok(), Some(4095));
+        assert!(raw_value(json!({"value": -1}), 1).is_err());
+        assert!(raw_value(json!({"value": 1u64 << 32}), 1).is_err());
+        let missing = raw_value(json!({}), 1).unwrap_err().to_string();
+        assert_eq!(
+            missing,
+            "servo 1: the SDK bridge's reply has no register value: {}"
+        );
+    }
+
+    #[test]
+    fn requests_keep_the_bridge_wire_format() {
+        let reg = Reg { addr: 132, len: 4 };
+        let line = |request: &Request| serde_json::to_value(request).unwrap();
+        assert_eq!(
+            line(&Request::Read { id: 3, reg }),
+            json!({"op": "read", "id": 3, "addr": 132, "len": 4})
+        );
+        assert_eq!(
+            line(&Request::SyncWrite {
+                reg,
+                values: vec![(1, 2048), (2, 0)]
+            }),
+            json!({"op": "sync_write", "addr": 132, "len": 4, "values": [[1, 2048], [2, 0]]})
+        );
+        assert_eq!(
+            line(&Request::SyncRead { reg, ids: &[1, 2] }),
+            json!({"op": "sync_read", "addr": 132, "len": 4, "ids": [1, 2]})
+        );
+    }
+
+    #[test]
+    fn unknown_failure_kinds_are_the_bridges_words() {
+        let kinds = [
+            "request",
+            "state",
+            "unsupported",
+            "internal",
+            "a kind to come",
+        ];
+        for kind in kinds {
+            let reply = json!({"ok": false, "kind": kind, "error": "x"});
+            assert!(
+                matches!(failure(&refused(reply)), Some(Failure::Other)),
+                "{kind}"
+            );
+        }
     }
 }

@@ -27,6 +27,7 @@ pub mod virtual_bus;
 pub use args::{BusArgs, RealtimeArgs, RobotArgs, SequenceInput, SequenceOptions, WireArgs};
 pub use calibration::CalibrationArgs;
 
+use keypose::error::ErrorKind;
 use keypose::json::{InputError, Location};
 use keypose::robot::{import_lerobot_calibration, LeRobotRole, ResolveError, Robot};
 use keypose::sequence::Sequence;
@@ -92,13 +93,14 @@ pub enum CommandError {
     /// calibration's, the input did).
     #[error(transparent)]
     Bus(#[from] keypose::bus::BusError),
-    #[error("playback stopped: {0}")]
+    #[error("playback stopped")]
     Play(#[source] keypose::player::PlayError),
+    /// The fault is said within the sentence, so it is not the error's `source()` as well.
     #[error("recording stopped: {0}; the limp joints were asked to hold where they are")]
-    RecordFault(#[source] keypose::record::RecordError),
+    RecordFault(keypose::record::RecordError),
     #[error(transparent)]
     Record(keypose::record::RecordError),
-    #[error("simulation: {0}")]
+    #[error("simulation")]
     Sim(#[source] keypose::sim::SimError),
     #[error(transparent)]
     Model(keypose::sim::SimError),
@@ -108,6 +110,9 @@ pub enum CommandError {
     LeRobot(keypose::interop::lerobot::LeRobotError),
     #[error(transparent)]
     Mirror(#[from] keypose::mirror::MirrorError),
+    /// The teaching session's bus failed (reading the pose it starts from).
+    #[error(transparent)]
+    Session(#[from] keypose::teach::BusCommandError),
     /// Something else about the servos, in words.
     #[error("{0}")]
     Hardware(String),
@@ -116,7 +121,7 @@ pub enum CommandError {
     Interrupted(String),
     #[error("{0}")]
     Usage(String),
-    #[error("cannot write {path}: {source}")]
+    #[error("cannot write {path}")]
     Output {
         path: String,
         source: std::io::Error,
@@ -134,31 +139,31 @@ impl From<keypose::sim::SimError> for CommandError {
 }
 
 impl CommandError {
-    pub fn exit_code(&self) -> i32 {
-        use keypose::bus::BusError;
-        use keypose::player::PlayError;
-        use keypose::teach::TeachError;
+    /// What kind of failure this is: the library's error says so itself.
+    pub fn kind(&self) -> ErrorKind {
         match self {
-            // The servos are fine; the calibration is not theirs (in a cell, one arm's): bad
-            // input.
-            CommandError::Bus(e) if matches!(e.root(), BusError::HomingOffset(_)) => EXIT_BAD_INPUT,
-            CommandError::Play(PlayError::Log { .. }) => EXIT_BAD_INPUT,
-            CommandError::Teach(TeachError::Terminal(_) | TeachError::Script(_)) => EXIT_BAD_INPUT,
-            CommandError::Bus(_)
-            | CommandError::Play(_)
-            | CommandError::RecordFault(_)
-            | CommandError::Sim(_)
-            | CommandError::Teach(_)
-            | CommandError::Hardware(_) => EXIT_HARDWARE,
-            CommandError::Interrupted(_) => EXIT_INTERRUPTED,
-            CommandError::LeRobot(e) if e.is_bad_input() => EXIT_BAD_INPUT,
-            CommandError::LeRobot(_) => EXIT_HARDWARE,
-            CommandError::Input(_)
-            | CommandError::Record(_)
-            | CommandError::Model(_)
-            | CommandError::Usage(_)
-            | CommandError::Mirror(_)
-            | CommandError::Output { .. } => EXIT_BAD_INPUT,
+            CommandError::Input(e) => e.kind(),
+            CommandError::Bus(e) => e.kind(),
+            CommandError::Play(e) => e.kind(),
+            CommandError::RecordFault(e) | CommandError::Record(e) => e.kind(),
+            CommandError::Sim(e) | CommandError::Model(e) => e.kind(),
+            CommandError::Teach(e) => e.kind(),
+            CommandError::LeRobot(e) => e.kind(),
+            CommandError::Session(e) => e.kind(),
+            CommandError::Hardware(_) => ErrorKind::Hardware,
+            CommandError::Interrupted(_) => ErrorKind::Interrupted,
+            CommandError::Mirror(_) | CommandError::Usage(_) | CommandError::Output { .. } => {
+                ErrorKind::BadInput
+            }
+        }
+    }
+
+    pub fn exit_code(&self) -> i32 {
+        match self.kind() {
+            ErrorKind::VerdictFailed => EXIT_VERDICT_FAILED,
+            ErrorKind::BadInput => EXIT_BAD_INPUT,
+            ErrorKind::Hardware => EXIT_HARDWARE,
+            ErrorKind::Interrupted => EXIT_INTERRUPTED,
         }
     }
 }

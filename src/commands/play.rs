@@ -2,6 +2,7 @@
 
 use super::BusArgs;
 use super::{option_values, parse_control_rate, CommandError, SequenceOptions, Verdict};
+use keypose::error::Report;
 use keypose::plan::Loops;
 use keypose::plan::{check_at_speed, Trajectory};
 use keypose::player::{self, Outcome, PlayError, PlayOptions};
@@ -295,11 +296,11 @@ fn conclude(
                 "held at once on a second request: torque on".into(),
             ))
         }
-        Err(e @ PlayError::Log { .. }) => Err(CommandError::Usage(e.to_string())),
+        Err(e @ PlayError::Log { .. }) => Err(CommandError::Usage(Report(&e).to_string())),
         // The same words as any playback fault, and the options that cure it.
         Err(e @ PlayError::CannotKeepUp { .. }) => Err(CommandError::Hardware(format!(
             "{}\nhint: --realtime runs the control loop under SCHED_FIFO where permitted (see `keypose doctor`); --rate sets a lower rate; --readback N reads back every Nth cycle only",
-            CommandError::Play(e)
+            Report(&CommandError::Play(e))
         ))),
         Err(
             e @ PlayError::ServoProfile(

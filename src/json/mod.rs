@@ -64,6 +64,11 @@ impl fmt::Display for InputError {
 }
 
 impl InputError {
+    /// Always bad input: the user mends the file or the option.
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        crate::error::ErrorKind::BadInput
+    }
+
     /// The error `message` at `location` in `file`.
     pub fn new(file: &str, location: Location, message: impl Into<String>) -> Self {
         Self {

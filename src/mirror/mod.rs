@@ -300,8 +300,8 @@ impl Pair {
                     robot.joint_names().join(", ")
                 )));
             };
-            let (value, clip) =
-                mirror_value(rule, value, robot, source, target).map_err(value_error)?;
+            let (value, clip) = mirror_value(rule, value, robot, source, target)
+                .map_err(|error| value_error(error.to_string()))?;
             if let Some((value, limit)) = clip {
                 clips.push(Clip {
                     key: at.index,
@@ -372,7 +372,7 @@ fn mirror_value(
     robot: &Robot,
     source: usize,
     target: usize,
-) -> Result<Mirrored, String> {
+) -> Result<Mirrored, plan::KeyValueError> {
     let (from, to) = (&robot.joints[source], &robot.joints[target]);
     let original = plan::joint_value(from, value, robot.home[source])?;
     let sign = if rule == JointRule::Negate { -1.0 } else { 1.0 };

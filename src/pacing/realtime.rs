@@ -19,7 +19,18 @@ pub struct Realtime {
     /// The SCHED_FIFO priority the calling thread runs at, or why it does not.
     pub scheduling: Result<i32, io::Error>,
     /// Whether the memory is locked, or why not.
-    pub memory: Result<(), String>,
+    pub memory: Result<(), MemoryNotLocked>,
+}
+
+/// Why the memory was left unlocked.
+#[derive(Debug, thiserror::Error)]
+pub enum MemoryNotLocked {
+    /// A finite limit: locking every later allocation too would make the one that crosses it
+    /// fail. `limit_kib` is `None` when the limit could not be read.
+    #[error("the memlock limit is {}, not unlimited: set `memlock unlimited` in /etc/security/limits.conf", limit_kib.map_or("unknown".to_string(), |l| format!("{l} KiB")))]
+    Limited { limit_kib: Option<u64> },
+    #[error("{0}")]
+    Refused(io::Error),
 }
 
 impl Realtime {
@@ -117,20 +128,18 @@ pub fn serve_promptly() -> Result<Serving, io::Error> {
 /// `mlockall(MCL_CURRENT | MCL_FUTURE)`, only where every later allocation can be locked too:
 /// with a finite `memlock` limit, MCL_FUTURE makes the allocation that crosses it fail, which
 /// would abort the process mid-playback, so the memory is then left unlocked.
-fn lock_memory() -> Result<(), String> {
+fn lock_memory() -> Result<(), MemoryNotLocked> {
     let limit = memlock_limit();
     if limit != Some(libc::RLIM_INFINITY) && !is_root() {
-        let shown = limit.map_or("unknown".to_string(), |l| format!("{} KiB", l / 1024));
-        return Err(format!(
-            "the memlock limit is {shown}, not unlimited: set `memlock unlimited` in \
-             /etc/security/limits.conf"
-        ));
+        return Err(MemoryNotLocked::Limited {
+            limit_kib: limit.map(|l| l / 1024),
+        });
     }
     // SAFETY: mlockall takes flags only.
     if unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) } == 0 {
         Ok(())
     } else {
-        Err(io::Error::last_os_error().to_string())
+        Err(MemoryNotLocked::Refused(io::Error::last_os_error()))
     }
 }
 
@@ -177,10 +186,17 @@ mod tests {
     fn a_refusal_is_told_in_one_line_naming_what_was_refused() {
         let refused = Realtime {
             scheduling: Err(io::Error::from_raw_os_error(libc::EPERM)),
-            memory: Err("the memlock limit is 8192 KiB, not unlimited".into()),
+            memory: Err(MemoryNotLocked::Limited {
+                limit_kib: Some(8192),
+            }),
         };
         let notices = refused.notices();
         assert_eq!(notices.len(), 2);
+        assert_eq!(
+            notices[1],
+            "--realtime: memory not locked (the memlock limit is 8192 KiB, not unlimited: set \
+             `memlock unlimited` in /etc/security/limits.conf)"
+        );
         assert!(notices[0].contains("SCHED_FIFO refused") && notices[0].contains("not permitted"));
         assert!(notices.iter().all(|n| !n.contains('\n')));
         let granted = Realtime {

@@ -133,7 +133,7 @@ impl Trajectory {
                 let path = value_path(sequence, index, &joint.name, value);
                 let reference = previous.unwrap_or(robot.home[joint_index]);
                 let v = joint_value(joint, value, reference)
-                    .map_err(|message| InputError::at_path(file, &path, message))?;
+                    .map_err(|error| InputError::at_path(file, &path, error.to_string()))?;
                 if !joint.limits.contains(v) {
                     return Err(InputError::at_path(
                         file,
@@ -362,10 +362,40 @@ fn curve_error(sequence: &Sequence, error: CurveError) -> InputError {
     InputError::at_path(&sequence.file, "$.keyframes", error.to_string())
 }
 
+/// Why what a key says about a joint is no value of that joint.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum KeyValueError {
+    #[error(
+        "{percent}% of {joint}'s calibrated range, but {joint} has no calibration: a percent \
+         needs the arm's LeRobot calibration (--calibration FILE or --robot-id NAME); without \
+         one give a number ({unit})"
+    )]
+    Uncalibrated {
+        joint: String,
+        percent: f64,
+        unit: &'static str,
+    },
+    #[error("a revolute joint's transform cannot translate; expected \"t\" to be zero, found {length_m:.5} m")]
+    Translates { length_m: f64 },
+    #[error("the rotation is {swing_deg:.2}° off the joint axis {axis:?}; expected a rotation about that axis (at most {SWING_TOLERANCE_DEG}° off)")]
+    OffAxisRotation { swing_deg: f64, axis: [f64; 3] },
+    #[error("the rotation ({twist_deg:.3}°) has no representative inside the limits of {joint}: expected {min} … {max} deg")]
+    NoTurnInside {
+        joint: String,
+        twist_deg: f64,
+        min: f64,
+        max: f64,
+    },
+    #[error("the translation is {off_m:.5} m off the joint axis {axis:?}; expected a translation along it")]
+    OffAxisTranslation { off_m: f64, axis: [f64; 3] },
+    #[error("a prismatic joint cannot rotate; expected \"r\" to be the identity, found a {angle_deg:.2}° rotation")]
+    Rotates { angle_deg: f64 },
+}
+
 /// A joint value (degrees or metres) from what a key says about the joint. `reference` is the
 /// previous key's value on this joint (or home): a revolute angle is unwrapped to the turn inside
 /// the limits nearest to it. (The mirror reads keys the same way.)
-pub fn joint_value(joint: &Joint, value: &KeyValue, reference: f64) -> Result<f64, String> {
+pub fn joint_value(joint: &Joint, value: &KeyValue, reference: f64) -> Result<f64, KeyValueError> {
     match *value {
         KeyValue::Joint(v) => Ok(v),
         KeyValue::Percent(p) => percent_value(joint, p),
@@ -378,66 +408,59 @@ pub fn joint_value(joint: &Joint, value: &KeyValue, reference: f64) -> Result<f6
 
 /// The joint value at `percent` of the range its LeRobot calibration recorded: only a
 /// calibration says where 0 % and 100 % are, so without one a percent means nothing.
-fn percent_value(joint: &Joint, percent: f64) -> Result<f64, String> {
+fn percent_value(joint: &Joint, percent: f64) -> Result<f64, KeyValueError> {
     joint
         .calibrated_range
         .map(|range| range.value(percent))
-        .ok_or_else(|| {
-            format!(
-                "{percent}% of {name}'s calibrated range, but {name} has no calibration: a \
-                 percent needs the arm's LeRobot calibration (--calibration FILE or --robot-id \
-                 NAME); without one give a number ({})",
-                joint.kind.unit(),
-                name = joint.name
-            )
+        .ok_or_else(|| KeyValueError::Uncalibrated {
+            joint: joint.name.clone(),
+            percent,
+            unit: joint.kind.unit(),
         })
 }
 
-fn revolute_angle(joint: &Joint, tf: &RigidTransform, reference: f64) -> Result<f64, String> {
+fn revolute_angle(
+    joint: &Joint,
+    tf: &RigidTransform,
+    reference: f64,
+) -> Result<f64, KeyValueError> {
     if tf.t.length() > OFF_AXIS_TOLERANCE_M {
-        return Err(format!(
-            "a revolute joint's transform cannot translate; expected \"t\" to be zero, found {:.5} m",
-            tf.t.length()
-        ));
+        return Err(KeyValueError::Translates {
+            length_m: tf.t.length(),
+        });
     }
     let (twist, swing) = pose::twist_swing(tf.r, joint.axis);
     if swing.to_degrees() > SWING_TOLERANCE_DEG {
-        return Err(format!(
-            "the rotation is {:.2}° off the joint axis {:?}; expected a rotation about that axis \
-             (at most {SWING_TOLERANCE_DEG}° off)",
-            swing.to_degrees(),
-            joint.axis.to_array()
-        ));
+        return Err(KeyValueError::OffAxisRotation {
+            swing_deg: swing.to_degrees(),
+            axis: joint.axis.to_array(),
+        });
     }
     let (min, max) = (joint.limits.min.to_radians(), joint.limits.max.to_radians());
     pose::unwrap_within(twist, reference.to_radians(), min, max, TAU)
         .map(f64::to_degrees)
-        .ok_or_else(|| {
-            format!(
-                "the rotation ({:.3}°) has no representative inside the limits of {}: expected {} … {} deg",
-                twist.to_degrees(),
-                joint.name,
-                joint.limits.min,
-                joint.limits.max
-            )
+        .ok_or_else(|| KeyValueError::NoTurnInside {
+            joint: joint.name.clone(),
+            twist_deg: twist.to_degrees(),
+            min: joint.limits.min,
+            max: joint.limits.max,
         })
 }
 
-fn prismatic_offset(joint: &Joint, tf: &RigidTransform) -> Result<f64, String> {
+fn prismatic_offset(joint: &Joint, tf: &RigidTransform) -> Result<f64, KeyValueError> {
     let along = tf.t.dot(joint.axis);
     let off = (tf.t - joint.axis * along).length();
     if off > OFF_AXIS_TOLERANCE_M {
-        return Err(format!(
-            "the translation is {off:.5} m off the joint axis {:?}; expected a translation along it",
-            joint.axis.to_array()
-        ));
+        return Err(KeyValueError::OffAxisTranslation {
+            off_m: off,
+            axis: joint.axis.to_array(),
+        });
     }
     let angle = pose::rotation_vector(pose::same_hemisphere(glam::DQuat::IDENTITY, tf.r)).length();
     if angle.to_degrees() > SWING_TOLERANCE_DEG {
-        return Err(format!(
-            "a prismatic joint cannot rotate; expected \"r\" to be the identity, found a {:.2}° rotation",
-            angle.to_degrees()
-        ));
+        return Err(KeyValueError::Rotates {
+            angle_deg: angle.to_degrees(),
+        });
     }
     Ok(along)
 }

@@ -146,19 +146,27 @@ pub enum PlayError {
     CannotKeepUp { overrun: Overrun, at: f64 },
     /// A fault on one arm's bus in a cell: nothing more went to that bus, and the other arms
     /// braked to rest along the path.
+    /// `fault` is said within the sentence, so it is not the error's `source()` as well.
     #[error("{fault}; nothing more was sent to the {arm} bus, and the other arms braked to rest along the path and hold there, torque on")]
-    Isolated {
-        arm: String,
-        #[source]
-        fault: Box<PlayError>,
-    },
+    Isolated { arm: String, fault: Box<PlayError> },
     #[error(transparent)]
     ServoProfile(#[from] ServoProfileError),
-    #[error("cannot write log {path}: {source}")]
+    #[error("cannot write log {path}")]
     Log {
         path: String,
         source: std::io::Error,
     },
+}
+
+impl PlayError {
+    /// What kind of failure this is: a log that cannot be written is bad input (its path);
+    /// anything else stopped the servos.
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            PlayError::Log { .. } => crate::error::ErrorKind::BadInput,
+            _ => crate::error::ErrorKind::Hardware,
+        }
+    }
 }
 
 /// What the figures of an overrun point at: the cycle's own work, or the scheduler.

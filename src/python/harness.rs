@@ -6,8 +6,9 @@
 use super::harness_error::clip;
 use super::pipes::{self, Event, StderrTail};
 use super::streamed::{describe_status, TAIL_LINES};
-use super::{HarnessError, PyConfig, PythonEnv};
-use serde_json::{Map, Value};
+use super::{HarnessError, NotReady, PyConfig, PythonEnv};
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
 use std::fmt;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -146,24 +147,23 @@ impl Harness {
             .and_then(|line| parse_ready(&line))
             .map_err(|reason| HarnessError::NotReady {
                 script: self.script.clone(),
-                reason,
+                reason: Box::new(reason),
                 hint: String::new(),
                 stderr: self.stderr_block(),
             })
     }
 
     /// The child's first line, or why there is none.
-    fn ready_line(&mut self, timeout: Duration) -> Result<String, String> {
+    fn ready_line(&mut self, timeout: Duration) -> Result<String, NotReady> {
         match self.lines.recv_timeout(timeout) {
             Ok(Event::Line(line)) => Ok(line),
-            Ok(Event::ReadError(error)) => Err(format!("reading its output: {error}")),
-            Err(RecvTimeoutError::Timeout) => {
-                Err(format!("no ready line within {} s", timeout.as_secs_f64()))
-            }
-            Err(RecvTimeoutError::Disconnected) => {
-                let status = self.exit_status();
-                Err(format!("it exited ({status}) before saying it was ready"))
-            }
+            Ok(Event::ReadError(error)) => Err(NotReady::Read(error.to_string())),
+            Err(RecvTimeoutError::Timeout) => Err(NotReady::Silent {
+                seconds: timeout.as_secs_f64(),
+            }),
+            Err(RecvTimeoutError::Disconnected) => Err(NotReady::Exited {
+                status: self.exit_status(),
+            }),
         }
     }
 
@@ -200,46 +200,45 @@ impl Harness {
         pipes::tail_lines(&self.stderr)
     }
 
-    /// Sends one request and waits for its reply, with the default timeout.
+    /// Sends one request (an object with an `op` member) and waits for its reply, with the
+    /// default timeout.
     ///
     /// A reply with `"ok": false` is [`HarnessError::Failed`], carrying the script's message
     /// and the whole reply.
-    pub fn request(&mut self, request: &Value) -> Result<Value, HarnessError> {
+    pub fn request(&mut self, request: &impl Serialize) -> Result<Value, HarnessError> {
         self.request_within(request, self.request_timeout)
     }
 
     /// Sends one request and waits at most `timeout` for its reply.
     pub fn request_within(
         &mut self,
-        request: &Value,
+        request: &impl Serialize,
         timeout: Duration,
     ) -> Result<Value, HarnessError> {
-        let op = request
-            .get("op")
-            .and_then(Value::as_str)
-            .unwrap_or("a request")
-            .to_string();
         self.seq += 1;
         let seq = self.seq;
-        let line = match request {
-            Value::Object(fields) => {
-                let mut fields: Map<String, Value> = fields.clone();
-                fields.insert("seq".to_string(), Value::from(seq));
-                Value::Object(fields).to_string()
-            }
-            other => other.to_string(),
-        };
-        let reply = self.exchange(&line, &op, Some(seq), timeout)?;
-        match reply.get("ok") {
-            Some(Value::Bool(true)) => Ok(reply),
-            Some(Value::Bool(false)) => Err(HarnessError::Failed {
+        let mut request = serde_json::to_value(request).map_err(|error| HarnessError::Request {
+            script: self.script.clone(),
+            detail: error.to_string(),
+        })?;
+        let op = Envelope::deserialize(&request)
+            .ok()
+            .and_then(|envelope| envelope.op)
+            .unwrap_or_else(|| "a request".to_string());
+        if let Value::Object(fields) = &mut request {
+            fields.insert("seq".to_string(), Value::from(seq));
+        }
+        let reply = self.exchange(&request.to_string(), &op, Some(seq), timeout)?;
+        match Envelope::deserialize(&reply).unwrap_or_default() {
+            Envelope { ok: Some(true), .. } => Ok(reply),
+            Envelope {
+                ok: Some(false),
+                error,
+                ..
+            } => Err(HarnessError::Failed {
                 script: self.script.clone(),
                 op,
-                message: reply
-                    .get("error")
-                    .and_then(Value::as_str)
-                    .unwrap_or("no message")
-                    .to_string(),
+                message: error.unwrap_or_else(|| "no message".to_string()),
                 reply: Box::new(reply),
             }),
             _ => Err(HarnessError::BadReply {
@@ -270,7 +269,8 @@ impl Harness {
         loop {
             let line = self.next_line(op, deadline, timeout)?;
             let reply = self.parse_reply(&line)?;
-            match (seq, reply.get("seq").and_then(Value::as_u64)) {
+            let answers = Envelope::deserialize(&reply).unwrap_or_default().seq;
+            match (seq, answers) {
                 // The late answer to a request that timed out: already given up on.
                 (Some(wanted), Some(got)) if got < wanted => continue,
                 (Some(wanted), Some(got)) if got > wanted => {
@@ -427,21 +427,52 @@ fn child_command(python: &Path, script: &Path, options: &HarnessOptions) -> Comm
     command
 }
 
+/// The members every line of the protocol (sim/PROTOCOL.md) may carry, whatever the script:
+/// a request's `op`, a reply's `ok`, `error` and echoed `seq`, the first line's `ready`. A
+/// member of another type counts as missing.
+#[derive(Debug, Default, Deserialize)]
+#[serde(default)]
+struct Envelope {
+    #[serde(deserialize_with = "lenient")]
+    op: Option<String>,
+    #[serde(deserialize_with = "lenient")]
+    ok: Option<bool>,
+    #[serde(deserialize_with = "lenient")]
+    ready: Option<bool>,
+    #[serde(deserialize_with = "lenient")]
+    error: Option<String>,
+    #[serde(deserialize_with = "lenient")]
+    seq: Option<u64>,
+}
+
+/// A member as `T`, or `None` when it is of another type.
+fn lenient<'de, D, T>(deserializer: D) -> Result<Option<T>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+    T: serde::de::DeserializeOwned,
+{
+    let value = Value::deserialize(deserializer)?;
+    Ok(T::deserialize(value).ok())
+}
+
 /// The ready line (`{"ready": true, …}`), or why `line` is not one.
-fn parse_ready(line: &str) -> Result<Value, String> {
-    let ready: Value = serde_json::from_str(line)
-        .map_err(|error| format!("its first line is not JSON ({error}): {}", clip(line)))?;
-    match ready.get("ready") {
-        Some(Value::Bool(true)) => Ok(ready),
-        Some(Value::Bool(false)) => Err(ready
-            .get("error")
-            .and_then(Value::as_str)
-            .unwrap_or("it says it is not ready")
-            .to_string()),
-        _ => Err(format!(
-            "its first line is not a ready line: {}",
-            clip(line)
+fn parse_ready(line: &str) -> Result<Value, NotReady> {
+    let ready: Value = serde_json::from_str(line).map_err(|error| NotReady::NotJson {
+        error: error.to_string(),
+        line: clip(line),
+    })?;
+    match Envelope::deserialize(&ready).unwrap_or_default() {
+        Envelope {
+            ready: Some(true), ..
+        } => Ok(ready),
+        Envelope {
+            ready: Some(false),
+            error,
+            ..
+        } => Err(NotReady::Refused(
+            error.unwrap_or_else(|| "it says it is not ready".to_string()),
         )),
+        _ => Err(NotReady::NoReadyLine { line: clip(line) }),
     }
 }
 

@@ -19,7 +19,7 @@ pub enum HarnessError {
     #[error("{script} did not start: {reason}{hint}{stderr}")]
     NotReady {
         script: String,
-        reason: String,
+        reason: Box<NotReady>,
         /// Empty, or a sentence that starts with "; ".
         hint: String,
         /// Empty, or the child's last stderr lines on lines of their own.
@@ -53,6 +53,27 @@ pub enum HarnessError {
     },
     #[error("writing a request to {script}: {source}")]
     Write { script: String, source: io::Error },
+    /// A request that is no JSON (a map with keys that are not strings): a bug of the caller.
+    #[error("a request to {script} is not JSON: {detail}")]
+    Request { script: String, detail: String },
+}
+
+/// Why a harness script did not say it was ready.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum NotReady {
+    #[error("reading its output: {0}")]
+    Read(String),
+    #[error("no ready line within {seconds} s")]
+    Silent { seconds: f64 },
+    #[error("it exited ({status}) before saying it was ready")]
+    Exited { status: String },
+    #[error("its first line is not JSON ({error}): {line}")]
+    NotJson { error: String, line: String },
+    /// The script says what it lacks (`{"ready": false, "error": …}`).
+    #[error("{0}")]
+    Refused(String),
+    #[error("its first line is not a ready line: {line}")]
+    NoReadyLine { line: String },
 }
 
 impl HarnessError {

@@ -39,7 +39,7 @@ pub use doctor::{doctor_report, python_report, python_report_for, PythonReport};
 use error::io_error;
 pub use error::PyEnvError;
 pub use harness::{Harness, HarnessOptions};
-pub use harness_error::HarnessError;
+pub use harness_error::{HarnessError, NotReady};
 pub use requirements::{env_key, pinned_versions, REQUIREMENTS};
 pub use scripts::{script_names, script_path};
 pub use venv::{python_for_harness, PythonEnv};

@@ -78,6 +78,17 @@ pub enum RecordError {
     Sequence(#[from] InputError),
 }
 
+impl RecordError {
+    /// What kind of failure this is: a bus fault while recording is the hardware's; a
+    /// recording that makes no keys is bad input.
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            RecordError::Fault { .. } => crate::error::ErrorKind::Hardware,
+            _ => crate::error::ErrorKind::BadInput,
+        }
+    }
+}
+
 /// Where a recording has no samples for longer than one period: what the hand did there is
 /// not known, and the keys are fitted across it.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -38,6 +38,17 @@ pub enum SimError {
     Render(String),
 }
 
+impl SimError {
+    /// What kind of failure this is: a model MuJoCo refuses is the user's to mend; anything
+    /// else is the simulation's (its process, its environment).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            SimError::Model { .. } => crate::error::ErrorKind::BadInput,
+            _ => crate::error::ErrorKind::Hardware,
+        }
+    }
+}
+
 /// A model MuJoCo cannot load is bad input (exit 2), not a failure of the simulation.
 fn model_error(error: SimError, model: &str) -> SimError {
     match &error {

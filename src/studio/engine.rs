@@ -382,15 +382,30 @@ fn interrupt(state: &mut TeachState, session: &mut Session) {
     }
 }
 
+/// Why a token of the page is no key.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum PageKeyError {
+    #[error(transparent)]
+    Token(#[from] teach::keys::TokenError),
+    #[error("{token:?}: expected {what} after the colon")]
+    NoNumber { token: String, what: &'static str },
+    #[error("{token:?}: expected three numbers in millimetres, X,Y,Z, after the colon")]
+    NoToolTarget { token: String },
+    #[error("{token:?} is for --keys scripts, not the page")]
+    ScriptOnly { token: String },
+}
+
 /// A key of the page, in the tokens of a `--keys` script (`space`, `shift-left`, `u`, …)
 /// plus the page's own: `select-key:N`, `select-joint:N`, `key-time:MS` and
 /// `tool-target:X,Y,Z` (the tool handle, millimetres in the base frame). The script's
 /// `import:`, `write:` and `wait:` are refused: the page imports through the `i` prompt, and
 /// writes where the session writes.
-pub fn parse_key(token: &str) -> Result<Key, String> {
-    let number = |rest: &str, what: &str| {
-        rest.parse::<u64>()
-            .map_err(|_| format!("{token:?}: expected {what} after the colon"))
+pub fn parse_key(token: &str) -> Result<Key, PageKeyError> {
+    let number = |rest: &str, what: &'static str| {
+        rest.parse::<u64>().map_err(|_| PageKeyError::NoNumber {
+            token: token.to_string(),
+            what,
+        })
     };
     if let Some(rest) = token.strip_prefix("select-key:") {
         return number(rest, "a key index").map(|i| Key::SelectKey(i as usize));
@@ -402,13 +417,15 @@ pub fn parse_key(token: &str) -> Result<Key, String> {
         return number(rest, "a time in whole milliseconds").map(Key::KeyTime);
     }
     if let Some(rest) = token.strip_prefix("tool-target:") {
-        return tool_target(rest).ok_or_else(|| {
-            format!("{token:?}: expected three numbers in millimetres, X,Y,Z, after the colon")
+        return tool_target(rest).ok_or_else(|| PageKeyError::NoToolTarget {
+            token: token.to_string(),
         });
     }
     match teach::keys::parse_token(token)? {
         teach::keys::Step::Key(Key::Import(_) | Key::Write(_)) | teach::keys::Step::Wait(_) => {
-            Err(format!("{token:?} is for --keys scripts, not the page"))
+            Err(PageKeyError::ScriptOnly {
+                token: token.to_string(),
+            })
         }
         teach::keys::Step::Key(key) => Ok(key),
     }

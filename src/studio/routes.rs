@@ -11,6 +11,7 @@ use super::engine::{self, Action, Hub, Input, News};
 use super::http::{Method, Request, Response};
 use crate::robot::Robot;
 use crate::teach::Brake;
+use serde::Deserialize;
 use serde_json::{json, Value};
 use std::io::Write;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -181,7 +182,7 @@ fn controls(context: &Context, client: &Option<String>) -> Result<(), ControlRef
 fn key(request: &Request, context: &Context, client: Option<String>) -> Response {
     let action = match read_body(request).and_then(|body| parse_action(&body)) {
         Ok(action) => action,
-        Err(message) => return json_response(400, &json!({"error": message})),
+        Err(message) => return json_response(400, &json!({"error": message.to_string()})),
     };
     if action == Action::Stop {
         context.brake.soft_stop();
@@ -231,23 +232,55 @@ fn test_fault(context: &Context) -> Response {
     }
 }
 
-fn read_body(request: &Request) -> Result<Value, String> {
-    let body = std::str::from_utf8(&request.body)
-        .map_err(|_| "request body: expected UTF-8 JSON".to_string())?;
-    serde_json::from_str(body).map_err(|e| format!("request body: expected JSON ({e})"))
+/// The body of `POST /api/key`, as the page sends it: `{"key": TOKEN}` or `{"line": TEXT}`
+/// (a key wins when both are there; members of another type count as missing).
+#[derive(Debug, Default, Deserialize)]
+#[serde(default)]
+struct ActionBody {
+    #[serde(deserialize_with = "string_or_none")]
+    key: Option<String>,
+    #[serde(deserialize_with = "string_or_none")]
+    line: Option<String>,
 }
 
-fn parse_action(body: &Value) -> Result<Action, String> {
-    if let Some(token) = body.get("key").and_then(Value::as_str) {
-        if token == "stop" {
-            return Ok(Action::Stop);
-        }
-        return engine::parse_key(token).map(Action::Key);
+fn string_or_none<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<String>, D::Error> {
+    Ok(match Value::deserialize(d)? {
+        Value::String(text) => Some(text),
+        _ => None,
+    })
+}
+
+/// Why a request to `POST /api/key` is refused (400).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+enum BodyError {
+    #[error("request body: expected UTF-8 JSON")]
+    NotUtf8,
+    #[error("request body: expected JSON ({0})")]
+    NotJson(String),
+    #[error(r#"expected {{"key": TOKEN}} or {{"line": TEXT}}"#)]
+    NoAction,
+    #[error(transparent)]
+    Key(#[from] engine::PageKeyError),
+}
+
+fn read_body(request: &Request) -> Result<Value, BodyError> {
+    let body = std::str::from_utf8(&request.body).map_err(|_| BodyError::NotUtf8)?;
+    serde_json::from_str(body).map_err(|e| BodyError::NotJson(e.to_string()))
+}
+
+fn parse_action(body: &Value) -> Result<Action, BodyError> {
+    match ActionBody::deserialize(body).unwrap_or_default() {
+        ActionBody {
+            key: Some(token), ..
+        } if token == "stop" => Ok(Action::Stop),
+        ActionBody {
+            key: Some(token), ..
+        } => Ok(Action::Key(engine::parse_key(&token)?)),
+        ActionBody {
+            line: Some(text), ..
+        } => Ok(Action::Line(text)),
+        _ => Err(BodyError::NoAction),
     }
-    if let Some(text) = body.get("line").and_then(Value::as_str) {
-        return Ok(Action::Line(text.to_string()));
-    }
-    Err(r#"expected {"key": TOKEN} or {"line": TEXT}"#.into())
 }
 
 /// `GET /api/events`: admitted while fewer than [`MAX_STREAMS`] are open.

@@ -178,8 +178,19 @@ pub enum Step {
     Wait(Duration),
 }
 
+/// Why a script token is no step.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum TokenError {
+    #[error("unknown key {token:?}; expected a key name (space, up, shift-left, enter, esc, yes, no, …), a single character, import:PATH, write:PATH or wait:DURATION")]
+    UnknownKey { token: String },
+    #[error("{token:?}: expected a path after the colon")]
+    NoPath { token: String },
+    #[error("{token:?}: expected a wait like wait:500ms or wait:2s")]
+    BadWait { token: String },
+}
+
 /// Parses one script token.
-pub fn parse_token(token: &str) -> Result<Step, String> {
+pub fn parse_token(token: &str) -> Result<Step, TokenError> {
     let key = match token {
         "space" => Key::Char(' '),
         "up" => Key::Up,
@@ -200,18 +211,18 @@ pub fn parse_token(token: &str) -> Result<Step, String> {
                 Key::Write(non_empty_path(token, path)?)
             } else if let Some(duration) = token.strip_prefix("wait:") {
                 return parse_duration(duration).map(Step::Wait).ok_or_else(|| {
-                    format!("{token:?}: expected a wait like wait:500ms or wait:2s")
+                    TokenError::BadWait {
+                        token: token.to_string(),
+                    }
                 });
             } else {
                 let mut chars = token.chars();
                 match (chars.next(), chars.next()) {
                     (Some(c), None) => Key::Char(c),
                     _ => {
-                        return Err(format!(
-                            "unknown key {token:?}; expected a key name (space, up, shift-left, \
-                             enter, esc, yes, no, …), a single character, import:PATH, \
-                             write:PATH or wait:DURATION"
-                        ))
+                        return Err(TokenError::UnknownKey {
+                            token: token.to_string(),
+                        })
                     }
                 }
             }
@@ -220,9 +231,11 @@ pub fn parse_token(token: &str) -> Result<Step, String> {
     Ok(Step::Key(key))
 }
 
-fn non_empty_path(token: &str, path: &str) -> Result<PathBuf, String> {
+fn non_empty_path(token: &str, path: &str) -> Result<PathBuf, TokenError> {
     if path.is_empty() {
-        Err(format!("{token:?}: expected a path after the colon"))
+        Err(TokenError::NoPath {
+            token: token.to_string(),
+        })
     } else {
         Ok(PathBuf::from(path))
     }
@@ -242,7 +255,7 @@ fn parse_duration(text: &str) -> Option<Duration> {
 }
 
 /// The steps of one script line, with their tokens (for the echo); `#` starts a comment.
-pub fn parse_line(line: &str) -> Result<Vec<(String, Step)>, String> {
+pub fn parse_line(line: &str) -> Result<Vec<(String, Step)>, TokenError> {
     let code = line.split('#').next().unwrap_or("");
     code.split_whitespace()
         .map(|token| parse_token(token).map(|step| (token.to_string(), step)))

@@ -32,7 +32,7 @@ pub use journal::{Journal, Pending};
 pub use keys::{help_text, Key, BINDINGS};
 pub use messages::{BusCommand, Command, Event, FileCommand};
 pub use prompt::Prompt;
-pub use session::{Brake, Session, SessionError};
+pub use session::{Brake, BusCommandError, Session, SessionError};
 pub use state::TeachState;
 
 /// What ends a session early.
@@ -40,7 +40,7 @@ pub use state::TeachState;
 pub enum TeachError {
     #[error(transparent)]
     Session(#[from] SessionError),
-    #[error("terminal: {0}")]
+    #[error("terminal")]
     Terminal(#[from] std::io::Error),
     /// A `--keys` script that cannot be run as written.
     #[error("{0}")]
@@ -48,6 +48,17 @@ pub enum TeachError {
     /// The servos failed during a scripted step.
     #[error("{0}")]
     Hardware(String),
+}
+
+impl TeachError {
+    /// What kind of failure this is: a terminal that cannot be used or a script that cannot
+    /// be run is bad input; a lost bus is the hardware's.
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        match self {
+            TeachError::Terminal(_) | TeachError::Script(_) => crate::error::ErrorKind::BadInput,
+            TeachError::Session(_) | TeachError::Hardware(_) => crate::error::ErrorKind::Hardware,
+        }
+    }
 }
 
 /// Carries out `commands` (bus ones on the session, file ones by [`files`]), feeding every

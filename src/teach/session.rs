@@ -14,8 +14,9 @@ use super::capture::tidy;
 use super::messages::{BusCommand, Event};
 use super::motion::MotionPlan;
 use crate::bus::{BusError, ServoBus};
+use crate::error::ErrorKind;
 use crate::player::{self, Outcome, PlayError, StopSignal};
-use crate::robot::Robot;
+use crate::robot::{Robot, TickError};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -131,6 +132,35 @@ pub enum SessionError {
     BusLost(String),
 }
 
+/// Why a bus command of the session (or a read of the pose) failed; its words become an
+/// [`Event::BusError`].
+#[derive(Debug, thiserror::Error)]
+pub enum BusCommandError {
+    #[error(transparent)]
+    Bus(#[from] BusError),
+    /// The bus went with a motion thread that could not be started.
+    #[error("the bus is lost: restart keypose teach")]
+    NoBus,
+    /// A motion was asked for while one runs (the state refuses that before it gets here).
+    #[error("the arm is already moving")]
+    Moving,
+    /// A joint's goal that has no tick.
+    #[error("joint {joint}: cannot hold: {error}")]
+    Unholdable { joint: String, error: TickError },
+    #[error("cannot start the motion thread: {error}")]
+    NoThread { error: std::io::Error },
+}
+
+impl BusCommandError {
+    /// What kind of failure this is: the bus's own, or the hardware's.
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            BusCommandError::Bus(e) => e.kind(),
+            _ => ErrorKind::Hardware,
+        }
+    }
+}
+
 /// Brakes whatever motion the session runs, from any thread (the studio's HTTP threads, a
 /// signal handler) without waiting for the thread that carries out the keys: the first stop
 /// request of the running motion, decelerating along its path; nothing when the arm is idle
@@ -201,7 +231,7 @@ impl Session {
     }
 
     /// The present pose: read from the bus, or while a motion runs, what the player last read.
-    pub fn read(&mut self) -> Result<Option<Vec<f64>>, BusError> {
+    pub fn read(&mut self) -> Result<Option<Vec<f64>>, BusCommandError> {
         if let Some(motion) = &self.motion {
             return Ok(Some(self.values(&lock(&motion.shared).ticks)));
         }
@@ -214,12 +244,10 @@ impl Session {
         self.robot.values_of(ticks)
     }
 
-    fn bus_mut(&mut self) -> Result<&mut Box<dyn ServoBus>, BusError> {
+    fn bus_mut(&mut self) -> Result<&mut Box<dyn ServoBus>, BusCommandError> {
         // The state refuses bus commands while a motion has the bus, so the bus is missing
         // here only when a motion thread could not be started with it.
-        self.bus
-            .as_mut()
-            .ok_or_else(|| BusError::Protocol("the bus is lost: restart keypose teach".into()))
+        self.bus.as_mut().ok_or(BusCommandError::NoBus)
     }
 
     /// Carries out one command; failures come back as [`Event::BusError`].
@@ -243,7 +271,7 @@ impl Session {
     /// Torque on where the joints are (rounded, inside the limits). A joint pushed further past
     /// a limit than the player's start slack is left as it is: holding it would need a goal
     /// outside the limits, and pulling it inside at once would be a jump.
-    fn hold(&mut self, joints: Vec<usize>) -> Result<Vec<Event>, BusError> {
+    fn hold(&mut self, joints: Vec<usize>) -> Result<Vec<Event>, BusCommandError> {
         let ids: Vec<u8> = joints.iter().map(|&j| self.ids[j]).collect();
         let ticks = self.bus_mut()?.read_positions(&ids)?;
         let (mut held, mut values, mut goals, mut outside) =
@@ -255,9 +283,12 @@ impl Session {
                 continue;
             };
             let value = tidy(joint, value);
-            let goal = joint.goal_tick(value).map_err(|e| {
-                BusError::Protocol(format!("joint {}: cannot hold: {e}", joint.name))
-            })?;
+            let goal = joint
+                .goal_tick(value)
+                .map_err(|error| BusCommandError::Unholdable {
+                    joint: joint.name.clone(),
+                    error,
+                })?;
             held.push(j);
             values.push(value);
             goals.push((joint.servo.id, goal));
@@ -290,7 +321,7 @@ impl Session {
         Ok(events)
     }
 
-    fn release(&mut self, joints: Vec<usize>) -> Result<Vec<Event>, BusError> {
+    fn release(&mut self, joints: Vec<usize>) -> Result<Vec<Event>, BusCommandError> {
         let ids: Vec<u8> = joints.iter().map(|&j| self.ids[j]).collect();
         self.bus_mut()?.set_torque(&ids, false)?;
         for &j in &joints {
@@ -300,17 +331,14 @@ impl Session {
         Ok(vec![Event::Released { joints }])
     }
 
-    fn run(&mut self, plan: MotionPlan) -> Result<Vec<Event>, BusError> {
+    fn run(&mut self, plan: MotionPlan) -> Result<Vec<Event>, BusCommandError> {
         if self.motion.is_some() {
-            return Err(BusError::Protocol("the arm is already moving".into()));
+            return Err(BusCommandError::Moving);
         }
         // What the screen shows of the joints the motion does not drive: where they are now.
         let ids = self.ids.clone();
         let ticks = self.bus_mut()?.read_positions(&ids)?;
-        let inner = self
-            .bus
-            .take()
-            .ok_or_else(|| BusError::Protocol("the bus is lost: restart keypose teach".into()))?;
+        let inner = self.bus.take().ok_or(BusCommandError::NoBus)?;
         let shared = Arc::new(Mutex::new(Observed {
             ticks,
             goals: self.goal_ticks.clone(),
@@ -344,12 +372,10 @@ impl Session {
             });
         let handle = match handle {
             Ok(handle) => handle,
-            Err(e) => {
+            Err(error) => {
                 // The closure (and the bus in it) is gone with the failed spawn.
                 self.brake.set(None);
-                return Err(BusError::Protocol(format!(
-                    "cannot start the motion thread: {e}"
-                )));
+                return Err(BusCommandError::NoThread { error });
             }
         };
         self.motion = Some(RunningMotion {
@@ -420,7 +446,7 @@ impl Session {
     /// Waits until every held joint reads its goal tick (or its reading stays put), for at
     /// most `timeout`; false when it ran out. Script steps use this so that a capture after a
     /// jog sees where the jog went, whatever the machine's speed.
-    pub fn settle(&mut self, timeout: Duration) -> Result<bool, BusError> {
+    pub fn settle(&mut self, timeout: Duration) -> Result<bool, BusCommandError> {
         let give_up = Instant::now() + timeout;
         let mut previous: Option<Vec<i64>> = None;
         let mut stable = 0;

@@ -210,11 +210,9 @@ impl CellBus {
                 .checked_sub(1)
                 .and_then(|i| self.route.get(i))
                 .filter(|(arm, _)| *arm < self.arms.len())
-                .ok_or_else(|| {
-                    BusError::Protocol(format!(
-                        "servo {id} is not in the cell (ids 1 … {})",
-                        self.route.len()
-                    ))
+                .ok_or(BusError::NotInCell {
+                    id,
+                    servos: self.route.len(),
                 })?;
             let part = match parts.iter().position(|p| p.arm == arm) {
                 Some(i) => &mut parts[i],
@@ -614,10 +612,10 @@ mod tests {
         let left_fault = BusError::Arm {
             arm: "left".into(),
             servo: Some(1),
-            source: Box::new(BusError::Protocol("test".into())),
+            source: Box::new(BusError::ThreadEnded),
         };
         assert_eq!(bus.isolate(&left_fault), None);
         // An error of no arm is the whole cell's.
-        assert_eq!(bus.isolate(&BusError::Protocol("test".into())), None);
+        assert_eq!(bus.isolate(&BusError::ThreadEnded), None);
     }
 }

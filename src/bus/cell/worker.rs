@@ -51,7 +51,7 @@ impl Worker {
         let handed = self.jobs().is_some_and(|jobs| jobs.send(job).is_ok());
         if !handed {
             // A thread that cannot start or has ended: said at once rather than waited for.
-            let ended = BusError::Protocol("the bus's thread has ended".into());
+            let ended = BusError::ThreadEnded;
             let _ = results.send((place, Err(ended)));
         }
     }

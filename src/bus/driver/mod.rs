@@ -87,8 +87,18 @@ impl NativeBus {
         self.servos.common_register(ids, pick)
     }
 
-    fn protocol_error(&self, e: impl std::fmt::Display) -> BusError {
-        BusError::Protocol(format!("{}: {e}", self.codec.protocol().name()))
+    fn protocol_error(&self, error: PacketError) -> BusError {
+        BusError::Unframable {
+            protocol: self.codec.protocol().name(),
+            error,
+        }
+    }
+
+    fn no_instruction(&self, instruction: &'static str) -> BusError {
+        BusError::NoInstruction {
+            protocol: self.codec.protocol().name(),
+            instruction,
+        }
     }
 
     fn port_error(&self, source: std::io::Error) -> BusError {
@@ -425,20 +435,23 @@ impl NativeBus {
     ) -> Result<Vec<Vec<u8>>, BusError> {
         // The first failure names the culprit: a late answer from one servo can make a retry
         // time out on another, whose error would then mislead.
-        let mut first_failure = None;
-        for _ in 0..=self.read_retries {
+        let retried = |e: &BusError| e.is_no_answer() || matches!(e, BusError::Corrupt { .. });
+        let first_failure = match self.read_block_once(ids, address, length) {
+            Ok(blocks) => return Ok(blocks),
+            Err(e) if retried(&e) => e,
+            Err(e) => return Err(e),
+        };
+        for _ in 0..self.read_retries {
+            if self.cut_off() {
+                break;
+            }
             match self.read_block_once(ids, address, length) {
                 Ok(blocks) => return Ok(blocks),
-                Err(e) if e.is_no_answer() || matches!(e, BusError::Corrupt { .. }) => {
-                    first_failure.get_or_insert(e);
-                    if self.cut_off() {
-                        break;
-                    }
-                }
+                Err(e) if retried(&e) => {}
                 Err(e) => return Err(e),
             }
         }
-        Err(first_failure.unwrap_or_else(|| BusError::Protocol("read failed".into())))
+        Err(first_failure)
     }
 
     /// One attempt of [`Self::read_block`]. Each read asks for `length` bytes and as many more
@@ -515,7 +528,7 @@ impl NativeBus {
     ) -> Result<Vec<Vec<u8>>, BusError> {
         let broadcast = self.codec.framing().broadcast_id();
         let Some(fast) = self.codec.fast_sync_read() else {
-            return Err(self.protocol_error("the protocol has no fast sync read"));
+            return Err(self.no_instruction("the protocol has no fast sync read"));
         };
         // One combined answer: `ERR ID DATA CRC` per servo on the wire, less the first ERR and
         // the last CRC in the decoded packet (see `parse_fast_sync_read`).
@@ -567,7 +580,7 @@ impl NativeBus {
     /// The servo comes back with torque off.
     pub fn reboot(&mut self, id: u8) -> Result<(), BusError> {
         let Some(reboot) = self.instructions().reboot else {
-            return Err(self.protocol_error("REBOOT is a Dynamixel instruction"));
+            return Err(self.no_instruction("REBOOT is a Dynamixel instruction"));
         };
         self.send(id, reboot, &[])?;
         let packet = self.receive(id)?;
@@ -656,7 +669,7 @@ impl NativeBus {
                 table
                     .encode(&register, value)
                     .map(|bytes| (id, bytes))
-                    .map_err(|e| BusError::Protocol(format!("servo {id}: {e}")))
+                    .map_err(|error| BusError::Unencodable { id, error })
             })
             .collect::<Result<Vec<_>, _>>()?;
         let sync_write = self.instructions().sync_write;
@@ -675,27 +688,30 @@ impl NativeBus {
         ids: &[u8],
         setting: profile::Setting,
     ) -> Result<(Register, &'static RegisterTable), BusError> {
-        let mut found: Option<(Register, &'static RegisterTable)> = None;
+        let mut found: Option<(u8, Register, &'static RegisterTable)> = None;
         for &id in ids {
             let table = self.table(id)?;
-            let register = setting.register(table).ok_or_else(|| {
-                BusError::Protocol(format!("servo {id} has no {} register", setting.name()))
+            let register = setting.register(table).ok_or(BusError::MissingRegister {
+                id,
+                register: setting.name(),
             })?;
             match found {
-                Some((first, _))
-                    if first.address != register.address || first.size != register.size =>
+                Some((first, shared, _))
+                    if shared.address != register.address || shared.size != register.size =>
                 {
-                    return Err(BusError::Protocol(format!(
-                        "servos {:?} keep {} at different addresses",
-                        ids,
-                        setting.name()
-                    )))
+                    return Err(BusError::SplitRegister {
+                        first,
+                        other: id,
+                        register: setting.name(),
+                    })
                 }
                 Some(_) => {}
-                None => found = Some((register, table)),
+                None => found = Some((id, register, table)),
             }
         }
-        found.ok_or_else(|| BusError::Protocol("no servos given".into()))
+        found
+            .map(|(_, register, table)| (register, table))
+            .ok_or(BusError::NoServos)
     }
 }
 
@@ -778,10 +794,12 @@ impl ServoBus for NativeBus {
             .zip(&read)
             .find(|((_, want), got)| want != *got)
         {
-            Some(((id, want), got)) => Err(BusError::Protocol(format!(
-                "servo {id}: {} reads {got} after writing {want}",
-                setting.name()
-            ))),
+            Some((&(id, expected), &found)) => Err(BusError::RegisterMismatch {
+                id,
+                register: setting.name(),
+                expected,
+                found,
+            }),
             None => Ok(()),
         }
     }
@@ -795,7 +813,7 @@ impl ServoBus for NativeBus {
             let register = table.torque_enable;
             let data = table
                 .encode(&register, i64::from(on))
-                .map_err(|e| BusError::Protocol(e.to_string()))?;
+                .map_err(|error| BusError::Unencodable { id, error })?;
             let params = self.codec.fields().write(register.address, &data);
             let params = params.map_err(|e| self.protocol_error(e))?;
             self.transaction(id, write, &params, None)?;
@@ -804,9 +822,7 @@ impl ServoBus for NativeBus {
     }
 
     fn read_health(&mut self, ids: &[u8]) -> Result<Vec<Health>, BusError> {
-        let first = *ids
-            .first()
-            .ok_or_else(|| BusError::Protocol("no servos given".into()))?;
+        let first = *ids.first().ok_or(BusError::NoServos)?;
         let table = self.table(first)?;
         let registers = table.health_registers();
         // Dynamixel keeps its alarm register (70) far from the others (126…146): two reads

@@ -22,7 +22,7 @@ impl Servos {
         self.0
             .get(&id)
             .copied()
-            .ok_or_else(|| BusError::Protocol(format!("servo {id} is not part of this robot")))
+            .ok_or(BusError::UnknownServo { id })
     }
 
     pub fn table(&self, id: u8) -> Result<&'static RegisterTable, BusError> {
@@ -36,18 +36,17 @@ impl Servos {
         ids: &[u8],
         pick: fn(&RegisterTable) -> Register,
     ) -> Result<(Register, &'static RegisterTable), BusError> {
-        let first = *ids
-            .first()
-            .ok_or_else(|| BusError::Protocol("no servos given".into()))?;
+        let first = *ids.first().ok_or(BusError::NoServos)?;
         let table = self.table(first)?;
         let register = pick(table);
         for &id in &ids[1..] {
             let other = pick(self.table(id)?);
             if other.address != register.address || other.size != register.size {
-                return Err(BusError::Protocol(format!(
-                    "servos {first} and {id} keep {} at different addresses; they cannot share a sync transfer",
-                    register.name
-                )));
+                return Err(BusError::SplitRegister {
+                    first,
+                    other: id,
+                    register: register.name,
+                });
             }
         }
         Ok((register, table))

@@ -127,6 +127,16 @@ impl LeRobotError {
     pub fn is_bad_input(&self) -> bool {
         !matches!(self, LeRobotError::Reader(_))
     }
+
+    /// What kind of failure this is: the dataset's or the options' (bad input), or the
+    /// reader process's (hardware: the Python side failed).
+    pub fn kind(&self) -> crate::error::ErrorKind {
+        if self.is_bad_input() {
+            crate::error::ErrorKind::BadInput
+        } else {
+            crate::error::ErrorKind::Hardware
+        }
+    }
 }
 
 /// Two values of a feature that would drive one joint: the second would silently replace the
@@ -235,7 +245,7 @@ pub enum PathProblem {
     #[error("{reason}; expected a template such as {example:?}", example = super::info::DEFAULT_DATA_PATH)]
     Template {
         /// Why.
-        reason: String,
+        reason: super::layout::TemplateError,
     },
     /// The path is absolute.
     #[error("{path:?} is an absolute path; expected a path inside the dataset folder")]

@@ -10,10 +10,27 @@ use super::error::PathProblem;
 use super::{DatasetInfo, EpisodeSpan, LeRobotError};
 use std::path::{Component, Path, PathBuf};
 
+/// Why a `data_path` template is not one keypose fills in.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TemplateError {
+    #[error("a single \"}}\" (write \"}}}}\" for a brace)")]
+    LoneClose,
+    #[error("a \"{{\" without its \"}}\"")]
+    Unclosed,
+    #[error("{{{field}}} is no field keypose fills in (chunk_index, file_index)")]
+    UnknownField { field: String },
+    #[error("format {spec:?} is not one keypose reads (such as 03d)")]
+    Format { spec: String },
+}
+
 /// `template` (Python's `str.format` syntax, as LeRobot writes `data_path`) with its
 /// `{chunk_index}` and `{file_index}` filled in. Takes the subset LeRobot uses: `{name}` and
 /// `{name:0Nd}`-like zero padding, `{{` and `}}` for braces.
-pub fn fill_template(template: &str, chunk_index: u64, file_index: u64) -> Result<String, String> {
+pub fn fill_template(
+    template: &str,
+    chunk_index: u64,
+    file_index: u64,
+) -> Result<String, TemplateError> {
     let mut out = String::with_capacity(template.len() + 8);
     let mut chars = template.chars().peekable();
     while let Some(c) = chars.next() {
@@ -26,14 +43,14 @@ pub fn fill_template(template: &str, chunk_index: u64, file_index: u64) -> Resul
                 chars.next();
                 out.push('}');
             }
-            '}' => return Err("a single \"}\" (write \"}}\" for a brace)".into()),
+            '}' => return Err(TemplateError::LoneClose),
             '{' => {
                 let mut field = String::new();
                 loop {
                     match chars.next() {
                         Some('}') => break,
                         Some(c) => field.push(c),
-                        None => return Err("a \"{\" without its \"}\"".into()),
+                        None => return Err(TemplateError::Unclosed),
                     }
                 }
                 let (name, spec) = field.split_once(':').unwrap_or((field.as_str(), ""));
@@ -41,9 +58,9 @@ pub fn fill_template(template: &str, chunk_index: u64, file_index: u64) -> Resul
                     "chunk_index" => chunk_index,
                     "file_index" => file_index,
                     other => {
-                        return Err(format!(
-                            "{{{other}}} is no field keypose fills in (chunk_index, file_index)"
-                        ))
+                        return Err(TemplateError::UnknownField {
+                            field: other.to_string(),
+                        })
                     }
                 };
                 out.push_str(&format_index(value, spec)?);
@@ -55,21 +72,22 @@ pub fn fill_template(template: &str, chunk_index: u64, file_index: u64) -> Resul
 }
 
 /// `value` as Python formats it with `spec`: empty, `d`, `N`, `0N`, `Nd` or `0Nd`.
-fn format_index(value: u64, spec: &str) -> Result<String, String> {
+fn format_index(value: u64, spec: &str) -> Result<String, TemplateError> {
     let digits = spec.strip_suffix('d').unwrap_or(spec);
     let (zero, width) = match digits.strip_prefix('0') {
         Some(rest) if !rest.is_empty() => (true, rest),
         _ => (false, digits),
     };
+    let unread = || TemplateError::Format {
+        spec: spec.to_string(),
+    };
     if !width.chars().all(|c| c.is_ascii_digit()) || width.len() > 2 {
-        return Err(format!(
-            "format {spec:?} is not one keypose reads (such as 03d)"
-        ));
+        return Err(unread());
     }
     let width: usize = if width.is_empty() {
         0
     } else {
-        width.parse().map_err(|_| format!("format {spec:?}"))?
+        width.parse().map_err(|_| unread())?
     };
     Ok(if zero {
         format!("{value:0width$}")
