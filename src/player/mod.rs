@@ -298,7 +298,7 @@ pub fn play_with_clock(
         (Err(e), Ok(())) => Err(e),
         // The playback's own error is the one to report; the lost profile is said too.
         (Err(e), Err(restore)) => {
-            eprintln!("warning: {restore}");
+            eprintln!("warning: {}", crate::error::Report(&restore));
             Err(e)
         }
     }
