@@ -327,13 +327,10 @@ impl Simulation {
         &self.model
     }
 
-    /// Models the servos' own profile from now on, as `play --servo-profile` sets it
-    /// ([`crate::robot::profile::applied_limits`]): each servo follows its goal within these
-    /// acceleration and velocity limits.
-    pub fn model_servo_profile(
-        &mut self,
-        robot: &Robot,
-    ) -> Result<(), crate::robot::profile::ProfileError> {
+    /// Models the servos' own profile from now on, as `play --servo-profile` sets it (each
+    /// joint's limits in its servo's register units, rounded down): each servo follows its goal
+    /// within these acceleration and velocity limits.
+    pub fn model_servo_profile(&mut self, robot: &Robot) -> Result<(), crate::robot::ProfileError> {
         let limits = robot
             .joints
             .iter()
