@@ -14,6 +14,8 @@ use crate::robot::Robot;
 /// the ones to write.
 type Values = (Setting, Vec<(u8, i64)>);
 
+/// The servos' profile registers as found before the playback, put back when told to or
+/// dropped.
 pub struct ProfileGuard<'a> {
     bus: &'a mut dyn ServoBus,
     /// What to write back, in the order it was written; empty once restored.
@@ -33,8 +35,11 @@ pub enum ServoProfileError {
          joint's limits; clear the bit or play without --servo-profile; nothing was written"
     )]
     TimeBased {
+        /// The joint's name.
         joint: String,
+        /// Its servo's id.
         servo: u8,
+        /// The Drive_Mode register's value.
         drive_mode: i64,
     },
     /// The bus failed while reading or writing the profile (what was written is put back).
