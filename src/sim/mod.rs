@@ -6,7 +6,7 @@
 //! scene of every arm's model at its base, its joints named `ARM/JOINT` as the cell's are, so
 //! that everything here treats it as one robot.
 
-pub mod joint_map;
+mod joint_map;
 mod models;
 pub mod verdict;
 mod wire;
@@ -23,18 +23,35 @@ use std::time::Duration;
 use verdict::{Contact, ContactKind, Trace};
 use wire::{ContactKindReply, ContactReply, Load, ProfileLimits, RefusalKind, Request, SceneArm};
 
+/// The harness script's file name among keypose's embedded Python scripts.
 pub const HARNESS_SCRIPT: &str = "sim_harness.py";
 
+/// Why a simulation could not be started, run or rendered.
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
+    /// The Python environment could not be found or built.
     #[error(transparent)]
     Env(#[from] PyEnvError),
+    /// The harness process failed, timed out or refused a request.
     #[error(transparent)]
     Harness(#[from] HarnessError),
+    /// A model MuJoCo refuses, or that does not fit the robot (bad input).
     #[error("model {model}: {message}")]
-    Model { model: String, message: String },
+    Model {
+        /// The model's path, or the robot's name when keypose has no model of it.
+        model: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A reply that lacks a member sim/PROTOCOL.md promises, or whose shape is wrong.
     #[error("the simulation's reply to {op} is not what the protocol says: {detail}")]
-    Reply { op: &'static str, detail: String },
+    Reply {
+        /// The request's `op`.
+        op: &'static str,
+        /// What is missing or wrong.
+        detail: String,
+    },
+    /// No GL context could be made (each backend's failure, `; `-separated).
     #[error("rendering failed with both EGL and OSMesa: {0}")]
     Render(String),
 }
@@ -125,15 +142,18 @@ fn cell_load_request(config: &PyConfig, robot: &Robot) -> Result<(Load, String),
 /// What the player would send, cycle by cycle, in joint units.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CommandStream {
+    /// Control rate, Hz: one row per period.
     pub rate: f64,
     /// The pose the arm rests in before the first cycle.
     pub initial: Vec<f64>,
+    /// The pose commanded in each cycle, in joint order.
     pub rows: Vec<Vec<f64>>,
     /// Sequence time of each row; `None` during ramps.
     pub sequence_time: Vec<Option<f64>>,
     /// The timeline's own sequence time of each row (during a ramp, where the ramp leads), as
     /// the player logs it.
     pub timeline_time: Vec<f64>,
+    /// What the timeline was doing in each row.
     pub phase: Vec<Phase>,
     /// Which loop each row belongs to, as the player's progress line shows it ("2/3").
     pub loop_label: Vec<String>,
@@ -246,6 +266,7 @@ pub struct Simulation {
     model: String,
     joints: Vec<String>,
     force_limits: Vec<Option<f64>>,
+    /// Seconds of physics per MuJoCo step, the model's.
     pub timestep: f64,
     /// The servos' own profile to model (`--servo-profile`): the "profile" of every run.
     servo_profile: Option<ProfileLimits>,
@@ -323,6 +344,7 @@ impl Simulation {
         Ok(sim)
     }
 
+    /// The model's name in reports: its path, or for a cell `ARM=PATH, …`.
     pub fn model(&self) -> &str {
         &self.model
     }
@@ -348,10 +370,6 @@ impl Simulation {
             velocity: velocities,
         });
         Ok(())
-    }
-
-    pub fn harness(&self) -> &Harness {
-        &self.harness
     }
 
     /// Runs rows of `stream`, continuing from the current state unless `reset`. Times in the
@@ -459,7 +477,9 @@ impl Trace {
 /// elevation negative from above); it always looks at the middle of every frame's arm.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
+    /// Degrees about +z.
     pub azimuth: f64,
+    /// Degrees, negative looking from above (within ±90).
     pub elevation: f64,
 }
 
