@@ -7,6 +7,7 @@ use super::base_python::find_base_python;
 use super::requirements::pinned_versions;
 use super::venv::env_is_ready;
 use super::{Harness, HarnessOptions, PyConfig};
+use crate::error::Report;
 use serde_json::Value;
 use std::fmt;
 
@@ -54,7 +55,7 @@ pub fn python_report(build: bool) -> PythonReport {
         Ok(config) => python_report_for(&config, build),
         Err(error) => PythonReport {
             lines: Vec::new(),
-            problems: vec![error.to_string()],
+            problems: vec![Report(&error).to_string()],
         },
     }
 }
@@ -86,12 +87,12 @@ pub fn python_report_for(config: &PyConfig, build: bool) -> PythonReport {
             for script in ["sdk_bridge.py", "dataset_reader.py"] {
                 match Harness::start_in(config, script, HarnessOptions::default()) {
                     Ok(harness) => describe_ready(&mut report, harness.script(), harness.ready()),
-                    Err(error) => report.problems.push(error.to_string()),
+                    Err(error) => report.problems.push(Report(&error).to_string()),
                 }
             }
         }
         Ok(None) => {}
-        Err(error) => report.problems.push(error.to_string()),
+        Err(error) => report.problems.push(Report(&error).to_string()),
     }
     report
 }
@@ -119,7 +120,7 @@ fn describe_own_environment(report: &mut PythonReport, config: &PyConfig, build:
             "base interpreter: {} (Python {})",
             base.executable, base.version
         )),
-        Err(error) => report.problems.push(error.to_string()),
+        Err(error) => report.problems.push(Report(&error).to_string()),
     }
 }
 

@@ -37,7 +37,7 @@ pub enum PyEnvError {
     PythonTooOld { python: String, version: String },
     #[error("{python} does not work: {detail}")]
     PythonBroken { python: String, detail: String },
-    #[error("{action} {path}: {source}")]
+    #[error("{action} {path}")]
     Io {
         action: &'static str,
         path: PathBuf,

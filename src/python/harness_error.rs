@@ -10,7 +10,7 @@ use std::io;
 pub enum HarnessError {
     #[error(transparent)]
     Env(#[from] PyEnvError),
-    #[error("cannot start {python} {script}: {source}")]
+    #[error("cannot start {python} {script}")]
     Spawn {
         python: String,
         script: String,
@@ -51,7 +51,7 @@ pub enum HarnessError {
         detail: String,
         line: String,
     },
-    #[error("writing a request to {script}: {source}")]
+    #[error("writing a request to {script}")]
     Write { script: String, source: io::Error },
     /// A request that is no JSON (a map with keys that are not strings): a bug of the caller.
     #[error("a request to {script} is not JSON: {detail}")]
@@ -97,4 +97,42 @@ pub(super) fn clip(line: &str) -> String {
         end -= 1;
     }
     format!("{}…", &line[..end])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::Report;
+
+    /// Each layer says its own part; the report says the cause once, after it.
+    #[test]
+    fn an_io_failure_is_said_once_after_what_was_being_done() {
+        let spawn = HarnessError::Spawn {
+            python: "/usr/bin/python3".into(),
+            script: "sdk_bridge.py".into(),
+            source: io::Error::other("permission denied"),
+        };
+        assert_eq!(
+            spawn.to_string(),
+            "cannot start /usr/bin/python3 sdk_bridge.py"
+        );
+        assert_eq!(
+            Report(&spawn).to_string(),
+            "cannot start /usr/bin/python3 sdk_bridge.py: permission denied"
+        );
+        let write = HarnessError::Write {
+            script: "sim_harness.py".into(),
+            source: io::Error::other("broken pipe"),
+        };
+        assert_eq!(write.to_string(), "writing a request to sim_harness.py");
+        let io = HarnessError::Env(PyEnvError::Io {
+            action: "writing",
+            path: "/cache/keypose/sim/requirements.txt".into(),
+            source: io::Error::other("disk full"),
+        });
+        assert_eq!(
+            Report(&io).to_string(),
+            "writing /cache/keypose/sim/requirements.txt: disk full"
+        );
+    }
 }

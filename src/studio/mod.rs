@@ -35,9 +35,13 @@ pub const READ_TIMEOUT_VAR: &str = "KEYPOSE_STUDIO_READ_TIMEOUT_MS";
 pub const TEST_FAULT_VAR: &str = "KEYPOSE_STUDIO_TEST_FAULT";
 
 /// Plays a sequence in simulation for the page (`POST /api/simulate`): the verdict and the
-/// trace as JSON, or why it could not run. Given by the binary, which owns `keypose sim`.
+/// trace as JSON, or why it could not run (the page is told the error and its causes). Given
+/// by the binary, which owns `keypose sim`.
 pub type Simulator = Box<
-    dyn Fn(&crate::sequence::Sequence, &crate::robot::Robot) -> Result<serde_json::Value, String>
+    dyn Fn(
+            &crate::sequence::Sequence,
+            &crate::robot::Robot,
+        ) -> Result<serde_json::Value, Box<dyn std::error::Error + Send + Sync>>
         + Send
         + Sync,
 >;

@@ -216,7 +216,10 @@ fn simulate(context: &Context, client: Option<String>) -> Response {
         None => json_response(400, &json!({"error": "no keys to simulate: n adds one"})),
         Some(sequence) => match simulator(&sequence, &context.robot) {
             Ok(value) => json_response(200, &value),
-            Err(message) => json_response(422, &json!({"error": message})),
+            Err(e) => {
+                let message = crate::error::Report(e.as_ref()).to_string();
+                json_response(422, &json!({"error": message}))
+            }
         },
     }
 }

@@ -2,8 +2,10 @@
 //! touches the servos or a file itself: it emits [`Command`]s, the session driver carries out
 //! the bus ones and [`super::files`] the file ones, and each answers with [`Event`]s.
 
+use super::files::FileError;
 use super::journal::Journal;
 use super::motion::{MotionKind, MotionPlan};
+use super::session::MotionError;
 use crate::player::Outcome;
 use crate::sequence::Sequence;
 use std::path::PathBuf;
@@ -79,7 +81,7 @@ pub enum Event {
     /// The player returned; every joint has torque on. `last_goals` is the last pose it
     /// commanded, when known.
     MotionEnded {
-        outcome: Result<Outcome, String>,
+        outcome: Result<Outcome, MotionError>,
         last_goals: Option<Vec<f64>>,
         /// What the player warned of, as `keypose play` says it: stalls (the motion ran late,
         /// by how much), the step limiter holding goals back.
@@ -88,15 +90,15 @@ pub enum Event {
     BusError(String),
     Loaded {
         path: PathBuf,
-        result: Result<Sequence, String>,
+        result: Result<Sequence, FileError>,
     },
     Saved {
         path: PathBuf,
-        result: Result<(), String>,
+        result: Result<(), FileError>,
     },
-    Journaled(Result<(), String>),
+    Journaled(Result<(), FileError>),
     JournalCleared {
         why: Clearing,
-        result: Result<(), String>,
+        result: Result<(), FileError>,
     },
 }

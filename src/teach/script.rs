@@ -130,9 +130,8 @@ fn failure(event: &Event) -> Option<String> {
     match event {
         Event::BusError(message) => Some(message.clone()),
         Event::MotionEnded {
-            outcome: Err(message),
-            ..
-        } => Some(message.clone()),
+            outcome: Err(e), ..
+        } => Some(crate::error::Report(e).to_string()),
         _ => None,
     }
 }

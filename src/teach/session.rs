@@ -161,6 +161,21 @@ impl BusCommandError {
     }
 }
 
+/// Why a motion of the session ended in a fault: the player's error, its source ([`Report`]
+/// says both), shared so that the [`Event::MotionEnded`] that carries it can be cloned.
+///
+/// [`Report`]: crate::error::Report
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("motion stopped")]
+pub struct MotionError(#[source] pub Arc<PlayError>);
+
+/// Two failures are equal when they say the same (a player's error has no equality of its own).
+impl PartialEq for MotionError {
+    fn eq(&self, other: &Self) -> bool {
+        crate::error::Report(self).to_string() == crate::error::Report(other).to_string()
+    }
+}
+
 /// Brakes whatever motion the session runs, from any thread (the studio's HTTP threads, a
 /// signal handler) without waiting for the thread that carries out the keys: the first stop
 /// request of the running motion, decelerating along its path; nothing when the arm is idle
@@ -434,7 +449,7 @@ impl Session {
             .collect();
         let (outcome, warnings) = match result {
             Ok((outcome, warnings)) => (Ok(outcome), warnings),
-            Err(e) => (Err(format!("motion stopped: {e}")), Vec::new()),
+            Err(e) => (Err(MotionError(Arc::new(e))), Vec::new()),
         };
         Ok(Event::MotionEnded {
             outcome,
