@@ -11,7 +11,7 @@
 use super::control::Lease;
 use super::snapshot::snapshot;
 use crate::sequence::Sequence;
-use crate::teach::inputs::{self, InputQueue};
+use crate::teach::InputQueue;
 use crate::teach::{self, Key, Session, TeachError, TeachState};
 use serde_json::Value;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
@@ -49,7 +49,7 @@ pub enum Input {
     Fault(String),
 }
 
-impl inputs::Input for Input {
+impl teach::Input for Input {
     fn is_stop(&self) -> bool {
         match self {
             Input::Interrupt | Input::Fault(_) => true,
@@ -229,12 +229,12 @@ pub fn run(
 
 /// Queues `input`; what it drops (a stop drops everything before it) is answered as dropped.
 fn take(queue: &mut InputQueue<Input>, input: Input) {
-    let why = if inputs::Input::is_stop(&input) {
+    let why = if teach::Input::is_stop(&input) {
         "dropped: a stop came after it".to_string()
     } else {
         format!(
             "refused: {} actions are waiting already",
-            inputs::MAX_WAITING
+            teach::MAX_WAITING
         )
     };
     answer_dropped(queue.push(input), &why);
@@ -386,7 +386,7 @@ fn interrupt(state: &mut TeachState, session: &mut Session) {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum PageKeyError {
     #[error(transparent)]
-    Token(#[from] teach::keys::TokenError),
+    Token(#[from] teach::TokenError),
     #[error("{token:?}: expected {what} after the colon")]
     NoNumber { token: String, what: &'static str },
     #[error("{token:?}: expected three numbers in millimetres, X,Y,Z, after the colon")]
@@ -421,13 +421,13 @@ pub fn parse_key(token: &str) -> Result<Key, PageKeyError> {
             token: token.to_string(),
         });
     }
-    match teach::keys::parse_token(token)? {
-        teach::keys::Step::Key(Key::Import(_) | Key::Write(_)) | teach::keys::Step::Wait(_) => {
+    match teach::parse_token(token)? {
+        teach::Step::Key(Key::Import(_) | Key::Write(_)) | teach::Step::Wait(_) => {
             Err(PageKeyError::ScriptOnly {
                 token: token.to_string(),
             })
         }
-        teach::keys::Step::Key(key) => Ok(key),
+        teach::Step::Key(key) => Ok(key),
     }
 }
 

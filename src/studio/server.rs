@@ -63,7 +63,7 @@ pub fn spawn(listener: TcpListener, context: Context, limits: Limits) {
 /// Runs `work`; a panic in it is a server fault (the panic hook has printed it already).
 fn fault_on_panic(context: &Context, thread: &str, work: impl FnOnce()) {
     if let Err(panic) = std::panic::catch_unwind(AssertUnwindSafe(work)) {
-        let message = crate::teach::session::panic_message(panic.as_ref());
+        let message = crate::teach::panic_message(panic.as_ref());
         context.fault(format!("{thread} panicked: {message}"));
     }
 }

@@ -4,9 +4,8 @@
 //! own beyond what it last received.
 
 use crate::teach::format;
-use crate::teach::motion::MotionKind;
-use crate::teach::state::{selected_tool, Activity, TeachState};
 use crate::teach::Prompt;
+use crate::teach::{selected_tool, Activity, MotionKind, TeachState};
 use serde_json::{json, Value};
 
 /// The snapshot of `state`; `controlled` says whether a page holds control now.

@@ -4,7 +4,7 @@
 use super::*;
 use crate::error::Report;
 use crate::teach::files::FileError;
-use crate::teach::session::MotionError;
+use crate::teach::MotionError;
 
 impl TeachState {
     /// Applies what a driver reports; returns what must follow (a loaded list is journaled, a

@@ -1349,9 +1349,7 @@ fn a_motion_that_failed_says_the_player_error_and_its_cause() {
         source: std::io::Error::other("disk full"),
     };
     state.on_event(Event::MotionEnded {
-        outcome: Err(crate::teach::session::MotionError(std::sync::Arc::new(
-            error,
-        ))),
+        outcome: Err(crate::teach::MotionError(std::sync::Arc::new(error))),
         last_goals: None,
         warnings: Vec::new(),
     });
