@@ -13,17 +13,11 @@ use std::fmt;
 
 /// What `keypose doctor` says about the Python side.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct PythonReport {
+pub(crate) struct PythonReport {
     /// What was found, one fact a line.
     pub lines: Vec<String>,
     /// What is wrong, each with what to do.
     pub problems: Vec<String>,
-}
-
-impl PythonReport {
-    pub fn ok(&self) -> bool {
-        self.problems.is_empty()
-    }
 }
 
 impl fmt::Display for PythonReport {
@@ -50,7 +44,7 @@ pub fn doctor_report() -> String {
 
 /// The Python side as found from the process's variables. With `build`, keypose's environment
 /// is built when missing; without, the report only says it is missing.
-pub fn python_report(build: bool) -> PythonReport {
+pub(crate) fn python_report(build: bool) -> PythonReport {
     match PyConfig::from_env() {
         Ok(config) => python_report_for(&config, build),
         Err(error) => PythonReport {
@@ -62,7 +56,7 @@ pub fn python_report(build: bool) -> PythonReport {
 
 /// The Python side of `config`, started for real (the SDK bridge's and the dataset reader's
 /// ready lines) when possible.
-pub fn python_report_for(config: &PyConfig, build: bool) -> PythonReport {
+pub(crate) fn python_report_for(config: &PyConfig, build: bool) -> PythonReport {
     let mut report = PythonReport::default();
     report
         .lines
