@@ -1,7 +1,7 @@
 //! The studio's engine: the teaching loop of `keypose teach` (driver events into the state,
-//! the present pose read every [`READ_PERIOD`], keys pressed through [`teach::press`]) with
+//! the present pose read every 20 ms, keys pressed through [`teach::press`]) with
 //! the keys coming from the page over a channel instead of from a terminal, and every change
-//! published as a numbered [`snapshot`] for the event streams.
+//! published as a numbered snapshot for the event streams ([`Hub`]).
 //!
 //! What arrives is queued in a [`InputQueue`]: a stop (the Stop button, Esc, Ctrl-C, a lost
 //! controller) drops every action queued before it, and keys wait while a jog runs. The

@@ -1,5 +1,7 @@
 //! Carries out the state machine's [`FileCommand`]s: the only file I/O of a session after
-//! its start, so that the rules in [`super::state`] stay free of it.
+//! its start, so that the rules of the [`TeachState`] stay free of it.
+//!
+//! [`TeachState`]: super::TeachState
 
 use super::messages::{Event, FileCommand};
 use crate::error::Report;

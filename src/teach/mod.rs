@@ -10,9 +10,9 @@
 //!   carries out the file ones;
 //! - the front ends: the binary's terminal UI (`src/commands/teach/ui.rs`, ratatui +
 //!   crossterm) draws the state and maps key presses, the studio does so in a browser;
-//!   [`script`] feeds the keys of a `--keys` file, for tests and demos; all word things through
-//!   [`format`]. The terminal and the studio queue what arrives in an [`InputQueue`], where a
-//!   stop wins over everything queued before it.
+//!   [`script`] feeds the keys of a `--keys` file, for tests and demos; all word things
+//!   through [`format`](mod@format). The terminal and the studio queue what arrives in an
+//!   [`InputQueue`], where a stop wins over everything queued before it.
 //!
 //! Every edit is journaled ([`Journal`]) so a crash loses nothing.
 
