@@ -9,11 +9,14 @@ pub(crate) const LEASE: Duration = Duration::from_secs(2);
 
 /// Why a client may not act.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub(crate) enum ControlRefusal {
+pub enum ControlRefusal {
+    /// Another page holds the lease.
     #[error("another page controls the arm; this one watches (close the other page, or wait until it lets go)")]
     Taken,
+    /// The page acts without holding the lease.
     #[error("this page does not control the arm (Take control asks for it)")]
     NotController,
+    /// A client id that is not 1 to 64 letters, digits or '-' (the id, shortened to 80).
     #[error("client id {0:?}: expected 1 to 64 letters, digits or '-'")]
     BadClient(String),
 }
@@ -29,7 +32,7 @@ pub struct Lease {
 impl Lease {
     /// Grants the lease to `client` when it is free, lapsed or already `client`'s (a renewal:
     /// the heartbeat).
-    pub(crate) fn claim(&mut self, client: &str, now: Instant) -> Result<(), ControlRefusal> {
+    pub fn claim(&mut self, client: &str, now: Instant) -> Result<(), ControlRefusal> {
         valid_client(client)?;
         self.expire(now);
         match &mut self.holder {

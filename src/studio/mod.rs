@@ -16,7 +16,8 @@
 //!
 //! The server's pieces are the crate's own; [`read_request`], [`route`] and what they take
 //! are public only for the fuzz target that reads and routes requests as a connection's
-//! thread does (`fuzz/fuzz_targets/studio_http.rs`).
+//! thread does (`fuzz/fuzz_targets/studio_http.rs`), and [`Lease::claim`] for the engine's
+//! tests (a page taking control).
 
 mod assets;
 mod auth;
@@ -30,7 +31,7 @@ mod snapshot;
 mod timeline;
 
 pub use auth::Guard;
-pub use control::Lease;
+pub use control::{ControlRefusal, Lease};
 pub use http::{read_request, HttpError, Limits, Request, Response};
 pub use routes::{route, Context, Reply};
 
