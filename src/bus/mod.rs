@@ -182,6 +182,10 @@ pub enum BusError {
     /// of the input (a calibration made on another arm), found by reading the servos.
     #[error(transparent)]
     HomingOffset(#[from] homing::HomingMismatch),
+    /// The description gives a homing offset other than 0 to a servo whose model has no
+    /// Homing_Offset register: bad input, found before anything is read or moved.
+    #[error(transparent)]
+    NoHomingRegister(#[from] homing::NoHomingRegister),
     /// An error of one arm's bus in a cell ([`cell::CellBus`]): `servo` is the servo's id in
     /// the cell (so the joint it names is `ARM/JOINT`); the source keeps the arm's own ids.
     #[error("{arm} bus: {source}")]
@@ -219,6 +223,7 @@ impl BusError {
             | BusError::Refused { id, .. }
             | BusError::Silent { id, .. } => Some(*id),
             BusError::HomingOffset(m) => m.mismatches.first().map(|m| m.servo),
+            BusError::NoHomingRegister(e) => Some(e.servo),
             BusError::Arm { servo, .. } => *servo,
             BusError::UnknownServo { id }
             | BusError::NotInCell { id, .. }
@@ -241,11 +246,12 @@ impl BusError {
         }
     }
 
-    /// What kind of failure this is: the servos hold another calibration than the input's
-    /// (in a cell, one arm's) is bad input; anything else is the hardware's.
+    /// What kind of failure this is: the servos hold another calibration than the input's, or
+    /// cannot hold the input's at all (in a cell, one arm's), is bad input; anything else is
+    /// the hardware's.
     pub fn kind(&self) -> ErrorKind {
         match self.root() {
-            BusError::HomingOffset(_) => ErrorKind::BadInput,
+            BusError::HomingOffset(_) | BusError::NoHomingRegister(_) => ErrorKind::BadInput,
             _ => ErrorKind::Hardware,
         }
     }

@@ -403,7 +403,7 @@ impl SdkBus {
         pick: fn(&RegisterTable) -> Register,
     ) -> Result<Reg, BusError> {
         self.servos
-            .common_register(ids, pick)
+            .common_register(ids, |table| Ok(pick(table)))
             .map(|(register, _)| register.into())
     }
 
@@ -577,7 +577,14 @@ impl ServoBus for SdkBus {
         // (sign-magnitude on Feetech, two's complement on Dynamixel) is the table's.
         servos
             .iter()
-            .map(|&(id, model)| self.read_value(id, model.spec().table.homing_offset))
+            .map(|&(id, model)| {
+                let register = model.spec().table.homing_offset;
+                let register = register.ok_or(BusError::MissingRegister {
+                    id,
+                    register: super::homing::REGISTER,
+                })?;
+                self.read_value(id, register)
+            })
             .collect()
     }
 

@@ -78,11 +78,13 @@ pub struct ExtendedMode {
 /// A model's position modes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Modes {
-    /// The Operating_Mode value of position control within one turn (the factory mode).
+    /// The Operating_Mode value of position control within one turn (the factory mode);
+    /// unused where the table has no Operating_Mode (the model is always in that mode).
     pub position_mode: i64,
     /// Its goal range, in ticks.
     pub position: (i64, i64),
-    /// Multi-turn position control, where the model has it.
+    /// Multi-turn position control, where the model has it (only a model with an
+    /// Operating_Mode register can be switched to it).
     pub extended_position: Option<ExtendedMode>,
     /// In position mode a homing offset beyond ± this is ignored, where the firmware does so
     /// (Dynamixel X: 1024, e-Manual `control_table_homingoffset.md`).
@@ -113,7 +115,7 @@ pub struct ModelSpec {
     /// [`Self::extra_items`] the items only some models of a family have.
     pub items: &'static [Item],
     pub extra_items: &'static [Item],
-    /// The values of the operating mode register the model has.
+    /// The values of the operating mode register the model has; empty where it has none.
     pub operating_modes: &'static [i64],
     /// Present_Velocity's unit, ticks per second.
     pub velocity_unit: f64,

@@ -35,8 +35,18 @@ pub struct RegisterTable {
     pub status_return_level: Register,
     /// Dynamixel only: bit 0 reverses the direction of goal and present position.
     pub drive_mode: Option<Register>,
-    pub operating_mode: Register,
-    pub homing_offset: Register,
+    /// Operating_Mode, where the model can switch modes. `None`: the model is always in
+    /// (single-turn) position mode, which nothing can change (an AX-12 of Protocol 1.0).
+    pub operating_mode: Option<Register>,
+    /// Homing_Offset, where the firmware shifts the reported position by one. `None`: Present
+    /// Position is the shaft's own, so the only homing offset that describes the servo is 0
+    /// (an AX-12 of Protocol 1.0).
+    pub homing_offset: Option<Register>,
+    /// The position limits (CW and CCW Angle Limit, where a model's manual calls them so):
+    /// goals outside them are clamped in position mode; both 0 mean no range (Feetech
+    /// multi-turn).
+    pub min_position_limit: Register,
+    pub max_position_limit: Register,
     pub torque_enable: Register,
     /// Dynamixel Hardware Error Status (70) or Feetech Status (65); see [`Self::alarms`].
     pub hardware_error: Register,
@@ -84,8 +94,10 @@ impl RegisterTable {
             Some(self.return_delay),
             Some(self.status_return_level),
             self.drive_mode,
-            Some(self.operating_mode),
-            Some(self.homing_offset),
+            self.operating_mode,
+            self.homing_offset,
+            Some(self.min_position_limit),
+            Some(self.max_position_limit),
             Some(self.torque_enable),
             Some(self.hardware_error),
             Some(self.goal_position),

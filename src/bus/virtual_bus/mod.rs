@@ -491,7 +491,10 @@ fn servo_for_joint(joint: &crate::robot::Joint, home: f64) -> VirtualServo {
     let mut servo = VirtualServo::new(servo_spec.id, servo_spec.model, tick);
     let offset = servo_spec.homing_offset.unwrap_or(0);
     if let Some(offset) = servo_spec.homing_offset {
-        servo.set_homing_offset(offset);
+        // A model without Homing_Offset refuses it and applies none, as the real one would;
+        // connecting refuses a robot that gives such a servo another offset than 0
+        // (`bus::homing`).
+        servo.set_homing_offset(offset).ok();
     }
     let ticks = [joint.limits.min, joint.limits.max, home].map(|v| servo_spec.tick_exact(v));
     let (first, last) = modes.position;
@@ -503,7 +506,8 @@ fn servo_for_joint(joint: &crate::robot::Joint, home: f64) -> VirtualServo {
         .is_some_and(|limit| offset.abs() > limit);
     if let Some(extended) = modes.extended_position {
         if !one_turn || offset_ignored {
-            servo.set_operating_mode(extended.mode);
+            // Only a model with Operating_Mode has an extended mode (catalogue tests).
+            servo.set_operating_mode(extended.mode).ok();
         }
     }
     servo.place_at(tick);
