@@ -32,12 +32,12 @@
 //! time: its environment is built in `target/tmp/bench_bus_cache` unless `KEYPOSE_CACHE` or
 //! `KEYPOSE_PYTHON` is set. Without it the SDK figures say why they are missing.
 
-use keypose::bus::virtual_bus::{PtyServer, WireTiming};
 use keypose::bus::{connect, connect_cell, BusOptions, Connection, Driver, ServoBus, WriteOffsets};
 use keypose::plan::Trajectory;
 use keypose::player::{play, Outcome, PlayOptions, StopSignal};
 use keypose::robot::{Protocol, Robot};
 use keypose::sequence::Sequence;
+use keypose::testing::{PtyServer, WireTiming};
 use std::time::{Duration, Instant};
 
 /// Interleaved repetitions of each driver's timing; the median is reported.
@@ -111,7 +111,7 @@ impl Traffic {
 
 /// The return delay the emulated servos of `robot` apply (the same for all, seconds).
 fn virtual_return_delay(robot: &Robot) -> f64 {
-    let servos = keypose::bus::virtual_bus::VirtualServos::for_robot(robot);
+    let servos = keypose::testing::VirtualServos::for_robot(robot);
     let first = robot.joints[0].servo.id;
     servos.return_delay(first).map_or(0.0, |d| d.as_secs_f64())
 }
@@ -533,7 +533,7 @@ struct Canned {
     writes: u64,
 }
 
-impl keypose::bus::transport::Responder for Canned {
+impl keypose::testing::Responder for Canned {
     fn respond(&mut self, _written: &[u8]) -> Vec<(Duration, Vec<u8>)> {
         self.writes += 1;
         if self.writes % 2 == 1 {
@@ -576,7 +576,7 @@ fn software_cost(name: &str) -> Result<f64, String> {
                 .map_err(|e| e.to_string())
         })
         .collect::<Result<Vec<_>, String>>()?;
-    let transport = keypose::bus::transport::MemoryTransport::new(Canned {
+    let transport = keypose::testing::MemoryTransport::new(Canned {
         answers: answers.concat(),
         writes: 0,
     });

@@ -12,7 +12,7 @@ use keypose::bus::protocol::packet::{Decoded, Direction, Framing};
 use keypose::bus::protocol::{codec, Codec};
 use keypose::bus::registers::{DecodeAnswer, Register, RegisterTable};
 use keypose::bus::transport::Transport;
-use keypose::bus::virtual_bus::VirtualServos;
+use keypose::testing::VirtualServos;
 use keypose::bus::ServoBus;
 use keypose::robot::Robot;
 use keypose_fuzz::builtin_robot;

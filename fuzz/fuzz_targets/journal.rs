@@ -8,7 +8,7 @@
 //! loads back as written, so a crash loses nothing the journal held.
 #![no_main]
 
-use keypose::bus::virtual_bus::VirtualBus;
+use keypose::testing::VirtualBus;
 use keypose::sequence::{KeyframeList, Sequence};
 use keypose::teach::{
     files, BusCommand, Command, Event, FileCommand, Journal, Key, Session, TeachState,

@@ -4,7 +4,7 @@
 //! value inside its limits; the forward kinematics at home are finite.
 #![no_main]
 
-use keypose::bus::virtual_bus::VirtualServos;
+use keypose::testing::VirtualServos;
 use keypose::robot::{Joint, Robot};
 use libfuzzer_sys::fuzz_target;
 

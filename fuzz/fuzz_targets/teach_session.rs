@@ -10,7 +10,7 @@
 //! are answered as failed writes and reads: no files here.
 #![no_main]
 
-use keypose::bus::virtual_bus::VirtualBus;
+use keypose::testing::VirtualBus;
 use keypose::sequence::{KeyframeList, Sequence};
 use keypose::teach::motion::MotionKind;
 use keypose::teach::{self, BusCommand, Command, Event, FileCommand, Key, Session, TeachState};

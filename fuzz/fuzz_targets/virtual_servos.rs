@@ -6,7 +6,7 @@
 
 use keypose::bus::protocol::codec;
 use keypose::bus::protocol::packet::{Decoded, Direction};
-use keypose::bus::virtual_bus::VirtualServos;
+use keypose::testing::VirtualServos;
 use keypose_fuzz::{builtin_robot, Choices};
 use libfuzzer_sys::fuzz_target;
 

@@ -27,7 +27,7 @@ pub mod protocol;
 pub mod registers;
 pub mod sdk;
 pub mod transport;
-pub mod virtual_bus;
+pub(crate) mod virtual_bus;
 
 /// The alarms are the catalogue's vocabulary (a model's alarm register has their bits); the
 /// bus reports them.

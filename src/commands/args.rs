@@ -66,8 +66,8 @@ pub struct WireArgs {
 
 impl WireArgs {
     /// The wire timing at `baud`, or `None` for answers at once.
-    pub fn timing(&self, baud: u32) -> Option<bus::virtual_bus::WireTiming> {
-        (!self.no_wire_timing).then_some(bus::virtual_bus::WireTiming {
+    pub fn timing(&self, baud: u32) -> Option<keypose::testing::WireTiming> {
+        (!self.no_wire_timing).then_some(keypose::testing::WireTiming {
             baud,
             usb_latency: self.usb_latency,
         })

@@ -37,12 +37,12 @@ pub struct VirtualBusArgs {
 /// A fault for the virtual bus, from the command line.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum FaultSpec {
-    Servo(u8, bus::virtual_bus::ServoFault),
+    Servo(u8, keypose::testing::ServoFault),
     PortGone,
 }
 
 fn parse_fault(s: &str) -> Result<FaultSpec, String> {
-    use bus::virtual_bus::ServoFault;
+    use keypose::testing::ServoFault;
     if s == "gone" {
         return Ok(FaultSpec::PortGone);
     }
@@ -90,10 +90,10 @@ fn parse_homing_offset(s: &str) -> Result<(u8, i64), String> {
 
 /// A hand moving every servo of `robot` along `trajectory` (from its start, in sequence time).
 fn start_hand(
-    bus: &bus::virtual_bus::VirtualBus,
+    bus: &keypose::testing::VirtualBus,
     robot: &Robot,
     trajectory: keypose::plan::Trajectory,
-) -> bus::virtual_bus::Hand {
+) -> keypose::testing::Hand {
     let ids = robot.joints.iter().map(|j| j.servo.id).collect();
     let servos: Vec<_> = robot.joints.iter().map(|j| j.servo.clone()).collect();
     let start = trajectory.start();
@@ -105,7 +105,7 @@ fn start_hand(
             *tick = servo.tick_exact(value);
         }
     };
-    bus::virtual_bus::Hand::start(bus.clone(), ids, duration, Box::new(path))
+    keypose::testing::Hand::start(bus.clone(), ids, duration, Box::new(path))
 }
 
 /// `keypose virtual-bus`: emulated servos on a pseudo-terminal; the device path is the first
@@ -120,7 +120,7 @@ pub fn run(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
         }
         None => None,
     };
-    let server = bus::virtual_bus::PtyServer::start_timed(
+    let server = keypose::testing::PtyServer::start_timed(
         &robot,
         args.wire.timing(args.baud.unwrap_or(robot.bus.baud)),
     )?;
@@ -153,7 +153,7 @@ fn check_fault_ids(robot: &Robot, faults: &[FaultSpec]) -> Result<(), CommandErr
 }
 
 fn set_homing_offsets(
-    server: &bus::virtual_bus::PtyServer,
+    server: &keypose::testing::PtyServer,
     robot: &Robot,
     offsets: &[(u8, i64)],
 ) -> Result<(), CommandError> {
@@ -178,7 +178,7 @@ fn set_homing_offsets(
 }
 
 /// Sets the faults `seconds` from now, on a thread of their own so that serving goes on.
-fn inject_faults_after(server: &bus::virtual_bus::PtyServer, faults: Vec<FaultSpec>, seconds: f64) {
+fn inject_faults_after(server: &keypose::testing::PtyServer, faults: Vec<FaultSpec>, seconds: f64) {
     let virtual_bus = server.bus().clone();
     let delay = std::time::Duration::from_secs_f64(seconds);
     std::thread::spawn(move || {

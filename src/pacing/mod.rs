@@ -10,13 +10,13 @@
 //! that to work ([`KeepUp`]) mean the machine cannot keep up with the rate, which is told at
 //! once.
 
-mod clock;
+pub(crate) mod clock;
 mod keep_up;
 pub mod machine;
 pub(crate) mod precise;
 pub mod realtime;
 
-pub use clock::{Clock, VirtualClock, WallClock};
+pub use clock::{Clock, WallClock};
 pub use keep_up::{KeepUp, Overrun, MAX_STALLS_PER_SECOND};
 
 use crate::stop::StopSignal;

@@ -237,7 +237,7 @@ impl Stats {
 /// fault.
 ///
 /// ```
-/// use keypose::bus::virtual_bus::VirtualBus;
+/// use keypose::testing::VirtualBus;
 /// use keypose::plan::Trajectory;
 /// use keypose::player::{play, Outcome, PlayOptions, StopSignal};
 /// use keypose::robot::Robot;

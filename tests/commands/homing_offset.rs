@@ -3,9 +3,9 @@
 //! against emulated servos on a pseudo-terminal, and the real binary.
 
 use crate::common::{repo, run, show, stderr, VirtualBusProcess};
-use keypose::bus::virtual_bus::PtyServer;
 use keypose::bus::{self, BusError, BusOptions, Driver};
 use keypose::robot::{import_lerobot_calibration, Robot};
+use keypose::testing::PtyServer;
 
 /// A full LeRobot calibration of `robot` (whole turn recorded on every joint) with these
 /// homing offsets, one per joint in joint order.

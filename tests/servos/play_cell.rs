@@ -4,9 +4,9 @@
 //! and injects faults into one of them while the binary plays. Nothing is mocked.
 
 use crate::common::{keypose, repo, run, stderr, TOLERATED_STALL};
-use keypose::bus::virtual_bus::{PtyServer, ServoFault};
 use keypose::bus::{Alarms, SILENT_FOR};
 use keypose::robot::Robot;
+use keypose::testing::{PtyServer, ServoFault};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 

@@ -3,15 +3,16 @@
 //! in-memory transport; the pseudo-terminal path is covered in `tests/servos/play.rs`).
 
 use keypose::bus::driver::NativeBus;
-use keypose::bus::transport::MemoryTransport;
-use keypose::bus::virtual_bus::{ServoFault, VirtualBus, VirtualServos};
 use keypose::bus::{Alarms, BusError};
-use keypose::pacing::{Clock, VirtualClock};
+use keypose::pacing::Clock;
 use keypose::plan::Loops;
 use keypose::plan::Trajectory;
 use keypose::player::{play, play_with_clock, Outcome, PlayError, PlayOptions, StopSignal};
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
+use keypose::testing::MemoryTransport;
+use keypose::testing::VirtualClock;
+use keypose::testing::{ServoFault, VirtualBus, VirtualServos};
 use proptest::prelude::*;
 use std::time::Duration;
 

@@ -16,12 +16,12 @@
 //! so each decoded goal is within one tick of the value the player computed: the step bounds
 //! get two ticks of slack, the step-change bound four.
 
-use keypose::bus::virtual_bus::VirtualBus;
 use keypose::bus::{BusError, Health, PingInfo, ServoBus};
 use keypose::plan::{retime, Trajectory};
 use keypose::player::{play_with_clock, Clock, Outcome, PlayError, PlayOptions, StopSignal};
 use keypose::robot::{Robot, ServoModel};
 use keypose::sequence::Sequence;
+use keypose::testing::VirtualBus;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 

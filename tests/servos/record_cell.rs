@@ -4,10 +4,10 @@
 //! servo lets itself be pushed only while its torque is off). Nothing is mocked.
 
 use crate::common::{keypose, run, show};
-use keypose::bus::virtual_bus::PtyServer;
 use keypose::plan::{builtin_robot_of, Trajectory};
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
+use keypose::testing::PtyServer;
 use std::time::{Duration, Instant};
 
 fn smoothstep(t: f64, from: f64, to: f64) -> f64 {

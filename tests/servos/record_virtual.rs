@@ -5,7 +5,6 @@
 //! in `tests/servos/record.rs`).
 
 use keypose::bus::driver::NativeBus;
-use keypose::bus::virtual_bus::{ServoFault, VirtualBus};
 use keypose::bus::ServoBus;
 use keypose::curve::{Interp, Track, TrackKey};
 use keypose::plan::{check, Trajectory};
@@ -13,6 +12,7 @@ use keypose::player::StopSignal;
 use keypose::record::{keyframes, record, KeyframeOptions, RecordError, RecordOptions};
 use keypose::robot::Robot;
 use keypose::sequence::{KeyValue, Sequence};
+use keypose::testing::{ServoFault, VirtualBus};
 use std::time::{Duration, Instant};
 
 /// The arm powered and holding where it rests, as before any recording.
@@ -424,7 +424,7 @@ fn a_joint_pushed_past_its_limit_is_held_at_the_limit_or_left_limp_never_sent_pa
         .map(|(joint, value)| joint.servo.tick_exact(value))
         .collect();
     let ids = servos.iter().map(|j| j.servo.id).collect();
-    let _hand = keypose::bus::virtual_bus::Hand::start(
+    let _hand = keypose::testing::Hand::start(
         virtual_bus.clone(),
         ids,
         0.0,

@@ -7,7 +7,6 @@
 //! values the servos hold are read back from them afterwards.
 
 use keypose::bus::profile::Setting;
-use keypose::bus::virtual_bus::VirtualBus;
 use keypose::bus::ServoBus;
 use keypose::pacing::Clock;
 use keypose::plan::Trajectory;
@@ -16,6 +15,7 @@ use keypose::player::{
 };
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
+use keypose::testing::VirtualBus;
 use std::sync::Mutex;
 use std::time::Duration;
 

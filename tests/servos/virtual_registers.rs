@@ -5,9 +5,9 @@
 //! (FT-MEM), see docs/protocols.md §1.8 and §2.6; the LeRobot flows follow LeRobot's
 //! `_get_half_turn_homings` and `record_ranges_of_motion`.
 
-use keypose::bus::virtual_bus::{PtyServer, VirtualBus, VirtualServo, VirtualServos, WireTiming};
 use keypose::python::{Harness, HarnessError, HarnessOptions, PyConfig};
 use keypose::robot::{Protocol, ServoModel};
+use keypose::testing::{PtyServer, VirtualBus, VirtualServo, VirtualServos, WireTiming};
 use serde_json::{json, Value};
 use std::time::{Duration, Instant};
 

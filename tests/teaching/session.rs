@@ -2,12 +2,12 @@
 //! real serial and protocol code): a limp joint moved by hand is captured where it was put,
 //! and playback started with `y` stops along its path on the next `y`.
 
-use keypose::bus::virtual_bus::PtyServer;
 use keypose::bus::{self, BusOptions, Connection, Driver};
 use keypose::player::Outcome;
 use keypose::robot::Robot;
 use keypose::sequence::{KeyValue, KeyframeList, Sequence};
 use keypose::teach::{self, Event, Key, Session, TeachState};
+use keypose::testing::PtyServer;
 
 /// Emulated servos of `robot` and a session on them; the server lives as long as the first.
 fn open(robot: &Robot) -> (Option<PtyServer>, Session) {

@@ -3,12 +3,12 @@
 //! playback it started stops the soft way, along its path; a stop behind sixty queued jogs
 //! stops the arm within the jog it was on, and none of the sixty runs after it.
 
-use keypose::bus::virtual_bus::PtyServer;
 use keypose::bus::{self, BusOptions};
 use keypose::robot::Robot;
 use keypose::sequence::{KeyframeList, Sequence};
 use keypose::studio::engine::{self, Action, Ended, Hub, Input, News};
 use keypose::teach::{self, Key, Session, TeachState};
+use keypose::testing::PtyServer;
 use serde_json::Value;
 use std::sync::mpsc;
 use std::sync::Arc;

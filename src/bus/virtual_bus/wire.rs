@@ -72,10 +72,6 @@ impl Wire {
         }
     }
 
-    pub fn timing(&self) -> WireTiming {
-        self.timing
-    }
-
     /// Schedules `exchange`, whose instruction the host handed over at `written_at`: returns
     /// the instants at which each answer becomes readable to the host, in order.
     pub fn schedule(&mut self, written_at: Instant, exchange: &Exchange) -> Vec<Instant> {

@@ -52,7 +52,7 @@ pub struct Opened {
     pub state: TeachState,
     pub session: Session,
     /// Kept until the session ends: dropping it stops the emulated servos.
-    pub _virtual_bus: Option<keypose::bus::virtual_bus::PtyServer>,
+    pub _virtual_bus: Option<keypose::testing::PtyServer>,
 }
 
 pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
