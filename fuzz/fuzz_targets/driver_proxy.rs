@@ -7,10 +7,11 @@
 //! from the data of a well-formed status packet of that servo among the bytes it was given.
 #![no_main]
 
-use keypose::bus::driver::NativeBus;
+use keypose::bus::NativeBus;
 use keypose::bus::protocol::packet::{Decoded, Direction, Framing};
 use keypose::bus::protocol::{codec, Codec};
-use keypose::bus::registers::{DecodeAnswer, Register, RegisterTable};
+use keypose::bus::DecodeAnswer;
+use keypose::servo::{Register, RegisterTable};
 use keypose::bus::transport::Transport;
 use keypose::testing::VirtualServos;
 use keypose::bus::ServoBus;

@@ -1,30 +1,33 @@
 //! Servo buses: the [`ServoBus`] trait that the player and the teaching session use without
 //! knowing the vendor, and its implementations — our own Dynamixel 2.0 and Feetech STS/SCS
-//! drivers over a serial port, the vendor SDKs through the Python bridge, and virtual servos.
+//! drivers over a serial port ([`NativeBus`]), the vendor SDKs through the Python bridge
+//! ([`sdk::SdkBus`]), a cell's buses as one ([`CellBus`]), and emulated servos
+//! (`crate::testing`).
 //!
 //! Layers, bottom up: the servo catalogue ([`crate::servo`]: one static description per model,
-//! its control table, units and speeds) beneath the bus; `protocol` (one folder per vendor
+//! its control table, units and speeds) beneath the bus; [`protocol`] (one folder per vendor
 //! protocol behind the [`protocol::Codec`] trait: framing, instruction codes, parameter
-//! layouts, status bytes, and the vendor's firmware rules), `registers` (the catalogue's
-//! register vocabulary, and a servo's answer read into a value), `models` (which model each
-//! servo of a bus is), `transport` (a serial port with deadlines and resynchronisation),
-//! `driver` (the native [`ServoBus`] over a transport), `virtual_bus` (emulated servos that
-//! answer the real protocols byte for byte), `sdk` (the vendor SDKs through the Python bridge).
-//! Neither the driver nor the emulated servos ask which vendor they talk to: the codec, its
-//! firmware and the model description answer for them.
+//! layouts, status bytes, and the vendor's firmware rules); `registers` (a servo's answer read
+//! into a register's value, [`DecodeAnswer`]); `models` (which model each servo of a bus is);
+//! [`transport`] (a serial port with deadlines and resynchronisation); `driver` ([`NativeBus`]
+//! over a transport); `virtual_bus` (emulated servos that answer the real protocols byte for
+//! byte); [`sdk`] (the vendor SDKs through the Python bridge); `connect` ([`connect`]: a robot's
+//! bus opened, probed and its homing offsets checked, `homing`); `cell` and `cutoff` (several
+//! arms' buses as one); `faults` (the read streak, which joint a fault names); `ports` (the
+//! serial ports of this machine). Neither the driver nor the emulated servos ask which vendor
+//! they talk to: the codec, its firmware and the model description answer for them.
 
-pub mod cell;
+mod cell;
 mod connect;
-pub mod cutoff;
-pub mod driver;
+mod cutoff;
+mod driver;
 mod echo;
 mod faults;
-pub mod homing;
-pub mod models;
-pub mod ports;
-pub mod profile;
+mod homing;
+mod models;
+mod ports;
 pub mod protocol;
-pub mod registers;
+mod registers;
 pub mod sdk;
 pub mod transport;
 pub(crate) mod virtual_bus;
@@ -34,10 +37,14 @@ pub(crate) mod virtual_bus;
 pub use crate::servo::{AlarmBits, Alarms};
 pub use cell::{connect_cell, CellBus, WriteOffsets};
 pub use connect::{connect, connect_with, scan, BusOptions, Connection, Driver, VIRTUAL_PORT};
+pub use cutoff::ReadCutoff;
+pub use driver::NativeBus;
 pub use faults::{
     alarm_error, faulty_joint, joint_prefix, ReadStreak, MAX_READ_FAILURES, SILENT_FOR,
 };
+pub use homing::{HomingMismatch, NoHomingRegister, OffsetMismatch};
 pub use ports::{latency_timers, list_ports, PortInfo};
+pub use registers::DecodeAnswer;
 
 use crate::error::ErrorKind;
 use std::sync::Arc;
@@ -127,7 +134,7 @@ pub enum BusError {
     #[error("servo {id}: {error}")]
     Unencodable {
         id: u8,
-        error: registers::RegisterError,
+        error: crate::servo::RegisterError,
     },
     /// A goal tick the servo's position register cannot hold: nothing was sent.
     #[error("servo {id}: goal not sent: {error}")]
@@ -282,7 +289,7 @@ pub enum CorruptAnswer {
     Packet(#[from] protocol::packet::PacketError),
     /// Its data does not decode as the register asked for.
     #[error(transparent)]
-    Register(#[from] registers::RegisterError),
+    Register(#[from] crate::servo::RegisterError),
     /// A well-formed answer with another amount of data than asked for: a late answer to an
     /// earlier request, when nothing better came.
     #[error("{found} data bytes where {expected} were asked")]
@@ -319,7 +326,7 @@ pub trait ServoBus: Send {
     fn read_setting(
         &mut self,
         ids: &[u8],
-        setting: profile::Setting,
+        setting: crate::servo::Setting,
     ) -> Result<Vec<i64>, BusError> {
         let _ = ids;
         Err(setting_unsupported(&self.describe(), setting))
@@ -329,7 +336,7 @@ pub trait ServoBus: Send {
     fn write_setting(
         &mut self,
         values: &[(u8, i64)],
-        setting: profile::Setting,
+        setting: crate::servo::Setting,
     ) -> Result<(), BusError> {
         let _ = values;
         Err(setting_unsupported(&self.describe(), setting))
@@ -342,14 +349,14 @@ pub trait ServoBus: Send {
         None
     }
     /// Reads stop waiting for answers once `cutoff` has passed (it is set from another
-    /// thread: a cell cuts short the read of an arm whose answers are late, see [`cell`]). An
+    /// thread: a cell cuts short the read of an arm whose answers are late, see [`CellBus`]). An
     /// answer not in by then is a timeout, and a cut read is not retried. A bus that cannot cut
     /// a read short ignores it.
-    fn set_read_cutoff(&mut self, cutoff: Arc<cutoff::ReadCutoff>) {
+    fn set_read_cutoff(&mut self, cutoff: Arc<ReadCutoff>) {
         let _ = cutoff;
     }
     /// A bus made of several arms' buses (a cell): the control period of the loop that drives
-    /// it, from which it judges when an arm's read would hold the others (see [`cell`]).
+    /// it, from which it judges when an arm's read would hold the others (see [`CellBus`]).
     /// `None`: every arm's read is waited for as long as its own bus waits.
     fn pace(&mut self, period: Option<Duration>) {
         let _ = period;
@@ -360,7 +367,7 @@ pub trait ServoBus: Send {
     }
 }
 
-fn setting_unsupported(bus: &str, setting: profile::Setting) -> BusError {
+fn setting_unsupported(bus: &str, setting: crate::servo::Setting) -> BusError {
     BusError::Unreachable {
         bus: bus.to_string(),
         register: setting.name(),

@@ -12,10 +12,10 @@
 
 use super::models::Servos;
 use super::protocol::{codec, Codec, Status};
-use super::registers::{Register, RegisterTable};
 use super::{Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
 use crate::python::{Harness, HarnessError, HarnessOptions, PyConfig};
 use crate::robot::{PositionEncoding, Protocol, ServoModel};
+use crate::servo::{Register, RegisterTable};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;

@@ -168,7 +168,7 @@ impl RegisterTable {
         value as f64
     }
 
-    /// The registers a health reading needs, for [`span`]: load, voltage, temperature and the
+    /// The registers a health reading needs, for [`super::span`]: load, voltage, temperature and the
     /// alarm register.
     pub fn health_registers(&self) -> [Register; 4] {
         [

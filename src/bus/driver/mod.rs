@@ -17,10 +17,11 @@ use super::echo::{Echoes, Front};
 use super::models::Servos;
 use super::protocol::packet::{Decoded, Direction, Packet, PacketError};
 use super::protocol::{codec, Codec, Instructions, Status};
-use super::registers::{self, DecodeAnswer, Register, RegisterTable};
 use super::transport::Transport;
-use super::{homing, profile, Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
+use super::DecodeAnswer;
+use super::{homing, Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
 use crate::robot::{Protocol, ServoModel};
+use crate::servo::{span, Register, RegisterTable, Setting};
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -733,19 +734,11 @@ impl ServoBus for NativeBus {
         self.read_values(&ids, |t| t.homing_offset.ok_or(homing::REGISTER))
     }
 
-    fn read_setting(
-        &mut self,
-        ids: &[u8],
-        setting: profile::Setting,
-    ) -> Result<Vec<i64>, BusError> {
+    fn read_setting(&mut self, ids: &[u8], setting: Setting) -> Result<Vec<i64>, BusError> {
         self.read_values(ids, |t| setting.register(t).ok_or(setting.name()))
     }
 
-    fn write_setting(
-        &mut self,
-        values: &[(u8, i64)],
-        setting: profile::Setting,
-    ) -> Result<(), BusError> {
+    fn write_setting(&mut self, values: &[(u8, i64)], setting: Setting) -> Result<(), BusError> {
         let ids: Vec<u8> = values.iter().map(|(id, _)| *id).collect();
         let pick = |t: &RegisterTable| setting.register(t).ok_or(setting.name());
         self.write_register(values, pick)?;
@@ -788,7 +781,7 @@ impl ServoBus for NativeBus {
         let registers = table.health_registers();
         // Dynamixel keeps its alarm register (70) far from the others (126…146): two reads
         // are shorter on the wire than one spanning both.
-        let groups: Vec<Vec<Register>> = match registers::span(&registers) {
+        let groups: Vec<Vec<Register>> = match span(&registers) {
             Some((_, length)) if length > 32 => {
                 let (alarm, rest): (Vec<Register>, Vec<Register>) = registers
                     .iter()
@@ -799,7 +792,7 @@ impl ServoBus for NativeBus {
         };
         let mut values: Vec<HashMap<&'static str, i64>> = vec![HashMap::new(); ids.len()];
         for group in &groups {
-            let Some((start, length)) = registers::span(group) else {
+            let Some((start, length)) = span(group) else {
                 continue;
             };
             let blocks = self.read_block(ids, start, length)?;

@@ -21,9 +21,9 @@ pub mod packet;
 pub use fields::Fields;
 pub use firmware::Firmware;
 
-use super::registers::{ByteOrder, Register};
 use super::{AlarmBits, Alarms, PingInfo};
 use crate::robot::Protocol;
+use crate::servo::{ByteOrder, Register};
 use packet::{Framing, Packet, PacketError};
 
 /// The instruction codes of a protocol; `None` where it has no such instruction.

@@ -66,7 +66,7 @@ pub struct VirtualServos {
     pub received: Vec<Packet>,
     /// When each packet of `received` was decoded (the same index).
     pub received_at: Vec<Instant>,
-    /// How many packets `received` keeps ([`RECEIVED_LOG_CAPACITY`]).
+    /// How many packets `received` keeps (`RECEIVED_LOG_CAPACITY`).
     pub received_capacity: usize,
     /// Packets dropped from the front of `received`.
     pub received_dropped: usize,
@@ -245,7 +245,7 @@ impl VirtualServos {
     }
 
     /// Like [`VirtualServos::handle`], instruction by instruction, with the bytes each took on
-    /// the line and each answering servo's return delay: what [`wire::Wire`] times.
+    /// the line and each answering servo's return delay: what `wire::Wire` times.
     pub fn exchanges(&mut self, bytes: &[u8]) -> Vec<wire::Exchange> {
         self.rx.extend_from_slice(bytes);
         let mut exchanges = Vec::new();

@@ -10,9 +10,9 @@ use crate::bus::protocol::packet::{Framing, Packet, PacketError};
 use crate::bus::protocol::{
     Codec, FastSyncRead, Fields, Firmware, Instructions, Refusal, Status, Vendor,
 };
-use crate::bus::registers::{ByteOrder, Encoding, Register};
 use crate::bus::{AlarmBits, Alarms, PingInfo};
 use crate::robot::Protocol;
+use crate::servo::{ByteOrder, Encoding, Register};
 
 static INSTRUCTIONS: Instructions = Instructions {
     ping: PING,

@@ -7,9 +7,9 @@ use super::{
 use crate::bus::protocol::ff_framing::FfFraming;
 use crate::bus::protocol::packet::{Framing, Packet, PacketError};
 use crate::bus::protocol::{Codec, Fields, Firmware, Instructions, Refusal, Status, Vendor};
-use crate::bus::registers::{ByteOrder, Encoding, Register};
 use crate::bus::{AlarmBits, Alarms, PingInfo};
 use crate::robot::Protocol;
+use crate::servo::{ByteOrder, Encoding, Register};
 
 static STS_INSTRUCTIONS: Instructions = Instructions {
     ping: PING,

@@ -5,10 +5,10 @@ use crate::bus::protocol::ff_framing::PREFIX;
 use crate::bus::protocol::packet::PacketError;
 use crate::bus::protocol::packet::{Decoded, Direction, Framing, Packet};
 use crate::bus::protocol::{codec, Codec, Vendor};
-use crate::bus::registers::ByteOrder;
 use crate::bus::Alarms;
 use crate::robot::PositionEncoding;
 use crate::robot::Protocol;
+use crate::servo::ByteOrder;
 use proptest::prelude::*;
 
 fn decode_all(buf: &mut Vec<u8>, direction: Direction) -> Vec<Result<Packet, PacketError>> {
