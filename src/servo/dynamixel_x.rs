@@ -15,10 +15,15 @@ use std::time::Duration;
 
 /// Address of the X series Hardware Error Status register.
 pub const HARDWARE_ERROR_STATUS: u16 = 70;
+/// Hardware Error Status bit: Input Voltage Error.
 pub const HW_INPUT_VOLTAGE: u8 = 1 << 0;
+/// Hardware Error Status bit: Overheating Error.
 pub const HW_OVERHEATING: u8 = 1 << 2;
+/// Hardware Error Status bit: Motor Encoder Error.
 pub const HW_MOTOR_ENCODER: u8 = 1 << 3;
+/// Hardware Error Status bit: Electrical Shock Error.
 pub const HW_ELECTRICAL_SHOCK: u8 = 1 << 4;
+/// Hardware Error Status bit: Overload Error.
 pub const HW_OVERLOAD: u8 = 1 << 5;
 
 /// Hardware Error Status bits (bits 1, 6 and 7 are unused).

@@ -10,10 +10,15 @@ use super::register::{sign_magnitude, unsigned, ByteOrder};
 use super::table::{LoadUnit, RegisterTable};
 use std::time::Duration;
 
+/// Status (and status byte) bit: voltage.
 pub const ERR_VOLTAGE: u8 = 1 << 0;
+/// Status (and status byte) bit: angle sensor.
 pub const ERR_ANGLE_SENSOR: u8 = 1 << 1;
+/// Status (and status byte) bit: overheating.
 pub const ERR_OVERHEAT: u8 = 1 << 2;
+/// Status (and status byte) bit: over-current.
 pub const ERR_OVER_CURRENT: u8 = 1 << 3;
+/// Status (and status byte) bit: overload.
 pub const ERR_OVERLOAD: u8 = 1 << 5;
 
 /// Status register (65) bits, which the status packet's ERR byte carries too (Feetech protocol
