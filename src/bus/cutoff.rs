@@ -21,6 +21,8 @@ pub const LOOK_EVERY: Duration = Duration::from_millis(4);
 /// An instant not set.
 const NONE: u64 = u64::MAX;
 
+/// When a bus's read stops waiting for answers: set by a cell's thread, waited up to by the
+/// driver (see [`ReadCutoff::watch`] and [`ReadCutoff::cut`]).
 #[derive(Debug)]
 pub struct ReadCutoff {
     /// From when a cut may come, as nanoseconds after `base`; [`NONE`]: none will.

@@ -13,7 +13,9 @@ use crate::servo::ModelSpec;
 /// One joint whose servo holds another homing offset than the description says.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct OffsetMismatch {
+    /// The joint's name.
     pub joint: String,
+    /// Its servo's id.
     pub servo: u8,
     /// What the robot description or the calibration says, in ticks.
     pub expected: i64,
@@ -36,6 +38,7 @@ pub struct OffsetMismatch {
         .join("; ")
 )]
 pub struct HomingMismatch {
+    /// Each joint whose servo differs, in the robot's joint order.
     pub mismatches: Vec<OffsetMismatch>,
 }
 
@@ -47,7 +50,9 @@ pub struct HomingMismatch {
      no Homing_Offset register (it applies no offset), so only 0 fits; nothing was moved"
 )]
 pub struct NoHomingRegister {
+    /// The joint's name.
     pub joint: String,
+    /// Its servo's id.
     pub servo: u8,
     /// The servo's model, as robot files name it.
     pub model: &'static str,

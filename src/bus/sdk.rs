@@ -157,8 +157,10 @@ fn parse_reply<R: DeserializeOwned>(
 /// Opening a bus through the SDKs: the Python side, or the bus itself.
 #[derive(Debug, thiserror::Error)]
 pub enum SdkError {
+    /// The bridge process did not start or answer.
     #[error(transparent)]
     Harness(#[from] HarnessError),
+    /// The SDK could not open the port or reach the servos.
     #[error(transparent)]
     Bus(#[from] BusError),
 }
@@ -241,6 +243,7 @@ impl SdkBus {
         })
     }
 
+    /// The protocol the bridge speaks.
     pub fn protocol(&self) -> Protocol {
         self.codec.protocol()
     }

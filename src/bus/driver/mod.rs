@@ -36,11 +36,15 @@ pub const DEFAULT_READ_RETRIES: u32 = 2;
 /// ordinary wake-up delay, well within the timeout.
 pub const STARVED_AFTER: Duration = Duration::from_millis(10);
 
+/// keypose's own driver: a [`ServoBus`] speaking a vendor protocol (its [`Codec`]) over a
+/// transport (a serial port, or emulated servos in memory).
 pub struct NativeBus {
     transport: Box<dyn Transport>,
     codec: &'static dyn Codec,
     servos: Servos,
+    /// How long to wait for one answer.
     pub timeout: Duration,
+    /// Extra attempts for a read that got no valid answer.
     pub read_retries: u32,
     /// Dynamixel: read with Fast Sync Read (0x8A, one combined answer) instead of Sync Read.
     /// Off by default: which models and firmware support it is unverified (docs/protocols.md).

@@ -101,7 +101,9 @@ pub trait Firmware: Sync + fmt::Debug {
 /// Bounds on a move, ticks per second and per second²; `None` is no bound beyond the motor's.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Profile {
+    /// Top speed, ticks/s.
     pub max_speed: Option<f64>,
+    /// Acceleration (and deceleration), ticks/s².
     pub acceleration: Option<f64>,
 }
 

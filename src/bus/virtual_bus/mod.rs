@@ -60,6 +60,7 @@ pub const RECEIVED_LOG_CAPACITY: usize = 1_000_000;
 /// The emulated bus: servos, fault switches, and the record of received instructions.
 pub struct VirtualServos {
     codec: &'static dyn Codec,
+    /// The servos on the bus, each with its own id.
     pub servos: Vec<VirtualServo>,
     /// The instruction packets decoded, in order: at least the last `received_capacity` (the
     /// oldest are dropped in batches, so a push stays cheap).
@@ -100,6 +101,7 @@ impl VirtualServos {
             .map(VirtualServo::return_delay)
     }
 
+    /// `servos` answering `protocol`, connected, nothing received yet.
     pub fn new(protocol: Protocol, servos: Vec<VirtualServo>) -> VirtualServos {
         VirtualServos {
             codec: codec(protocol),
@@ -114,10 +116,12 @@ impl VirtualServos {
         }
     }
 
+    /// The servo with id `id`.
     pub fn servo_mut(&mut self, id: u8) -> Option<&mut VirtualServo> {
         self.servos.iter_mut().find(|s| s.id == id)
     }
 
+    /// Makes servo `id` misbehave as `fault` says from now on (`None`: behave again).
     pub fn set_fault(&mut self, id: u8, fault: Option<ServoFault>) {
         if let Some(servo) = self.servo_mut(id) {
             servo.fault = fault;
@@ -529,10 +533,12 @@ impl Responder for VirtualServos {
 pub struct VirtualBus(Arc<Mutex<VirtualServos>>);
 
 impl VirtualBus {
+    /// Shares `servos`.
     pub fn new(servos: VirtualServos) -> VirtualBus {
         VirtualBus(Arc::new(Mutex::new(servos)))
     }
 
+    /// The servos, for as long as the guard lives (the server waits meanwhile).
     pub fn lock(&self) -> MutexGuard<'_, VirtualServos> {
         // A panic while holding the lock leaves consistent data here (plain values), so a
         // poisoned lock is still usable.

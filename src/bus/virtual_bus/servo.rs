@@ -20,13 +20,17 @@ use crate::servo::item::{Access, Default, Item};
 use crate::servo::{ModelSpec, Register, RegisterTable, ServoModel};
 use std::time::Duration;
 
+/// One emulated servo: its control table in memory, its shaft, and any fault it acts out.
 #[derive(Debug, Clone)]
 pub struct VirtualServo {
+    /// Its id on the bus.
     pub id: u8,
+    /// Its model, whose table and firmware rules it follows.
     pub model: ServoModel,
     /// The shaft, in the actual frame.
     pub motion: Motion,
     memory: Vec<u8>,
+    /// How it misbehaves, if it does (see [`VirtualServos::set_fault`](super::VirtualServos::set_fault)).
     pub fault: Option<ServoFault>,
     /// Writes of 0 to the torque-enable register so far: someone asked the servo to go limp.
     pub releases: u32,
