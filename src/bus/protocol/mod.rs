@@ -47,7 +47,7 @@ pub struct Instructions {
     pub bulk_write: Option<u8>,
 }
 
-pub use crate::robot::Vendor;
+use crate::servo::Vendor;
 
 impl Vendor {
     /// The vendor's Python SDK module, which `--driver sdk` drives through the bridge.

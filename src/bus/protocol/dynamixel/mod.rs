@@ -25,11 +25,7 @@ pub use crc::{crc16, crc16_update};
 pub use fast_sync_read::{encode_fast_sync_read, parse_fast_sync_read, FastSyncReadEntry};
 pub use firmware::XSeriesFirmware;
 pub use framing::Dynamixel2;
-pub use status::{
-    hardware_error_alarms, hardware_error_bits, ErrorNumber, StatusByte, ALERT_BIT,
-    HARDWARE_ERROR_BITS, HARDWARE_ERROR_STATUS, HW_ELECTRICAL_SHOCK, HW_INPUT_VOLTAGE,
-    HW_MOTOR_ENCODER, HW_OVERHEATING, HW_OVERLOAD,
-};
+pub use status::{hardware_error_alarms, hardware_error_bits, ErrorNumber, StatusByte, ALERT_BIT};
 pub use stuffing::{stuff, unstuff};
 
 use super::packet::{Packet, PacketError, PacketKind};

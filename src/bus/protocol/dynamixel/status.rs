@@ -67,7 +67,8 @@ impl ErrorNumber {
 /// A status packet's ERR byte.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct StatusByte {
-    /// The servo has a hardware error; read [`HARDWARE_ERROR_STATUS`] for which.
+    /// The servo has a hardware error; read Hardware Error Status for which
+    /// ([`HARDWARE_ERROR_STATUS`](crate::servo::dynamixel_x::HARDWARE_ERROR_STATUS)).
     pub alert: bool,
     /// Why the instruction was refused, if it was.
     pub error: Option<ErrorNumber>,
@@ -107,10 +108,7 @@ impl StatusByte {
 
 /// The X series Hardware Error Status register (70) and its bits are control-table data, in
 /// the servo catalogue.
-pub use crate::servo::dynamixel_x::{
-    HARDWARE_ERROR_BITS, HARDWARE_ERROR_STATUS, HW_ELECTRICAL_SHOCK, HW_INPUT_VOLTAGE,
-    HW_MOTOR_ENCODER, HW_OVERHEATING, HW_OVERLOAD,
-};
+use crate::servo::dynamixel_x::HARDWARE_ERROR_BITS;
 
 /// The alarms in a Hardware Error Status value.
 pub fn hardware_error_alarms(bits: u8) -> Alarms {

@@ -18,10 +18,7 @@ pub use super::ff_framing::{
     checksum, FfFraming as Feetech, BROADCAST_ID, HEADER, MAX_DEVICE_ID, MAX_ERROR_BYTE, MAX_PARAMS,
 };
 pub use firmware::StsFirmware;
-pub use status::{
-    status_alarms, status_bits, ERR_ANGLE_SENSOR, ERR_OVERHEAT, ERR_OVERLOAD, ERR_OVER_CURRENT,
-    ERR_VOLTAGE, STATUS_BITS,
-};
+pub use status::{status_alarms, status_bits};
 
 use super::Fields;
 
