@@ -1,5 +1,5 @@
-//! The studio's request reading and routing (`studio::http::read_request`, then
-//! `studio::routes::route`, as a connection's thread runs them) on fuzzed connections: a
+//! The studio's request reading and routing (`studio::read_request`, then `studio::route`,
+//! as a connection's thread runs them) on fuzzed connections: a
 //! read-size byte, a filler byte, then the bytes of one or more connections separated by two
 //! NULs. Each connection delivers its bytes in reads of that size (0: all at once) and then,
 //! with a filler byte other than 0, that byte forever: a client that never stops sending.
@@ -20,11 +20,8 @@
 //! far as its control check and the "no keys" refusal.
 #![no_main]
 
-use keypose::studio::auth::Guard;
-use keypose::studio::control::Lease;
 use keypose::studio::engine::{Hub, Input};
-use keypose::studio::http::{self, Limits};
-use keypose::studio::routes::{self, Context, Reply};
+use keypose::studio::{read_request, route, Context, Guard, Lease, Limits, Reply};
 use keypose_fuzz::{builtin_robot, Choices};
 use libfuzzer_sys::fuzz_target;
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -190,7 +187,7 @@ fn serve(bytes: &[u8], piece: usize, filler: Option<u8>, context: &Context, limi
     };
     let base = LIVE.load(Ordering::SeqCst);
     PEAK.store(base, Ordering::SeqCst);
-    let read = http::read_request(&mut connection, limits);
+    let read = read_request(&mut connection, limits);
     let held = PEAK.load(Ordering::SeqCst) - base;
     let bound = limits.head + limits.body;
     assert!(connection.taken <= bound, "took {} bytes", connection.taken);
@@ -202,7 +199,7 @@ fn serve(bytes: &[u8], piece: usize, filler: Option<u8>, context: &Context, limi
     let allowed = carries_the_token(bytes);
     let actions = ACTIONS.load(Ordering::SeqCst);
     let held_before = context.hub.lease().is_held();
-    let reply = routes::route(&request, context);
+    let reply = route(&request, context);
     let mut lease = context.hub.lease();
     let lease_changed = (lease.is_held() != held_before) | lease.take_lost();
     drop(lease);

@@ -10,13 +10,19 @@
 //! are answered as failed writes and reads: no files here.
 #![no_main]
 
+use keypose::json::{InputError, Location};
 use keypose::testing::VirtualBus;
 use keypose::sequence::{KeyframeList, Sequence};
-use keypose::teach::motion::MotionKind;
-use keypose::teach::{self, BusCommand, Command, Event, FileCommand, Key, Session, TeachState};
+use keypose::teach::files::FileError;
+use keypose::teach::{
+    self, BusCommand, Command, Event, FileCommand, Key, MotionKind, Session, TeachState,
+};
 use keypose_fuzz::{builtin_robot, Choices};
 use libfuzzer_sys::fuzz_target;
 use std::collections::VecDeque;
+use std::io;
+use std::path::Path;
+use std::sync::Arc;
 
 /// Presses per input: a jog ramps in wall-clock time, so long inputs would time out.
 const MAX_STEPS: usize = 24;
@@ -51,19 +57,24 @@ fn apply(state: &mut TeachState, session: &mut Session, commands: Vec<Command>) 
             }
             Command::Bus(command) => session.execute(command),
             Command::File(FileCommand::Load(path)) => vec![Event::Loaded {
+                result: Err(FileError::Load(no_files(&path))),
                 path,
-                result: Err("no files while fuzzing".into()),
             }],
             Command::File(FileCommand::Save { path, .. }) => vec![Event::Saved {
+                result: Err(FileError::Save(no_files(&path))),
                 path,
-                result: Err("no files while fuzzing".into()),
             }],
-            Command::File(FileCommand::Journal { .. }) => {
-                vec![Event::Journaled(Err("no journal while fuzzing".into()))]
+            Command::File(FileCommand::Journal { journal, .. }) => {
+                vec![Event::Journaled(Err(FileError::Journal {
+                    path: journal.path().to_path_buf(),
+                    source: Arc::new(io::Error::other("no journal while fuzzing")),
+                }))]
             }
             Command::File(FileCommand::ClearJournal { why, .. }) => vec![Event::JournalCleared {
                 why,
-                result: Err("no journal while fuzzing".into()),
+                result: Err(FileError::ClearJournal(Arc::new(io::Error::other(
+                    "no journal while fuzzing",
+                )))),
             }],
         };
         for event in events {
@@ -134,3 +145,12 @@ fuzz_target!(|data: &[u8]| {
         );
     }
 });
+
+/// What a read or a write is answered with here: no file is touched while fuzzing.
+fn no_files(path: &Path) -> InputError {
+    InputError::new(
+        &path.display().to_string(),
+        Location::File,
+        "no files while fuzzing",
+    )
+}

@@ -3,10 +3,10 @@
 
 use super::CommandError;
 use keypose::json::{InputError, Location};
-use keypose::robot::lerobot_names::{
-    calibration_candidates, calibration_root, CalibrationRoot, CALIBRATION_ENV_VARS,
+use keypose::robot::{
+    calibration_candidates, calibration_root, CalibrationRoot, LeRobotRole, LeRobotType, Robot,
+    CALIBRATION_ENV_VARS,
 };
-use keypose::robot::{LeRobotRole, LeRobotType, Robot};
 use std::path::PathBuf;
 
 /// The calibration options every command that loads a robot takes. On a sequence of several

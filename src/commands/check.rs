@@ -1,8 +1,8 @@
 //! `keypose check`: the curve against the robot's limits, exactly (`plan::check`).
 
 use super::{parse_check_rate, write_output, CommandError, SequenceInput, Verdict};
-use keypose::plan::tool_keys::{ToolKeyReport, ToolSolve};
 use keypose::plan::{check, Trajectory};
+use keypose::plan::{ToolKeyReport, ToolSolve};
 use keypose::report;
 
 #[derive(Debug, Clone, clap::Args)]

@@ -107,23 +107,25 @@ fn cpu_frequency_report() -> String {
 /// What the simulation harness reports when it starts: MuJoCo's version and the GL backend.
 /// Never builds the environment (that is for the first `sim`).
 fn simulation_report() -> String {
+    use keypose::error::Report;
     use keypose::python::{Harness, HarnessOptions, PyConfig};
     let config = match PyConfig::from_env() {
         Ok(c) => c,
-        Err(e) => return format!("  simulation: {e}\n"),
+        Err(e) => return format!("  simulation: {}\n", Report(&e)),
     };
     let python = match config.find_python() {
         Ok(Some(env)) => env.python,
         Ok(None) => {
             return "  simulation: the environment is built on the first `keypose sim`\n".into()
         }
-        Err(e) => return format!("  simulation: {e}\n"),
+        Err(e) => return format!("  simulation: {}\n", Report(&e)),
     };
     let started = config
         .script_path(keypose::sim::HARNESS_SCRIPT)
-        .map_err(|e| e.to_string())
+        .map_err(|e| Report(&e).to_string())
         .and_then(|script| {
-            Harness::spawn(&python, &script, HarnessOptions::default()).map_err(|e| e.to_string())
+            Harness::spawn(&python, &script, HarnessOptions::default())
+                .map_err(|e| Report(&e).to_string())
         });
     match started {
         Ok(harness) => {

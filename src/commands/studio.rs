@@ -92,10 +92,9 @@ const MAX_TRACE_ROWS: usize = 20_000;
 /// report `sim --report` writes, and the measured trace to replay on the 3D arm.
 fn simulator() -> Simulator {
     Box::new(|sequence, robot| {
-        let trajectory = Trajectory::build(sequence, robot).map_err(|e| e.to_string())?;
+        let trajectory = Trajectory::build(sequence, robot)?;
         let options = PlayOptions::new(robot.control_hz);
-        let result = super::sim::simulate(sequence, robot, &trajectory, &options, None)
-            .map_err(|e| e.to_string())?;
+        let result = super::sim::simulate(sequence, robot, &trajectory, &options, None)?;
         let trace = &result.trace;
         let rows = trace
             .time

@@ -18,44 +18,82 @@ use crate::sequence::{KeyValue, Keyframe, Sequence};
 /// Why a motion cannot be mirrored.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MirrorError {
+    /// The tool point is too close to the first joint's vertical to fix the arm's plane.
     #[error("robot {robot}: the tool point is {distance_m:.4} m from the first joint's vertical at the zero pose; expected at least {min} m to fix the arm's vertical plane", min = MIN_REACH_M)]
-    NoPlane { robot: String, distance_m: f64 },
+    NoPlane {
+        /// The robot's name.
+        robot: String,
+        /// Horizontal distance of the tool point from the first joint's axis, metres.
+        distance_m: f64,
+    },
+    /// A joint axis neither in the arm's plane nor square to it.
     #[error("robot {robot}: the axis of {joint} is {angle_deg:.2}° out of the arm's vertical plane at the zero pose; expected it in the plane or square to it (within {tolerance_deg}°), or no mirror image is a motion of the joints")]
     ObliqueAxis {
+        /// The robot's name.
         robot: String,
+        /// The joint's name.
         joint: String,
+        /// How far out of the plane the axis is, degrees.
         angle_deg: f64,
+        /// [`AXIS_TOLERANCE_DEG`].
         tolerance_deg: f64,
     },
+    /// `--arms` given for a sequence of one arm.
     #[error("--arms: {file} is a sequence for one arm; expected a sequence for several (\"robots\"), or no --arms")]
-    NotACell { file: String },
+    NotACell {
+        /// The sequence file.
+        file: String,
+    },
+    /// `--arms` names an arm the sequence does not have.
     #[error("--arms: unknown arm {name:?} in {file}; expected one of: {}", expected.join(", "))]
     UnknownArm {
+        /// The sequence file.
         file: String,
+        /// The arm named.
         name: String,
+        /// The sequence's arms.
         expected: Vec<String>,
     },
+    /// `--arms A:A`.
     #[error("--arms: {name}:{name} mirrors an arm onto itself; expected two different arms (or no --arms to mirror each in place)")]
-    SameArm { name: String },
+    SameArm {
+        /// The arm named twice.
+        name: String,
+    },
+    /// The two arms are not the same robot, so one's motion is no motion of the other.
     #[error("--arms: arms {from} and {to} have different joints ({} and {}); expected the same robot", from_joints.join(", "), to_joints.join(", "))]
     DifferentArms {
+        /// The arm whose motion is mirrored.
         from: String,
+        /// The arm it is mirrored onto.
         to: String,
+        /// `from`'s joints.
         from_joints: Vec<String>,
+        /// `to`'s joints.
         to_joints: Vec<String>,
     },
+    /// A key that would set nothing once the source arm's motion replaces the target's.
     #[error("{file}: {path}: key {label} sets nothing for arm {from}, whose motion replaces {to}'s: it would set no joint; expected every key to set a joint or tool target of {from} (or no --arms, to mirror each arm in place)")]
     EmptyKey {
+        /// The sequence file.
         file: String,
+        /// The key's JSON path.
         path: String,
+        /// The key's name, or "#index".
         label: String,
+        /// The arm whose motion is mirrored.
         from: String,
+        /// The arm it is mirrored onto.
         to: String,
     },
+    /// A key's value that is no value of its joint ([`plan::KeyValueError`]).
     #[error("{file}: {path}: {message}")]
     Value {
+        /// The sequence file.
         file: String,
+        /// The value's JSON path.
         path: String,
+        /// Why it is no value of the joint.
         message: String,
     },
 }
@@ -66,7 +104,12 @@ pub enum Mapping<'a> {
     /// Every arm (or the one arm) mirrored in its own plane.
     InPlace,
     /// The motion of arm `from` mirrored onto arm `to`, whose own keys it replaces.
-    Onto { from: &'a str, to: &'a str },
+    Onto {
+        /// The arm whose motion is mirrored.
+        from: &'a str,
+        /// The arm it is mirrored onto.
+        to: &'a str,
+    },
 }
 
 /// A mirrored value outside the target joint's limits, clipped to the limit.
@@ -76,11 +119,13 @@ pub struct Clip {
     pub key: usize,
     /// Its name or "#index".
     pub key_label: String,
+    /// The target joint's name.
     pub joint: String,
     /// The mirrored value, in the joint's unit.
     pub value: f64,
     /// The limit it was clipped to.
     pub limit: f64,
+    /// "deg" or "m".
     pub unit: &'static str,
 }
 

@@ -22,7 +22,9 @@ pub const MIN_REACH_M: f64 = 0.001;
 /// A plane in an arm's base frame, given by a point on it and its unit normal.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MirrorPlane {
+    /// A point on the plane, metres.
     pub point: DVec3,
+    /// Its unit normal.
     pub normal: DVec3,
 }
 
@@ -79,7 +81,9 @@ pub enum JointRule {
 /// An arm's plane and the rule of each of its joints, in joint order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ArmMirror {
+    /// The arm's own vertical plane, in its base frame.
     pub plane: MirrorPlane,
+    /// (joint name, rule) of every joint, in joint order.
     pub rules: Vec<(String, JointRule)>,
     /// The tool frame at the zero pose, which the mirror image of a turn starts from.
     pub zero_tool: RigidTransform,

@@ -28,7 +28,11 @@ pub enum MemoryNotLocked {
     /// A finite limit: locking every later allocation too would make the one that crosses it
     /// fail. `limit_kib` is `None` when the limit could not be read.
     #[error("the memlock limit is {}, not unlimited: set `memlock unlimited` in /etc/security/limits.conf", limit_kib.map_or("unknown".to_string(), |l| format!("{l} KiB")))]
-    Limited { limit_kib: Option<u64> },
+    Limited {
+        /// The limit, KiB; `None` when it could not be read.
+        limit_kib: Option<u64>,
+    },
+    /// The system refused to lock the memory: what it said.
     #[error("{0}")]
     Refused(io::Error),
 }

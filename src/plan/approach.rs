@@ -17,10 +17,14 @@ pub const APPROACH_LIMIT_SHARE: f64 = 0.5;
 /// Shortest approach, seconds: even a tiny correction is a visible, deliberate motion.
 pub const MIN_APPROACH_SECONDS: f64 = 0.5;
 
+/// A minimum-jerk ramp of every joint at once, in joint units.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Approach {
+pub(crate) struct Approach {
+    /// Where it starts, in robot joint order.
     pub from: Vec<f64>,
+    /// Where it ends.
     pub to: Vec<f64>,
+    /// Seconds.
     pub duration: f64,
 }
 
@@ -59,14 +63,5 @@ impl Approach {
         for ((slot, a), b) in out.iter_mut().zip(&self.from).zip(&self.to) {
             *slot = a + (b - a) * s;
         }
-    }
-
-    /// The largest joint distance, in each joint's unit.
-    pub fn largest_distance(&self) -> f64 {
-        self.from
-            .iter()
-            .zip(&self.to)
-            .map(|(a, b)| (b - a).abs())
-            .fold(0.0, f64::max)
     }
 }

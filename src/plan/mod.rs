@@ -1,12 +1,18 @@
 //! From a sequence and a robot to a timed joint trajectory, and the checks and retiming that
 //! work on it.
+//!
+//! [`Trajectory::build`] turns a [`Sequence`] into one track per joint (solving tool keys and
+//! straight tool lines on the way); [`check`] finds, exactly, where it exceeds the robot's
+//! position, velocity and acceleration limits; [`retime`] stretches key times until it does
+//! not; [`Timeline`] says what the arm should do at each control cycle of playback (approach,
+//! loops, braking, stalls); [`Sampled`] samples it on an even grid for plots and tables.
 
 mod approach;
 mod check;
 mod retime;
 mod sampled;
 mod timeline;
-pub mod tool_keys;
+mod tool_keys;
 
 use crate::curve::{Cursor, CurveError, Track, TrackKey};
 use crate::json::InputError;
@@ -15,11 +21,13 @@ use crate::robot::{Arm, Joint, JointKind, Robot};
 use crate::sequence::{Ends, KeyValue, Sequence};
 use std::f64::consts::TAU;
 
-pub use approach::{Approach, APPROACH_LIMIT_SHARE, MIN_APPROACH_SECONDS};
+pub(crate) use approach::Approach;
+pub use approach::{APPROACH_LIMIT_SHARE, MIN_APPROACH_SECONDS};
 pub use check::{check, check_at_speed, Cause, CheckReport, JointSummary, LimitKind, Violation};
 pub use retime::{retime, RetimeOutcome};
 pub use sampled::Sampled;
 pub use timeline::{Loops, Phase, Timeline, TimelineOptions};
+pub use tool_keys::{LineReport, ToolKeyReport, ToolSolve};
 
 /// Largest rotation off the joint axis (swing) accepted in a keyed transform, degrees. Hand-typed
 /// quaternions carry rounding of this order; more than that is a rotation the joint cannot make.
@@ -49,6 +57,7 @@ pub fn builtin_robot_of(sequence: &Sequence) -> Option<Robot> {
 /// Per-joint tracks in robot joint order and units, with the played time window.
 #[derive(Debug, Clone)]
 pub struct Trajectory {
+    /// The robot's joint names, in its joint order (the tracks' order).
     pub joint_names: Vec<String>,
     tracks: Vec<Track<f64>>,
     /// First played time (the first key, or the second with control ends).
@@ -60,7 +69,7 @@ pub struct Trajectory {
     /// Name (or "#index") of every keyframe.
     pub key_labels: Vec<String>,
     /// The tool keys and straight tool lines solved on the way (empty without them).
-    pub tools: tool_keys::ToolSolve,
+    pub tools: ToolSolve,
 }
 
 impl Trajectory {
@@ -201,7 +210,7 @@ impl Trajectory {
             end: self.end,
             key_times: self.key_times.clone(),
             key_labels: self.key_labels.clone(),
-            tools: tool_keys::ToolSolve::default(),
+            tools: ToolSolve::default(),
         }
     }
 
@@ -223,6 +232,7 @@ impl Trajectory {
         }
     }
 
+    /// One track per joint, in joint order, over sequence time.
     pub fn tracks(&self) -> &[Track<f64>] {
         &self.tracks
     }
@@ -232,6 +242,7 @@ impl Trajectory {
         self.start
     }
 
+    /// Seconds of sequence time played, from [`Trajectory::start`] to the end.
     pub fn duration(&self) -> f64 {
         self.end - self.start
     }
@@ -244,6 +255,7 @@ impl Trajectory {
         }
     }
 
+    /// Joint values at `t` in joint order (degrees or metres), clamped to the played window.
     pub fn sample(&self, t: f64) -> Vec<f64> {
         let mut out = vec![0.0; self.tracks.len()];
         self.sample_into(t, &mut out);
@@ -298,6 +310,7 @@ pub struct Sampler<'a> {
 }
 
 impl Sampler<'_> {
+    /// Joint values at `t` into `out`, clamped to the played window; `t` must not go back.
     pub fn sample_into(&mut self, t: f64, out: &mut [f64]) {
         let t = t.clamp(self.trajectory.start, self.trajectory.end);
         for (slot, cursor) in out.iter_mut().zip(&mut self.cursors) {
@@ -336,12 +349,7 @@ pub(crate) fn key_value_path(key_path: &str, joint: &str, value: &KeyValue) -> S
 
 /// The solved samples of a straight tool line starting at key `index`, as monotone keys of
 /// joint `joint`'s track (none when the line could not be followed).
-fn push_line_samples(
-    keys: &mut Vec<TrackKey<f64>>,
-    tools: &tool_keys::ToolSolve,
-    index: usize,
-    joint: usize,
-) {
+fn push_line_samples(keys: &mut Vec<TrackKey<f64>>, tools: &ToolSolve, index: usize, joint: usize) {
     let Some(line) = tools
         .lines
         .iter()
@@ -365,31 +373,61 @@ fn curve_error(sequence: &Sequence, error: CurveError) -> InputError {
 /// Why what a key says about a joint is no value of that joint.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum KeyValueError {
+    /// A percent of the calibrated range on a joint without a LeRobot calibration.
     #[error(
         "{percent}% of {joint}'s calibrated range, but {joint} has no calibration: a percent \
          needs the arm's LeRobot calibration (--calibration FILE or --robot-id NAME); without \
          one give a number ({unit})"
     )]
     Uncalibrated {
+        /// The joint keyed.
         joint: String,
+        /// The percent keyed.
         percent: f64,
+        /// The joint's unit, "deg" or "m", for the advice.
         unit: &'static str,
     },
+    /// A revolute joint's transform with a translation.
     #[error("a revolute joint's transform cannot translate; expected \"t\" to be zero, found {length_m:.5} m")]
-    Translates { length_m: f64 },
+    Translates {
+        /// Length of the translation, metres.
+        length_m: f64,
+    },
+    /// A revolute joint's rotation not about its axis (more than [`SWING_TOLERANCE_DEG`] off).
     #[error("the rotation is {swing_deg:.2}° off the joint axis {axis:?}; expected a rotation about that axis (at most {SWING_TOLERANCE_DEG}° off)")]
-    OffAxisRotation { swing_deg: f64, axis: [f64; 3] },
+    OffAxisRotation {
+        /// The rotation's part off the axis, degrees.
+        swing_deg: f64,
+        /// The joint's axis, in its parent's frame.
+        axis: [f64; 3],
+    },
+    /// A revolute joint's rotation none of whose turns (±360°) is inside the joint's limits.
     #[error("the rotation ({twist_deg:.3}°) has no representative inside the limits of {joint}: expected {min} … {max} deg")]
     NoTurnInside {
+        /// The joint keyed.
         joint: String,
+        /// The rotation about the axis, degrees.
         twist_deg: f64,
+        /// The joint's lower limit, degrees.
         min: f64,
+        /// The joint's upper limit, degrees.
         max: f64,
     },
+    /// A prismatic joint's translation not along its axis (more than
+    /// [`OFF_AXIS_TOLERANCE_M`] off).
     #[error("the translation is {off_m:.5} m off the joint axis {axis:?}; expected a translation along it")]
-    OffAxisTranslation { off_m: f64, axis: [f64; 3] },
+    OffAxisTranslation {
+        /// The translation's part off the axis, metres.
+        off_m: f64,
+        /// The joint's axis, in its parent's frame.
+        axis: [f64; 3],
+    },
+    /// A prismatic joint's transform with a rotation.
     #[error("a prismatic joint cannot rotate; expected \"r\" to be the identity, found a {angle_deg:.2}° rotation")]
-    Rotates { angle_deg: f64 },
+    Rotates {
+        /// Angle of the rotation, degrees.
+        angle_deg: f64,
+    },
 }
 
 /// A joint value (degrees or metres) from what a key says about the joint. `reference` is the

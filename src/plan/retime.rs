@@ -19,10 +19,12 @@ use crate::sequence::Sequence;
 const MARGIN: f64 = 1.0 + 1e-6;
 const MAX_ROUNDS: usize = 100;
 
+/// What [`retime`] made of a sequence.
 #[derive(Debug, Clone)]
 pub struct RetimeOutcome {
     /// The retimed sequence, with absolute key times.
     pub sequence: Sequence,
+    /// Stretch-and-check rounds it took.
     pub rounds: usize,
     /// (segment, old duration, new duration) of every segment that changed.
     pub stretched: Vec<(usize, f64, f64)>,
@@ -30,6 +32,9 @@ pub struct RetimeOutcome {
     pub report: CheckReport,
 }
 
+/// Stretches the moving segments of `sequence` until its trajectory for `robot` keeps the
+/// velocity and acceleration limits, steps and corners judged at a control rate of `rate` Hz.
+/// What timing cannot mend (positions, steps) is left in the outcome's report.
 pub fn retime(sequence: &Sequence, robot: &Robot, rate: f64) -> Result<RetimeOutcome, InputError> {
     let mut current = sequence.clone();
     current.make_times_absolute();

@@ -6,6 +6,7 @@ use super::Trajectory;
 /// Every joint sampled on an even grid that spans the played window exactly.
 #[derive(Debug, Clone)]
 pub struct Sampled {
+    /// Sequence time of each sample, seconds, from the played window's start to its end.
     pub times: Vec<f64>,
     /// Grid spacing, at most 1/rate.
     pub dt: f64,
@@ -14,6 +15,8 @@ pub struct Sampled {
 }
 
 impl Sampled {
+    /// Samples `trajectory` at `rate` Hz or a little faster, so that the grid ends on the
+    /// window's end.
     pub fn new(trajectory: &Trajectory, rate: f64) -> Sampled {
         let span = trajectory.duration();
         let steps = ((span * rate).ceil() as usize).max(1);

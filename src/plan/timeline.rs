@@ -14,9 +14,12 @@
 use super::{Approach, Trajectory, MIN_APPROACH_SECONDS};
 use crate::robot::Robot;
 
+/// How many times the sequence is played.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Loops {
+    /// This many times (a ping-pong pass counts as one).
     Count(u32),
+    /// Until a stop request.
     Forever,
 }
 
@@ -25,6 +28,7 @@ pub enum Loops {
 pub struct TimelineOptions {
     /// Time scale: 0.5 plays at half speed.
     pub speed: f64,
+    /// How many times to play.
     pub loops: Loops,
     /// Forwards then backwards, each pass a loop, instead of ramping back to the start.
     pub ping_pong: bool,
@@ -53,7 +57,9 @@ impl Default for TimelineOptions {
 /// The phase of the commanded pose, as logged.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Phase {
+    /// The ramp from where the arm rests to the first pose played.
     Approach,
+    /// Following the trajectory.
     Play,
     /// Ramp from the last pose back to the first between loops.
     Return,
@@ -64,6 +70,7 @@ pub enum Phase {
 }
 
 impl Phase {
+    /// Lower-case name, as the log and the progress line write it.
     pub fn name(self) -> &'static str {
         match self {
             Phase::Approach => "approach",
@@ -110,6 +117,8 @@ struct PathRate {
     braking: Option<f64>,
 }
 
+/// Playback of a trajectory as a state machine: [`Timeline::sample_into`] gives the pose to
+/// command now, [`Timeline::advance`] moves on by a control period of wall-clock time.
 #[derive(Debug, Clone)]
 pub struct Timeline<'a> {
     robot: &'a Robot,
@@ -132,6 +141,8 @@ pub struct Timeline<'a> {
 }
 
 impl<'a> Timeline<'a> {
+    /// The playback of `trajectory` on `robot` with `options`, from the pose `measured` where
+    /// the arm is (joint order and units): the approach ramp starts there.
     pub fn new(
         robot: &'a Robot,
         trajectory: &'a Trajectory,
@@ -176,10 +187,12 @@ impl<'a> Timeline<'a> {
         }
     }
 
+    /// Duration of the first approach ramp, seconds (0 without one).
     pub fn approach_seconds(&self) -> f64 {
         self.approach_seconds
     }
 
+    /// Whether a stop request braked the playback to rest (rather than it playing to the end).
     pub fn stopped(&self) -> bool {
         self.stopped
     }
@@ -195,10 +208,12 @@ impl<'a> Timeline<'a> {
         self.tau
     }
 
+    /// The name of the present [`Phase`], or "done".
     pub fn phase_name(&self) -> &'static str {
         self.phase().map_or("done", Phase::name)
     }
 
+    /// Which loop is playing, of how many: "2/3", "4/∞".
     pub fn loop_label(&self) -> String {
         match self.loops {
             Loops::Count(n) => format!("{}/{n}", self.loop_index),

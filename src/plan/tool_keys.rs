@@ -13,8 +13,9 @@ use std::ops::Range;
 /// What solving a tool key gave, for `check` to report.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ToolKeyReport {
-    /// The key's index in time order, and its name or "#index".
+    /// The key's index in time order.
     pub key: usize,
+    /// The key's name, or "#index".
     pub label: String,
     /// Every joint's value at the key, in joint order.
     pub values: Vec<f64>,
@@ -27,7 +28,9 @@ pub struct ToolKeyReport {
 /// A straight tool line from key `key` to the next.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LineReport {
+    /// Index of the line's first key, in time order.
     pub key: usize,
+    /// That key's name, or "#index".
     pub label: String,
     /// Share of the line that can be followed (1 when all of it).
     pub fraction: f64,
@@ -35,6 +38,7 @@ pub struct LineReport {
     pub problem: Option<String>,
     /// Samples solved along the line (joint order), at `times`.
     pub samples: Vec<Vec<f64>>,
+    /// Sequence time of each sample, seconds.
     pub times: Vec<f64>,
     /// The robot's joints the samples give, in order: all of them on one arm, one arm's in a
     /// cell.
@@ -55,13 +59,15 @@ impl LineReport {
 /// The tool keys and lines of a sequence, solved.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ToolSolve {
+    /// One per tool key, in time order.
     pub keys: Vec<ToolKeyReport>,
+    /// One per straight tool line, in time order.
     pub lines: Vec<LineReport>,
 }
 
 /// The sequence with every tool key's joints solved (borrowed unchanged when it has none), and
 /// what solving found. A target out of reach is an input error naming the key.
-pub fn solve<'a>(
+pub(crate) fn solve<'a>(
     sequence: &'a Sequence,
     robot: &Robot,
 ) -> Result<(Cow<'a, Sequence>, ToolSolve), InputError> {
@@ -336,6 +342,6 @@ fn solve_line_into(
 
 /// The minimum-jerk share of the path at the share `u` of the time: 10u³ − 15u⁴ + 6u⁵, at rest
 /// (zero velocity and acceleration) at both ends.
-pub fn minimum_jerk(u: f64) -> f64 {
+fn minimum_jerk(u: f64) -> f64 {
     u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
 }

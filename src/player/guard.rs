@@ -5,12 +5,17 @@
 
 use crate::robot::Robot;
 
+/// A goal outside its joint's limits, refused before it became ticks.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("refusing to send joint {joint} to {value}: outside its limits {min} … {max} (a bug; nothing was sent)")]
 pub struct LimitBreach {
+    /// The joint's name.
     pub joint: String,
+    /// The goal refused, in the joint's unit.
     pub value: f64,
+    /// The joint's lower limit.
     pub min: f64,
+    /// The joint's upper limit.
     pub max: f64,
 }
 
@@ -21,10 +26,12 @@ pub struct GoalGuard<'a> {
 }
 
 impl<'a> GoalGuard<'a> {
+    /// A guard of `robot`'s limits.
     pub fn new(robot: &'a Robot) -> Self {
         Self { robot }
     }
 
+    /// The (servo id, tick) goals of joint values in joint order.
     pub fn goals(&self, values: &[f64]) -> Result<Vec<(u8, i64)>, LimitBreach> {
         let mut goals = Vec::with_capacity(values.len());
         self.goals_into(values, &mut goals)?;

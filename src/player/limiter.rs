@@ -28,6 +28,7 @@ struct JointLimit {
     max: f64,
 }
 
+/// Saturates each cycle's goals into what the joints' limits allow from the previous ones.
 #[derive(Debug, Clone)]
 pub struct StepLimiter {
     limits: Vec<JointLimit>,
@@ -35,6 +36,7 @@ pub struct StepLimiter {
     last_step: Vec<f64>,
     /// Goals the limiter changed, and the largest change, in joint units.
     pub engaged: u64,
+    /// The largest change made to a goal.
     pub largest_correction: f64,
 }
 
@@ -85,13 +87,6 @@ impl StepLimiter {
         if changed {
             self.engaged += 1;
         }
-    }
-
-    /// The goal is being held where it is (a stop that holds at once): the next step starts
-    /// from rest there.
-    pub fn hold(&mut self, at: &[f64]) {
-        self.last.copy_from_slice(at);
-        self.last_step.iter_mut().for_each(|s| *s = 0.0);
     }
 }
 
@@ -217,7 +212,7 @@ mod tests {
         let at = |k: i32| max - a * f64::from(k * k) / 2.0;
         let mut goal = vec![0.0; 6];
         goal[0] = at(n + 1);
-        limiter.hold(&goal.clone());
+        limiter.last.copy_from_slice(&goal);
         limiter.last_step[0] = at(n + 1) - at(n + 2);
         for k in (0..=n).rev() {
             goal[0] = at(k);

@@ -41,11 +41,17 @@ const IN_FLIGHT: usize = 4096;
 
 /// One cycle of the log.
 pub struct Row<'a> {
+    /// Seconds since playback started.
     pub time: f64,
+    /// What the timeline was doing.
     pub phase: Phase,
+    /// The timeline's sequence time, seconds.
     pub sequence_time: f64,
+    /// The goals written, joint order and units.
     pub commanded: &'a [f64],
+    /// The positions read back this cycle, if any.
     pub measured: Option<&'a [f64]>,
+    /// Seconds the cycle started after its deadline.
     pub lateness: f64,
     /// Seconds the previous goal was held beyond its period, after a stall.
     pub stall: Option<f64>,
@@ -94,6 +100,8 @@ impl Record {
     }
 }
 
+/// The `--log` CSV of a playback, one row per cycle, written by a thread of its own so that the
+/// control loop never waits on the disk; the file appears atomically.
 pub struct PlaybackLog {
     path: String,
     /// `None` once finished.
@@ -104,6 +112,7 @@ pub struct PlaybackLog {
 }
 
 impl PlaybackLog {
+    /// Starts the log at `path` with a header naming `robot`'s joints.
     pub fn create(path: &Path, robot: &Robot) -> Result<Self, PlayError> {
         let label = path.display().to_string();
         let log_error = |source| PlayError::Log {

@@ -24,11 +24,13 @@ mod warnings;
 
 pub use crate::pacing::{Clock, LatenessSummary, Overrun, WallClock, MAX_STALLS_PER_SECOND};
 pub use crate::stop::StopSignal;
-pub use guard::{GoalGuard, LimitBreach};
-pub use limiter::StepLimiter;
+pub(crate) use guard::GoalGuard;
+pub use guard::LimitBreach;
+pub(crate) use limiter::StepLimiter;
 pub use log::{PlaybackLog, Row as LogRow};
 pub use progress::print_progress_line;
-pub use servo_profile::{ProfileGuard, ServoProfileError};
+pub(crate) use servo_profile::ProfileGuard;
+pub use servo_profile::ServoProfileError;
 
 use crate::bus::{joint_prefix, BusError, ServoBus, WriteOffsets};
 use crate::plan::{Loops, Timeline, TimelineOptions, Trajectory};
@@ -41,11 +43,16 @@ pub const RELEASE_WAIT: Duration = Duration::from_secs(3);
 /// The longest a goal may be held beyond its period before the stall is a fault, seconds.
 pub const DEFAULT_MAX_STALL: f64 = 0.25;
 
+/// How to play a trajectory: rate, speed, loops, what to read back and log.
 #[derive(Debug, Clone)]
 pub struct PlayOptions {
+    /// Control rate: goals written per second.
     pub rate_hz: f64,
+    /// Time scale: 0.5 plays at half speed.
     pub speed: f64,
+    /// How many times to play.
     pub loops: Loops,
+    /// Forwards then backwards, each pass a loop, instead of ramping back to the start.
     pub ping_pong: bool,
     /// Keyframe index to start from.
     pub from_key: Option<usize>,
@@ -53,17 +60,21 @@ pub struct PlayOptions {
     pub approach: bool,
     /// The approach ramp's shortest duration, seconds ([`TimelineOptions::shortest_approach`]).
     pub shortest_approach: f64,
+    /// Torque off at the end, once the arm has reached the final pose (within
+    /// [`RELEASE_WAIT`]).
     pub release_at_end: bool,
     /// Read present positions every N cycles (None: never during playback).
     pub readback_every: Option<u32>,
     /// Read temperatures, voltages and alarms every N cycles.
     pub health_every: u32,
+    /// Write a CSV row per cycle to this file (`--log`).
     pub log: Option<PathBuf>,
+    /// Redraw a progress line on stderr.
     pub progress: bool,
     /// A goal held this much longer than one period (seconds) is a fault: brake, then stop.
     pub max_stall: f64,
     /// Write the joints' limits into the servos' own motion profile for the playback, and put
-    /// the previous values back afterwards ([`ProfileGuard`]).
+    /// the previous values back afterwards, however the playback ends.
     pub servo_profile: bool,
     /// This many stalls within one second mean the machine cannot keep up with the rate: brake,
     /// then stop ([`crate::pacing::KeepUp`]). `None`: never judged (tests that stall on
@@ -84,6 +95,8 @@ impl PlayOptions {
         }
     }
 
+    /// The defaults at `rate_hz`: once at full speed, with the approach ramp, a read-back
+    /// every cycle and health four times a second, no log.
     pub fn new(rate_hz: f64) -> Self {
         Self {
             rate_hz,
@@ -105,6 +118,7 @@ impl PlayOptions {
     }
 }
 
+/// How a playback that did not fail ended.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Outcome {
     /// Played to the end.
@@ -115,45 +129,79 @@ pub enum Outcome {
     Held,
 }
 
+/// Why a playback stopped before its end.
 #[derive(Debug, thiserror::Error)]
 pub enum PlayError {
+    /// The bus failed (alarm, failed write, repeated read failures, the port gone).
     #[error("{}{error} (at {at:.3} s)", joint_prefix(joint))]
     Fault {
+        /// The joint whose servo failed; `None` when the error names no servo.
         joint: Option<String>,
+        /// What failed.
         error: BusError,
+        /// Playback time of the failure, seconds.
         at: f64,
     },
+    /// A goal outside its joint's limits was about to be sent (a bug; it was not).
     #[error(transparent)]
     Limit(#[from] LimitBreach),
+    /// A joint measured too far outside its limits to start from.
     #[error("joint {joint} is at {value:.3} {unit}, outside its limits {min} … {max} by more than {slack}: move it inside by hand (torque off) and start again")]
     StartOutsideLimits {
+        /// The joint's name.
         joint: String,
+        /// Where it was measured.
         value: f64,
+        /// Its lower limit.
         min: f64,
+        /// Its upper limit.
         max: f64,
+        /// "deg" or "m".
         unit: &'static str,
+        /// How far outside a start is still accepted ([`JointKind::position_slack`]).
+        ///
+        /// [`JointKind::position_slack`]: crate::robot::JointKind::position_slack
         slack: f64,
     },
+    /// A goal held longer than [`PlayOptions::max_stall`] beyond its period.
     #[error("stalled: the goal was held {:.0} ms beyond its {:.0} ms period (the bound is {:.0} ms); braked to rest along the path and holding, torque on (at {at:.3} s)", held * 1e3, period * 1e3, bound * 1e3)]
     Stall {
+        /// Seconds the goal was held beyond its period.
         held: f64,
+        /// The control period, seconds.
         period: f64,
+        /// The bound it exceeded, seconds.
         bound: f64,
+        /// Playback time, seconds.
         at: f64,
     },
     /// Stalls came too often for the path to come back up to speed between them.
     #[error("cannot keep up with {:.0} Hz: {} stalls within {:.2} s (goals held over 1.5 periods, the longest {:.1} ms beyond its {:.1} ms period), so the sequence would crawl; braked to rest along the path and holding, torque on (at {at:.3} s); {}", overrun.rate_hz, overrun.stalls, overrun.within, overrun.longest_hold * 1e3, 1e3 / overrun.rate_hz, keep_up_advice(overrun))]
-    CannotKeepUp { overrun: Overrun, at: f64 },
+    CannotKeepUp {
+        /// How often and how long the stalls were, and the cycle's own work.
+        overrun: Overrun,
+        /// Playback time, seconds.
+        at: f64,
+    },
     /// A fault on one arm's bus in a cell: nothing more went to that bus, and the other arms
     /// braked to rest along the path.
     /// `fault` is said within the sentence, so it is not the error's `source()` as well.
     #[error("{fault}; nothing more was sent to the {arm} bus, and the other arms braked to rest along the path and hold there, torque on")]
-    Isolated { arm: String, fault: Box<PlayError> },
+    Isolated {
+        /// The arm whose bus failed.
+        arm: String,
+        /// What failed there.
+        fault: Box<PlayError>,
+    },
+    /// `--servo-profile` could not be set up or put back.
     #[error(transparent)]
     ServoProfile(#[from] ServoProfileError),
+    /// The log file could not be written.
     #[error("cannot write log {path}")]
     Log {
+        /// The log's path.
         path: String,
+        /// Why.
         source: std::io::Error,
     },
 }
@@ -189,9 +237,11 @@ fn keep_up_advice(overrun: &Overrun) -> String {
 /// Figures from one playback, for the report and the benchmarks.
 #[derive(Debug, Clone, Default)]
 pub struct Stats {
+    /// Control cycles run, approach included.
     pub cycles: u64,
     /// Lateness, stalls and skipped deadlines.
     pub pacing: LatenessSummary,
+    /// Duration of the approach ramp, seconds.
     pub approach_seconds: f64,
     /// The largest tracking error (measured − commanded), in the units of its joint.
     pub max_tracking_error: f64,
@@ -200,6 +250,7 @@ pub struct Stats {
     /// Goals the step limiter had to change (none in ordinary playback), and by how much at
     /// most, in joint units.
     pub limited_goals: u64,
+    /// The largest change the step limiter made to a goal, in joint units.
     pub largest_limiter_correction: f64,
     /// A cell: how far apart the arms' buses started each cycle's goal write.
     pub write_offsets: Option<WriteOffsets>,
@@ -298,7 +349,7 @@ pub fn play_with_clock(
         (Err(e), Ok(())) => Err(e),
         // The playback's own error is the one to report; the lost profile is said too.
         (Err(e), Err(restore)) => {
-            eprintln!("warning: {restore}");
+            eprintln!("warning: {}", crate::error::Report(&restore));
             Err(e)
         }
     }

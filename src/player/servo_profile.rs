@@ -15,6 +15,8 @@ use crate::servo::Setting;
 /// the ones to write.
 type Values = (Setting, Vec<(u8, i64)>);
 
+/// The servos' profile registers as found before the playback, put back when told to or
+/// dropped.
 pub struct ProfileGuard<'a> {
     bus: &'a mut dyn ServoBus,
     /// What to write back, in the order it was written; empty once restored.
@@ -34,14 +36,19 @@ pub enum ServoProfileError {
          joint's limits; clear the bit or play without --servo-profile; nothing was written"
     )]
     TimeBased {
+        /// The joint's name.
         joint: String,
+        /// Its servo's id.
         servo: u8,
+        /// The Drive_Mode register's value.
         drive_mode: i64,
     },
-    #[error("--servo-profile: {0}")]
+    /// The bus failed while reading or writing the profile (what was written is put back).
+    #[error("--servo-profile")]
     Setup(#[from] BusError),
-    #[error("--servo-profile: the servos' previous profile could not be restored: {0}")]
-    Restore(BusError),
+    /// The bus failed while putting the previous profile back after the playback.
+    #[error("--servo-profile: the servos' previous profile could not be restored")]
+    Restore(#[source] BusError),
 }
 
 impl<'a> ProfileGuard<'a> {
@@ -91,7 +98,8 @@ impl Drop for ProfileGuard<'_> {
     fn drop(&mut self) {
         if !self.saved.is_empty() {
             if let Err(e) = self.restore() {
-                eprintln!("warning: --servo-profile: the servos' previous profile could not be restored: {e}");
+                let error = ServoProfileError::Restore(e);
+                eprintln!("warning: {}", crate::error::Report(&error));
             }
         }
     }
@@ -138,4 +146,31 @@ fn wanted_settings(robot: &Robot) -> Result<Vec<Values>, ProfileError> {
         }
     }
     Ok(grouped)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::Report;
+
+    #[test]
+    fn a_bus_failure_is_said_once_as_the_cause_of_its_layer() {
+        let bus = || BusError::Timeout {
+            id: 3,
+            timeout_ms: 40,
+        };
+        let said = bus().to_string();
+        for (error, own) in [
+            (ServoProfileError::Setup(bus()), "--servo-profile"),
+            (
+                ServoProfileError::Restore(bus()),
+                "--servo-profile: the servos' previous profile could not be restored",
+            ),
+        ] {
+            assert_eq!(error.to_string(), own);
+            let source = std::error::Error::source(&error).map(|s| s.to_string());
+            assert_eq!(source.as_deref(), Some(said.as_str()));
+            assert_eq!(Report(&error).to_string(), format!("{own}: {said}"));
+        }
+    }
 }

@@ -24,7 +24,9 @@ impl PyConfig {
     }
 
     /// The configuration from variables looked up by `get` (the environment, or a test's map).
-    pub fn from_lookup(get: impl Fn(&str) -> Option<OsString>) -> Result<PyConfig, PyEnvError> {
+    pub(crate) fn from_lookup(
+        get: impl Fn(&str) -> Option<OsString>,
+    ) -> Result<PyConfig, PyEnvError> {
         let var = |name: &str| get(name).filter(|value| !value.is_empty());
         let cache_dir = if let Some(dir) = var("KEYPOSE_CACHE") {
             PathBuf::from(dir)
@@ -56,13 +58,13 @@ impl PyConfig {
     }
 
     /// Where keypose's environment for the embedded requirements lives (built or not).
-    pub fn venv_dir(&self) -> PathBuf {
+    pub(crate) fn venv_dir(&self) -> PathBuf {
         self.cache_dir
             .join(format!("venv-{}", env_key(REQUIREMENTS)))
     }
 
     /// Where the embedded scripts are written.
-    pub fn sim_dir(&self) -> PathBuf {
+    pub(crate) fn sim_dir(&self) -> PathBuf {
         self.cache_dir.join("sim")
     }
 }

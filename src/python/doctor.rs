@@ -7,22 +7,17 @@ use super::base_python::find_base_python;
 use super::requirements::pinned_versions;
 use super::venv::env_is_ready;
 use super::{Harness, HarnessOptions, PyConfig};
+use crate::error::Report;
 use serde_json::Value;
 use std::fmt;
 
 /// What `keypose doctor` says about the Python side.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct PythonReport {
+pub(crate) struct PythonReport {
     /// What was found, one fact a line.
     pub lines: Vec<String>,
     /// What is wrong, each with what to do.
     pub problems: Vec<String>,
-}
-
-impl PythonReport {
-    pub fn ok(&self) -> bool {
-        self.problems.is_empty()
-    }
 }
 
 impl fmt::Display for PythonReport {
@@ -49,19 +44,19 @@ pub fn doctor_report() -> String {
 
 /// The Python side as found from the process's variables. With `build`, keypose's environment
 /// is built when missing; without, the report only says it is missing.
-pub fn python_report(build: bool) -> PythonReport {
+pub(crate) fn python_report(build: bool) -> PythonReport {
     match PyConfig::from_env() {
         Ok(config) => python_report_for(&config, build),
         Err(error) => PythonReport {
             lines: Vec::new(),
-            problems: vec![error.to_string()],
+            problems: vec![Report(&error).to_string()],
         },
     }
 }
 
 /// The Python side of `config`, started for real (the SDK bridge's and the dataset reader's
 /// ready lines) when possible.
-pub fn python_report_for(config: &PyConfig, build: bool) -> PythonReport {
+pub(crate) fn python_report_for(config: &PyConfig, build: bool) -> PythonReport {
     let mut report = PythonReport::default();
     report
         .lines
@@ -86,12 +81,12 @@ pub fn python_report_for(config: &PyConfig, build: bool) -> PythonReport {
             for script in ["sdk_bridge.py", "dataset_reader.py"] {
                 match Harness::start_in(config, script, HarnessOptions::default()) {
                     Ok(harness) => describe_ready(&mut report, harness.script(), harness.ready()),
-                    Err(error) => report.problems.push(error.to_string()),
+                    Err(error) => report.problems.push(Report(&error).to_string()),
                 }
             }
         }
         Ok(None) => {}
-        Err(error) => report.problems.push(error.to_string()),
+        Err(error) => report.problems.push(Report(&error).to_string()),
     }
     report
 }
@@ -119,7 +114,7 @@ fn describe_own_environment(report: &mut PythonReport, config: &PyConfig, build:
             "base interpreter: {} (Python {})",
             base.executable, base.version
         )),
-        Err(error) => report.problems.push(error.to_string()),
+        Err(error) => report.problems.push(Report(&error).to_string()),
     }
 }
 

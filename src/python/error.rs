@@ -7,14 +7,17 @@ use crate::terminal_text::quoted_lines;
 use std::io;
 use std::path::{Path, PathBuf};
 
+/// Why keypose's Python side cannot be found or built.
 #[derive(Debug, thiserror::Error)]
 pub enum PyEnvError {
+    /// No cache directory to build the environment in.
     #[error(
         "no cache directory for keypose's Python environment: set KEYPOSE_CACHE (or \
          XDG_CACHE_HOME or HOME), or set KEYPOSE_PYTHON to an interpreter that has the \
          packages of sim/requirements.txt"
     )]
     NoCacheDir,
+    /// `KEYPOSE_PYTHON` names no file (the value given).
     #[error(
         "KEYPOSE_PYTHON={0} is not an existing file: point it at a Python {min}+ interpreter \
          that has the packages of sim/requirements.txt, or unset it to let keypose build its \
@@ -22,27 +25,48 @@ pub enum PyEnvError {
         min = min_python()
     )]
     OverrideMissing(String),
+    /// No base interpreter to build the environment with.
     #[error(
         "python3 not found (tried {tried}): install Python {min}+ with its venv module \
          (Debian/Ubuntu: apt install python3 python3-venv), or set KEYPOSE_PYTHON to an \
          interpreter that has the packages of sim/requirements.txt",
         min = min_python()
     )]
-    PythonNotFound { tried: String },
+    PythonNotFound {
+        /// The interpreters tried, as a list for the message.
+        tried: String,
+    },
+    /// The base interpreter is older than [`super::MIN_PYTHON`].
     #[error(
         "{python} is Python {version}, keypose needs {min}+: install a newer Python, or set \
          KEYPOSE_PYTHON to one that has the packages of sim/requirements.txt",
         min = min_python()
     )]
-    PythonTooOld { python: String, version: String },
+    PythonTooOld {
+        /// The interpreter.
+        python: String,
+        /// Its version, as it says it.
+        version: String,
+    },
+    /// The interpreter cannot be run, or does not say its version.
     #[error("{python} does not work: {detail}")]
-    PythonBroken { python: String, detail: String },
-    #[error("{action} {path}: {source}")]
+    PythonBroken {
+        /// The interpreter.
+        python: String,
+        /// What went wrong.
+        detail: String,
+    },
+    /// A file or directory of the environment cannot be made, written or moved.
+    #[error("{action} {path}")]
     Io {
+        /// What was being done ("creating", "writing", …).
         action: &'static str,
+        /// To which file or directory.
         path: PathBuf,
+        /// What the system said.
         source: io::Error,
     },
+    /// `python -m venv` failed.
     #[error(
         "creating a virtual environment with `{python} -m venv` failed ({status}); on \
          Debian/Ubuntu install python3-venv, or set KEYPOSE_PYTHON to an interpreter that has \
@@ -50,10 +74,14 @@ pub enum PyEnvError {
         quoted_lines(tail.lines())
     )]
     Venv {
+        /// The base interpreter.
         python: String,
+        /// How it exited.
         status: String,
+        /// Its last lines of output.
         tail: String,
     },
+    /// pip could not install the pinned packages.
     #[error(
         "installing the Python packages of sim/requirements.txt into {venv} failed ({status}); \
          check access to PyPI (pip honours PIP_INDEX_URL and its config files), or set \
@@ -61,12 +89,21 @@ pub enum PyEnvError {
         quoted_lines(tail.lines())
     )]
     Pip {
+        /// The environment being built.
         venv: PathBuf,
+        /// How pip exited.
         status: String,
+        /// pip's last lines of output.
         tail: String,
     },
+    /// A script name that is not among the embedded scripts (a bug of the caller).
     #[error("no harness script named {name:?} is built into keypose (known: {known})")]
-    UnknownScript { name: String, known: String },
+    UnknownScript {
+        /// The name asked for.
+        name: String,
+        /// The embedded scripts' names, as a list.
+        known: String,
+    },
 }
 
 fn min_python() -> String {

@@ -70,7 +70,7 @@ impl fmt::Debug for Harness {
 
 impl Harness {
     /// Starts an embedded script with the environment from the process's variables.
-    pub fn start(name: &str) -> Result<Harness, HarnessError> {
+    pub(crate) fn start(name: &str) -> Result<Harness, HarnessError> {
         Harness::start_in(&PyConfig::from_env()?, name, HarnessOptions::default())
     }
 
@@ -183,20 +183,17 @@ impl Harness {
     }
 
     /// The script's file name, for messages.
-    pub fn script(&self) -> &str {
+    pub(crate) fn script(&self) -> &str {
         &self.script
     }
 
-    pub fn request_timeout(&self) -> Duration {
-        self.request_timeout
-    }
-
+    /// How long each request waits for its reply from now on.
     pub fn set_request_timeout(&mut self, timeout: Duration) {
         self.request_timeout = timeout;
     }
 
     /// The last lines the script wrote to its stderr.
-    pub fn stderr_tail(&self) -> Vec<String> {
+    pub(crate) fn stderr_tail(&self) -> Vec<String> {
         pipes::tail_lines(&self.stderr)
     }
 

@@ -35,11 +35,10 @@ mod venv;
 
 pub use base_python::MIN_PYTHON;
 pub use config::PyConfig;
-pub use doctor::{doctor_report, python_report, python_report_for, PythonReport};
+pub use doctor::doctor_report;
 use error::io_error;
 pub use error::PyEnvError;
 pub use harness::{Harness, HarnessOptions};
 pub use harness_error::{HarnessError, NotReady};
 pub use requirements::{env_key, pinned_versions, REQUIREMENTS};
-pub use scripts::{script_names, script_path};
-pub use venv::{python_for_harness, PythonEnv};
+pub use venv::PythonEnv;

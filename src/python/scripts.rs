@@ -34,14 +34,8 @@ const SUPPORT: &[(&str, &str)] = &[
 ];
 
 /// The file names of the embedded harness scripts.
-pub fn script_names() -> Vec<&'static str> {
+pub(crate) fn script_names() -> Vec<&'static str> {
     SCRIPTS.iter().map(|(name, _)| *name).collect()
-}
-
-/// The path of an embedded harness script, written to the cache directory if it is not there
-/// with the embedded content.
-pub fn script_path(name: &str) -> Result<PathBuf, PyEnvError> {
-    PyConfig::from_env()?.script_path(name)
 }
 
 impl PyConfig {
@@ -63,7 +57,7 @@ impl PyConfig {
     }
 
     /// The embedded requirements written out, for a `pip install -r` by hand.
-    pub fn requirements_path(&self) -> Result<PathBuf, PyEnvError> {
+    pub(crate) fn requirements_path(&self) -> Result<PathBuf, PyEnvError> {
         self.write_embedded("requirements.txt", REQUIREMENTS)
     }
 

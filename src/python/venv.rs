@@ -24,16 +24,12 @@ const STALE_BUILD: Duration = Duration::from_secs(6 * 3600);
 /// An interpreter ready to run the harness scripts.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PythonEnv {
+    /// The interpreter's executable.
     pub python: PathBuf,
     /// keypose's own virtual environment; `None` when `KEYPOSE_PYTHON` is used.
     pub venv: Option<PathBuf>,
     /// Whether this call ran pip to build the environment.
     pub created: bool,
-}
-
-/// The interpreter for the harness scripts, building keypose's environment first if needed.
-pub fn python_for_harness() -> Result<PathBuf, PyEnvError> {
-    Ok(PyConfig::from_env()?.ensure_python()?.python)
 }
 
 /// Serialises environment builds inside one process; other processes are handled by building

@@ -25,11 +25,17 @@ pub struct Arm {
 /// Why arms cannot make a cell.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum CellError {
+    /// Two arms by one name (the name it is).
     #[error("arm {0:?} is named twice; expected each arm once")]
     DuplicateArm(String),
     /// The cell addresses its joints as servos 1 … N (see [`Robot::cell`]).
     #[error("the arms have {found} joints together; expected at most {max}")]
-    TooManyJoints { found: usize, max: usize },
+    TooManyJoints {
+        /// The arms' joints together.
+        found: usize,
+        /// [`MAX_CELL_JOINTS`].
+        max: usize,
+    },
 }
 
 /// Most joints a cell may have: the cell numbers its joints as the ids of one bus.

@@ -75,31 +75,43 @@ fn calibrated_range(
 /// A joint whose calibration gives another servo id than the robot.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct IdMismatch {
+    /// The joint's name.
     pub joint: String,
+    /// The id the calibration gives its motor.
     pub calibration_id: u8,
+    /// The id the robot gives its servo.
     pub robot_id: u8,
 }
 
 /// A calibration that does not fit the robot as a whole.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum CalibrationMismatch {
+    /// LeRobot's old format, top-level arrays instead of an object per motor.
     #[error(
         "LeRobot's old calibration format (top-level arrays {}); keypose reads the current one, \
          an object per motor with id, drive_mode, homing_offset, range_min and range_max: \
          recalibrate the arm with current LeRobot (lerobot-calibrate)",
         fields.join(", ")
     )]
-    OldFormat { fields: Vec<String> },
+    OldFormat {
+        /// The old format's top-level arrays found.
+        fields: Vec<String>,
+    },
+    /// Joints of the robot the calibration has no entry for.
     #[error(
         "the calibration does not name joint(s) {} of {robot}: expected an entry for every joint ({})",
         missing.join(", "),
         expected.join(", ")
     )]
     MissingJoints {
+        /// The robot's name.
         robot: String,
+        /// The joints without an entry.
         missing: Vec<String>,
+        /// Every joint of the robot.
         expected: Vec<String>,
     },
+    /// Servo ids that differ between the calibration and the robot.
     #[error(
         "servo ids differ from {robot}'s: {}; a calibration is for the arm it was made on",
         mismatches
@@ -109,7 +121,9 @@ pub enum CalibrationMismatch {
             .join("; ")
     )]
     Ids {
+        /// The robot's name.
         robot: String,
+        /// Every joint whose ids differ.
         mismatches: Vec<IdMismatch>,
     },
 }
@@ -123,10 +137,15 @@ pub enum CalibrationMismatch {
      within that turn"
 )]
 pub struct OutsideTheTurn {
+    /// The joint's name.
     pub joint: String,
+    /// The robot's lower limit, in the joint's unit.
     pub min: f64,
+    /// The robot's upper limit.
     pub max: f64,
+    /// The tick the lower limit lands on with the calibrated zero.
     pub low_tick: f64,
+    /// The tick the upper limit lands on.
     pub high_tick: f64,
 }
 
@@ -134,6 +153,7 @@ pub struct OutsideTheTurn {
 /// limits came from.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CalibrationReport {
+    /// The joints the calibration was applied to, in joint order.
     pub calibrated: Vec<String>,
 }
 

@@ -41,13 +41,19 @@ fn types() -> impl Iterator<Item = (&'static BuiltinRobot, &'static LeRobotType)
 /// A LeRobot type whose arm keypose has not built in.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum NotBuiltIn {
+    /// LeRobot's OMX, ROBOTIS's 6-servo arm, which is not the built-in OpenMANIPULATOR-X.
     #[error(
         "{name:?} is LeRobot's OMX {role}, ROBOTIS's 6-servo OMX arm (IDs 11-16), not the \
          OpenMANIPULATOR-X that keypose's built-in \"omx\" describes (docs/robots.md §3); it is not \
          built in: describe it in a robot file (docs/formats.md, \"Robot: keypose-robot/1\") and give its \
          path, e.g. --robot ./omx_lerobot.json"
     )]
-    Omx { name: String, role: &'static str },
+    Omx {
+        /// The type name given.
+        name: String,
+        /// "follower" or "leader".
+        role: &'static str,
+    },
     /// Since the SO classes were merged (S6 d791a431f) LeRobot records a dataset's robot_type as
     /// the class name, `so_follower`, for the SO-100 and the SO-101 alike: which arm it was is
     /// not written down, and their kinematics differ.
@@ -55,7 +61,12 @@ pub enum NotBuiltIn {
         "{name:?} is LeRobot's {role} class of both the SO-100 and the SO-101, which differ in \
          their kinematics; it does not say which arm: give --robot so101 or --robot so100"
     )]
-    SoClass { name: String, role: &'static str },
+    SoClass {
+        /// The type name given.
+        name: String,
+        /// "follower" or "leader".
+        role: &'static str,
+    },
 }
 
 /// The LeRobot type names that resolve to a built-in, for messages.
@@ -90,12 +101,6 @@ pub fn lerobot_type(
     }
 }
 
-/// The follower type of a built-in, for a robot named the keypose way; None for a built-in
-/// LeRobot has no driver for (the OpenMANIPULATOR-X).
-pub fn follower_type_of(builtin: &str) -> Option<&'static LeRobotType> {
-    super::builtin::find(builtin)?.follower()
-}
-
 /// The environment variables that decide LeRobot's calibration root, in the order LeRobot
 /// consults them (S6 `utils/constants.py`; `HF_HOME` from `huggingface_hub.constants`).
 pub const CALIBRATION_ENV_VARS: [&str; 5] = [
@@ -109,6 +114,7 @@ pub const CALIBRATION_ENV_VARS: [&str; 5] = [
 /// LeRobot's calibration root and the variable that decided it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct CalibrationRoot {
+    /// The directory under which LeRobot keeps calibrations.
     pub dir: PathBuf,
     /// The first of [`CALIBRATION_ENV_VARS`] that was set.
     pub decided_by: &'static str,
@@ -165,6 +171,7 @@ fn expand_user(value: OsString, home: Option<&PathBuf>) -> PathBuf {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("robot id {id:?}: expected the name given to LeRobot as --robot.id (or --teleop.id): not empty, without '/', and not \".\" or \"..\"")]
 pub struct BadRobotId {
+    /// The id given.
     pub id: String,
 }
 
@@ -246,6 +253,11 @@ mod tests {
         for id in ["", "..", "a/b"] {
             assert!(calibration_candidates(&root, koch, id).is_err(), "{id:?}");
         }
+    }
+
+    /// The follower type of a built-in; None for a built-in LeRobot has no driver for.
+    fn follower_type_of(builtin: &str) -> Option<&'static LeRobotType> {
+        super::super::builtin::find(builtin)?.follower()
     }
 
     #[test]

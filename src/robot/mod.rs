@@ -1,13 +1,19 @@
 //! Robot descriptions: the joint chain, limits, servo mapping and forward kinematics.
+//!
+//! A [`Robot`] is read from a robot file ([`Robot::load`], keypose-robot/1), taken from the
+//! built-ins ([`Robot::builtin`], [`BUILTINS`]) or resolved from what the user typed
+//! ([`Robot::resolve`]: a built-in, a LeRobot type name, or a path). A LeRobot calibration
+//! moves its servo mapping and limits onto one physical arm ([`import_lerobot_calibration`]);
+//! several arms make one cell ([`Robot::cell`]), its joints named `ARM/JOINT`.
 
-pub mod builtin;
-pub mod cell;
+pub(crate) mod builtin;
+mod cell;
 mod gravity;
 mod lerobot;
-pub mod lerobot_names;
+mod lerobot_names;
 mod load;
-pub mod profile;
-pub mod servo;
+pub(crate) mod profile;
+mod servo;
 
 use crate::json::InputError;
 use crate::pose::RigidTransform;
@@ -17,15 +23,21 @@ use std::path::{Path, PathBuf};
 
 pub use crate::servo::Protocol;
 pub use builtin::{BuiltinRobot, BUILTINS, BUILTIN_NAMES};
-pub use cell::{cell_joint_name, split_joint_name, Arm, CellError};
+pub use cell::{cell_joint_name, split_joint_name, Arm, CellError, MAX_CELL_JOINTS};
 pub use lerobot::{
     import_lerobot_calibration, CalibrationMismatch, CalibrationReport, IdMismatch, OutsideTheTurn,
 };
-pub use lerobot_names::{LeRobotRole, LeRobotType, NotBuiltIn};
+pub use lerobot_names::{
+    calibration_candidates, calibration_root, BadRobotId, CalibrationRoot, LeRobotRole,
+    LeRobotType, NoCalibrationRoot, NotBuiltIn, CALIBRATION_ENV_VARS,
+};
+pub use profile::ProfileError;
 pub use servo::{PositionEncoding, Servo, ServoModel, TickError, Vendor};
 
+/// The `format` a robot file declares.
 pub const ROBOT_FORMAT: &str = "keypose-robot/1";
 
+/// How a joint moves: it turns about its axis or slides along it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum JointKind {
     /// Values in degrees.
@@ -35,6 +47,7 @@ pub enum JointKind {
 }
 
 impl JointKind {
+    /// The unit of its values in messages and files: "deg" or "m".
     pub fn unit(self) -> &'static str {
         match self {
             JointKind::Revolute => "deg",
@@ -59,13 +72,18 @@ impl JointKind {
 /// Limits in the joint's unit (degrees or metres) and per second.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Limits {
+    /// Lowest position.
     pub min: f64,
+    /// Highest position.
     pub max: f64,
+    /// Highest speed, per second.
     pub velocity: f64,
+    /// Highest acceleration, per second squared.
     pub acceleration: f64,
 }
 
 impl Limits {
+    /// Whether `value` is within `min` … `max`, both included.
     pub fn contains(&self, value: f64) -> bool {
         value >= self.min && value <= self.max
     }
@@ -78,10 +96,16 @@ pub enum LimitsOrigin {
     Robot,
     /// The range a LeRobot calibration recorded for the joint, which replaces the robot's
     /// limits (src/robot/lerobot.rs).
-    RecordedRange { file: String },
+    RecordedRange {
+        /// The calibration file.
+        file: String,
+    },
     /// The robot's limits moved into a LeRobot calibration's frame, for a joint it recorded no
     /// range for (a whole-turn joint), kept within that turn.
-    Rebased { file: String },
+    Rebased {
+        /// The calibration file.
+        file: String,
+    },
 }
 
 impl LimitsOrigin {
@@ -101,16 +125,22 @@ impl LimitsOrigin {
     }
 }
 
+/// One joint of the chain: how it moves, where it sits, its limits and its servo.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Joint {
+    /// Unique within the robot (`ARM/JOINT` in a cell).
     pub name: String,
+    /// Revolute (degrees) or prismatic (metres).
     pub kind: JointKind,
     /// Unit axis in the joint's own frame.
     pub axis: DVec3,
     /// Pose of the joint frame in its parent's frame (the previous joint's moving frame).
     pub origin: RigidTransform,
+    /// Position, velocity and acceleration limits, in the joint's unit.
     pub limits: Limits,
+    /// What set the position limits: the robot, or a calibration.
     pub limits_origin: LimitsOrigin,
+    /// The servo that drives it, and how its ticks map to joint values.
     pub servo: Servo,
     /// The range a LeRobot calibration recorded, in the joint's unit; None without one.
     pub calibrated_range: Option<CalibratedRange>,
@@ -122,7 +152,9 @@ pub struct Joint {
 /// Feetech only): keeping the two ends rather than low and high carries that mirroring.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CalibratedRange {
+    /// The joint value at 0 %.
     pub at_0: f64,
+    /// The joint value at 100 %.
     pub at_100: f64,
 }
 
@@ -190,12 +222,16 @@ impl Joint {
 pub struct FixedFrame {
     /// Index of the joint whose moving frame carries this frame.
     pub parent: usize,
+    /// Its pose in that moving frame.
     pub origin: RigidTransform,
 }
 
+/// How the robot's servos are spoken to.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BusSettings {
+    /// The wire protocol every servo of the robot speaks.
     pub protocol: Protocol,
+    /// Bits per second.
     pub baud: u32,
 }
 
@@ -224,16 +260,20 @@ impl fmt::Display for RobotSource {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("unknown robot {spec:?}: expected a built-in robot ({}), a LeRobot robot type ({}) or a robot file given as a path (containing a '/' or ending in .json, e.g. ./{spec})", BUILTIN_NAMES.join(", "), lerobot_names::builtin_type_names().join(", "))]
 pub struct UnknownRobot {
+    /// What was given.
     pub spec: String,
 }
 
 /// Why a robot could not be resolved.
 #[derive(Debug, thiserror::Error)]
 pub enum ResolveError {
+    /// No built-in, LeRobot type or file by that name.
     #[error(transparent)]
     Unknown(#[from] UnknownRobot),
+    /// A LeRobot type whose arm keypose has not built in.
     #[error(transparent)]
     NotBuiltIn(#[from] NotBuiltIn),
+    /// The robot file could not be read or is not a valid description.
     #[error(transparent)]
     Input(#[from] InputError),
 }
@@ -245,17 +285,22 @@ pub fn names_a_file(spec: &str) -> bool {
     spec.contains('/') || spec.ends_with(".json")
 }
 
+/// An arm (or a cell of arms): its joint chain, limits, servos, bus and home pose.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Robot {
+    /// The built-in's name or the robot file's `name`; sequences name their robot by it.
     pub name: String,
     /// The built-in or the file this description was read from.
     pub source: RobotSource,
+    /// One line saying what arm it is, for people.
     pub description: String,
+    /// Protocol and baud rate of its servos.
     pub bus: BusSettings,
     /// Default streaming rate of the player, Hz.
     pub control_hz: f64,
     /// In chain order: each joint's parent frame is the previous joint's moving frame.
     pub joints: Vec<Joint>,
+    /// The tool centre point, when the description defines one.
     pub tcp: Option<FixedFrame>,
     /// Home value of every joint, in joint order.
     pub home: Vec<f64>,
@@ -284,7 +329,9 @@ impl Robot {
     }
 
     /// A robot given as a built-in name, a LeRobot type name for a built-in
-    /// ([`lerobot_names::lerobot_type`]) or a path to a robot file ([`names_a_file`]); a relative path is taken relative to `base` when given (a sequence's directory).
+    /// ([`LeRobotType`]: the built-in, marked as that type) or a path to a robot file
+    /// ([`names_a_file`]); a relative path is taken relative to `base` when given (a sequence's
+    /// directory).
     pub fn resolve(spec: &str, base: Option<&Path>) -> Result<Robot, ResolveError> {
         if names_a_file(spec) {
             let path = match base {
@@ -306,6 +353,7 @@ impl Robot {
         Ok(robot)
     }
 
+    /// The index of joint `name` in joint order.
     pub fn joint_index(&self, name: &str) -> Option<usize> {
         self.joints.iter().position(|j| j.name == name)
     }
@@ -355,6 +403,7 @@ impl Robot {
             .map(|j| j.name.as_str())
     }
 
+    /// Every joint's name, in joint order.
     pub fn joint_names(&self) -> Vec<&str> {
         self.joints.iter().map(|j| j.name.as_str()).collect()
     }

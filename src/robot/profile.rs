@@ -12,14 +12,21 @@
 use super::Joint;
 use crate::servo::{Limit, ProfileRegister, Setting};
 
+/// A joint limit below one unit of the servo's profile register: it cannot be expressed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("--servo-profile: joint {joint}'s {what} limit {limit} {unit} is below one unit of the servo's {register} ({unit_value:.3} {unit}); nothing was written")]
 pub struct ProfileError {
+    /// The joint's name.
     pub joint: String,
+    /// Which limit: "acceleration" or "velocity".
     pub what: &'static str,
+    /// The register's name in the control table.
     pub register: &'static str,
+    /// The joint's limit, in `unit`.
     pub limit: f64,
+    /// What one unit of the register is, in `unit`.
     pub unit_value: f64,
+    /// The limit's unit ("deg/s²", "m/s", …).
     pub unit: String,
 }
 

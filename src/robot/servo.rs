@@ -8,9 +8,12 @@
 
 pub use crate::servo::{PositionEncoding, ServoModel, TickError, Vendor};
 
+/// A joint's servo: which one on the bus, what model, and how its ticks map to joint values.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Servo {
+    /// Its id on the bus.
     pub id: u8,
+    /// Its model, which gives its control table and units.
     pub model: ServoModel,
     /// Tick at joint value 0. Fractional when it comes from a calibration range midpoint.
     pub zero_tick: f64,

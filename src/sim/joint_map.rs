@@ -19,6 +19,7 @@ const SHIPPED: [(&str, &str); 2] = [
     ),
 ];
 
+/// The `format` a joint map file declares.
 pub const FORMAT: &str = "keypose-joint-map/1";
 
 /// Robot joint → model joint.
@@ -30,7 +31,9 @@ pub struct JointMap {
 /// A model file and the map of its joint names.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MjcfModel {
+    /// The MJCF file.
     pub path: PathBuf,
+    /// Which of its joints plays which robot joint.
     pub joint_map: JointMap,
 }
 

@@ -6,9 +6,10 @@
 //! scene of every arm's model at its base, its joints named `ARM/JOINT` as the cell's are, so
 //! that everything here treats it as one robot.
 
-pub mod joint_map;
+mod joint_map;
 mod models;
 pub mod verdict;
+mod wire;
 
 pub use joint_map::{JointMap, MjcfModel};
 pub use models::{builtin_model, check_mjcf_file, model_path};
@@ -17,23 +18,40 @@ use crate::plan::Trajectory;
 use crate::plan::{Phase, Timeline, TimelineOptions};
 use crate::python::{Harness, HarnessError, HarnessOptions, PyConfig, PyEnvError};
 use crate::robot::{JointKind, Robot};
-use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 use verdict::{Contact, ContactKind, Trace};
+use wire::{ContactKindReply, ContactReply, Load, ProfileLimits, RefusalKind, Request, SceneArm};
 
+/// The harness script's file name among keypose's embedded Python scripts.
 pub const HARNESS_SCRIPT: &str = "sim_harness.py";
 
+/// Why a simulation could not be started, run or rendered.
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
+    /// The Python environment could not be found or built.
     #[error(transparent)]
     Env(#[from] PyEnvError),
+    /// The harness process failed, timed out or refused a request.
     #[error(transparent)]
     Harness(#[from] HarnessError),
+    /// A model MuJoCo refuses, or that does not fit the robot (bad input).
     #[error("model {model}: {message}")]
-    Model { model: String, message: String },
-    #[error("the simulation's reply is not what the protocol says: {0}")]
-    Reply(String),
+    Model {
+        /// The model's path, or the robot's name when keypose has no model of it.
+        model: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A reply that lacks a member sim/PROTOCOL.md promises, or whose shape is wrong.
+    #[error("the simulation's reply to {op} is not what the protocol says: {detail}")]
+    Reply {
+        /// The request's `op`.
+        op: &'static str,
+        /// What is missing or wrong.
+        detail: String,
+    },
+    /// No GL context could be made (each backend's failure, `; `-separated).
     #[error("rendering failed with both EGL and OSMesa: {0}")]
     Render(String),
 }
@@ -50,19 +68,13 @@ impl SimError {
 }
 
 /// A model MuJoCo cannot load is bad input (exit 2), not a failure of the simulation.
-fn model_error(error: SimError, model: &str) -> SimError {
-    match &error {
-        SimError::Harness(e) if e.reply().is_some_and(|r| r["kind"] == "model") => {
-            SimError::Model {
-                model: model.to_string(),
-                message: e
-                    .reply()
-                    .and_then(|r| r["error"].as_str())
-                    .unwrap_or("does not load")
-                    .to_string(),
-            }
-        }
-        _ => error,
+fn model_error(error: HarnessError, model: &str) -> SimError {
+    match wire::refusal(&error) {
+        Some(refusal) if refusal.kind == RefusalKind::Model => SimError::Model {
+            model: model.to_string(),
+            message: refusal.error.unwrap_or_else(|| "does not load".to_string()),
+        },
+        _ => SimError::Harness(error),
     }
 }
 
@@ -73,14 +85,19 @@ fn load_request(
     config: &PyConfig,
     robot: &Robot,
     mjcf: Option<&MjcfModel>,
-) -> Result<(Value, String), SimError> {
+) -> Result<(Load, String), SimError> {
     if !robot.is_cell() {
         let path: PathBuf = match mjcf {
             Some(m) => m.path.clone(),
             None => model_path(config, &robot.name)?,
         };
         let model = path.display().to_string();
-        return Ok((json!({ "op": "load", "mjcf": model }), model));
+        return Ok((
+            Load::Model {
+                mjcf: model.clone(),
+            },
+            model,
+        ));
     }
     if let Some(m) = mjcf {
         return Err(SimError::Model {
@@ -95,7 +112,7 @@ fn load_request(
 }
 
 /// The `load` request of a cell's scene and its name in reports: `ARM=MODEL, …`.
-fn cell_load_request(config: &PyConfig, robot: &Robot) -> Result<(Value, String), SimError> {
+fn cell_load_request(config: &PyConfig, robot: &Robot) -> Result<(Load, String), SimError> {
     let mut arms = Vec::with_capacity(robot.arms.len());
     let mut names = Vec::with_capacity(robot.arms.len());
     for arm in &robot.arms {
@@ -110,30 +127,33 @@ fn cell_load_request(config: &PyConfig, robot: &Robot) -> Result<(Value, String)
             e => e,
         })?;
         let r = arm.base.r;
-        arms.push(json!({
-            "name": arm.name,
-            "mjcf": path.display().to_string(),
-            "pos": arm.base.t.to_array(),
+        arms.push(SceneArm {
+            name: arm.name.clone(),
+            mjcf: path.display().to_string(),
+            pos: arm.base.t.to_array(),
             // MuJoCo's order: w first.
-            "quat": [r.w, r.x, r.y, r.z],
-        }));
+            quat: [r.w, r.x, r.y, r.z],
+        });
         names.push(format!("{}={}", arm.name, path.display()));
     }
-    Ok((json!({ "op": "load", "arms": arms }), names.join(", ")))
+    Ok((Load::Cell { arms }, names.join(", ")))
 }
 
 /// What the player would send, cycle by cycle, in joint units.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CommandStream {
+    /// Control rate, Hz: one row per period.
     pub rate: f64,
     /// The pose the arm rests in before the first cycle.
     pub initial: Vec<f64>,
+    /// The pose commanded in each cycle, in joint order.
     pub rows: Vec<Vec<f64>>,
     /// Sequence time of each row; `None` during ramps.
     pub sequence_time: Vec<Option<f64>>,
     /// The timeline's own sequence time of each row (during a ramp, where the ramp leads), as
     /// the player logs it.
     pub timeline_time: Vec<f64>,
+    /// What the timeline was doing in each row.
     pub phase: Vec<Phase>,
     /// Which loop each row belongs to, as the player's progress line shows it ("2/3").
     pub loop_label: Vec<String>,
@@ -246,9 +266,10 @@ pub struct Simulation {
     model: String,
     joints: Vec<String>,
     force_limits: Vec<Option<f64>>,
+    /// Seconds of physics per MuJoCo step, the model's.
     pub timestep: f64,
     /// The servos' own profile to model (`--servo-profile`): the "profile" of every run.
-    servo_profile: Option<Value>,
+    servo_profile: Option<ProfileLimits>,
 }
 
 impl Simulation {
@@ -284,12 +305,13 @@ impl Simulation {
             timestep: 0.0,
             servo_profile: None,
         };
-        let reply = sim.request(&load).map_err(|e| model_error(e, &model))?;
-        sim.timestep = reply["timestep"].as_f64().unwrap_or(0.002);
-        let model_joints: Vec<&str> = reply["joints"]
-            .as_array()
-            .map(|a| a.iter().filter_map(|j| j["name"].as_str()).collect())
-            .unwrap_or_default();
+        let reply = sim
+            .harness
+            .request(&Request::Load(load))
+            .map_err(|e| model_error(e, &model))?;
+        let reply: wire::LoadReply = wire::parse(reply, "load")?;
+        sim.timestep = reply.timestep;
+        let model_joints: Vec<&str> = reply.joints.iter().map(|j| j.name.as_str()).collect();
         let missing: Vec<&str> = sim
             .joints
             .iter()
@@ -307,35 +329,30 @@ impl Simulation {
                 ),
             });
         }
-        let actuators = reply["actuators"].as_array().cloned().unwrap_or_default();
         sim.force_limits = sim
             .joints
             .iter()
             .map(|joint| {
-                let a = actuators.iter().find(|a| a["joint"] == joint.as_str())?;
-                if a["forcelimited"].as_bool() != Some(true) {
-                    return None;
-                }
-                let range = a["forcerange"].as_array()?;
-                let high = range.get(1)?.as_f64()?;
-                let low = range.first()?.as_f64()?;
-                Some(high.abs().min(low.abs()))
+                let a = reply
+                    .actuators
+                    .iter()
+                    .find(|a| a.joint.as_deref() == Some(joint.as_str()))?;
+                let [low, high] = a.forcerange;
+                a.forcelimited.then(|| high.abs().min(low.abs()))
             })
             .collect();
         Ok(sim)
     }
 
+    /// The model's name in reports: its path, or for a cell `ARM=PATH, …`.
     pub fn model(&self) -> &str {
         &self.model
     }
 
-    /// Models the servos' own profile from now on, as `play --servo-profile` sets it
-    /// ([`crate::robot::profile::applied_limits`]): each servo follows its goal within these
-    /// acceleration and velocity limits.
-    pub fn model_servo_profile(
-        &mut self,
-        robot: &Robot,
-    ) -> Result<(), crate::robot::profile::ProfileError> {
+    /// Models the servos' own profile from now on, as `play --servo-profile` sets it (each
+    /// joint's limits in its servo's register units, rounded down): each servo follows its goal
+    /// within these acceleration and velocity limits.
+    pub fn model_servo_profile(&mut self, robot: &Robot) -> Result<(), crate::robot::ProfileError> {
         let limits = robot
             .joints
             .iter()
@@ -348,19 +365,11 @@ impl Simulation {
             .zip(&robot.joints)
             .map(|((_, v), joint)| v.map(|v| to_model_one(joint, v)))
             .collect();
-        self.servo_profile = Some(json!({
-            "acceleration": to_model(robot, &accelerations),
-            "velocity": velocities,
-        }));
+        self.servo_profile = Some(ProfileLimits {
+            acceleration: to_model(robot, &accelerations),
+            velocity: velocities,
+        });
         Ok(())
-    }
-
-    pub fn harness(&self) -> &Harness {
-        &self.harness
-    }
-
-    fn request(&mut self, request: &Value) -> Result<Value, SimError> {
-        Ok(self.harness.request(request)?)
     }
 
     /// Runs rows of `stream`, continuing from the current state unless `reset`. Times in the
@@ -376,71 +385,38 @@ impl Simulation {
             .iter()
             .map(|r| to_model(robot, r))
             .collect();
-        let mut request = json!({
-            "op": "run",
-            "joints": self.joints,
-            "control_hz": stream.rate,
-            "initial": to_model(robot, &stream.initial),
-            "reset": reset,
-            "commands": commands,
-        });
-        if let Some(profile) = &self.servo_profile {
-            request["profile"] = profile.clone();
-        }
-        let reply = self.request(&request)?;
-        let trace = &reply["trace"];
-        let matrix = |name: &str| -> Result<Vec<Vec<f64>>, SimError> {
-            trace[name]
-                .as_array()
-                .ok_or_else(|| SimError::Reply(format!("no trace.{name}")))?
-                .iter()
-                .map(|row| {
-                    row.as_array()
-                        .map(|r| r.iter().map(|x| x.as_f64().unwrap_or(f64::NAN)).collect())
-                        .ok_or_else(|| SimError::Reply(format!("trace.{name} row is not a list")))
-                })
-                .collect()
+        let request = Request::Run {
+            joints: &self.joints,
+            control_hz: stream.rate,
+            initial: to_model(robot, &stream.initial),
+            reset,
+            commands,
+            profile: self.servo_profile.as_ref(),
         };
-        let time: Vec<f64> = trace["time"]
-            .as_array()
-            .ok_or_else(|| SimError::Reply("no trace.time".into()))?
-            .iter()
-            .map(|t| t.as_f64().unwrap_or(f64::NAN))
-            .collect();
-        let n = time.len();
-        let qpos = matrix("qpos")?;
-        let qvel = matrix("qvel")?;
-        let force = matrix("force")?;
-        let limit = matrix("limit")?;
-        let contacts = contacts_of(&reply);
-        let divergence = reply["divergence"]
-            .as_array()
-            .map(|list| {
-                // Non-fatal warnings (a full contact buffer) do not end the run.
-                list.iter()
-                    .filter(|d| d["fatal"].as_bool() != Some(false))
-                    .map(|d| {
-                        (
-                            d["time"].as_f64().unwrap_or(0.0),
-                            d["message"].as_str().unwrap_or("diverged").to_string(),
-                        )
-                    })
-                    .collect()
-            })
-            .unwrap_or_default();
+        let reply: wire::RunReply = wire::parse(self.harness.request(&request)?, "run")?;
+        let trace = reply.trace;
+        let n = trace.time.len();
+        trace.check_rows(rows.len(), self.joints.len())?;
         Ok(Trace {
-            time,
+            time: trace.time,
             sequence_time: stream.sequence_time[rows.clone()][..n].to_vec(),
             commanded: stream.rows[rows][..n].to_vec(),
-            position: qpos.iter().map(|r| from_model(robot, r)).collect(),
-            velocity: qvel.iter().map(|r| from_model(robot, r)).collect(),
-            force,
-            at_limit: limit
+            position: trace.qpos.iter().map(|r| from_model(robot, r)).collect(),
+            velocity: trace.qvel.iter().map(|r| from_model(robot, r)).collect(),
+            force: trace.force,
+            at_limit: trace
+                .limit
                 .iter()
                 .map(|r| r.iter().map(|x| *x != 0.0).collect())
                 .collect(),
-            contacts,
-            divergence,
+            contacts: reply.contacts.into_iter().map(contact).collect(),
+            divergence: reply
+                .divergence
+                .into_iter()
+                // Non-fatal warnings (a full contact buffer) do not end the run.
+                .filter(|d| d.fatal != Some(false))
+                .map(|d| (d.time, d.message))
+                .collect(),
             force_limits: self.force_limits.clone(),
         })
     }
@@ -455,43 +431,30 @@ impl Simulation {
         robot: &Robot,
         values: &[f64],
     ) -> Result<Vec<Contact>, SimError> {
-        let qpos: serde_json::Map<String, Value> = self
-            .joints
-            .iter()
-            .zip(to_model(robot, values))
-            .map(|(name, q)| (name.clone(), json!(q)))
-            .collect();
-        let reply = self.request(&json!({ "op": "contacts", "qpos": qpos }))?;
-        if !reply["contacts"].is_array() {
-            return Err(SimError::Reply("no contacts list".into()));
-        }
-        Ok(contacts_of(&reply))
+        let model = to_model(robot, values);
+        let qpos = self.joints.iter().map(String::as_str).zip(model).collect();
+        let reply = self.harness.request(&Request::Contacts { qpos })?;
+        let reply: wire::ContactsReply = wire::parse(reply, "contacts")?;
+        Ok(reply.contacts.into_iter().map(contact).collect())
     }
 }
 
-/// The `contacts` list of a `run` or `contacts` reply (a pose's contacts have no time: 0).
-fn contacts_of(reply: &Value) -> Vec<Contact> {
-    reply["contacts"]
-        .as_array()
-        .map(|list| {
-            list.iter()
-                .map(|c| Contact {
-                    time: c["time"].as_f64().unwrap_or(0.0),
-                    body1: c["body1"].as_str().unwrap_or("?").into(),
-                    body2: c["body2"].as_str().unwrap_or("?").into(),
-                    kind: match c["kind"].as_str() {
-                        Some("floor") => ContactKind::Floor,
-                        Some("self") => ContactKind::SelfCollision,
-                        Some("arms") => ContactKind::BetweenArms,
-                        _ => ContactKind::Environment,
-                    },
-                    arms: [&c["arm1"], &c["arm2"]].map(|a| a.as_str().map(str::to_string)),
-                    depth: c["depth"].as_f64().unwrap_or(0.0).abs(),
-                    force: c["force"].as_f64().unwrap_or(0.0),
-                })
-                .collect()
-        })
-        .unwrap_or_default()
+/// A contact of a `run` or `contacts` reply (a pose's contacts have no time: 0).
+fn contact(c: ContactReply) -> Contact {
+    Contact {
+        time: c.time,
+        body1: c.body1,
+        body2: c.body2,
+        kind: match c.kind {
+            ContactKindReply::Floor => ContactKind::Floor,
+            ContactKindReply::SelfCollision => ContactKind::SelfCollision,
+            ContactKindReply::Arms => ContactKind::BetweenArms,
+            ContactKindReply::Environment => ContactKind::Environment,
+        },
+        arms: [c.arm1, c.arm2],
+        depth: c.depth.abs(),
+        force: c.force,
+    }
 }
 
 impl Trace {
@@ -514,7 +477,9 @@ impl Trace {
 /// elevation negative from above); it always looks at the middle of every frame's arm.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
+    /// Degrees about +z.
     pub azimuth: f64,
+    /// Degrees, negative looking from above (within ±90).
     pub elevation: f64,
 }
 
@@ -547,25 +512,30 @@ pub fn render(
                 continue;
             }
         };
-        let request = json!({
-            "op": "render",
-            "joints": sim.joints,
-            "frames": frames.iter().map(|f| to_model(robot, f)).collect::<Vec<_>>(),
-            "labels": labels,
-            "path": path.display().to_string(),
-            "width": 320,
-            "height": 240,
-            "fps": 25,
-            "columns": 4,
-            "azimuth": camera.azimuth,
-            "elevation": camera.elevation,
-        });
-        match sim.request(&request) {
-            Ok(reply) => return Ok(reply["gl"].as_str().unwrap_or(gl).to_string()),
-            Err(SimError::Harness(e)) if e.reply().is_some_and(|r| r["kind"] == "render") => {
-                failures.push(format!("{gl}: {e}"));
+        let request = Request::Render {
+            joints: &sim.joints,
+            frames: frames.iter().map(|f| to_model(robot, f)).collect(),
+            labels,
+            path: path.display().to_string(),
+            width: 320,
+            height: 240,
+            fps: 25,
+            columns: 4,
+            azimuth: camera.azimuth,
+            elevation: camera.elevation,
+        };
+        let refused = match sim.harness.request(&request) {
+            Ok(reply) => {
+                let reply: wire::RenderReply = wire::parse(reply, "render")?;
+                return Ok(reply.gl.unwrap_or_else(|| gl.to_string()));
             }
-            Err(e) => return Err(e),
+            Err(e) => e,
+        };
+        match wire::refusal(&refused) {
+            Some(refusal) if refusal.kind == RefusalKind::Render => {
+                failures.push(format!("{gl}: {refused}"));
+            }
+            _ => return Err(SimError::Harness(refused)),
         }
     }
     Err(SimError::Render(failures.join("; ")))

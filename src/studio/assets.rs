@@ -45,15 +45,15 @@ const FILES: &[(&str, &str, &[u8])] = &[
 const JS: &str = "text/javascript; charset=utf-8";
 
 /// The page (served only with the token).
-pub const INDEX: &[u8] = include_bytes!("web/index.html");
+pub(crate) const INDEX: &[u8] = include_bytes!("web/index.html");
 
 /// The SHA-256 of the page's one inline script, the importmap (base64), for the
 /// Content-Security-Policy: no other inline script runs. The browser test fails on the
 /// console error a stale hash causes.
-pub const IMPORTMAP_SHA256: &str = "uf2n9gE+fRPxAfwYRML9WbFRmjhihYqNtE008MLrj9o=";
+pub(crate) const IMPORTMAP_SHA256: &str = "uf2n9gE+fRPxAfwYRML9WbFRmjhihYqNtE008MLrj9o=";
 
 /// A static file by its URL path.
-pub fn file(path: &str) -> Option<(&'static str, &'static [u8])> {
+pub(crate) fn file(path: &str) -> Option<(&'static str, &'static [u8])> {
     FILES
         .iter()
         .find(|(p, _, _)| *p == path)

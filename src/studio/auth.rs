@@ -13,11 +13,11 @@ use std::net::SocketAddr;
 
 /// The header the page's scripts send the token in (the query's `token=` works too, for the
 /// page itself and for `EventSource`, which cannot send headers).
-pub const TOKEN_HEADER: &str = "X-Keypose-Token";
+pub(crate) const TOKEN_HEADER: &str = "X-Keypose-Token";
 
 /// Why a request was refused.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum Refusal {
+pub(crate) enum Refusal {
     #[error("Host {found:?} is not this studio's address (expected one of {expected}): refused against DNS rebinding")]
     Host { found: String, expected: String },
     #[error("Origin {found:?} is not this studio's page ({expected}): another site may not drive the arm")]
@@ -30,7 +30,7 @@ pub enum Refusal {
 
 /// What a request says about itself, as far as access goes.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct Credentials<'a> {
+pub(crate) struct Credentials<'a> {
     pub host: Option<&'a str>,
     pub origin: Option<&'a str>,
     /// From the header or the query.
@@ -47,6 +47,7 @@ pub struct Guard {
 }
 
 impl Guard {
+    /// The rules of a studio listening on `addr` whose pages carry `token`.
     pub fn new(token: String, addr: SocketAddr) -> Guard {
         let port = addr.port();
         let mut hosts = vec![addr.to_string()];
@@ -56,17 +57,13 @@ impl Guard {
         Guard { token, hosts }
     }
 
-    pub fn token(&self) -> &str {
-        &self.token
-    }
-
     /// The page's URL, with the token.
-    pub fn url(&self) -> String {
+    pub(crate) fn url(&self) -> String {
         format!("http://{}/?token={}", self.hosts[0], self.token)
     }
 
     /// Host and Origin: checked on every request, the page's assets included.
-    pub fn check_origin(&self, request: &Credentials) -> Result<(), Refusal> {
+    pub(crate) fn check_origin(&self, request: &Credentials) -> Result<(), Refusal> {
         let host = request.host.unwrap_or("");
         if !self.hosts.iter().any(|h| h.eq_ignore_ascii_case(host)) {
             return Err(Refusal::Host {
@@ -90,7 +87,7 @@ impl Guard {
     }
 
     /// Host, Origin and the token: the page and every API call.
-    pub fn check(&self, request: &Credentials) -> Result<(), Refusal> {
+    pub(crate) fn check(&self, request: &Credentials) -> Result<(), Refusal> {
         self.check_origin(request)?;
         match request.token {
             None | Some("") => Err(Refusal::NoToken),
@@ -102,7 +99,7 @@ impl Guard {
 
 /// Compares two secrets in time that depends on their lengths only, so that the time an
 /// answer takes does not tell an attacker how many leading characters were right.
-pub fn same_secret(a: &[u8], b: &[u8]) -> bool {
+pub(crate) fn same_secret(a: &[u8], b: &[u8]) -> bool {
     if a.len() != b.len() {
         return false;
     }
@@ -110,7 +107,7 @@ pub fn same_secret(a: &[u8], b: &[u8]) -> bool {
 }
 
 /// 32 random bytes from the kernel, in hex: the access token.
-pub fn new_token() -> std::io::Result<String> {
+pub(crate) fn new_token() -> std::io::Result<String> {
     let mut bytes = [0u8; 32];
     std::fs::File::open("/dev/urandom")?.read_exact(&mut bytes)?;
     Ok(bytes.iter().map(|b| format!("{b:02x}")).collect())

@@ -5,19 +5,23 @@
 use std::time::{Duration, Instant};
 
 /// A controller that has not been heard from for this long has gone.
-pub const LEASE: Duration = Duration::from_secs(2);
+pub(crate) const LEASE: Duration = Duration::from_secs(2);
 
 /// Why a client may not act.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ControlRefusal {
+    /// Another page holds the lease.
     #[error("another page controls the arm; this one watches (close the other page, or wait until it lets go)")]
     Taken,
+    /// The page acts without holding the lease.
     #[error("this page does not control the arm (Take control asks for it)")]
     NotController,
+    /// A client id that is not 1 to 64 letters, digits or '-' (the id, shortened to 80).
     #[error("client id {0:?}: expected 1 to 64 letters, digits or '-'")]
     BadClient(String),
 }
 
+/// Which page controls the arm, if any, and whether a controller was lost.
 #[derive(Debug, Default)]
 pub struct Lease {
     holder: Option<(String, Instant)>,
@@ -40,7 +44,7 @@ impl Lease {
     }
 
     /// Whether `client` may act now.
-    pub fn check(&mut self, client: &str, now: Instant) -> Result<(), ControlRefusal> {
+    pub(crate) fn check(&mut self, client: &str, now: Instant) -> Result<(), ControlRefusal> {
         self.expire(now);
         match &self.holder {
             Some((holder, _)) if holder == client => Ok(()),
@@ -50,7 +54,7 @@ impl Lease {
     }
 
     /// `client` lets go (a button) — or, with `lost`, its connection broke.
-    pub fn release(&mut self, client: &str, lost: bool) -> bool {
+    pub(crate) fn release(&mut self, client: &str, lost: bool) -> bool {
         if self.holder.as_ref().is_some_and(|(h, _)| h == client) {
             self.holder = None;
             self.lost |= lost;
@@ -61,7 +65,7 @@ impl Lease {
     }
 
     /// Releases a holder not heard from for [`LEASE`].
-    pub fn expire(&mut self, now: Instant) {
+    pub(crate) fn expire(&mut self, now: Instant) {
         if self
             .holder
             .as_ref()
@@ -72,6 +76,7 @@ impl Lease {
         }
     }
 
+    /// A page controls the arm.
     pub fn is_held(&self) -> bool {
         self.holder.is_some()
     }

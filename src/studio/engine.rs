@@ -1,7 +1,7 @@
 //! The studio's engine: the teaching loop of `keypose teach` (driver events into the state,
-//! the present pose read every [`READ_PERIOD`], keys pressed through [`teach::press`]) with
+//! the present pose read every 20 ms, keys pressed through [`teach::press`]) with
 //! the keys coming from the page over a channel instead of from a terminal, and every change
-//! published as a numbered [`snapshot`] for the event streams.
+//! published as a numbered snapshot for the event streams ([`Hub`]).
 //!
 //! What arrives is queued in a [`InputQueue`]: a stop (the Stop button, Esc, Ctrl-C, a lost
 //! controller) drops every action queued before it, and keys wait while a jog runs. The
@@ -11,7 +11,7 @@
 use super::control::Lease;
 use super::snapshot::snapshot;
 use crate::sequence::Sequence;
-use crate::teach::inputs::{self, InputQueue};
+use crate::teach::InputQueue;
 use crate::teach::{self, Key, Session, TeachError, TeachState};
 use serde_json::Value;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
@@ -20,13 +20,14 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 /// How often the present pose is read: 50 Hz, so that the page, which draws each snapshot,
 /// follows the arm at well over 30 Hz (the terminal reads at 20 Hz).
-pub const READ_PERIOD: Duration = Duration::from_millis(20);
+pub(crate) const READ_PERIOD: Duration = Duration::from_millis(20);
 /// How often the end of a jog is looked for while keys wait for it.
 const WAITING_POLL: Duration = Duration::from_millis(2);
 
 /// What the page asks the engine to do.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Action {
+    /// A key, as the terminal would get it.
     Key(Key),
     /// The answer typed into the page's box for a text prompt: replaces what the prompt holds
     /// (by Backspace), types it and presses Enter — the keys the terminal would get.
@@ -36,8 +37,11 @@ pub enum Action {
     Stop,
 }
 
+/// What reaches the engine from the other threads.
 pub enum Input {
+    /// A page's action, answered on `reply`.
     Action {
+        /// What the page asks.
         action: Action,
         /// The status line after the action.
         reply: Sender<Value>,
@@ -49,7 +53,7 @@ pub enum Input {
     Fault(String),
 }
 
-impl inputs::Input for Input {
+impl teach::Input for Input {
     fn is_stop(&self) -> bool {
         match self {
             Input::Interrupt | Input::Fault(_) => true,
@@ -67,7 +71,7 @@ impl inputs::Input for Input {
 
 /// The published state, shared with the HTTP threads.
 #[derive(Debug, Default)]
-pub struct Published {
+pub(crate) struct Published {
     pub seq: u64,
     pub json: Arc<String>,
     /// The list as it is now, for the timeline.
@@ -82,13 +86,16 @@ pub struct Published {
 pub struct Hub {
     published: Mutex<Published>,
     changed: Condvar,
-    pub lease: Mutex<Lease>,
+    pub(crate) lease: Mutex<Lease>,
 }
 
 /// What a stream waiting for news gets.
 pub enum News {
+    /// A newer snapshot: its number and its JSON text.
     Snapshot(u64, Arc<String>),
+    /// Nothing new within the time waited.
     Quiet,
+    /// The session has ended: the stream closes.
     Ended,
 }
 
@@ -97,11 +104,12 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 }
 
 impl Hub {
+    /// The lease of control, locked.
     pub fn lease(&self) -> MutexGuard<'_, Lease> {
         lock(&self.lease)
     }
 
-    pub fn published(&self) -> MutexGuard<'_, Published> {
+    pub(crate) fn published(&self) -> MutexGuard<'_, Published> {
         lock(&self.published)
     }
 
@@ -229,12 +237,12 @@ pub fn run(
 
 /// Queues `input`; what it drops (a stop drops everything before it) is answered as dropped.
 fn take(queue: &mut InputQueue<Input>, input: Input) {
-    let why = if inputs::Input::is_stop(&input) {
+    let why = if teach::Input::is_stop(&input) {
         "dropped: a stop came after it".to_string()
     } else {
         format!(
             "refused: {} actions are waiting already",
-            inputs::MAX_WAITING
+            teach::MAX_WAITING
         )
     };
     answer_dropped(queue.push(input), &why);
@@ -384,9 +392,9 @@ fn interrupt(state: &mut TeachState, session: &mut Session) {
 
 /// Why a token of the page is no key.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum PageKeyError {
+pub(crate) enum PageKeyError {
     #[error(transparent)]
-    Token(#[from] teach::keys::TokenError),
+    Token(#[from] teach::TokenError),
     #[error("{token:?}: expected {what} after the colon")]
     NoNumber { token: String, what: &'static str },
     #[error("{token:?}: expected three numbers in millimetres, X,Y,Z, after the colon")]
@@ -400,7 +408,7 @@ pub enum PageKeyError {
 /// `tool-target:X,Y,Z` (the tool handle, millimetres in the base frame). The script's
 /// `import:`, `write:` and `wait:` are refused: the page imports through the `i` prompt, and
 /// writes where the session writes.
-pub fn parse_key(token: &str) -> Result<Key, PageKeyError> {
+pub(crate) fn parse_key(token: &str) -> Result<Key, PageKeyError> {
     let number = |rest: &str, what: &'static str| {
         rest.parse::<u64>().map_err(|_| PageKeyError::NoNumber {
             token: token.to_string(),
@@ -421,13 +429,13 @@ pub fn parse_key(token: &str) -> Result<Key, PageKeyError> {
             token: token.to_string(),
         });
     }
-    match teach::keys::parse_token(token)? {
-        teach::keys::Step::Key(Key::Import(_) | Key::Write(_)) | teach::keys::Step::Wait(_) => {
+    match teach::parse_token(token)? {
+        teach::Step::Key(Key::Import(_) | Key::Write(_)) | teach::Step::Wait(_) => {
             Err(PageKeyError::ScriptOnly {
                 token: token.to_string(),
             })
         }
-        teach::keys::Step::Key(key) => Ok(key),
+        teach::Step::Key(key) => Ok(key),
     }
 }
 

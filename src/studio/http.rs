@@ -44,7 +44,7 @@ impl Default for Limits {
 
 /// The methods the studio answers; any other is refused by the router.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Method {
+pub(crate) enum Method {
     Get,
     Post,
     Other,
@@ -53,16 +53,17 @@ pub enum Method {
 /// A request read whole, within the limits.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Request {
-    pub method: Method,
+    pub(crate) method: Method,
     /// The request target: a path, and maybe `?` and a query.
-    pub target: String,
+    pub(crate) target: String,
     headers: Vec<(String, String)>,
+    /// The body, as long as its Content-Length said.
     pub body: Vec<u8>,
 }
 
 impl Request {
     /// The first header called `name` (any case).
-    pub fn header(&self, name: &str) -> Option<&str> {
+    pub(crate) fn header(&self, name: &str) -> Option<&str> {
         self.headers
             .iter()
             .find(|(field, _)| field.eq_ignore_ascii_case(name))
@@ -70,14 +71,14 @@ impl Request {
     }
 
     /// The target's path (before any `?`).
-    pub fn path(&self) -> &str {
+    pub(crate) fn path(&self) -> &str {
         self.target.split_once('?').map_or(&self.target, |(p, _)| p)
     }
 
     /// The first query parameter called `name`, as sent (the page's values need no
     /// percent-decoding: hex tokens and letter-digit ids; anything else simply does not
     /// match).
-    pub fn param(&self, name: &str) -> Option<&str> {
+    pub(crate) fn param(&self, name: &str) -> Option<&str> {
         let (_, query) = self.target.split_once('?')?;
         query
             .split('&')
@@ -93,27 +94,58 @@ pub enum HttpError {
     /// Closed (or reset) before a byte arrived: nobody to answer.
     #[error("the connection closed before a request")]
     Closed,
+    /// The connection closed part-way through the request (400).
     #[error("the request ended after {received} bytes, before its end")]
-    Incomplete { received: usize },
+    Incomplete {
+        /// Bytes read before it closed.
+        received: usize,
+    },
+    /// The head did not end within [`Limits::head`] (431).
     #[error("request head over {limit} bytes (the limit; {received} read without its end)")]
-    HeadTooLarge { limit: usize, received: usize },
+    HeadTooLarge {
+        /// The limit, bytes.
+        limit: usize,
+        /// Bytes read.
+        received: usize,
+    },
+    /// More header lines than [`Limits::header_lines`] (431).
     #[error("{found} header lines, over the limit of {limit}")]
-    TooManyHeaderLines { limit: usize, found: usize },
+    TooManyHeaderLines {
+        /// The limit.
+        limit: usize,
+        /// Header lines found.
+        found: usize,
+    },
+    /// A Content-Length over [`Limits::body`] (413).
     #[error("request body of {declared} bytes, over the limit of {limit}")]
-    BodyTooLarge { limit: usize, declared: u64 },
+    BodyTooLarge {
+        /// The limit, bytes.
+        limit: usize,
+        /// The length the request declared, bytes.
+        declared: u64,
+    },
+    /// A body sent with a Transfer-Encoding (501).
     #[error("Transfer-Encoding is not accepted: send the body with a Content-Length")]
     TransferEncoding,
+    /// Not an HTTP/1.x request as the studio reads it (400): what is wrong.
     #[error("malformed request: {0}")]
     Malformed(&'static str),
+    /// The request did not arrive whole within [`Limits::time`] (408).
     #[error("the request did not arrive within {} ms ({received} bytes came)", limit.as_millis())]
-    TimedOut { limit: Duration, received: usize },
+    TimedOut {
+        /// The time allowed.
+        limit: Duration,
+        /// Bytes that came in that time.
+        received: usize,
+    },
+    /// Reading the connection failed (nobody to answer): what the system said.
     #[error("cannot read the request: {0}")]
     Io(String),
 }
 
 impl HttpError {
     /// The status to answer with; `None` when there is nobody to answer.
-    pub fn status(&self) -> Option<u16> {
+    pub(crate) fn status(&self) -> Option<u16> {
         match self {
             HttpError::Closed | HttpError::Io(_) => None,
             HttpError::Incomplete { .. } | HttpError::Malformed(_) => Some(400),
@@ -310,13 +342,14 @@ fn body_length(headers: &[(String, String)], limits: &Limits) -> Result<usize, H
 /// An answer: status, headers, body; written with its length, closing the connection.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Response {
+    /// The HTTP status code.
     pub status: u16,
-    pub headers: Vec<(&'static str, String)>,
-    pub body: Cow<'static, [u8]>,
+    pub(crate) headers: Vec<(&'static str, String)>,
+    pub(crate) body: Cow<'static, [u8]>,
 }
 
 impl Response {
-    pub fn new(status: u16, body: impl Into<Cow<'static, [u8]>>) -> Response {
+    pub(crate) fn new(status: u16, body: impl Into<Cow<'static, [u8]>>) -> Response {
         Response {
             status,
             headers: Vec::new(),
@@ -324,12 +357,12 @@ impl Response {
         }
     }
 
-    pub fn with_header(mut self, name: &'static str, value: impl Into<String>) -> Response {
+    pub(crate) fn with_header(mut self, name: &'static str, value: impl Into<String>) -> Response {
         self.headers.push((name, value.into()));
         self
     }
 
-    pub fn write_to(&self, out: &mut impl Write) -> io::Result<()> {
+    pub(crate) fn write_to(&self, out: &mut impl Write) -> io::Result<()> {
         out.write_all(&self.head(Some(self.body.len())))?;
         out.write_all(&self.body)?;
         out.flush()
@@ -337,7 +370,7 @@ impl Response {
 
     /// The status line and headers; with a length, `Content-Length` (a stream has none: it
     /// ends when the connection closes).
-    pub fn head(&self, length: Option<usize>) -> Vec<u8> {
+    pub(crate) fn head(&self, length: Option<usize>) -> Vec<u8> {
         let mut head = format!("HTTP/1.1 {} {}\r\n", self.status, reason(self.status));
         for (name, value) in &self.headers {
             head.push_str(&format!("{name}: {value}\r\n"));

@@ -1,43 +1,60 @@
 //! `keypose studio`: the local web server and the embedded page, a second front end to the
 //! teaching state machine of [`crate::teach`]; it knows nothing about protocol details.
+//! [`Studio::listen`] then [`Studio::run`] is all a caller needs.
 //!
 //! - [`engine`]: the teaching loop on the main thread, fed keys by the page, publishing
-//!   [`snapshot`]s;
-//! - [`server`]: the sockets, every client bounded before its token is checked (connections,
-//!   request size and time), a fault in any of its threads braking the arm; [`http`]: one
-//!   request read within those limits, one answer written; [`routes`]: what each request gets
-//!   (the page, `/api/…` JSON and the event stream), guarded by [`auth`] (token, Host,
-//!   Origin) and [`control`] (one page controls, the others watch);
-//! - [`robot_model`] (the chain and the simulation model's shapes) and [`timeline`] (curves,
+//!   snapshots of the state;
+//! - `server`: the sockets, every client bounded before its token is checked (connections,
+//!   request size and time), a fault in any of its threads braking the arm; `http`: one
+//!   request read within those limits ([`read_request`]), one answer written; `routes`: what
+//!   each request gets ([`route`]: the page, `/api/…` JSON and the event stream), guarded by
+//!   `auth` (token, Host, Origin: [`Guard`]) and `control` (one page controls, the others
+//!   watch: [`Lease`]);
+//! - `robot_model` (the chain and the simulation model's shapes) and `timeline` (curves,
 //!   keys, limits and check findings) for the page's 3D view and timeline;
-//! - [`assets`]: the page's files, compiled in.
+//! - `assets`: the page's files, compiled in.
+//!
+//! The server's pieces are the crate's own; [`read_request`], [`route`] and what they take
+//! are public only for the fuzz target that reads and routes requests as a connection's
+//! thread does (`fuzz/fuzz_targets/studio_http.rs`), and [`Lease::claim`] for the engine's
+//! tests (a page taking control).
 
-pub mod assets;
-pub mod auth;
-pub mod control;
+mod assets;
+mod auth;
+mod control;
 pub mod engine;
-pub mod http;
-pub mod robot_model;
-pub mod routes;
-pub mod server;
-pub mod snapshot;
-pub mod timeline;
+mod http;
+mod robot_model;
+mod routes;
+mod server;
+mod snapshot;
+mod timeline;
+
+pub use auth::Guard;
+pub use control::{ControlRefusal, Lease};
+pub use http::{read_request, HttpError, Limits, Request, Response};
+pub use routes::{route, Context, Reply};
 
 use std::net::{SocketAddr, TcpListener};
 use std::sync::Arc;
 use std::time::Duration;
 
 /// How long a request may take to arrive whole, in milliseconds, instead of
-/// [`http::Limits::default`]'s 10 s (the tests shorten it to see a slow client cut off, or
+/// [`Limits::default`]'s 10 s (the tests shorten it to see a slow client cut off, or
 /// lengthen it to hold idle connections).
 pub const READ_TIMEOUT_VAR: &str = "KEYPOSE_STUDIO_READ_TIMEOUT_MS";
-/// `handler` or `accept`: the tests' server fault ([`routes::TestFault`]).
+/// `handler` or `accept`: the tests' server fault (`POST /api/fault` panics in the request's
+/// thread, or the thread that accepts connections panics at its next connection).
 pub const TEST_FAULT_VAR: &str = "KEYPOSE_STUDIO_TEST_FAULT";
 
 /// Plays a sequence in simulation for the page (`POST /api/simulate`): the verdict and the
-/// trace as JSON, or why it could not run. Given by the binary, which owns `keypose sim`.
+/// trace as JSON, or why it could not run (the page is told the error and its causes). Given
+/// by the binary, which owns `keypose sim`.
 pub type Simulator = Box<
-    dyn Fn(&crate::sequence::Sequence, &crate::robot::Robot) -> Result<serde_json::Value, String>
+    dyn Fn(
+            &crate::sequence::Sequence,
+            &crate::robot::Robot,
+        ) -> Result<serde_json::Value, Box<dyn std::error::Error + Send + Sync>>
         + Send
         + Sync,
 >;
@@ -56,16 +73,28 @@ pub struct Studio {
 /// Why the studio did not start.
 #[derive(Debug, thiserror::Error)]
 pub enum StudioError {
+    /// The address cannot be listened on.
     #[error("cannot listen on {addr}: {message}")]
-    Listen { addr: String, message: String },
+    Listen {
+        /// The address asked for.
+        addr: String,
+        /// Why not.
+        message: String,
+    },
+    /// The system gave no random bytes for the page's token.
     #[error("cannot make an access token: {0}")]
     Token(std::io::Error),
+    /// A setting from the environment that does not parse.
     #[error("{name}={value:?}: expected {expected}")]
     Setting {
+        /// The variable's name.
         name: &'static str,
+        /// Its value.
         value: String,
+        /// What it should be.
         expected: &'static str,
     },
+    /// The session ended early.
     #[error(transparent)]
     Teach(#[from] crate::teach::TeachError),
 }

@@ -19,7 +19,7 @@ const MATCH_TOLERANCE: f64 = 1e-5;
 
 /// Why the shapes of a model were left out.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum ModelError {
+pub(crate) enum ModelError {
     #[error("the model is not XML: {0}")]
     Xml(String),
     #[error("{element} {name:?}: {attribute}={value:?} is not {expected}")]
@@ -39,7 +39,7 @@ pub enum ModelError {
 /// `GET /api/robot`: the chain, and the shapes when the robot has a model that matches it. A
 /// cell is its arms, each the model of the arm alone with its base (cell frame) and where its
 /// joints start among the cell's; the page draws each at its base.
-pub fn model(robot: &Robot) -> Value {
+pub(crate) fn model(robot: &Robot) -> Value {
     if robot.is_cell() {
         return cell_model(robot);
     }

@@ -20,9 +20,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// The header the page sends its client id in (for control).
-pub const CLIENT_HEADER: &str = "X-Keypose-Client";
+pub(crate) const CLIENT_HEADER: &str = "X-Keypose-Client";
 /// Event streams open at once; more are refused (each holds a connection and a thread).
-pub const MAX_STREAMS: usize = 16;
+pub(crate) const MAX_STREAMS: usize = 16;
 /// How long a stream stays silent before a comment line checks the connection.
 const KEEPALIVE: Duration = Duration::from_secs(1);
 /// How long a request waits for the engine to carry out its action.
@@ -32,32 +32,36 @@ const ACTION_TIMEOUT: Duration = Duration::from_secs(10);
 /// the token panics in the request's thread, or makes the thread that accepts connections
 /// panic at its next connection. Without it there is no such route.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum TestFault {
+pub(crate) enum TestFault {
     Handler,
     Accept,
 }
 
-/// What the request handlers share.
+/// What the request handlers share: the guard, the hub shared with the engine, the channel
+/// to it, the robot.
 pub struct Context {
-    pub guard: Guard,
+    pub(crate) guard: Guard,
+    /// What the engine publishes, and the lease of control.
     pub hub: Arc<Hub>,
-    pub inputs: Sender<Input>,
+    pub(crate) inputs: Sender<Input>,
     /// Brakes the moving arm from the request's own thread: a Stop never waits for the
     /// engine.
-    pub brake: Brake,
-    pub robot: Robot,
+    pub(crate) brake: Brake,
+    pub(crate) robot: Robot,
     /// `GET /api/robot`, built once.
-    pub robot_model: String,
+    pub(crate) robot_model: String,
     /// `POST /api/simulate`, when the binary gives one; one run at a time.
-    pub simulator: Option<super::Simulator>,
-    pub test_fault: Option<TestFault>,
+    pub(crate) simulator: Option<super::Simulator>,
+    pub(crate) test_fault: Option<TestFault>,
     /// Set by `/api/fault` under [`TestFault::Accept`]; the accept loop panics when it sees it.
-    pub accept_fault_armed: AtomicBool,
+    pub(crate) accept_fault_armed: AtomicBool,
     simulating: std::sync::Mutex<()>,
     streams: Arc<AtomicUsize>,
 }
 
 impl Context {
+    /// The handlers' context of a studio on `robot`: `guard` admits requests, `hub` is shared
+    /// with the engine, `inputs` reaches it; no simulator, no test fault.
     pub fn new(guard: Guard, hub: Arc<Hub>, inputs: Sender<Input>, robot: Robot) -> Context {
         let robot_model = super::robot_model::model(&robot).to_string();
         Context {
@@ -78,7 +82,7 @@ impl Context {
     /// A fault of the server (a panic in one of its threads): the arm is braked here and now,
     /// and the engine ends the session once it is at rest. Nothing a page does can reach the
     /// arm once its server is broken, so the arm must not go on moving.
-    pub fn fault(&self, what: String) {
+    pub(crate) fn fault(&self, what: String) {
         self.brake.soft_stop();
         let _ = self.inputs.send(Input::Fault(what));
     }
@@ -86,7 +90,10 @@ impl Context {
 
 /// What a request gets: an answer, or the event stream (which needs the connection).
 pub enum Reply {
+    /// An answer to write, and the connection closes.
     Answer(Response),
+    /// The event stream the page asked for (admitted): the snapshots follow on the
+    /// connection.
     Events(EventStream),
 }
 
@@ -216,7 +223,10 @@ fn simulate(context: &Context, client: Option<String>) -> Response {
         None => json_response(400, &json!({"error": "no keys to simulate: n adds one"})),
         Some(sequence) => match simulator(&sequence, &context.robot) {
             Ok(value) => json_response(200, &value),
-            Err(message) => json_response(422, &json!({"error": message})),
+            Err(e) => {
+                let message = crate::error::Report(e.as_ref()).to_string();
+                json_response(422, &json!({"error": message}))
+            }
         },
     }
 }
@@ -299,7 +309,7 @@ fn events(context: &Context, client: Option<String>) -> Reply {
 /// The snapshots as a server-sent event stream, until the session ends or the connection
 /// breaks. The controller's stream breaking releases control (and the engine stops playback
 /// softly).
-pub fn stream_events(stream: EventStream, out: &mut impl Write, context: &Context) {
+pub(crate) fn stream_events(stream: EventStream, out: &mut impl Write, context: &Context) {
     let head = with_headers(Response::new(200, &b""[..]), "text/event-stream").head(None);
     let mut seen = 0;
     let mut result = out.write_all(&head).and_then(|_| out.flush());
@@ -340,7 +350,7 @@ fn control_refused(refusal: &ControlRefusal) -> Response {
     )
 }
 
-pub fn json_response(status: u16, value: &Value) -> Response {
+pub(crate) fn json_response(status: u16, value: &Value) -> Response {
     json_text(status, value.to_string())
 }
 

@@ -30,7 +30,7 @@ use std::time::{Duration, Instant};
 
 /// Connections open at once. A page uses a few (its requests, its heartbeat, its event
 /// stream), and at most [`routes::MAX_STREAMS`] pages stream at once.
-pub const MAX_CONNECTIONS: usize = 64;
+pub(crate) const MAX_CONNECTIONS: usize = 64;
 /// How long an answer (or a part of an event stream) may wait for the client to take it.
 const WRITE_TIMEOUT: Duration = Duration::from_secs(10);
 /// First and longest pause after a failed accept.
@@ -41,7 +41,7 @@ const BACKOFF: (Duration, Duration) = (Duration::from_millis(5), Duration::from_
 const LINGER: (Duration, usize) = (Duration::from_secs(1), 64 * 1024);
 
 /// Serves `listener` on a thread of its own until the process ends.
-pub fn spawn(listener: TcpListener, context: Context, limits: Limits) {
+pub(crate) fn spawn(listener: TcpListener, context: Context, limits: Limits) {
     let context = Arc::new(context);
     let spawned = std::thread::Builder::new()
         .name("keypose-studio-accept".into())
@@ -63,7 +63,7 @@ pub fn spawn(listener: TcpListener, context: Context, limits: Limits) {
 /// Runs `work`; a panic in it is a server fault (the panic hook has printed it already).
 fn fault_on_panic(context: &Context, thread: &str, work: impl FnOnce()) {
     if let Err(panic) = std::panic::catch_unwind(AssertUnwindSafe(work)) {
-        let message = crate::teach::session::panic_message(panic.as_ref());
+        let message = crate::teach::panic_message(panic.as_ref());
         context.fault(format!("{thread} panicked: {message}"));
     }
 }

@@ -4,13 +4,12 @@
 //! own beyond what it last received.
 
 use crate::teach::format;
-use crate::teach::motion::MotionKind;
-use crate::teach::state::{selected_tool, Activity, TeachState};
 use crate::teach::Prompt;
+use crate::teach::{selected_tool, Activity, MotionKind, TeachState};
 use serde_json::{json, Value};
 
 /// The snapshot of `state`; `controlled` says whether a page holds control now.
-pub fn snapshot(state: &TeachState, bus: &str, controlled: bool) -> Value {
+pub(crate) fn snapshot(state: &TeachState, bus: &str, controlled: bool) -> Value {
     let robot = state.robot();
     // The tool the handle and the readout act on: on a cell the selected joint's arm's, in
     // its base frame.

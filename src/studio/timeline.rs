@@ -14,7 +14,7 @@ const CURVE_RATE: f64 = 50.0;
 /// Most curve samples per joint: a long sequence is drawn coarser rather than sent huge.
 const MAX_SAMPLES: f64 = 4000.0;
 
-pub fn timeline(sequence: Option<&Sequence>, robot: &Robot) -> Value {
+pub(crate) fn timeline(sequence: Option<&Sequence>, robot: &Robot) -> Value {
     let Some(sequence) = sequence.filter(|s| !s.keyframes.is_empty()) else {
         return json!({"empty": true, "reason": "no keys yet"});
     };

@@ -5,7 +5,7 @@ use crate::sequence::KeyValue;
 
 /// A captured value is rounded to this for readability: 0.1° for revolute joints, 0.1 mm for
 /// prismatic ones (well below what a hobby servo holds: one tick is 0.088°).
-pub fn tidy(joint: &Joint, value: f64) -> f64 {
+pub(crate) fn tidy(joint: &Joint, value: f64) -> f64 {
     let scale = match joint.kind {
         JointKind::Revolute => 10.0,
         JointKind::Prismatic => 10_000.0,
@@ -16,7 +16,10 @@ pub fn tidy(joint: &Joint, value: f64) -> f64 {
 
 /// The pose `present` as key values, and the joints that were outside their limits
 /// (calibration or backlash) and were clamped into them.
-pub fn capture<'r>(robot: &'r Robot, present: &[f64]) -> (Vec<(String, KeyValue)>, Vec<&'r str>) {
+pub(crate) fn capture<'r>(
+    robot: &'r Robot,
+    present: &[f64],
+) -> (Vec<(String, KeyValue)>, Vec<&'r str>) {
     let mut clamped = Vec::new();
     let values = robot
         .joints

@@ -1,26 +1,70 @@
 //! Carries out the state machine's [`FileCommand`]s: the only file I/O of a session after
-//! its start, so that the rules in [`super::state`] stay free of it.
+//! its start, so that the rules of the [`TeachState`] stay free of it.
+//!
+//! [`TeachState`]: super::TeachState
 
 use super::messages::{Event, FileCommand};
+use crate::error::Report;
+use crate::json::InputError;
 use crate::sequence::Sequence;
+use std::io;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// Why a file command failed. The message says what the session could not do; the file's
+/// own error is the source ([`Report`] says both). The I/O errors are shared so that the
+/// [`Event`] that carries them can be cloned.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum FileError {
+    /// The sequence file to import cannot be read, or is not a valid sequence.
+    #[error("cannot import")]
+    Load(#[source] InputError),
+    /// The sequence cannot be written to its file (`w`).
+    #[error("not written")]
+    Save(#[source] InputError),
+    /// The journal cannot be written after an edit.
+    #[error("the journal {} cannot be written", path.display())]
+    Journal {
+        /// The journal's file.
+        path: PathBuf,
+        /// What the file system said.
+        source: Arc<io::Error>,
+    },
+    /// The journal cannot be removed.
+    #[error("cannot remove the journal")]
+    ClearJournal(#[source] Arc<io::Error>),
+}
+
+/// Two failures are equal when they say the same ([`io::Error`] has no equality of its own).
+impl PartialEq for FileError {
+    fn eq(&self, other: &Self) -> bool {
+        std::mem::discriminant(self) == std::mem::discriminant(other)
+            && Report(self).to_string() == Report(other).to_string()
+    }
+}
 
 /// Does what `command` asks and reports how it went.
 pub fn execute(command: FileCommand) -> Event {
     match command {
         FileCommand::Load(path) => Event::Loaded {
-            result: Sequence::load(&path).map_err(|e| e.to_string()),
+            result: Sequence::load(&path).map_err(FileError::Load),
             path,
         },
         FileCommand::Save { path, sequence } => Event::Saved {
-            result: sequence.save(&path).map_err(|e| e.to_string()),
+            result: sequence.save(&path).map_err(FileError::Save),
             path,
         },
         FileCommand::Journal { journal, sequence } => {
-            Event::Journaled(journal.save(&sequence).map_err(|e| e.to_string()))
+            Event::Journaled(journal.save(&sequence).map_err(|e| FileError::Journal {
+                path: journal.path().to_path_buf(),
+                source: Arc::new(e),
+            }))
         }
         FileCommand::ClearJournal { journal, why } => Event::JournalCleared {
             why,
-            result: journal.remove().map_err(|e| e.to_string()),
+            result: journal
+                .remove()
+                .map_err(|e| FileError::ClearJournal(Arc::new(e))),
         },
     }
 }
@@ -52,7 +96,12 @@ mod tests {
         };
         assert_eq!(result.unwrap().to_json(), one_key().to_json());
         let missing = execute(FileCommand::Load(dir.path().join("none.json")));
-        assert!(matches!(missing, Event::Loaded { result: Err(e), .. } if e.contains("none.json")));
+        let Event::Loaded { result: Err(e), .. } = missing else {
+            panic!("a missing file is an error, got {missing:?}");
+        };
+        let said = Report(&e).to_string();
+        assert!(said.starts_with("cannot import: "), "{said}");
+        assert!(said.contains("none.json"), "{said}");
     }
 
     #[test]

@@ -10,7 +10,7 @@ use crate::robot::{Joint, JointKind, Robot};
 use crate::sequence::{KeyValue, Sequence};
 
 /// A joint value for the screen and messages: degrees, or millimetres for prismatic joints.
-pub fn value(joint: &Joint, value: f64) -> String {
+pub(crate) fn value(joint: &Joint, value: f64) -> String {
     match joint.kind {
         JointKind::Revolute => format!("{value:.1}°"),
         JointKind::Prismatic => format!("{:.1} mm", value * 1000.0),
@@ -48,7 +48,7 @@ pub fn key_text(joint: &Joint, key: &KeyValue) -> String {
 }
 
 /// The unit the screen gives a joint's values in.
-pub fn unit(joint: &Joint) -> &'static str {
+pub(crate) fn unit(joint: &Joint) -> &'static str {
     match joint.kind {
         JointKind::Revolute => "°",
         JointKind::Prismatic => " mm",
@@ -57,7 +57,7 @@ pub fn unit(joint: &Joint) -> &'static str {
 
 /// A joint value as a number in the screen's unit: degrees, or millimetres (to the
 /// nanometre, so that 0.032 m reads 32 and not 32.000000000000004).
-pub fn screen_number(joint: &Joint, value: f64) -> f64 {
+fn screen_number(joint: &Joint, value: f64) -> f64 {
     match joint.kind {
         JointKind::Revolute => value,
         JointKind::Prismatic => (value * 1e6).round() / 1e3,
@@ -66,7 +66,7 @@ pub fn screen_number(joint: &Joint, value: f64) -> f64 {
 
 /// A number typed in the screen's unit as the key holds it (degrees, metres). Dividing the
 /// typed millimetres gives the nearest double to the decimal, as the file should show it.
-pub fn from_screen(joint: &Joint, shown: f64) -> f64 {
+pub(crate) fn from_screen(joint: &Joint, shown: f64) -> f64 {
     match joint.kind {
         JointKind::Revolute => shown,
         JointKind::Prismatic => shown / 1000.0,
@@ -75,7 +75,7 @@ pub fn from_screen(joint: &Joint, shown: f64) -> f64 {
 
 /// "-96.83° … 96.83°": the exact limits, so a refusal never names a rounded limit that the
 /// refused value seems to be inside.
-pub fn limits(joint: &Joint) -> String {
+pub(crate) fn limits(joint: &Joint) -> String {
     let unit = unit(joint);
     format!(
         "{}{unit} … {}{unit}",
@@ -85,7 +85,7 @@ pub fn limits(joint: &Joint) -> String {
 }
 
 /// "1 key", "3 keys".
-pub fn count(keys: usize) -> String {
+pub(crate) fn count(keys: usize) -> String {
     if keys == 1 {
         "1 key".into()
     } else {
@@ -94,7 +94,7 @@ pub fn count(keys: usize) -> String {
 }
 
 /// "key 2", or "key 2 (wave)" when the key has a name.
-pub fn key_label(sequence: &Sequence, index: usize) -> String {
+pub(crate) fn key_label(sequence: &Sequence, index: usize) -> String {
     match sequence
         .keyframes
         .get(index)
@@ -115,7 +115,7 @@ pub fn segment_interp(sequence: &Sequence, index: usize) -> Interp {
 }
 
 /// The joints' names, or "all joints" when that is what they are.
-pub fn joint_list(robot: &Robot, joints: &[usize]) -> String {
+pub(crate) fn joint_list(robot: &Robot, joints: &[usize]) -> String {
     if joints.len() == robot.joints.len() && joints.len() > 1 {
         return "all joints".into();
     }
@@ -128,7 +128,7 @@ pub fn joint_list(robot: &Robot, joints: &[usize]) -> String {
 
 /// "3 limit violation(s), first elbow_flex velocity in key 1 → key 2", or `None` when the
 /// check passes.
-pub fn first_violation(report: &CheckReport) -> Option<String> {
+pub(crate) fn first_violation(report: &CheckReport) -> Option<String> {
     let v = report.violations.first()?;
     Some(format!(
         "{} limit violation(s), first {} {} in {}",

@@ -80,10 +80,12 @@ impl<T: Input> InputQueue<T> {
         self.waiting.pop_front()
     }
 
+    /// How many inputs wait.
     pub fn len(&self) -> usize {
         self.waiting.len()
     }
 
+    /// Nothing waits.
     pub fn is_empty(&self) -> bool {
         self.waiting.is_empty()
     }

@@ -17,6 +17,7 @@ use std::time::SystemTime;
 /// Subdirectory of the cache directory that holds the journals.
 const JOURNAL_DIR: &str = "teach";
 
+/// The journal of one target file: where its unsaved list is kept.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Journal {
     path: PathBuf,
@@ -25,7 +26,9 @@ pub struct Journal {
 /// A journal found at start that is newer than its target file.
 #[derive(Debug, Clone)]
 pub struct Pending {
+    /// The list the journal holds.
     pub sequence: Sequence,
+    /// When the journal was last written.
     pub modified: SystemTime,
 }
 
@@ -67,6 +70,7 @@ impl Journal {
         Journal::for_target(cache_dir, target)
     }
 
+    /// The journal's file.
     pub fn path(&self) -> &Path {
         &self.path
     }

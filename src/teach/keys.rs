@@ -10,14 +10,23 @@ use std::time::Duration;
 pub enum Key {
     /// A printable character: the bindings, answers to prompts, text typed into a path prompt.
     Char(char),
+    /// ↑: select the previous joint (wrapping around).
     Up,
+    /// ↓: select the next joint (wrapping around).
     Down,
+    /// ←: jog the selected joint 1° (1 mm) down.
     Left,
+    /// →: jog the selected joint 1° (1 mm) up.
     Right,
+    /// Shift + ←: jog 10° (10 mm) down.
     ShiftLeft,
+    /// Shift + →: jog 10° (10 mm) up.
     ShiftRight,
+    /// Enter: end a typed line.
     Enter,
+    /// Esc: stop the arm, or cancel a prompt.
     Esc,
+    /// Backspace: delete the last typed character.
     Backspace,
     /// Ctrl-C in raw mode: stops the arm when it moves, else asks to quit like `q`.
     Interrupt,
@@ -62,6 +71,7 @@ impl Key {
 /// A key binding as shown to the user.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Binding {
+    /// The keys, as the help and the screen write them (`"space"`, `"← →"`).
     pub keys: &'static str,
     /// For `--help`.
     pub action: &'static str,
@@ -190,7 +200,7 @@ pub enum TokenError {
 }
 
 /// Parses one script token.
-pub fn parse_token(token: &str) -> Result<Step, TokenError> {
+pub(crate) fn parse_token(token: &str) -> Result<Step, TokenError> {
     let key = match token {
         "space" => Key::Char(' '),
         "up" => Key::Up,
@@ -255,7 +265,7 @@ fn parse_duration(text: &str) -> Option<Duration> {
 }
 
 /// The steps of one script line, with their tokens (for the echo); `#` starts a comment.
-pub fn parse_line(line: &str) -> Result<Vec<(String, Step)>, TokenError> {
+pub(crate) fn parse_line(line: &str) -> Result<Vec<(String, Step)>, TokenError> {
     let code = line.split('#').next().unwrap_or("");
     code.split_whitespace()
         .map(|token| parse_token(token).map(|step| (token.to_string(), step)))

@@ -2,8 +2,10 @@
 //! touches the servos or a file itself: it emits [`Command`]s, the session driver carries out
 //! the bus ones and [`super::files`] the file ones, and each answers with [`Event`]s.
 
+use super::files::FileError;
 use super::journal::Journal;
 use super::motion::{MotionKind, MotionPlan};
+use super::session::MotionError;
 use crate::player::Outcome;
 use crate::sequence::Sequence;
 use std::path::PathBuf;
@@ -11,7 +13,9 @@ use std::path::PathBuf;
 /// What the state asks for: of the servos, or of the file system.
 #[derive(Debug, Clone)]
 pub enum Command {
+    /// For the session driver ([`super::Session::execute`]).
     Bus(BusCommand),
+    /// For [`super::files::execute`].
     File(FileCommand),
 }
 
@@ -19,14 +23,22 @@ pub enum Command {
 #[derive(Debug, Clone)]
 pub enum BusCommand {
     /// On: hold these joints where they are now (goal = present, then torque on). Off: limp.
-    Torque { joints: Vec<usize>, on: bool },
+    Torque {
+        /// The joints to hold or release.
+        joints: Vec<usize>,
+        /// Hold (true) or release (false).
+        on: bool,
+    },
     /// Run the player (safe approach ramp, then the trajectory) while keys are still read: a
     /// move to a key, playback, or a jog.
     Run(Box<MotionPlan>),
     /// Stop the running motion: the first request decelerates along the path, a second holds
     /// at once. `requests` counts this one: a stop already requested by a quicker path (the
     /// studio's HTTP thread, a signal) is not requested twice.
-    Stop { requests: u32 },
+    Stop {
+        /// Stop requests of this motion so far, this one included.
+        requests: u32,
+    },
 }
 
 /// What the session asks of the file system; each is answered by one [`Event`].
@@ -35,14 +47,26 @@ pub enum FileCommand {
     /// Read the sequence file at this path (an import): [`Event::Loaded`].
     Load(PathBuf),
     /// Write `sequence` atomically to `path` (`w`): [`Event::Saved`].
-    Save { path: PathBuf, sequence: Sequence },
+    Save {
+        /// The file to write.
+        path: PathBuf,
+        /// The list as it is now.
+        sequence: Sequence,
+    },
     /// Write the whole list to the journal (after every edit): [`Event::Journaled`].
     Journal {
+        /// The session's journal.
         journal: Journal,
+        /// The list as it is now.
         sequence: Sequence,
     },
     /// Remove a journal: [`Event::JournalCleared`].
-    ClearJournal { journal: Journal, why: Clearing },
+    ClearJournal {
+        /// The journal to remove.
+        journal: Journal,
+        /// Why, which decides what a failure means.
+        why: Clearing,
+    },
 }
 
 /// Why a journal is removed, which decides what its failure means.
@@ -57,21 +81,28 @@ pub enum Clearing {
     Quit,
 }
 
-/// What the drivers report back. File errors arrive as their messages.
+/// What the drivers report back.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Event {
     /// The present pose, in robot joint order.
     Reading(Vec<f64>),
     /// Torque came on; the joints hold at these values.
     Held {
+        /// The joints now held (robot order).
         joints: Vec<usize>,
+        /// Each one's goal, in its unit (degrees or metres).
         values: Vec<f64>,
     },
+    /// Torque went off: these joints are limp.
     Released {
+        /// The joints released (robot order).
         joints: Vec<usize>,
     },
+    /// The player's thread started a motion.
     MotionStarted {
+        /// What the motion is for.
         kind: MotionKind,
+        /// Where it ends when it finishes, every joint in robot order.
         end_pose: Vec<f64>,
         /// The joints it drives (robot order).
         joints: Vec<usize>,
@@ -79,24 +110,37 @@ pub enum Event {
     /// The player returned; every joint has torque on. `last_goals` is the last pose it
     /// commanded, when known.
     MotionEnded {
-        outcome: Result<Outcome, String>,
+        /// How it ended: finished, stopped or held, or the fault that ended it.
+        outcome: Result<Outcome, MotionError>,
+        /// The last pose commanded, every joint in robot order; `None` when not known.
         last_goals: Option<Vec<f64>>,
         /// What the player warned of, as `keypose play` says it: stalls (the motion ran late,
         /// by how much), the step limiter holding goals back.
         warnings: Vec<String>,
     },
+    /// A bus command or a read failed: what went wrong, for the status line.
     BusError(String),
+    /// An import ([`FileCommand::Load`]) ended.
     Loaded {
+        /// The file read.
         path: PathBuf,
-        result: Result<Sequence, String>,
+        /// The sequence read, or why it could not be.
+        result: Result<Sequence, FileError>,
     },
+    /// A write ([`FileCommand::Save`]) ended.
     Saved {
+        /// The file written.
         path: PathBuf,
-        result: Result<(), String>,
+        /// Whether it was written.
+        result: Result<(), FileError>,
     },
-    Journaled(Result<(), String>),
+    /// The journal was written (or could not be).
+    Journaled(Result<(), FileError>),
+    /// The journal was removed (or could not be).
     JournalCleared {
+        /// Why it was removed.
         why: Clearing,
-        result: Result<(), String>,
+        /// Whether it was removed.
+        result: Result<(), FileError>,
     },
 }

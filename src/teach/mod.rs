@@ -2,44 +2,52 @@
 //! write it.
 //!
 //! Three layers, so that the rules are tested without a terminal, servos or files:
-//! - [`state`]: the [`TeachState`] machine — keys and driver events in; list edits,
-//!   [`Command`]s ([`messages`]) and screen state out; [`motion`] plans what `space` and `y`
-//!   play, [`capture`] rounds a pose into a key, [`prompt`] holds the questions;
-//! - the drivers: [`session`] carries out the bus commands on a [`crate::bus::ServoBus`],
-//!   playback through the player on its own thread; [`files`] carries out the file ones;
+//! - the state: the [`TeachState`] machine — [`Key`]s and driver [`Event`]s in; list edits,
+//!   [`Command`]s and screen state out; it plans what `space` and `y` play ([`MotionPlan`]),
+//!   rounds a pose into a key, and holds the questions ([`Prompt`]);
+//! - the drivers: the [`Session`] carries out the bus commands on a
+//!   [`crate::bus::ServoBus`], playback through the player on its own thread; [`files`]
+//!   carries out the file ones;
 //! - the front ends: the binary's terminal UI (`src/commands/teach/ui.rs`, ratatui +
 //!   crossterm) draws the state and maps key presses, the studio does so in a browser;
-//!   [`script`] feeds the keys of a `--keys` file, for tests and demos; all word things through
-//!   [`format`]. The terminal and the studio queue what arrives in
-//!   [`inputs::InputQueue`], where a stop wins over everything queued before it.
+//!   [`script`] feeds the keys of a `--keys` file, for tests and demos; all word things
+//!   through [`format`](mod@format). The terminal and the studio queue what arrives in an
+//!   [`InputQueue`], where a stop wins over everything queued before it.
 //!
-//! Every edit is journaled ([`journal`]) so a crash loses nothing.
+//! Every edit is journaled ([`Journal`]) so a crash loses nothing.
 
-pub mod capture;
+mod capture;
 pub mod files;
 pub mod format;
-pub mod inputs;
-pub mod journal;
-pub mod keys;
-pub mod messages;
-pub mod motion;
-pub mod prompt;
+mod inputs;
+mod journal;
+mod keys;
+mod messages;
+mod motion;
+mod prompt;
 pub mod script;
-pub mod session;
-pub mod state;
+mod session;
+mod state;
 
+pub use inputs::{Input, InputQueue, MAX_WAITING};
 pub use journal::{Journal, Pending};
-pub use keys::{help_text, Key, BINDINGS};
-pub use messages::{BusCommand, Command, Event, FileCommand};
-pub use prompt::Prompt;
-pub use session::{Brake, BusCommandError, Session, SessionError};
-pub use state::TeachState;
+pub use keys::{help_text, Binding, Key, BINDINGS};
+pub(crate) use keys::{parse_token, Step, TokenError};
+pub use messages::{BusCommand, Clearing, Command, Event, FileCommand};
+pub use motion::{MotionKind, MotionPlan};
+pub use prompt::{Field, Prompt};
+pub(crate) use session::panic_message;
+pub use session::{Brake, BusCommandError, MotionError, Session, SessionError};
+pub(crate) use state::selected_tool;
+pub use state::{tool_positions, Activity, Status, TeachState};
 
 /// What ends a session early.
 #[derive(Debug, thiserror::Error)]
 pub enum TeachError {
+    /// The servos were lost with a motion thread.
     #[error(transparent)]
     Session(#[from] SessionError),
+    /// The terminal cannot be read or drawn on.
     #[error("terminal")]
     Terminal(#[from] std::io::Error),
     /// A `--keys` script that cannot be run as written.

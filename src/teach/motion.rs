@@ -18,7 +18,10 @@ pub enum MotionKind {
     /// `space`: to key `index`, with the approach ramp.
     ToKey(usize),
     /// `y`: the sequence from key `from`.
-    Play { from: usize },
+    Play {
+        /// The key playback starts from.
+        from: usize,
+    },
     /// An arrow key, a tool jog or the studio's tool handle: these joints (robot order) to
     /// these values, the others left as they are.
     Jog,
@@ -27,13 +30,16 @@ pub enum MotionKind {
 /// A motion for the player: the approach ramp from the present pose, then `trajectory`.
 #[derive(Debug, Clone)]
 pub struct MotionPlan {
+    /// What the motion is for.
     pub kind: MotionKind,
     /// What the player drives: the session's robot, or for a jog its jogged joints alone
     /// ([`Robot::only`]), so that the others (limp ones too) are neither written nor switched on.
     pub robot: Robot,
     /// The driven joints' indices in the session's robot, in the order of `robot`'s joints.
     pub joints: Vec<usize>,
+    /// The trajectory played after the approach ramp, for `robot`.
     pub trajectory: Trajectory,
+    /// How the player plays it (rate, speed, first key).
     pub options: PlayOptions,
     /// Where the arm is commanded at the end when the motion finishes.
     pub end_pose: Vec<f64>,
@@ -41,7 +47,7 @@ pub struct MotionPlan {
 
 /// Why `y` does not play.
 #[derive(Debug)]
-pub enum PlayRefusal {
+pub(crate) enum PlayRefusal {
     /// The list does not build into a trajectory on this robot.
     Unplayable(InputError),
     /// At this speed the trajectory breaks the robot's limits, as `keypose play` would refuse.
@@ -52,7 +58,11 @@ pub enum PlayRefusal {
 ///
 /// The target is the pose playback passes through at that key (joints the key does not name
 /// follow their own tracks), evaluated on the tracks so that control keys are reached too.
-pub fn to_key(robot: &Robot, sequence: &Sequence, index: usize) -> Result<MotionPlan, InputError> {
+pub(crate) fn to_key(
+    robot: &Robot,
+    sequence: &Sequence,
+    index: usize,
+) -> Result<MotionPlan, InputError> {
     let trajectory = Trajectory::build(sequence, robot)?;
     let time = sequence.key_time(index);
     let pose: Vec<f64> = trajectory
@@ -88,7 +98,7 @@ pub fn to_key(robot: &Robot, sequence: &Sequence, index: usize) -> Result<Motion
 /// `y`: `sequence` from key `from` at `speed`, at the robot's control rate, refused (as
 /// `keypose play --from` refuses) when anything played goes beyond the limits at that speed —
 /// the start at that key from rest included.
-pub fn play(
+pub(crate) fn play(
     robot: &Robot,
     sequence: &Sequence,
     from: usize,
@@ -122,7 +132,7 @@ pub fn play(
 /// joints — within half their velocity and acceleration limits and timed by them (no
 /// deliberate half second: the start is a held goal, known to a tick), brakeable along its
 /// path like any playback.
-pub fn jog(
+pub(crate) fn jog(
     robot: &Robot,
     goals: &[f64],
     jogged: &[(usize, f64)],
@@ -161,7 +171,7 @@ pub fn jog(
 }
 
 /// The longest stall a jog plays on through, seconds.
-pub const JOG_MAX_STALL: f64 = 2.0;
+const JOG_MAX_STALL: f64 = 2.0;
 
 #[cfg(test)]
 mod tests {

@@ -7,18 +7,31 @@ use std::path::PathBuf;
 #[derive(Debug, Clone, PartialEq)]
 pub enum Prompt {
     /// A journal newer than the file was found at start.
-    Recover { keys: usize },
+    Recover {
+        /// The keys the journal holds.
+        keys: usize,
+    },
     /// `q` with unsaved changes.
     Quit,
     /// Releasing torque on `joints`, of which `heavy` carry the arm's weight.
     Release {
+        /// The joints to release (robot order).
         joints: Vec<usize>,
+        /// Those of them that carry the arm's weight at the present pose.
         heavy: Vec<usize>,
     },
     /// Importing over unsaved changes.
-    Replace { path: PathBuf },
+    Replace {
+        /// The file to import.
+        path: PathBuf,
+    },
     /// A line being typed: a path, a name or a number, by `field`.
-    Text { field: Field, text: String },
+    Text {
+        /// What the line is for.
+        field: Field,
+        /// What has been typed so far.
+        text: String,
+    },
     /// After a typed value, with the arm held: move it to the edited key now?
     MoveThere,
 }
@@ -51,7 +64,7 @@ impl Prompt {
 }
 
 /// The answer `key` gives to a yes/no question, if it is one.
-pub fn yes_no(key: &Key) -> Option<bool> {
+pub(crate) fn yes_no(key: &Key) -> Option<bool> {
     match key {
         Key::Char('y' | 'Y') => Some(true),
         Key::Char('n' | 'N') | Key::Esc | Key::Interrupt => Some(false),
@@ -60,7 +73,7 @@ pub fn yes_no(key: &Key) -> Option<bool> {
 }
 
 /// A typed number: finite, with `,` taken as the decimal point some keyboards give.
-pub fn number(text: &str) -> Option<f64> {
+pub(crate) fn number(text: &str) -> Option<f64> {
     let value: f64 = text.trim().replace(',', ".").parse().ok()?;
     value.is_finite().then_some(value)
 }

@@ -15,7 +15,7 @@ use std::time::Duration;
 
 /// Longest wait for a jogged joint to reach its goal; past it the step goes on with a warning
 /// (a real servo under load may never read its exact goal tick).
-pub const SETTLE_TIMEOUT: Duration = Duration::from_secs(5);
+const SETTLE_TIMEOUT: Duration = Duration::from_secs(5);
 
 /// Runs the script read from `input`, line by line as it arrives (so `-` can be fed from a
 /// pipe), writing one status line per step to `echo`.
@@ -130,9 +130,8 @@ fn failure(event: &Event) -> Option<String> {
     match event {
         Event::BusError(message) => Some(message.clone()),
         Event::MotionEnded {
-            outcome: Err(message),
-            ..
-        } => Some(message.clone()),
+            outcome: Err(e), ..
+        } => Some(crate::error::Report(e).to_string()),
         _ => None,
     }
 }

@@ -136,6 +136,7 @@ pub enum SessionError {
 /// [`Event::BusError`].
 #[derive(Debug, thiserror::Error)]
 pub enum BusCommandError {
+    /// The bus failed.
     #[error(transparent)]
     Bus(#[from] BusError),
     /// The bus went with a motion thread that could not be started.
@@ -146,9 +147,18 @@ pub enum BusCommandError {
     Moving,
     /// A joint's goal that has no tick.
     #[error("joint {joint}: cannot hold: {error}")]
-    Unholdable { joint: String, error: TickError },
+    Unholdable {
+        /// The joint's name.
+        joint: String,
+        /// Why its value has no goal tick.
+        error: TickError,
+    },
+    /// The system refused a thread for the motion.
     #[error("cannot start the motion thread: {error}")]
-    NoThread { error: std::io::Error },
+    NoThread {
+        /// What the system said.
+        error: std::io::Error,
+    },
 }
 
 impl BusCommandError {
@@ -161,6 +171,21 @@ impl BusCommandError {
     }
 }
 
+/// Why a motion of the session ended in a fault: the player's error, its source ([`Report`]
+/// says both), shared so that the [`Event::MotionEnded`] that carries it can be cloned.
+///
+/// [`Report`]: crate::error::Report
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("motion stopped")]
+pub struct MotionError(#[source] pub Arc<PlayError>);
+
+/// Two failures are equal when they say the same (a player's error has no equality of its own).
+impl PartialEq for MotionError {
+    fn eq(&self, other: &Self) -> bool {
+        crate::error::Report(self).to_string() == crate::error::Report(other).to_string()
+    }
+}
+
 /// Brakes whatever motion the session runs, from any thread (the studio's HTTP threads, a
 /// signal handler) without waiting for the thread that carries out the keys: the first stop
 /// request of the running motion, decelerating along its path; nothing when the arm is idle
@@ -170,6 +195,7 @@ impl BusCommandError {
 pub struct Brake(Arc<Mutex<Option<StopSignal>>>);
 
 impl Brake {
+    /// Asks the running motion, if any, to decelerate along its path (its first stop request).
     pub fn soft_stop(&self) {
         if let Some(stop) = lock(&self.0).as_ref() {
             stop.soft_stop();
@@ -189,6 +215,8 @@ impl Brake {
     }
 }
 
+/// The session's hold on the servos: carries out the state's [`BusCommand`]s, runs motions on
+/// the player's thread and reads the present pose.
 pub struct Session {
     robot: Robot,
     ids: Vec<u8>,
@@ -203,6 +231,7 @@ pub struct Session {
 }
 
 impl Session {
+    /// A session of `robot` on `bus`, every joint's torque taken as off until a hold.
     pub fn new(bus: Box<dyn ServoBus>, robot: &Robot) -> Session {
         let n = robot.joints.len();
         Session {
@@ -222,10 +251,12 @@ impl Session {
         self.brake.clone()
     }
 
+    /// The bus as it describes itself (port, driver), for the screen.
     pub fn describe(&self) -> &str {
         &self.description
     }
 
+    /// A motion thread runs (it has the bus).
     pub fn is_moving(&self) -> bool {
         self.motion.is_some()
     }
@@ -434,7 +465,7 @@ impl Session {
             .collect();
         let (outcome, warnings) = match result {
             Ok((outcome, warnings)) => (Ok(outcome), warnings),
-            Err(e) => (Err(format!("motion stopped: {e}")), Vec::new()),
+            Err(e) => (Err(MotionError(Arc::new(e))), Vec::new()),
         };
         Ok(Event::MotionEnded {
             outcome,
@@ -479,7 +510,7 @@ impl Session {
 }
 
 /// What a thread's panic said (its payload is a message for every `panic!` with one).
-pub fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
+pub(crate) fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
     panic
         .downcast_ref::<String>()
         .cloned()

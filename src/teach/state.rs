@@ -21,30 +21,36 @@ use crate::sequence::{KeyValue, KeyframeList, Sequence};
 use std::path::{Path, PathBuf};
 
 /// Jog steps: arrow keys, and with shift.
-pub const JOG_STEP_DEG: f64 = 1.0;
-pub const JOG_BIG_STEP_DEG: f64 = 10.0;
+const JOG_STEP_DEG: f64 = 1.0;
+const JOG_BIG_STEP_DEG: f64 = 10.0;
 /// Prismatic joints jog by 1 mm (10 mm with shift): a degree's worth of care.
-pub const JOG_STEP_M: f64 = 0.001;
-pub const JOG_BIG_STEP_M: f64 = 0.010;
+const JOG_STEP_M: f64 = 0.001;
+const JOG_BIG_STEP_M: f64 = 0.010;
 /// `+`/`-` change the time between keys by a tenth of a second, never below it, and the
 /// playback speed of timed sequences by a tenth, within the range.
-pub const INTERVAL_STEP: f64 = 0.1;
-pub const MIN_SPEED: f64 = 0.1;
-pub const MAX_SPEED: f64 = 4.0;
+const INTERVAL_STEP: f64 = 0.1;
+const MIN_SPEED: f64 = 0.1;
+const MAX_SPEED: f64 = 4.0;
 
 /// The last action, or an error.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct Status {
+    /// What the status line says.
     pub text: String,
+    /// It reports a failure or a warning (drawn as one).
     pub error: bool,
 }
 
 /// What the arm is doing.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Activity {
+    /// No motion runs: the held joints hold their goals.
     Idle,
+    /// The player drives the arm on its thread.
     Moving {
+        /// What the motion is for.
         kind: MotionKind,
+        /// The pose the motion ends at when it finishes, every joint in robot order.
         end_pose: Vec<f64>,
         /// The joints it drives (robot order).
         joints: Vec<usize>,
@@ -53,6 +59,8 @@ pub enum Activity {
     },
 }
 
+/// The teaching session's state: the robot, the keyframe list and where it is written, what
+/// is known of the servos, the prompt and the status line.
 #[derive(Debug)]
 pub struct TeachState {
     robot: Robot,
@@ -142,46 +150,59 @@ impl TeachState {
 
     // ----- what the screen shows -----
 
+    /// The robot being taught.
     pub fn robot(&self) -> &Robot {
         &self.robot
     }
+    /// The keyframe list being edited, with its current key.
     pub fn list(&self) -> &KeyframeList {
         &self.list
     }
+    /// The file `w` writes to.
     pub fn output(&self) -> &Path {
         &self.output
     }
+    /// The journal every edit is written to; `None` without a cache directory.
     pub fn journal(&self) -> Option<&Journal> {
         self.journal.as_ref()
     }
+    /// The present pose as last read, per joint in robot order (degrees or metres).
     pub fn present(&self) -> &[f64] {
         &self.present
     }
+    /// Each joint's goal as last confirmed (degrees or metres): what a held joint holds.
     pub fn goals(&self) -> &[f64] {
         &self.goals
     }
+    /// Each joint's torque as last confirmed: on (held) or off (limp).
     pub fn torque(&self) -> &[bool] {
         &self.torque
     }
+    /// The selected joint's index (robot order): what the arrows jog.
     pub fn selected(&self) -> usize {
         self.selected
     }
+    /// What the arm is doing.
     pub fn activity(&self) -> &Activity {
         &self.activity
     }
+    /// The question the session waits on, if any.
     pub fn prompt(&self) -> Option<&Prompt> {
         self.prompt.as_ref()
     }
+    /// The status line: the last action, or an error.
     pub fn status(&self) -> &Status {
         &self.status
     }
+    /// The session has ended (`q`, answered): the front end stops.
     pub fn should_quit(&self) -> bool {
         self.quit
     }
+    /// A motion runs (or brakes).
     pub fn is_moving(&self) -> bool {
         self.activity != Activity::Idle
     }
-    /// A jog is running (braking too): other keys wait for it ([`super::inputs`]).
+    /// A jog is running (braking too): other keys wait for it ([`super::InputQueue`]).
     pub fn is_jogging(&self) -> bool {
         matches!(
             self.activity,
@@ -798,7 +819,8 @@ mod edits;
 mod mirroring;
 mod reports;
 mod tool;
-pub use tool::{selected_tool, tool_positions};
+pub(crate) use tool::selected_tool;
+pub use tool::tool_positions;
 
 #[cfg(test)]
 mod tests;

@@ -277,7 +277,7 @@ fn keypose_degrees_are_lerobots_within_one_4096th_of_the_angle() {
 /// `keypose ARGS` with LeRobot's calibration variables cleared and then `vars` set.
 fn run_with_env(args: &[&str], vars: &[(&str, &Path)]) -> std::process::Output {
     let mut command = keypose();
-    for var in keypose::robot::lerobot_names::CALIBRATION_ENV_VARS {
+    for var in keypose::robot::CALIBRATION_ENV_VARS {
         command.env_remove(var);
     }
     command

@@ -6,11 +6,8 @@
 //! `try_init` installs a hook that restores the terminal before the panic message prints).
 
 use keypose::teach::format;
-use keypose::teach::inputs::{InputQueue, MAX_WAITING};
-use keypose::teach::keys::{Key, BINDINGS};
-use keypose::teach::motion::MotionKind;
-use keypose::teach::state::{Activity, TeachState};
 use keypose::teach::{apply, press, refresh, Session, TeachError};
+use keypose::teach::{Activity, InputQueue, Key, MotionKind, TeachState, BINDINGS, MAX_WAITING};
 use keypose::terminal_text::escape_field;
 use ratatui::crossterm::event::{self, KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
@@ -247,7 +244,7 @@ fn tool_title(state: &TeachState) -> String {
     if present.len() != state.robot().joints.len() || present.iter().any(|v| !v.is_finite()) {
         return String::new();
     }
-    let tools: Vec<String> = keypose::teach::state::tool_positions(state.robot(), present)
+    let tools: Vec<String> = keypose::teach::tool_positions(state.robot(), present)
         .into_iter()
         .map(|(arm, p)| {
             let p = p * 1000.0;

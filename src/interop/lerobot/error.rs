@@ -116,7 +116,7 @@ pub enum LeRobotError {
     },
     /// The Python reader (pyarrow) failed: the environment's fault, not the dataset's.
     #[error("reading the dataset: {0}")]
-    Reader(HarnessError),
+    Reader(#[source] HarnessError),
     /// The frames could not be fitted with keyframes.
     #[error(transparent)]
     Record(#[from] RecordError),

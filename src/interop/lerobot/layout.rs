@@ -13,14 +13,24 @@ use std::path::{Component, Path, PathBuf};
 /// Why a `data_path` template is not one keypose fills in.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TemplateError {
+    /// A `}` that closes nothing and is not doubled.
     #[error("a single \"}}\" (write \"}}}}\" for a brace)")]
     LoneClose,
+    /// A `{` that is never closed.
     #[error("a \"{{\" without its \"}}\"")]
     Unclosed,
+    /// A field other than `chunk_index` and `file_index`.
     #[error("{{{field}}} is no field keypose fills in (chunk_index, file_index)")]
-    UnknownField { field: String },
+    UnknownField {
+        /// The field's name.
+        field: String,
+    },
+    /// A format spec other than a width, zero-padded or not, with or without `d`.
     #[error("format {spec:?} is not one keypose reads (such as 03d)")]
-    Format { spec: String },
+    Format {
+        /// The spec after the colon.
+        spec: String,
+    },
 }
 
 /// `template` (Python's `str.format` syntax, as LeRobot writes `data_path`) with its

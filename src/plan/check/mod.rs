@@ -23,14 +23,19 @@ use crate::robot::Robot;
 use runs::Attributed;
 use spans::{Discontinuity, JointCurve, Span};
 
+/// Which of a joint's limits a violation exceeds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LimitKind {
+    /// The range, `min` … `max`.
     Position,
+    /// The speed, per second.
     Velocity,
+    /// The acceleration, per second squared.
     Acceleration,
 }
 
 impl LimitKind {
+    /// Lower-case name, as reports print it.
     pub fn name(self) -> &'static str {
         match self {
             LimitKind::Position => "position",
@@ -54,6 +59,7 @@ pub enum Cause {
 }
 
 impl Cause {
+    /// Lower-case name, as reports print it.
     pub fn name(self) -> &'static str {
         match self {
             Cause::Curve => "curve",
@@ -66,16 +72,21 @@ impl Cause {
 /// One stretch of time where a joint exceeds a limit.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Violation {
+    /// The joint's name.
     pub joint: String,
     /// "deg" or "m" (velocity and acceleration are per s and per s²).
     pub unit: &'static str,
+    /// Which limit.
     pub kind: LimitKind,
     /// Keyframe segment index: from key `segment` to key `segment + 1`.
     pub segment: usize,
+    /// "from → to" names of the segment's keys.
     pub segment_label: String,
-    /// Time span of the violation and the time of its worst point.
+    /// Sequence time the violation starts, seconds.
     pub from: f64,
+    /// Sequence time it ends, seconds.
     pub to: f64,
+    /// Sequence time of its worst point, seconds.
     pub peak_time: f64,
     /// The worst value (signed).
     pub peak: f64,
@@ -90,16 +101,25 @@ pub struct Violation {
 /// How close each joint comes to its limits.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointSummary {
+    /// The joint's name.
     pub joint: String,
+    /// "deg" or "m".
     pub unit: &'static str,
+    /// Lowest position over the played window.
     pub min_position: f64,
+    /// Highest position over the played window.
     pub max_position: f64,
+    /// Largest speed, per second, at the checked playback speed.
     pub peak_velocity: f64,
+    /// The joint's velocity limit, per second.
     pub velocity_limit: f64,
+    /// Largest acceleration, per second squared, at the checked playback speed.
     pub peak_acceleration: f64,
+    /// The joint's acceleration limit, per second squared.
     pub acceleration_limit: f64,
 }
 
+/// What [`check`] found: every violation, and how close each joint comes to its limits.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CheckReport {
     /// Control rate in Hz at which steps and corners are judged: the player turns them within
@@ -108,13 +128,18 @@ pub struct CheckReport {
     /// Playback speed: 1 for a plain check. Velocities, accelerations and their limits are what
     /// the servos see at this speed; times are the sequence's, so they point at its keys.
     pub speed: f64,
+    /// Sequence time the checked window starts, seconds.
     pub start: f64,
+    /// Sequence time it ends, seconds.
     pub end: f64,
+    /// Every stretch of time where a joint exceeds a limit, joint by joint.
     pub violations: Vec<Violation>,
+    /// One per joint, in robot joint order.
     pub joints: Vec<JointSummary>,
 }
 
 impl CheckReport {
+    /// No violation.
     pub fn passed(&self) -> bool {
         self.violations.is_empty()
     }

@@ -18,7 +18,9 @@ pub enum FindingKind {
     JointLimit,
     /// The actuator stayed at its force limit.
     Saturation,
+    /// The arm touched the floor.
     FloorCollision,
+    /// The arm touched itself.
     SelfCollision,
     /// Two arms of a cell ran into each other.
     ArmCollision,
@@ -62,11 +64,15 @@ impl Serialize for FindingKind {
 /// Something the simulation caught.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Finding {
+    /// Which check caught it.
     pub kind: FindingKind,
+    /// The joint it is about; `None` for a contact or a divergence.
     pub joint: Option<String>,
     /// In a cell, the arms it is about: the joint's, or the arms of the colliding bodies.
     pub arms: Vec<String>,
+    /// When, in the sequence's time (negative during the approach).
     pub time: f64,
+    /// What happened, for people.
     pub message: String,
 }
 

@@ -32,6 +32,7 @@ pub struct Trace {
     pub sequence_time: Vec<Option<f64>>,
     /// `commanded[row][joint]`
     pub commanded: Vec<Vec<f64>>,
+    /// `position[row][joint]`, measured at the end of the row.
     pub position: Vec<Vec<f64>>,
     /// Joint units per second.
     pub velocity: Vec<Vec<f64>>,
@@ -39,17 +40,24 @@ pub struct Trace {
     pub force: Vec<Vec<f64>>,
     /// A joint-limit constraint was active.
     pub at_limit: Vec<Vec<bool>>,
+    /// Every penetrating contact, row by row.
     pub contacts: Vec<Contact>,
+    /// (simulation time, MuJoCo's message) where the run diverged; it ends there.
     pub divergence: Vec<(f64, String)>,
     /// Actuator force limits per joint (None: unlimited).
     pub force_limits: Vec<Option<f64>>,
 }
 
+/// A penetrating contact between two bodies.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Contact {
+    /// Simulation time, seconds (0 for a pose held still).
     pub time: f64,
+    /// One body's name ("flex" for a flex).
     pub body1: String,
+    /// The other's.
     pub body2: String,
+    /// What touches what.
     pub kind: ContactKind,
     /// Penetration, metres (positive).
     pub depth: f64,
@@ -77,16 +85,21 @@ impl Contact {
     }
 }
 
+/// What a contact touches, as the harness classifies it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ContactKind {
+    /// One body is the floor.
     Floor,
+    /// Two bodies of the same arm.
     SelfCollision,
     /// Bodies of two different arms of a cell.
     BetweenArms,
+    /// Anything else the arm touched.
     Environment,
 }
 
 impl ContactKind {
+    /// Lower-case name, as reports print it.
     pub fn name(self) -> &'static str {
         match self {
             ContactKind::Floor => "floor",
@@ -100,28 +113,39 @@ impl ContactKind {
 /// Per-joint tracking figures.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Tracking {
+    /// The joint's name.
     pub joint: String,
     /// The arm of a cell the joint belongs to.
     pub arm: Option<String>,
     /// Revolute (degrees) or prismatic (metres): what [`shown`] needs to show its figures.
     pub kind: JointKind,
+    /// "deg" or "m".
     pub unit: &'static str,
+    /// Largest tracking error (measured − commanded, absolute), in the joint's unit.
     pub max_error: f64,
+    /// When it happened, in the sequence's time (negative during the approach).
     pub max_error_time: f64,
+    /// Root mean square of the tracking error over the run.
     pub rms_error: f64,
     /// (key label, sequence time, error) after settling at each key.
     pub settled: Vec<(String, f64, f64)>,
+    /// Fastest the servo's output shaft turned, °/s.
     pub peak_speed_servo_deg_s: f64,
+    /// The servo's no-load speed, °/s.
     pub servo_speed_limit_deg_s: f64,
 }
 
+/// What the simulation says of a run: each joint's figures and everything caught.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Verdict {
+    /// One per joint, in joint order.
     pub tracking: Vec<Tracking>,
+    /// In time order.
     pub findings: Vec<Finding>,
 }
 
 impl Verdict {
+    /// Nothing was caught.
     pub fn passed(&self) -> bool {
         self.findings.is_empty()
     }
@@ -130,6 +154,7 @@ impl Verdict {
 /// A key for the settling check, in sequence time.
 #[derive(Debug, Clone, PartialEq)]
 pub struct KeyMark {
+    /// The key's name, or "#index".
     pub label: String,
     /// When the command reaches the key.
     pub time: f64,

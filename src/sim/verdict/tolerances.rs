@@ -10,15 +10,17 @@ pub struct Thresholds {
     pub max_error_deg: f64,
     /// Largest tracking error, metres (prismatic).
     pub max_error_m: f64,
-    /// Error allowed once the arm has settled at a key, degrees / metres.
+    /// Error allowed once the arm has settled at a key, degrees.
     pub settled_error_deg: f64,
+    /// The same for a prismatic joint, metres.
     pub settled_error_m: f64,
     /// How long after the command comes to rest at a key the arm has to settle there, and how
     /// long the command must rest for the key to be judged as settled, seconds.
     pub settle_time: f64,
-    /// A command that moves less than this over the settling window is at rest, degrees /
-    /// metres: well below the settled error allowed, well above float noise.
+    /// A command that moves less than this over the settling window is at rest, degrees: well
+    /// below the settled error allowed, well above float noise.
     pub rest_deg: f64,
+    /// The same for a prismatic joint, metres.
     pub rest_m: f64,
     /// Saturation shorter than this is normal during fast moves, seconds.
     pub saturation_time: f64,

@@ -4,7 +4,7 @@
 //! in place twice gives the key back (unless a value was clipped), which is the undo.
 
 use super::*;
-use crate::mirror::{Clip, Mapping, Mirror};
+use crate::mirror::{Clip, Mapping, Mirror, MirrorError};
 
 impl TeachState {
     /// `m`: the current key's mirror image.
@@ -15,7 +15,7 @@ impl TeachState {
         let index = self.list.current_index();
         let (mirror, what) = match self.mirror() {
             Ok(found) => found,
-            Err(message) => return self.fail(message),
+            Err(e) => return self.fail(format!("cannot mirror: {e}")),
         };
         let mut copy = self.list.sequence().clone();
         match mirror.key(&mut copy, &self.robot, index) {
@@ -35,7 +35,7 @@ impl TeachState {
         }
         let (mirror, what) = match self.mirror() {
             Ok(found) => found,
-            Err(message) => return self.fail(message),
+            Err(e) => return self.fail(format!("cannot mirror: {e}")),
         };
         match mirror.sequence(self.list.sequence(), &self.robot) {
             Ok((mirrored, clips)) => {
@@ -48,14 +48,13 @@ impl TeachState {
     }
 
     /// The mirroring for the selected joint's arm, and how to say what it did.
-    fn mirror(&self) -> Result<(Mirror, String), String> {
+    fn mirror(&self) -> Result<(Mirror, String), MirrorError> {
         let mapping = Mirror::for_selected_joint(&self.robot, self.selected);
         let what = match mapping {
             Mapping::InPlace => "mirrored".to_string(),
             Mapping::Onto { from, to } => format!("mirrored {from} onto {to} in"),
         };
-        let mirror = Mirror::new(&self.robot, mapping, &self.list.sequence().file)
-            .map_err(|e| format!("cannot mirror: {e}"))?;
+        let mirror = Mirror::new(&self.robot, mapping, &self.list.sequence().file)?;
         Ok((mirror, what))
     }
 

@@ -2,6 +2,9 @@
 //! Each handler only records what an event confirms.
 
 use super::*;
+use crate::error::Report;
+use crate::teach::files::FileError;
+use crate::teach::MotionError;
 
 impl TeachState {
     /// Applies what a driver reports; returns what must follow (a loaded list is journaled, a
@@ -97,7 +100,7 @@ impl TeachState {
     /// The player returned: what the arm holds now, and a jog that waited for this one.
     fn motion_ended(
         &mut self,
-        outcome: Result<Outcome, String>,
+        outcome: Result<Outcome, MotionError>,
         last_goals: Option<Vec<f64>>,
         warnings: &[String],
     ) -> Vec<Command> {
@@ -143,8 +146,8 @@ impl TeachState {
                 self.info("stopped: the arm decelerated along its path and holds there")
             }
             Ok(Outcome::Held) => self.info("held at once where the arm was"),
-            Err(message) => {
-                self.fail(message);
+            Err(e) => {
+                self.fail(Report(&e).to_string());
             }
         }
         if !warnings.is_empty() && matches!(kind, MotionKind::Play { .. }) {
@@ -159,10 +162,10 @@ impl TeachState {
 
     // ----- what the files did -----
 
-    fn loaded(&mut self, path: &Path, result: Result<Sequence, String>) -> Vec<Command> {
+    fn loaded(&mut self, path: &Path, result: Result<Sequence, FileError>) -> Vec<Command> {
         let sequence = match result {
             Ok(s) => s,
-            Err(e) => return self.fail(format!("cannot import: {e}")),
+            Err(e) => return self.fail(Report(&e).to_string()),
         };
         // What cannot be played on this robot is refused here rather than at `space` or `y`.
         if let Err(e) = Trajectory::build(&sequence, &self.robot) {
@@ -184,9 +187,9 @@ impl TeachState {
         self.edited()
     }
 
-    fn saved(&mut self, path: PathBuf, result: Result<(), String>) -> Vec<Command> {
+    fn saved(&mut self, path: PathBuf, result: Result<(), FileError>) -> Vec<Command> {
         if let Err(e) = result {
-            return self.fail(format!("not written: {e}"));
+            return self.fail(Report(&e).to_string());
         }
         self.mark_written(&path);
         self.replaced = false;
@@ -221,30 +224,33 @@ impl TeachState {
         self.list.select(current);
     }
 
-    fn journaled(&mut self, result: Result<(), String>) {
+    fn journaled(&mut self, result: Result<(), FileError>) {
         let (Err(e), Some(journal)) = (result, &self.journal) else {
             return;
         };
+        // The file system's words in brackets, inside the sentence the session says.
+        let cause = match std::error::Error::source(&e) {
+            Some(cause) => Report(cause).to_string(),
+            None => e.to_string(),
+        };
         let message = format!(
-            "{}; but the journal {} cannot be written ({e}): w saves your work",
+            "{}; but the journal {} cannot be written ({cause}): w saves your work",
             self.status.text,
             journal.path().display()
         );
         self.fail(message);
     }
 
-    fn journal_cleared(&mut self, why: Clearing, result: Result<(), String>) {
+    fn journal_cleared(&mut self, why: Clearing, result: Result<(), FileError>) {
         let Err(e) = result else {
             return;
         };
+        let said = Report(&e);
         match why {
-            Clearing::Written => self
-                .status
-                .text
-                .push_str(&format!(" (cannot remove the journal: {e})")),
+            Clearing::Written => self.status.text.push_str(&format!(" ({said})")),
             Clearing::Moved => {}
             Clearing::Quit => {
-                let message = format!("{}; cannot remove the journal: {e}", self.status.text);
+                let message = format!("{}; {said}", self.status.text);
                 self.fail(message);
             }
         }

@@ -1307,3 +1307,56 @@ fn a_jog_that_stalled_on_a_busy_machine_is_no_error() {
     assert!(!state.status().error, "{:?}", state.status());
     assert_eq!(state.goals()[PAN], 1.0);
 }
+
+#[test]
+fn a_journal_that_cannot_be_written_says_why_in_brackets_and_that_w_saves() {
+    let dir = tempfile::tempdir().unwrap();
+    // A cache "directory" that is a file: the journal's directory cannot be made in it.
+    let cache = dir.path().join("cache");
+    std::fs::write(&cache, "").unwrap();
+    let output = dir.path().join("taught.json");
+    let journal = Journal::for_target(&cache, &output);
+    let robot = so101();
+    let present = robot.home.clone();
+    let mut state = TeachState::new(
+        robot,
+        KeyframeList::new(Sequence::new("so101")),
+        output,
+        Some(journal.clone()),
+        present,
+    );
+    let start = state.start();
+    apply(&mut state, start);
+    press(&mut state, Key::Char('n'));
+    let status = state.status();
+    assert!(status.error, "{status:?}");
+    let expected = format!(
+        "; but the journal {} cannot be written (",
+        journal.path().display()
+    );
+    assert!(status.text.contains(&expected), "{status:?}");
+    assert!(status.text.ends_with("): w saves your work"), "{status:?}");
+}
+
+#[test]
+fn a_motion_that_failed_says_the_player_error_and_its_cause() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    let commands = state.handle_key(Key::Right);
+    started(&mut state, commands);
+    let error = crate::player::PlayError::Log {
+        path: "teach.csv".into(),
+        source: std::io::Error::other("disk full"),
+    };
+    state.on_event(Event::MotionEnded {
+        outcome: Err(crate::teach::MotionError(std::sync::Arc::new(error))),
+        last_goals: None,
+        warnings: Vec::new(),
+    });
+    let status = state.status();
+    assert!(status.error, "{status:?}");
+    assert_eq!(
+        status.text,
+        "motion stopped: cannot write log teach.csv: disk full"
+    );
+}

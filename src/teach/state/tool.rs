@@ -10,7 +10,7 @@ use crate::sequence::{ToolKey, ToolOrientation};
 use glam::DVec3;
 
 /// How far one tool jog moves the tool point, metres.
-pub const TOOL_JOG_M: f64 = 0.005;
+const TOOL_JOG_M: f64 = 0.005;
 
 /// The arm the tool commands act on: on a cell the arm of the selected joint, on a robot of one
 /// arm the robot itself. Its tool is in its own base frame, as a cell's tool keys are.
@@ -70,7 +70,7 @@ pub fn tool_positions<'r>(robot: &'r Robot, values: &[f64]) -> Vec<(Option<&'r s
 
 /// The tool of the arm the tool commands act on with joint `selected` selected (see
 /// [`tool_positions`]): the arm's name on a cell, and the tool point in its base frame.
-pub fn selected_tool<'r>(
+pub(crate) fn selected_tool<'r>(
     robot: &'r Robot,
     selected: usize,
     values: &[f64],
