@@ -581,8 +581,7 @@ fn software_cost(name: &str) -> Result<f64, String> {
         writes: 0,
     });
     let servos = robot.servos();
-    let mut bus =
-        keypose::bus::driver::NativeBus::new(Box::new(transport), robot.bus.protocol, &servos);
+    let mut bus = keypose::bus::NativeBus::new(Box::new(transport), robot.bus.protocol, &servos);
     let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
     let goals: Vec<(u8, i64)> = ids.iter().map(|&id| (id, 2048)).collect();
     let mut cycle = || -> Result<(), String> {

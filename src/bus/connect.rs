@@ -18,6 +18,7 @@ pub enum Driver {
 
 /// An open bus, with the virtual servos behind it when the port is "virtual".
 pub struct Connection {
+    /// The bus, probed, its homing offsets checked.
     pub bus: Box<dyn ServoBus>,
     /// Kept alive for as long as the connection: dropping it stops the emulated servos.
     pub virtual_bus: Option<PtyServer>,
@@ -29,6 +30,7 @@ pub const VIRTUAL_PORT: &str = "virtual";
 /// How to open a bus, beyond the port.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct BusOptions {
+    /// Whose code speaks the protocol.
     pub driver: Driver,
     /// None: the robot's baud rate.
     pub baud: Option<u32>,
@@ -84,6 +86,9 @@ pub fn connect(
     )
 }
 
+/// Opens `robot`'s bus on `port` as `options` say: pings the robot's first servo (a silent
+/// bus is [`BusError::Silent`]) and checks the servos' homing offsets against the robot's
+/// before anything is written.
 pub fn connect_with(
     robot: &Robot,
     port: &str,

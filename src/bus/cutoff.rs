@@ -21,6 +21,8 @@ pub const LOOK_EVERY: Duration = Duration::from_millis(4);
 /// An instant not set.
 const NONE: u64 = u64::MAX;
 
+/// When a bus's read stops waiting for answers: set by the cell's thread of another arm,
+/// waited up to by the driver ([`ServoBus::set_read_cutoff`](super::ServoBus::set_read_cutoff)).
 #[derive(Debug)]
 pub struct ReadCutoff {
     /// From when a cut may come, as nanoseconds after `base`; [`NONE`]: none will.
@@ -46,7 +48,7 @@ impl Default for ReadCutoff {
 impl ReadCutoff {
     /// A cut may come from `from` on; a request sent after the cut (its thread was not
     /// running: the scheduler's doing, not its bus's) will still get `grace` for its answers.
-    pub fn watch(&self, from: Instant, grace: Duration) {
+    pub(crate) fn watch(&self, from: Instant, grace: Duration) {
         self.grace.store(nanos(grace), Ordering::Release);
         self.at.store(NONE, Ordering::Release);
         self.watch_from
@@ -54,24 +56,24 @@ impl ReadCutoff {
     }
 
     /// Answers are no longer waited for from `at` on (now, or later).
-    pub fn cut(&self, at: Instant) {
+    pub(crate) fn cut(&self, at: Instant) {
         self.at.store(self.since_base(at), Ordering::Release);
     }
 
     /// No cut will come: answers are waited for as long as the bus's own timeouts say.
-    pub fn clear(&self) {
+    pub(crate) fn clear(&self) {
         self.watch_from.store(NONE, Ordering::Release);
         self.at.store(NONE, Ordering::Release);
     }
 
     /// From when a cut may come, if one may.
-    pub fn watching(&self) -> Option<Instant> {
+    pub(crate) fn watching(&self) -> Option<Instant> {
         self.instant(&self.watch_from)
     }
 
     /// Until when a reader that asked at `asked` may wait before it looks at the cutoff again;
     /// `None`: as long as its own deadline.
-    pub fn next_look(&self, asked: Instant, now: Instant) -> Option<Instant> {
+    pub(crate) fn next_look(&self, asked: Instant, now: Instant) -> Option<Instant> {
         if let Some(at) = self.instant(&self.at) {
             let grace = Duration::from_nanos(self.grace.load(Ordering::Acquire));
             return Some(at.max(asked + grace));
@@ -81,12 +83,12 @@ impl ReadCutoff {
     }
 
     /// Whether the cut has come by `now`: no new attempt is begun.
-    pub fn reached(&self, now: Instant) -> bool {
+    pub(crate) fn reached(&self, now: Instant) -> bool {
         self.instant(&self.at).is_some_and(|at| now >= at)
     }
 
     /// Whether the answers to a request sent at `asked` are no longer waited for at `now`.
-    pub fn passed(&self, asked: Instant, now: Instant) -> bool {
+    pub(crate) fn passed(&self, asked: Instant, now: Instant) -> bool {
         let grace = Duration::from_nanos(self.grace.load(Ordering::Acquire));
         self.reached(now) && now >= asked + grace
     }

@@ -16,7 +16,7 @@ const FAILED_READ: Duration = DEFAULT_TIMEOUT.saturating_mul(DEFAULT_READ_RETRIE
 
 /// The shortest streak of failed reads that counts as a fault, from its first failure to the
 /// one that ends it: as long as that takes when each of the [`MAX_READ_FAILURES`] reads fails
-/// on its own ((3 − 1) × 3 × 40 ms). A read a cell cut short (see [`super::cell`]) fails
+/// on its own ((3 − 1) × 3 × 40 ms). A read a cell cut short (see [`super::CellBus`]) fails
 /// sooner, so a streak of those is a fault only once it has lasted this long: a bus that is
 /// silent for a moment (a busy machine) is not taken for a dead one because its period is
 /// short, and a dead one is found as soon as before.

@@ -6,16 +6,24 @@ use std::path::Path;
 /// A serial port and what the system says about it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PortInfo {
+    /// The device path (`/dev/ttyUSB0`).
     pub path: String,
+    /// The USB adapter behind it, for a USB serial port.
     pub usb: Option<UsbInfo>,
 }
 
+/// What a USB serial adapter says about itself.
 #[derive(Debug, Clone, PartialEq)]
 pub struct UsbInfo {
+    /// USB vendor id.
     pub vid: u16,
+    /// USB product id.
     pub pid: u16,
+    /// The manufacturer string, if it gives one.
     pub manufacturer: Option<String>,
+    /// The product string, if it gives one.
     pub product: Option<String>,
+    /// The serial number, if it gives one.
     pub serial_number: Option<String>,
 }
 

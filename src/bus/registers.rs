@@ -1,10 +1,8 @@
-//! The control-table vocabulary the bus uses, from the servo catalogue ([`crate::servo`]),
-//! and what only the bus adds to it: a servo's answer read into a register's value.
+//! What the bus adds to the servo catalogue's registers ([`crate::servo`]): a servo's answer
+//! read into a register's value, or a corrupt answer.
 
 use super::BusError;
-pub use crate::servo::{
-    model_from_number, span, ByteOrder, Encoding, LoadUnit, Register, RegisterError, RegisterTable,
-};
+use crate::servo::{Register, RegisterTable};
 
 /// Reading a register's value out of a servo's answer.
 pub trait DecodeAnswer {

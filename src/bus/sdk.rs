@@ -12,10 +12,10 @@
 
 use super::models::Servos;
 use super::protocol::{codec, Codec, Status};
-use super::registers::{Register, RegisterTable};
 use super::{Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
 use crate::python::{Harness, HarnessError, HarnessOptions, PyConfig};
 use crate::robot::{PositionEncoding, Protocol, ServoModel};
+use crate::servo::{Register, RegisterTable};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -157,8 +157,10 @@ fn parse_reply<R: DeserializeOwned>(
 /// Opening a bus through the SDKs: the Python side, or the bus itself.
 #[derive(Debug, thiserror::Error)]
 pub enum SdkError {
+    /// The bridge process did not start or answer.
     #[error(transparent)]
     Harness(#[from] HarnessError),
+    /// The SDK could not open the port or reach the servos.
     #[error(transparent)]
     Bus(#[from] BusError),
 }
@@ -241,6 +243,7 @@ impl SdkBus {
         })
     }
 
+    /// The protocol the bridge speaks.
     pub fn protocol(&self) -> Protocol {
         self.codec.protocol()
     }
@@ -403,7 +406,7 @@ impl SdkBus {
         pick: fn(&RegisterTable) -> Register,
     ) -> Result<Reg, BusError> {
         self.servos
-            .common_register(ids, pick)
+            .common_register(ids, |table| Ok(pick(table)))
             .map(|(register, _)| register.into())
     }
 
@@ -577,7 +580,14 @@ impl ServoBus for SdkBus {
         // (sign-magnitude on Feetech, two's complement on Dynamixel) is the table's.
         servos
             .iter()
-            .map(|&(id, model)| self.read_value(id, model.spec().table.homing_offset))
+            .map(|&(id, model)| {
+                let register = model.spec().table.homing_offset;
+                let register = register.ok_or(BusError::MissingRegister {
+                    id,
+                    register: super::homing::REGISTER,
+                })?;
+                self.read_value(id, register)
+            })
             .collect()
     }
 

@@ -6,7 +6,9 @@ use std::time::{Duration, Instant};
 
 /// A half-duplex byte link with deadline-bounded reads.
 pub trait Transport: Send {
+    /// A short description for messages (the port and its baud rate).
     fn describe(&self) -> String;
+    /// Sends `bytes`, all of them.
     fn write_all(&mut self, bytes: &[u8]) -> io::Result<()>;
     /// Reads what is available, waiting until `deadline` at most; `Ok(0)` means nothing came.
     /// Bytes already received are read even when the deadline has passed: a caller that ran
@@ -24,6 +26,7 @@ pub struct SerialTransport {
 }
 
 impl SerialTransport {
+    /// Opens the serial port `path` at `baud`.
     pub fn open(path: &str, baud: u32) -> io::Result<Self> {
         let port = serialport::new(path, baud)
             .timeout(Duration::from_millis(10))
@@ -36,6 +39,7 @@ impl SerialTransport {
         })
     }
 
+    /// The port's path.
     pub fn name(&self) -> &str {
         &self.name
     }
@@ -148,6 +152,7 @@ impl<R: Responder> MemoryTransport<R> {
         }
     }
 
+    /// What answers the bytes written (the emulated servos).
     pub fn responder(&mut self) -> &mut R {
         &mut self.responder
     }

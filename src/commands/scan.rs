@@ -72,7 +72,7 @@ fn servo_rows(found: &[(Protocol, bus::PingInfo)]) -> Vec<serde_json::Value> {
                 "protocol": protocol.name(),
                 "id": info.id,
                 "model_number": info.model_number,
-                "model": bus::registers::model_from_number(*protocol, info.model_number).map(|m| m.name()),
+                "model": keypose::servo::model_from_number(*protocol, info.model_number).map(|m| m.name()),
                 "firmware": info.firmware,
                 "alarms": info.alarms.names(),
             })

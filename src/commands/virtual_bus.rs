@@ -158,7 +158,7 @@ fn set_homing_offsets(
     offsets: &[(u8, i64)],
 ) -> Result<(), CommandError> {
     for &(id, ticks) in offsets {
-        match server.bus().lock().servo_mut(id) {
+        let set = match server.bus().lock().servo_mut(id) {
             Some(servo) => servo.set_homing_offset(ticks),
             None => {
                 return Err(CommandError::Usage(format!(
@@ -166,6 +166,12 @@ fn set_homing_offsets(
                     robot.name
                 )))
             }
+        };
+        if set.is_err() {
+            return Err(CommandError::Usage(format!(
+                "--homing-offset: servo {id} of {} has no Homing_Offset register",
+                robot.name
+            )));
         }
     }
     Ok(())

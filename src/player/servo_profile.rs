@@ -2,13 +2,14 @@
 //! playback, and the values found there put back afterwards, however the playback ends.
 //!
 //! [`ProfileGuard`] reads and remembers the profile registers, writes the limits
-//! ([`crate::bus::profile::settings_for`]), and lends the bus to the playback; it restores the
+//! ([`crate::robot::profile::settings_for`]), and lends the bus to the playback; it restores the
 //! remembered values when told to ([`ProfileGuard::restore`], which reports a failure) or,
 //! failing that, when dropped: after an error return or a panic too.
 
-use crate::bus::profile::{settings_for, ProfileError, Setting};
 use crate::bus::{BusError, ServoBus};
+use crate::robot::profile::{settings_for, ProfileError};
 use crate::robot::Robot;
+use crate::servo::Setting;
 
 /// One profile register's values, (id, value) per servo: the values found before playback, or
 /// the ones to write.

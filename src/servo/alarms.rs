@@ -6,16 +6,20 @@ use std::fmt;
 /// Alarm conditions a servo reports, common to both vendors.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Alarms {
+    /// Supply voltage outside the allowed range.
     pub input_voltage: bool,
+    /// Internal temperature above its limit.
     pub overheating: bool,
     /// Magnetic encoder / angle sensor fault.
     pub encoder: bool,
     /// Dynamixel "electrical shock"; Feetech over-current.
     pub electrical: bool,
+    /// The load exceeded what the servo can hold.
     pub overload: bool,
 }
 
 impl Alarms {
+    /// Whether any alarm is raised.
     pub fn any(&self) -> bool {
         self.input_voltage || self.overheating || self.encoder || self.electrical || self.overload
     }
@@ -24,10 +28,15 @@ impl Alarms {
 /// Which bit of a vendor's alarm byte stands for each alarm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct AlarmBits {
+    /// The mask of [`Alarms::input_voltage`].
     pub input_voltage: u8,
+    /// The mask of [`Alarms::overheating`].
     pub overheating: u8,
+    /// The mask of [`Alarms::encoder`].
     pub encoder: u8,
+    /// The mask of [`Alarms::electrical`].
     pub electrical: u8,
+    /// The mask of [`Alarms::overload`].
     pub overload: u8,
 }
 

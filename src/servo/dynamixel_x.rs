@@ -15,10 +15,15 @@ use std::time::Duration;
 
 /// Address of the X series Hardware Error Status register.
 pub const HARDWARE_ERROR_STATUS: u16 = 70;
+/// Hardware Error Status bit: Input Voltage Error.
 pub const HW_INPUT_VOLTAGE: u8 = 1 << 0;
+/// Hardware Error Status bit: Overheating Error.
 pub const HW_OVERHEATING: u8 = 1 << 2;
+/// Hardware Error Status bit: Motor Encoder Error.
 pub const HW_MOTOR_ENCODER: u8 = 1 << 3;
+/// Hardware Error Status bit: Electrical Shock Error.
 pub const HW_ELECTRICAL_SHOCK: u8 = 1 << 4;
+/// Hardware Error Status bit: Overload Error.
 pub const HW_OVERLOAD: u8 = 1 << 5;
 
 /// Hardware Error Status bits (bits 1, 6 and 7 are unused).
@@ -87,8 +92,10 @@ const DXL_X: RegisterTable = RegisterTable {
     return_delay: unsigned("Return_Delay_Time", 9, 1),
     status_return_level: unsigned("Status_Return_Level", 68, 1),
     drive_mode: Some(unsigned("Drive_Mode", 10, 1)),
-    operating_mode: unsigned("Operating_Mode", 11, 1),
-    homing_offset: signed("Homing_Offset", 20, 4),
+    operating_mode: Some(unsigned("Operating_Mode", 11, 1)),
+    homing_offset: Some(signed("Homing_Offset", 20, 4)),
+    min_position_limit: unsigned("Min_Position_Limit", 52, 4),
+    max_position_limit: unsigned("Max_Position_Limit", 48, 4),
     torque_enable: unsigned("Torque_Enable", 64, 1),
     hardware_error: unsigned("Hardware_Error_Status", HARDWARE_ERROR_STATUS, 1),
     goal_position: signed("Goal_Position", 116, 4),
@@ -186,6 +193,28 @@ pub(super) static XM430_W350: ModelSpec = ModelSpec {
     no_load_speed_deg_s: 276.0,
     items: &XM430_ITEMS,
     extra_items: &XM430_EXTRA_ITEMS,
+    ..XL330_M288
+};
+
+/// Not a model of the catalogue: the XL330-M288 as a model without Homing_Offset, Operating_Mode
+/// and Drive_Mode would be described (Protocol 1.0's AX-12 has none of them), for the tests of
+/// the code that reads those registers. Its full item table is still the XL330's.
+#[cfg(test)]
+pub(crate) static WITHOUT_OFFSET_OR_MODE: ModelSpec = ModelSpec {
+    name: "without-offset-or-mode",
+    table: &RegisterTable {
+        drive_mode: None,
+        operating_mode: None,
+        homing_offset: None,
+        ..DXL_X
+    },
+    modes: Modes {
+        extended_position: None,
+        position_mode_offset_limit: None,
+        ..X_SERIES_MODES
+    },
+    operating_modes: &[],
+    drive_mode: None,
     ..XL330_M288
 };
 

@@ -10,7 +10,9 @@ use super::register::{Encoding, Register};
 /// Who may write the item.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Access {
+    /// Only the servo writes it.
     ReadOnly,
+    /// A write instruction may set it.
     ReadWrite,
 }
 
@@ -18,7 +20,9 @@ pub enum Access {
 /// Dynamixel X series accept writes only while the torque is off.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Area {
+    /// Kept over a power cycle.
     Eeprom,
+    /// Reset at power-on.
     Ram,
 }
 
@@ -34,9 +38,13 @@ pub enum Default {
 /// One control-table item.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Item {
+    /// Its name, address, size and encoding.
     pub register: Register,
+    /// Who may write it.
     pub access: Access,
+    /// EEPROM or RAM.
     pub area: Area,
+    /// What it holds at power-on.
     pub default: Default,
     /// The values a write may carry (inclusive); a write outside is refused with the
     /// servo's own error. Read-only items have the register's whole range.
@@ -44,6 +52,7 @@ pub struct Item {
 }
 
 impl Item {
+    /// Its name in the manual's table.
     pub fn name(&self) -> &'static str {
         self.register.name
     }
@@ -58,6 +67,7 @@ impl Item {
         usize::from(self.register.address) >= start && usize::from(self.register.end()) <= end
     }
 
+    /// Whether a write of `value` is inside [`Self::range`].
     pub fn accepts(&self, value: i64) -> bool {
         (self.range.0..=self.range.1).contains(&value)
     }

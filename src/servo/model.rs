@@ -11,10 +11,15 @@ use std::time::Duration;
 /// [`ModelSpec`], reached through [`ServoModel::spec`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ServoModel {
+    /// Feetech STS3215 (SO-100/SO-101 arms).
     Sts3215,
+    /// ROBOTIS XL330-M288-T.
     Xl330M288,
+    /// ROBOTIS XL330-M077-T.
     Xl330M077,
+    /// ROBOTIS XL430-W250-T.
     Xl430W250,
+    /// ROBOTIS XM430-W350-T.
     Xm430W350,
 }
 
@@ -71,18 +76,22 @@ pub fn model_from_number(protocol: Protocol, number: u16) -> Option<ServoModel> 
 /// Multi-turn position control: its Operating_Mode value and goal range in ticks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ExtendedMode {
+    /// Its Operating_Mode value.
     pub mode: i64,
+    /// Its goal range, ticks.
     pub range: (i64, i64),
 }
 
 /// A model's position modes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Modes {
-    /// The Operating_Mode value of position control within one turn (the factory mode).
+    /// The Operating_Mode value of position control within one turn (the factory mode);
+    /// unused where the table has no Operating_Mode (the model is always in that mode).
     pub position_mode: i64,
     /// Its goal range, in ticks.
     pub position: (i64, i64),
-    /// Multi-turn position control, where the model has it.
+    /// Multi-turn position control, where the model has it (only a model with an
+    /// Operating_Mode register can be switched to it).
     pub extended_position: Option<ExtendedMode>,
     /// In position mode a homing offset beyond ± this is ignored, where the firmware does so
     /// (Dynamixel X: 1024, e-Manual `control_table_homingoffset.md`).
@@ -94,6 +103,7 @@ pub struct Modes {
 /// the firmware follows with these numbers are the vendor's (`bus::protocol::VENDOR::firmware`).
 #[derive(Debug, PartialEq)]
 pub struct ModelSpec {
+    /// The model described.
     pub model: ServoModel,
     /// The name robot files use.
     pub name: &'static str,
@@ -105,15 +115,18 @@ pub struct ModelSpec {
     /// Position ticks per revolution of the shaft: 4096 on every supported model (an AX-12's
     /// 1024 ticks span 300°, 1228.8 a revolution).
     pub ticks_per_revolution: f64,
+    /// The registers with a role, their units and firmware behaviours.
     pub table: &'static RegisterTable,
     /// At the supply voltage the supported arms use, degrees per second.
     pub no_load_speed_deg_s: f64,
+    /// Its position modes.
     pub modes: Modes,
     /// The full control table (what the manual lists), in address order, with
     /// [`Self::extra_items`] the items only some models of a family have.
     pub items: &'static [Item],
+    /// The items only this model of its family has.
     pub extra_items: &'static [Item],
-    /// The values of the operating mode register the model has.
+    /// The values of the operating mode register the model has; empty where it has none.
     pub operating_modes: &'static [i64],
     /// Present_Velocity's unit, ticks per second.
     pub velocity_unit: f64,

@@ -73,7 +73,9 @@ impl Limit {
 /// its largest value. 0 means "no limit" on every supported model.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ProfileRegister {
+    /// Which register.
     pub setting: Setting,
+    /// Which of the joint's limits it bounds.
     pub limit: Limit,
     /// Ticks per second (velocity) or per second² (acceleration) per register unit.
     pub unit: f64,

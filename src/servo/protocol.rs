@@ -4,18 +4,23 @@
 /// A bus protocol, as a robot file names it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Protocol {
+    /// ROBOTIS Dynamixel Protocol 2.0 (`dynamixel-2`).
     Dynamixel2,
+    /// Feetech STS/SMS (`feetech-sts`): little-endian, sign-magnitude positions.
     FeetechSts,
+    /// Feetech SCS (`feetech-scs`): big-endian, unsigned positions.
     FeetechScs,
 }
 
 impl Protocol {
+    /// Every protocol keypose speaks.
     pub const ALL: [Protocol; 3] = [
         Protocol::Dynamixel2,
         Protocol::FeetechSts,
         Protocol::FeetechScs,
     ];
 
+    /// The name robot files and `--protocol` use.
     pub fn name(self) -> &'static str {
         match self {
             Protocol::Dynamixel2 => "dynamixel-2",
@@ -46,7 +51,9 @@ impl Protocol {
 /// it has.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Vendor {
+    /// ROBOTIS.
     Dynamixel,
+    /// Feetech.
     Feetech,
 }
 
@@ -56,19 +63,40 @@ pub enum PositionEncoding {
     /// Dynamixel X series: 4-byte two's complement.
     TwosComplement32,
     /// Feetech STS/SMS: magnitude in the low bits, `sign_bit` set for negative values.
-    SignMagnitude16 { sign_bit: u8 },
+    SignMagnitude16 {
+        /// The bit that marks a negative value.
+        sign_bit: u8,
+    },
     /// Feetech SCS: unsigned positions only.
     Unsigned16,
 }
 
+/// A joint value or tick that has no goal position on the servo.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum TickError {
+    /// A tick the position register cannot hold.
     #[error("tick {tick} does not fit the servo's position register ({min} to {max})")]
-    OutOfRange { tick: i64, min: i64, max: i64 },
+    OutOfRange {
+        /// The tick.
+        tick: i64,
+        /// The least tick the register holds.
+        min: i64,
+        /// The most.
+        max: i64,
+    },
+    /// A joint value that is NaN or infinite.
     #[error("joint value {0} has no tick: it is not a finite number")]
     NotFinite(f64),
+    /// A joint value outside the joint's limits (in the joint's units).
     #[error("joint value {value} is outside the limits {min} … {max}")]
-    OutsideLimits { value: f64, min: f64, max: f64 },
+    OutsideLimits {
+        /// The joint value.
+        value: f64,
+        /// The joint's lower limit.
+        min: f64,
+        /// Its upper limit.
+        max: f64,
+    },
 }
 
 impl PositionEncoding {

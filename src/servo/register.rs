@@ -40,12 +40,14 @@ impl ByteOrder {
 /// How a register represents a signed or unsigned value in its bits.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Encoding {
+    /// Plain binary, 0 up.
     Unsigned,
     /// Two's complement over the register's whole width (Dynamixel).
     TwosComplement,
     /// Magnitude in the bits below `sign_bit`, `sign_bit` set for negative values (Feetech
     /// STS/SMS). Always a 2-byte register.
     SignMagnitude {
+        /// The bit that marks a negative value.
         sign_bit: u8,
     },
 }
@@ -53,44 +55,67 @@ pub enum Encoding {
 /// One control-table entry.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Register {
+    /// Its name in the vendor's control table (`Goal_Position`).
     pub name: &'static str,
+    /// Its first address in the control table.
     pub address: u16,
     /// In bytes: 1, 2 or 4.
     pub size: u8,
+    /// How its bits hold a value.
     pub encoding: Encoding,
 }
 
+/// A value or bytes that do not fit a register.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum RegisterError {
+    /// A value outside what the register can hold.
     #[error("{register}: value {value} does not fit the register ({min} to {max})")]
     OutOfRange {
+        /// The register's name.
         register: &'static str,
+        /// The value.
         value: i64,
+        /// The least it holds.
         min: i64,
+        /// The most it holds.
         max: i64,
     },
+    /// Another number of bytes than the register has.
     #[error("{register}: {found} bytes where the register has {expected}")]
     Size {
+        /// The register's name.
         register: &'static str,
+        /// Its size, bytes.
         expected: u8,
+        /// The bytes given.
         found: usize,
     },
+    /// A register outside the block of bytes read.
     #[error("{register} (address {address}, {size} bytes) is not inside the {len} bytes read from address {start}")]
     OutsideBlock {
+        /// The register's name.
         register: &'static str,
+        /// Its address.
         address: u16,
+        /// Its size, bytes.
         size: u8,
+        /// The block's first address.
         start: u16,
+        /// The block's length, bytes.
         len: usize,
     },
+    /// An address a one-byte address field cannot carry.
     #[error("{register}: address {address} does not fit a one-byte (Feetech) address")]
     Address {
+        /// The register's name.
         register: &'static str,
+        /// Its address.
         address: u16,
     },
 }
 
 impl Register {
+    /// A register called `name` of `size` bytes at `address`.
     pub const fn new(name: &'static str, address: u16, size: u8, encoding: Encoding) -> Register {
         Register {
             name,

@@ -10,10 +10,15 @@ use super::register::{sign_magnitude, unsigned, ByteOrder};
 use super::table::{LoadUnit, RegisterTable};
 use std::time::Duration;
 
+/// Status (and status byte) bit: voltage.
 pub const ERR_VOLTAGE: u8 = 1 << 0;
+/// Status (and status byte) bit: angle sensor.
 pub const ERR_ANGLE_SENSOR: u8 = 1 << 1;
+/// Status (and status byte) bit: overheating.
 pub const ERR_OVERHEAT: u8 = 1 << 2;
+/// Status (and status byte) bit: over-current.
 pub const ERR_OVER_CURRENT: u8 = 1 << 3;
+/// Status (and status byte) bit: overload.
 pub const ERR_OVERLOAD: u8 = 1 << 5;
 
 /// Status register (65) bits, which the status packet's ERR byte carries too (Feetech protocol
@@ -46,8 +51,10 @@ static STS3215_TABLE: RegisterTable = RegisterTable {
     return_delay: unsigned("Return_Delay_Time", 7, 1),
     status_return_level: unsigned("Response_Status_Level", 8, 1),
     drive_mode: None,
-    operating_mode: unsigned("Operating_Mode", 33, 1),
-    homing_offset: sign_magnitude("Homing_Offset", 31, 11),
+    operating_mode: Some(unsigned("Operating_Mode", 33, 1)),
+    homing_offset: Some(sign_magnitude("Homing_Offset", 31, 11)),
+    min_position_limit: unsigned("Min_Position_Limit", 9, 2),
+    max_position_limit: unsigned("Max_Position_Limit", 11, 2),
     torque_enable: unsigned("Torque_Enable", 40, 1),
     hardware_error: unsigned("Status", 65, 1),
     goal_position: sign_magnitude("Goal_Position", 42, 15),

@@ -13,7 +13,9 @@ pub enum LoadUnit {
     /// Signed current. Expressed as a percentage of the stall current at the rated voltage,
     /// which is what "100 % load" means for a servo held still at full effort.
     Current {
+        /// Milliamps per register unit.
         milliamps_per_unit: f64,
+        /// The stall current at the rated voltage, mA: what 100 % means.
         stall_milliamps: f64,
     },
 }
@@ -22,12 +24,16 @@ pub enum LoadUnit {
 /// and the firmware behaviours around them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RegisterTable {
+    /// The order of multi-byte values' bytes.
     pub byte_order: ByteOrder,
     /// Sign of the homing offset: Present = Actual + sign · Homing_Offset (+1 Dynamixel,
     /// −1 Feetech).
     pub homing_offset_sign: i64,
+    /// The model number (read-only).
     pub model_number_register: Register,
+    /// The servo's id on the bus.
     pub id: Register,
+    /// The bus speed, as the vendor's code for it.
     pub baud_rate: Register,
     /// Unit 2 µs. FT-MEM says it has no function on STS.
     pub return_delay: Register,
@@ -35,21 +41,38 @@ pub struct RegisterTable {
     pub status_return_level: Register,
     /// Dynamixel only: bit 0 reverses the direction of goal and present position.
     pub drive_mode: Option<Register>,
-    pub operating_mode: Register,
-    pub homing_offset: Register,
+    /// Operating_Mode, where the model can switch modes. `None`: the model is always in
+    /// (single-turn) position mode, which nothing can change (an AX-12 of Protocol 1.0).
+    pub operating_mode: Option<Register>,
+    /// Homing_Offset, where the firmware shifts the reported position by one. `None`: Present
+    /// Position is the shaft's own, so the only homing offset that describes the servo is 0
+    /// (an AX-12 of Protocol 1.0).
+    pub homing_offset: Option<Register>,
+    /// The position limits (CW and CCW Angle Limit, where a model's manual calls them so):
+    /// goals outside them are clamped in position mode; both 0 mean no range (Feetech
+    /// multi-turn).
+    pub min_position_limit: Register,
+    /// The upper position limit (see [`Self::min_position_limit`]).
+    pub max_position_limit: Register,
+    /// 0 limp, 1 holding (and the model's recalibrate value, where it has one).
     pub torque_enable: Register,
     /// Dynamixel Hardware Error Status (70) or Feetech Status (65); see [`Self::alarms`].
     pub hardware_error: Register,
+    /// Where the servo is told to go, ticks.
     pub goal_position: Register,
+    /// Where the servo is, ticks.
     pub present_position: Register,
+    /// Its speed now, in the model's velocity unit.
     pub present_velocity: Register,
     /// Present Load (XL430, STS) or Present Current (XL330, XM430); see [`Self::load_unit`].
     pub present_load: Register,
+    /// What [`Self::present_load`] measures.
     pub load_unit: LoadUnit,
     /// 0.1 V per unit on every model.
     pub present_voltage: Register,
     /// °C.
     pub present_temperature: Register,
+    /// 1 while the servo moves toward its goal.
     pub moving: Register,
     /// Dynamixel only.
     pub profile_velocity: Option<Register>,
@@ -84,8 +107,10 @@ impl RegisterTable {
             Some(self.return_delay),
             Some(self.status_return_level),
             self.drive_mode,
-            Some(self.operating_mode),
-            Some(self.homing_offset),
+            self.operating_mode,
+            self.homing_offset,
+            Some(self.min_position_limit),
+            Some(self.max_position_limit),
             Some(self.torque_enable),
             Some(self.hardware_error),
             Some(self.goal_position),
@@ -108,14 +133,17 @@ impl RegisterTable {
         all
     }
 
+    /// The register with a role called `name`.
     pub fn find(&self, name: &str) -> Option<Register> {
         self.registers().into_iter().find(|r| r.name == name)
     }
 
+    /// The bytes of `value` in `register`, in this table's byte order.
     pub fn encode(&self, register: &Register, value: i64) -> Result<Vec<u8>, RegisterError> {
         register.encode(value, self.byte_order)
     }
 
+    /// The value of `register` in `bytes`, in this table's byte order.
     pub fn decode(&self, register: &Register, bytes: &[u8]) -> Result<i64, RegisterError> {
         register.decode(bytes, self.byte_order)
     }
@@ -156,7 +184,7 @@ impl RegisterTable {
         value as f64
     }
 
-    /// The registers a health reading needs, for [`span`]: load, voltage, temperature and the
+    /// The registers a health reading needs, for [`super::span`]: load, voltage, temperature and the
     /// alarm register.
     pub fn health_registers(&self) -> [Register; 4] {
         [

@@ -100,14 +100,14 @@ impl ServoBus for ObservedBus {
     fn read_setting(
         &mut self,
         ids: &[u8],
-        setting: crate::bus::profile::Setting,
+        setting: crate::servo::Setting,
     ) -> Result<Vec<i64>, BusError> {
         self.inner.read_setting(ids, setting)
     }
     fn write_setting(
         &mut self,
         values: &[(u8, i64)],
-        setting: crate::bus::profile::Setting,
+        setting: crate::servo::Setting,
     ) -> Result<(), BusError> {
         self.inner.write_setting(values, setting)
     }

@@ -66,7 +66,8 @@ fn a_servo_holding_another_offset_is_refused_before_anything_is_written() {
             .lock()
             .servo_mut(3)
             .unwrap()
-            .set_homing_offset(-300);
+            .set_homing_offset(-300)
+            .unwrap();
         let error = match open(&robot, server.path()) {
             Err(e) => e,
             Ok(_) => panic!("{name}: opened despite the mismatch"),

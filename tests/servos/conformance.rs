@@ -19,16 +19,16 @@
 //! so it is built at most once per target directory. Without python3 or PyPI these tests fail
 //! and say why: they never skip.
 
-use keypose::bus::driver::NativeBus;
 use keypose::bus::protocol::codec;
 use keypose::bus::protocol::dynamixel::Dynamixel2;
 use keypose::bus::protocol::packet::{Decoded, Direction, Framing, Packet};
-use keypose::bus::registers::Register;
 use keypose::bus::sdk::SdkBus;
 use keypose::bus::transport::SerialTransport;
+use keypose::bus::NativeBus;
 use keypose::bus::{BusError, ServoBus};
 use keypose::python::{Harness, HarnessError, HarnessOptions, PyConfig, PythonEnv};
 use keypose::robot::{PositionEncoding, Protocol, Robot, ServoModel};
+use keypose::servo::Register;
 use keypose::testing::{PtyServer, VirtualBus};
 use serde_json::{json, Value};
 use serialport::{SerialPort, TTYPort};

@@ -2,7 +2,7 @@
 //! virtual bus decodes them, moves, and answers; nothing is mocked but the wire itself (an
 //! in-memory transport; the pseudo-terminal path is covered in `tests/servos/play.rs`).
 
-use keypose::bus::driver::NativeBus;
+use keypose::bus::NativeBus;
 use keypose::bus::{Alarms, BusError};
 use keypose::pacing::Clock;
 use keypose::plan::Loops;

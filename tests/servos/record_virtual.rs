@@ -4,7 +4,7 @@
 //! Nothing is mocked but the wire (an in-memory transport; the pseudo-terminal path is covered
 //! in `tests/servos/record.rs`).
 
-use keypose::bus::driver::NativeBus;
+use keypose::bus::NativeBus;
 use keypose::bus::ServoBus;
 use keypose::curve::{Interp, Track, TrackKey};
 use keypose::plan::{check, Trajectory};

@@ -6,7 +6,6 @@
 //! here from the sync-write layout of docs/protocols.md (not with keypose's decoder), and the
 //! values the servos hold are read back from them afterwards.
 
-use keypose::bus::profile::Setting;
 use keypose::bus::ServoBus;
 use keypose::pacing::Clock;
 use keypose::plan::Trajectory;
@@ -15,6 +14,7 @@ use keypose::player::{
 };
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
+use keypose::servo::Setting;
 use keypose::testing::VirtualBus;
 use std::sync::Mutex;
 use std::time::Duration;

@@ -29,10 +29,10 @@ pub use offsets::WriteOffsets;
 
 use super::cutoff::ReadCutoff;
 use super::driver::DEFAULT_TIMEOUT;
-use super::profile::Setting;
 use super::virtual_bus::PtyServer;
 use super::{connect_with, BusError, BusOptions, Connection, Health, PingInfo, ServoBus};
 use crate::robot::{Arm, Robot, ServoModel};
+use crate::servo::Setting;
 use gate::Gate;
 use offsets::OffsetRecord;
 use std::sync::mpsc::{self, RecvTimeoutError};
@@ -395,7 +395,7 @@ impl ServoBus for CellBus {
         Ok(Self::merge(&parts, values, ids.len()))
     }
 
-    /// Every arm's sync write starts once every arm's thread is ready for it ([`Gate`]); the
+    /// Every arm's sync write starts once every arm's thread is ready for it (`Gate`); the
     /// spread of the instants they really started at is recorded.
     fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError> {
         let parts = self.split(goals.iter().map(|(id, _)| *id))?;

@@ -14,8 +14,11 @@ const BIN: Duration = Duration::from_micros(1);
 pub struct WriteOffsets {
     /// Cycles measured.
     pub cycles: u64,
+    /// The median spread.
     pub median: Duration,
+    /// The 99th percentile.
     pub p99: Duration,
+    /// The largest.
     pub max: Duration,
 }
 

@@ -17,10 +17,11 @@ use super::echo::{Echoes, Front};
 use super::models::Servos;
 use super::protocol::packet::{Decoded, Direction, Packet, PacketError};
 use super::protocol::{codec, Codec, Instructions, Status};
-use super::registers::{self, DecodeAnswer, Register, RegisterTable};
 use super::transport::Transport;
-use super::{profile, Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
+use super::DecodeAnswer;
+use super::{homing, Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
 use crate::robot::{Protocol, ServoModel};
+use crate::servo::{span, Register, RegisterTable, Setting};
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -35,11 +36,15 @@ pub const DEFAULT_READ_RETRIES: u32 = 2;
 /// ordinary wake-up delay, well within the timeout.
 pub const STARVED_AFTER: Duration = Duration::from_millis(10);
 
+/// keypose's own driver: a [`ServoBus`] speaking a vendor protocol (its [`Codec`]) over a
+/// transport (a serial port, or emulated servos in memory).
 pub struct NativeBus {
     transport: Box<dyn Transport>,
     codec: &'static dyn Codec,
     servos: Servos,
+    /// How long to wait for one answer.
     pub timeout: Duration,
+    /// Extra attempts for a read that got no valid answer.
     pub read_retries: u32,
     /// Dynamixel: read with Fast Sync Read (0x8A, one combined answer) instead of Sync Read.
     /// Off by default: which models and firmware support it is unverified (docs/protocols.md).
@@ -77,14 +82,6 @@ impl NativeBus {
 
     fn table(&self, id: u8) -> Result<&'static RegisterTable, BusError> {
         self.servos.table(id)
-    }
-
-    fn common_register(
-        &self,
-        ids: &[u8],
-        pick: fn(&RegisterTable) -> Register,
-    ) -> Result<(Register, &'static RegisterTable), BusError> {
-        self.servos.common_register(ids, pick)
     }
 
     fn protocol_error(&self, error: PacketError) -> BusError {
@@ -623,14 +620,14 @@ impl NativeBus {
         }
     }
 
-    /// Writes one value per servo into one register with a single sync write (no answer).
-    /// One register of every servo in `ids` (the same in all their tables), as values.
+    /// One register of every servo in `ids` (the same in all their tables), as values; `pick`
+    /// as in [`Servos::common_register`].
     fn read_values(
         &mut self,
         ids: &[u8],
-        pick: fn(&RegisterTable) -> Register,
+        pick: impl Fn(&RegisterTable) -> Result<Register, &'static str>,
     ) -> Result<Vec<i64>, BusError> {
-        let (register, table) = self.common_register(ids, pick)?;
+        let (register, table) = self.servos.common_register(ids, pick)?;
         self.read_register_values(ids, register, table)
     }
 
@@ -647,13 +644,15 @@ impl NativeBus {
             .collect()
     }
 
+    /// Writes one value per servo into one register with a single sync write (no answer);
+    /// `pick` as in [`Servos::common_register`].
     fn write_register(
         &mut self,
         values: &[(u8, i64)],
-        pick: fn(&RegisterTable) -> Register,
+        pick: impl Fn(&RegisterTable) -> Result<Register, &'static str>,
     ) -> Result<(), BusError> {
         let ids: Vec<u8> = values.iter().map(|(id, _)| *id).collect();
-        let (register, table) = self.common_register(&ids, pick)?;
+        let (register, table) = self.servos.common_register(&ids, pick)?;
         self.write_register_values(values, register, table)
     }
 
@@ -680,38 +679,6 @@ impl NativeBus {
         let params = params.map_err(|e| self.protocol_error(e))?;
         let broadcast = self.codec.framing().broadcast_id();
         self.send(broadcast, sync_write, &params)
-    }
-
-    /// The register of `setting` shared by every servo in `ids`, or why there is none.
-    fn setting_register(
-        &self,
-        ids: &[u8],
-        setting: profile::Setting,
-    ) -> Result<(Register, &'static RegisterTable), BusError> {
-        let mut found: Option<(u8, Register, &'static RegisterTable)> = None;
-        for &id in ids {
-            let table = self.table(id)?;
-            let register = setting.register(table).ok_or(BusError::MissingRegister {
-                id,
-                register: setting.name(),
-            })?;
-            match found {
-                Some((first, shared, _))
-                    if shared.address != register.address || shared.size != register.size =>
-                {
-                    return Err(BusError::SplitRegister {
-                        first,
-                        other: id,
-                        register: setting.name(),
-                    })
-                }
-                Some(_) => {}
-                None => found = Some((id, register, table)),
-            }
-        }
-        found
-            .map(|(_, register, table)| (register, table))
-            .ok_or(BusError::NoServos)
     }
 }
 
@@ -755,7 +722,7 @@ impl ServoBus for NativeBus {
     }
 
     fn read_positions(&mut self, ids: &[u8]) -> Result<Vec<i64>, BusError> {
-        self.read_values(ids, |t| t.present_position)
+        self.read_values(ids, |t| Ok(t.present_position))
     }
 
     fn set_read_cutoff(&mut self, cutoff: Arc<ReadCutoff>) {
@@ -763,32 +730,23 @@ impl ServoBus for NativeBus {
     }
 
     fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError> {
-        self.write_register(goals, |t| t.goal_position)
+        self.write_register(goals, |t| Ok(t.goal_position))
     }
 
     fn read_homing_offsets(&mut self, servos: &[(u8, ServoModel)]) -> Result<Vec<i64>, BusError> {
         let ids: Vec<u8> = servos.iter().map(|(id, _)| *id).collect();
-        self.read_values(&ids, |t| t.homing_offset)
+        self.read_values(&ids, |t| t.homing_offset.ok_or(homing::REGISTER))
     }
 
-    fn read_setting(
-        &mut self,
-        ids: &[u8],
-        setting: profile::Setting,
-    ) -> Result<Vec<i64>, BusError> {
-        let (register, table) = self.setting_register(ids, setting)?;
-        self.read_register_values(ids, register, table)
+    fn read_setting(&mut self, ids: &[u8], setting: Setting) -> Result<Vec<i64>, BusError> {
+        self.read_values(ids, |t| setting.register(t).ok_or(setting.name()))
     }
 
-    fn write_setting(
-        &mut self,
-        values: &[(u8, i64)],
-        setting: profile::Setting,
-    ) -> Result<(), BusError> {
+    fn write_setting(&mut self, values: &[(u8, i64)], setting: Setting) -> Result<(), BusError> {
         let ids: Vec<u8> = values.iter().map(|(id, _)| *id).collect();
-        let (register, table) = self.setting_register(&ids, setting)?;
-        self.write_register_values(values, register, table)?;
-        let read = self.read_register_values(&ids, register, table)?;
+        let pick = |t: &RegisterTable| setting.register(t).ok_or(setting.name());
+        self.write_register(values, pick)?;
+        let read = self.read_values(&ids, pick)?;
         match values
             .iter()
             .zip(&read)
@@ -827,7 +785,7 @@ impl ServoBus for NativeBus {
         let registers = table.health_registers();
         // Dynamixel keeps its alarm register (70) far from the others (126…146): two reads
         // are shorter on the wire than one spanning both.
-        let groups: Vec<Vec<Register>> = match registers::span(&registers) {
+        let groups: Vec<Vec<Register>> = match span(&registers) {
             Some((_, length)) if length > 32 => {
                 let (alarm, rest): (Vec<Register>, Vec<Register>) = registers
                     .iter()
@@ -838,7 +796,7 @@ impl ServoBus for NativeBus {
         };
         let mut values: Vec<HashMap<&'static str, i64>> = vec![HashMap::new(); ids.len()];
         for group in &groups {
-            let Some((start, length)) = registers::span(group) else {
+            let Some((start, length)) = span(group) else {
                 continue;
             };
             let blocks = self.read_block(ids, start, length)?;

@@ -29,18 +29,24 @@ impl Servos {
         self.model(id).map(|m| m.spec().table)
     }
 
-    /// The register of the servos `ids` picked by `pick`, and the first one's table: a sync
-    /// transfer needs it at the same address and size on all of them, which is checked.
+    /// The register `pick` gives in the table of every servo in `ids`, and the first one's
+    /// table: a sync transfer needs it at the same address and size on all of them, which is
+    /// checked. `pick` gives the register, or the name of the one a model does not have.
     pub fn common_register(
         &self,
         ids: &[u8],
-        pick: fn(&RegisterTable) -> Register,
+        pick: impl Fn(&RegisterTable) -> Result<Register, &'static str>,
     ) -> Result<(Register, &'static RegisterTable), BusError> {
         let first = *ids.first().ok_or(BusError::NoServos)?;
-        let table = self.table(first)?;
-        let register = pick(table);
+        let register_of = |id: u8| {
+            let table = self.table(id)?;
+            pick(table)
+                .map(|register| (register, table))
+                .map_err(|register| BusError::MissingRegister { id, register })
+        };
+        let (register, table) = register_of(first)?;
         for &id in &ids[1..] {
-            let other = pick(self.table(id)?);
+            let (other, _) = register_of(id)?;
             if other.address != register.address || other.size != register.size {
                 return Err(BusError::SplitRegister {
                     first,

@@ -2,8 +2,8 @@
 
 use crate::bus::protocol::codec;
 use crate::servo::{
-    item, model_from_number, span, ByteOrder, Encoding, Protocol, Register, RegisterError,
-    RegisterTable, ServoModel, Vendor,
+    item, model_from_number, span, ByteOrder, Encoding, ModelSpec, Protocol, Register,
+    RegisterError, RegisterTable, ServoModel, Vendor,
 };
 
 fn table(model: ServoModel) -> &'static RegisterTable {
@@ -47,8 +47,11 @@ fn sts_goal_position_and_homing_offset() {
     assert_eq!(t.encode(&t.goal_position, -100).unwrap(), [0x64, 0x80]);
     assert_eq!(t.encode(&t.goal_position, 2048).unwrap(), [0x00, 0x08]);
     // Homing offset −2047: 0x7FF | 0x800 = 0x0FFF → FF 0F.
-    assert_eq!(t.encode(&t.homing_offset, -2047).unwrap(), [0xFF, 0x0F]);
-    assert!(t.encode(&t.homing_offset, 2048).is_err());
+    assert_eq!(
+        t.encode(&t.homing_offset.unwrap(), -2047).unwrap(),
+        [0xFF, 0x0F]
+    );
+    assert!(t.encode(&t.homing_offset.unwrap(), 2048).is_err());
     // Present position reading 0x8001 is −1.
     assert_eq!(t.decode(&t.present_position, &[0x01, 0x80]).unwrap(), -1);
 }
@@ -63,7 +66,7 @@ fn dynamixel_values() {
     );
     // Homing offset −1024 = 0xFFFF_FC00 → 00 FC FF FF.
     assert_eq!(
-        t.encode(&t.homing_offset, -1024).unwrap(),
+        t.encode(&t.homing_offset.unwrap(), -1024).unwrap(),
         [0x00, 0xFC, 0xFF, 0xFF]
     );
     // Present load −1000 (−100 %) = 0xFC18 → 18 FC.
@@ -284,16 +287,42 @@ fn full_tables_are_ordered_without_overlaps_and_hold_their_defaults() {
             }
             assert!(usize::from(item.register.end()) <= 256, "{}", item.name());
         }
-        let mode = spec.item(spec.table.operating_mode.name).unwrap();
-        let factory = match mode.default {
-            Default::Value(v) => v,
-            Default::Live => panic!("operating mode has a factory value"),
-        };
-        assert!(spec.operating_modes.contains(&factory), "{}", spec.name());
-        for name in ["Min_Position_Limit", "Max_Position_Limit"] {
-            assert!(spec.item(name).is_some(), "{}: {name}", spec.name());
+        if let Some(register) = spec.table.operating_mode {
+            let mode = spec.item(register.name).unwrap();
+            let factory = match mode.default {
+                Default::Value(v) => v,
+                Default::Live => panic!("operating mode has a factory value"),
+            };
+            assert!(spec.operating_modes.contains(&factory), "{}", spec.name());
         }
     }
+}
+
+/// What a model without Operating_Mode or Homing_Offset cannot claim: modes to switch to, an
+/// offset limit, a recalibration (which writes the offset).
+fn claims_only_registers_it_has(spec: &ModelSpec) {
+    if spec.table.operating_mode.is_none() {
+        assert!(spec.operating_modes.is_empty(), "{}", spec.name());
+        assert!(spec.modes.extended_position.is_none(), "{}", spec.name());
+    }
+    if spec.table.homing_offset.is_none() {
+        assert!(spec.recalibrate.is_none(), "{}", spec.name());
+        assert!(
+            spec.modes.position_mode_offset_limit.is_none(),
+            "{}",
+            spec.name()
+        );
+    }
+}
+
+#[test]
+fn models_without_operating_mode_or_homing_offset_claim_nothing_that_needs_them() {
+    for model in ServoModel::ALL {
+        assert!(model.spec().table.operating_mode.is_some());
+        assert!(model.spec().table.homing_offset.is_some());
+        claims_only_registers_it_has(model.spec());
+    }
+    claims_only_registers_it_has(&crate::servo::dynamixel_x::WITHOUT_OFFSET_OR_MODE);
 }
 
 #[test]

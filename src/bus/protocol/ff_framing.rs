@@ -6,7 +6,9 @@
 
 use super::packet::{seek_header, Decoded, Direction, Framing, Packet, PacketError, PacketKind};
 
+/// The two bytes every packet starts with.
 pub const HEADER: [u8; 2] = [0xFF, 0xFF];
+/// The broadcast id: every servo takes the packet.
 pub const BROADCAST_ID: u8 = 0xFE;
 /// Highest id a servo answers with; the SDKs reject status packets from higher ids.
 pub const MAX_DEVICE_ID: u8 = 0xFD;

@@ -28,16 +28,20 @@ pub trait ControlTable {
             .map_or(0, |item| self.load(item.register))
     }
 
-    /// Whether the servo is in (single-turn) position mode, its factory mode.
+    /// Whether the servo is in (single-turn) position mode, its factory mode. A model without
+    /// Operating_Mode always is.
     fn in_position_mode(&self) -> bool {
         let spec = self.spec();
-        self.load(spec.table.operating_mode) == spec.modes.position_mode
+        spec.table
+            .operating_mode
+            .is_none_or(|register| self.load(register) == spec.modes.position_mode)
     }
 
     /// Whether both position limits are 0: Feetech multi-turn, where positions leave one turn
     /// (and on Dynamixel no range to clamp goals to).
     fn multi_turn(&self) -> bool {
-        self.value("Min_Position_Limit") == 0 && self.value("Max_Position_Limit") == 0
+        let table = self.spec().table;
+        self.load(table.min_position_limit) == 0 && self.load(table.max_position_limit) == 0
     }
 
     /// Whether Drive_Mode has the reverse bit set (models without Drive_Mode never do).
@@ -59,10 +63,13 @@ pub trait ControlTable {
     }
 
     /// The homing offset the servo applies now: the register's, unless the model ignores an
-    /// offset that large in position mode.
+    /// offset that large in position mode; none (0) on a model without Homing_Offset.
     fn homing_offset(&self) -> f64 {
         let spec = self.spec();
-        let offset = self.load(spec.table.homing_offset);
+        let Some(register) = spec.table.homing_offset else {
+            return 0.0;
+        };
+        let offset = self.load(register);
         let ignored = spec
             .modes
             .position_mode_offset_limit
@@ -94,7 +101,9 @@ pub trait Firmware: Sync + fmt::Debug {
 /// Bounds on a move, ticks per second and per second²; `None` is no bound beyond the motor's.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Profile {
+    /// Top speed, ticks/s.
     pub max_speed: Option<f64>,
+    /// Acceleration (and deceleration), ticks/s².
     pub acceleration: Option<f64>,
 }
 
@@ -124,5 +133,57 @@ impl Profile {
             0.0
         };
         Profile::bounded(speed.max(f64::MIN_POSITIVE), acceleration)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bus::protocol::codec;
+    use crate::servo::dynamixel_x::WITHOUT_OFFSET_OR_MODE;
+    use crate::servo::{Protocol, ServoModel};
+    use std::collections::HashMap;
+
+    /// A control table whose memory holds values by address, whatever the model calls them.
+    struct Memory {
+        spec: &'static ModelSpec,
+        values: HashMap<u16, i64>,
+    }
+
+    impl ControlTable for Memory {
+        fn spec(&self) -> &'static ModelSpec {
+            self.spec
+        }
+        fn load(&self, register: Register) -> i64 {
+            self.values.get(&register.address).copied().unwrap_or(0)
+        }
+        fn store(&mut self, register: Register, value: i64) {
+            self.values.insert(register.address, value);
+        }
+    }
+
+    #[test]
+    fn without_operating_mode_and_homing_offset_a_servo_is_in_position_mode_with_no_offset() {
+        // X series addresses 11 (Operating_Mode) and 20 (Homing_Offset): extended position
+        // mode (4) and an offset of 200, which an X series servo applies.
+        let values = HashMap::from([(11, 4), (20, 200)]);
+        let x = Memory {
+            spec: ServoModel::Xl330M288.spec(),
+            values: values.clone(),
+        };
+        assert!(!x.in_position_mode());
+        assert_eq!(x.homing_offset(), 200.0);
+        let firmware = codec(Protocol::Dynamixel2).firmware();
+        assert_eq!(firmware.present_of(&x, 1000.0), 1200.0);
+        // The same memory in a model without those registers means nothing to it.
+        let without = Memory {
+            spec: &WITHOUT_OFFSET_OR_MODE,
+            values,
+        };
+        assert!(without.in_position_mode());
+        assert_eq!(without.homing_offset(), 0.0);
+        assert_eq!(firmware.present_of(&without, 1000.0), 1000.0);
+        assert_eq!(firmware.actual_of(&without, 1000.0), 1000.0);
+        assert!(!without.reversed());
     }
 }

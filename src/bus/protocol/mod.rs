@@ -21,28 +21,33 @@ pub mod packet;
 pub use fields::Fields;
 pub use firmware::Firmware;
 
-use super::registers::{ByteOrder, Register};
 use super::{AlarmBits, Alarms, PingInfo};
 use crate::robot::Protocol;
+use crate::servo::{ByteOrder, Register};
 use packet::{Framing, Packet, PacketError};
 
 /// The instruction codes of a protocol; `None` where it has no such instruction.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Instructions {
+    /// PING.
     pub ping: u8,
+    /// READ.
     pub read: u8,
+    /// WRITE.
     pub write: u8,
     /// Feetech SCS servos do not answer Sync Read.
     pub sync_read: Option<u8>,
+    /// SYNC WRITE.
     pub sync_write: u8,
     /// Dynamixel only: the one way to clear a hardware-error shutdown.
     pub reboot: Option<u8>,
     /// Dynamixel only: one instruction reading or writing a different span of each servo.
     pub bulk_read: Option<u8>,
+    /// Dynamixel only: BULK WRITE.
     pub bulk_write: Option<u8>,
 }
 
-pub use crate::robot::Vendor;
+use crate::servo::Vendor;
 
 impl Vendor {
     /// The vendor's Python SDK module, which `--driver sdk` drives through the bridge.
@@ -87,6 +92,7 @@ pub use dynamixel::FastSyncReadEntry;
 
 /// A read answered by all servos in one packet.
 pub trait FastSyncRead: Sync {
+    /// Its instruction code.
     fn instruction(&self) -> u8;
     /// The servos' blocks of `length` bytes in a combined answer.
     fn parse(&self, packet: &Packet, length: u16) -> Result<Vec<FastSyncReadEntry>, PacketError>;
@@ -96,10 +102,15 @@ pub trait FastSyncRead: Sync {
 
 /// One vendor protocol, as the driver and the emulated servos use it.
 pub trait Codec: Sync + std::fmt::Debug {
+    /// The protocol this codec speaks.
     fn protocol(&self) -> Protocol;
+    /// Whose servos it addresses.
     fn vendor(&self) -> Vendor;
+    /// How its packets are framed on the wire.
     fn framing(&self) -> &dyn Framing;
+    /// Its instruction codes.
     fn instructions(&self) -> &'static Instructions;
+    /// The widths of its address and length fields.
     fn fields(&self) -> Fields;
     /// The byte order of register values.
     fn byte_order(&self) -> ByteOrder;

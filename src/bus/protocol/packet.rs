@@ -28,19 +28,26 @@ pub enum PacketKind {
     /// An instruction code (PING, READ, WRITE, …).
     Instruction(u8),
     /// A status answer with the servo's error byte, whose meaning is vendor-specific.
-    Status { error: u8 },
+    Status {
+        /// The error byte.
+        error: u8,
+    },
 }
 
 /// One packet with the framing removed. `params` are unstuffed (Dynamixel) and exclude the
 /// Dynamixel status instruction 0x55 and the error byte, which live in `kind`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Packet {
+    /// The servo addressed, or the one answering.
     pub id: u8,
+    /// An instruction, or a status with its error byte.
     pub kind: PacketKind,
+    /// The parameters (instruction) or data (status).
     pub params: Vec<u8>,
 }
 
 impl Packet {
+    /// An instruction packet to servo `id`.
     pub fn instruction(id: u8, instruction: u8, params: Vec<u8>) -> Packet {
         Packet {
             id,
@@ -49,6 +56,7 @@ impl Packet {
         }
     }
 
+    /// A status packet from servo `id` with its error byte.
     pub fn status(id: u8, error: u8, params: Vec<u8>) -> Packet {
         Packet {
             id,
@@ -93,6 +101,7 @@ impl Packet {
 /// The outcome of one successful decoding step.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Decoded {
+    /// A complete packet, removed from the front of the buffer.
     Packet(Packet),
     /// No complete packet at the front of the buffer yet; what is left is the start of one (or
     /// a possible start of a header) and must be kept for the next call.
@@ -107,44 +116,88 @@ pub enum Decoded {
 pub enum PacketError {
     /// The checksum (Feetech, one byte) or CRC-16 (Dynamixel) does not match the bytes.
     #[error("packet for id {id}: bad checksum (computed {expected:#06x}, received {found:#06x})")]
-    Checksum { id: u8, expected: u16, found: u16 },
+    Checksum {
+        /// The id in the packet.
+        id: u8,
+        /// The checksum computed over its bytes.
+        expected: u16,
+        /// The checksum it carries.
+        found: u16,
+    },
     /// The length field cannot belong to a real packet (too short for the mandatory fields, or
     /// longer than any receiver buffers).
     #[error("packet for id {id}: impossible length field {length}")]
-    Length { id: u8, length: u16 },
+    Length {
+        /// The id in the packet.
+        id: u8,
+        /// The length field's value.
+        length: u16,
+    },
     /// The id byte is one the protocol never uses in this direction.
     #[error("packet with impossible id {id:#04x}")]
-    Id { id: u8 },
+    Id {
+        /// The id byte.
+        id: u8,
+    },
     /// Dynamixel: the reserved byte after the header is not 0x00.
     #[error("packet header with reserved byte {value:#04x} instead of 0x00")]
-    Reserved { value: u8 },
+    Reserved {
+        /// The reserved byte's value.
+        value: u8,
+    },
     /// Feetech: a status error byte with bit 7 set, which no servo sends.
     #[error("status packet from id {id}: impossible error byte {error:#04x}")]
-    ErrorByte { id: u8, error: u8 },
+    ErrorByte {
+        /// The id in the packet.
+        id: u8,
+        /// The error byte.
+        error: u8,
+    },
     /// A well-formed packet travelling the other way (an instruction where a status was
     /// expected, e.g. the echo of our own transmission on a half-duplex line, or vice versa).
     #[error("packet for id {id}: {found} where {expected} was expected")]
     Direction {
+        /// The id in the packet.
         id: u8,
+        /// The direction the reader expected.
         expected: Direction,
+        /// The packet's.
         found: Direction,
     },
     /// The parameters do not have the layout the instruction or answer calls for.
     #[error("packet for id {id}: {detail}")]
-    Malformed { id: u8, detail: String },
+    Malformed {
+        /// The id in the packet.
+        id: u8,
+        /// What is wrong with the layout.
+        detail: String,
+    },
     /// A per-servo data block of a sync write (or a fast-sync-read answer) has the wrong size.
     #[error("data for id {id}: {found} bytes where the register block has {expected}")]
     DataLength {
+        /// The servo the block belongs to.
         id: u8,
+        /// The register block's size, bytes.
         expected: usize,
+        /// The block's size, bytes.
         found: usize,
     },
     /// Encoding: an address or length does not fit the protocol's one-byte field (Feetech).
     #[error("{value} does not fit a one-byte address or length field")]
-    FieldWidth { value: u16 },
+    FieldWidth {
+        /// The address or length.
+        value: u16,
+    },
     /// Encoding: the packet would not fit the length field or the receivers' buffers.
     #[error("packet for id {id}: {length} bytes of instruction and parameters exceed the limit of {max}")]
-    TooLong { id: u8, length: usize, max: usize },
+    TooLong {
+        /// The servo addressed.
+        id: u8,
+        /// Bytes of instruction and parameters.
+        length: usize,
+        /// The most the protocol allows.
+        max: usize,
+    },
 }
 
 impl PacketError {

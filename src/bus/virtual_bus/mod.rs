@@ -60,13 +60,14 @@ pub const RECEIVED_LOG_CAPACITY: usize = 1_000_000;
 /// The emulated bus: servos, fault switches, and the record of received instructions.
 pub struct VirtualServos {
     codec: &'static dyn Codec,
+    /// The servos on the bus, each with its own id.
     pub servos: Vec<VirtualServo>,
     /// The instruction packets decoded, in order: at least the last `received_capacity` (the
     /// oldest are dropped in batches, so a push stays cheap).
     pub received: Vec<Packet>,
     /// When each packet of `received` was decoded (the same index).
     pub received_at: Vec<Instant>,
-    /// How many packets `received` keeps ([`RECEIVED_LOG_CAPACITY`]).
+    /// How many packets `received` keeps (`RECEIVED_LOG_CAPACITY`).
     pub received_capacity: usize,
     /// Packets dropped from the front of `received`.
     pub received_dropped: usize,
@@ -100,6 +101,7 @@ impl VirtualServos {
             .map(VirtualServo::return_delay)
     }
 
+    /// `servos` answering `protocol`, connected, nothing received yet.
     pub fn new(protocol: Protocol, servos: Vec<VirtualServo>) -> VirtualServos {
         VirtualServos {
             codec: codec(protocol),
@@ -114,10 +116,12 @@ impl VirtualServos {
         }
     }
 
+    /// The servo with id `id`.
     pub fn servo_mut(&mut self, id: u8) -> Option<&mut VirtualServo> {
         self.servos.iter_mut().find(|s| s.id == id)
     }
 
+    /// Makes servo `id` misbehave as `fault` says from now on (`None`: behave again).
     pub fn set_fault(&mut self, id: u8, fault: Option<ServoFault>) {
         if let Some(servo) = self.servo_mut(id) {
             servo.fault = fault;
@@ -245,7 +249,7 @@ impl VirtualServos {
     }
 
     /// Like [`VirtualServos::handle`], instruction by instruction, with the bytes each took on
-    /// the line and each answering servo's return delay: what [`wire::Wire`] times.
+    /// the line and each answering servo's return delay: what `wire::Wire` times.
     pub fn exchanges(&mut self, bytes: &[u8]) -> Vec<wire::Exchange> {
         self.rx.extend_from_slice(bytes);
         let mut exchanges = Vec::new();
@@ -491,7 +495,10 @@ fn servo_for_joint(joint: &crate::robot::Joint, home: f64) -> VirtualServo {
     let mut servo = VirtualServo::new(servo_spec.id, servo_spec.model, tick);
     let offset = servo_spec.homing_offset.unwrap_or(0);
     if let Some(offset) = servo_spec.homing_offset {
-        servo.set_homing_offset(offset);
+        // A model without Homing_Offset refuses it and applies none, as the real one would;
+        // connecting refuses a robot that gives such a servo another offset than 0
+        // (`bus::homing`).
+        servo.set_homing_offset(offset).ok();
     }
     let ticks = [joint.limits.min, joint.limits.max, home].map(|v| servo_spec.tick_exact(v));
     let (first, last) = modes.position;
@@ -503,7 +510,8 @@ fn servo_for_joint(joint: &crate::robot::Joint, home: f64) -> VirtualServo {
         .is_some_and(|limit| offset.abs() > limit);
     if let Some(extended) = modes.extended_position {
         if !one_turn || offset_ignored {
-            servo.set_operating_mode(extended.mode);
+            // Only a model with Operating_Mode has an extended mode (catalogue tests).
+            servo.set_operating_mode(extended.mode).ok();
         }
     }
     servo.place_at(tick);
@@ -525,10 +533,12 @@ impl Responder for VirtualServos {
 pub struct VirtualBus(Arc<Mutex<VirtualServos>>);
 
 impl VirtualBus {
+    /// Shares `servos`.
     pub fn new(servos: VirtualServos) -> VirtualBus {
         VirtualBus(Arc::new(Mutex::new(servos)))
     }
 
+    /// The servos, for as long as the guard lives (the server waits meanwhile).
     pub fn lock(&self) -> MutexGuard<'_, VirtualServos> {
         // A panic while holding the lock leaves consistent data here (plain values), so a
         // poisoned lock is still usable.

@@ -41,6 +41,8 @@ impl PtyServer {
         PtyServer::serve(VirtualBus::new(VirtualServos::for_robot(robot)), wire)
     }
 
+    /// Serves `bus` on a new pseudo-terminal, on a thread of its own, with the wire timed as
+    /// `wire` says (`None`: answers come at once).
     pub fn serve(bus: VirtualBus, wire: Option<WireTiming>) -> Result<PtyServer, BusError> {
         let port_error = |source: std::io::Error| BusError::Port {
             port: "pseudo-terminal".into(),
@@ -79,6 +81,7 @@ impl PtyServer {
         &self.path
     }
 
+    /// The emulated servos it serves.
     pub fn bus(&self) -> &VirtualBus {
         &self.bus
     }

@@ -20,13 +20,17 @@ use crate::servo::item::{Access, Default, Item};
 use crate::servo::{ModelSpec, Register, RegisterTable, ServoModel};
 use std::time::Duration;
 
+/// One emulated servo: its control table in memory, its shaft, and any fault it acts out.
 #[derive(Debug, Clone)]
 pub struct VirtualServo {
+    /// Its id on the bus.
     pub id: u8,
+    /// Its model, whose table and firmware rules it follows.
     pub model: ServoModel,
     /// The shaft, in the actual frame.
     pub motion: Motion,
     memory: Vec<u8>,
+    /// How it misbehaves, if it does (see [`VirtualServos::set_fault`](super::VirtualServos::set_fault)).
     pub fault: Option<ServoFault>,
     /// Writes of 0 to the torque-enable register so far: someone asked the servo to go limp.
     pub releases: u32,
@@ -70,14 +74,20 @@ impl VirtualServo {
     }
 
     /// Sets the Homing_Offset register, as a calibration tool writes it: from now on Present
-    /// Position reports the shaft through the new offset.
-    pub fn set_homing_offset(&mut self, ticks: i64) {
-        self.store(self.table().homing_offset, ticks);
+    /// Position reports the shaft through the new offset. A model without the register has
+    /// no offset to set: refused as a write to an item it does not have.
+    pub fn set_homing_offset(&mut self, ticks: i64) -> Result<(), Refusal> {
+        let register = self.table().homing_offset.ok_or(Refusal::DataLimit)?;
+        self.store(register, ticks);
+        Ok(())
     }
 
-    /// Sets the Operating_Mode register (without the checks of a write).
-    pub fn set_operating_mode(&mut self, mode: i64) {
-        self.store(self.table().operating_mode, mode);
+    /// Sets the Operating_Mode register (without the checks of a write). A model without the
+    /// register is always in position mode: refused as a write to an item it does not have.
+    pub(super) fn set_operating_mode(&mut self, mode: i64) -> Result<(), Refusal> {
+        let register = self.table().operating_mode.ok_or(Refusal::DataLimit)?;
+        self.store(register, mode);
+        Ok(())
     }
 
     /// Puts the shaft where Present Position reads `present`, holding it there.
@@ -243,7 +253,7 @@ impl VirtualServo {
         let mode_register = self.table().operating_mode;
         for item in self.touched(start, end).filter(|i| i.inside(start, end)) {
             let value = self.load(item.register);
-            let unknown_mode = item.register == mode_register && !modes.contains(&value);
+            let unknown_mode = Some(item.register) == mode_register && !modes.contains(&value);
             if !item.accepts(value) || unknown_mode {
                 return Err(Refusal::DataRange);
             }
@@ -255,7 +265,7 @@ impl VirtualServo {
     fn apply(&mut self, start: usize, end: usize) {
         let table = self.table();
         let touches = |r: Register| usize::from(r.address) < end && usize::from(r.end()) > start;
-        if touches(table.operating_mode) {
+        if table.operating_mode.is_some_and(touches) {
             self.firmware().mode_changed(self);
         }
         if touches(table.torque_enable) {
@@ -284,19 +294,21 @@ impl VirtualServo {
 
     /// The model's recalibrate value (Feetech Torque_Enable 128): the present position becomes
     /// half a turn (2048), by the offset that makes it so, within the offset's range; the
-    /// torque stays as it was.
+    /// torque stays as it was. (Only a model with Homing_Offset has a recalibrate value; one
+    /// without would keep its position.)
     fn recalibrate(&mut self) {
         self.motion.update();
-        let half_turn = (self.spec().ticks_per_revolution / 2.0).round();
-        let offset = self
-            .firmware()
-            .offset_for(self, self.motion.position.round(), half_turn);
-        let register = self.table().homing_offset;
-        let (min, max) = self
-            .spec()
-            .item(register.name)
-            .map_or(register.range(), |item| item.range);
-        self.set_homing_offset((offset as i64).clamp(min, max));
+        if let Some(register) = self.table().homing_offset {
+            let half_turn = (self.spec().ticks_per_revolution / 2.0).round();
+            let offset = self
+                .firmware()
+                .offset_for(self, self.motion.position.round(), half_turn);
+            let (min, max) = self
+                .spec()
+                .item(register.name)
+                .map_or(register.range(), |item| item.range);
+            self.store(register, (offset as i64).clamp(min, max));
+        }
         self.store(self.table().torque_enable, i64::from(self.motion.torque));
     }
 
@@ -315,8 +327,8 @@ impl VirtualServo {
     /// Position limits bound goals in (single-turn) position mode only; both limits 0 select
     /// multi-turn mode on the STS3215 (and leave no range on Dynamixel: not clamped either).
     fn within_limits(&self, goal: f64) -> f64 {
-        let min = self.value("Min_Position_Limit") as f64;
-        let max = self.value("Max_Position_Limit") as f64;
+        let min = self.load(self.table().min_position_limit) as f64;
+        let max = self.load(self.table().max_position_limit) as f64;
         if !self.in_position_mode() || self.multi_turn() || min > max {
             return goal;
         }

@@ -9,16 +9,22 @@
 /// One servo's part of a Bulk Read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct BulkRead {
+    /// The servo.
     pub id: u8,
+    /// The first address read.
     pub address: u16,
+    /// Bytes read.
     pub length: u16,
 }
 
 /// One servo's part of a Bulk Write.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct BulkWrite {
+    /// The servo.
     pub id: u8,
+    /// The first address written.
     pub address: u16,
+    /// The bytes written there.
     pub data: Vec<u8>,
 }
 
@@ -39,6 +45,7 @@ fn parse_head(bytes: &[u8]) -> (u8, u16, u16) {
     )
 }
 
+/// The parameters of a Bulk Read of `entries`.
 pub fn encode_bulk_read(entries: &[BulkRead]) -> Vec<u8> {
     entries
         .iter()

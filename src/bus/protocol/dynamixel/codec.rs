@@ -3,16 +3,15 @@
 use super::{
     encode_fast_sync_read, parse_fast_sync_read, parse_ping_answer, ping_answer_params, Dynamixel2,
     ErrorNumber, FastSyncReadEntry, StatusByte, XSeriesFirmware, ALERT_BIT, BULK_READ, BULK_WRITE,
-    FAST_SYNC_READ, FIELDS, HARDWARE_ERROR_BITS, HARDWARE_ERROR_STATUS, MAX_DEVICE_ID, PING, READ,
-    REBOOT, SYNC_READ, SYNC_WRITE, WRITE,
+    FAST_SYNC_READ, FIELDS, MAX_DEVICE_ID, PING, READ, REBOOT, SYNC_READ, SYNC_WRITE, WRITE,
 };
 use crate::bus::protocol::packet::{Framing, Packet, PacketError};
-use crate::bus::protocol::{
-    Codec, FastSyncRead, Fields, Firmware, Instructions, Refusal, Status, Vendor,
-};
-use crate::bus::registers::{ByteOrder, Encoding, Register};
+use crate::bus::protocol::{Codec, FastSyncRead, Fields, Firmware, Instructions, Refusal, Status};
 use crate::bus::{AlarmBits, Alarms, PingInfo};
 use crate::robot::Protocol;
+use crate::servo::dynamixel_x::{HARDWARE_ERROR_BITS, HARDWARE_ERROR_STATUS};
+use crate::servo::Vendor;
+use crate::servo::{ByteOrder, Encoding, Register};
 
 static INSTRUCTIONS: Instructions = Instructions {
     ping: PING,

@@ -8,9 +8,11 @@ use crate::bus::protocol::packet::{Packet, PacketError};
 /// One servo's part of a Fast Sync Read answer.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct FastSyncReadEntry {
+    /// The servo.
     pub id: u8,
     /// The servo's status error byte.
     pub error: u8,
+    /// The bytes read from it.
     pub data: Vec<u8>,
 }
 

@@ -25,34 +25,45 @@ pub use crc::{crc16, crc16_update};
 pub use fast_sync_read::{encode_fast_sync_read, parse_fast_sync_read, FastSyncReadEntry};
 pub use firmware::XSeriesFirmware;
 pub use framing::Dynamixel2;
-pub use status::{
-    hardware_error_alarms, hardware_error_bits, ErrorNumber, StatusByte, ALERT_BIT,
-    HARDWARE_ERROR_BITS, HARDWARE_ERROR_STATUS, HW_ELECTRICAL_SHOCK, HW_INPUT_VOLTAGE,
-    HW_MOTOR_ENCODER, HW_OVERHEATING, HW_OVERLOAD,
-};
+pub use status::{hardware_error_alarms, hardware_error_bits, ErrorNumber, StatusByte, ALERT_BIT};
 pub use stuffing::{stuff, unstuff};
 
 use super::packet::{Packet, PacketError, PacketKind};
 use super::Fields;
 use crate::bus::PingInfo;
 
+/// Instruction PING: is the servo there, and what model.
 pub const PING: u8 = 0x01;
+/// Instruction READ: bytes of the control table.
 pub const READ: u8 = 0x02;
+/// Instruction WRITE: bytes into the control table.
 pub const WRITE: u8 = 0x03;
+/// Instruction REG WRITE: a write held until ACTION.
 pub const REG_WRITE: u8 = 0x04;
+/// Instruction ACTION: carry out the held REG WRITEs.
 pub const ACTION: u8 = 0x05;
+/// Instruction FACTORY RESET.
 pub const FACTORY_RESET: u8 = 0x06;
+/// Instruction REBOOT: the only way out of a hardware-error shutdown.
 pub const REBOOT: u8 = 0x08;
+/// Instruction CLEAR: resets the multi-turn count or clears errors.
 pub const CLEAR: u8 = 0x10;
 /// The instruction byte of every status packet.
 pub const STATUS: u8 = 0x55;
+/// Instruction SYNC READ: one block of several servos, an answer each.
 pub const SYNC_READ: u8 = 0x82;
+/// Instruction SYNC WRITE: one block into several servos, no answer.
 pub const SYNC_WRITE: u8 = 0x83;
+/// Instruction FAST SYNC READ: one block of several servos in one combined answer.
 pub const FAST_SYNC_READ: u8 = 0x8A;
+/// Instruction BULK READ: a block of its own from each servo.
 pub const BULK_READ: u8 = 0x92;
+/// Instruction BULK WRITE: a block of its own into each servo.
 pub const BULK_WRITE: u8 = 0x93;
+/// Instruction FAST BULK READ: bulk read in one combined answer.
 pub const FAST_BULK_READ: u8 = 0x9A;
 
+/// The broadcast id: every servo takes the packet.
 pub const BROADCAST_ID: u8 = 0xFE;
 /// Highest device id; 0xFD and 0xFF are never used so that they cannot look like a header.
 pub const MAX_DEVICE_ID: u8 = 0xFC;

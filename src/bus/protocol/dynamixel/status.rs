@@ -7,20 +7,28 @@ use crate::bus::{Alarms, BusError};
 /// The error number in bits 6..0 of a status error byte.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum ErrorNumber {
+    /// 1: the servo could not process the instruction.
     #[error("result fail: the servo could not process the instruction")]
     ResultFail,
+    /// 2: an undefined instruction, or ACTION without REG WRITE.
     #[error("instruction error: undefined instruction, or Action without Reg Write")]
     Instruction,
+    /// 3: the servo received a corrupted packet.
     #[error("CRC error: the servo received a corrupted packet")]
     Crc,
+    /// 4: a value outside the register's range.
     #[error("data range error: the data is out of the register's range")]
     DataRange,
+    /// 5: data shorter than the register.
     #[error("data length error: the data is shorter than the register")]
     DataLength,
+    /// 6: data beyond a limit register.
     #[error("data limit error: the data exceeds a limit register")]
     DataLimit,
+    /// 7: a read-only register, or EEPROM while the torque is on.
     #[error("access error: the register is read-only, or EEPROM while torque is on")]
     Access,
+    /// A number the e-Manual does not list.
     #[error("unknown error number {0:#04x}")]
     Unknown(u8),
 }
@@ -41,6 +49,7 @@ impl ErrorNumber {
         })
     }
 
+    /// The number in bits 6..0.
     pub fn number(self) -> u8 {
         match self {
             ErrorNumber::ResultFail => 1,
@@ -58,15 +67,18 @@ impl ErrorNumber {
 /// A status packet's ERR byte.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct StatusByte {
-    /// The servo has a hardware error; read [`HARDWARE_ERROR_STATUS`] for which.
+    /// The servo has a hardware error; read Hardware Error Status for which
+    /// ([`HARDWARE_ERROR_STATUS`](crate::servo::dynamixel_x::HARDWARE_ERROR_STATUS)).
     pub alert: bool,
     /// Why the instruction was refused, if it was.
     pub error: Option<ErrorNumber>,
 }
 
+/// Bit 7 of the ERR byte: the servo has a hardware error.
 pub const ALERT_BIT: u8 = 0x80;
 
 impl StatusByte {
+    /// The meaning of an ERR byte.
     pub fn parse(byte: u8) -> StatusByte {
         StatusByte {
             alert: byte & ALERT_BIT != 0,
@@ -74,6 +86,7 @@ impl StatusByte {
         }
     }
 
+    /// The ERR byte that says this (what an emulated servo sends).
     pub fn to_byte(self) -> u8 {
         let number = self.error.map_or(0, |e| e.number() & !ALERT_BIT);
         if self.alert {
@@ -95,10 +108,7 @@ impl StatusByte {
 
 /// The X series Hardware Error Status register (70) and its bits are control-table data, in
 /// the servo catalogue.
-pub use crate::servo::dynamixel_x::{
-    HARDWARE_ERROR_BITS, HARDWARE_ERROR_STATUS, HW_ELECTRICAL_SHOCK, HW_INPUT_VOLTAGE,
-    HW_MOTOR_ENCODER, HW_OVERHEATING, HW_OVERLOAD,
-};
+use crate::servo::dynamixel_x::HARDWARE_ERROR_BITS;
 
 /// The alarms in a Hardware Error Status value.
 pub fn hardware_error_alarms(bits: u8) -> Alarms {

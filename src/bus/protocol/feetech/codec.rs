@@ -1,15 +1,17 @@
 //! Feetech SCS and STS as a [`Codec`]: one framing, two byte orders.
 
 use super::{
-    status_alarms, status_bits, Series, StsFirmware, FIELDS, MAX_DEVICE_ID, PING, READ,
-    STATUS_BITS, SYNC_READ, SYNC_WRITE, WRITE,
+    status_alarms, status_bits, Series, StsFirmware, FIELDS, MAX_DEVICE_ID, PING, READ, SYNC_READ,
+    SYNC_WRITE, WRITE,
 };
 use crate::bus::protocol::ff_framing::FfFraming;
 use crate::bus::protocol::packet::{Framing, Packet, PacketError};
-use crate::bus::protocol::{Codec, Fields, Firmware, Instructions, Refusal, Status, Vendor};
-use crate::bus::registers::{ByteOrder, Encoding, Register};
+use crate::bus::protocol::{Codec, Fields, Firmware, Instructions, Refusal, Status};
 use crate::bus::{AlarmBits, Alarms, PingInfo};
 use crate::robot::Protocol;
+use crate::servo::sts3215::STATUS_BITS;
+use crate::servo::Vendor;
+use crate::servo::{ByteOrder, Encoding, Register};
 
 static STS_INSTRUCTIONS: Instructions = Instructions {
     ping: PING,

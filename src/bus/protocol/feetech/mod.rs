@@ -18,20 +18,24 @@ pub use super::ff_framing::{
     checksum, FfFraming as Feetech, BROADCAST_ID, HEADER, MAX_DEVICE_ID, MAX_ERROR_BYTE, MAX_PARAMS,
 };
 pub use firmware::StsFirmware;
-pub use status::{
-    status_alarms, status_bits, ERR_ANGLE_SENSOR, ERR_OVERHEAT, ERR_OVERLOAD, ERR_OVER_CURRENT,
-    ERR_VOLTAGE, STATUS_BITS,
-};
+pub use status::{status_alarms, status_bits};
 
 use super::Fields;
 
+/// Instruction PING: is the servo there.
 pub const PING: u8 = 0x01;
+/// Instruction READ: bytes of the memory table.
 pub const READ: u8 = 0x02;
+/// Instruction WRITE: bytes into the memory table.
 pub const WRITE: u8 = 0x03;
+/// Instruction REG WRITE: a write held until ACTION.
 pub const REG_WRITE: u8 = 0x04;
+/// Instruction ACTION: carry out the held REG WRITEs.
 pub const ACTION: u8 = 0x05;
-/// STS/SMS only; SCS servos do not answer it.
+/// Instruction SYNC READ: one block of several servos, an answer each. STS/SMS only; SCS
+/// servos do not answer it.
 pub const SYNC_READ: u8 = 0x82;
+/// Instruction SYNC WRITE: one block into several servos, no answer.
 pub const SYNC_WRITE: u8 = 0x83;
 
 /// The two Feetech families, which differ in byte order and in which instructions they know.

@@ -4,9 +4,7 @@
 use crate::bus::Alarms;
 
 /// The bits are the Status register's (65), control-table data in the servo catalogue.
-pub use crate::servo::sts3215::{
-    ERR_ANGLE_SENSOR, ERR_OVERHEAT, ERR_OVERLOAD, ERR_OVER_CURRENT, ERR_VOLTAGE, STATUS_BITS,
-};
+use crate::servo::sts3215::STATUS_BITS;
 
 /// The alarms in a status ERR byte, or in the Status register (65), which uses the same bits.
 /// Feetech's status byte reports conditions, not refusals: the instruction was carried out.

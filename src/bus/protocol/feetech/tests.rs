@@ -4,11 +4,13 @@ use super::*;
 use crate::bus::protocol::ff_framing::PREFIX;
 use crate::bus::protocol::packet::PacketError;
 use crate::bus::protocol::packet::{Decoded, Direction, Framing, Packet};
-use crate::bus::protocol::{codec, Codec, Vendor};
-use crate::bus::registers::ByteOrder;
+use crate::bus::protocol::{codec, Codec};
 use crate::bus::Alarms;
 use crate::robot::PositionEncoding;
 use crate::robot::Protocol;
+use crate::servo::sts3215::{ERR_ANGLE_SENSOR, ERR_OVER_CURRENT};
+use crate::servo::ByteOrder;
+use crate::servo::Vendor;
 use proptest::prelude::*;
 
 fn decode_all(buf: &mut Vec<u8>, direction: Direction) -> Vec<Result<Packet, PacketError>> {
