@@ -52,6 +52,8 @@
 //! The command-line verbs and the terminal UI belong to the binary (`src/commands/`), which uses
 //! this library as any other client would.
 
+#![warn(missing_docs)]
+
 pub mod atomic_file;
 pub mod bus;
 pub mod csv;

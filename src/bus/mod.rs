@@ -249,7 +249,9 @@ pub enum BusError {
     /// The vendor SDK bridge process failed (it did not start, exited, or did not answer).
     #[error("vendor SDK bridge: {error}")]
     Bridge {
-        /// What went wrong with the process.
+        /// What went wrong with the process; its own cause (the system's reason) follows it in
+        /// the chain.
+        #[source]
         error: Box<crate::python::HarnessError>,
     },
     /// The vendor SDK (or the bridge) refused a request for a reason no other variant

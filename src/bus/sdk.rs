@@ -602,6 +602,22 @@ mod tests {
 
     use serde_json::json;
 
+    /// The system's reason a bridge could not start reaches the person, once.
+    #[test]
+    fn a_bridge_that_cannot_start_says_why() {
+        let error = BusError::Bridge {
+            error: Box::new(HarnessError::Spawn {
+                python: "python3".into(),
+                script: BRIDGE_SCRIPT.into(),
+                source: std::io::Error::other("permission denied"),
+            }),
+        };
+        assert_eq!(
+            crate::error::Report(&error).to_string(),
+            format!("vendor SDK bridge: cannot start python3 {BRIDGE_SCRIPT}: permission denied")
+        );
+    }
+
     /// `reply` as the harness hands a refused request over.
     fn refused(reply: Value) -> HarnessError {
         HarnessError::Failed {
