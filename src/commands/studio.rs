@@ -107,6 +107,7 @@ fn simulator() -> Simulator {
                 "time": &trace.time[..rows],
                 "sequence_time": &trace.sequence_time[..rows.min(trace.sequence_time.len())],
                 "position": &trace.position[..rows],
+                "commanded": &trace.commanded[..rows.min(trace.commanded.len())],
             },
         }))
     })

@@ -17,6 +17,7 @@
 mod guard;
 mod limiter;
 mod log;
+mod playhead;
 mod progress;
 mod run;
 mod servo_profile;
@@ -28,6 +29,7 @@ pub(crate) use guard::GoalGuard;
 pub use guard::LimitBreach;
 pub(crate) use limiter::StepLimiter;
 pub use log::{PlaybackLog, Row as LogRow};
+pub use playhead::{Playhead, PlayheadAt};
 pub use progress::print_progress_line;
 pub(crate) use servo_profile::ProfileGuard;
 pub use servo_profile::ServoProfileError;
@@ -80,6 +82,9 @@ pub struct PlayOptions {
     /// then stop ([`crate::pacing::KeepUp`]). `None`: never judged (tests that stall on
     /// purpose).
     pub max_stalls_per_second: Option<usize>,
+    /// Set every cycle to where the playback is, for a page that draws it (`None`: not
+    /// followed).
+    pub playhead: Option<Playhead>,
 }
 
 impl PlayOptions {
@@ -114,6 +119,7 @@ impl PlayOptions {
             max_stall: DEFAULT_MAX_STALL,
             servo_profile: false,
             max_stalls_per_second: Some(MAX_STALLS_PER_SECOND),
+            playhead: None,
         }
     }
 }

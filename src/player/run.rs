@@ -372,7 +372,7 @@ impl<'a> Run<'a> {
         }
     }
 
-    /// The log row and the progress line of this cycle.
+    /// The log row, the progress line and the playhead of this cycle.
     fn record(
         &mut self,
         start: &CycleStart,
@@ -390,6 +390,10 @@ impl<'a> Run<'a> {
                 lateness: start.lateness,
                 stall: commanded.stall,
             })?;
+        }
+        if let Some(playhead) = &self.options.playhead {
+            let time = self.timeline.sequence_time();
+            playhead.set(self.timeline.phase_name(), time, &self.pose);
         }
         if self.options.progress
             && self

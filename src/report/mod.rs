@@ -4,7 +4,7 @@ pub mod log;
 pub mod plot;
 pub(crate) mod units;
 
-use crate::plan::{Cause, CheckReport, LimitKind, Sampled, Trajectory};
+use crate::plan::{Cause, CheckReport, LimitKind, Sampled, Trajectory, Violation};
 use crate::robot::{Robot, RobotSource};
 use serde_json::{json, Value};
 use std::fmt::Write;
@@ -33,28 +33,14 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
             report.violations.len()
         );
         for v in &report.violations {
-            let (scale, shown_unit) = units::display_scale(v.unit);
-            let unit = per_unit(shown_unit, v.kind);
-            let relation = if v.peak > v.limit { ">" } else { "<" };
-            let bound = match (v.kind, v.peak > v.limit) {
-                (LimitKind::Position, true) => "max",
-                (LimitKind::Position, false) => "min",
-                _ => "limit",
-            };
             let _ = writeln!(
                 out,
-                "  {:<14} {:<12} segment {} ({}), t = {:.3} s (from {:.3} to {:.3} s): {:.3} {unit} {relation} {bound} {:.3} {unit}, by {:.3} {unit}{}",
+                "  {:<14} {:<12} segment {} ({}), {}",
                 v.joint,
                 v.kind.name(),
                 v.segment,
                 v.segment_label,
-                v.peak_time,
-                v.from,
-                v.to,
-                v.peak * scale,
-                v.limit * scale,
-                v.excess * scale,
-                cause_note(v.cause, report.rate)
+                violation_measure(v, report.rate)
             );
         }
     }
@@ -87,6 +73,30 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
         );
     }
     out
+}
+
+/// What a violation measured, in the units of its limit (deg, deg/s, deg/s²; mm for a
+/// prismatic joint): "t = 1.234 s (from 1.100 to 1.300 s): 130.000 deg/s > limit 115.000
+/// deg/s, by 15.000 deg/s", and what a step or a corner asks of the servos checked at `rate`.
+pub fn violation_measure(v: &Violation, rate: f64) -> String {
+    let (scale, shown_unit) = units::display_scale(v.unit);
+    let unit = per_unit(shown_unit, v.kind);
+    let relation = if v.peak > v.limit { ">" } else { "<" };
+    let bound = match (v.kind, v.peak > v.limit) {
+        (LimitKind::Position, true) => "max",
+        (LimitKind::Position, false) => "min",
+        _ => "limit",
+    };
+    format!(
+        "t = {:.3} s (from {:.3} to {:.3} s): {:.3} {unit} {relation} {bound} {:.3} {unit}, by {:.3} {unit}{}",
+        v.peak_time,
+        v.from,
+        v.to,
+        v.peak * scale,
+        v.limit * scale,
+        v.excess * scale,
+        cause_note(v.cause, rate)
+    )
 }
 
 /// What a step or a corner asks of the servos, said after its violation ("" for the curve's own).

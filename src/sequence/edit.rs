@@ -180,6 +180,42 @@ impl KeyframeList {
         self.dirty = true;
     }
 
+    /// Inserts a key of `values` at `time` (seconds), among the keys where that time falls,
+    /// and makes it current: a key captured at a time parked on the studio's timeline. It must
+    /// come after the previous key's hold and before the next key by at least
+    /// [`super::MIN_GAP`], within 0 … [`super::MAX_TIME`]; a uniformly spaced list gets
+    /// absolute times first, so that no other key moves. The refusal says why.
+    pub fn insert_at(
+        &mut self,
+        values: Vec<(String, KeyValue)>,
+        time: f64,
+    ) -> Result<(), TimeRefusal> {
+        if !(time.is_finite() && (0.0..=super::MAX_TIME).contains(&time)) {
+            return Err(TimeRefusal::OutOfRange { time });
+        }
+        let times = self.sequence.key_times();
+        let at = times.partition_point(|&t| t <= time);
+        if let Some(before) = at.checked_sub(1) {
+            let earliest = times[before] + self.sequence.keyframes[before].hold + super::MIN_GAP;
+            if time < earliest {
+                return Err(TimeRefusal::Previous { earliest });
+            }
+        }
+        if let Some(&next) = times.get(at) {
+            let latest = next - super::MIN_GAP;
+            if time > latest {
+                return Err(TimeRefusal::Next { latest });
+            }
+        }
+        self.sequence.make_times_absolute();
+        let mut key = Keyframe::new(values);
+        key.time = Some(time);
+        self.sequence.keyframes.insert(at, key);
+        self.current = at;
+        self.dirty = true;
+        Ok(())
+    }
+
     /// Deletes the current key; the key before it (or the new first key) becomes current.
     pub fn delete(&mut self) -> Option<Keyframe> {
         if self.is_empty() {

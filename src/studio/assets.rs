@@ -10,6 +10,8 @@ const FILES: &[(&str, &str, &[u8])] = &[
     ("/timeline.js", JS, include_bytes!("web/timeline.js")),
     ("/handle.js", JS, include_bytes!("web/handle.js")),
     ("/heartbeat.js", JS, include_bytes!("web/heartbeat.js")),
+    ("/playhead.js", JS, include_bytes!("web/playhead.js")),
+    ("/findings.js", JS, include_bytes!("web/findings.js")),
     (
         "/style.css",
         "text/css; charset=utf-8",

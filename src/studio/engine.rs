@@ -9,7 +9,7 @@
 //! through the session's [`teach::Brake`].
 
 use super::control::Lease;
-use super::snapshot::snapshot;
+use super::snapshot::{snapshot, KeyPoses, Planned};
 use crate::sequence::Sequence;
 use crate::teach::InputQueue;
 use crate::teach::{self, Key, Session, TeachError, TeachState};
@@ -87,6 +87,10 @@ pub struct Hub {
     published: Mutex<Published>,
     changed: Condvar,
     pub(crate) lease: Mutex<Lease>,
+    /// The keys' poses on the trajectory, for the ghosts.
+    key_poses: Mutex<KeyPoses>,
+    /// The session's playhead, followed from [`run`]'s start.
+    playhead: Mutex<crate::player::Playhead>,
 }
 
 /// What a stream waiting for news gets.
@@ -116,7 +120,14 @@ impl Hub {
     /// Publishes `state` when it differs from the last snapshot.
     pub(super) fn publish(&self, state: &TeachState, bus: &str) {
         let controlled = self.lease().is_held();
-        let value = snapshot(state, bus, controlled);
+        let playhead = lock(&self.playhead).at();
+        let mut key_poses = lock(&self.key_poses);
+        let planned = Planned {
+            poses: key_poses.of(state.robot(), state.list().sequence()),
+            playhead: playhead.as_ref(),
+        };
+        let value = snapshot(state, bus, controlled, &planned);
+        drop(key_poses);
         let mut published = self.published();
         if value == published.last {
             return;
@@ -185,6 +196,7 @@ pub fn run(
     received: Receiver<Input>,
 ) -> Result<Ended, TeachError> {
     let bus = session.describe().to_string();
+    *lock(&hub.playhead) = session.playhead();
     let mut queue = InputQueue::default();
     let mut waiting_jog = WaitingJog::default();
     let mut next_read = Instant::now();
@@ -404,7 +416,7 @@ pub(crate) enum PageKeyError {
 }
 
 /// A key of the page, in the tokens of a `--keys` script (`space`, `shift-left`, `u`, …)
-/// plus the page's own: `select-key:N`, `select-joint:N`, `key-time:MS` and
+/// plus the page's own: `select-key:N`, `select-joint:N`, `key-time:MS`, `capture-at:MS` and
 /// `tool-target:X,Y,Z` (the tool handle, millimetres in the base frame). The script's
 /// `import:`, `write:` and `wait:` are refused: the page imports through the `i` prompt, and
 /// writes where the session writes.
@@ -423,6 +435,9 @@ pub(crate) fn parse_key(token: &str) -> Result<Key, PageKeyError> {
     }
     if let Some(rest) = token.strip_prefix("key-time:") {
         return number(rest, "a time in whole milliseconds").map(Key::KeyTime);
+    }
+    if let Some(rest) = token.strip_prefix("capture-at:") {
+        return number(rest, "a time in whole milliseconds").map(Key::CaptureAt);
     }
     if let Some(rest) = token.strip_prefix("tool-target:") {
         return tool_target(rest).ok_or_else(|| PageKeyError::NoToolTarget {
@@ -466,6 +481,8 @@ mod tests {
         assert_eq!(parse_key("key-time:2500"), Ok(Key::KeyTime(2500)));
         assert!(parse_key("key-time:-1").is_err());
         assert!(parse_key("key-time:1.5").is_err());
+        assert_eq!(parse_key("capture-at:1250"), Ok(Key::CaptureAt(1250)));
+        assert!(parse_key("capture-at:x").is_err());
         assert!(parse_key("write:/etc/passwd").is_err());
         assert!(parse_key("import:x.json").is_err());
         assert!(parse_key("wait:1s").is_err());

@@ -2,14 +2,56 @@
 //! [`crate::teach::format`]), the key list, the activity, the status line and the pending
 //! question. Built from a [`TeachState`] after every change; the page holds no state of its
 //! own beyond what it last received.
+//!
+//! What the screen shows of a key is what the arm will do there: each key's pose is the
+//! trajectory's at the key's time ([`KeyPoses`]: joints the key leaves out on their tracks,
+//! tool keys solved), the pose `space` moves to; and while a playback runs, where it is
+//! ([`Planned::playhead`]).
 
+use crate::kinematics;
+use crate::player::PlayheadAt;
+use crate::robot::Robot;
+use crate::sequence::{Keyframe, Sequence};
 use crate::teach::format;
 use crate::teach::Prompt;
 use crate::teach::{selected_tool, Activity, MotionKind, TeachState};
 use serde_json::{json, Value};
 
+/// What the snapshot shows besides the state: the plan's poses and the playback's position.
+#[derive(Debug, Default)]
+pub(crate) struct Planned<'a> {
+    /// Every key's pose on the trajectory (`None`: the list does not build into one).
+    pub poses: Option<&'a [Vec<f64>]>,
+    /// Where the running playback is.
+    pub playhead: Option<&'a PlayheadAt>,
+}
+
+/// Every key's pose as playback passes through it ([`crate::teach::key_poses`]), built again
+/// only when the list changes: the snapshot is built at 50 Hz, the list changes by edits.
+#[derive(Debug, Default)]
+pub(crate) struct KeyPoses {
+    of: Option<Sequence>,
+    poses: Option<Vec<Vec<f64>>>,
+}
+
+impl KeyPoses {
+    /// The poses of `sequence`'s keys on `robot`; `None` when it builds no trajectory.
+    pub(crate) fn of(&mut self, robot: &Robot, sequence: &Sequence) -> Option<&[Vec<f64>]> {
+        if self.of.as_ref() != Some(sequence) {
+            self.poses = crate::teach::key_poses(robot, sequence).ok();
+            self.of = Some(sequence.clone());
+        }
+        self.poses.as_deref()
+    }
+}
+
 /// The snapshot of `state`; `controlled` says whether a page holds control now.
-pub(crate) fn snapshot(state: &TeachState, bus: &str, controlled: bool) -> Value {
+pub(crate) fn snapshot(
+    state: &TeachState,
+    bus: &str,
+    controlled: bool,
+    planned: &Planned,
+) -> Value {
     let robot = state.robot();
     // The tool the handle and the readout act on: on a cell the selected joint's arm's, in
     // its base frame.
@@ -19,9 +61,10 @@ pub(crate) fn snapshot(state: &TeachState, bus: &str, controlled: bool) -> Value
         "bus": bus,
         "output": state.output().display().to_string(),
         "dirty": state.is_dirty(),
-        "joints": joints(state),
+        "joints": joints(state, planned.poses),
         "selected": state.selected(),
-        "keys": keys(state),
+        "keys": keys(state, planned.poses),
+        "playhead": planned.playhead.map(|at| playhead(state.list().sequence(), at)),
         "current": (!state.list().is_empty()).then(|| state.list().current_index()),
         "interval": state.list().sequence().key_interval,
         "interpolation": state.list().sequence().interpolation.name(),
@@ -37,9 +80,11 @@ pub(crate) fn snapshot(state: &TeachState, bus: &str, controlled: bool) -> Value
     })
 }
 
-fn joints(state: &TeachState) -> Vec<Value> {
+fn joints(state: &TeachState, poses: Option<&[Vec<f64>]>) -> Vec<Value> {
     let robot = state.robot();
     let key = state.list().show();
+    let planned = poses.and_then(|p| p.get(state.list().current_index()));
+    let solved = key.map(|k| solved_by_tool(robot, k));
     let bearing = state.weight_bearing();
     robot
         .joints
@@ -48,13 +93,23 @@ fn joints(state: &TeachState) -> Vec<Value> {
         .map(|(j, joint)| {
             let present = state.present().get(j).copied().unwrap_or(f64::NAN);
             let key_value = key.and_then(|k| k.value(&joint.name));
+            let on_plan = planned.map(|p| p[j]);
+            let by_tool = solved.as_ref().is_some_and(|s| s[j]);
             json!({
                 "name": joint.name,
                 "present": present.is_finite().then_some(present),
                 "present_text": format::value_and_percent(joint, present),
                 "goal": state.goals()[j],
-                "key": key_value.and_then(|v| format::key_number(joint, v)),
-                "key_text": key_value.map_or("·".into(), |v| format::key_text(joint, v)),
+                // Where the arm is at the key (what `space` goes to): the key's own value,
+                // or for a joint it leaves out, its track's (solved for a tool key).
+                "key": on_plan.or_else(|| key_value.and_then(|v| format::key_number(joint, v))),
+                "key_text": key_text(joint, key_value, on_plan, by_tool),
+                "key_from": match (key_value, on_plan) {
+                    (Some(_), _) => Some("key"),
+                    (None, Some(_)) if by_tool => Some("tool"),
+                    (None, Some(_)) => Some("curve"),
+                    (None, None) => None,
+                },
                 "torque": state.torque()[j],
                 "load": bearing[j],
                 "min": joint.limits.min,
@@ -67,7 +122,61 @@ fn joints(state: &TeachState) -> Vec<Value> {
         .collect()
 }
 
-fn keys(state: &TeachState) -> Vec<Value> {
+/// The key column: the key's value as written; a value the key leaves out, where the arm
+/// will be there, said to come from the tool key's solution or from the joint's curve.
+fn key_text(
+    joint: &crate::robot::Joint,
+    written: Option<&crate::sequence::KeyValue>,
+    planned: Option<f64>,
+    by_tool: bool,
+) -> String {
+    match (written, planned) {
+        (Some(v), _) => format::key_text(joint, v),
+        (None, Some(v)) if by_tool => format!("{} (tool)", format::value_and_percent(joint, v)),
+        (None, Some(v)) => format!("{} (curve)", format::value_and_percent(joint, v)),
+        (None, None) => "·".into(),
+    }
+}
+
+/// By joint: whether `key`'s tool target gives its value (a joint on the chain to the tool of
+/// an arm whose tool the key names, which the key does not set itself).
+fn solved_by_tool(robot: &Robot, key: &Keyframe) -> Vec<bool> {
+    let mut solved = vec![false; robot.joints.len()];
+    let mut mark = |arm: &Robot, first: usize| {
+        for (i, on) in kinematics::tool_joints(arm).into_iter().enumerate() {
+            solved[first + i] |= on;
+        }
+    };
+    if key.tool.is_some() && !robot.is_cell() {
+        mark(robot, 0);
+    }
+    for arm in &robot.arms {
+        if key.arm_tools.iter().any(|(name, _)| *name == arm.name) {
+            mark(&arm.robot, arm.joints.start);
+        }
+    }
+    for (j, joint) in robot.joints.iter().enumerate() {
+        solved[j] &= key.value(&joint.name).is_none();
+    }
+    solved
+}
+
+/// Where the playback is: its sequence time, the key it has reached, the phase and the pose
+/// it commands.
+fn playhead(sequence: &Sequence, at: &PlayheadAt) -> Value {
+    let reached = sequence
+        .key_times()
+        .partition_point(|&k| k <= at.sequence_time)
+        .saturating_sub(1);
+    json!({
+        "time": at.sequence_time,
+        "key": reached,
+        "phase": at.phase,
+        "commanded": at.commanded,
+    })
+}
+
+fn keys(state: &TeachState, poses: Option<&[Vec<f64>]>) -> Vec<Value> {
     let robot = state.robot();
     let sequence = state.list().sequence();
     let n = sequence.keyframes.len();
@@ -93,6 +202,9 @@ fn keys(state: &TeachState) -> Vec<Value> {
                 "interp": (i + 1 < n).then(|| format::segment_interp(sequence, i).name()),
                 "own_interp": key.interp.is_some(),
                 "values": values,
+                "tool": key.tool.is_some() || !key.arm_tools.is_empty(),
+                // Where the arm is at this key: the ghost and `space` show the same pose.
+                "pose": poses.and_then(|p| p.get(i)),
             })
         })
         .collect()
@@ -147,7 +259,7 @@ mod tests {
         for key in [Key::Char('n'), Key::Char('n'), Key::Char('N')] {
             let _ = state.handle_key(key);
         }
-        let s = snapshot(&state, "virtual", false);
+        let s = snapshot(&state, "virtual", false, &Planned::default());
         // A new list is spaced 2 s apart and interpolated monotone; the last key has no
         // segment after it.
         assert_eq!(s["keys"][0]["time"], json!(0.0));

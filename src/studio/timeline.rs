@@ -48,8 +48,8 @@ pub(crate) fn timeline(sequence: Option<&Sequence>, robot: &Robot) -> Value {
             "from": v.from,
             "to": v.to,
             "peak_time": v.peak_time,
-            "text": format!("{} {} limit broken in {}: peak {:.3} {} (limit {:.3})",
-                v.joint, v.kind.name(), v.segment_label, v.peak, v.unit, v.limit),
+            "text": format!("{} {} limit broken in {}, {}",
+                v.joint, v.kind.name(), v.segment_label, report::violation_measure(v, check.rate)),
         })).collect::<Vec<_>>(),
     })
 }

@@ -41,6 +41,9 @@ pub enum Key {
     /// The studio's timeline: move the current key to this time, in whole milliseconds (a
     /// drag; milliseconds keep the key `Eq` and the file's times short).
     KeyTime(u64),
+    /// The studio's timeline: a new key from the present pose at this time, in whole
+    /// milliseconds (captured where the playhead is parked), no other key moving.
+    CaptureAt(u64),
     /// The studio's tool handle: move the tool point here (base frame, whole micrometres, so
     /// the key stays `Eq`), checked and solved as a tool jog is (a drag of the handle).
     ToolTarget([i64; 3]),

@@ -64,13 +64,7 @@ pub(crate) fn to_key(
     index: usize,
 ) -> Result<MotionPlan, InputError> {
     let trajectory = Trajectory::build(sequence, robot)?;
-    let time = sequence.key_time(index);
-    let pose: Vec<f64> = trajectory
-        .tracks()
-        .iter()
-        .zip(&robot.joints)
-        .map(|(track, joint)| track.sample(time).clamp(joint.limits.min, joint.limits.max))
-        .collect();
+    let pose = pose_at(&trajectory, robot, sequence.key_time(index));
     let mut target = Sequence::new(&robot.name);
     target.file = format!("<{}>", format::key_label(sequence, index));
     target.keyframes.push(Keyframe::new(
@@ -93,6 +87,29 @@ pub(crate) fn to_key(
         },
         end_pose: pose,
     })
+}
+
+/// Every key's pose as playback passes through it — the pose [`to_key`] moves the arm to:
+/// joints a key leaves out on their own tracks, tool keys as solved. The studio draws these
+/// as the keys' ghosts, so that what the screen shows is where `space` goes.
+pub(crate) fn key_poses(robot: &Robot, sequence: &Sequence) -> Result<Vec<Vec<f64>>, InputError> {
+    let trajectory = Trajectory::build(sequence, robot)?;
+    Ok(sequence
+        .key_times()
+        .into_iter()
+        .map(|time| pose_at(&trajectory, robot, time))
+        .collect())
+}
+
+/// The tracks at sequence time `time`, inside the limits; not clamped to the played window, so
+/// that control keys (outside it) are reached too.
+fn pose_at(trajectory: &Trajectory, robot: &Robot, time: f64) -> Vec<f64> {
+    trajectory
+        .tracks()
+        .iter()
+        .zip(&robot.joints)
+        .map(|(track, joint)| track.sample(time).clamp(joint.limits.min, joint.limits.max))
+        .collect()
 }
 
 /// `y`: `sequence` from key `from` at `speed`, at the robot's control rate, refused (as

@@ -8,7 +8,8 @@
 //! was queued (once: decelerate along the path; twice: hold at once), and so can any thread
 //! through the session's [`Brake`]. The bus comes back with the thread's result. While the
 //! thread has it, the present pose shown is what the player itself read back, passed through
-//! a thin wrapper around the bus, so there is never a second user of the port.
+//! a thin wrapper around the bus, so there is never a second user of the port. A playback
+//! (`y`) also says where it is, cycle by cycle, through the session's [`player::Playhead`].
 
 use super::capture::tidy;
 use super::messages::{BusCommand, Event};
@@ -225,6 +226,8 @@ pub struct Session {
     bus: Option<Box<dyn ServoBus>>,
     motion: Option<RunningMotion>,
     brake: Brake,
+    /// Where a playback (`y`) is while it plays; cleared when it ends.
+    playhead: player::Playhead,
     torque: Vec<bool>,
     /// Last goal sent to each joint, for settling.
     goal_ticks: Vec<Option<i64>>,
@@ -241,6 +244,7 @@ impl Session {
             bus: Some(bus),
             motion: None,
             brake: Brake::default(),
+            playhead: player::Playhead::default(),
             torque: vec![false; n],
             goal_ticks: vec![None; n],
         }
@@ -249,6 +253,12 @@ impl Session {
     /// The session's brake, for threads other than the one carrying out its commands.
     pub fn brake(&self) -> Brake {
         self.brake.clone()
+    }
+
+    /// Where the running playback is (the sequence time, the commanded pose), for the
+    /// studio's timeline; empty while no playback runs. A handle: it follows every playback.
+    pub fn playhead(&self) -> player::Playhead {
+        self.playhead.clone()
     }
 
     /// The bus as it describes itself (port, driver), for the screen.
@@ -380,9 +390,12 @@ impl Session {
             robot,
             joints,
             trajectory,
-            options,
+            mut options,
             end_pose,
         } = plan;
+        if matches!(kind, super::MotionKind::Play { .. }) {
+            options.playhead = Some(self.playhead.clone());
+        }
         let thread_stop = stop.clone();
         let brake = self.brake.clone();
         // Armed before the thread starts, which disarms it when the player returns.
@@ -444,6 +457,7 @@ impl Session {
             return Err(SessionError::BusLost("no motion".into()));
         };
         self.brake.set(None);
+        self.playhead.clear();
         let (bus, result) = motion
             .handle
             .join()

@@ -293,6 +293,7 @@ impl TeachState {
             Key::SelectKey(index) => self.select_key(index),
             Key::SelectJoint(index) => self.select_joint(index),
             Key::KeyTime(millis) => self.set_key_time(millis),
+            Key::CaptureAt(millis) => self.capture_at(millis),
             Key::Up => self.select(-1),
             Key::Down => self.select(1),
             Key::Left => self.jog(-1.0, false),

@@ -9,4 +9,5 @@ mod session;
 mod studio;
 mod studio_engine;
 mod studio_server;
+mod studio_truth;
 mod terminal;

@@ -3,6 +3,8 @@
 import { ArmView } from '/view3d.js';
 import { Timeline } from '/timeline.js';
 import { ToolHandle } from '/handle.js';
+import { Playback } from '/playhead.js';
+import { Findings } from '/findings.js';
 
 const token = new URLSearchParams(location.search).get('token') || '';
 // The token was in the URL only to bring the page here: it leaves the address bar (and this
@@ -213,11 +215,23 @@ function render(s) {
   if (studio.view) {
     studio.view.setToolJoint(s.selected);
     studio.view.setPose(s.joints.map(j => j.present));
-    const key = s.current !== null ? s.keys[s.current] : null;
-    const ghost = ghostOverride || (key && $('ghost').checked ? key.values : null);
-    studio.view.setGhost(ghost);
+    studio.view.setGhost(ghostOverride || keyGhost(s));
     if (studio.handle) studio.handle.follow();
   }
+  if (studio.playback) studio.playback.follow(s);
+}
+
+// The current key's ghost: its pose on the trajectory (where space goes; its own values
+// when the list builds none).
+function keyGhost(s) {
+  const key = s && s.current !== null ? s.keys[s.current] : null;
+  return key && $('ghost').checked ? key.pose || key.values : null;
+}
+
+// What the timeline or a playback shows on the ghost instead (null: the key's again).
+function showGhost(values) {
+  ghostOverride = values;
+  if (studio.view) studio.view.setGhost(ghostOverride || keyGhost(studio.snapshot));
 }
 
 // Where the present value and the key's sit between the limits, in percent; placed by
@@ -276,23 +290,40 @@ function renderPrompt(prompt) {
 
 // ----- the timeline -----
 
-let timelineTimer = null;
+// The snapshot whose timeline is still to fetch, and the fetch on its way.
+let timelineTimer = null, timelineFetch = null;
+const findings = studio.findings = new Findings($('findings'), t => timeline.park(t));
 const timeline = new Timeline($('timeline'), {
-  onScrub: values => { ghostOverride = values; if (studio.snapshot) render(studio.snapshot); },
+  onScrub: (values, t) => (studio.playback ? studio.playback.scrub(values, t) : showGhost(values)),
+  onPark: (t, values) => studio.playback && studio.playback.park(t, values),
   onKeyTime: async (index, millis) => {
     if (await send({ key: `select-key:${index}` })) send({ key: `key-time:${millis}` });
   },
 });
 
+studio.timelineView = timeline;
+
+// At once, one request at a time: edits made while one is on its way are fetched together
+// when it is back (a drag sends many), so an edit is redrawn without a wait of its own.
 function refreshTimeline(s) {
-  clearTimeout(timelineTimer);
-  timelineTimer = setTimeout(async () => {
-    const { answer } = await api('/api/timeline');
-    const keys = s.keys.map((k, i) => ({ time: k.time, current: i === s.current }));
-    timeline.set(answer, keys);
-    $('findings').textContent = (answer.findings || []).map(f => `⚠ ${f.text}`).join('  ·  ');
-    studio.timeline = answer;
-  }, 100);
+  timelineTimer = s;
+  if (!timelineFetch) timelineFetch = fetchTimeline();
+}
+
+async function fetchTimeline() {
+  try {
+    while (timelineTimer) {
+      const s = timelineTimer;
+      timelineTimer = null;
+      const { answer } = await api('/api/timeline');
+      const keys = s.keys.map((k, i) => ({ time: k.time, current: i === s.current }));
+      timeline.set(answer, keys);
+      findings.setCheck(answer.findings);
+      studio.timeline = answer;
+    }
+  } finally {
+    timelineFetch = null;
+  }
 }
 
 // ----- simulation: the list played in MuJoCo, the trace replayed on the ghost -----
@@ -310,24 +341,12 @@ $('simulate').onclick = async () => {
   };
   const findings = report.findings.map(f => ({ ...f, at: sequenceTime(f.time) }));
   timeline.setSimFindings(findings);
-  $('simulation').textContent = `simulation (${report.model}): ${report.passed ? 'passes' : 'FAILS'}` +
-    findings.map(f => ` · ${f.kind} ${f.joint || ''} at ${f.time.toFixed(2)} s: ${f.message}`).join('');
-  replay(trace);
+  studio.findings.setSimulation(findings);
+  $('simulation').textContent = `simulation (${report.model}): ${report.passed ? 'passes' : 'FAILS'}, ` +
+    `${findings.length} finding(s)`;
+  // The trace replayed at its own pace: commanded on the ghost, simulated beside it.
+  studio.playback.replay(trace);
 };
-
-// The trace at its own pace on the ghost; the live arm goes on following the servos.
-function replay(trace) {
-  const start = performance.now();
-  const step = () => {
-    const t = (performance.now() - start) / 1000;
-    let i = trace.time.findIndex(x => x >= t);
-    if (i < 0) { ghostOverride = null; if (studio.snapshot) render(studio.snapshot); return; }
-    ghostOverride = trace.position[i];
-    studio.view.setGhost(ghostOverride);
-    requestAnimationFrame(step);
-  };
-  requestAnimationFrame(step);
-}
 
 // ----- the tool handle: dragged, the joints follow (solved and checked in Rust) -----
 
@@ -369,6 +388,8 @@ async function start() {
   if (!ok) { showStatus(model.error || 'cannot load the robot', true); return; }
   studio.model = model;
   studio.view = new ArmView($('view'), model);
+  studio.playback = new Playback(timeline, studio.view,
+    { ghost: showGhost, send: key => send({ key }), snapshot: () => studio.snapshot });
   $('axes').onchange = e => studio.view.showAxes(e.target.checked);
   if (model.tcp || (model.arms || []).some(arm => arm.model.tcp)) {
     studio.handle = new ToolHandle(studio.view, moveTool);

@@ -1,20 +1,32 @@
 // The timeline: per joint, the position curve between its limits (the band) and the velocity
-// curve against its limit (dashed), the keys as vertical marks, check findings in red.
-// Dragging a key mark moves the key in time (the engine validates it); dragging elsewhere
-// scrubs, showing the pose at that time on the ghost.
+// curve against its limit (dashed), the keys as vertical marks, check findings in red, a time
+// axis in seconds. Dragging a key mark moves the key in time (the engine validates it);
+// dragging elsewhere scrubs, and letting go parks there (onPark): the ghost shows the pose at
+// that time. A playback's playhead and the tracking error (what the arm or the simulation did
+// against what was commanded) are drawn on it too.
 
 const ROW = 44;
 const LEFT = 110;
 const GRAB = 6;
+// Below the rows: the key numbers, then the time axis.
+const MARKS = 14;
+const AXIS = 16;
 
 export class Timeline {
-  constructor(canvas, { onScrub, onKeyTime }) {
+  constructor(canvas, { onScrub, onKeyTime, onPark }) {
     this.canvas = canvas;
     this.ctx = canvas.getContext('2d');
     this.data = null;
     this.keys = [];
     this.onScrub = onScrub;
     this.onKeyTime = onKeyTime;
+    this.onPark = onPark || (() => {});
+    // Sequence time of the playback or replay, the key it has reached, and the parked time.
+    this.playhead = null;
+    this.playing = null;
+    this.parked = null;
+    // Tracking error per source ('measured', 'simulated'): { times, joints: [[error…]…] }.
+    this.errors = {};
     this.drag = null;
     canvas.addEventListener('pointerdown', e => this.down(e));
     canvas.addEventListener('pointermove', e => this.move(e));
@@ -30,6 +42,8 @@ export class Timeline {
   set(data, keys) {
     this.data = data;
     this.keys = keys;
+    // A parked time shows the pose there on the curves as they are now.
+    if (this.parked !== null && !this.drag) this.onPark(this.parked, this.poseAt(this.parked));
     this.draw();
   }
 
@@ -80,21 +94,45 @@ export class Timeline {
     const drag = this.drag;
     this.drag = null;
     if (!drag) return;
-    if (drag.scrub) { this.cursor = null; this.onScrub(null); this.draw(); return; }
+    if (drag.scrub) { this.park(this.cursor); return; }
     const t = Math.max(0, this.time(drag.x));
     this.onKeyTime(drag.key, Math.round(t * 1000));
   }
 
   scrub(x) {
-    this.cursor = this.time(x);
+    const [a, b] = this.span();
+    this.cursor = Math.min(Math.max(this.time(x), a), b);
     this.onScrub(this.poseAt(this.cursor), this.cursor);
+    this.draw();
+  }
+
+  // Parks the cursor at sequence time t (null: unparks); the ghost shows the pose there.
+  park(t) {
+    this.parked = t === null || t === undefined ? null : t;
+    this.cursor = this.parked;
+    this.onPark(this.parked, this.parked === null ? null : this.poseAt(this.parked));
+    this.draw();
+  }
+
+  // The playback's (or replay's) sequence time and the key it has reached; null: none.
+  setPlayhead(t, key) {
+    if (t === this.playhead && key === this.playing) return;
+    this.playhead = t;
+    this.playing = key;
+    this.draw();
+  }
+
+  // The tracking error of `source` ('measured', 'simulated'), per joint at `times`; null
+  // removes it.
+  setErrors(source, errors) {
+    if (errors) this.errors[source] = errors; else delete this.errors[source];
     this.draw();
   }
 
   draw() {
     const c = this.canvas, g = this.ctx, d = this.data;
     const rows = d && !d.empty ? d.joints.length : 1;
-    const height = rows * ROW + 20;
+    const height = rows * ROW + 6 + MARKS + AXIS;
     if (c.height !== height) c.height = height;
     c.width = c.clientWidth || 800;
     g.clearRect(0, 0, c.width, c.height);
@@ -132,6 +170,50 @@ export class Timeline {
     this.curve(d.times, j.positions, y, '#4fc3f7', []);
     g.fillStyle = '#ffffff';
     for (const [t, v] of j.keys) g.fillRect(this.x(t) - 2, y(v) - 2, 4, 4);
+    this.trackingError(r, top, h);
+  }
+
+  // Each source's tracking error of row r's joint, from the row's foot upwards (the row's
+  // height is the larger of 5° and the largest error), with its largest value written.
+  trackingError(r, top, h) {
+    const g = this.ctx;
+    const colours = { measured: '#ffca28', simulated: '#ce93d8' };
+    let label = 0;
+    for (const [source, e] of Object.entries(this.errors)) {
+      const values = e.joints[r];
+      if (!values || !values.length) continue;
+      const largest = Math.max(...values);
+      const scale = Math.max(5, largest);
+      g.strokeStyle = colours[source] || '#ffffff';
+      g.beginPath();
+      e.times.forEach((t, i) => {
+        const x = this.x(t), y = top + h - values[i] / scale * h;
+        if (i) g.lineTo(x, y); else g.moveTo(x, y);
+      });
+      g.stroke();
+      g.fillStyle = g.strokeStyle;
+      g.fillText(`${source} error ≤ ${largest.toFixed(1)}${e.unit || '°'}`, this.canvas.width - 200, top + 10 + 11 * label++);
+    }
+  }
+
+  // Ticks in seconds along the foot: a step of 1, 2 or 5 × 10^n giving ticks ~80 px apart.
+  axis() {
+    const g = this.ctx, c = this.canvas, [a, b] = this.span();
+    const y = c.height - AXIS;
+    const width = c.width - LEFT - 10;
+    const raw = (b - a) * 80 / Math.max(width, 1);
+    const power = 10 ** Math.floor(Math.log10(raw));
+    const step = [1, 2, 5, 10].map(m => m * power).find(s => s >= raw);
+    g.strokeStyle = '#5a646e';
+    g.fillStyle = '#9aa4ae';
+    g.beginPath(); g.moveTo(LEFT, y); g.lineTo(LEFT + width, y); g.stroke();
+    const digits = step < 1 ? Math.ceil(-Math.log10(step)) : 0;
+    for (let t = Math.ceil(a / step) * step; t <= b + 1e-9; t += step) {
+      const x = this.x(t);
+      g.beginPath(); g.moveTo(x, y); g.lineTo(x, y + 4); g.stroke();
+      g.fillText(t.toFixed(digits), x - 6, y + 14);
+    }
+    g.fillText('time s', 4, y + 14);
   }
 
   curve(times, values, y, colour, dash) {
@@ -145,20 +227,31 @@ export class Timeline {
   }
 
   marks() {
-    const g = this.ctx, h = this.canvas.height;
+    const g = this.ctx, h = this.canvas.height - AXIS;
     this.keys.forEach((k, i) => {
       const x = this.drag && this.drag.key === i ? this.drag.x : this.x(k.time);
-      g.strokeStyle = k.current ? '#ffd54f' : 'rgba(255,255,255,0.35)';
-      g.beginPath(); g.moveTo(x, 0); g.lineTo(x, h - 14); g.stroke();
+      g.strokeStyle = i === this.playing ? '#66bb6a' : k.current ? '#ffd54f' : 'rgba(255,255,255,0.35)';
+      g.lineWidth = i === this.playing ? 2 : 1;
+      g.beginPath(); g.moveTo(x, 0); g.lineTo(x, h - MARKS); g.stroke();
       g.fillStyle = g.strokeStyle;
       g.fillText(String(i), x - 3, h - 3);
     });
-    if (this.cursor !== null && this.cursor !== undefined) {
-      const x = this.x(this.cursor);
-      g.strokeStyle = '#4fc3f7';
+    g.lineWidth = 1;
+    this.axis();
+    const line = (t, colour, label, y) => {
+      const x = this.x(t);
+      g.strokeStyle = colour;
       g.beginPath(); g.moveTo(x, 0); g.lineTo(x, h); g.stroke();
-      g.fillStyle = '#4fc3f7';
-      g.fillText(this.cursor.toFixed(2) + ' s', x + 3, 10);
+      g.fillStyle = colour;
+      g.fillText(label, x + 3, y);
+    };
+    if (this.cursor !== null && this.cursor !== undefined) {
+      line(this.cursor, '#4fc3f7', this.cursor.toFixed(2) + ' s' + (this.drag ? '' : ' (parked)'), 10);
+    }
+    if (this.playhead !== null && this.playhead !== undefined) {
+      g.lineWidth = 2;
+      line(this.playhead, '#66bb6a', '▶ ' + this.playhead.toFixed(2) + ' s', 22);
+      g.lineWidth = 1;
     }
   }
 }

@@ -226,6 +226,29 @@ export class ArmView {
     }
   }
 
+  // Another translucent copy of every arm in `colour` (the commanded pose beside the
+  // simulated or measured one); returns its setter: values (robot order and units), or null
+  // to hide it.
+  addCopy(colour) {
+    const material = new THREE.MeshBasicMaterial({ color: colour, transparent: true, opacity: 0.3, depthWrite: false });
+    const copies = this.parts.map(part => {
+      const arm = new Arm(part.arm.model, () => material), root = new THREE.Group();
+      root.position.copy(part.root.position);
+      root.quaternion.copy(part.root.quaternion);
+      root.add(arm.root);
+      root.visible = false;
+      this.scene.add(root);
+      return { part, arm, root };
+    });
+    return values => {
+      this.dirty = true;
+      for (const c of copies) {
+        c.root.visible = !!values;
+        if (values) c.arm.pose(ArmView.slice(c.part, values));
+      }
+    };
+  }
+
   showAxes(on) {
     for (const part of this.parts) for (const a of part.arm.axes) a.visible = on;
     this.dirty = true;
@@ -256,11 +279,12 @@ export class ArmView {
     return world ? this.toToolFrame(world) : null;
   }
 
-  // The drawn rotation of a joint (a cell's as ARM/JOINT), for tests and the latency figure.
-  jointAngle(name) {
+  // The drawn rotation of a joint (a cell's as ARM/JOINT) on the arm or (`copy` 'ghost') its
+  // ghost, for tests and the latency figure.
+  jointAngle(name, copy = 'arm') {
     const [armName, jointName] = name.includes('/') ? name.split('/', 2) : [null, name];
     const part = this.parts.find(p => p.name === armName);
-    const joint = part && part.arm.joints.get(jointName);
+    const joint = part && part[copy].joints.get(jointName);
     if (!joint) return null;
     if (joint.kind === 'prismatic') return joint.moving.position.dot(joint.axis);
     const q = joint.moving.quaternion;

@@ -195,6 +195,22 @@ impl TeachState {
 
     /// Moves the current key to `millis` ms (a drag on the timeline), keeping the keys in
     /// order; a uniformly spaced list becomes a timed one.
+    /// A new key from the present pose at `millis` ms (the timeline's parked playhead),
+    /// where that time falls among the keys; refused, nothing added, where it does not fit.
+    pub(super) fn capture_at(&mut self, millis: u64) -> Vec<Command> {
+        let time = millis as f64 / 1000.0;
+        let (values, note) = self.capture();
+        if let Err(why) = self.list.insert_at(values, time) {
+            return self.fail(format!("no key captured at {time:.3} s: {why}"));
+        }
+        self.info(format!(
+            "new {} at {time:.3} s from the present pose{note} ({})",
+            self.key_label(self.list.current_index()),
+            format::count(self.list.len())
+        ));
+        self.edited()
+    }
+
     pub(super) fn set_key_time(&mut self, millis: u64) -> Vec<Command> {
         let time = millis as f64 / 1000.0;
         let label = self.key_label(self.list.current_index());

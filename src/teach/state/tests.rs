@@ -861,6 +861,34 @@ fn dragging_a_key_in_time_keeps_the_order_and_reaches_the_journal() {
 }
 
 #[test]
+fn a_key_captured_at_a_parked_time_goes_there_and_no_other_key_moves() {
+    let dir = tempfile::tempdir().unwrap();
+    // Keys at 0 and 2 s (uniform, 2 s apart), key 0 current.
+    let mut state = two_keys_at_the_first(dir.path());
+    press(&mut state, Key::CaptureAt(1_250));
+    let sequence = state.list().sequence();
+    // Between them, at 1.25 s: the others stay at 0 and 2 s (`n` there would have pushed
+    // the second key to 4 s).
+    assert_eq!(sequence.key_times(), vec![0.0, 1.25, 2.0]);
+    assert_eq!(state.list().current_index(), 1);
+    assert!(!state.status().error, "{:?}", state.status());
+    let journal = Sequence::load(state.journal().unwrap().path()).expect("journaled");
+    assert_eq!(journal.key_times(), vec![0.0, 1.25, 2.0]);
+    // After the last key: appended.
+    press(&mut state, Key::CaptureAt(3_000));
+    assert_eq!(
+        state.list().sequence().key_times(),
+        vec![0.0, 1.25, 2.0, 3.0]
+    );
+    // On a key's time: refused, nothing added.
+    for millis in [2_000, 1_250] {
+        press(&mut state, Key::CaptureAt(millis));
+        assert!(state.status().error, "{millis} ms: {:?}", state.status());
+        assert_eq!(state.list().len(), 4);
+    }
+}
+
+#[test]
 fn a_lost_front_end_stops_playback_softly_once() {
     let dir = tempfile::tempdir().unwrap();
     let mut state = two_keys_at_the_first(dir.path());
