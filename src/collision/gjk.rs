@@ -26,9 +26,9 @@ impl Core {
                     b
                 }
             }
-            Core::Box { centre, axes } => axes
-                .iter()
-                .fold(centre, |p, h| p + h * h.dot(d).signum()),
+            Core::Box { centre, axes } => {
+                axes.iter().fold(centre, |p, h| p + h * h.dot(d).signum())
+            }
         }
     }
 

@@ -13,10 +13,7 @@ pub(super) enum Shape {
     /// A segment swept by a radius (a capsule; a sphere when the ends coincide).
     Swept { a: DVec3, b: DVec3, radius: f64 },
     /// A box: its frame and half sizes.
-    Box {
-        frame: RigidTransform,
-        half: DVec3,
-    },
+    Box { frame: RigidTransform, half: DVec3 },
 }
 
 impl Shape {
@@ -32,8 +29,8 @@ impl Shape {
             ),
             Shape::Box { frame: local, half } => {
                 let world = frame.compose(&local);
-                let axes = [DVec3::X * half.x, DVec3::Y * half.y, DVec3::Z * half.z]
-                    .map(|h| world.r * h);
+                let axes =
+                    [DVec3::X * half.x, DVec3::Y * half.y, DVec3::Z * half.z].map(|h| world.r * h);
                 (
                     Core::Box {
                         centre: world.t,
@@ -180,7 +177,14 @@ fn read_body(
 /// A geom's collision shape; `None` for kinds the built-in models do not collide with
 /// (planes are the world's floor, checked apart).
 fn shape(node: &roxmltree::Node) -> Result<Option<Shape>, MjcfError> {
-    let size = |count| numbers(node, "size", node.attribute("size").unwrap_or("0.005"), count);
+    let size = |count| {
+        numbers(
+            node,
+            "size",
+            node.attribute("size").unwrap_or("0.005"),
+            count,
+        )
+    };
     Ok(Some(match node.attribute("type").unwrap_or("sphere") {
         "box" => {
             let s = size(3)?;

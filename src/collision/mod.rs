@@ -36,9 +36,10 @@ pub struct Touch {
     /// The bodies as the model names them (a cell's as `ARM/BODY`); the second is `None` for
     /// the floor.
     pub bodies: (String, Option<String>),
-    /// The joints whose links they are (the body's own joint or its nearest jointed
-    /// ancestor's, a cell's as `ARM/JOINT`), `None` for a base: what the page colours.
-    pub links: (Option<String>, Option<String>),
+    /// The links they are on, as the page names them: the body's own joint or its nearest
+    /// jointed ancestor's (a cell's as `ARM/JOINT`), `""` for the base (a cell's `ARM/`);
+    /// the second is `None` for the floor.
+    pub links: (String, Option<String>),
     /// Their distance, metres: negative is a penetration that deep.
     pub distance: f64,
 }
@@ -102,7 +103,7 @@ struct Body {
     /// Fixed to the world: it and every ancestor have no joint.
     fixed: bool,
     /// The link it belongs to for the page (see [`Touch::links`]).
-    link: Option<String>,
+    link: String,
 }
 
 #[derive(Debug, Clone)]
@@ -133,7 +134,14 @@ impl CollisionModel {
             for (a, arm) in robot.arms.iter().enumerate() {
                 let text = crate::sim::builtin_model(&arm.robot.name)?;
                 let parsed = mjcf::parse(text).ok()?;
-                model.add(&parsed, &arm.robot, arm.base, a, arm.joints.start, Some(&arm.name))?;
+                model.add(
+                    &parsed,
+                    &arm.robot,
+                    arm.base,
+                    a,
+                    arm.joints.start,
+                    Some(&arm.name),
+                )?;
             }
         } else {
             let text = crate::sim::builtin_model(&robot.name)?;
@@ -182,9 +190,10 @@ impl CollisionModel {
             };
             let parent = body.parent.map(|p| offset + p);
             let fixed = motion == Motion::Fixed && parent.is_none_or(|p| self.bodies[p].fixed);
-            let link = match &body.joint {
-                Some(j) => Some(named(&j.name)),
-                None => parent.and_then(|p| self.bodies[p].link.clone()),
+            let link = match (&body.joint, parent) {
+                (Some(j), _) => named(&j.name),
+                (None, Some(p)) => self.bodies[p].link.clone(),
+                (None, None) => named(""),
             };
             let origin = match parent {
                 None => base.compose(&body.origin),
@@ -305,7 +314,7 @@ impl CollisionModel {
             ),
             links: (
                 self.bodies[a].link.clone(),
-                b.and_then(|b| self.bodies[b].link.clone()),
+                b.map(|b| self.bodies[b].link.clone()),
             ),
             distance,
         }

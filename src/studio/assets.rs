@@ -12,6 +12,7 @@ const FILES: &[(&str, &str, &[u8])] = &[
     ("/heartbeat.js", JS, include_bytes!("web/heartbeat.js")),
     ("/meshes.js", JS, include_bytes!("web/meshes.js")),
     ("/framing.js", JS, include_bytes!("web/framing.js")),
+    ("/collision.js", JS, include_bytes!("web/collision.js")),
     (
         "/style.css",
         "text/css; charset=utf-8",

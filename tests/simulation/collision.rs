@@ -103,7 +103,10 @@ fn compare(robot: &Robot, seed: u64) {
 #[test]
 fn our_collision_check_agrees_with_mujoco_on_every_built_in_robot() {
     for (i, name) in keypose::robot::BUILTIN_NAMES.iter().enumerate() {
-        compare(&Robot::builtin(name).unwrap(), 0x9E37_79B9_7F4A_7C15 + i as u64);
+        compare(
+            &Robot::builtin(name).unwrap(),
+            0x9E37_79B9_7F4A_7C15 + i as u64,
+        );
     }
 }
 

@@ -3,6 +3,7 @@
 import { ArmView } from '/view3d.js';
 import { Timeline } from '/timeline.js';
 import { ToolHandle } from '/handle.js';
+import { showContacts } from '/collision.js';
 
 const token = new URLSearchParams(location.search).get('token') || '';
 // The token was in the URL only to bring the page here: it leaves the address bar (and this
@@ -216,6 +217,7 @@ function render(s) {
     const key = s.current !== null ? s.keys[s.current] : null;
     const ghost = ghostOverride || (key && $('ghost').checked ? key.values : null);
     studio.view.setGhost(ghost);
+    showContacts(studio.view, s.contacts || []);
     if (studio.handle) studio.handle.follow();
   }
 }

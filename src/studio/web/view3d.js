@@ -188,7 +188,7 @@ export class ArmView {
     Promise.all(dressed.flatMap(p => {
       const part = this.parts.find(q => q.first === p.first);
       return [dress(part.arm, p.model.meshes, solid), dress(part.ghost, p.model.meshes, () => ghostMaterial)];
-    })).then(() => { if (dressed.length) this.meshes = 'loaded'; this.dirty = true; },
+    })).then(() => { if (dressed.length) this.meshes = 'loaded'; this.hotKey = null; this.dirty = true; },
       () => { this.meshes = 'failed'; this.dirty = true; });
     this.toolPart = this.parts[0];
     this.onFrame = null;
