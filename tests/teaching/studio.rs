@@ -571,3 +571,47 @@ fn the_arm_is_drawn_from_its_official_meshes_and_framed_on_its_reach() {
     )
     .unwrap();
 }
+
+/// Collisions seen before they happen (issue 24, part 4): on the bimanual wave's two SO-101
+/// arms, the right arm turned -80° and the left arm turned towards it, the jog that would put
+/// the arms into each other is refused (the arm stays where it was, the status line says what
+/// would touch), and at the last pose that was allowed the page draws the links of both arms
+/// that are within 10 mm of each other red.
+#[test]
+fn a_jog_of_one_arm_into_the_other_is_refused_and_the_near_links_turn_red() {
+    require_browser_tools();
+    let dir = tempfile::tempdir().unwrap();
+    let wave = Path::new(env!("CARGO_MANIFEST_DIR")).join("sequences/bimanual_wave.json");
+    std::fs::copy(&wave, dir.path().join("wave.json")).unwrap();
+    let (studio, url) = start_studio(dir.path(), &["wave.json"]);
+    let shot = dir.path().join("collision.png");
+    let results = browser_run("collision.mjs", &[Path::new(&url), &shot]);
+    drop(studio);
+
+    assert_eq!(results["errors"], json!([]), "the page ran without errors");
+    let refused = &results["refused"];
+    let text = refused["status"]["text"].as_str().unwrap_or_default();
+    assert!(
+        text.starts_with("cannot jog left/shoulder_pan to") && text.contains("right/"),
+        "{results}"
+    );
+    let last = &results["lastAccepted"];
+    assert_eq!(refused["present"], last["present"], "the arm stayed");
+    let hot: Vec<String> = serde_json::from_value(last["hot"].clone()).unwrap();
+    assert!(
+        hot.iter().any(|l| l.starts_with("left/")) && hot.iter().any(|l| l.starts_with("right/")),
+        "red links of both arms: {hot:?}"
+    );
+    let contacts = last["contacts"].as_array().unwrap();
+    assert!(
+        contacts
+            .iter()
+            .any(|c| c["kind"] == "BetweenArms" && c["mm"].as_f64().unwrap() < 10.0),
+        "{contacts:?}"
+    );
+    std::fs::copy(
+        &shot,
+        std::env::temp_dir().join("keypose-studio-collision.png"),
+    )
+    .unwrap();
+}

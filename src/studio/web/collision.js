@@ -2,7 +2,7 @@
 // collision check at the present pose, the same that refuses a jog or a tool move into contact)
 // name the links, `""` for the base (a cell's as `ARM/JOINT` and `ARM/`); a part touching the
 // floor has no second link. The meshes or boxes of those links glow red until they are clear.
-const RED = [0.85, 0.05, 0.05];
+const RED = [1, 0, 0];
 
 function linkOf(part, shape) {
   return part.name ? `${part.name}/${shape.userData.link}` : shape.userData.link;
