@@ -56,6 +56,7 @@
 
 pub mod atomic_file;
 pub mod bus;
+pub mod collision;
 pub mod csv;
 pub mod curve;
 pub mod error;

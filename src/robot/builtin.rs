@@ -100,6 +100,12 @@ pub fn find(name: &str) -> Option<&'static BuiltinRobot> {
     BUILTINS.iter().find(|b| b.name == name)
 }
 
+/// The MuJoCo model (MJCF text) of the built-in robot called `name`: what `sim` loads, the
+/// studio draws and the contact check reads its shapes from.
+pub fn builtin_mjcf(name: &str) -> Option<&'static str> {
+    find(name).map(|b| b.mjcf)
+}
+
 /// The built-in robot called `name`, loaded.
 pub fn get(name: &str) -> Option<Robot> {
     let builtin = find(name)?;

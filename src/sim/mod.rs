@@ -12,7 +12,7 @@ pub mod verdict;
 mod wire;
 
 pub use joint_map::{JointMap, MjcfModel};
-pub use models::{builtin_model, check_mjcf_file, model_path};
+pub use models::{check_mjcf_file, model_path};
 
 use crate::plan::Trajectory;
 use crate::plan::{Phase, Timeline, TimelineOptions};

@@ -7,15 +7,9 @@ use crate::json::{InputError, Location};
 use crate::python::PyConfig;
 use std::path::{Path, PathBuf};
 
-/// The MJCF text of the built-in model of `robot`, if keypose has one (the studio draws its
-/// geometry).
-pub fn builtin_model(robot: &str) -> Option<&'static str> {
-    crate::robot::builtin::find(robot).map(|b| b.mjcf)
-}
-
 /// The path of the built-in model of `robot`, written out when missing or different.
 pub fn model_path(config: &PyConfig, robot: &str) -> Result<PathBuf, SimError> {
-    let text = builtin_model(robot).ok_or_else(|| SimError::Model {
+    let text = crate::robot::builtin_mjcf(robot).ok_or_else(|| SimError::Model {
         model: robot.to_string(),
         message: "keypose has no built-in model of this robot; give one with --mjcf".into(),
     })?;

@@ -10,7 +10,8 @@
 //!   each request gets ([`route`]: the page, `/api/…` JSON and the event stream), guarded by
 //!   `auth` (token, Host, Origin: [`Guard`]) and `control` (one page controls, the others
 //!   watch: [`Lease`]);
-//! - `robot_model` (the chain and the simulation model's shapes) and `timeline` (curves,
+//! - `robot_model` (the chain and the simulation model's shapes), `meshes` (the built-in
+//!   robots' official meshes, placed on their joints) and `timeline` (curves,
 //!   keys, limits and check findings) for the page's 3D view and timeline;
 //! - `assets`: the page's files, compiled in.
 //!
@@ -24,6 +25,7 @@ mod auth;
 mod control;
 pub mod engine;
 mod http;
+mod meshes;
 mod robot_model;
 mod routes;
 mod server;

@@ -7,7 +7,8 @@
 //! axis by the joint's value, and puts the body's shapes in it. That is the chain keypose
 //! computes only if each jointed body sits where the robot description puts the joint, so
 //! [`model`] checks it and, should a model ever drift from its robot, sends the chain alone
-//! (the page then draws plain links) rather than a picture that lies.
+//! (the page then draws plain links) rather than a picture that lies. The official meshes of a
+//! built-in robot (`meshes`) come only with shapes that passed that check.
 
 use crate::pose::RigidTransform;
 use crate::robot::{JointKind, Robot};
@@ -43,7 +44,7 @@ pub(crate) fn model(robot: &Robot) -> Value {
     if robot.is_cell() {
         return cell_model(robot);
     }
-    let (bodies, mimics, note) = match crate::sim::builtin_model(&robot.name) {
+    let (bodies, mimics, note) = match crate::robot::builtin_mjcf(&robot.name) {
         None => (
             Value::Null,
             Value::Null,
@@ -53,6 +54,20 @@ pub(crate) fn model(robot: &Robot) -> Value {
             Ok((bodies, mimics)) => (bodies, mimics, format!("sim/models/{}.xml", robot.name)),
             Err(e) => (Value::Null, Value::Null, format!("model left out: {e}")),
         },
+    };
+    // The official meshes only on a chain that matches its built-in model (checked above),
+    // since that is the chain they were placed on.
+    let meshes = match bodies.is_null() {
+        true => Ok(None),
+        false => super::meshes::page_parts(&robot.name, |joint| {
+            let mimic = |m: &Value| m["joint"] == joint;
+            robot.joint_index(joint).is_some()
+                || mimics.as_array().is_some_and(|m| m.iter().any(mimic))
+        }),
+    };
+    let (meshes, mesh_note) = match meshes {
+        Ok(meshes) => (meshes.unwrap_or(Value::Null), Value::Null),
+        Err(e) => (Value::Null, json!(format!("meshes left out: {e}"))),
     };
     json!({
         "name": robot.name,
@@ -64,6 +79,8 @@ pub(crate) fn model(robot: &Robot) -> Value {
         "bodies": bodies,
         "mimics": mimics,
         "geometry": note,
+        "meshes": meshes,
+        "meshes_note": mesh_note,
     })
 }
 
@@ -347,7 +364,7 @@ mod tests {
     fn a_model_that_drifted_from_its_robot_is_left_out() {
         let mut robot = Robot::builtin("so101").unwrap();
         robot.joints[2].origin.t.x += 0.01;
-        let text = crate::sim::builtin_model("so101").unwrap();
+        let text = crate::robot::builtin_mjcf("so101").unwrap();
         assert_eq!(
             shapes(&robot, text).unwrap_err(),
             ModelError::Mismatch {

@@ -75,9 +75,27 @@ pub(crate) fn snapshot(
         "controlled": controlled,
         "tcp": [tcp.x, tcp.y, tcp.z],
         "tool_arm": tool_arm,
+        "contacts": contacts(state),
         "journal": state.journal().map(|j| j.path().display().to_string()),
         "quit": state.should_quit(),
     })
+}
+
+/// The parts near a contact or in one (`TeachState::near_contacts`), for the page to colour.
+fn contacts(state: &TeachState) -> Vec<Value> {
+    state
+        .near_contacts()
+        .iter()
+        .map(|t| {
+            json!({
+                "kind": format!("{:?}", t.kind),
+                "bodies": [t.bodies.0, t.bodies.1],
+                "links": [t.links.0, t.links.1],
+                "mm": t.distance * 1000.0,
+                "text": t.describe(),
+            })
+        })
+        .collect()
 }
 
 fn joints(state: &TeachState, poses: Option<&[Vec<f64>]>) -> Vec<Value> {

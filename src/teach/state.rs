@@ -85,6 +85,8 @@ pub struct TeachState {
     prompt: Option<Prompt>,
     status: Status,
     quit: bool,
+    /// The built-in models' shapes, to refuse moves into contact (`None`: not checked).
+    collision: Option<crate::collision::CollisionModel>,
 }
 
 impl TeachState {
@@ -105,6 +107,7 @@ impl TeachState {
             .zip(&present)
             .map(|(j, &v)| tidy(j, v))
             .collect();
+        let collision = crate::collision::CollisionModel::for_robot(&robot);
         TeachState {
             robot,
             list,
@@ -122,6 +125,7 @@ impl TeachState {
             prompt: None,
             status: Status::default(),
             quit: false,
+            collision,
         }
     }
 
@@ -720,6 +724,13 @@ impl TeachState {
                 format::value(joint, limit)
             ));
         }
+        if let Some(touch) = self.contact_refusal(&[(j, goal)]) {
+            return self.fail(format!(
+                "cannot jog {} to {}: there {touch}",
+                joint.name,
+                format::value(joint, goal)
+            ));
+        }
         self.jog_to(&[(j, goal)])
     }
 
@@ -816,6 +827,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
     absolute(a) == absolute(b)
 }
 
+mod contact;
 mod edits;
 mod mirroring;
 mod reports;

@@ -7,6 +7,7 @@ mod common;
 
 mod cell;
 mod cli;
+mod collision;
 mod harness;
 mod joint_map;
 mod models;

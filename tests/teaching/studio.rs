@@ -510,3 +510,108 @@ fn a_playback_that_stalled_in_the_studio_says_how_late_it_ran() {
         assert!(text.contains("stalled: the goal was held"), "{text}");
     }
 }
+
+/// The SO-101 drawn from its official meshes (issue 24, part 5): they load, replace the
+/// boxes and capsules on every link, and with the arm at the wave's "raise" key every mesh
+/// is inside the view at 1280×800 (the camera framed on the arm's reach). The moving jaw's
+/// mesh is drawn where forward kinematics puts the gripper: the jaw's box contains the
+/// gripper joint's origin (the jaw turns about it) at the pose the servos report.
+#[test]
+fn the_arm_is_drawn_from_its_official_meshes_and_framed_on_its_reach() {
+    require_browser_tools();
+    let dir = tempfile::tempdir().unwrap();
+    let wave = Path::new(env!("CARGO_MANIFEST_DIR")).join("sequences/so101_wave.json");
+    std::fs::copy(&wave, dir.path().join("wave.json")).unwrap();
+    let (studio, url) = start_studio(dir.path(), &["wave.json"]);
+    let shot = dir.path().join("meshes.png");
+    let results = browser_run("meshes.mjs", &[Path::new(&url), &shot]);
+    drop(studio);
+
+    assert_eq!(results["errors"], json!([]), "the page ran without errors");
+    assert_eq!(results["state"], json!("loaded"));
+    // scripts/vendor-meshes.py: 17 parts on the base and the six joints.
+    assert_eq!(results["meshes"], json!(17));
+    let links: Vec<String> = serde_json::from_value(results["links"].clone()).unwrap();
+    for link in [
+        "",
+        "shoulder_pan",
+        "shoulder_lift",
+        "elbow_flex",
+        "wrist_flex",
+        "wrist_roll",
+        "gripper",
+    ] {
+        assert!(links.iter().any(|l| l == link), "{link:?} in {links:?}");
+    }
+    assert_eq!(results["stl"], json!(true));
+    for (corner, sign) in [("ndcLow", -1.0), ("ndcHigh", 1.0)] {
+        let v: Vec<f64> = serde_json::from_value(results[corner].clone()).unwrap();
+        assert!(
+            v.iter().all(|x| x * sign < 1.0),
+            "{corner} {v:?}: part of the arm is outside the view"
+        );
+    }
+    let so101 = keypose::robot::Robot::builtin("so101").unwrap();
+    let present: Vec<f64> = serde_json::from_value(results["present"].clone()).unwrap();
+    assert!((present[0] - 20.0).abs() < 0.1, "{present:?}");
+    let gripper = so101.joint_frames(&present)[5].t;
+    let corners: Vec<Vec<f64>> = serde_json::from_value(results["jawBox"].clone()).unwrap();
+    let (lo, hi) = (
+        glam::DVec3::from_slice(&corners[0]),
+        glam::DVec3::from_slice(&corners[1]),
+    );
+    assert!(
+        (lo - glam::DVec3::splat(0.002)).cmple(gripper).all()
+            && gripper.cmple(hi + glam::DVec3::splat(0.002)).all(),
+        "gripper joint {gripper:?} outside the jaw's box {lo:?} … {hi:?}"
+    );
+    std::fs::copy(
+        &shot,
+        std::env::temp_dir().join("keypose-studio-meshes.png"),
+    )
+    .unwrap();
+}
+
+/// Collisions seen before they happen (issue 24, part 4): on the bimanual wave's two SO-101
+/// arms, the right arm turned -80° and the left arm turned towards it, the jog that would put
+/// the arms into each other is refused (the arm stays where it was, the status line says what
+/// would touch), and at the last pose that was allowed the page draws the links of both arms
+/// that are within 10 mm of each other red.
+#[test]
+fn a_jog_of_one_arm_into_the_other_is_refused_and_the_near_links_turn_red() {
+    require_browser_tools();
+    let dir = tempfile::tempdir().unwrap();
+    let wave = Path::new(env!("CARGO_MANIFEST_DIR")).join("sequences/bimanual_wave.json");
+    std::fs::copy(&wave, dir.path().join("wave.json")).unwrap();
+    let (studio, url) = start_studio(dir.path(), &["wave.json"]);
+    let shot = dir.path().join("collision.png");
+    let results = browser_run("collision.mjs", &[Path::new(&url), &shot]);
+    drop(studio);
+
+    assert_eq!(results["errors"], json!([]), "the page ran without errors");
+    let refused = &results["refused"];
+    let text = refused["status"]["text"].as_str().unwrap_or_default();
+    assert!(
+        text.starts_with("cannot jog left/shoulder_pan to") && text.contains("right/"),
+        "{results}"
+    );
+    let last = &results["lastAccepted"];
+    assert_eq!(refused["present"], last["present"], "the arm stayed");
+    let hot: Vec<String> = serde_json::from_value(last["hot"].clone()).unwrap();
+    assert!(
+        hot.iter().any(|l| l.starts_with("left/")) && hot.iter().any(|l| l.starts_with("right/")),
+        "red links of both arms: {hot:?}"
+    );
+    let contacts = last["contacts"].as_array().unwrap();
+    assert!(
+        contacts
+            .iter()
+            .any(|c| c["kind"] == "BetweenArms" && c["mm"].as_f64().unwrap() < 10.0),
+        "{contacts:?}"
+    );
+    std::fs::copy(
+        &shot,
+        std::env::temp_dir().join("keypose-studio-collision.png"),
+    )
+    .unwrap();
+}

@@ -63,14 +63,15 @@ fn a_scripted_session_builds_checks_and_plays_a_sequence() {
         n
         # B: pan 25 (two big steps, five small)
         shift-right shift-right right right right right right n
-        # C: lift 30; elbow to its limit 96.83 (the 11th step is refused there), then back
-        # 40° to 56.8 (a jog lands on tenths). A key at the limit would make a cubic
+        # C: lift 30; elbow to its limit -96.83 (the 11th step is refused there), then back
+        # 40° to -56.8 (a jog lands on tenths). A key at the limit would make a cubic
         # overshoot it on the way to the next key, which check and y refuse (the monotone
-        # default cannot, but the path stays the one a cubic needs).
+        # default cannot, but the path stays the one a cubic needs). Not towards +96.83: the
+        # elbow folding down puts the gripper into the desk, which the collision rule refuses.
         down shift-right shift-right shift-right
-        down shift-right shift-right shift-right shift-right shift-right
-             shift-right shift-right shift-right shift-right shift-right shift-right
-             shift-left shift-left shift-left shift-left
+        down shift-left shift-left shift-left shift-left shift-left
+             shift-left shift-left shift-left shift-left shift-left shift-left
+             shift-right shift-right shift-right shift-right
         n
         # D: gripper 40 then back 2
         down down down shift-right shift-right shift-right shift-right left left n
@@ -112,9 +113,9 @@ fn a_scripted_session_builds_checks_and_plays_a_sequence() {
         "keyframes": [
             pose([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
             pose([25.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
-            pose([25.0, 30.0, 56.8, 0.0, 0.0, 10.0]),
-            pose([25.0, 30.0, 56.8, -15.0, 0.0, 38.0]),
-            pose([25.0, 30.0, 56.8, 0.0, 0.0, 38.0]),
+            pose([25.0, 30.0, -56.8, 0.0, 0.0, 10.0]),
+            pose([25.0, 30.0, -56.8, -15.0, 0.0, 38.0]),
+            pose([25.0, 30.0, -56.8, 0.0, 0.0, 38.0]),
         ]
     });
     assert_eq!(read_json(&file), expected);

@@ -5,6 +5,7 @@ import { Timeline } from '/timeline.js';
 import { ToolHandle } from '/handle.js';
 import { Playback } from '/playhead.js';
 import { Findings } from '/findings.js';
+import { showContacts } from '/collision.js';
 
 const token = new URLSearchParams(location.search).get('token') || '';
 // The token was in the URL only to bring the page here: it leaves the address bar (and this
@@ -216,6 +217,7 @@ function render(s) {
     studio.view.setToolJoint(s.selected);
     studio.view.setPose(s.joints.map(j => j.present));
     studio.view.setGhost(ghostOverride || keyGhost(s));
+    showContacts(studio.view, s.contacts || []);
     if (studio.handle) studio.handle.follow();
   }
   if (studio.playback) studio.playback.follow(s);

@@ -5,6 +5,8 @@
 // the one of the selected joint's arm, in that arm's base frame.
 import * as THREE from 'three';
 import { OrbitControls } from '/vendor/three/OrbitControls.js';
+import { dress } from '/meshes.js';
+import { frame } from '/framing.js';
 
 const DEG = Math.PI / 180;
 
@@ -54,6 +56,8 @@ class Arm {
     this.root = new THREE.Group();
     this.joints = new Map();
     this.axes = [];
+    // The drawn shapes: the model's boxes and capsules, or the official meshes once loaded.
+    this.shapes = [];
     this.model = model;
     if (model.bodies) {
       for (const body of model.bodies) this.root.add(this.body(body, material));
@@ -80,7 +84,8 @@ class Arm {
     return moving;
   }
 
-  body(body, material) {
+  body(body, material, parentLink = '') {
+    const link = body.joint ? body.joint.name : parentLink;
     const frame = new THREE.Group();
     frame.name = body.name;
     place(frame, body.origin);
@@ -89,9 +94,12 @@ class Arm {
       : frame;
     for (const g of body.geoms) {
       const mesh = geomMesh(g, material);
-      if (mesh) inner.add(mesh);
+      if (!mesh) continue;
+      mesh.userData.link = link;
+      inner.add(mesh);
+      this.shapes.push(mesh);
     }
-    for (const child of body.children) inner.add(this.body(child, material));
+    for (const child of body.children) inner.add(this.body(child, material, link));
     return frame;
   }
 
@@ -145,16 +153,9 @@ export class ArmView {
     this.scene.background = new THREE.Color(0x20252b);
     this.camera = new THREE.PerspectiveCamera(45, 1, 0.01, 10);
     this.camera.up.set(0, 0, 1);
-    // Looking at the arm from the front right; a cell from further, centred between its
-    // arms' bases, so that every arm is in view.
-    const bases = (model.arms || []).map(a => vec(a.base.t));
-    const centre = bases.reduce((c, b) => c.addScaledVector(b, 1 / bases.length), new THREE.Vector3());
-    const spread = Math.max(0, ...bases.map(b => b.distanceTo(centre)));
-    const target = centre.clone().add(new THREE.Vector3(0.1, 0, 0.12));
-    this.camera.position.copy(target).addScaledVector(new THREE.Vector3(0.35, -0.55, 0.28), 1 + 2 * spread);
     this.controls = new OrbitControls(this.camera, canvas);
-    this.controls.target.copy(target);
-    this.controls.update();
+    // On every arm's reach, whatever its pose (framing.js).
+    frame(this.camera, this.controls, model, canvas.clientWidth / Math.max(canvas.clientHeight, 1));
     this.scene.add(new THREE.HemisphereLight(0xffffff, 0x404040, 2.2));
     const sun = new THREE.DirectionalLight(0xffffff, 1.6);
     sun.position.set(1, -1, 2);
@@ -180,6 +181,15 @@ export class ArmView {
       this.scene.add(part.root, part.ghostRoot);
       return part;
     });
+    // The official meshes, when the robot has them: 'none', 'loading', 'loaded' or 'failed'
+    // (the boxes and capsules stay).
+    const dressed = parts.filter(p => p.model.meshes);
+    this.meshes = dressed.length ? 'loading' : 'none';
+    Promise.all(dressed.flatMap(p => {
+      const part = this.parts.find(q => q.first === p.first);
+      return [dress(part.arm, p.model.meshes, solid), dress(part.ghost, p.model.meshes, () => ghostMaterial)];
+    })).then(() => { if (dressed.length) this.meshes = 'loaded'; this.hotKey = null; this.dirty = true; },
+      () => { this.meshes = 'failed'; this.dirty = true; });
     this.toolPart = this.parts[0];
     this.onFrame = null;
     // Drawn only when something changed: software GL (and a laptop's battery) cannot afford

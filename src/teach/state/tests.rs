@@ -13,6 +13,7 @@ fn so101() -> Robot {
 const PAN: usize = 0;
 const LIFT: usize = 1;
 const ELBOW: usize = 2;
+const WRIST: usize = 3;
 
 /// A fresh session on an empty list, journaled in `dir`, the arm at home and held.
 fn session(dir: &Path) -> TeachState {
@@ -138,22 +139,24 @@ fn jogs_step_one_or_ten_degrees_and_stop_at_the_limits() {
     let mut state = session(dir.path());
     press_all(&mut state, &[Key::Right, Key::ShiftRight, Key::Left]);
     assert_eq!(state.goals()[PAN], 10.0);
-    // Elbow: limits ±96.83°, so ten big steps end exactly at the limit, not past it.
-    press_all(&mut state, &[Key::Down, Key::Down]);
-    assert_eq!(state.selected(), ELBOW);
+    // Wrist flex: limits ±95°, so ten big steps end exactly at the limit, not past it. (Not
+    // the elbow: folded at the stretched home pose, it puts the gripper into the desk, a jog
+    // the collision rule refuses.)
+    press_all(&mut state, &[Key::Down, Key::Down, Key::Down]);
+    assert_eq!(state.selected(), WRIST);
     for _ in 0..10 {
         press(&mut state, Key::ShiftRight);
     }
-    assert_eq!(state.goals()[ELBOW], 96.83);
+    assert_eq!(state.goals()[WRIST], 95.0, "{}", state.status().text);
     let commands = press(&mut state, Key::Right);
     assert!(commands.is_empty(), "no goal past the limit");
     assert!(state.status().error && state.status().text.contains("limit"));
     for _ in 0..25 {
         press(&mut state, Key::ShiftLeft);
     }
-    assert_eq!(state.goals()[ELBOW], -96.83);
+    assert_eq!(state.goals()[WRIST], -95.0, "{}", state.status().text);
     // Selection wraps around.
-    press_all(&mut state, &[Key::Up, Key::Up, Key::Up]);
+    press_all(&mut state, &[Key::Up, Key::Up, Key::Up, Key::Up]);
     assert_eq!(state.selected(), 5);
 }
 
@@ -1387,4 +1390,35 @@ fn a_motion_that_failed_says_the_player_error_and_its_cause() {
         status.text,
         "motion stopped: cannot write log teach.csv: disk full"
     );
+}
+
+/// Issue 24, part 4: a jog into the floor is refused before the arm moves, as the studio's
+/// page and the terminal share this rule; the arm can still be jogged back. The SO-101's
+/// shoulder lift at its +100° limit folds the stretched arm into the desk (its model's
+/// capsules, which MuJoCo's contacts agree with: tests/simulation/collision.rs).
+#[test]
+fn a_jog_into_the_floor_is_refused_and_the_arm_may_jog_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = session(dir.path());
+    press(&mut state, Key::Down);
+    let mut refused = None;
+    for _ in 0..10 {
+        let before = state.goals()[1];
+        let commands = press(&mut state, Key::ShiftRight);
+        if state.status().error {
+            assert!(commands.is_empty(), "nothing sent: {commands:?}");
+            assert_eq!(state.goals()[1], before, "the arm stays");
+            refused = Some(state.status().text.clone());
+            break;
+        }
+    }
+    let text = refused.expect("a jog was refused before the limit");
+    assert!(
+        text.starts_with("cannot jog shoulder_lift to") && text.contains("the floor"),
+        "{text}"
+    );
+    assert!(state.goals()[1] < 100.0);
+    let back = state.goals()[1] - 10.0;
+    press(&mut state, Key::ShiftLeft);
+    assert_eq!(state.goals()[1], back, "{}", state.status().text);
 }

@@ -147,8 +147,8 @@ impl TeachState {
     /// stays on its branch) with the joints that do not move the tool held, and every other
     /// arm's left alone. Refused while moving, with a tool joint limp, out of reach (saying by
     /// how much and the nearest reachable point), or when any joint would move more than
-    /// [`JOINT_JUMP_DEG`] (near a singularity); the session ramps the accepted goals as it
-    /// ramps every jog.
+    /// [`JOINT_JUMP_DEG`] (near a singularity), or into a contact (`contact`); the session
+    /// ramps the accepted goals as it ramps every jog.
     fn reach_tool(&mut self, arm: &ToolArm, what: &str, target: DVec3) -> Vec<Command> {
         if let Some(refused) = self.refuse_while_moving() {
             return refused;
@@ -183,6 +183,9 @@ impl TeachState {
                 self.robot.joints[j].name,
                 v - self.goals[j]
             ));
+        }
+        if let Some(touch) = self.contact_refusal(&goals) {
+            return self.fail(format!("{what}: the arm would collide: {touch}"));
         }
         self.jog_to(&goals)
     }

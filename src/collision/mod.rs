@@ -1,0 +1,398 @@
+//! Collisions of a pose without MuJoCo: the boxes and capsules of the built-in simulation
+//! models (`sim/models/*.xml`), posed by the joint values, checked pair by pair against each
+//! other and the floor with the pairs MuJoCo checks — not two parts of one body, not a body
+//! and its parent, not the pairs a model's `<contact><exclude>` names, not two parts fixed to
+//! the world (the floor, the bases) — so that it agrees with `keypose pose` and the
+//! simulation's contacts (tests/simulation/collision.rs compares them) at a fraction of their
+//! cost: the teaching rules judge every jog and tool move with it before the arm moves.
+//!
+//! A cell is every arm's model at its base, so two arms are checked against each other too.
+//! A robot without a built-in model has no collision model (nothing is checked).
+
+mod gjk;
+mod mjcf;
+
+use crate::pose::RigidTransform;
+use crate::robot::{JointKind, Robot};
+use gjk::Core;
+use glam::DVec3;
+
+/// What a part touches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TouchKind {
+    /// The floor (z = 0 of the robot's or the cell's frame).
+    Floor,
+    /// Another part of the same arm.
+    SelfCollision,
+    /// A part of another arm of the cell.
+    BetweenArms,
+}
+
+/// Two bodies closer than a clearance (or a body and the floor).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Touch {
+    /// What the first body touches.
+    pub kind: TouchKind,
+    /// The bodies as the model names them (a cell's as `ARM/BODY`); the second is `None` for
+    /// the floor.
+    pub bodies: (String, Option<String>),
+    /// The links they are on, as the page names them: the body's own joint or its nearest
+    /// jointed ancestor's (a cell's as `ARM/JOINT`), `""` for the base (a cell's `ARM/`);
+    /// the second is `None` for the floor.
+    pub links: (String, Option<String>),
+    /// Their distance, metres: negative is a penetration that deep.
+    pub distance: f64,
+}
+
+impl Touch {
+    /// The two bodies, in a fixed order, to match the same pair at two poses.
+    fn pair(&self) -> (&str, Option<&str>) {
+        (self.bodies.0.as_str(), self.bodies.1.as_deref())
+    }
+
+    /// In words: `upper_arm touches the floor (2.1 mm deep)`.
+    pub fn describe(&self) -> String {
+        let what = match &self.bodies.1 {
+            None => "the floor".to_string(),
+            Some(other) => other.clone(),
+        };
+        if self.distance < 0.0 {
+            format!(
+                "{} touches {what} ({:.1} mm deep)",
+                self.bodies.0,
+                -self.distance * 1000.0
+            )
+        } else {
+            format!(
+                "{} is {:.1} mm from {what}",
+                self.bodies.0,
+                self.distance * 1000.0
+            )
+        }
+    }
+}
+
+/// How a body moves with the robot's values.
+#[derive(Debug, Clone, PartialEq)]
+enum Motion {
+    Fixed,
+    /// The robot's joint `index`.
+    Joint {
+        index: usize,
+        kind: JointKind,
+        axis: DVec3,
+    },
+    /// A model joint that follows the robot's joint `index` (`offset + scale · value`).
+    Mimic {
+        index: usize,
+        kind: JointKind,
+        axis: DVec3,
+        offset: f64,
+        scale: f64,
+    },
+}
+
+#[derive(Debug, Clone)]
+struct Body {
+    name: String,
+    parent: Option<usize>,
+    /// For a top-level body, its arm's base.
+    origin: RigidTransform,
+    motion: Motion,
+    arm: usize,
+    /// Fixed to the world: it and every ancestor have no joint.
+    fixed: bool,
+    /// The link it belongs to for the page (see [`Touch::links`]).
+    link: String,
+}
+
+#[derive(Debug, Clone)]
+struct Geom {
+    body: usize,
+    shape: mjcf::Shape,
+}
+
+/// The shapes of a robot's (or a cell's) simulation models, ready to pose.
+#[derive(Debug, Clone)]
+pub struct CollisionModel {
+    bodies: Vec<Body>,
+    geoms: Vec<Geom>,
+    /// Body pairs never checked (index order: smaller first).
+    skipped: Vec<(usize, usize)>,
+}
+
+impl CollisionModel {
+    /// The model of `robot` from its built-in simulation model (each arm's, for a cell);
+    /// `None` when an arm has none, or its model cannot be read.
+    pub fn for_robot(robot: &Robot) -> Option<CollisionModel> {
+        let mut model = CollisionModel {
+            bodies: Vec::new(),
+            geoms: Vec::new(),
+            skipped: Vec::new(),
+        };
+        if robot.is_cell() {
+            for (a, arm) in robot.arms.iter().enumerate() {
+                let text = crate::robot::builtin_mjcf(&arm.robot.name)?;
+                let parsed = mjcf::parse(text).ok()?;
+                model.add(
+                    &parsed,
+                    &arm.robot,
+                    arm.base,
+                    a,
+                    arm.joints.start,
+                    Some(&arm.name),
+                )?;
+            }
+        } else {
+            let text = crate::robot::builtin_mjcf(&robot.name)?;
+            let parsed = mjcf::parse(text).ok()?;
+            model.add(&parsed, robot, RigidTransform::IDENTITY, 0, 0, None)?;
+        }
+        Some(model)
+    }
+
+    /// Adds one arm's model: its bodies named `ARM/BODY` on a cell, its joints found in
+    /// `robot` and numbered from `first` among the cell's.
+    fn add(
+        &mut self,
+        parsed: &mjcf::Model,
+        robot: &Robot,
+        base: RigidTransform,
+        arm: usize,
+        first: usize,
+        arm_name: Option<&str>,
+    ) -> Option<()> {
+        let offset = self.bodies.len();
+        let named = |n: &str| match arm_name {
+            Some(a) => format!("{a}/{n}"),
+            None => n.to_string(),
+        };
+        for body in &parsed.bodies {
+            let motion = match &body.joint {
+                None => Motion::Fixed,
+                Some(joint) => match robot.joint_index(&joint.name) {
+                    Some(index) => Motion::Joint {
+                        index: first + index,
+                        kind: joint.kind,
+                        axis: joint.axis,
+                    },
+                    None => {
+                        let mimic = parsed.mimics.iter().find(|m| m.joint == joint.name)?;
+                        Motion::Mimic {
+                            index: first + robot.joint_index(&mimic.follows)?,
+                            kind: joint.kind,
+                            axis: joint.axis,
+                            offset: mimic.offset,
+                            scale: mimic.scale,
+                        }
+                    }
+                },
+            };
+            let parent = body.parent.map(|p| offset + p);
+            let fixed = motion == Motion::Fixed && parent.is_none_or(|p| self.bodies[p].fixed);
+            let link = match (&body.joint, parent) {
+                (Some(j), _) => named(&j.name),
+                (None, Some(p)) => self.bodies[p].link.clone(),
+                (None, None) => named(""),
+            };
+            let origin = match parent {
+                None => base.compose(&body.origin),
+                Some(_) => body.origin,
+            };
+            self.bodies.push(Body {
+                name: named(&body.name),
+                parent,
+                origin,
+                motion,
+                arm,
+                fixed,
+                link,
+            });
+        }
+        for geom in &parsed.geoms {
+            self.geoms.push(Geom {
+                body: offset + geom.body,
+                shape: geom.shape,
+            });
+        }
+        for (a, b) in &parsed.excluded {
+            self.skipped
+                .push(((offset + a).min(offset + b), (offset + a).max(offset + b)));
+        }
+        Some(())
+    }
+
+    /// Every body's frame in the robot's (the cell's) frame at `values` (robot order, joint
+    /// units).
+    fn frames(&self, values: &[f64]) -> Vec<RigidTransform> {
+        let mut frames: Vec<RigidTransform> = Vec::with_capacity(self.bodies.len());
+        for body in &self.bodies {
+            let parent = body.parent.map_or(RigidTransform::IDENTITY, |p| frames[p]);
+            let motion = match body.motion {
+                Motion::Fixed => RigidTransform::IDENTITY,
+                Motion::Joint { index, kind, axis } => moved(kind, axis, values[index]),
+                Motion::Mimic {
+                    index,
+                    kind,
+                    axis,
+                    offset,
+                    scale,
+                } => {
+                    // The model's equality is in its own units: radians, metres.
+                    let model = to_model(kind, values[index]);
+                    moved(kind, axis, from_model(kind, offset + scale * model))
+                }
+            };
+            frames.push(parent.compose(&body.origin).compose(&motion));
+        }
+        frames
+    }
+
+    /// Every pair of bodies (and every body and the floor) closer than `clearance` metres at
+    /// `values` (robot order, joint units), the nearest pair of shapes of each; a negative
+    /// distance is a penetration.
+    pub fn touches(&self, values: &[f64], clearance: f64) -> Vec<Touch> {
+        let frames = self.frames(values);
+        let placed: Vec<(usize, Core, f64)> = self
+            .geoms
+            .iter()
+            .map(|g| {
+                let (core, radius) = g.shape.placed(&frames[g.body]);
+                (g.body, core, radius)
+            })
+            .collect();
+        let mut found: Vec<(usize, Option<usize>, f64)> = Vec::new();
+        let mut note = |a: usize, b: Option<usize>, d: f64| {
+            if d >= clearance {
+                return;
+            }
+            match found.iter_mut().find(|(x, y, _)| *x == a && *y == b) {
+                Some(entry) => entry.2 = entry.2.min(d),
+                None => found.push((a, b, d)),
+            }
+        };
+        for (i, (a, core_a, radius_a)) in placed.iter().enumerate() {
+            if !self.bodies[*a].fixed {
+                note(*a, None, core_a.lowest() - radius_a);
+            }
+            for (b, core_b, radius_b) in &placed[i + 1..] {
+                if !self.checked(*a, *b) {
+                    continue;
+                }
+                let d = gjk::signed_distance(core_a, core_b) - radius_a - radius_b;
+                note((*a).min(*b), Some((*a).max(*b)), d);
+            }
+        }
+        found
+            .into_iter()
+            .map(|(a, b, distance)| self.touch(a, b, distance))
+            .collect()
+    }
+
+    /// The pairs MuJoCo checks: two bodies, not both fixed to the world, neither the other's
+    /// parent, not excluded.
+    fn checked(&self, a: usize, b: usize) -> bool {
+        let (x, y) = (&self.bodies[a], &self.bodies[b]);
+        a != b
+            && !(x.fixed && y.fixed)
+            && x.parent != Some(b)
+            && y.parent != Some(a)
+            && !self.skipped.contains(&(a.min(b), a.max(b)))
+    }
+
+    fn touch(&self, a: usize, b: Option<usize>, distance: f64) -> Touch {
+        let kind = match b {
+            None => TouchKind::Floor,
+            Some(b) if self.bodies[b].arm == self.bodies[a].arm => TouchKind::SelfCollision,
+            Some(_) => TouchKind::BetweenArms,
+        };
+        Touch {
+            kind,
+            bodies: (
+                self.bodies[a].name.clone(),
+                b.map(|b| self.bodies[b].name.clone()),
+            ),
+            links: (
+                self.bodies[a].link.clone(),
+                b.map(|b| self.bodies[b].link.clone()),
+            ),
+            distance,
+        }
+    }
+
+    /// Why moving from `from` to `to` (robot order, joint units) is refused: a contact at `to`
+    /// that `from` does not have, or one that goes deeper. A pose already in contact can
+    /// still be left.
+    pub fn refusal(&self, from: &[f64], to: &[f64]) -> Option<Touch> {
+        let before = self.touches(from, 0.0);
+        self.touches(to, 0.0).into_iter().find(|after| {
+            before
+                .iter()
+                .find(|b| b.pair() == after.pair())
+                .is_none_or(|b| after.distance < b.distance - DEEPER)
+        })
+    }
+}
+
+/// How much deeper an existing contact may go before a move into it is refused, metres:
+/// rounding, not a tolerance for collisions.
+const DEEPER: f64 = 1e-6;
+
+fn to_model(kind: JointKind, value: f64) -> f64 {
+    match kind {
+        JointKind::Revolute => value.to_radians(),
+        JointKind::Prismatic => value,
+    }
+}
+
+fn from_model(kind: JointKind, value: f64) -> f64 {
+    match kind {
+        JointKind::Revolute => value.to_degrees(),
+        JointKind::Prismatic => value,
+    }
+}
+
+/// A joint's motion by `value` in joint units.
+fn moved(kind: JointKind, axis: DVec3, value: f64) -> RigidTransform {
+    match kind {
+        JointKind::Revolute => RigidTransform::new(
+            DVec3::ZERO,
+            glam::DQuat::from_axis_angle(axis, value.to_radians()),
+        ),
+        JointKind::Prismatic => RigidTransform::new(axis * value, glam::DQuat::IDENTITY),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// At home no built-in arm touches anything (its models are drawn apart at home).
+    #[test]
+    fn no_built_in_arm_touches_anything_at_home() {
+        for name in crate::robot::BUILTIN_NAMES {
+            let robot = Robot::builtin(name).unwrap();
+            let model = CollisionModel::for_robot(&robot).unwrap();
+            let home = vec![0.0; robot.joints.len()];
+            assert_eq!(model.touches(&home, 0.0), vec![], "{name}");
+        }
+    }
+
+    /// The SO-101's shoulder lift at −100° (its limit) folds the arm down: with the elbow
+    /// stretched the upper arm's capsule reaches below the desk.
+    #[test]
+    fn a_folded_arm_touches_the_floor_and_is_refused_but_may_leave() {
+        let robot = Robot::builtin("so101").unwrap();
+        let model = CollisionModel::for_robot(&robot).unwrap();
+        let home = vec![0.0; 6];
+        let mut down = home.clone();
+        down[1] = 100.0;
+        let touches = model.touches(&down, 0.0);
+        assert!(
+            touches.iter().any(|t| t.kind == TouchKind::Floor),
+            "{touches:?}"
+        );
+        assert!(model.refusal(&home, &down).is_some());
+        assert!(model.refusal(&down, &home).is_none(), "leaving is allowed");
+    }
+}
