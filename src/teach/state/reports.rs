@@ -220,6 +220,9 @@ impl TeachState {
         let current = self.list.current_index();
         let mut sequence = self.list.sequence().clone();
         sequence.file = path.display().to_string();
+        // What the driver wrote: the next `w` keeps its layout.
+        let written = sequence.to_text();
+        sequence.mark_written(&written);
         self.list = KeyframeList::new(sequence);
         self.list.select(current);
     }
