@@ -188,6 +188,7 @@ impl TeachState {
     }
 
     fn saved(&mut self, path: PathBuf, result: Result<(), FileError>) -> Vec<Command> {
+        let quit = std::mem::take(&mut self.quit_after_write);
         if let Err(e) = result {
             return self.fail(Report(&e).to_string());
         }
@@ -210,6 +211,11 @@ impl TeachState {
         ));
         if let Some(journal) = &self.journal {
             commands.extend(clear(journal.clone(), Clearing::Written));
+        }
+        if quit {
+            let said = self.status.text.clone();
+            self.quit = true;
+            self.info(format!("{said}; quit"));
         }
         commands
     }
