@@ -460,6 +460,7 @@ impl Fitting<'_> {
             ends: Ends::Played,
             key_interval: None,
             keyframes,
+            source: Default::default(),
         }
     }
 }

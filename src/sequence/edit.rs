@@ -59,6 +59,8 @@ impl KeyframeList {
     pub fn save(&mut self, path: &Path) -> Result<(), InputError> {
         self.sequence.save(path)?;
         self.sequence.file = path.display().to_string();
+        let written = self.sequence.to_text();
+        self.sequence.mark_written(&written);
         self.dirty = false;
         Ok(())
     }

@@ -53,7 +53,7 @@ pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputEr
     let items = frames_node.items()?;
     let mut keyframes = parse_keyframes(&frames_node, &items, &arms)?;
     let key_interval = settle_timing(&mut keyframes, &items, key_interval, interval_node.as_ref())?;
-    let sequence = Sequence {
+    let mut sequence = Sequence {
         file: file.to_string(),
         robot,
         arms,
@@ -62,8 +62,10 @@ pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputEr
         ends,
         key_interval,
         keyframes,
+        source: Default::default(),
     };
     validate_keys(&sequence)?;
+    sequence.source = super::layout::Source::of(&sequence, text);
     Ok(sequence)
 }
 

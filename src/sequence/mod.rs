@@ -5,6 +5,7 @@
 //! which reports through the same [`InputError`] with the key's path in the original file.
 
 mod edit;
+mod layout;
 mod load;
 mod save;
 
@@ -220,6 +221,8 @@ pub struct Sequence {
     pub key_interval: Option<f64>,
     /// In time order.
     pub keyframes: Vec<Keyframe>,
+    /// The text it was loaded from, so that saving keeps what the user did not change.
+    pub(crate) source: layout::Source,
 }
 
 impl Sequence {
@@ -235,6 +238,7 @@ impl Sequence {
             ends: Ends::Played,
             key_interval: Some(DEFAULT_KEY_INTERVAL),
             keyframes: Vec::new(),
+            source: layout::Source::default(),
         }
     }
 
@@ -249,15 +253,31 @@ impl Sequence {
         load::parse_sequence(file, text)
     }
 
-    /// The sequence as `keypose-sequence/1` JSON text, as [`Sequence::save`] writes it.
+    /// The sequence as `keypose-sequence/1` JSON text in the canonical layout: one key per
+    /// line, fields in a fixed order.
     pub fn to_json(&self) -> String {
         save::to_json(self)
     }
 
-    /// Writes the sequence atomically, so a crash never leaves a half-written file.
+    /// The sequence as [`Sequence::save`] writes it: in the layout of the file it was loaded
+    /// from, every value nobody changed in its original text (`0.7071` stays `0.7071`), changed
+    /// values in the shortest form that reads back the same; the canonical layout
+    /// ([`Sequence::to_json`]) for a sequence that came from no file.
+    pub fn to_text(&self) -> String {
+        layout::to_text(self)
+    }
+
+    /// Takes `text`, which has just been written for this sequence, as the file it now comes
+    /// from: the next save keeps its layout, and keys are matched to their places in it.
+    pub fn mark_written(&mut self, text: &str) {
+        layout::written(self, text);
+    }
+
+    /// Writes the sequence atomically, so a crash never leaves a half-written file, as
+    /// [`Sequence::to_text`] has it.
     pub fn save(&self, path: &Path) -> Result<(), InputError> {
         self.validate()?;
-        crate::atomic_file::write(path, self.to_json().as_bytes()).map_err(|e| {
+        crate::atomic_file::write(path, self.to_text().as_bytes()).map_err(|e| {
             InputError::new(
                 &path.display().to_string(),
                 crate::json::Location::File,

@@ -146,7 +146,10 @@ pub fn question(state: &TeachState) -> Option<String> {
             "a journal of unsaved work ({keys} keys) is newer than {}: recover it? (y/n)",
             state.output().display()
         ),
-        Prompt::Quit => "unsaved changes: quit without writing them? (y/n)".into(),
+        Prompt::Quit => format!(
+            "unsaved changes: w writes them to {} and quits, y quits without them, n stays (w/y/n)",
+            state.output().display()
+        ),
         Prompt::Release { heavy, .. } => format!(
             "{} carr{} the arm's weight: support the arm, then release torque? (y/n)",
             joint_list(state.robot(), heavy),

@@ -85,7 +85,7 @@ impl Journal {
         if let Some(dir) = self.path.parent() {
             atomic_file::make_private_dir(dir)?;
         }
-        atomic_file::write_private(&self.path, sequence.to_json().as_bytes())
+        atomic_file::write_private(&self.path, sequence.to_text().as_bytes())
     }
 
     /// Removes the journal; a journal that is not there is not an error.

@@ -11,7 +11,8 @@ pub enum Prompt {
         /// The keys the journal holds.
         keys: usize,
     },
-    /// `q` with unsaved changes.
+    /// `q` or Ctrl-C with unsaved changes: write and quit (`w`), quit without them (`y`), or
+    /// stay (`n`).
     Quit,
     /// Releasing torque on `joints`, of which `heavy` carry the arm's weight.
     Release {
@@ -58,6 +59,7 @@ impl Prompt {
                 key,
                 Key::Char(_) | Key::Backspace | Key::Enter | Key::Esc | Key::Interrupt
             ),
+            Prompt::Quit => yes_no(key).is_some() || *key == Key::Char('w'),
             _ => yes_no(key).is_some(),
         }
     }

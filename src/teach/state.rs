@@ -87,6 +87,8 @@ pub struct TeachState {
     quit: bool,
     /// The built-in models' shapes, to refuse moves into contact (`None`: not checked).
     collision: Option<crate::collision::CollisionModel>,
+    /// The quit question was answered "write": quit once the file is written.
+    quit_after_write: bool,
 }
 
 impl TeachState {
@@ -126,6 +128,7 @@ impl TeachState {
             status: Status::default(),
             quit: false,
             collision,
+            quit_after_write: false,
         }
     }
 
@@ -242,6 +245,9 @@ impl TeachState {
 
     /// Handles one key; returns what the drivers must do.
     pub fn handle_key(&mut self, key: Key) -> Vec<Command> {
+        if key.is_stop() && self.is_moving() {
+            return self.stop_then_ask(key);
+        }
         if let Some(prompt) = self.prompt.take() {
             return self.answer(prompt, key);
         }
@@ -305,7 +311,6 @@ impl TeachState {
             Key::ShiftLeft => self.jog(-1.0, true),
             Key::ShiftRight => self.jog(1.0, true),
             Key::Esc => self.stop(),
-            Key::Interrupt if self.is_moving() => self.stop(),
             Key::Char('q') | Key::Interrupt => self.request_quit(),
             Key::Char(c) => self.fail(format!("{c:?} does nothing (the keys are listed below)")),
             Key::Enter | Key::Backspace => Vec::new(),
@@ -317,6 +322,11 @@ impl TeachState {
     fn answer(&mut self, prompt: Prompt, key: Key) -> Vec<Command> {
         if let Prompt::Text { field, text } = prompt {
             return self.type_text(field, text, key);
+        }
+        if prompt == Prompt::Quit {
+            if let Some(commands) = quitting::answer(self, &key) {
+                return commands;
+            }
         }
         match yes_no(&key) {
             Some(true) => self.confirm(prompt),
@@ -830,6 +840,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
 mod contact;
 mod edits;
 mod mirroring;
+mod quitting;
 mod reports;
 mod tool;
 pub(crate) use tool::selected_tool;

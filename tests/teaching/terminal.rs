@@ -447,3 +447,21 @@ fn ctrl_c_in_the_terminal_drops_sixty_queued_jogs() {
     // At most the jog running when Ctrl-C came and the one waiting behind it.
     assert!((0.0..20.0).contains(&pan), "the pan went on to {pan}°");
 }
+
+/// `w` on a loaded file with nothing changed writes it back byte for byte: the hand-typed
+/// quaternion 0.7071 stays 0.7071 (it was rewritten 0.7071067811865476), and the layout stays.
+#[test]
+fn w_on_an_unchanged_file_writes_the_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("sequences/so101_wave.json");
+    let original = std::fs::read(&example).unwrap();
+    std::fs::write(dir.path().join("wave.json"), &original).unwrap();
+    let out = teach(dir.path(), "w q", &["wave.json"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stderr(&out).contains("wrote wave.json"), "{}", stderr(&out));
+    let written = std::fs::read(dir.path().join("wave.json")).unwrap();
+    assert_eq!(
+        String::from_utf8_lossy(&written),
+        String::from_utf8_lossy(&original)
+    );
+}

@@ -188,6 +188,7 @@ impl TeachState {
     }
 
     fn saved(&mut self, path: PathBuf, result: Result<(), FileError>) -> Vec<Command> {
+        let quit = std::mem::take(&mut self.quit_after_write);
         if let Err(e) = result {
             return self.fail(Report(&e).to_string());
         }
@@ -211,6 +212,11 @@ impl TeachState {
         if let Some(journal) = &self.journal {
             commands.extend(clear(journal.clone(), Clearing::Written));
         }
+        if quit {
+            let said = self.status.text.clone();
+            self.quit = true;
+            self.info(format!("{said}; quit"));
+        }
         commands
     }
 
@@ -220,6 +226,9 @@ impl TeachState {
         let current = self.list.current_index();
         let mut sequence = self.list.sequence().clone();
         sequence.file = path.display().to_string();
+        // What the driver wrote: the next `w` keeps its layout.
+        let written = sequence.to_text();
+        sequence.mark_written(&written);
         self.list = KeyframeList::new(sequence);
         self.list.select(current);
     }
