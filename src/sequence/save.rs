@@ -6,6 +6,13 @@ use super::{
 use serde_json::{json, Map, Value};
 
 pub(super) fn to_json(sequence: &Sequence) -> String {
+    let mut text = compact_keys(&to_value(sequence));
+    text.push('\n');
+    text
+}
+
+/// The sequence as a JSON value, members in the order the file has them.
+pub(super) fn to_value(sequence: &Sequence) -> Value {
     let mut root = Map::new();
     root.insert("format".into(), json!(SEQUENCE_FORMAT));
     if sequence.is_cell() {
@@ -86,9 +93,7 @@ pub(super) fn to_json(sequence: &Sequence) -> String {
         })
         .collect();
     root.insert("keyframes".into(), Value::Array(keys));
-    let mut text = compact_keys(&Value::Object(root));
-    text.push('\n');
-    text
+    Value::Object(root)
 }
 
 /// `"robots"`: an arm without a base as its robot's name alone, one with a base as an object,

@@ -10,6 +10,7 @@ const FILES: &[(&str, &str, &[u8])] = &[
     ("/timeline.js", JS, include_bytes!("web/timeline.js")),
     ("/handle.js", JS, include_bytes!("web/handle.js")),
     ("/heartbeat.js", JS, include_bytes!("web/heartbeat.js")),
+    ("/undo.js", JS, include_bytes!("web/undo.js")),
     (
         "/style.css",
         "text/css; charset=utf-8",

@@ -14,11 +14,13 @@
 //!   through [`format`](mod@format). The terminal and the studio queue what arrives in an
 //!   [`InputQueue`], where a stop wins over everything queued before it.
 //!
-//! Every edit is journaled ([`Journal`]) so a crash loses nothing.
+//! Every edit can be undone and redone ([`History`], kept by the state) and is journaled with
+//! that history ([`Journal`]) so a crash loses nothing.
 
 mod capture;
 pub mod files;
 pub mod format;
+mod history;
 mod inputs;
 mod journal;
 mod keys;
@@ -29,8 +31,9 @@ pub mod script;
 mod session;
 mod state;
 
+pub use history::{Edit, History, Version, DEPTH as UNDO_DEPTH};
 pub use inputs::{Input, InputQueue, MAX_WAITING};
-pub use journal::{Journal, Pending};
+pub use journal::{Entry, Journal, Pending, JOURNAL_FORMAT};
 pub use keys::{help_text, Binding, Key, BINDINGS};
 pub(crate) use keys::{parse_token, Step, TokenError};
 pub use messages::{BusCommand, Clearing, Command, Event, FileCommand};

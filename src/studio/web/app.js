@@ -3,6 +3,7 @@
 import { ArmView } from '/view3d.js';
 import { Timeline } from '/timeline.js';
 import { ToolHandle } from '/handle.js';
+import { installUndo, showUndo } from '/undo.js';
 
 const token = new URLSearchParams(location.search).get('token') || '';
 // The token was in the URL only to bring the page here: it leaves the address bar (and this
@@ -186,6 +187,7 @@ document.addEventListener('click', e => {
   if (key) { send({ key: key.dataset.key }); key.blur(); }
 });
 $('stop').onclick = () => stopNow();
+installUndo(send);
 $('ok').onclick = () => send({ line: $('answer').value });
 $('answer').addEventListener('keydown', e => {
   if (e.key === 'Enter') { e.preventDefault(); send({ line: $('answer').value }); }
@@ -206,6 +208,7 @@ function render(s) {
   const prompt = JSON.stringify(s.prompt);
   if (prompt !== lastPrompt) { lastPrompt = prompt; renderPrompt(s.prompt); }
   if (!s.prompt) showStatus(s.status.text, s.status.error);
+  showUndo(s);
   $('activity').textContent = `${s.activity.text} · ${s.journal ? 'journal ' + s.journal : 'no journal'}`;
   $('tcp').textContent = 'tool ' + (s.tool_arm ? `(${s.tool_arm}) ` : '') +
     // Rounded first, so a coordinate a hair below zero shows as 0, not −0.
@@ -279,6 +282,7 @@ function renderPrompt(prompt) {
 let timelineTimer = null;
 const timeline = new Timeline($('timeline'), {
   onScrub: values => { ghostOverride = values; if (studio.snapshot) render(studio.snapshot); },
+  onKeyClick: index => send({ key: `select-key:${index}` }),
   onKeyTime: async (index, millis) => {
     if (await send({ key: `select-key:${index}` })) send({ key: `key-time:${millis}` });
   },
