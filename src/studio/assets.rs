@@ -11,6 +11,7 @@ const FILES: &[(&str, &str, &[u8])] = &[
     ("/handle.js", JS, include_bytes!("web/handle.js")),
     ("/heartbeat.js", JS, include_bytes!("web/heartbeat.js")),
     ("/undo.js", JS, include_bytes!("web/undo.js")),
+    ("/connection.js", JS, include_bytes!("web/connection.js")),
     (
         "/style.css",
         "text/css; charset=utf-8",

@@ -17,14 +17,14 @@ use std::process::{Child, Command, Stdio};
 
 const CHROMIUM: &str = "/usr/bin/chromium";
 
-fn test_dir() -> PathBuf {
+pub(crate) fn test_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests")
         .join("studio")
 }
 
 /// Fails, loudly, when the browser test cannot run here.
-fn require_browser_tools() {
+pub(crate) fn require_browser_tools() {
     let node = Command::new("node").arg("--version").output();
     let mut missing = Vec::new();
     if !node.is_ok_and(|o| o.status.success()) {
@@ -48,7 +48,7 @@ fn require_browser_tools() {
 }
 
 /// Ends the studio when the test ends, however it ends.
-struct Studio(Child);
+pub(crate) struct Studio(pub(crate) Child);
 
 impl Drop for Studio {
     fn drop(&mut self) {
@@ -72,7 +72,7 @@ fn named(name: &str, mut key: Value) -> Value {
 }
 
 /// Starts `keypose studio --port virtual ARGS` in `dir` and returns it with its page's URL.
-fn start_studio(dir: &Path, args: &[&str]) -> (Studio, String) {
+pub(crate) fn start_studio(dir: &Path, args: &[&str]) -> (Studio, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_keypose"))
         .args(["studio", "--port", "virtual"])
         .args(args)
@@ -93,7 +93,7 @@ fn start_studio(dir: &Path, args: &[&str]) -> (Studio, String) {
 /// of results it prints last. One browser at a time: each renders its 3D view on the CPU
 /// (SwiftShader), and three at once on a small machine starve one another and the studios
 /// they drive.
-fn browser_run(script: &str, args: &[&Path]) -> Value {
+pub(crate) fn browser_run(script: &str, args: &[&Path]) -> Value {
     static ONE_BROWSER: std::sync::Mutex<()> = std::sync::Mutex::new(());
     let _turn = ONE_BROWSER.lock().unwrap_or_else(|e| e.into_inner());
     let out = Command::new("node")

@@ -4,6 +4,7 @@ import { ArmView } from '/view3d.js';
 import { Timeline } from '/timeline.js';
 import { ToolHandle } from '/handle.js';
 import { installUndo, showUndo } from '/undo.js';
+import { request, watchStream, NO_ANSWER, SIMULATE_MS } from '/connection.js';
 
 const token = new URLSearchParams(location.search).get('token') || '';
 // The token was in the URL only to bring the page here: it leaves the address bar (and this
@@ -27,10 +28,8 @@ const studio = window.studio = {
   stop: () => stopNow(), stops: [],
 };
 
-async function api(path, body) {
-  const response = await fetch(path, { method: body ? 'POST' : 'GET', headers, body: body && JSON.stringify(body) });
-  const answer = await response.json().catch(() => ({}));
-  return { ok: response.ok, status: response.status, answer };
+function api(path, body, ms) {
+  return request(path, { method: body ? 'POST' : 'GET', headers, body: body && JSON.stringify(body) }, ms);
 }
 
 // Keys go one after another, as typed: each waits for the answer to the one before, so
@@ -99,6 +98,10 @@ async function postNow(body) {
   if (!reply.ok) {
     studio.refusals.push(reply.answer.error);
     showStatus(reply.answer.error || 'refused', true);
+    if (reply.lost) setController(false, NO_ANSWER);
+  } else if (reply.answer.status && !studio.snapshot?.prompt) {
+    // The answer's status replaces whatever the page said before (a stale refusal too).
+    showStatus(reply.answer.status.text, reply.answer.status.error);
   }
   return reply;
 }
@@ -303,7 +306,7 @@ function refreshTimeline(s) {
 
 $('simulate').onclick = async () => {
   $('simulation').textContent = 'simulating in MuJoCo…';
-  const { ok, answer } = await api('/api/simulate', {});
+  const { ok, answer } = await api('/api/simulate', {}, SIMULATE_MS);
   if (!ok) { $('simulation').textContent = answer.error || 'the simulation failed'; return; }
   studio.simulation = answer;
   const report = answer.report, trace = answer.trace;
@@ -395,6 +398,7 @@ async function start() {
       if (studio.loadMs === null) studio.loadMs = performance.now();
     };
   };
+  watchStream(events, () => setController(false, NO_ANSWER), claim);
   events.addEventListener('end', () => {
     events.close();
     showStatus('the studio session has ended (keypose studio quit)', true);
