@@ -71,3 +71,71 @@ fn the_page_undoes_and_redoes_edits_and_a_click_on_a_key_does_not_move_it() {
         "every edit was undone"
     );
 }
+
+/// `keypose studio SEQ` without `--port`: the arm drawn only. The page jogs it (the pan by
+/// 10°, which the drawn servo reaches as 114 ticks of 4096 a turn: 10.01953125°), captures a
+/// key, drags the tool handle (10 mm along −x, taken), moves to key 0 (home: every joint at
+/// 0°, as the file says), simulates and saves; the file has the captured key. Then the studio
+/// is killed: the page stops claiming control and says the studio does not answer, and a key
+/// pressed then is answered as not sent. How long the page took to notice is measured, not
+/// judged.
+#[test]
+fn without_a_port_the_studio_edits_a_drawn_arm_and_a_lost_server_is_said() {
+    require_browser_tools();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(wave(), dir.path().join("wave.json")).unwrap();
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_keypose"))
+        .args(["studio", "wave.json"])
+        .current_dir(dir.path())
+        .env("KEYPOSE_CACHE", crate::common::python_cache())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .expect("start keypose studio");
+    let stdout = child.stdout.take().unwrap();
+    let pid = child.id().to_string();
+    let _studio = crate::studio::Studio(child);
+    let mut url = String::new();
+    std::io::BufRead::read_line(&mut std::io::BufReader::new(stdout), &mut url).unwrap();
+    let results = browser_run("drawn.mjs", &[Path::new(url.trim()), Path::new(&pid)]);
+
+    assert_eq!(results["errors"], json!([]), "the page ran without errors");
+    assert!(
+        results["bus"].as_str().unwrap().starts_with("a drawn arm"),
+        "{results}"
+    );
+    assert_eq!(numbers(&results["start"]), [0.0; 6], "home");
+    let jogged = numbers(&results["jogged"]);
+    assert!((jogged[0] - 10.01953125).abs() < 1e-9, "{jogged:?}");
+    assert_eq!(results["keys"], json!(9));
+    assert_eq!(results["target"]["refused"], json!(false), "{results}");
+    let (before, after) = (
+        numbers(&results["tcpBefore"]),
+        numbers(&results["tcpAfter"]),
+    );
+    assert!(
+        (after[0] - (before[0] - 0.01)).abs() < 0.0002,
+        "{before:?} → {after:?}"
+    );
+    assert_eq!(numbers(&results["atKey0"]), [0.0; 6], "key 0 is home");
+    assert_eq!(results["timelineJoints"], json!(6));
+    assert_eq!(results["simulated"], json!(true));
+    let written = keypose::sequence::Sequence::load(&dir.path().join("wave.json")).unwrap();
+    assert_eq!(written.keyframes.len(), 9);
+    let captured = written.keyframes[1].value("shoulder_pan");
+    assert_eq!(
+        captured,
+        Some(&keypose::sequence::KeyValue::Joint(10.0)),
+        "the capture, rounded to 0.1°"
+    );
+
+    assert_eq!(results["badge"], json!("watching"));
+    for said in ["statusWhenLost", "statusAfterKey"] {
+        let text = results[said].as_str().unwrap();
+        assert!(text.contains("does not answer"), "{said}: {text}");
+    }
+    assert_eq!(results["keyAfterLoss"], json!(false));
+    eprintln!(
+        "the page noticed the killed studio after {:.0} ms",
+        results["lostMs"].as_f64().unwrap()
+    );
+}
