@@ -44,7 +44,7 @@ pub(super) fn sequence_from_node(root: &Node, may_be_empty: bool) -> Result<Sequ
         "key_interval",
         "keyframes",
     ])?;
-    let (robot, arms) = parse_robots(&root)?;
+    let (robot, arms) = parse_robots(root)?;
     let description = match root.get("description") {
         Some(n) => Some(n.text("a text")?.to_string()),
         None => None,
@@ -53,7 +53,7 @@ pub(super) fn sequence_from_node(root: &Node, may_be_empty: bool) -> Result<Sequ
         Some(n) => parse_interp(&n)?,
         None => Interp::Cubic,
     };
-    let ends = parse_ends(&root)?;
+    let ends = parse_ends(root)?;
     let interval_node = root.get("key_interval");
     let key_interval = parse_key_interval(interval_node.as_ref())?;
     let frames_node = root.require("keyframes", "the list of keys")?;
