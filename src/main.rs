@@ -65,7 +65,8 @@ enum Command {
     ///
     /// The page drives the same session as `keypose teach` (the same keys). One page controls
     /// the arm, others watch; closing the controlling page stops playback the soft way.
-    /// Ctrl-C stops the arm (decelerating; twice: at once) and ends the studio.
+    /// Ctrl-C stops the arm (decelerating; twice: at once) and ends the studio. Without
+    /// --port no arm is needed: the arm is drawn only and nothing is sent anywhere.
     Studio(commands::studio::StudioArgs),
     /// Record a motion made by hand (torque off), then turn it into the fewest keyframes that
     /// reproduce it within a tolerance.

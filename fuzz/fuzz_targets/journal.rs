@@ -4,14 +4,15 @@
 //! real in a directory of its own (`teach::files`); and first, when the first byte says so,
 //! a journal file of fuzzed bytes found at start and recovered.
 //! Property: no panic; a journal of any bytes is offered or refused with an error naming it;
-//! every sequence the session writes (to its journal after each edit, to its file on `w`)
-//! loads back as written, so a crash loses nothing the journal held.
+//! every sequence the session writes (to its journal after each edit, undo and redo, with the
+//! whole undo history; to its file on `w`) loads back as written, so a crash loses nothing the
+//! journal held.
 #![no_main]
 
 use keypose::testing::VirtualBus;
 use keypose::sequence::{KeyframeList, Sequence};
 use keypose::teach::{
-    files, BusCommand, Command, Event, FileCommand, Journal, Key, Session, TeachState,
+    files, BusCommand, Command, Entry, Event, FileCommand, Journal, Key, Session, TeachState,
 };
 use keypose_fuzz::{builtin_robot, Choices};
 use libfuzzer_sys::fuzz_target;
@@ -22,6 +23,8 @@ use std::path::Path;
 const MAX_STEPS: usize = 64;
 
 const KEYS: &[Key] = &[
+    Key::Undo,
+    Key::Redo,
     Key::Up,
     Key::Down,
     Key::Enter,
@@ -30,7 +33,7 @@ const KEYS: &[Key] = &[
     Key::Interrupt,
 ];
 /// The bindings that edit, name, save, import and quit; digits, signs and points for values.
-const CHARS: &str = "undKN><.,][hvpmMiw+-tTqy0123456789e ";
+const CHARS: &str = "undKN><.,][hvpmMURiw+-tTqy0123456789e ";
 
 /// A sequence as saved: without where its keys stood in a file it was read from, nor the
 /// file's name.
@@ -58,6 +61,25 @@ fn reads_back(path: &Path, sequence: &Sequence, what: &str) {
     );
 }
 
+/// The journal just written reads back as written: the list and every version of its history.
+fn journal_reads_back(journal: &Journal, entry: &Entry) {
+    let read = journal.read().unwrap_or_else(|e| panic!("the journal written does not load: {e}"));
+    let versions = |e: &Entry| -> Vec<(Sequence, usize)> {
+        std::iter::once(&e.list)
+            .chain(e.history.undo.iter().map(|s| &s.version))
+            .chain(e.history.redo.iter().map(|s| &s.version))
+            .map(|v| (content(&v.sequence), v.current))
+            .collect()
+    };
+    assert_eq!(versions(&read), versions(entry), "the journal loads back changed");
+    let steps = |e: &Entry| -> Vec<(String, usize)> {
+        (e.history.undo.iter().chain(&e.history.redo))
+            .map(|s| (s.what.clone(), s.after))
+            .collect()
+    };
+    assert_eq!(steps(&read), steps(entry), "the history loads back changed");
+}
+
 /// The state's commands carried out: the bus ones on the session (motions answered as a failed
 /// start: they run in wall-clock time), the file ones for real, each write read back.
 fn apply(state: &mut TeachState, session: &mut Session, commands: Vec<Command>) {
@@ -68,14 +90,14 @@ fn apply(state: &mut TeachState, session: &mut Session, commands: Vec<Command>) 
                 vec![Event::BusError("motions are not run while fuzzing".into())]
             }
             Command::Bus(command) => session.execute(command),
-            Command::File(FileCommand::Journal { journal, sequence }) => {
+            Command::File(FileCommand::Journal { journal, entry }) => {
                 let event = files::execute(FileCommand::Journal {
                     journal: journal.clone(),
-                    sequence: sequence.clone(),
+                    entry: entry.clone(),
                 });
                 assert_eq!(event, Event::Journaled(Ok(())));
-                if !sequence.keyframes.is_empty() {
-                    reads_back(journal.path(), &sequence, "journal");
+                if !entry.list.sequence.keyframes.is_empty() {
+                    journal_reads_back(&journal, &entry);
                 }
                 vec![event]
             }
@@ -101,8 +123,8 @@ fn apply(state: &mut TeachState, session: &mut Session, commands: Vec<Command>) 
 fn key(choices: &mut Choices) -> Key {
     let b = choices.byte();
     match b {
-        0..=5 => KEYS[usize::from(b)].clone(),
-        6..=199 => {
+        0..=7 => KEYS[usize::from(b)].clone(),
+        8..=199 => {
             let chars: Vec<char> = CHARS.chars().collect();
             Key::Char(chars[usize::from(b) % chars.len()])
         }

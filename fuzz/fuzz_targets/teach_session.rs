@@ -39,7 +39,7 @@ const KEYS: &[Key] = &[
     Key::Backspace,
     Key::Interrupt,
 ];
-const CHARS: &str = " undN><.,][hvpy+=-tTqwi0123456789e";
+const CHARS: &str = " undN><.,][hvpyUR+=-tTqwi0123456789e";
 
 /// The state's commands carried out as `teach::apply` does, a jog waited for to its end, the
 /// other motions and files answered by a refusal.

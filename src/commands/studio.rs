@@ -1,8 +1,8 @@
 //! `keypose studio`: the teaching session in the browser, with the arm in 3D. The session is
-//! opened as `keypose teach` opens it ([`super::teach::open`]); the page is a second front
-//! end to the same state machine.
+//! opened as `keypose teach` opens it ([`super::teach::open`]), or without `--port` on a drawn
+//! arm (nothing sent anywhere); the page is a second front end to the same state machine.
 
-use super::teach::{self, SessionArgs};
+use super::teach::{self, SessionArgs, WithoutPort};
 use super::{CommandError, Verdict};
 use keypose::plan::Trajectory;
 use keypose::player::PlayOptions;
@@ -27,7 +27,8 @@ pub fn run(args: &StudioArgs) -> Result<Verdict, CommandError> {
     let listen = |_: &keypose::robot::Robot| {
         Studio::listen(args.listen).map_err(|e| CommandError::Usage(e.to_string()))
     };
-    let (mut opened, studio) = teach::open(&args.session, listen)?;
+    // Without --port the arm is drawn only: the page edits the sequence, nothing is sent.
+    let (mut opened, studio) = teach::open(&args.session, WithoutPort::Drawn, listen)?;
     // The URL is the first line of standard output, flushed at once: scripts and tests read
     // it from there.
     let mut stdout = std::io::stdout().lock();

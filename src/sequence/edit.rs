@@ -120,6 +120,14 @@ impl KeyframeList {
         }
     }
 
+    /// Puts an earlier (or later) version of the list in place (undo, redo): its sequence and
+    /// its current key (the last one if `current` is past it). The list has unsaved changes.
+    pub fn restore(&mut self, sequence: Sequence, current: usize) {
+        self.current = current.min(sequence.keyframes.len().saturating_sub(1));
+        self.sequence = sequence;
+        self.dirty = true;
+    }
+
     /// Makes key `index` current; false if there is no such key.
     pub fn select(&mut self, index: usize) -> bool {
         if index < self.len() {

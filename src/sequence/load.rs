@@ -24,7 +24,16 @@ pub const MAX_KEYFRAMES: usize = 100_000;
 
 pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputError> {
     let value = json::parse(file, text)?;
-    let root = Node::root(file, &value);
+    let mut sequence = sequence_from_node(&Node::root(file, &value), false)?;
+    sequence.source = super::layout::Source::of(&sequence, text);
+    Ok(sequence)
+}
+
+/// The sequence a JSON node holds (a whole file, or a member of another file such as the
+/// teach journal's); errors name the node's path. `may_be_empty`: a list being edited, which
+/// may have no key (yet, or any more), rather than a sequence to play.
+pub(super) fn sequence_from_node(root: &Node, may_be_empty: bool) -> Result<Sequence, InputError> {
+    let file = root.file();
     root.object()?;
     root.check_format(SEQUENCE_FORMAT)?;
     root.only_fields(&[
@@ -37,7 +46,7 @@ pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputEr
         "key_interval",
         "keyframes",
     ])?;
-    let (robot, arms) = parse_robots(&root)?;
+    let (robot, arms) = parse_robots(root)?;
     let description = match root.get("description") {
         Some(n) => Some(n.text("a text")?.to_string()),
         None => None,
@@ -46,14 +55,19 @@ pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputEr
         Some(n) => parse_interp(&n)?,
         None => Interp::Cubic,
     };
-    let ends = parse_ends(&root)?;
+    let ends = parse_ends(root)?;
     let interval_node = root.get("key_interval");
     let key_interval = parse_key_interval(interval_node.as_ref())?;
     let frames_node = root.require("keyframes", "the list of keys")?;
     let items = frames_node.items()?;
-    let mut keyframes = parse_keyframes(&frames_node, &items, &arms)?;
-    let key_interval = settle_timing(&mut keyframes, &items, key_interval, interval_node.as_ref())?;
-    let mut sequence = Sequence {
+    let (keyframes, key_interval) = if items.is_empty() && may_be_empty {
+        (Vec::new(), key_interval)
+    } else {
+        let mut keyframes = parse_keyframes(&frames_node, &items, &arms)?;
+        let interval = settle_timing(&mut keyframes, &items, key_interval, interval_node.as_ref())?;
+        (keyframes, interval)
+    };
+    let sequence = Sequence {
         file: file.to_string(),
         robot,
         arms,
@@ -64,8 +78,9 @@ pub(super) fn parse_sequence(file: &str, text: &str) -> Result<Sequence, InputEr
         keyframes,
         source: Default::default(),
     };
-    validate_keys(&sequence)?;
-    sequence.source = super::layout::Source::of(&sequence, text);
+    if !sequence.keyframes.is_empty() {
+        validate_keys(&sequence)?;
+    }
     Ok(sequence)
 }
 

@@ -253,6 +253,19 @@ impl Sequence {
         load::parse_sequence(file, text)
     }
 
+    /// The list a JSON node holds (a member of another file, such as the teach journal's
+    /// list and its undo history): a sequence, or one without keys, as a list being edited may
+    /// be; errors name the file and the node's path.
+    pub(crate) fn from_node(node: &crate::json::Node) -> Result<Sequence, InputError> {
+        load::sequence_from_node(node, true)
+    }
+
+    /// The sequence as a `keypose-sequence/1` JSON value, for a file that holds it as a
+    /// member (the teach journal).
+    pub(crate) fn to_value(&self) -> serde_json::Value {
+        save::to_value(self)
+    }
+
     /// The sequence as `keypose-sequence/1` JSON text in the canonical layout: one key per
     /// line, fields in a fixed order.
     pub fn to_json(&self) -> String {

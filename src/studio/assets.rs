@@ -15,6 +15,8 @@ const FILES: &[(&str, &str, &[u8])] = &[
     ("/meshes.js", JS, include_bytes!("web/meshes.js")),
     ("/framing.js", JS, include_bytes!("web/framing.js")),
     ("/collision.js", JS, include_bytes!("web/collision.js")),
+    ("/undo.js", JS, include_bytes!("web/undo.js")),
+    ("/connection.js", JS, include_bytes!("web/connection.js")),
     (
         "/style.css",
         "text/css; charset=utf-8",

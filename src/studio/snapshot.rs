@@ -78,6 +78,9 @@ pub(crate) fn snapshot(
         "contacts": contacts(state),
         "journal": state.journal().map(|j| j.path().display().to_string()),
         "quit": state.should_quit(),
+        // What the next undo and redo would take back or make again (null: nothing).
+        "undo": state.history().next_undo(),
+        "redo": state.history().next_redo(),
     })
 }
 

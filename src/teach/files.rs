@@ -54,8 +54,8 @@ pub fn execute(command: FileCommand) -> Event {
             result: sequence.save(&path).map_err(FileError::Save),
             path,
         },
-        FileCommand::Journal { journal, sequence } => {
-            Event::Journaled(journal.save(&sequence).map_err(|e| FileError::Journal {
+        FileCommand::Journal { journal, entry } => {
+            Event::Journaled(journal.save(&entry).map_err(|e| FileError::Journal {
                 path: journal.path().to_path_buf(),
                 source: Arc::new(e),
             }))
@@ -72,7 +72,7 @@ pub fn execute(command: FileCommand) -> Event {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::teach::journal::tests::one_key;
+    use crate::teach::journal::tests::{entry, one_key};
     use crate::teach::journal::Journal;
     use crate::teach::messages::Clearing;
 
@@ -110,7 +110,7 @@ mod tests {
         let journal = Journal::for_target(dir.path(), &dir.path().join("seq.json"));
         let written = execute(FileCommand::Journal {
             journal: journal.clone(),
-            sequence: one_key(),
+            entry: entry(one_key()),
         });
         assert_eq!(written, Event::Journaled(Ok(())));
         assert!(journal.path().exists());

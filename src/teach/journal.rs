@@ -1,21 +1,39 @@
-//! The session journal: after every edit the whole list is written, atomically, to a file in
-//! keypose's cache directory, so that a crash or a killed terminal loses nothing. The next
-//! session for the same target file offers to recover it.
+//! The session journal: after every edit the whole list and its undo history are written,
+//! atomically, to a file in keypose's cache directory, so that a crash or a killed terminal
+//! loses nothing, not even what undo could take back. The next session for the same target
+//! file offers to recover it.
 //!
-//! The journal is itself a `keypose-sequence/1` file, so it can also be opened by hand with any
-//! keypose command. It is named after the target file's name plus a hash of its absolute path
-//! (two `taught.json` in different directories do not share a journal), and removed after a
+//! The journal is a `keypose-journal/1` file: `"list"` is the list as a `keypose-sequence/1`
+//! sequence (copy it out to open it with any keypose command), `"current"` its current key,
+//! `"undo"` and `"redo"` the history ([`History`]), each step `{"what", "current", "after",
+//! "list"}` ([`Edit`]).
+//! A journal of an older keypose, a bare `keypose-sequence/1` file, is read as a list without
+//! history. It is named after the target file's name plus a hash of its absolute path (two
+//! `taught.json` in different directories do not share a journal), and removed after a
 //! successful write or a clean quit.
 
+use super::history::{Edit, History, Version};
 use crate::atomic_file;
-use crate::json::InputError;
-use crate::sequence::Sequence;
+use crate::json::{InputError, Node};
+use crate::sequence::{Sequence, SEQUENCE_FORMAT};
+use serde_json::{json, Value};
 use std::io;
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
 /// Subdirectory of the cache directory that holds the journals.
 const JOURNAL_DIR: &str = "teach";
+/// The journal's own format: the list with its history.
+pub const JOURNAL_FORMAT: &str = "keypose-journal/1";
+
+/// What a journal holds: the list being edited and its undo history.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Entry {
+    /// The list as it is now, with its current key.
+    pub list: Version,
+    /// What undo and redo can go back and forward to.
+    pub history: History,
+}
 
 /// The journal of one target file: where its unsaved list is kept.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -26,8 +44,8 @@ pub struct Journal {
 /// A journal found at start that is newer than its target file.
 #[derive(Debug, Clone)]
 pub struct Pending {
-    /// The list the journal holds.
-    pub sequence: Sequence,
+    /// The list the journal holds, and its history.
+    pub entry: Entry,
     /// When the journal was last written.
     pub modified: SystemTime,
 }
@@ -75,17 +93,25 @@ impl Journal {
         &self.path
     }
 
-    /// Writes the list. An empty list is not a valid sequence file and there is nothing in it
-    /// to recover, so the journal is removed instead.
-    pub fn save(&self, sequence: &Sequence) -> io::Result<()> {
-        if sequence.keyframes.is_empty() {
+    /// Writes the list and its history. An empty list is not a valid sequence and there is
+    /// nothing in it to recover, so the journal is removed instead (its history goes with it).
+    pub fn save(&self, entry: &Entry) -> io::Result<()> {
+        if entry.list.sequence.keyframes.is_empty() {
             return self.remove();
         }
         // Unsaved work is the user's alone: the journal is 0600 in a 0700 directory.
         if let Some(dir) = self.path.parent() {
             atomic_file::make_private_dir(dir)?;
         }
-        atomic_file::write_private(&self.path, sequence.to_text().as_bytes())
+        atomic_file::write_private(&self.path, entry_json(entry).as_bytes())
+    }
+
+    /// Reads the journal: its list and history.
+    pub fn read(&self) -> Result<Entry, InputError> {
+        let file = self.path.display().to_string();
+        let text = crate::json::read_text(&self.path)?;
+        let value = crate::json::parse(&file, &text)?;
+        read_entry(&Node::root(&file, &value))
     }
 
     /// Removes the journal; a journal that is not there is not an error.
@@ -110,9 +136,103 @@ impl Journal {
         if target_time.is_some_and(|t| modified < t) {
             return Ok(None);
         }
-        let sequence = Sequence::load(&self.path)?;
-        Ok(Some(Pending { sequence, modified }))
+        let entry = self.read()?;
+        Ok(Some(Pending { entry, modified }))
     }
+}
+
+/// The journal's text: one line per member and per step, so that a look at it shows the
+/// history's shape.
+fn entry_json(entry: &Entry) -> String {
+    let step = |s: &Edit| {
+        json!({
+            "what": s.what,
+            "current": s.version.current,
+            "after": s.after,
+            "list": s.version.sequence.to_value(),
+        })
+        .to_string()
+    };
+    let steps = |steps: &[Edit]| {
+        let lines: Vec<String> = steps.iter().map(|s| format!("    {}", step(s))).collect();
+        if lines.is_empty() {
+            "[]".to_string()
+        } else {
+            format!("[\n{}\n  ]", lines.join(",\n"))
+        }
+    };
+    format!(
+        "{{\n  \"format\": {},\n  \"current\": {},\n  \"list\": {},\n  \"undo\": {},\n  \"redo\": {}\n}}\n",
+        Value::from(JOURNAL_FORMAT),
+        entry.list.current,
+        entry.list.sequence.to_value(),
+        steps(&entry.history.undo),
+        steps(&entry.history.redo)
+    )
+}
+
+/// A journal's entry; a bare sequence (an older keypose's journal) is a list without history.
+fn read_entry(root: &Node) -> Result<Entry, InputError> {
+    let format = root.require("format", &format!("{JOURNAL_FORMAT:?}"))?;
+    if format.str("a format name")? == SEQUENCE_FORMAT {
+        let sequence = Sequence::from_node(root)?;
+        return Ok(Entry {
+            list: Version {
+                sequence,
+                current: 0,
+            },
+            history: History::default(),
+        });
+    }
+    root.check_format(JOURNAL_FORMAT)?;
+    root.only_fields(&["format", "current", "list", "undo", "redo"])?;
+    let list = read_version(root)?;
+    let steps = |name: &'static str| -> Result<Vec<Edit>, InputError> {
+        let Some(node) = root.get(name) else {
+            return Ok(Vec::new());
+        };
+        let items = node.items()?;
+        if items.len() > super::history::DEPTH {
+            return Err(node.error(format!(
+                "{} steps; expected at most {}",
+                items.len(),
+                super::history::DEPTH
+            )));
+        }
+        items.iter().map(read_step).collect()
+    };
+    let history = History {
+        undo: steps("undo")?,
+        redo: steps("redo")?,
+    };
+    Ok(Entry { list, history })
+}
+
+fn read_step(node: &Node) -> Result<Edit, InputError> {
+    node.only_fields(&["what", "current", "after", "list"])?;
+    let what = node
+        .require("what", "what the edit did")?
+        .text("what the edit did")?
+        .to_string();
+    let after = node
+        .require("after", "the key the edit left current")?
+        .integer("the key the edit left current", 0, u32::MAX.into())?;
+    Ok(Edit {
+        what,
+        version: read_version(node)?,
+        after: after as usize,
+    })
+}
+
+/// `"list"` and its `"current"` key, which must be one of its keys (0 for none).
+fn read_version(node: &Node) -> Result<Version, InputError> {
+    let sequence = Sequence::from_node(&node.require("list", "the list of keys")?)?;
+    let last = sequence.keyframes.len().saturating_sub(1);
+    let current = match node.get("current") {
+        Some(n) => n.integer("the current key's index", 0, last as i64)? as usize,
+        None => 0,
+    };
+    Ok(Version { sequence, current })
 }
 
 /// FNV-1a, 64 bits: a stable hash (the standard library's may change between releases, which
@@ -150,19 +270,93 @@ pub(crate) mod tests {
         assert!(name.starts_with("taught.json-"), "{name}");
     }
 
+    /// `sequence` as the only version of a list, key 0 current.
+    pub(crate) fn entry(sequence: Sequence) -> Entry {
+        Entry {
+            list: Version {
+                sequence,
+                current: 0,
+            },
+            history: History::default(),
+        }
+    }
+
     #[test]
     fn save_pending_remove_round_trip() {
         let dir = tempfile::tempdir().unwrap();
         let target = dir.path().join("seq.json");
         let journal = Journal::for_target(dir.path(), &target);
         assert!(journal.pending(&target).unwrap().is_none());
-        journal.save(&one_key()).unwrap();
+        journal.save(&entry(one_key())).unwrap();
         let pending = journal.pending(&target).unwrap().expect("offered");
-        assert_eq!(pending.sequence.to_json(), one_key().to_json());
+        assert_eq!(pending.entry.list.sequence.to_json(), one_key().to_json());
         // An empty list removes the journal.
-        journal.save(&Sequence::new("so101")).unwrap();
+        journal.save(&entry(Sequence::new("so101"))).unwrap();
         assert!(!journal.path().exists());
         journal.remove().unwrap();
+    }
+
+    #[test]
+    fn the_history_is_kept_with_the_list() {
+        let dir = tempfile::tempdir().unwrap();
+        let journal = Journal::for_target(dir.path(), &dir.path().join("seq.json"));
+        let mut two = one_key();
+        two.keyframes.push(Keyframe::new(vec![(
+            "gripper".into(),
+            KeyValue::Joint(-7.5),
+        )]));
+        let mut saved = entry(two.clone());
+        saved.list.current = 1;
+        saved
+            .history
+            .record("new key 1".into(), entry(one_key()).list, 1);
+        saved
+            .history
+            .record("named key 1".into(), entry(two).list, 1);
+        let redone = saved.history.undo(saved.list.clone()).unwrap();
+        saved.list = redone.version;
+        journal.save(&saved).unwrap();
+        let text = std::fs::read_to_string(journal.path()).unwrap();
+        assert!(
+            text.starts_with("{\n  \"format\": \"keypose-journal/1\""),
+            "{text}"
+        );
+        let mut read = journal.read().unwrap();
+        // What a file read names: the journal.
+        let file = journal.path().display().to_string();
+        for version in std::iter::once(&mut read.list)
+            .chain(read.history.undo.iter_mut().map(|s| &mut s.version))
+            .chain(read.history.redo.iter_mut().map(|s| &mut s.version))
+        {
+            assert_eq!(version.sequence.file, file);
+            version.sequence.file = "<new>".into();
+            for key in &mut version.sequence.keyframes {
+                key.source_index = None;
+            }
+        }
+        assert_eq!(read, saved);
+        assert_eq!(read.history.next_undo(), Some("new key 1"));
+        assert_eq!(read.history.next_redo(), Some("named key 1"));
+    }
+
+    #[test]
+    fn an_older_journal_is_a_list_without_history_and_a_bad_one_names_its_field() {
+        let dir = tempfile::tempdir().unwrap();
+        let journal = Journal::for_target(dir.path(), &dir.path().join("seq.json"));
+        std::fs::create_dir_all(journal.path().parent().unwrap()).unwrap();
+        std::fs::write(journal.path(), one_key().to_json()).unwrap();
+        let read = journal.read().unwrap();
+        assert_eq!(read.list.sequence.keyframes.len(), 1);
+        assert_eq!(read.history, History::default());
+        let bad = one_key().to_value().to_string();
+        std::fs::write(
+            journal.path(),
+            format!(r#"{{"format": "keypose-journal/1", "current": 3, "list": {bad}}}"#),
+        )
+        .unwrap();
+        let e = journal.read().unwrap_err().to_string();
+        assert!(e.contains("$.current"), "{e}");
+        assert!(e.contains("from 0 to 0"), "{e}");
     }
 
     #[cfg(unix)]
@@ -171,7 +365,7 @@ pub(crate) mod tests {
         use std::os::unix::fs::PermissionsExt;
         let dir = tempfile::tempdir().unwrap();
         let journal = Journal::for_target(dir.path(), &dir.path().join("seq.json"));
-        journal.save(&one_key()).unwrap();
+        journal.save(&entry(one_key())).unwrap();
         let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
         assert_eq!(mode(journal.path()), 0o600);
         assert_eq!(mode(journal.path().parent().unwrap()), 0o700);
@@ -182,7 +376,7 @@ pub(crate) mod tests {
         let dir = tempfile::tempdir().unwrap();
         let target = dir.path().join("seq.json");
         let journal = Journal::for_target(dir.path(), &target);
-        journal.save(&one_key()).unwrap();
+        journal.save(&entry(one_key())).unwrap();
         one_key().save(&target).unwrap();
         let old = SystemTime::now() - std::time::Duration::from_secs(60);
         std::fs::File::options()

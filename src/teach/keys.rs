@@ -30,6 +30,10 @@ pub enum Key {
     Backspace,
     /// Ctrl-C in raw mode: stops the arm when it moves, else asks to quit like `q`.
     Interrupt,
+    /// Undo the last edit of the list (`U`; Ctrl+Z in the terminal and the page).
+    Undo,
+    /// Redo the edit undone last (`R`; Ctrl+Shift+Z or Ctrl+Y in the terminal and the page).
+    Redo,
     /// Script only: import this file (what `i`, typing the path and Enter do on screen).
     Import(PathBuf),
     /// Script only: write to this file, which becomes the session's output.
@@ -112,7 +116,13 @@ pub const BINDINGS: &[Binding] = &[
         "new tool key",
         "new key after the current one, the present pose as a tool key (tool xyz + rpy)",
     ),
-    bind("d", "delete", "delete the current key"),
+    bind("d", "delete", "delete the current key (U undoes it)"),
+    bind(
+        "U R",
+        "undo/redo",
+        "undo the last edit / redo it (also Ctrl+Z, Ctrl+Shift+Z or Ctrl+Y); the list only, \
+         never the arm; 100 steps, kept in the journal",
+    ),
     bind("> <", "next/prev", "next / previous key (also . and ,)"),
     bind("] [", "move key", "move the current key later / earlier"),
     bind(
@@ -174,8 +184,8 @@ pub fn help_text() -> String {
     }
     text.push_str(
         "\nA --keys script holds tokens separated by spaces or lines (# starts a comment):\n  \
-         space u n d > < ] [ N h p v m M i w y + - t T q, up down left right shift-left shift-right,\n  \
-         enter esc backspace, yes no (answers), any single character (typed into a prompt;\n  \
+         space u n d > < ] [ N h p v m M U R i w y + - t T q, up down left right shift-left\n  \
+         shift-right, enter esc backspace, undo redo (as U R), yes no (answers), any single character (typed into a prompt;\n  \
          space types a space there), import:PATH, write:PATH (paths without spaces), wait:500ms or wait:2s.\n  \
          Each step waits until the arm has reached its goal; `-` as the file reads standard \
          input.",
@@ -215,6 +225,8 @@ pub(crate) fn parse_token(token: &str) -> Result<Step, TokenError> {
         "enter" => Key::Enter,
         "esc" => Key::Esc,
         "backspace" => Key::Backspace,
+        "undo" => Key::Undo,
+        "redo" => Key::Redo,
         "yes" => Key::Char('y'),
         "no" => Key::Char('n'),
         _ => {

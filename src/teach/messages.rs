@@ -3,7 +3,7 @@
 //! the bus ones and [`super::files`] the file ones, and each answers with [`Event`]s.
 
 use super::files::FileError;
-use super::journal::Journal;
+use super::journal::{Entry, Journal};
 use super::motion::{MotionKind, MotionPlan};
 use super::session::MotionError;
 use crate::player::Outcome;
@@ -53,12 +53,13 @@ pub enum FileCommand {
         /// The list as it is now.
         sequence: Sequence,
     },
-    /// Write the whole list to the journal (after every edit): [`Event::Journaled`].
+    /// Write the whole list and its undo history to the journal (after every edit, undo and
+    /// redo): [`Event::Journaled`].
     Journal {
         /// The session's journal.
         journal: Journal,
-        /// The list as it is now.
-        sequence: Sequence,
+        /// The list as it is now, and its history.
+        entry: Entry,
     },
     /// Remove a journal: [`Event::JournalCleared`].
     ClearJournal {

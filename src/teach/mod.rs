@@ -6,19 +6,23 @@
 //!   [`Command`]s and screen state out; it plans what `space` and `y` play ([`MotionPlan`]),
 //!   rounds a pose into a key, and holds the questions ([`Prompt`]);
 //! - the drivers: the [`Session`] carries out the bus commands on a
-//!   [`crate::bus::ServoBus`], playback through the player on its own thread; [`files`]
-//!   carries out the file ones;
+//!   [`crate::bus::ServoBus`], playback through the player on its own thread (with no arm
+//!   attached, on a [`DrawnArm`]: the same motions, drawn only); [`files`] carries out the
+//!   file ones;
 //! - the front ends: the binary's terminal UI (`src/commands/teach/ui.rs`, ratatui +
 //!   crossterm) draws the state and maps key presses, the studio does so in a browser;
 //!   [`script`] feeds the keys of a `--keys` file, for tests and demos; all word things
 //!   through [`format`](mod@format). The terminal and the studio queue what arrives in an
 //!   [`InputQueue`], where a stop wins over everything queued before it.
 //!
-//! Every edit is journaled ([`Journal`]) so a crash loses nothing.
+//! Every edit can be undone and redone ([`History`], kept by the state) and is journaled with
+//! that history ([`Journal`]) so a crash loses nothing.
 
 mod capture;
+mod drawn;
 pub mod files;
 pub mod format;
+mod history;
 mod inputs;
 mod journal;
 mod keys;
@@ -29,8 +33,10 @@ pub mod script;
 mod session;
 mod state;
 
+pub use drawn::DrawnArm;
+pub use history::{Edit, History, Version, DEPTH as UNDO_DEPTH};
 pub use inputs::{Input, InputQueue, MAX_WAITING};
-pub use journal::{Journal, Pending};
+pub use journal::{Entry, Journal, Pending, JOURNAL_FORMAT};
 pub use keys::{help_text, Binding, Key, BINDINGS};
 pub(crate) use keys::{parse_token, Step, TokenError};
 pub use messages::{BusCommand, Clearing, Command, Event, FileCommand};

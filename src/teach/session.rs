@@ -250,6 +250,12 @@ impl Session {
         }
     }
 
+    /// A session without servos: the arm is drawn only ([`super::DrawnArm`]), at the robot's
+    /// home pose, and every command is carried out as on an arm, with nothing sent anywhere.
+    pub fn drawn(robot: &Robot) -> Session {
+        Session::new(Box::new(super::drawn::DrawnArm::new(robot)), robot)
+    }
+
     /// The session's brake, for threads other than the one carrying out its commands.
     pub fn brake(&self) -> Brake {
         self.brake.clone()

@@ -9,7 +9,8 @@
 
 use super::capture::{capture, tidy};
 use super::format;
-use super::journal::{Journal, Pending};
+use super::history::{History, Version};
+use super::journal::{Entry, Journal, Pending};
 use super::keys::Key;
 use super::messages::{BusCommand, Clearing, Command, Event, FileCommand};
 use super::motion::{self, MotionKind, PlayRefusal};
@@ -71,7 +72,12 @@ pub struct TeachState {
     /// another file, or recovered from the journal.
     replaced: bool,
     /// Offered at start, until answered.
-    recovery: Option<Sequence>,
+    recovery: Option<Entry>,
+    /// What undo and redo go back and forward to.
+    history: History,
+    /// The list as of the last edit (undo, redo, load), with the current key as it was when
+    /// the key being handled came: what the next edit goes back to when undone.
+    last: Version,
     present: Vec<f64>,
     goals: Vec<f64>,
     torque: Vec<bool>,
@@ -110,9 +116,15 @@ impl TeachState {
             .map(|(j, &v)| tidy(j, v))
             .collect();
         let collision = crate::collision::CollisionModel::for_robot(&robot);
+        let last = Version {
+            sequence: list.sequence().clone(),
+            current: list.current_index(),
+        };
         TeachState {
             robot,
             list,
+            history: History::default(),
+            last,
             output,
             journal,
             replaced: false,
@@ -144,14 +156,14 @@ impl TeachState {
     /// Offers to recover a journal found at start.
     pub fn offer_recovery(&mut self, pending: Pending) {
         self.prompt = Some(Prompt::Recover {
-            keys: pending.sequence.keyframes.len(),
+            keys: pending.entry.list.sequence.keyframes.len(),
         });
-        self.recovery = Some(pending.sequence);
+        self.recovery = Some(pending.entry);
     }
 
     /// Recovers the journal at once (`--recover`).
     pub fn recover(&mut self, pending: Pending) {
-        self.recovery = Some(pending.sequence);
+        self.recovery = Some(pending.entry);
         self.confirm(Prompt::Recover { keys: 0 });
     }
 
@@ -248,6 +260,9 @@ impl TeachState {
         if key.is_stop() && self.is_moving() {
             return self.stop_then_ask(key);
         }
+        // Only the selection changes between edits: an edit this key makes is undone to the
+        // key that is current now.
+        self.last.current = self.list.current_index();
         if let Some(prompt) = self.prompt.take() {
             return self.answer(prompt, key);
         }
@@ -268,6 +283,8 @@ impl TeachState {
             Key::Char(' ') => self.move_to_key(),
             Key::Char('u') => self.update_key(),
             Key::Char('n') => self.new_key(),
+            Key::Char('U') | Key::Undo => self.undo(),
+            Key::Char('R') | Key::Redo => self.redo(),
             Key::Char('d') => self.delete_key(),
             Key::Char('>' | '.') => self.step_key(true),
             Key::Char('<' | ',') => self.step_key(false),
@@ -379,9 +396,12 @@ impl TeachState {
     fn confirm(&mut self, prompt: Prompt) -> Vec<Command> {
         match prompt {
             Prompt::Recover { .. } => {
-                if let Some(sequence) = self.recovery.take() {
-                    let keys = sequence.keyframes.len();
-                    self.list = KeyframeList::new(sequence);
+                if let Some(Entry { list, history }) = self.recovery.take() {
+                    let keys = list.sequence.keyframes.len();
+                    self.list = KeyframeList::new(list.sequence);
+                    self.list.select(list.current);
+                    self.history = history;
+                    self.last = self.version();
                     self.replaced = true;
                     self.info(format!(
                         "recovered {keys} keys from the journal; w writes them to {}",
@@ -588,17 +608,6 @@ impl TeachState {
         self.quit = true;
         match &self.journal {
             Some(journal) => clear(journal.clone(), Clearing::Quit),
-            None => Vec::new(),
-        }
-    }
-
-    /// After every edit: the journal gets the whole list, so a crash loses nothing.
-    fn edited(&self) -> Vec<Command> {
-        match &self.journal {
-            Some(journal) => file(FileCommand::Journal {
-                journal: journal.clone(),
-                sequence: self.list.sequence().clone(),
-            }),
             None => Vec::new(),
         }
     }
@@ -843,6 +852,7 @@ mod mirroring;
 mod quitting;
 mod reports;
 mod tool;
+mod undo;
 pub(crate) use tool::selected_tool;
 pub use tool::tool_positions;
 

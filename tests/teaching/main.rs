@@ -7,6 +7,7 @@ mod common;
 
 mod session;
 mod studio;
+mod studio_edit;
 mod studio_engine;
 mod studio_server;
 mod studio_truth;

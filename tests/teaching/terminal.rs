@@ -465,3 +465,70 @@ fn w_on_an_unchanged_file_writes_the_same_bytes() {
         String::from_utf8_lossy(&original)
     );
 }
+
+/// `U` and `R` (and the tokens `undo`, `redo`) take edits back and make them again, and only
+/// the list changes: the capture after them finds the arm where the jogs left it (20°), not
+/// where the undone keys were.
+#[test]
+fn a_script_undoes_and_redoes_edits_and_the_arm_stays() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = teach(
+        dir.path(),
+        "n shift-right n shift-right n d U U R undo redo n w q",
+        &[],
+    );
+    let log = stderr(&out);
+    assert!(out.status.success(), "{log}");
+    assert!(log.contains("undid: deleted key 2"), "{log}");
+    assert!(log.contains("redid: new key 2"), "{log}");
+    let pan = |deg: f64| pose([deg, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    assert_eq!(
+        read_json(&dir.path().join("taught.json"))["keyframes"],
+        json!([pan(0.0), pan(10.0), pan(20.0), pan(20.0)])
+    );
+}
+
+/// The undo history is in the journal: a session killed right after an undo is recovered by
+/// the next one, which undoes further and redoes what the killed one undid.
+#[test]
+fn the_undo_history_survives_a_killed_session() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = keypose(dir.path())
+        .args(["teach", "seq.json", "--port", "virtual", "--keys", "-"])
+        .stdin(Stdio::piped())
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("start keypose teach");
+    let mut stdin = child.stdin.take().unwrap();
+    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
+    writeln!(stdin, "n shift-right n shift-right n U").unwrap();
+    stdin.flush().unwrap();
+    let mut seen = Vec::new();
+    loop {
+        let line = lines
+            .next()
+            .expect("teach ended early")
+            .expect("read stderr");
+        seen.push(line.clone());
+        if line.contains("undid:") {
+            break;
+        }
+        assert!(!line.contains("error"), "{seen:?}");
+    }
+    child.kill().expect("kill teach");
+    let _ = child.wait();
+    assert_eq!(journals(dir.path()).len(), 1, "{seen:?}");
+
+    // Recovered: keys at 0° and 10°; U takes the 10° key back, R makes it again, and R once
+    // more the 20° key the killed session undid.
+    let out = teach(dir.path(), "yes U R R w q", &["seq.json"]);
+    let log = stderr(&out);
+    assert!(out.status.success(), "{log}");
+    assert!(log.contains("recovered 2 keys"), "{log}");
+    let pan = |deg: f64| pose([deg, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    assert_eq!(
+        read_json(&dir.path().join("seq.json"))["keyframes"],
+        json!([pan(0.0), pan(10.0), pan(20.0)])
+    );
+}

@@ -55,9 +55,18 @@ pub struct Opened {
     pub _virtual_bus: Option<keypose::testing::PtyServer>,
 }
 
+/// What a session without `--port` does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WithoutPort {
+    /// Refuses to start (`keypose teach`: the terminal shows no arm).
+    Refuse,
+    /// Teaches a drawn arm: nothing is sent anywhere (`keypose studio`).
+    Drawn,
+}
+
 pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
     let script = |_: &Robot| script_or_terminal(args);
-    let (mut opened, script) = open(&args.session, script)?;
+    let (mut opened, script) = open(&args.session, WithoutPort::Refuse, script)?;
     let (state, session) = (&mut opened.state, &mut opened.session);
     let result = match script {
         Some(input) => teach::script::run(state, session, input, &mut std::io::stderr()),
@@ -67,14 +76,16 @@ pub fn run(args: &TeachArgs) -> Result<Verdict, CommandError> {
     Ok(Verdict::Pass)
 }
 
-/// Loads the list and the robot, opens the journal, connects and holds the arm. `before_bus`
-/// runs once the robot is known and before the bus opens (what a front end needs to refuse
-/// early, such as a terminal); its result comes back beside the session.
+/// Loads the list and the robot, opens the journal, connects and holds the arm (without a
+/// port, as `without_port` says: a refusal, or a drawn arm). `before_bus` runs once the robot
+/// is known and before the bus opens (what a front end needs to refuse early, such as a
+/// terminal); its result comes back beside the session.
 pub fn open<T>(
     args: &SessionArgs,
+    without_port: WithoutPort,
     before_bus: impl FnOnce(&Robot) -> Result<T, CommandError>,
 ) -> Result<(Opened, T), CommandError> {
-    if !args.bus.given() {
+    if !args.bus.given() && without_port == WithoutPort::Refuse {
         return Err(CommandError::Usage(
             "--port is required: a serial port (see `keypose ports`), or \"virtual\" for \
              emulated servos"
@@ -89,8 +100,12 @@ pub fn open<T>(
     let (journal, pending) = open_journal(&output);
     let early = before_bus(&robot)?;
 
-    let connection = args.bus.open(&robot)?;
-    let mut session = Session::new(connection.bus, &robot);
+    let (mut session, virtual_bus) = if args.bus.given() {
+        let connection = args.bus.open(&robot)?;
+        (Session::new(connection.bus, &robot), connection.virtual_bus)
+    } else {
+        (Session::drawn(&robot), None)
+    };
     let present = session
         .read()?
         .ok_or_else(|| CommandError::Hardware("the servos gave no present pose".into()))?;
@@ -105,7 +120,7 @@ pub fn open<T>(
     let opened = Opened {
         state,
         session,
-        _virtual_bus: connection.virtual_bus,
+        _virtual_bus: virtual_bus,
     };
     Ok((opened, early))
 }

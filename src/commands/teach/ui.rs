@@ -114,8 +114,13 @@ fn stop_not_quit(key: Key, queue: &InputQueue<Key>) -> Key {
 /// A crossterm key press as a session key.
 pub fn map_key(event: KeyEvent) -> Option<Key> {
     let shift = event.modifiers.contains(KeyModifiers::SHIFT);
+    let control = event.modifiers.contains(KeyModifiers::CONTROL);
     Some(match event.code {
-        KeyCode::Char('c') if event.modifiers.contains(KeyModifiers::CONTROL) => Key::Interrupt,
+        KeyCode::Char('c') if control => Key::Interrupt,
+        // The editors' undo and redo; without the mapping Ctrl+Z would jog the tool up.
+        KeyCode::Char('z') if control && !shift => Key::Undo,
+        KeyCode::Char('z' | 'Z' | 'y') if control => Key::Redo,
+        KeyCode::Char(_) if control => return None,
         KeyCode::Char(c) => Key::Char(c),
         KeyCode::Up => Key::Up,
         KeyCode::Down => Key::Down,
@@ -463,6 +468,21 @@ mod tests {
         assert_eq!(
             key(KeyCode::Char('c'), KeyModifiers::CONTROL),
             Some(Key::Interrupt)
+        );
+        assert_eq!(
+            key(KeyCode::Char('z'), KeyModifiers::CONTROL),
+            Some(Key::Undo)
+        );
+        assert_eq!(
+            key(
+                KeyCode::Char('Z'),
+                KeyModifiers::CONTROL | KeyModifiers::SHIFT
+            ),
+            Some(Key::Redo)
+        );
+        assert_eq!(
+            key(KeyCode::Char('y'), KeyModifiers::CONTROL),
+            Some(Key::Redo)
         );
         assert_eq!(
             key(KeyCode::Char('T'), KeyModifiers::SHIFT),

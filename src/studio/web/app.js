@@ -6,6 +6,8 @@ import { ToolHandle } from '/handle.js';
 import { Playback } from '/playhead.js';
 import { Findings } from '/findings.js';
 import { showContacts } from '/collision.js';
+import { installUndo, showUndo } from '/undo.js';
+import { request, watchStream, NO_ANSWER, SIMULATE_MS } from '/connection.js';
 
 const token = new URLSearchParams(location.search).get('token') || '';
 // The token was in the URL only to bring the page here: it leaves the address bar (and this
@@ -29,10 +31,8 @@ const studio = window.studio = {
   stop: () => stopNow(), stops: [],
 };
 
-async function api(path, body) {
-  const response = await fetch(path, { method: body ? 'POST' : 'GET', headers, body: body && JSON.stringify(body) });
-  const answer = await response.json().catch(() => ({}));
-  return { ok: response.ok, status: response.status, answer };
+function api(path, body, ms) {
+  return request(path, { method: body ? 'POST' : 'GET', headers, body: body && JSON.stringify(body) }, ms);
 }
 
 // Keys go one after another, as typed: each waits for the answer to the one before, so
@@ -101,6 +101,10 @@ async function postNow(body) {
   if (!reply.ok) {
     studio.refusals.push(reply.answer.error);
     showStatus(reply.answer.error || 'refused', true);
+    if (reply.lost) setController(false, NO_ANSWER);
+  } else if (reply.answer.status && !studio.snapshot?.prompt) {
+    // The answer's status replaces whatever the page said before (a stale refusal too).
+    showStatus(reply.answer.status.text, reply.answer.status.error);
   }
   return reply;
 }
@@ -189,6 +193,7 @@ document.addEventListener('click', e => {
   if (key) { send({ key: key.dataset.key }); key.blur(); }
 });
 $('stop').onclick = () => stopNow();
+installUndo(send);
 $('ok').onclick = () => send({ line: $('answer').value });
 $('answer').addEventListener('keydown', e => {
   if (e.key === 'Enter') { e.preventDefault(); send({ line: $('answer').value }); }
@@ -209,6 +214,7 @@ function render(s) {
   const prompt = JSON.stringify(s.prompt);
   if (prompt !== lastPrompt) { lastPrompt = prompt; renderPrompt(s.prompt); }
   if (!s.prompt) showStatus(s.status.text, s.status.error);
+  showUndo(s);
   $('activity').textContent = `${s.activity.text} · ${s.journal ? 'journal ' + s.journal : 'no journal'}`;
   $('tcp').textContent = 'tool ' + (s.tool_arm ? `(${s.tool_arm}) ` : '') +
     // Rounded first, so a coordinate a hair below zero shows as 0, not −0.
@@ -298,6 +304,7 @@ const findings = studio.findings = new Findings($('findings'), t => timeline.par
 const timeline = new Timeline($('timeline'), {
   onScrub: (values, t) => (studio.playback ? studio.playback.scrub(values, t) : showGhost(values)),
   onPark: (t, values) => studio.playback && studio.playback.park(t, values),
+  onKeyClick: index => send({ key: `select-key:${index}` }),
   onKeyTime: async (index, millis) => {
     if (await send({ key: `select-key:${index}` })) send({ key: `key-time:${millis}` });
   },
@@ -332,7 +339,7 @@ async function fetchTimeline() {
 
 $('simulate').onclick = async () => {
   $('simulation').textContent = 'simulating in MuJoCo…';
-  const { ok, answer } = await api('/api/simulate', {});
+  const { ok, answer } = await api('/api/simulate', {}, SIMULATE_MS);
   if (!ok) { $('simulation').textContent = answer.error || 'the simulation failed'; return; }
   studio.simulation = answer;
   const report = answer.report, trace = answer.trace;
@@ -414,6 +421,7 @@ async function start() {
       if (studio.loadMs === null) studio.loadMs = performance.now();
     };
   };
+  watchStream(events, () => setController(false, NO_ANSWER), claim);
   events.addEventListener('end', () => {
     events.close();
     showStatus('the studio session has ended (keypose studio quit)', true);

@@ -11,9 +11,10 @@ onmessage = ({ data }) => {
 
 async function beat(headers) {
   try {
-    const response = await fetch('/api/control', { method: 'POST', headers, body: '{}' });
+    // Bounded: a studio that hangs must cost the page its claim of control, not stall it.
+    const response = await fetch('/api/control', { method: 'POST', headers, body: '{}', signal: AbortSignal.timeout(2000) });
     postMessage({ ok: response.ok, answer: await response.json().catch(() => ({})) });
   } catch {
-    postMessage({ ok: false, answer: { error: 'the studio does not answer' } });
+    postMessage({ ok: false, answer: { error: 'the studio does not answer: keypose studio has ended or cannot be reached (keys are not sent)' } });
   }
 }

@@ -11,9 +11,12 @@ const GRAB = 6;
 // Below the rows: the key numbers, then the time axis.
 const MARKS = 14;
 const AXIS = 16;
+// How far a key mark must be dragged before it moves: a plain click (a hand's jitter) only
+// selects the key.
+const DRAG_PX = 4;
 
 export class Timeline {
-  constructor(canvas, { onScrub, onKeyTime, onPark }) {
+  constructor(canvas, { onScrub, onKeyTime, onPark, onKeyClick }) {
     this.canvas = canvas;
     this.ctx = canvas.getContext('2d');
     this.data = null;
@@ -27,6 +30,7 @@ export class Timeline {
     this.parked = null;
     // Tracking error per source ('measured', 'simulated'): { times, joints: [[error…]…] }.
     this.errors = {};
+    this.onKeyClick = onKeyClick || (() => {});
     this.drag = null;
     canvas.addEventListener('pointerdown', e => this.down(e));
     canvas.addEventListener('pointermove', e => this.move(e));
@@ -79,7 +83,7 @@ export class Timeline {
     const x = e.offsetX * this.canvas.width / this.canvas.clientWidth;
     const key = this.keys.findIndex(k => Math.abs(this.x(k.time) - x) < GRAB);
     this.canvas.setPointerCapture(e.pointerId);
-    this.drag = key >= 0 ? { key, x } : { scrub: true };
+    this.drag = key >= 0 ? { key, x, from: x, moved: false } : { scrub: true };
     if (this.drag.scrub) this.scrub(x);
   }
 
@@ -87,7 +91,10 @@ export class Timeline {
     if (!this.drag) return;
     const x = e.offsetX * this.canvas.width / this.canvas.clientWidth;
     if (this.drag.scrub) this.scrub(x);
-    else { this.drag.x = x; this.draw(); }
+    else {
+      this.drag.moved = this.drag.moved || Math.abs(x - this.drag.from) >= DRAG_PX;
+      if (this.drag.moved) { this.drag.x = x; this.draw(); }
+    }
   }
 
   up() {
@@ -95,6 +102,7 @@ export class Timeline {
     this.drag = null;
     if (!drag) return;
     if (drag.scrub) { this.park(this.cursor); return; }
+    if (!drag.moved) { this.draw(); this.onKeyClick(drag.key); return; }
     const t = Math.max(0, this.time(drag.x));
     this.onKeyTime(drag.key, Math.round(t * 1000));
   }

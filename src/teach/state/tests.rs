@@ -6,7 +6,7 @@ use crate::curve::Interp;
 use crate::sequence::{Ends, KeyValue, Keyframe};
 use crate::teach::files;
 
-fn so101() -> Robot {
+pub(super) fn so101() -> Robot {
     Robot::builtin("so101").expect("built-in so101")
 }
 
@@ -16,7 +16,7 @@ const ELBOW: usize = 2;
 const WRIST: usize = 3;
 
 /// A fresh session on an empty list, journaled in `dir`, the arm at home and held.
-fn session(dir: &Path) -> TeachState {
+pub(super) fn session(dir: &Path) -> TeachState {
     let robot = so101();
     let present = robot.home.clone();
     let output = dir.join("taught.json");
@@ -42,7 +42,7 @@ fn unjournaled(sequence: Sequence, output: PathBuf) -> TeachState {
 
 /// Confirms bus commands as a bus that does exactly what it is told (jogs arrive at once), and
 /// carries out file commands for real, as the session's drivers would.
-fn apply(state: &mut TeachState, commands: Vec<Command>) -> Vec<Command> {
+pub(super) fn apply(state: &mut TeachState, commands: Vec<Command>) -> Vec<Command> {
     for command in commands.clone() {
         let events = match command {
             Command::Bus(command) => perfect_bus(state, command),
@@ -95,18 +95,18 @@ fn perfect_bus(state: &TeachState, command: BusCommand) -> Vec<Event> {
     }
 }
 
-fn press(state: &mut TeachState, key: Key) -> Vec<Command> {
+pub(super) fn press(state: &mut TeachState, key: Key) -> Vec<Command> {
     let commands = state.handle_key(key);
     apply(state, commands)
 }
 
-fn press_all(state: &mut TeachState, keys: &[Key]) {
+pub(super) fn press_all(state: &mut TeachState, keys: &[Key]) {
     for key in keys {
         press(state, key.clone());
     }
 }
 
-fn key_values(state: &TeachState, index: usize) -> Vec<f64> {
+pub(super) fn key_values(state: &TeachState, index: usize) -> Vec<f64> {
     state.list().sequence().keyframes[index]
         .values
         .iter()
@@ -119,10 +119,16 @@ fn key_values(state: &TeachState, index: usize) -> Vec<f64> {
         .collect()
 }
 
-fn journal_keys(state: &TeachState) -> Option<usize> {
+pub(super) fn journal_keys(state: &TeachState) -> Option<usize> {
     let path = state.journal().expect("journaled").path();
     path.exists()
-        .then(|| Sequence::load(path).expect("journal loads").keyframes.len())
+        .then(|| journaled(state).expect("journal loads").keyframes.len())
+}
+
+/// The list the journal holds.
+pub(super) fn journaled(state: &TeachState) -> Result<Sequence, crate::json::InputError> {
+    let journal = state.journal().expect("journaled");
+    journal.read().map(|entry| entry.list.sequence)
 }
 
 #[test]
@@ -250,7 +256,7 @@ fn edits_update_delete_and_reorder_each_reach_the_journal() {
     assert_eq!(state.list().current_index(), 2);
     let pans: Vec<f64> = (0..3).map(|i| key_values(&state, i)[PAN]).collect();
     assert_eq!(pans, [0.0, 20.0, 30.0]);
-    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    let journal = journaled(&state).unwrap();
     assert_eq!(journal.to_json(), state.list().sequence().to_json());
     press(&mut state, Key::Char('d'));
     assert_eq!(journal_keys(&state), Some(2));
@@ -527,7 +533,7 @@ fn moving_to_a_control_key_reaches_its_own_pose() {
 }
 
 /// Types `text` into the open prompt and presses Enter.
-fn type_line(state: &mut TeachState, text: &str) -> Vec<Command> {
+pub(super) fn type_line(state: &mut TeachState, text: &str) -> Vec<Command> {
     for c in text.chars() {
         press(state, Key::Char(c));
     }
@@ -545,12 +551,12 @@ fn two_keys_at_the_first(dir: &Path) -> TeachState {
 }
 
 /// `key` opens a prompt, `text` is typed into it and Enter accepts it.
-fn edit(state: &mut TeachState, key: char, text: &str) -> Vec<Command> {
+pub(super) fn edit(state: &mut TeachState, key: char, text: &str) -> Vec<Command> {
     press(state, Key::Char(key));
     type_line(state, text)
 }
 
-fn key_name(state: &TeachState, index: usize) -> Option<&str> {
+pub(super) fn key_name(state: &TeachState, index: usize) -> Option<&str> {
     state.list().sequence().keyframes[index].name.as_deref()
 }
 
@@ -579,7 +585,7 @@ fn a_key_is_named_renamed_and_unnamed_and_a_shared_name_is_warned_of() {
     assert_eq!(key_name(&state, 0), Some("wave"));
     assert_eq!(state.status().text, "named key 0 (wave)");
     assert!(!state.status().error);
-    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    let journal = journaled(&state).unwrap();
     assert_eq!(journal.keyframes[0].name.as_deref(), Some("wave"));
 
     // The prompt starts from the present name: two backspaces and "lk" make "walk".
@@ -646,7 +652,7 @@ fn a_key_name_with_a_control_character_is_refused_and_the_journal_still_loads() 
     }
     // Every name the session keeps loads back from its journal (load refuses control
     // characters in names).
-    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    let journal = journaled(&state).unwrap();
     assert_eq!(journal.keyframes[0].name.as_deref(), Some("wave"));
 }
 
@@ -657,7 +663,7 @@ fn a_hold_is_set_cleared_and_refused_when_it_reaches_the_next_key() {
     edit(&mut state, 'h', "1.5");
     assert_eq!(state.list().sequence().keyframes[0].hold, 1.5);
     assert_eq!(state.status().text, "key 0 holds 1.5 s");
-    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    let journal = journaled(&state).unwrap();
     assert_eq!(journal.keyframes[0].hold, 1.5);
 
     // Keys are 2 s apart: a 2 s hold leaves no time to move.
@@ -691,7 +697,7 @@ fn a_hold_is_set_cleared_and_refused_when_it_reaches_the_next_key() {
     );
     edit(&mut state, 'h', "1.5");
     press(&mut state, Key::Char('n'));
-    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    let journal = journaled(&state).unwrap();
     assert_eq!(journal.keyframes.len(), 3);
     assert_eq!(journal.keyframes[1].hold, 1.5);
 }
@@ -728,7 +734,7 @@ fn new_sequences_are_monotone_and_p_cycles_a_segment_through_the_modes() {
         ]
     );
     assert_eq!(state.status().text, "key 0 → key 1: step");
-    let journal = Sequence::load(state.journal().unwrap().path()).unwrap();
+    let journal = journaled(&state).unwrap();
     assert_eq!(journal.keyframes[0].interp, Some(Interp::Step));
 }
 
@@ -841,7 +847,7 @@ fn dragging_a_key_in_time_keeps_the_order_and_reaches_the_journal() {
     assert_eq!(sequence.key_interval, None, "the spacing is made explicit");
     assert_eq!(sequence.key_times(), vec![0.0, 2.5, 4.0]);
     assert!(state.is_dirty());
-    let journal = Sequence::load(state.journal().unwrap().path()).expect("journaled");
+    let journal = journaled(&state).expect("journaled");
     assert_eq!(journal.key_times(), vec![0.0, 2.5, 4.0]);
 
     // Past the next key (4 s) or before the previous one (0 s): refused, the key stays.
@@ -875,8 +881,8 @@ fn a_key_captured_at_a_parked_time_goes_there_and_no_other_key_moves() {
     assert_eq!(sequence.key_times(), vec![0.0, 1.25, 2.0]);
     assert_eq!(state.list().current_index(), 1);
     assert!(!state.status().error, "{:?}", state.status());
-    let journal = Sequence::load(state.journal().unwrap().path()).expect("journaled");
-    assert_eq!(journal.key_times(), vec![0.0, 1.25, 2.0]);
+    let journal = state.journal().unwrap().read().expect("journaled");
+    assert_eq!(journal.list.sequence.key_times(), vec![0.0, 1.25, 2.0]);
     // After the last key: appended.
     press(&mut state, Key::CaptureAt(3_000));
     assert_eq!(

@@ -1,0 +1,118 @@
+// Undo and redo through the real page (run by tests/teaching/studio_edit.rs as
+// `node undo.mjs URL`), on sequences/so101_wave.json: a plain click on a key's mark in the
+// timeline selects it without moving it; `d`, Ctrl+Z, Ctrl+Shift+Z, Ctrl+Y and the undo
+// button; a key dragged in time and the drag undone; a refusal on the status line replaced by
+// the next answer. Prints one JSON line of what the page saw; the test judges it.
+import { launchChromium } from './browser.mjs';
+
+const [url] = process.argv.slice(2);
+let step = 'start';
+setTimeout(() => fail(`no result after 300 s, at: ${step}`), 300000).unref();
+
+function fail(message) {
+  console.error(`undo: ${message}`);
+  process.exit(1);
+}
+
+const browser = await launchChromium();
+const results = { errors: [] };
+try {
+  const page = await (await browser.newContext({ viewport: { width: 1280, height: 800 } })).newPage();
+  page.on('pageerror', e => results.errors.push(`page error: ${e.message}`));
+  page.on('console', m => {
+    // The refused key's 400 is this test's own doing.
+    if (m.type() === 'error' && !/status of 400/.test(m.text())) results.errors.push(`console: ${m.text()}`);
+  });
+  await page.goto(url);
+  await page.waitForFunction(() => window.studio && window.studio.snapshot && window.studio.controller && window.studio.timeline);
+  const waitFor = (fn, arg) => page.waitForFunction(fn, arg, { timeout: 30000 }).catch(e => fail(`${e.message}: ${fn}`));
+  const times = () => page.evaluate(() => window.studio.snapshot.keys.map(k => k.time));
+  const goals = () => page.evaluate(() => window.studio.snapshot.joints.map(j => j.goal));
+  results.start = await times();
+  results.goalsBefore = await goals();
+
+  // ----- a plain click on key 2's mark: selected, not moved -----
+  step = 'click';
+  // The timeline drawn for the list as it is now (it is fetched after each change): the wave's
+  // wrist_flex is set by every key, so its row has a mark per key.
+  const timelineCaughtUp = () => waitFor(() =>
+    window.studio.timeline.joints[3].keys.length === window.studio.snapshot.keys.length);
+  // The mark's x in CSS pixels: the timeline draws in canvas pixels.
+  const markX = async index => (await timelineCaughtUp(), page.evaluate(i => {
+    const c = document.getElementById('timeline');
+    const t = window.studio.snapshot.keys[i].time;
+    // The same span the timeline uses: the curves' and the keys' times.
+    const d = window.studio.timeline, keys = window.studio.snapshot.keys.map(k => k.time);
+    const a = Math.min(d.start, ...keys), b = Math.max(d.end, ...keys, d.start + 0.1);
+    const x = 110 + (t - a) / (b - a) * (c.width - 120);
+    const box = c.getBoundingClientRect();
+    return { x: box.left + x * c.clientWidth / c.width, y: box.top + 30 };
+  }, index));
+  const at = await markX(2);
+  await page.mouse.move(at.x, at.y);
+  await page.mouse.down();
+  await page.mouse.move(at.x + 1, at.y);
+  await page.mouse.up();
+  await waitFor(() => window.studio.snapshot.current === 2);
+  await page.evaluate(() => window.studio.sent());
+  results.afterClick = await times();
+
+  // ----- delete, undo, redo by the keyboard and the button -----
+  step = 'delete';
+  await page.keyboard.press('d');
+  await waitFor(() => window.studio.snapshot.keys.length === 7);
+  results.undoTitle = await page.evaluate(() => document.getElementById('undo').title);
+  await page.keyboard.press('Control+z');
+  await waitFor(() => window.studio.snapshot.keys.length === 8);
+  results.afterUndo = await times();
+  results.currentAfterUndo = await page.evaluate(() => window.studio.snapshot.current);
+  results.statusAfterUndo = await page.evaluate(() => document.getElementById('status').textContent);
+  await page.keyboard.press('Control+Shift+Z');
+  await waitFor(() => window.studio.snapshot.keys.length === 7);
+  await page.click('#undo');
+  await waitFor(() => window.studio.snapshot.keys.length === 8);
+  await page.keyboard.press('Control+y');
+  await waitFor(() => window.studio.snapshot.keys.length === 7);
+  results.redoOffAtEnd = await page.evaluate(() => document.getElementById('redo').disabled);
+  await page.keyboard.press('Control+z');
+  await waitFor(() => window.studio.snapshot.keys.length === 8);
+
+  // ----- a drag of key 2's mark moves it in time; Ctrl+Z puts it back -----
+  step = 'drag';
+  const from = await markX(2), to = await markX(3);
+  await page.mouse.move(from.x, from.y);
+  await page.mouse.down();
+  await page.mouse.move((from.x + to.x) / 2, from.y, { steps: 5 });
+  await page.mouse.up();
+  await page.waitForFunction(t => window.studio.snapshot.keys[2].time !== t, results.start[2], { timeout: 30000 })
+    .catch(async () => fail(`the drag did not move key 2: ${JSON.stringify(await page.evaluate(() => [document.getElementById('status').textContent, window.studio.refusals]))} ${JSON.stringify([from, to])}`));
+  await page.evaluate(() => window.studio.sent());
+  results.afterDrag = await times();
+  await page.keyboard.press('Control+z');
+  await waitFor(t => window.studio.snapshot.keys[2].time === t, results.start[2]);
+  results.afterDragUndo = await times();
+  results.goalsAfter = await goals();
+
+  // ----- a refusal on the status line is replaced by the next answer -----
+  step = 'stale error';
+  await page.evaluate(() => window.studio.send({ key: 'select-key:3' }));
+  const said = await page.evaluate(() => document.getElementById('status').textContent);
+  await page.evaluate(() => window.studio.send({ key: 'jump' }));
+  results.refusal = await page.evaluate(() => document.getElementById('status').className);
+  // The same key, the same status: the snapshot does not change, the answer does it.
+  await page.evaluate(() => window.studio.send({ key: 'select-key:3' }));
+  results.afterRefusal = await page.evaluate(() => ({
+    text: document.getElementById('status').textContent,
+    error: document.getElementById('status').className === 'error',
+  }));
+  results.saidBefore = said;
+
+  step = 'write';
+  await page.keyboard.press('w');
+  await waitFor(() => window.studio.snapshot.dirty === false);
+} catch (e) {
+  fail(`${step}: ${e.stack || e}`);
+} finally {
+  await browser.close();
+}
+console.log(JSON.stringify(results));

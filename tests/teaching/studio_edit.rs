@@ -1,0 +1,141 @@
+//! The studio as an editor, in headless Chromium (see studio.rs for what the browser tests
+//! need): undo and redo from the page, and a studio without an arm (no `--port`: the arm
+//! drawn only), which says so when its server goes away.
+
+use crate::studio::{browser_run, require_browser_tools, start_studio};
+use serde_json::{json, Value};
+
+/// Numbers as the page sent them (JSON has one number type; 0 and 0.0 are the same time).
+fn numbers(value: &Value) -> Vec<f64> {
+    serde_json::from_value(value.clone()).unwrap_or_else(|e| panic!("{value}: {e}"))
+}
+use std::path::Path;
+
+fn wave() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("sequences/so101_wave.json")
+}
+
+/// The wave's key times, from the file (an oracle the page does not compute).
+fn wave_times() -> Vec<f64> {
+    let sequence = keypose::sequence::Sequence::load(&wave()).unwrap();
+    sequence.key_times()
+}
+
+/// A plain click on a key's mark selects it and leaves its time alone; `d` is undone by
+/// Ctrl+Z and the undo button and redone by Ctrl+Shift+Z and Ctrl+Y; a drag in time is undone;
+/// undo never moves the arm; a refusal on the status line goes with the next answer. The file
+/// written at the end is the wave as it was.
+#[test]
+fn the_page_undoes_and_redoes_edits_and_a_click_on_a_key_does_not_move_it() {
+    require_browser_tools();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(wave(), dir.path().join("wave.json")).unwrap();
+    let (studio, url) = start_studio(dir.path(), &["wave.json"]);
+    let results = browser_run("undo.mjs", &[Path::new(&url)]);
+    drop(studio);
+
+    assert_eq!(results["errors"], json!([]), "the page ran without errors");
+    let times = wave_times();
+    assert_eq!(numbers(&results["start"]), times);
+    assert_eq!(numbers(&results["afterClick"]), times, "a click is no drag");
+    assert_eq!(
+        numbers(&results["afterUndo"]),
+        times,
+        "the deleted key is back"
+    );
+    assert_eq!(results["currentAfterUndo"], json!(2));
+    let said = results["statusAfterUndo"].as_str().unwrap();
+    assert!(said.starts_with("undid: deleted key 2"), "{said}");
+    let title = results["undoTitle"].as_str().unwrap();
+    assert!(title.starts_with("undo: deleted key 2"), "{title}");
+    assert_eq!(results["redoOffAtEnd"], json!(true));
+    assert_ne!(
+        numbers(&results["afterDrag"]),
+        times,
+        "the drag moved key 2"
+    );
+    assert_eq!(numbers(&results["afterDragUndo"]), times);
+    assert_eq!(
+        results["goalsAfter"], results["goalsBefore"],
+        "the arm stays"
+    );
+    assert_eq!(results["refusal"], json!("error"));
+    assert_eq!(
+        results["afterRefusal"],
+        json!({"text": results["saidBefore"], "error": false})
+    );
+    let written = keypose::sequence::Sequence::load(&dir.path().join("wave.json")).unwrap();
+    let original = keypose::sequence::Sequence::load(&wave()).unwrap();
+    assert_eq!(
+        written.keyframes, original.keyframes,
+        "every edit was undone"
+    );
+}
+
+/// `keypose studio SEQ` without `--port`: the arm drawn only. The page jogs it (the pan by
+/// 10°, which the drawn servo reaches as 114 ticks of 4096 a turn: 10.01953125°), captures a
+/// key, drags the tool handle (10 mm along −x, taken), moves to key 0 (home: every joint at
+/// 0°, as the file says), simulates and saves; the file has the captured key. Then the studio
+/// is killed: the page stops claiming control and says the studio does not answer, and a key
+/// pressed then is answered as not sent. How long the page took to notice is measured, not
+/// judged.
+#[test]
+fn without_a_port_the_studio_edits_a_drawn_arm_and_a_lost_server_is_said() {
+    require_browser_tools();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(wave(), dir.path().join("wave.json")).unwrap();
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_keypose"))
+        .args(["studio", "wave.json"])
+        .current_dir(dir.path())
+        .env("KEYPOSE_CACHE", crate::common::python_cache())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .expect("start keypose studio");
+    let stdout = child.stdout.take().unwrap();
+    let pid = child.id().to_string();
+    let _studio = crate::studio::Studio(child);
+    let mut url = String::new();
+    std::io::BufRead::read_line(&mut std::io::BufReader::new(stdout), &mut url).unwrap();
+    let results = browser_run("drawn.mjs", &[Path::new(url.trim()), Path::new(&pid)]);
+
+    assert_eq!(results["errors"], json!([]), "the page ran without errors");
+    assert!(
+        results["bus"].as_str().unwrap().starts_with("a drawn arm"),
+        "{results}"
+    );
+    assert_eq!(numbers(&results["start"]), [0.0; 6], "home");
+    let jogged = numbers(&results["jogged"]);
+    assert!((jogged[0] - 10.01953125).abs() < 1e-9, "{jogged:?}");
+    assert_eq!(results["keys"], json!(9));
+    assert_eq!(results["target"]["refused"], json!(false), "{results}");
+    let (before, after) = (
+        numbers(&results["tcpBefore"]),
+        numbers(&results["tcpAfter"]),
+    );
+    assert!(
+        (after[0] - (before[0] - 0.01)).abs() < 0.0002,
+        "{before:?} → {after:?}"
+    );
+    assert_eq!(numbers(&results["atKey0"]), [0.0; 6], "key 0 is home");
+    assert_eq!(results["timelineJoints"], json!(6));
+    assert_eq!(results["simulated"], json!(true));
+    let written = keypose::sequence::Sequence::load(&dir.path().join("wave.json")).unwrap();
+    assert_eq!(written.keyframes.len(), 9);
+    let captured = written.keyframes[1].value("shoulder_pan");
+    assert_eq!(
+        captured,
+        Some(&keypose::sequence::KeyValue::Joint(10.0)),
+        "the capture, rounded to 0.1°"
+    );
+
+    assert_eq!(results["badge"], json!("watching"));
+    for said in ["statusWhenLost", "statusAfterKey"] {
+        let text = results[said].as_str().unwrap();
+        assert!(text.contains("does not answer"), "{said}: {text}");
+    }
+    assert_eq!(results["keyAfterLoss"], json!(false));
+    eprintln!(
+        "the page noticed the killed studio after {:.0} ms",
+        results["lostMs"].as_f64().unwrap()
+    );
+}
