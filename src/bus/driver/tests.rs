@@ -266,11 +266,21 @@ fn a_servo_answering_later_than_the_timeout_is_never_read_as_present() {
     // Servo 4 answers 300 ms late, far beyond the 40 ms timeout: every answer it gives belongs
     // to a request at least 300 ms old. Without telling answers apart, the late answer to an
     // earlier read lands while a later read waits for servo 4, and is taken for the present.
-    let (mut bus, _servos, ids) = so101_with_a_late_servo(4, Duration::from_millis(300));
+    // Servo 4 is moved by hand before every read, so an answer says which read it belongs to.
+    // Its own answer may still come in as the present one: when this thread does not run for
+    // the 300 ms (a loaded machine), the answer to the present read is due by the time it
+    // looks. What must never happen is an older read's answer taken for the present.
+    let (mut bus, servos, ids) = so101_with_a_late_servo(4, Duration::from_millis(300));
+    let at = ids.iter().position(|&id| id == 4).unwrap();
     let mut stale = 0;
     for read in 0..12 {
+        let present = 1000 + 10 * read;
+        servos.lock().servo_mut(4).unwrap().push_to(present as f64);
         match bus.read_positions(&ids) {
-            Ok(ticks) => panic!("read {read} took a late answer for the present: {ticks:?}"),
+            Ok(ticks) => assert_eq!(
+                ticks[at], present,
+                "read {read} took a late answer for the present: {ticks:?}"
+            ),
             Err(BusError::Stale { id, late_ms, .. }) => {
                 // Servos 5 and 6 answer after servo 4 on the line: late with it.
                 assert!((4..=6).contains(&id), "servo {id}");
