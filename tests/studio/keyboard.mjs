@@ -62,6 +62,10 @@ try {
 
   // ----- Space and Enter on a focused button -----
   step = 'space on a button';
+  // On key 1 ("raise", away from the arm's pose at home), where the page's Space (go to the
+  // key) would move the arm.
+  await page.evaluate(() => window.studio.send({ key: 'select-key:1' }));
+  await waitFor(() => window.studio.snapshot.current === 1);
   const before = await snapshot();
   results.before = before;
   await page.focus('button[data-key=">"]');

@@ -55,7 +55,8 @@ fn fits_a_phone(layout: &Value) {
 }
 
 /// The page driven by its keyboard in a phone-sized window; the wave file is edited by one
-/// key (`]`) and written by `w`.
+/// key (`]`) and written by `w`. Each step's oracle is the wave file as written (8 keys, key 1
+/// "raise" away from home) and the virtual arm's start at 0°.
 #[test]
 fn the_page_works_by_keyboard_on_a_phone_and_asks_before_losing_edits() {
     require_browser_tools();
@@ -70,8 +71,12 @@ fn the_page_works_by_keyboard_on_a_phone_and_asks_before_losing_edits() {
 
     // Space on the focused "next ▶" button pressed it (the next key), not the page's Space
     // (go to the key): the arm's goals and activity are as they were.
+    // The page started on key 1, "raise" (pan 20°, lift −30°, ...), with the arm at home (every
+    // goal 0°): a go-to-key would have changed the goals.
     let before = &results["before"];
+    assert_eq!(before["goals"], json!([0, 0, 0, 0, 0, 0]));
     let current = before["current"].as_u64().unwrap();
+    assert_eq!(current, 1);
     assert_eq!(results["spacePressed"], json!(true), "{results}");
     assert_eq!(results["afterSpace"]["current"], json!(current + 1));
     assert_eq!(
