@@ -9,6 +9,7 @@ mod session;
 mod studio;
 mod studio_edit;
 mod studio_engine;
+mod studio_keyboard;
 mod studio_server;
 mod studio_truth;
 mod terminal;

@@ -7,6 +7,8 @@ import { Playback } from '/playhead.js';
 import { Findings } from '/findings.js';
 import { showContacts } from '/collision.js';
 import { installUndo, showUndo } from '/undo.js';
+import { installKeyboard, showKeyList } from '/a11y.js';
+import { installUnsaved, showUnsaved } from '/unsaved.js';
 import { request, watchStream, NO_ANSWER, SIMULATE_MS } from '/connection.js';
 
 const token = new URLSearchParams(location.search).get('token') || '';
@@ -190,10 +192,14 @@ document.addEventListener('keyup', () => dropWaiting('the key was let go', true)
 
 document.addEventListener('click', e => {
   const key = e.target.closest('button[data-key]');
-  if (key) { send({ key: key.dataset.key }); key.blur(); }
+  // A click blurs the button (the page's keys are the terminal's again); a keyboard press
+  // (detail 0) keeps the focus where the keyboard put it.
+  if (key) { send({ key: key.dataset.key }); if (e.detail) key.blur(); }
 });
 $('stop').onclick = () => stopNow();
 installUndo(send);
+installKeyboard(send);
+installUnsaved(() => studio.snapshot);
 $('ok').onclick = () => send({ line: $('answer').value });
 $('answer').addEventListener('keydown', e => {
   if (e.key === 'Enter') { e.preventDefault(); send({ line: $('answer').value }); }
@@ -210,11 +216,12 @@ function render(s) {
   const joints = JSON.stringify([s.joints, s.selected]);
   if (joints !== lastJoints) { lastJoints = joints; renderJoints(s); }
   const keys = JSON.stringify([s.keys, s.current]);
-  if (keys !== lastKeys) { lastKeys = keys; renderKeys(s); refreshTimeline(s); }
+  if (keys !== lastKeys) { lastKeys = keys; renderKeys(s); showKeyList(s.current); refreshTimeline(s); }
   const prompt = JSON.stringify(s.prompt);
   if (prompt !== lastPrompt) { lastPrompt = prompt; renderPrompt(s.prompt); }
   if (!s.prompt) showStatus(s.status.text, s.status.error);
   showUndo(s);
+  showUnsaved(s);
   $('activity').textContent = `${s.activity.text} · ${s.journal ? 'journal ' + s.journal : 'no journal'}`;
   $('tcp').textContent = 'tool ' + (s.tool_arm ? `(${s.tool_arm}) ` : '') +
     // Rounded first, so a coordinate a hair below zero shows as 0, not −0.

@@ -3,7 +3,8 @@
 // axis in seconds. Dragging a key mark moves the key in time (the engine validates it);
 // dragging elsewhere scrubs, and letting go parks there (onPark): the ghost shows the pose at
 // that time. A playback's playhead and the tracking error (what the arm or the simulation did
-// against what was commanded) are drawn on it too.
+// against what was commanded) are drawn on it too. Everything is drawn in CSS pixels on a
+// backing store of devicePixelRatio device pixels each, so that it is sharp on dense screens.
 
 const ROW = 44;
 const LEFT = 110;
@@ -35,6 +36,14 @@ export class Timeline {
     canvas.addEventListener('pointerdown', e => this.down(e));
     canvas.addEventListener('pointermove', e => this.move(e));
     canvas.addEventListener('pointerup', e => this.up(e));
+    // A new width (a turned phone, a narrower window) or a new pixel density (a zoom, another
+    // screen) needs a new backing store.
+    window.addEventListener('resize', () => this.draw());
+  }
+
+  // The drawing's width in CSS pixels.
+  get width() {
+    return this.canvas.clientWidth || 800;
   }
 
   // The simulation's findings, at sequence times: marked on their joint's row (or all rows).
@@ -59,12 +68,12 @@ export class Timeline {
 
   x(t) {
     const [a, b] = this.span();
-    return LEFT + (t - a) / (b - a) * (this.canvas.width - LEFT - 10);
+    return LEFT + (t - a) / (b - a) * (this.width - LEFT - 10);
   }
 
   time(x) {
     const [a, b] = this.span();
-    return a + (x - LEFT) / (this.canvas.width - LEFT - 10) * (b - a);
+    return a + (x - LEFT) / (this.width - LEFT - 10) * (b - a);
   }
 
   // Joint values at time t, sampled from the curves (linear between samples).
@@ -80,7 +89,7 @@ export class Timeline {
   }
 
   down(e) {
-    const x = e.offsetX * this.canvas.width / this.canvas.clientWidth;
+    const x = e.offsetX;
     const key = this.keys.findIndex(k => Math.abs(this.x(k.time) - x) < GRAB);
     this.canvas.setPointerCapture(e.pointerId);
     this.drag = key >= 0 ? { key, x, from: x, moved: false } : { scrub: true };
@@ -89,7 +98,7 @@ export class Timeline {
 
   move(e) {
     if (!this.drag) return;
-    const x = e.offsetX * this.canvas.width / this.canvas.clientWidth;
+    const x = e.offsetX;
     if (this.drag.scrub) this.scrub(x);
     else {
       this.drag.moved = this.drag.moved || Math.abs(x - this.drag.from) >= DRAG_PX;
@@ -141,9 +150,14 @@ export class Timeline {
     const c = this.canvas, g = this.ctx, d = this.data;
     const rows = d && !d.empty ? d.joints.length : 1;
     const height = rows * ROW + 6 + MARKS + AXIS;
-    if (c.height !== height) c.height = height;
-    c.width = c.clientWidth || 800;
-    g.clearRect(0, 0, c.width, c.height);
+    const ratio = window.devicePixelRatio || 1;
+    c.style.height = `${height}px`;
+    // Setting the size clears the canvas and its transform, even to the same size.
+    c.width = Math.round(this.width * ratio);
+    c.height = Math.round(height * ratio);
+    this.height = height;
+    g.setTransform(ratio, 0, 0, ratio, 0, 0);
+    g.clearRect(0, 0, this.width, height);
     g.font = '11px sans-serif';
     g.fillStyle = '#9aa4ae';
     if (!d || d.empty) {
@@ -163,7 +177,7 @@ export class Timeline {
     g.fillText(j.name, 4, top + h / 2 + 4);
     // The band between the limits.
     g.fillStyle = 'rgba(120,160,200,0.10)';
-    g.fillRect(LEFT, y(j.max), this.canvas.width - LEFT - 10, y(j.min) - y(j.max));
+    g.fillRect(LEFT, y(j.max), this.width - LEFT - 10, y(j.min) - y(j.max));
     for (const f of d.findings.filter(f => f.joint === j.name)) {
       g.fillStyle = 'rgba(255,60,60,0.35)';
       const x0 = this.x(f.from), x1 = Math.max(this.x(f.to), x0 + 2);
@@ -200,15 +214,15 @@ export class Timeline {
       });
       g.stroke();
       g.fillStyle = g.strokeStyle;
-      g.fillText(`${source} error ≤ ${largest.toFixed(1)}${e.unit || '°'}`, this.canvas.width - 200, top + 10 + 11 * label++);
+      g.fillText(`${source} error ≤ ${largest.toFixed(1)}${e.unit || '°'}`, this.width - 200, top + 10 + 11 * label++);
     }
   }
 
   // Ticks in seconds along the foot: a step of 1, 2 or 5 × 10^n giving ticks ~80 px apart.
   axis() {
-    const g = this.ctx, c = this.canvas, [a, b] = this.span();
-    const y = c.height - AXIS;
-    const width = c.width - LEFT - 10;
+    const g = this.ctx, [a, b] = this.span();
+    const y = this.height - AXIS;
+    const width = this.width - LEFT - 10;
     const raw = (b - a) * 80 / Math.max(width, 1);
     const power = 10 ** Math.floor(Math.log10(raw));
     const step = [1, 2, 5, 10].map(m => m * power).find(s => s >= raw);
@@ -235,7 +249,7 @@ export class Timeline {
   }
 
   marks() {
-    const g = this.ctx, h = this.canvas.height - AXIS;
+    const g = this.ctx, h = this.height - AXIS;
     this.keys.forEach((k, i) => {
       const x = this.drag && this.drag.key === i ? this.drag.x : this.x(k.time);
       g.strokeStyle = i === this.playing ? '#66bb6a' : k.current ? '#ffd54f' : 'rgba(255,255,255,0.35)';
