@@ -22,6 +22,9 @@ pub enum FileError {
     /// The sequence cannot be written to its file (`w`).
     #[error("not written")]
     Save(#[source] InputError),
+    /// The direction check's answer cannot be written into the robot file.
+    #[error("the direction is not recorded")]
+    Direction(#[source] InputError),
     /// The journal cannot be written after an edit.
     #[error("the journal {} cannot be written", path.display())]
     Journal {
@@ -60,6 +63,17 @@ pub fn execute(command: FileCommand) -> Event {
                 source: Arc::new(e),
             }))
         }
+        FileCommand::WriteDirection {
+            path,
+            joint,
+            name,
+            direction,
+        } => Event::DirectionWritten {
+            result: super::robot_file::write_direction(&path, &name, direction)
+                .map_err(FileError::Direction),
+            joint,
+            path,
+        },
         FileCommand::ClearJournal { journal, why } => Event::JournalCleared {
             why,
             result: journal

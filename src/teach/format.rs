@@ -167,6 +167,11 @@ pub fn question(state: &TeachState) -> Option<String> {
             "move the arm to {} now, by the safe ramp? (y/n)",
             key_label(state.list().sequence(), state.list().current_index())
         ),
+        Prompt::Direction { joint } => format!(
+            "direction check: did the real {} move the way the drawn one did? \
+             m matches, r reversed, Esc ends the check (m/r)",
+            state.robot().joints[*joint].name
+        ),
     })
 }
 

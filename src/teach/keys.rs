@@ -118,6 +118,13 @@ pub const BINDINGS: &[Binding] = &[
     ),
     bind("d", "delete", "delete the current key (U undoes it)"),
     bind(
+        "D",
+        "direction check",
+        "jog each joint 5° in turn and answer m if the real joint moved as the drawn one \
+         did, r if reversed: a reversed joint's direction flips at once and is written to \
+         the robot file",
+    ),
+    bind(
         "U R",
         "undo/redo",
         "undo the last edit / redo it (also Ctrl+Z, Ctrl+Shift+Z or Ctrl+Y); the list only, \

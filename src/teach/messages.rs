@@ -39,6 +39,12 @@ pub enum BusCommand {
         /// Stop requests of this motion so far, this one included.
         requests: u32,
     },
+    /// The direction check found `joint` reversed: map its ticks the other way from now on
+    /// (the servo mapping's `direction` flips; the servos are not written).
+    Reverse {
+        /// The joint (robot order).
+        joint: usize,
+    },
 }
 
 /// What the session asks of the file system; each is answered by one [`Event`].
@@ -60,6 +66,18 @@ pub enum FileCommand {
         journal: Journal,
         /// The list as it is now, and its history.
         entry: Entry,
+    },
+    /// Write a joint's servo direction into the robot file the session uses (the direction
+    /// check): [`Event::DirectionWritten`].
+    WriteDirection {
+        /// The robot file.
+        path: PathBuf,
+        /// The joint's index (robot order), for the answer.
+        joint: usize,
+        /// The joint's name in the file.
+        name: String,
+        /// The direction to write: 1 or -1.
+        direction: i8,
     },
     /// Remove a journal: [`Event::JournalCleared`].
     ClearJournal {
@@ -131,6 +149,15 @@ pub enum Event {
     /// A write ([`FileCommand::Save`]) ended.
     Saved {
         /// The file written.
+        path: PathBuf,
+        /// Whether it was written.
+        result: Result<(), FileError>,
+    },
+    /// A joint's direction was written to the robot file (or could not be).
+    DirectionWritten {
+        /// The joint (robot order).
+        joint: usize,
+        /// The robot file.
         path: PathBuf,
         /// Whether it was written.
         result: Result<(), FileError>,

@@ -29,6 +29,7 @@ mod keys;
 mod messages;
 mod motion;
 mod prompt;
+mod robot_file;
 pub mod script;
 mod session;
 mod state;
@@ -46,7 +47,7 @@ pub use prompt::{Field, Prompt};
 pub(crate) use session::panic_message;
 pub use session::{Brake, BusCommandError, MotionError, Session, SessionError};
 pub(crate) use state::selected_tool;
-pub use state::{tool_positions, Activity, Status, TeachState};
+pub use state::{tool_positions, Activity, DirectionRecord, Status, TeachState};
 
 /// What ends a session early.
 #[derive(Debug, thiserror::Error)]

@@ -35,6 +35,12 @@ pub enum Prompt {
     },
     /// After a typed value, with the arm held: move it to the edited key now?
     MoveThere,
+    /// The direction check (`D`) jogged `joint`: does the real joint move the way the drawn
+    /// one does? `m` matches, `r` reversed, Esc ends the check.
+    Direction {
+        /// The joint just jogged (robot order).
+        joint: usize,
+    },
 }
 
 /// What a [`Prompt::Text`] line is for.
@@ -60,6 +66,9 @@ impl Prompt {
                 Key::Char(_) | Key::Backspace | Key::Enter | Key::Esc | Key::Interrupt
             ),
             Prompt::Quit => yes_no(key).is_some() || *key == Key::Char('w'),
+            Prompt::Direction { .. } => {
+                matches!(key, Key::Char('m' | 'r') | Key::Esc | Key::Interrupt)
+            }
             _ => yes_no(key).is_some(),
         }
     }

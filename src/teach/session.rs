@@ -309,6 +309,14 @@ impl Session {
                 }
                 Ok(Vec::new())
             }
+            BusCommand::Reverse { joint } => {
+                // Only the mapping turns: the ticks on the servos stay, and the next reading
+                // says the value they stand for now.
+                if let Some(servo) = self.robot.joints.get_mut(joint).map(|j| &mut j.servo) {
+                    servo.direction = -servo.direction;
+                }
+                Ok(Vec::new())
+            }
         };
         result.unwrap_or_else(|e| vec![Event::BusError(e.to_string())])
     }

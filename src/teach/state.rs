@@ -95,6 +95,10 @@ pub struct TeachState {
     collision: Option<crate::collision::CollisionModel>,
     /// The quit question was answered "write": quit once the file is written.
     quit_after_write: bool,
+    /// The direction check under way (`D`), if any.
+    direction_check: Option<direction::Check>,
+    /// Where the direction check records a reversed joint.
+    direction_record: DirectionRecord,
 }
 
 impl TeachState {
@@ -141,6 +145,10 @@ impl TeachState {
             quit: false,
             collision,
             quit_after_write: false,
+            direction_check: None,
+            direction_record: DirectionRecord::SessionOnly(
+                "the robot is a built-in; give --robot FILE (a copy) to record it".into(),
+            ),
         }
     }
 
@@ -308,6 +316,7 @@ impl TeachState {
             Key::Char('K') => self.new_tool_key(),
             Key::Char('m') => self.mirror_key(),
             Key::Char('M') => self.mirror_sequence(),
+            Key::Char('D') => self.start_direction_check(),
             Key::Char('x') => self.jog_tool(0, 1.0),
             Key::Char('X') => self.jog_tool(0, -1.0),
             Key::Char('c') => self.jog_tool(1, 1.0),
@@ -339,6 +348,9 @@ impl TeachState {
     fn answer(&mut self, prompt: Prompt, key: Key) -> Vec<Command> {
         if let Prompt::Text { field, text } = prompt {
             return self.type_text(field, text, key);
+        }
+        if let Prompt::Direction { joint } = prompt {
+            return self.answer_direction(joint, &key);
         }
         if prompt == Prompt::Quit {
             if let Some(commands) = quitting::answer(self, &key) {
@@ -414,7 +426,7 @@ impl TeachState {
             Prompt::Release { joints, .. } => bus(BusCommand::Torque { joints, on: false }),
             Prompt::Replace { path } => file(FileCommand::Load(path)),
             Prompt::MoveThere => self.move_to_key(),
-            Prompt::Text { .. } => Vec::new(),
+            Prompt::Text { .. } | Prompt::Direction { .. } => Vec::new(),
         }
     }
 
@@ -429,6 +441,7 @@ impl TeachState {
             Prompt::Replace { .. } => self.info("import cancelled"),
             Prompt::MoveThere => self.info("the arm stays where it is; space moves it to the key"),
             Prompt::Text { field, .. } => self.info(cancelled(field)),
+            Prompt::Direction { .. } => self.info("direction check ended"),
         }
     }
 
@@ -847,12 +860,14 @@ fn same_file(a: &Path, b: &Path) -> bool {
 }
 
 mod contact;
+mod direction;
 mod edits;
 mod mirroring;
 mod quitting;
 mod reports;
 mod tool;
 mod undo;
+pub use direction::DirectionRecord;
 pub(crate) use tool::selected_tool;
 pub use tool::tool_positions;
 

@@ -5,6 +5,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod direction;
 mod session;
 mod studio;
 mod studio_edit;

@@ -109,7 +109,9 @@ pub fn open<T>(
     let present = session
         .read()?
         .ok_or_else(|| CommandError::Hardware("the servos gave no present pose".into()))?;
+    let record = direction_record(args, &robot, source.as_deref(), list.sequence());
     let mut state = TeachState::new(robot, list, output, journal, present);
+    state.set_direction_record(record);
     match pending {
         Some(pending) if args.recover => state.recover(pending),
         Some(pending) => state.offer_recovery(pending),
@@ -187,6 +189,36 @@ fn hold_at_start(state: &mut TeachState, session: &mut Session) -> Result<(), Co
         }
     }
     Ok(())
+}
+
+/// Where the direction check records a reversed joint: the robot file the session read, else
+/// nowhere (a built-in is compiled in; a cell's arms and a LeRobot calibration are not written:
+/// LeRobot's degrees take no sign from its calibration file, docs/commands.md).
+fn direction_record(
+    args: &SessionArgs,
+    robot: &Robot,
+    source: Option<&Path>,
+    sequence: &Sequence,
+) -> teach::DirectionRecord {
+    use teach::DirectionRecord::{File, SessionOnly};
+    if !robot.arms.is_empty() {
+        return SessionOnly("a cell's arms are recorded in their own robot files".into());
+    }
+    if !args.calibration.calibration.is_empty() || !args.calibration.robot_id.is_empty() {
+        return SessionOnly("the joint directions come from LeRobot's calibration".into());
+    }
+    let file = match &args.robot {
+        Some(spec) => PathBuf::from(spec),
+        None => match source.and_then(Path::parent) {
+            Some(dir) => dir.join(&sequence.robot),
+            None => PathBuf::from(&sequence.robot),
+        },
+    };
+    if file.is_file() {
+        File(file)
+    } else {
+        SessionOnly("the robot is a built-in; give --robot FILE (a copy) to record it".into())
+    }
 }
 
 /// The list to edit and the robot to teach.

@@ -29,6 +29,11 @@ impl TeachState {
             }
             Event::Loaded { path, result } => return self.loaded(&path, result),
             Event::Saved { path, result } => return self.saved(path, result),
+            Event::DirectionWritten {
+                joint,
+                path,
+                result,
+            } => return self.direction_written(joint, &path, result),
             Event::Journaled(result) => self.journaled(result),
             Event::JournalCleared { why, result } => self.journal_cleared(why, result),
         }
@@ -130,6 +135,9 @@ impl TeachState {
             };
         }
         let pending = self.pending_jog.take();
+        if kind == MotionKind::Jog {
+            self.direction_jog_ended(matches!(outcome, Ok(Outcome::Finished)));
+        }
         match outcome {
             Ok(Outcome::Finished) => match kind {
                 MotionKind::ToKey(i) => self.info(format!("at {}", self.key_label(i))),

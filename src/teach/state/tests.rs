@@ -91,7 +91,7 @@ fn perfect_bus(state: &TeachState, command: BusCommand) -> Vec<Event> {
             end_pose: plan.end_pose.clone(),
             joints: plan.joints.clone(),
         }],
-        BusCommand::Stop { .. } => Vec::new(),
+        BusCommand::Stop { .. } | BusCommand::Reverse { .. } => Vec::new(),
     }
 }
 
