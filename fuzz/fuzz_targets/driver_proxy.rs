@@ -7,15 +7,15 @@
 //! from the data of a well-formed status packet of that servo among the bytes it was given.
 #![no_main]
 
-use keypose::bus::NativeBus;
 use keypose::bus::protocol::packet::{Decoded, Direction, Framing};
 use keypose::bus::protocol::{codec, Codec};
-use keypose::bus::DecodeAnswer;
-use keypose::servo::{Register, RegisterTable};
 use keypose::bus::transport::Transport;
-use keypose::testing::VirtualServos;
+use keypose::bus::DecodeAnswer;
+use keypose::bus::NativeBus;
 use keypose::bus::ServoBus;
 use keypose::robot::Robot;
+use keypose::servo::{Register, RegisterTable};
+use keypose::testing::VirtualServos;
 use keypose_fuzz::builtin_robot;
 use libfuzzer_sys::fuzz_target;
 use std::io;

@@ -9,11 +9,11 @@
 //! journal held.
 #![no_main]
 
-use keypose::testing::VirtualBus;
 use keypose::sequence::{KeyframeList, Sequence};
 use keypose::teach::{
     files, BusCommand, Command, Entry, Event, FileCommand, Journal, Key, Session, TeachState,
 };
+use keypose::testing::VirtualBus;
 use keypose_fuzz::{builtin_robot, Choices};
 use libfuzzer_sys::fuzz_target;
 use std::collections::VecDeque;
@@ -63,7 +63,9 @@ fn reads_back(path: &Path, sequence: &Sequence, what: &str) {
 
 /// The journal just written reads back as written: the list and every version of its history.
 fn journal_reads_back(journal: &Journal, entry: &Entry) {
-    let read = journal.read().unwrap_or_else(|e| panic!("the journal written does not load: {e}"));
+    let read = journal
+        .read()
+        .unwrap_or_else(|e| panic!("the journal written does not load: {e}"));
     let versions = |e: &Entry| -> Vec<(Sequence, usize)> {
         std::iter::once(&e.list)
             .chain(e.history.undo.iter().map(|s| &s.version))
@@ -71,7 +73,11 @@ fn journal_reads_back(journal: &Journal, entry: &Entry) {
             .map(|v| (content(&v.sequence), v.current))
             .collect()
     };
-    assert_eq!(versions(&read), versions(entry), "the journal loads back changed");
+    assert_eq!(
+        versions(&read),
+        versions(entry),
+        "the journal loads back changed"
+    );
     let steps = |e: &Entry| -> Vec<(String, usize)> {
         (e.history.undo.iter().chain(&e.history.redo))
             .map(|s| (s.what.clone(), s.after))

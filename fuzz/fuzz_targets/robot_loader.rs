@@ -4,8 +4,8 @@
 //! value inside its limits; the forward kinematics at home are finite.
 #![no_main]
 
-use keypose::testing::VirtualServos;
 use keypose::robot::{Joint, Robot};
+use keypose::testing::VirtualServos;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -107,12 +107,20 @@ impl Read for Connection<'_> {
     fn read(&mut self, into: &mut [u8]) -> std::io::Result<usize> {
         let n = if !self.bytes.is_empty() {
             let n = into.len().min(self.bytes.len());
-            let n = if self.piece == 0 { n } else { n.min(self.piece) };
+            let n = if self.piece == 0 {
+                n
+            } else {
+                n.min(self.piece)
+            };
             into[..n].copy_from_slice(&self.bytes[..n]);
             self.bytes = &self.bytes[n..];
             n
         } else if let Some(filler) = self.filler {
-            let n = if self.piece == 0 { into.len() } else { into.len().min(self.piece) };
+            let n = if self.piece == 0 {
+                into.len()
+            } else {
+                into.len().min(self.piece)
+            };
             into[..n].fill(filler);
             n
         } else {
@@ -145,7 +153,9 @@ fn carries_the_token(bytes: &[u8]) -> bool {
             matches!(after, None | Some('&' | ' '))
         });
     for line in header_lines {
-        let Some((name, value)) = line.split_once(':') else { continue };
+        let Some((name, value)) = line.split_once(':') else {
+            continue;
+        };
         let value = value.trim_matches([' ', '\t']);
         if name.eq_ignore_ascii_case("host") {
             host |= HOSTS.iter().any(|h| h.eq_ignore_ascii_case(value));
@@ -206,7 +216,11 @@ fn serve(bytes: &[u8], piece: usize, filler: Option<u8>, context: &Context, limi
     if allowed {
         return;
     }
-    assert_eq!(ACTIONS.load(Ordering::SeqCst), actions, "an action without the token");
+    assert_eq!(
+        ACTIONS.load(Ordering::SeqCst),
+        actions,
+        "an action without the token"
+    );
     assert!(!lease_changed, "control taken or let go without the token");
     match reply {
         Reply::Answer(answer) if answer.status == 403 => {}

@@ -11,12 +11,12 @@
 #![no_main]
 
 use keypose::json::{InputError, Location};
-use keypose::testing::VirtualBus;
 use keypose::sequence::{KeyframeList, Sequence};
 use keypose::teach::files::FileError;
 use keypose::teach::{
     self, BusCommand, Command, Event, FileCommand, Key, MotionKind, Session, TeachState,
 };
+use keypose::testing::VirtualBus;
 use keypose_fuzz::{builtin_robot, Choices};
 use libfuzzer_sys::fuzz_target;
 use std::collections::VecDeque;
@@ -39,7 +39,7 @@ const KEYS: &[Key] = &[
     Key::Backspace,
     Key::Interrupt,
 ];
-const CHARS: &str = " undN><.,][hvpyUR+=-tTqwi0123456789e";
+const CHARS: &str = " undN><.,][hvpyUR+=-tTqwi0123456789eDmr";
 
 /// The state's commands carried out as `teach::apply` does, a jog waited for to its end, the
 /// other motions and files answered by a refusal.
@@ -69,6 +69,13 @@ fn apply(state: &mut TeachState, session: &mut Session, commands: Vec<Command>) 
                     path: journal.path().to_path_buf(),
                     source: Arc::new(io::Error::other("no journal while fuzzing")),
                 }))]
+            }
+            Command::File(FileCommand::WriteDirection { path, joint, .. }) => {
+                vec![Event::DirectionWritten {
+                    result: Err(FileError::Direction(no_files(&path))),
+                    joint,
+                    path,
+                }]
             }
             Command::File(FileCommand::ClearJournal { why, .. }) => vec![Event::JournalCleared {
                 why,
