@@ -82,7 +82,8 @@ try {
   results.addressBar = await a.evaluate(() => location.href);
   const snapshot = () => a.evaluate(() => window.studio.snapshot);
   // On a timeout, say what the page showed and what went wrong in it.
-  const waitFor = (fn, arg) => a.waitForFunction(fn, arg, { timeout: 15000 }).catch(async e => {
+  // Hang guards, not timings: a loaded machine may take long over a jog.
+  const waitFor = (fn, arg) => a.waitForFunction(fn, arg, { timeout: 120000 }).catch(async e => {
     const s = await a.evaluate(() => window.studio.snapshot).catch(() => null);
     fail(`${e.message}\nwaiting for ${fn}\nerrors: ${JSON.stringify(errors)}\nstatus: ${JSON.stringify(s && s.status)} joints: ${JSON.stringify(s && s.joints.map(j => [j.present, j.goal]))}` +
       `\nrefusals: ${JSON.stringify(await a.evaluate(() => window.studio.refusals).catch(() => null))}`);
@@ -247,7 +248,7 @@ try {
   results.playSnapshotToArrivalMs = watched.arrival;
   results.playSnapshotToFrameMs = watched.frame;
   await a.close();
-  await b.waitForFunction(() => window.studio.snapshot.activity.kind === 'idle', null, { timeout: 15000 });
+  await b.waitForFunction(() => window.studio.snapshot.activity.kind === 'idle', null, { timeout: 120000 });
   results.afterClose = await b.evaluate(() => window.studio.snapshot.status.text);
   // The watcher may take control once nobody holds it, and its keys then count. The closed
   // page's lease ends when its release arrives or, failing that, lapses (2 s): until then a

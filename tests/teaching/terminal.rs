@@ -129,8 +129,11 @@ fn a_scripted_session_builds_checks_and_plays_a_sequence() {
         .output()
         .unwrap();
     assert!(check.status.success(), "check failed:\n{}", stderr(&check));
+    // What is checked is that `play` accepts the file and plays it to the end; a stall of
+    // the loaded machine is not this test's subject (tests/servos has those).
     let play = keypose(dir.path())
         .args(["play", "taught.json", "--port", "virtual", "--quiet"])
+        .args(crate::common::TOLERATED_STALL)
         .output()
         .unwrap();
     assert!(play.status.success(), "play failed:\n{}", stderr(&play));
