@@ -41,41 +41,9 @@ struct Streak {
     /// None: the bus of a robot of one arm.
     arm: Option<String>,
     failures: u32,
-    /// Each servo's first failure in the streak and how often it failed, in the order they
-    /// first failed. The fault names the servo that failed most: a servo that stopped answering
-    /// fails every read, while another's read cut short once by a loaded machine does not.
-    servos: Vec<(BusError, u32)>,
+    first: BusError,
     /// When the first failure was counted.
     since: Instant,
-}
-
-impl Streak {
-    fn count(&mut self, error: BusError) {
-        self.failures += 1;
-        match self
-            .servos
-            .iter_mut()
-            .find(|(e, _)| e.servo() == error.servo())
-        {
-            Some((_, n)) => *n += 1,
-            None => self.servos.push((error, 1)),
-        }
-    }
-
-    /// The failure of the servo that failed most, the earliest of them on a tie.
-    fn fault(self) -> BusError {
-        let most = self.servos.iter().map(|(_, n)| *n).max().unwrap_or(0);
-        let index = self
-            .servos
-            .iter()
-            .position(|(_, n)| *n == most)
-            .unwrap_or(0);
-        self.servos
-            .into_iter()
-            .nth(index)
-            .expect("a streak has a failure")
-            .0
-    }
 }
 
 impl ReadStreak {
@@ -101,29 +69,26 @@ impl ReadStreak {
             BusError::Arm { arm, .. } => Some(arm.clone()),
             _ => None,
         };
-        let index = match self.buses.iter().position(|s| s.arm == arm) {
-            Some(index) => index,
-            None => {
-                self.buses.push(Streak {
-                    arm,
-                    failures: 0,
-                    servos: Vec::new(),
-                    since: now,
-                });
-                self.buses.len() - 1
-            }
+        let Some(index) = self.buses.iter().position(|s| s.arm == arm) else {
+            self.buses.push(Streak {
+                arm,
+                failures: 1,
+                first: error,
+                since: now,
+            });
+            return self.ended(self.buses.len() - 1, now);
         };
-        self.buses[index].count(error);
+        self.buses[index].failures += 1;
         self.ended(index, now)
     }
 
-    /// The streak at `index`, when it has reached the tolerance: the failure of its servo that
-    /// failed most, and the streak begun again.
+    /// The streak at `index`, when it has reached the tolerance: its first failure, and the
+    /// streak begun again.
     fn ended(&mut self, index: usize, now: Instant) -> Option<BusError> {
         let streak = &self.buses[index];
         let lasted = now.saturating_duration_since(streak.since);
         let over = streak.failures >= MAX_READ_FAILURES && lasted >= SILENT_FOR;
-        over.then(|| self.buses.remove(index).fault())
+        over.then(|| self.buses.remove(index).first)
     }
 }
 
@@ -185,7 +150,7 @@ mod tests {
         assert!(streak.failed_at(timeout("right", 4), at(1)).is_none());
         assert!(streak.failed_at(timeout("right", 10), at(2)).is_none());
         let fault = streak.failed_at(timeout("right", 11), at(3)).unwrap();
-        // The right bus's first failure (each of its servos failed once), not the left's.
+        // The right bus's first failure, not the left's.
         assert!(matches!(&fault, BusError::Arm { arm, servo: Some(4), .. } if arm == "right"));
         // The left streak goes on; a read every bus answered ends it.
         assert!(streak.failed_at(timeout("left", 2), at(4)).is_none());
@@ -193,22 +158,6 @@ mod tests {
         assert!(streak.failed_at(timeout("left", 3), at(5)).is_none());
         assert!(streak.failed_at(timeout("left", 3), at(6)).is_none());
         assert!(streak.failed_at(timeout("left", 3), at(7)).is_some());
-    }
-
-    /// A servo that stopped answering is named, not another whose read a loaded machine cut
-    /// short once as the streak began.
-    #[test]
-    fn the_fault_names_the_servo_that_failed_most() {
-        let mut streak = ReadStreak::default();
-        let t0 = Instant::now();
-        let at = |k: u32| t0 + FAILED_READ * k;
-        assert!(streak.failed_at(timeout("right", 1), at(0)).is_none());
-        assert!(streak.failed_at(timeout("right", 4), at(1)).is_none());
-        let fault = streak.failed_at(timeout("right", 4), at(2)).unwrap();
-        assert!(
-            matches!(&fault, BusError::Arm { servo: Some(4), .. }),
-            "{fault}"
-        );
     }
 
     #[test]
