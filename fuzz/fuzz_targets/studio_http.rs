@@ -33,20 +33,8 @@ const TOKEN: &str = "0123456789abcdef0123456789abcdef0123456789abcdef0123456789a
 const ADDRESS: &str = "127.0.0.1:8123";
 /// The names a `Host` line may give the server by (a loopback address: `localhost` too).
 const HOSTS: [&str; 2] = [ADDRESS, "localhost:8123"];
-/// Static files, served on Host and Origin alone (they hold no secret).
-const STATIC: &[&str] = &[
-    "/app.js",
-    "/view3d.js",
-    "/timeline.js",
-    "/handle.js",
-    "/heartbeat.js",
-    "/style.css",
-    "/vendor/three/three.module.min.js",
-    "/vendor/three/three.core.min.js",
-    "/vendor/three/OrbitControls.js",
-    "/vendor/three/TransformControls.js",
-    "/vendor/three/LICENSE",
-];
+/// The page's folder in the source tree: the static files are its files, compiled in.
+const WEB: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../src/studio/web");
 
 /// The bytes the process has allocated and not freed, and the most since the last reset.
 struct Counting;
@@ -167,12 +155,18 @@ fn carries_the_token(bytes: &[u8]) -> bool {
     host && token
 }
 
-/// Whether the request line asks for one of the static files.
-fn asks_for_a_static_file(bytes: &[u8]) -> bool {
+/// The file of the page's folder the request line names, if any, other than the page itself
+/// (which needs the token): what may be answered without the token, byte for byte. Read from
+/// the source tree, independently of the server's own list of files.
+fn static_file(bytes: &[u8]) -> Option<Vec<u8>> {
     let (request_line, _) = head_lines(bytes);
-    let target = request_line.split(' ').nth(1).unwrap_or("");
-    let path = target.split('?').next().unwrap_or("");
-    STATIC.contains(&path)
+    let target = request_line.split(' ').nth(1)?;
+    let path = target.split('?').next()?.strip_prefix('/')?;
+    let plain = path.split('/').all(|part| !matches!(part, "" | "." | ".."));
+    if !plain || path == "index.html" {
+        return None;
+    }
+    std::fs::read(std::path::Path::new(WEB).join(path)).ok()
 }
 
 fuzz_target!(|data: &[u8]| {
@@ -224,7 +218,8 @@ fn serve(bytes: &[u8], piece: usize, filler: Option<u8>, context: &Context, limi
     assert!(!lease_changed, "control taken or let go without the token");
     match reply {
         Reply::Answer(answer) if answer.status == 403 => {}
-        Reply::Answer(answer) if asks_for_a_static_file(bytes) && answer.status == 200 => {}
+        Reply::Answer(answer)
+            if answer.status == 200 && static_file(bytes).as_deref() == Some(answer.body()) => {}
         Reply::Answer(answer) => panic!("answered {} without the token", answer.status),
         Reply::Events(_) => panic!("an event stream without the token"),
     }

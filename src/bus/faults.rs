@@ -28,6 +28,12 @@ pub const SILENT_FOR: Duration = FAILED_READ.saturating_mul(MAX_READ_FAILURES - 
 /// name servos that did nothing wrong. A port that is gone, a hung bus (in a cell) or an alarm
 /// is a fault at once.
 ///
+/// A read a cell cut short ([`BusError::CutShort`]) is weaker evidence: on a busy machine a
+/// healthy servo's answer may not have been read before its cycle's cut. So a streak names its
+/// first failure that was waited out in full, and a streak of cut-short reads only names the
+/// servo that failed most often in it (the earliest of equals): the silent servo fails every
+/// cycle, a servo the machine kept waiting once or twice.
+///
 /// In a cell each arm's bus has a streak of its own ([`BusError::Arm`] says whose failure it
 /// is): a lost answer on one bus says nothing of another, and the fault must name the arm
 /// whose bus failed, since that is the arm that stops being served.
@@ -41,9 +47,49 @@ struct Streak {
     /// None: the bus of a robot of one arm.
     arm: Option<String>,
     failures: u32,
-    first: BusError,
+    /// The first failure waited out in full.
+    first_full: Option<BusError>,
+    /// The failures cut short, in order (a streak lasts [`SILENT_FOR`] or so: a few dozen).
+    cut_short: Vec<BusError>,
     /// When the first failure was counted.
     since: Instant,
+}
+
+impl Streak {
+    fn new(arm: Option<String>, since: Instant) -> Streak {
+        Streak {
+            arm,
+            failures: 0,
+            first_full: None,
+            cut_short: Vec::new(),
+            since,
+        }
+    }
+
+    fn count(&mut self, error: BusError) {
+        self.failures += 1;
+        if matches!(error.root(), BusError::CutShort { .. }) {
+            self.cut_short.push(error);
+        } else if self.first_full.is_none() {
+            self.first_full = Some(error);
+        }
+    }
+
+    /// The failure the streak is reported by (see [`ReadStreak`]).
+    fn named(self) -> BusError {
+        if let Some(full) = self.first_full {
+            return full;
+        }
+        let times = |servo| self.cut_short.iter().filter(|e| e.servo() == servo).count();
+        let most = (0..self.cut_short.len())
+            .rev()
+            .max_by_key(|&i| times(self.cut_short[i].servo()))
+            .expect("a streak has a failure");
+        self.cut_short
+            .into_iter()
+            .nth(most)
+            .expect("an index of the list")
+    }
 }
 
 impl ReadStreak {
@@ -69,26 +115,24 @@ impl ReadStreak {
             BusError::Arm { arm, .. } => Some(arm.clone()),
             _ => None,
         };
-        let Some(index) = self.buses.iter().position(|s| s.arm == arm) else {
-            self.buses.push(Streak {
-                arm,
-                failures: 1,
-                first: error,
-                since: now,
-            });
-            return self.ended(self.buses.len() - 1, now);
+        let index = match self.buses.iter().position(|s| s.arm == arm) {
+            Some(index) => index,
+            None => {
+                self.buses.push(Streak::new(arm, now));
+                self.buses.len() - 1
+            }
         };
-        self.buses[index].failures += 1;
+        self.buses[index].count(error);
         self.ended(index, now)
     }
 
-    /// The streak at `index`, when it has reached the tolerance: its first failure, and the
-    /// streak begun again.
+    /// The streak at `index`, when it has reached the tolerance: the failure it is reported
+    /// by, and the streak begun again.
     fn ended(&mut self, index: usize, now: Instant) -> Option<BusError> {
         let streak = &self.buses[index];
         let lasted = now.saturating_duration_since(streak.since);
         let over = streak.failures >= MAX_READ_FAILURES && lasted >= SILENT_FOR;
-        over.then(|| self.buses.remove(index).first)
+        over.then(|| self.buses.remove(index).named())
     }
 }
 
@@ -139,6 +183,47 @@ mod tests {
         }
     }
 
+    fn cut_short(arm: &str, id: u8) -> BusError {
+        BusError::Arm {
+            arm: arm.into(),
+            servo: Some(id),
+            source: Box::new(BusError::CutShort { id, waited_ms: 3 }),
+        }
+    }
+
+    #[test]
+    fn a_streak_of_cut_short_reads_names_the_servo_that_failed_most_a_full_wait_first() {
+        let t0 = Instant::now();
+        let period = Duration::from_millis(10);
+        let at = |k: u32| t0 + period * k;
+        // A busy machine kept servo 1's answer from being read once; then servo 4 is silent
+        // every cycle.
+        let mut streak = ReadStreak::default();
+        assert!(streak.failed_at(cut_short("right", 1), at(0)).is_none());
+        let mut fault = None;
+        for k in 1..100 {
+            fault = fault.or(streak.failed_at(cut_short("right", 4), at(k)));
+        }
+        assert_eq!(fault.expect("a fault").servo(), Some(4));
+        // Equals: the earliest.
+        let mut streak = ReadStreak::default();
+        let mut fault = None;
+        for k in 0..100 {
+            let id = if k % 2 == 0 { 2 } else { 5 };
+            fault = fault.or(streak.failed_at(cut_short("right", id), at(k)));
+        }
+        assert_eq!(fault.expect("a fault").servo(), Some(2));
+        // A read waited out in full is stronger evidence than any number cut short.
+        let mut streak = ReadStreak::default();
+        assert!(streak.failed_at(cut_short("right", 4), at(0)).is_none());
+        assert!(streak.failed_at(timeout("right", 6), at(1)).is_none());
+        let mut fault = None;
+        for k in 2..100 {
+            fault = fault.or(streak.failed_at(cut_short("right", 4), at(k)));
+        }
+        assert_eq!(fault.expect("a fault").servo(), Some(6));
+    }
+
     #[test]
     fn each_arms_bus_keeps_its_own_streak() {
         let mut streak = ReadStreak::default();
@@ -172,13 +257,13 @@ mod tests {
         for k in 0..periods as u32 {
             assert!(
                 streak
-                    .failed_at(timeout("right", 1), t0 + period * k)
+                    .failed_at(cut_short("right", 1), t0 + period * k)
                     .is_none(),
                 "a fault after {k} periods"
             );
         }
         // (3 − 1) × 3 × 40 ms after the first failure, it is.
-        let fault = streak.failed_at(timeout("right", 1), t0 + SILENT_FOR);
+        let fault = streak.failed_at(cut_short("right", 1), t0 + SILENT_FOR);
         assert!(matches!(fault, Some(BusError::Arm { arm, .. }) if arm == "right"));
     }
 }

@@ -112,6 +112,16 @@ pub enum BusError {
         /// How much of that wait keypose did not run.
         starved_ms: u64,
     },
+    /// No answer in the part of a cycle a cell left the read: it was cut short so that the
+    /// other arms are served on time (see [`CellBus`]), not waited out, so on a busy machine a
+    /// healthy servo's answer may simply not have been read yet.
+    #[error("servo {id}: no answer in the {waited_ms} ms its cycle left the read (cut short so that the cell's other arms are served on time)")]
+    CutShort {
+        /// The servo asked.
+        id: u8,
+        /// How long the answer was waited for.
+        waited_ms: u64,
+    },
     /// An answer that arrived damaged.
     #[error("servo {id}: corrupt answer ({source})")]
     Corrupt {
@@ -320,6 +330,7 @@ impl BusError {
     pub fn servo(&self) -> Option<u8> {
         match self {
             BusError::Timeout { id, .. }
+            | BusError::CutShort { id, .. }
             | BusError::Stale { id, .. }
             | BusError::Starved { id, .. }
             | BusError::Corrupt { id, .. }
@@ -365,7 +376,10 @@ impl BusError {
     pub fn is_no_answer(&self) -> bool {
         matches!(
             self.root(),
-            BusError::Timeout { .. } | BusError::Stale { .. } | BusError::Starved { .. }
+            BusError::Timeout { .. }
+                | BusError::CutShort { .. }
+                | BusError::Stale { .. }
+                | BusError::Starved { .. }
         )
     }
 

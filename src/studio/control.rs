@@ -1,6 +1,9 @@
 //! Which page controls the arm: a lease that one client holds at a time and renews by its
 //! heartbeat; the others watch. A lease that lapses (the page closed, the network went) or
 //! whose event stream broke is released, and the engine then stops playback the soft way.
+//! A page whose lease lapsed while it lived (a busy machine kept its heartbeat back) takes it
+//! back by acting, if no other page has taken it meanwhile: its key is proof of life, as a
+//! heartbeat is, and what was playing has been stopped already.
 
 use std::time::{Duration, Instant};
 
@@ -27,6 +30,8 @@ pub struct Lease {
     holder: Option<(String, Instant)>,
     /// Set when a holder is lost (not when it lets go on purpose); taken by the engine.
     lost: bool,
+    /// The holder whose lease lapsed last, while nobody holds it since.
+    lapsed: Option<String>,
 }
 
 impl Lease {
@@ -38,17 +43,27 @@ impl Lease {
         match &mut self.holder {
             Some((holder, seen)) if holder == client => *seen = now,
             Some(_) => return Err(ControlRefusal::Taken),
-            None => self.holder = Some((client.to_string(), now)),
+            None => self.grant(client, now),
         }
         Ok(())
     }
 
-    /// Whether `client` may act now.
+    fn grant(&mut self, client: &str, now: Instant) {
+        self.holder = Some((client.to_string(), now));
+        self.lapsed = None;
+    }
+
+    /// Whether `client` may act now: it holds the lease, or held it until it lapsed and nobody
+    /// has taken it since (it takes it back).
     pub(crate) fn check(&mut self, client: &str, now: Instant) -> Result<(), ControlRefusal> {
         self.expire(now);
         match &self.holder {
             Some((holder, _)) if holder == client => Ok(()),
             Some(_) => Err(ControlRefusal::Taken),
+            None if self.lapsed.as_deref() == Some(client) => {
+                self.grant(client, now);
+                Ok(())
+            }
             None => Err(ControlRefusal::NotController),
         }
     }
@@ -57,6 +72,7 @@ impl Lease {
     pub(crate) fn release(&mut self, client: &str, lost: bool) -> bool {
         if self.holder.as_ref().is_some_and(|(h, _)| h == client) {
             self.holder = None;
+            self.lapsed = None;
             self.lost |= lost;
             true
         } else {
@@ -71,7 +87,7 @@ impl Lease {
             .as_ref()
             .is_some_and(|(_, seen)| now.saturating_duration_since(*seen) > LEASE)
         {
-            self.holder = None;
+            self.lapsed = self.holder.take().map(|(holder, _)| holder);
             self.lost = true;
         }
     }
@@ -137,13 +153,35 @@ mod tests {
         assert_eq!(lease.check("a", last + Duration::from_millis(2000)), Ok(()));
         assert!(!lease.take_lost());
         // 2.001 s of silence: gone, and the engine hears of it once.
-        assert_eq!(
-            lease.check("a", last + Duration::from_millis(2001)),
-            Err(ControlRefusal::NotController)
-        );
+        let lapsed = last + Duration::from_millis(2001);
+        lease.expire(lapsed);
+        assert!(!lease.is_held());
         assert!(lease.take_lost());
         assert!(!lease.take_lost());
-        assert_eq!(lease.claim("b", last + Duration::from_millis(2001)), Ok(()));
+        assert_eq!(lease.claim("b", lapsed), Ok(()));
+        // The page that lapsed finds it taken.
+        assert_eq!(lease.check("a", lapsed), Err(ControlRefusal::Taken));
+    }
+
+    #[test]
+    fn a_page_whose_lease_lapsed_takes_it_back_by_acting_unless_another_took_it() {
+        let t0 = Instant::now();
+        let lapsed = t0 + LEASE + Duration::from_millis(1);
+        let mut lease = Lease::default();
+        lease.claim("a", t0).unwrap();
+        // A watcher does not take a lapsed lease by acting; the page that held it does,
+        // and the engine has heard of the loss (playback stopped) all the same.
+        assert_eq!(lease.check("b", lapsed), Err(ControlRefusal::NotController));
+        assert_eq!(lease.check("a", lapsed), Ok(()));
+        assert!(lease.is_held());
+        assert!(lease.take_lost());
+        // Letting go on purpose, or a broken stream, is not a lapse: acting does not take
+        // the lease back then.
+        lease.release("a", true);
+        assert_eq!(lease.check("a", lapsed), Err(ControlRefusal::NotController));
+        lease.claim("a", lapsed).unwrap();
+        lease.release("a", false);
+        assert_eq!(lease.check("a", lapsed), Err(ControlRefusal::NotController));
     }
 
     #[test]

@@ -357,6 +357,11 @@ impl Response {
         }
     }
 
+    /// The body as it is sent.
+    pub fn body(&self) -> &[u8] {
+        &self.body
+    }
+
     pub(crate) fn with_header(mut self, name: &'static str, value: impl Into<String>) -> Response {
         self.headers.push((name, value.into()));
         self

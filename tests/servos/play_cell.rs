@@ -404,7 +404,7 @@ fn a_silent_bus_does_not_hold_the_other_arms_goals() {
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(3), "{err}");
     assert!(
-        err.contains("joint right/shoulder_pan: right bus: servo 1: no answer within"),
+        err.contains("joint right/shoulder_pan: right bus: servo 1: no answer"),
         "{err}"
     );
     assert!(

@@ -60,6 +60,7 @@ try {
     drawnWorld: window.studio.view.toolWorld().toArray(),
     parts: window.studio.view.parts.length,
   })));
+  const goalsBefore = (await state()).joints.map(j => j.goal);
   // The handle's ball 10 mm along the scene's x, as a drag leaves it.
   await page.evaluate(() => {
     const handle = window.studio.handle;
@@ -68,8 +69,13 @@ try {
   });
   await page.evaluate(() => window.studio.targetsDone());
   await page.evaluate(() => window.studio.sent());
-  // Until the handle's jog has arrived (a target's answer comes when its jog starts).
-  while ((await state()).activity.kind !== 'idle') await page.waitForTimeout(50);
+  // Until the handle's jog has arrived: its goals published and the jog over. A target's
+  // answer comes when its jog starts, which the published state may not show yet; the wait
+  // is a hang guard, not a timing (a loaded machine may take long).
+  const moved = s => s.activity.kind === 'idle' && s.joints.some((j, i) => j.goal !== goalsBefore[i]);
+  for (const start = Date.now(); !moved(await state()); await page.waitForTimeout(50)) {
+    if (Date.now() - start > 120000) fail(`the handle's jog did not arrive: ${JSON.stringify(await state())}`);
+  }
   results.target = await page.evaluate(() => window.studio.targets.at(-1));
   results.goals = (await state()).joints.map(j => j.goal);
   results.errors = errors;

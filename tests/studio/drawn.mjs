@@ -1,6 +1,7 @@
 // A studio without an arm (run by tests/teaching/studio_edit.rs as `node drawn.mjs URL PID`):
 // `keypose studio SEQ` without --port. The page jogs the drawn arm, captures a key, drags the
-// tool handle, goes to a key, simulates and saves; then the studio's process is killed
+// tool handle, goes to a key and simulates; the studio's process is stopped for 3 s (PID) and
+// the page takes control back once it runs; it saves; then the studio's process is killed
 // (PID) and the page must say so and stop claiming control, and a key pressed then must be
 // answered, not lost. Prints one JSON line; the test judges it.
 import { launchChromium } from './browser.mjs';
@@ -21,7 +22,7 @@ try {
   page.on('pageerror', e => results.errors.push(`page error: ${e.message}`));
   page.on('console', m => {
     // Once the studio is killed, the browser logs the requests it refuses.
-    if (m.type() === 'error' && !step.startsWith('killed')) results.errors.push(`console: ${m.text()}`);
+    if (m.type() === 'error' && !['killed', 'stalled'].some(s => step.startsWith(s))) results.errors.push(`console: ${m.text()}`);
   });
   await page.goto(url);
   await page.waitForFunction(() => window.studio && window.studio.snapshot && window.studio.controller && window.studio.view);
@@ -66,6 +67,23 @@ try {
   await page.click('#simulate');
   await waitFor(() => window.studio.simulation, undefined, 300000);
   results.simulated = await page.evaluate(() => window.studio.simulation.report.passed !== undefined);
+
+  // The studio stopped for 3 s (a machine too busy to run it): the page's heartbeat goes
+  // unanswered, so it says it watches, and its lease lapses; once the studio runs again the
+  // page takes control back by itself, and a key pressed at once is taken.
+  step = 'stalled';
+  process.kill(Number(pid), 'SIGSTOP');
+  try {
+    await waitFor(() => !window.studio.controller);
+    results.badgeWhenStalled = await page.evaluate(() => document.getElementById('control').textContent);
+    await new Promise(r => setTimeout(r, 1000));
+  } finally {
+    process.kill(Number(pid), 'SIGCONT');
+  }
+  step = 'resumed';
+  results.keyAfterStall = await page.evaluate(() => window.studio.send({ key: 'select-key:0' }));
+  await waitFor(() => window.studio.controller);
+  results.badgeAfterStall = await page.evaluate(() => document.getElementById('control').textContent);
 
   step = 'save';
   await page.keyboard.press('w');

@@ -75,9 +75,10 @@ fn the_page_undoes_and_redoes_edits_and_a_click_on_a_key_does_not_move_it() {
 /// `keypose studio SEQ` without `--port`: the arm drawn only. The page jogs it (the pan by
 /// 10°, which the drawn servo reaches as 114 ticks of 4096 a turn: 10.01953125°), captures a
 /// key, drags the tool handle (10 mm along −x, taken), moves to key 0 (home: every joint at
-/// 0°, as the file says), simulates and saves; the file has the captured key. Then the studio
-/// is killed: the page stops claiming control and says the studio does not answer, and a key
-/// pressed then is answered as not sent. How long the page took to notice is measured, not
+/// 0°, as the file says) and simulates. The studio is stopped for 3 s: the page watches
+/// meanwhile and takes control back when it runs again. It saves; the file has the captured
+/// key. Then the studio is killed: the page stops claiming control and says the studio does
+/// not answer, and a key pressed then is answered as not sent. How long the page took to notice is measured, not
 /// judged.
 #[test]
 fn without_a_port_the_studio_edits_a_drawn_arm_and_a_lost_server_is_said() {
@@ -127,6 +128,12 @@ fn without_a_port_the_studio_edits_a_drawn_arm_and_a_lost_server_is_said() {
         Some(&keypose::sequence::KeyValue::Joint(10.0)),
         "the capture, rounded to 0.1°"
     );
+
+    // Stopped for 3 s, the studio lost the page's heartbeat; running again, the page's
+    // first key took control back, and the badge says so.
+    assert_eq!(results["badgeWhenStalled"], json!("watching"));
+    assert_eq!(results["keyAfterStall"], json!(true), "{results}");
+    assert_eq!(results["badgeAfterStall"], json!("in control"));
 
     assert_eq!(results["badge"], json!("watching"));
     for said in ["statusWhenLost", "statusAfterKey"] {

@@ -566,7 +566,7 @@ mod tests {
         let error = bus.read_positions(&ids).unwrap_err();
         assert!(
             // Starved too: on a loaded machine this process may not run for part of the wait.
-            matches!(error.root(), BusError::Timeout { id: 1, timeout_ms }
+            matches!(error.root(), BusError::CutShort { id: 1, waited_ms: timeout_ms }
                 | BusError::Starved { id: 1, timeout_ms, .. } if *timeout_ms < 40),
             "{error}"
         );

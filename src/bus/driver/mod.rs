@@ -300,6 +300,10 @@ impl NativeBus {
                         timeout_ms,
                         starved_ms: asleep.as_millis() as u64,
                     },
+                    None if cut => BusError::CutShort {
+                        id,
+                        waited_ms: timeout_ms,
+                    },
                     None => BusError::Timeout { id, timeout_ms },
                 },
             });

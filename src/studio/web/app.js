@@ -103,7 +103,7 @@ async function postNow(body) {
   if (!reply.ok) {
     studio.refusals.push(reply.answer.error);
     showStatus(reply.answer.error || 'refused', true);
-    if (reply.lost) setController(false, NO_ANSWER);
+    if (reply.lost) setController(false, NO_ANSWER, true);
   } else if (reply.answer.status && !studio.snapshot?.prompt) {
     // The answer's status replaces whatever the page said before (a stale refusal too).
     showStatus(reply.answer.status.text, reply.answer.status.error);
@@ -124,8 +124,14 @@ async function claim() {
   return ok;
 }
 
-function setController(on, reason) {
+// Whether this page asks to control: while it does, the heartbeat goes on. A studio that
+// does not answer for a moment (a busy machine) leaves the page watching, but still asking:
+// the first answered beat (or key) takes control back, unless another page took it.
+let asking = false;
+
+function setController(on, reason, stillAsking = false) {
   studio.controller = on;
+  asking = on || stillAsking;
   beating();
   $('control').textContent = on ? 'in control' : 'watching';
   $('control').className = 'badge ' + (on ? 'controller' : 'watcher');
@@ -140,17 +146,22 @@ function setController(on, reason) {
 // since nobody sees the Stop button); back in view, it asks again, unless another one took it.
 const heart = new Worker('/heartbeat.js');
 heart.onmessage = ({ data }) => {
-  if (data.ok !== studio.controller) setController(data.ok, data.ok ? '' : data.answer.error);
+  if (data.ok !== studio.controller) {
+    setController(data.ok, data.ok ? '' : data.answer.error, data.lost);
+  } else if (!data.ok && !data.lost) {
+    // Still asking after a moment without answers, and now refused: another page has it.
+    setController(false, data.answer.error);
+  }
 };
 let beats = false;
 function beating() {
-  const on = studio.controller && !document.hidden;
+  const on = asking && !document.hidden;
   if (on !== beats) heart.postMessage({ beat: on, headers, ms: HEARTBEAT_MS });
   beats = on;
 }
 let hadControl = false;
 document.addEventListener('visibilitychange', () => {
-  if (document.hidden) hadControl = studio.controller;
+  if (document.hidden) hadControl = asking;
   else if (hadControl && !studio.controller) claim();
   beating();
 });
@@ -428,7 +439,7 @@ async function start() {
       if (studio.loadMs === null) studio.loadMs = performance.now();
     };
   };
-  watchStream(events, () => setController(false, NO_ANSWER), claim);
+  watchStream(events, () => setController(false, NO_ANSWER, asking), claim);
   events.addEventListener('end', () => {
     events.close();
     showStatus('the studio session has ended (keypose studio quit)', true);

@@ -15,6 +15,6 @@ async function beat(headers) {
     const response = await fetch('/api/control', { method: 'POST', headers, body: '{}', signal: AbortSignal.timeout(2000) });
     postMessage({ ok: response.ok, answer: await response.json().catch(() => ({})) });
   } catch {
-    postMessage({ ok: false, answer: { error: 'the studio does not answer: keypose studio has ended or cannot be reached (keys are not sent)' } });
+    postMessage({ ok: false, lost: true, answer: { error: 'the studio does not answer: keypose studio has ended or cannot be reached (keys are not sent)' } });
   }
 }
