@@ -4,8 +4,9 @@
 
 use super::gjk::Core;
 use crate::pose::RigidTransform;
+use crate::robot::mjcf::{child, frame, mimics, numbers, vector, AttributeError, Mimic};
 use crate::robot::JointKind;
-use glam::{DQuat, DVec3};
+use glam::DVec3;
 
 /// A shape in its body's frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -65,15 +66,6 @@ pub(super) struct Geom {
     pub shape: Shape,
 }
 
-/// `joint` = offset + scale · `follows`, in the model's units.
-#[derive(Debug, Clone, PartialEq)]
-pub(super) struct Mimic {
-    pub joint: String,
-    pub follows: String,
-    pub offset: f64,
-    pub scale: f64,
-}
-
 #[derive(Debug, Clone, Default)]
 pub(super) struct Model {
     /// Parents before children.
@@ -88,13 +80,8 @@ pub(super) struct Model {
 pub(super) enum MjcfError {
     #[error("not XML: {0}")]
     Xml(String),
-    #[error("{element} {name:?}: {attribute} is not {expected} numbers")]
-    Numbers {
-        element: String,
-        name: String,
-        attribute: String,
-        expected: usize,
-    },
+    #[error(transparent)]
+    Attribute(#[from] AttributeError),
     #[error("<exclude> names body {0:?}, which the model does not have")]
     UnknownBody(String),
 }
@@ -122,21 +109,7 @@ pub(super) fn parse(text: &str) -> Result<Model, MjcfError> {
             model.excluded.push(pair);
         }
     }
-    if let Some(equality) = child(&root, "equality") {
-        for node in equality.children().filter(|n| n.has_tag_name("joint")) {
-            let (Some(joint), Some(follows)) = (node.attribute("joint1"), node.attribute("joint2"))
-            else {
-                continue;
-            };
-            let coef = numbers(&node, "polycoef", "0 1 0 0 0", 5)?;
-            model.mimics.push(Mimic {
-                joint: joint.to_string(),
-                follows: follows.to_string(),
-                offset: coef[0],
-                scale: coef[1],
-            });
-        }
-    }
+    model.mimics = mimics(&root)?;
     Ok(model)
 }
 
@@ -177,14 +150,7 @@ fn read_body(
 /// A geom's collision shape; `None` for kinds the built-in models do not collide with
 /// (planes are the world's floor, checked apart).
 fn shape(node: &roxmltree::Node) -> Result<Option<Shape>, MjcfError> {
-    let size = |count| {
-        numbers(
-            node,
-            "size",
-            node.attribute("size").unwrap_or("0.005"),
-            count,
-        )
-    };
+    let size = |count| numbers(node, "size", "0.005", count);
     Ok(Some(match node.attribute("type").unwrap_or("sphere") {
         "box" => {
             let s = size(3)?;
@@ -196,8 +162,8 @@ fn shape(node: &roxmltree::Node) -> Result<Option<Shape>, MjcfError> {
         "capsule" => {
             let radius = size(0)?[0];
             match node.attribute("fromto") {
-                Some(text) => {
-                    let v = numbers(node, "fromto", text, 6)?;
+                Some(_) => {
+                    let v = numbers(node, "fromto", "", 6)?;
                     Shape::Swept {
                         a: DVec3::new(v[0], v[1], v[2]),
                         b: DVec3::new(v[3], v[4], v[5]),
@@ -225,49 +191,4 @@ fn shape(node: &roxmltree::Node) -> Result<Option<Shape>, MjcfError> {
         }
         _ => return Ok(None),
     }))
-}
-
-fn frame(node: &roxmltree::Node) -> Result<RigidTransform, MjcfError> {
-    let pos = vector(node, "pos", "0 0 0")?;
-    let q = numbers(node, "quat", node.attribute("quat").unwrap_or("1 0 0 0"), 4)?;
-    Ok(RigidTransform::new(
-        pos,
-        DQuat::from_xyzw(q[1], q[2], q[3], q[0]).normalize(),
-    ))
-}
-
-fn child<'a, 'i>(node: &roxmltree::Node<'a, 'i>, tag: &str) -> Option<roxmltree::Node<'a, 'i>> {
-    node.children().find(|n| n.has_tag_name(tag))
-}
-
-fn vector(node: &roxmltree::Node, attribute: &str, default: &str) -> Result<DVec3, MjcfError> {
-    let v = numbers(
-        node,
-        attribute,
-        node.attribute(attribute).unwrap_or(default),
-        3,
-    )?;
-    Ok(DVec3::new(v[0], v[1], v[2]))
-}
-
-/// The first `count` numbers of an attribute (0: at least one).
-fn numbers(
-    node: &roxmltree::Node,
-    attribute: &str,
-    text: &str,
-    count: usize,
-) -> Result<Vec<f64>, MjcfError> {
-    let parsed: Option<Vec<f64>> = text
-        .split_whitespace()
-        .map(|x| x.parse::<f64>().ok().filter(|v| v.is_finite()))
-        .collect();
-    match parsed {
-        Some(v) if v.len() >= count.max(1) => Ok(v),
-        _ => Err(MjcfError::Numbers {
-            element: node.tag_name().name().to_string(),
-            name: node.attribute("name").unwrap_or_default().to_string(),
-            attribute: attribute.to_string(),
-            expected: count.max(1),
-        }),
-    }
 }

@@ -12,6 +12,7 @@ mod gravity;
 mod lerobot;
 mod lerobot_names;
 mod load;
+pub(crate) mod mjcf;
 pub(crate) mod profile;
 mod servo;
 

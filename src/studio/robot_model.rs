@@ -11,8 +11,8 @@
 //! built-in robot (`meshes`) come only with shapes that passed that check.
 
 use crate::pose::RigidTransform;
+use crate::robot::mjcf::{child, frame, mimics, numbers, vector, AttributeError};
 use crate::robot::{JointKind, Robot};
-use glam::{DQuat, DVec3};
 use serde_json::{json, Value};
 
 /// How far a model's body may sit from its joint's origin: the models write six digits.
@@ -23,14 +23,8 @@ const MATCH_TOLERANCE: f64 = 1e-5;
 pub(crate) enum ModelError {
     #[error("the model is not XML: {0}")]
     Xml(String),
-    #[error("{element} {name:?}: {attribute}={value:?} is not {expected}")]
-    Attribute {
-        element: String,
-        name: String,
-        attribute: String,
-        value: String,
-        expected: String,
-    },
+    #[error(transparent)]
+    Attribute(#[from] AttributeError),
     #[error("body of joint {joint} is not at the robot's joint origin")]
     Mismatch { joint: String },
     #[error("joint {joint} of the robot has no body in the model")]
@@ -161,15 +155,15 @@ fn shapes(robot: &Robot, text: &str) -> Result<(Value, Value), ModelError> {
             Some(_) => {}
         }
     }
-    Ok((Value::Array(bodies), mimics(&root)?))
+    let mimics = mimics(&root)?
+        .into_iter()
+        .map(|m| json!({"joint": m.joint, "follows": m.follows, "offset": m.offset, "scale": m.scale}))
+        .collect();
+    Ok((Value::Array(bodies), Value::Array(mimics)))
 }
 
 fn same_frame(a: &RigidTransform, b: &RigidTransform) -> bool {
     (a.t - b.t).length() < MATCH_TOLERANCE && a.r.dot(b.r).abs() > 1.0 - MATCH_TOLERANCE
-}
-
-fn child<'a, 'i>(node: &roxmltree::Node<'a, 'i>, tag: &str) -> Option<roxmltree::Node<'a, 'i>> {
-    node.children().find(|n| n.has_tag_name(tag))
 }
 
 /// Material name → rgba.
@@ -181,7 +175,7 @@ fn materials(root: &roxmltree::Node) -> Result<Vec<(String, Vec<f64>)>, ModelErr
         .children()
         .filter(|n| n.has_tag_name("material"))
         .filter_map(|m| Some((m, m.attribute("name")?, m.attribute("rgba")?)))
-        .map(|(m, name, rgba)| Ok((name.to_string(), numbers(&m, "rgba", rgba, 4)?)))
+        .map(|(m, name, _)| Ok((name.to_string(), numbers(&m, "rgba", "", 4)?)))
         .collect()
 }
 
@@ -191,13 +185,11 @@ fn body(
     materials: &[(String, Vec<f64>)],
     found: &mut Vec<(String, RigidTransform)>,
 ) -> Result<Value, ModelError> {
-    let pos = vector(node, "pos", "0 0 0")?;
-    let quat = numbers(node, "quat", node.attribute("quat").unwrap_or("1 0 0 0"), 4)?;
-    let rotation = DQuat::from_xyzw(quat[1], quat[2], quat[3], quat[0]).normalize();
+    let origin = frame(node)?;
     let joint = match child(node, "joint") {
         Some(j) => {
             let name = j.attribute("name").unwrap_or_default().to_string();
-            found.push((name.clone(), RigidTransform::new(pos, rotation)));
+            found.push((name.clone(), origin));
             let axis = vector(&j, "axis", "0 0 1")?;
             let kind = match j.attribute("type").unwrap_or("hinge") {
                 "slide" => "prismatic",
@@ -219,7 +211,7 @@ fn body(
         .collect::<Result<Vec<_>, _>>()?;
     Ok(json!({
         "name": node.attribute("name").unwrap_or_default(),
-        "origin": transform(&RigidTransform::new(pos, rotation)),
+        "origin": transform(&origin),
         "joint": joint,
         "geoms": geoms.into_iter().flatten().collect::<Vec<_>>(),
         "children": children,
@@ -235,9 +227,9 @@ fn geom(
     if !matches!(kind, "box" | "capsule" | "cylinder" | "sphere") {
         return Ok(None);
     }
-    let size = numbers(node, "size", node.attribute("size").unwrap_or("0.005"), 0)?;
+    let size = numbers(node, "size", "0.005", 0)?;
     let rgba = match (node.attribute("rgba"), node.attribute("material")) {
-        (Some(rgba), _) => numbers(node, "rgba", rgba, 4)?,
+        (Some(_), _) => numbers(node, "rgba", "", 4)?,
         (None, Some(m)) => materials
             .iter()
             .find(|(name, _)| name == m)
@@ -245,84 +237,23 @@ fn geom(
         (None, None) => vec![0.6, 0.6, 0.6, 1.0],
     };
     let fromto = match node.attribute("fromto") {
-        Some(text) => Some(numbers(node, "fromto", text, 6)?),
+        Some(_) => Some(numbers(node, "fromto", "", 6)?),
         None => None,
     };
-    let pos = vector(node, "pos", "0 0 0")?;
-    let quat = numbers(node, "quat", node.attribute("quat").unwrap_or("1 0 0 0"), 4)?;
-    let rotation = DQuat::from_xyzw(quat[1], quat[2], quat[3], quat[0]).normalize();
     Ok(Some(json!({
         "name": node.attribute("name").unwrap_or_default(),
         "type": kind,
         "size": size,
         "rgba": rgba,
         "fromto": fromto,
-        "origin": transform(&RigidTransform::new(pos, rotation)),
+        "origin": transform(&frame(node)?),
     })))
-}
-
-/// `<equality><joint joint1 joint2 polycoef>`: joint1 = c0 + c1 · joint2 (the OMX's second
-/// gripper finger follows the first).
-fn mimics(root: &roxmltree::Node) -> Result<Value, ModelError> {
-    let Some(equality) = child(root, "equality") else {
-        return Ok(json!([]));
-    };
-    let mut out = Vec::new();
-    for node in equality.children().filter(|n| n.has_tag_name("joint")) {
-        let (Some(a), Some(b)) = (node.attribute("joint1"), node.attribute("joint2")) else {
-            continue;
-        };
-        let coef = numbers(
-            &node,
-            "polycoef",
-            node.attribute("polycoef").unwrap_or("0 1 0 0 0"),
-            0,
-        )?;
-        out.push(json!({"joint": a, "follows": b, "offset": coef[0], "scale": coef.get(1).copied().unwrap_or(1.0)}));
-    }
-    Ok(Value::Array(out))
-}
-
-fn vector(node: &roxmltree::Node, attribute: &str, default: &str) -> Result<DVec3, ModelError> {
-    let v = numbers(
-        node,
-        attribute,
-        node.attribute(attribute).unwrap_or(default),
-        3,
-    )?;
-    Ok(DVec3::new(v[0], v[1], v[2]))
-}
-
-/// The numbers of an attribute; `count` of them (0: any number, at least one).
-fn numbers(
-    node: &roxmltree::Node,
-    attribute: &str,
-    text: &str,
-    count: usize,
-) -> Result<Vec<f64>, ModelError> {
-    let parsed: Option<Vec<f64>> = text
-        .split_whitespace()
-        .map(|x| x.parse::<f64>().ok().filter(|v| v.is_finite()))
-        .collect();
-    match parsed {
-        Some(v) if (count == 0 && !v.is_empty()) || v.len() == count => Ok(v),
-        _ => Err(ModelError::Attribute {
-            element: node.tag_name().name().to_string(),
-            name: node.attribute("name").unwrap_or_default().to_string(),
-            attribute: attribute.to_string(),
-            value: text.to_string(),
-            expected: if count == 0 {
-                "a list of numbers".into()
-            } else {
-                format!("{count} numbers")
-            },
-        }),
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::{DQuat, DVec3};
 
     /// Every built-in robot's model places its jointed bodies where its robot description
     /// puts the joints (the oracle: robots/*.json, which the models were written from).

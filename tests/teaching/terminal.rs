@@ -28,6 +28,38 @@ fn teach(dir: &Path, script: &str, extra: &[&str]) -> Output {
         .expect("run keypose teach")
 }
 
+/// A teach session on the virtual bus taking `keys` on standard input, killed once its status
+/// line says `until` (each step prints its status once done, and journaled): the journal it
+/// leaves is a crashed session's. The status lines seen.
+fn teach_killed_after(dir: &Path, keys: &str, until: &str) -> Vec<String> {
+    let mut child = keypose(dir)
+        .args(["teach", "seq.json", "--port", "virtual", "--keys", "-"])
+        .stdin(Stdio::piped())
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("start keypose teach");
+    let mut stdin = child.stdin.take().unwrap();
+    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
+    writeln!(stdin, "{keys}").unwrap();
+    stdin.flush().unwrap();
+    let mut seen = Vec::new();
+    loop {
+        let line = lines
+            .next()
+            .expect("teach ended early")
+            .expect("read stderr");
+        seen.push(line.clone());
+        if line.contains(until) {
+            break;
+        }
+        assert!(!line.contains("error"), "{seen:?}");
+    }
+    child.kill().expect("kill teach");
+    let _ = child.wait();
+    seen
+}
+
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
@@ -214,32 +246,7 @@ fn a_scripted_session_names_holds_interpolates_and_types_values() {
 #[test]
 fn a_killed_session_is_recovered_by_the_next() {
     let dir = tempfile::tempdir().unwrap();
-    let mut child = keypose(dir.path())
-        .args(["teach", "seq.json", "--port", "virtual", "--keys", "-"])
-        .stdin(Stdio::piped())
-        .stderr(Stdio::piped())
-        .stdout(Stdio::null())
-        .spawn()
-        .expect("start keypose teach");
-    let mut stdin = child.stdin.take().unwrap();
-    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
-    writeln!(stdin, "n shift-right right n").unwrap();
-    stdin.flush().unwrap();
-    // Each step prints its status once done (and journaled): wait for the second capture.
-    let mut seen = Vec::new();
-    loop {
-        let line = lines
-            .next()
-            .expect("teach ended early")
-            .expect("read stderr");
-        seen.push(line.clone());
-        if line.contains("new key 1") {
-            break;
-        }
-        assert!(!line.contains("error"), "{seen:?}");
-    }
-    child.kill().expect("kill teach");
-    let _ = child.wait();
+    let seen = teach_killed_after(dir.path(), "n shift-right right n", "new key 1");
     assert!(!dir.path().join("seq.json").exists(), "never written");
     assert_eq!(journals(dir.path()).len(), 1, "{seen:?}");
 
@@ -496,31 +503,7 @@ fn a_script_undoes_and_redoes_edits_and_the_arm_stays() {
 #[test]
 fn the_undo_history_survives_a_killed_session() {
     let dir = tempfile::tempdir().unwrap();
-    let mut child = keypose(dir.path())
-        .args(["teach", "seq.json", "--port", "virtual", "--keys", "-"])
-        .stdin(Stdio::piped())
-        .stderr(Stdio::piped())
-        .stdout(Stdio::null())
-        .spawn()
-        .expect("start keypose teach");
-    let mut stdin = child.stdin.take().unwrap();
-    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
-    writeln!(stdin, "n shift-right n shift-right n U").unwrap();
-    stdin.flush().unwrap();
-    let mut seen = Vec::new();
-    loop {
-        let line = lines
-            .next()
-            .expect("teach ended early")
-            .expect("read stderr");
-        seen.push(line.clone());
-        if line.contains("undid:") {
-            break;
-        }
-        assert!(!line.contains("error"), "{seen:?}");
-    }
-    child.kill().expect("kill teach");
-    let _ = child.wait();
+    let seen = teach_killed_after(dir.path(), "n shift-right n shift-right n U", "undid:");
     assert_eq!(journals(dir.path()).len(), 1, "{seen:?}");
 
     // Recovered: keys at 0° and 10°; U takes the 10° key back, R makes it again, and R once

@@ -1,0 +1,127 @@
+//! What the emulated servos cost the machine: CPU time of a `keypose virtual-bus` process per
+//! bus cycle (one sync write of 6 goals and one sync read of 6 positions, keypose's native
+//! driver) at 100 Hz, with the wire timed at the robot's baud rate and, as the peer measured in
+//! the same run, answering at once (`--no-wire-timing`: no waiting at all, so the floor of what
+//! serving a cycle costs). The difference is what waiting for the wire's instants costs.
+//!
+//! The emulator runs in a process of its own so that its CPU time (utime + stime of
+//! /proc/PID/stat) is its alone. The two emulators alternate, [`REPS`] times each, and the
+//! median and range are reported with the machine's load. Nothing is asserted.
+//!
+//! `cargo bench --bench emulator` prints lines starting with `summary:`.
+
+use keypose::bus::{connect, Driver};
+use keypose::robot::Robot;
+use std::io::BufRead;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Interleaved repetitions of each emulator's run.
+const REPS: usize = 3;
+/// Cycles a second, as a player at its default rate asks.
+const RATE_HZ: f64 = 100.0;
+/// Cycles of one run.
+const CYCLES: u32 = 600;
+const ROBOTS: [&str; 2] = ["so101", "koch"];
+
+/// A `keypose virtual-bus` process and the device it serves.
+struct Emulator {
+    child: Child,
+    path: String,
+}
+
+impl Emulator {
+    fn start(robot: &str, timed: bool) -> Emulator {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_keypose"));
+        command.args(["virtual-bus", "--robot", robot]);
+        if !timed {
+            command.arg("--no-wire-timing");
+        }
+        let mut child = command
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start keypose virtual-bus");
+        let mut line = String::new();
+        std::io::BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut line)
+            .expect("the device path");
+        Emulator {
+            child,
+            path: line.trim().to_string(),
+        }
+    }
+
+    /// CPU seconds the process has used (user + system).
+    fn cpu_seconds(&self) -> f64 {
+        let stat = std::fs::read_to_string(format!("/proc/{}/stat", self.child.id()))
+            .expect("/proc/PID/stat");
+        // Fields after the command name's closing parenthesis; utime and stime are fields 14
+        // and 15 of the line, 12 and 13 after it.
+        let rest = &stat[stat.rfind(')').unwrap() + 2..];
+        let fields: Vec<&str> = rest.split(' ').collect();
+        let ticks: u64 = fields[11].parse::<u64>().unwrap() + fields[12].parse::<u64>().unwrap();
+        // SAFETY: sysconf takes a plain integer.
+        let per_second = unsafe { libc::sysconf(libc::_SC_CLK_TCK) } as f64;
+        ticks as f64 / per_second
+    }
+}
+
+impl Drop for Emulator {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Microseconds of emulator CPU per cycle over one run at [`RATE_HZ`].
+fn run(robot: &Robot, name: &str, timed: bool) -> f64 {
+    let emulator = Emulator::start(name, timed);
+    let mut connection = connect(robot, &emulator.path, Driver::Native, None).expect("connect");
+    let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
+    let home = connection.bus.read_positions(&ids).expect("read");
+    let goals: Vec<(u8, i64)> = ids.iter().copied().zip(home).collect();
+    let period = Duration::from_secs_f64(1.0 / RATE_HZ);
+    let before = emulator.cpu_seconds();
+    let start = Instant::now();
+    for k in 1..=CYCLES {
+        connection.bus.write_goals(&goals).expect("write");
+        connection.bus.read_positions(&ids).expect("read");
+        std::thread::sleep((start + period * k).saturating_duration_since(Instant::now()));
+    }
+    (emulator.cpu_seconds() - before) / f64::from(CYCLES) * 1e6
+}
+
+fn median_and_range(mut values: Vec<f64>) -> (f64, f64, f64) {
+    values.sort_by(f64::total_cmp);
+    (
+        values[values.len() / 2],
+        values[0],
+        values[values.len() - 1],
+    )
+}
+
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .map(|l| l.split(' ').take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|_| "unknown".into())
+}
+
+fn main() {
+    println!("emulator CPU per 6-servo cycle at {RATE_HZ} Hz, {CYCLES} cycles a run, {REPS} runs each (load {})", load_average());
+    for name in ROBOTS {
+        let robot = Robot::builtin(name).expect("a built-in robot");
+        let (mut timed, mut untimed) = (Vec::new(), Vec::new());
+        for _ in 0..REPS {
+            timed.push(run(&robot, name, true));
+            untimed.push(run(&robot, name, false));
+        }
+        let (t, t_lo, t_hi) = median_and_range(timed);
+        let (u, u_lo, u_hi) = median_and_range(untimed);
+        println!(
+            "summary: {name}: wire-timed {t:.0} µs ({t_lo:.0}–{t_hi:.0}), answering at once {u:.0} µs ({u_lo:.0}–{u_hi:.0}), waiting for the wire costs {:.0} µs a cycle",
+            t - u
+        );
+    }
+    println!("summary: load after {}", load_average());
+}
