@@ -5,7 +5,8 @@
 use super::check::ReportFormat;
 use super::{write_output, CommandError, RobotArgs, Verdict};
 use glam::DVec3;
-use keypose::kinematics::{tool_joints, Solution, Solver, ToolTarget};
+use keypose::collision::CollisionModel;
+use keypose::kinematics::{tool_joints, Chosen, KeyOrientation, KeyTarget, Preference, Solver};
 use keypose::pose::{quat_from_rpy, rpy_from_quat};
 use keypose::robot::{Joint, JointKind, Robot};
 use keypose::sim::verdict::{collisions, Contact, ContactKind, Thresholds};
@@ -100,12 +101,13 @@ pub fn run(args: &PoseArgs) -> Result<Verdict, CommandError> {
 
 /// A tool target from `--tool` and its solution.
 struct Solved {
-    target: ToolTarget,
-    solution: Solution,
+    target: KeyTarget,
+    chosen: Chosen,
     closed_form: bool,
 }
 
-/// `X,Y,Z[,ROLL,PITCH,YAW]` solved from the home pose: the pose (tool joints marked given).
+/// `X,Y,Z[,ROLL,PITCH,YAW]` solved as a key from the home pose: the pose (tool joints marked
+/// given).
 fn solve_tool(robot: &Robot, text: &str) -> Result<(Pose, Option<Solved>), CommandError> {
     let usage = |why: String| CommandError::Usage(format!("--tool {text:?}: {why}"));
     let numbers: Vec<f64> = text
@@ -114,11 +116,18 @@ fn solve_tool(robot: &Robot, text: &str) -> Result<(Pose, Option<Solved>), Comma
         .collect::<Option<_>>()
         .ok_or_else(|| usage("expected numbers separated by commas".into()))?;
     let target = match numbers[..] {
-        [x, y, z] => ToolTarget::position(DVec3::new(x, y, z)),
-        [x, y, z, r, p, yaw] => ToolTarget::pose(
-            DVec3::new(x, y, z),
-            quat_from_rpy(r.to_radians(), p.to_radians(), yaw.to_radians()),
-        ),
+        [x, y, z] => KeyTarget {
+            position: DVec3::new(x, y, z),
+            orientation: KeyOrientation::Free,
+        },
+        [x, y, z, r, p, yaw] => KeyTarget {
+            position: DVec3::new(x, y, z),
+            orientation: KeyOrientation::Full(quat_from_rpy(
+                r.to_radians(),
+                p.to_radians(),
+                yaw.to_radians(),
+            )),
+        },
         _ => {
             return Err(usage(format!(
                 "expected X,Y,Z (metres) or X,Y,Z,ROLL,PITCH,YAW (degrees), found {} numbers",
@@ -128,11 +137,17 @@ fn solve_tool(robot: &Robot, text: &str) -> Result<(Pose, Option<Solved>), Comma
     };
     let solver = Solver::for_robot(robot);
     let held = vec![false; robot.joints.len()];
-    let solution = solver
-        .solve(robot, &target, &robot.home, &held)
+    let collision = CollisionModel::for_robot(robot);
+    let preference = Preference {
+        seed: &robot.home,
+        held: &held,
+        collision: collision.as_ref(),
+    };
+    let chosen = solver
+        .solve_key(robot, &target, &preference)
         .map_err(|e| usage(e.to_string()))?;
     let pose = Pose {
-        values: solution.values.clone(),
+        values: chosen.solution.values.clone(),
         given: tool_joints(robot),
     };
     let closed_form = solver.is_closed_form();
@@ -140,7 +155,7 @@ fn solve_tool(robot: &Robot, text: &str) -> Result<(Pose, Option<Solved>), Comma
         pose,
         Some(Solved {
             target,
-            solution,
+            chosen,
             closed_form,
         }),
     ))
@@ -160,14 +175,14 @@ fn solution_text(robot: &Robot, solved: &Solved) -> String {
         "solved ({how}) for the tool at x {:.4}  y {:.4}  z {:.4} m",
         p.x, p.y, p.z
     );
-    if let Some(r) = solved.solution.orientation_residual_deg {
+    if let Some(r) = solved.chosen.solution.orientation_residual_deg {
         let _ = writeln!(
             out,
             "orientation off by {:.2}°, {:.2}°, {:.2}° about the tool's x, y, z",
             r.x, r.y, r.z
         );
     }
-    for (joint, value) in robot.joints.iter().zip(&solved.solution.values) {
+    for (joint, value) in robot.joints.iter().zip(&solved.chosen.solution.values) {
         let margin = (value - joint.limits.min).min(joint.limits.max - value);
         let _ = writeln!(
             out,
@@ -183,13 +198,13 @@ fn solution_json(robot: &Robot, solved: &Solved) -> serde_json::Value {
     let margins: Vec<_> = robot
         .joints
         .iter()
-        .zip(&solved.solution.values)
+        .zip(&solved.chosen.solution.values)
         .map(|(j, v)| json!({ "name": j.name, "margin": (v - j.limits.min).min(j.limits.max - v) }))
         .collect();
     json!({
         "target": solved.target.position.to_array(),
         "solver": if solved.closed_form { "closed form" } else { "damped least squares" },
-        "orientation_residual_deg": solved.solution.orientation_residual_deg.map(|r| r.to_array()),
+        "orientation_residual_deg": solved.chosen.solution.orientation_residual_deg.map(|r| r.to_array()),
         "margins": margins,
     })
 }

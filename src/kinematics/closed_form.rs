@@ -80,9 +80,9 @@ pub struct ArmGeometry {
 /// One pan side for one roll, in the arm plane (u, v): what every tool pitch and elbow there
 /// shares, worked out once.
 #[derive(Debug, Clone, Copy)]
-struct Plane {
+pub(super) struct Plane {
     /// Radians.
-    pan: f64,
+    pub(super) pan: f64,
     roll: f64,
     /// The target, the pitch anchors, and the last link (wrist anchor to tool point).
     target: DVec2,
@@ -93,7 +93,7 @@ struct Plane {
 impl Plane {
     /// The first two pitch turns of both elbows that put the wrist where tool pitch `phi`
     /// needs it, or None when the links cannot reach it.
-    fn reach(&self, phi: f64) -> Option<[(f64, f64); 2]> {
+    pub(super) fn reach(&self, phi: f64) -> Option<[(f64, f64); 2]> {
         let [c1, c2, c3] = self.anchors;
         let wrist = self.target - DVec2::from_angle(phi).rotate(self.last);
         two_link(c2 - c1, c3 - c2, wrist - c1)
@@ -276,7 +276,7 @@ impl ArmGeometry {
 
     /// Rolls (radians) to try for a position alone: the seed's, then every
     /// [`ROLL_SEARCH_STEP_DEG`] either way inside the limits; just 0 without a roll joint.
-    fn roll_candidates(&self, robot: &Robot, seed: &[f64]) -> Vec<f64> {
+    pub(super) fn roll_candidates(&self, robot: &Robot, seed: &[f64]) -> Vec<f64> {
         let Some(roll) = &self.roll else {
             return vec![0.0];
         };
@@ -307,6 +307,20 @@ impl ArmGeometry {
         seed: &[f64],
         floor: bool,
     ) -> Option<Vec<f64>> {
+        let all = self.oriented_solutions(robot, position, orientation, seed, floor);
+        choose_oriented(robot, all, seed)
+    }
+
+    /// The solutions [`ArmGeometry::best_oriented`] chooses from, each with its orientation
+    /// residual (degrees, the length of the rotation vector).
+    pub(crate) fn oriented_solutions(
+        &self,
+        robot: &Robot,
+        position: DVec3,
+        orientation: DQuat,
+        seed: &[f64],
+        floor: bool,
+    ) -> Vec<(Vec<f64>, f64)> {
         // The pitch and roll depend on the pan branch only: both elbows share them.
         let fast: Vec<(bool, (f64, f64))> = [false, true]
             .into_iter()
@@ -314,7 +328,7 @@ impl ArmGeometry {
             .collect();
         let found = self.oriented_candidates(robot, position, orientation, &fast, seed, floor);
         if found.iter().any(|c| c.1 < EXACT_DEG) || self.roll.is_none() {
-            return choose_oriented(robot, found, seed);
+            return found;
         }
         let thorough: Vec<(bool, (f64, f64))> = [false, true]
             .into_iter()
@@ -325,7 +339,7 @@ impl ArmGeometry {
             .collect();
         let mut all = found;
         all.extend(self.oriented_candidates(robot, position, orientation, &thorough, seed, floor));
-        choose_oriented(robot, all, seed)
+        all
     }
 
     /// The solutions of both elbows for the given pan sides (`back`) and (pitch, roll) pairs,
@@ -466,7 +480,7 @@ impl ArmGeometry {
     }
 
     /// The tool pitch of a pose: the sum of the pitch rotations about n, radians.
-    fn tool_pitch(&self, values: &[f64]) -> f64 {
+    pub(super) fn tool_pitch(&self, values: &[f64]) -> f64 {
         self.pitch
             .iter()
             .zip(self.signs)
@@ -507,8 +521,23 @@ impl ArmGeometry {
         Some(b.atan2(a) + side * spread)
     }
 
+    /// The tool pitch (radians) that turns the approach axis (`approach`, a direction in the
+    /// tool frame) as near as it goes to `direction` (base frame) on `plane`. The pitch joints
+    /// turn it within the arm's plane only, so a direction out of that plane is met as nearly
+    /// as the plane allows; straight down is always in it, since the pan axis is.
+    pub(super) fn approach_pitch(&self, plane: &Plane, approach: DVec3, direction: DVec3) -> f64 {
+        let turn_back = DQuat::from_axis_angle(self.pan_axis, -plane.pan);
+        let wanted = turn_back * (self.base.r.conjugate() * direction);
+        let mut axis = self.tool.r * approach;
+        if let Some(r) = &self.roll {
+            axis = DQuat::from_axis_angle(r.axis, plane.roll) * axis;
+        }
+        let angle = |x: DVec3| x.dot(self.v).atan2(x.dot(self.u));
+        wrap_pi(angle(wanted) - angle(axis))
+    }
+
     /// The pan side `back` for roll `roll`: what every tool pitch and elbow there shares.
-    fn plane(&self, position: DVec3, roll: f64, back: bool) -> Option<Plane> {
+    pub(super) fn plane(&self, position: DVec3, roll: f64, back: bool) -> Option<Plane> {
         let pan = self.pan_angle(position, roll, back)?;
         let turn_back = DQuat::from_axis_angle(self.pan_axis, -pan);
         let in_pan = turn_back * (self.base.r.conjugate() * (position - self.base.t));
@@ -544,7 +573,7 @@ impl ArmGeometry {
     /// each unwrapped into its limits nearest the seed, with the tool orientation reached;
     /// None when they leave the limits, miss the target or (with `floor`) go below the floor.
     #[allow(clippy::too_many_arguments)]
-    fn checked(
+    pub(super) fn checked(
         &self,
         robot: &Robot,
         plane: &Plane,
@@ -614,7 +643,7 @@ fn nearest(
 /// point, one on each of the two arcs of
 /// reachable pitches on `plane` (docs/robots.md §12.2), a little inside the arc's end so the arm is
 /// not at its stretched or folded singularity; None where no pitch reaches.
-fn nearest_reachable_pitch(plane: &Plane, pitch: f64) -> [Option<f64>; 2] {
+pub(super) fn nearest_reachable_pitch(plane: &Plane, pitch: f64) -> [Option<f64>; 2] {
     const INSIDE: f64 = 0.1 * PI / 180.0;
     let none = [None, None];
     let [c1, c2, c3] = plane.anchors;

@@ -97,6 +97,27 @@ impl Dls {
         })
     }
 
+    /// Every solution inside the limits and clear of the floor that the iteration reaches from
+    /// one of its starts (the seed, home, the middle and quarter points of the ranges), repeats
+    /// included: what a key is chosen from on a robot without the closed form.
+    pub(crate) fn solutions(
+        &self,
+        robot: &Robot,
+        target: &ToolTarget,
+        seed: &[f64],
+        held: &[bool],
+    ) -> Vec<Vec<f64>> {
+        let free = self.free_joints(held);
+        starts(robot, seed, &free)
+            .into_iter()
+            .map(|start| iterate(robot, target, start, &free, MAX_ITERATIONS))
+            .filter(|values| {
+                robot.tcp_position(values).distance(target.position) < POSITION_TOLERANCE_M * 10.0
+                    && lowest_below_floor(robot, values).is_none()
+            })
+            .collect()
+    }
+
     fn free_joints(&self, held: &[bool]) -> Vec<usize> {
         (0..self.tool_joints.len())
             .filter(|&i| self.tool_joints[i] && !held.get(i).copied().unwrap_or(false))

@@ -6,11 +6,19 @@
 //! robot's joint origins and axes rather than typed in, and damped least squares on the forward
 //! kinematics for any other robot file ([`Dls`]). Straight tool lines: [`solve_line`].
 //!
+//! [`Solver::solve`] gives the solution nearest a seed, for jogging the tool; a tool key is
+//! solved by [`Solver::solve_key`], which chooses among the solutions as a person would: clear
+//! of the floor and of the arm itself, with margins to the limits, near the previous key
+//! (`choice`), and with an approach direction when the key gives one (`key`).
+//!
 //! This module knows nothing about servos or files: targets come in as positions and
 //! rotations, solutions go out as joint values in the robot's units (degrees, metres).
 
+pub(crate) mod choice;
 pub(crate) mod closed_form;
 pub(crate) mod dls;
+mod families;
+mod key;
 pub(crate) mod line;
 mod planar;
 
@@ -19,8 +27,10 @@ use crate::pose::RigidTransform;
 use crate::robot::{JointKind, Robot};
 use glam::{DQuat, DVec3};
 
+pub use choice::{smallest_margin, Margin, CLEARANCE_M, COMFORT};
 pub use closed_form::ArmGeometry;
 pub use dls::Dls;
+pub use key::{Approach, Chosen, KeyOrientation, KeyTarget, Preference};
 pub use line::{solve_line, LineError, LineSolution, JOINT_JUMP_DEG};
 
 /// Where the tool frame (the robot's `tcp`) should be, in the robot's base frame.
@@ -108,12 +118,56 @@ pub enum IkError {
         /// The tool position asked for, metres.
         target: DVec3,
     },
+    /// Every solution inside the limits touches the floor or the arm itself.
+    #[error(
+        "every way the arm reaches ({}) inside its limits touches the floor or the arm itself \
+         (a clearance of {:.0} mm); the least: {touch}",
+        mm3(*target),
+        CLEARANCE_M * 1000.0
+    )]
+    Collides {
+        /// The tool position asked for, metres.
+        target: DVec3,
+        /// The contact of the solution that touches least, in words.
+        touch: String,
+    },
+    /// The position is reachable, but not with the tool pointing the way asked.
+    #[error(
+        "the tool reaches ({}) but not pointing {direction} inside the limits and clear of \
+         contacts{}",
+        mm3(*target),
+        tilt_hint(*least_tilt_deg)
+    )]
+    ApproachOutOfReach {
+        /// The tool position asked for, metres.
+        target: DVec3,
+        /// The direction asked, in words ("down").
+        direction: String,
+        /// The least tilt from it the tool reaches with, whole degrees (None: not within 90°).
+        least_tilt_deg: Option<u32>,
+    },
+    /// An approach direction was asked of a robot whose tool has no approach axis.
+    #[error("robot {robot} defines no tcp, so its tool has no approach axis to point")]
+    NoApproachAxis {
+        /// The robot's name.
+        robot: String,
+    },
     /// The robot has no joint that moves the tool.
     #[error("robot {robot} has no joint that moves its tool frame")]
     NoToolJoints {
         /// The robot's name.
         robot: String,
     },
+}
+
+/// What an unreachable approach could be instead, for its message.
+fn tilt_hint(least: Option<u32>) -> String {
+    match least {
+        Some(t) => format!(
+            "; the least tilt from it that is: {t}° (the approach \"down-or-tilted\" accepts that)"
+        ),
+        None => String::new(),
+    }
 }
 
 /// A position in millimetres, for messages.
@@ -186,7 +240,7 @@ impl Solver {
     }
 
     /// Why `target` has no solution: below the floor, or out of reach by how much.
-    fn explain_failure(
+    pub(super) fn explain_failure(
         &self,
         robot: &Robot,
         target: &ToolTarget,
@@ -307,6 +361,25 @@ pub(crate) fn walk_arm(
     };
     consider(None, tool.t.z);
     (lowest, tool)
+}
+
+/// The tool's approach axis in the tool frame: from the wrist towards the fingertips. It is the
+/// axis of the joint carrying the tcp, turned towards the tcp, when the tcp lies within 30° of
+/// that axis seen from the joint (a roll joint: SO-101, SO-100, Koch); else the direction from
+/// the joint to the tcp (OpenMANIPULATOR-X's wrist pitch). None without a tcp or when the tcp
+/// sits on the joint's anchor.
+pub fn approach_axis(robot: &Robot) -> Option<DVec3> {
+    const ALONG_AXIS_DEG: f64 = 30.0;
+    let tcp = robot.tcp.as_ref()?;
+    let to_tcp = tcp.origin.t.try_normalize()?;
+    let joint = &robot.joints[tcp.parent];
+    let axis = joint.axis.normalize();
+    let along = match joint.kind {
+        JointKind::Revolute if to_tcp.angle_between(axis).to_degrees() <= ALONG_AXIS_DEG => axis,
+        JointKind::Revolute if to_tcp.angle_between(-axis).to_degrees() <= ALONG_AXIS_DEG => -axis,
+        _ => to_tcp,
+    };
+    Some(tcp.origin.r.conjugate() * along)
 }
 
 /// The rotation from `reached` to `wanted`, in the tool frame, degrees about x, y, z.

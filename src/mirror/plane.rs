@@ -135,6 +135,8 @@ impl ArmMirror {
         ToolKey {
             xyz: self.plane.reflect_point(tool.xyz),
             orientation,
+            // The plane is vertical: down stays down.
+            approach: tool.approach,
         }
     }
 
@@ -252,6 +254,7 @@ mod tests {
             let tool = ToolKey {
                 xyz: target.t,
                 orientation: Some(ToolOrientation::Quaternion(target.r)),
+                approach: None,
             };
             let reflected = mirror.reflect_tool(&tool).orientation.unwrap().quaternion();
             let reached = robot.tcp_frame(&mirrored).r;

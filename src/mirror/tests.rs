@@ -95,6 +95,7 @@ fn a_tool_key_is_reflected_across_the_plane() {
     sequence.keyframes[0].tool = Some(ToolKey {
         xyz: DVec3::new(0.25, 0.1, 0.2),
         orientation: Some(crate::sequence::ToolOrientation::Quaternion(turned)),
+        approach: None,
     });
     let mirror = Mirror::new(&robot, Mapping::InPlace, "t.json").unwrap();
     let (mirrored, _) = mirror.sequence(&sequence, &robot).unwrap();
@@ -129,6 +130,7 @@ fn onto_another_arm_replaces_its_keys_and_leaves_the_source() {
         ToolKey {
             xyz: DVec3::new(0.2, 0.05, 0.1),
             orientation: None,
+            approach: None,
         },
     )];
     let mapping = Mapping::Onto {

@@ -2,10 +2,13 @@
 //! reading a sequence and building its tracks, where the robot is first known. Everything after
 //! it (interpolation, the limit check, retime, playback, simulation) sees joint values only.
 
+use crate::collision::CollisionModel;
 use crate::json::InputError;
-use crate::kinematics::{self, line, Solver, ToolTarget};
+use crate::kinematics::{
+    self, line, Approach, KeyOrientation, KeyTarget, Preference, Solver, ToolTarget,
+};
 use crate::robot::{cell_joint_name, split_joint_name, Robot};
-use crate::sequence::{KeyValue, Sequence};
+use crate::sequence::{KeyValue, Sequence, ToolApproach, ToolKey};
 use glam::DVec3;
 use std::borrow::Cow;
 use std::ops::Range;
@@ -21,8 +24,26 @@ pub struct ToolKeyReport {
     pub values: Vec<f64>,
     /// The orientation left unreached, degrees about the tool's x, y, z (None without `r`).
     pub residual_deg: Option<DVec3>,
+    /// The smallest margin to the limits among the joints solved (None for a key reached
+    /// along a line, which takes the line's last sample).
+    pub margin: Option<KeyMargin>,
+    /// The key's approach and how far the tool is tilted from it, degrees.
+    pub approach: Option<(ToolApproach, f64)>,
     /// The arm whose tool it is, in a cell.
     pub arm: Option<String>,
+}
+
+/// A tool key's smallest margin to its joints' limits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KeyMargin {
+    /// The joint nearest its limit (relative to its range).
+    pub joint: String,
+    /// Its distance to that limit, in `unit`.
+    pub value: f64,
+    /// "deg" or "m".
+    pub unit: &'static str,
+    /// That distance over half the joint's range.
+    pub share: f64,
 }
 
 /// A straight tool line from key `key` to the next.
@@ -93,6 +114,7 @@ fn solve_arm<'a>(
         return Ok((Cow::Borrowed(sequence), ToolSolve::default()));
     }
     let solver = Solver::for_robot(robot);
+    let collision = CollisionModel::for_robot(robot);
     let mut solved = sequence.clone();
     let mut report = ToolSolve::default();
     let mut pose = robot.home.clone();
@@ -102,7 +124,8 @@ fn solve_arm<'a>(
         apply_joint_values(robot, &solved, index, &mut pose);
         let line_in = index > 0 && solved.keyframes[index - 1].line;
         let followed = if line_in {
-            let line = solve_line_into(robot, &solved, &times, index, &before, &pose);
+            let end = line_end(&solver, robot, &solved, index, &before, collision.as_ref());
+            let line = solve_line_into(robot, &solved, &times, index, &before, &pose, end);
             let end = line.samples.last().cloned();
             report.lines.push(line);
             end
@@ -112,7 +135,15 @@ fn solve_arm<'a>(
         if solved.keyframes[index].tool.is_some() {
             let key_report = match followed {
                 Some(end) => take_line_end(robot, &mut solved, index, end),
-                None => solve_key(&solver, robot, &mut solved, index, &pose, tool_field)?,
+                None => {
+                    let how = Solving {
+                        solver: &solver,
+                        robot,
+                        collision: collision.as_ref(),
+                        tool_field,
+                    };
+                    solve_key(&how, &mut solved, index, &pose)?
+                }
             };
             pose.clone_from(&key_report.values);
             report.keys.push(key_report);
@@ -221,11 +252,14 @@ fn take_line_end(
             key.set(&joint.name, KeyValue::Joint(end[i]));
         }
     }
+    let tool = key.tool;
     ToolKeyReport {
         key: index,
         label: key.label(index),
         residual_deg: wanted
             .map(|w| kinematics::orientation_residual_deg(robot.tcp_frame(&end).r, w)),
+        margin: None,
+        approach: tool.and_then(|t| approach_report(robot, &t, &end)),
         values: end,
         arm: None,
     }
@@ -240,16 +274,52 @@ fn apply_joint_values(robot: &Robot, sequence: &Sequence, index: usize, pose: &m
     }
 }
 
-/// Solves key `index`'s tool target from `seed` (the previous key's pose with this key's own
-/// joint values, which stay as given) and writes the solved joints into the key.
+/// What solves a sequence's tool keys: the robot's solver, its collision model, and where
+/// the keys' targets are in the file (`tool`, or `tool.ARM` in a cell).
+struct Solving<'a> {
+    solver: &'a Solver,
+    robot: &'a Robot,
+    collision: Option<&'a CollisionModel>,
+    tool_field: &'a str,
+}
+
+/// The key target a tool key asks for.
+fn key_target(tool: &ToolKey) -> KeyTarget {
+    let orientation = match (tool.orientation, tool.approach) {
+        (Some(o), _) => KeyOrientation::Full(o.quaternion()),
+        (None, Some(a)) => KeyOrientation::Approach(approach_of(a)),
+        (None, None) => KeyOrientation::Free,
+    };
+    KeyTarget {
+        position: tool.xyz,
+        orientation,
+    }
+}
+
+/// The kinematics' approach for a file's.
+fn approach_of(approach: ToolApproach) -> Approach {
+    Approach::down(approach == ToolApproach::DownOrTilted)
+}
+
+/// A key's approach and the tilt its pose has from it, degrees.
+fn approach_report(robot: &Robot, tool: &ToolKey, values: &[f64]) -> Option<(ToolApproach, f64)> {
+    let approach = tool.approach?;
+    let axis = kinematics::approach_axis(robot)?;
+    let pointing = robot.tcp_frame(values).r * axis;
+    let tilt = pointing.angle_between(approach_of(approach).direction);
+    Some((approach, tilt.to_degrees()))
+}
+
+/// Solves key `index`'s tool target as a key ([`Solver::solve_key`]) from `seed` (the previous
+/// key's pose with this key's own joint values, which stay as given) and writes the solved
+/// joints into the key.
 fn solve_key(
-    solver: &Solver,
-    robot: &Robot,
+    how: &Solving,
     sequence: &mut Sequence,
     index: usize,
     seed: &[f64],
-    tool_field: &str,
 ) -> Result<ToolKeyReport, InputError> {
+    let robot = how.robot;
     let key = &sequence.keyframes[index];
     let Some(tool) = key.tool else {
         unreachable!("solve_key is called for tool keys only");
@@ -259,38 +329,85 @@ fn solve_key(
         .iter()
         .map(|j| key.value(&j.name).is_some())
         .collect();
-    let target = ToolTarget {
-        position: tool.xyz,
-        orientation: tool.orientation.map(|o| o.quaternion()),
-    };
     let label = key.label(index);
-    let solution = solver.solve(robot, &target, seed, &held).map_err(|e| {
-        InputError::at_path(
-            &sequence.file,
-            &format!("{}.{tool_field}.xyz", sequence.key_path(index)),
-            format!("key {label}: {e}"),
-        )
-    })?;
+    let preference = Preference {
+        seed,
+        held: &held,
+        collision: how.collision,
+    };
+    let chosen = how
+        .solver
+        .solve_key(robot, &key_target(&tool), &preference)
+        .map_err(|e| {
+            InputError::at_path(
+                &sequence.file,
+                &format!("{}.{}.xyz", sequence.key_path(index), how.tool_field),
+                format!("key {label}: {e}"),
+            )
+        })?;
+    let values = chosen.solution.values;
     let tool_joints = kinematics::tool_joints(robot);
     let key = &mut sequence.keyframes[index];
     for (i, joint) in robot.joints.iter().enumerate() {
         if tool_joints[i] && !held[i] {
-            key.set(&joint.name, KeyValue::Joint(solution.values[i]));
+            key.set(&joint.name, KeyValue::Joint(values[i]));
         }
     }
     Ok(ToolKeyReport {
         key: index,
         label,
-        residual_deg: solution.orientation_residual_deg,
-        values: solution.values,
+        residual_deg: chosen.solution.orientation_residual_deg,
+        margin: chosen.margin.map(|m| {
+            let joint = &robot.joints[m.joint];
+            KeyMargin {
+                joint: joint.name.clone(),
+                value: m.value,
+                unit: joint.kind.unit(),
+                share: m.share,
+            }
+        }),
+        approach: approach_report(robot, &tool, &values),
+        values,
         arm: None,
     })
 }
 
-/// The line from key `index − 1` (at `from`) to key `index`: to its tool target if it has
-/// one, else to the tool pose of its joints (`to`), solved at the robot's control rate. The
-/// tool moves along it with minimum-jerk timing between the end of the first key's hold and
-/// the second key, so it starts and ends at rest there.
+/// Where a line into key `index` ends: the key's tool target; for a key with an approach, the
+/// orientation of the key solved on its own from the line's start, so that the line ends
+/// pointing the way the key asks.
+fn line_end(
+    solver: &Solver,
+    robot: &Robot,
+    sequence: &Sequence,
+    index: usize,
+    from: &[f64],
+    collision: Option<&CollisionModel>,
+) -> Option<ToolTarget> {
+    let tool = sequence.keyframes[index].tool?;
+    let orientation = match (tool.orientation, tool.approach) {
+        (Some(o), _) => Some(o.quaternion()),
+        (None, Some(_)) => {
+            let held = vec![false; robot.joints.len()];
+            let preference = Preference {
+                seed: from,
+                held: &held,
+                collision,
+            };
+            let chosen = solver.solve_key(robot, &key_target(&tool), &preference);
+            chosen.ok().map(|c| robot.tcp_frame(&c.solution.values).r)
+        }
+        (None, None) => None,
+    };
+    Some(ToolTarget {
+        position: tool.xyz,
+        orientation,
+    })
+}
+
+/// The line from key `index − 1` (at `from`) to key `index`: to its tool target (`end`, see
+/// [`line_end`]) if it has one, else to the tool pose of its joints (`to`), solved at the
+/// robot's control rate. The tool moves along it with minimum-jerk timing between the end of
+/// the first key's hold and the second key, so it starts and ends at rest there.
 fn solve_line_into(
     robot: &Robot,
     sequence: &Sequence,
@@ -298,18 +415,13 @@ fn solve_line_into(
     index: usize,
     from: &[f64],
     to: &[f64],
+    end: Option<ToolTarget>,
 ) -> LineReport {
     let first = &sequence.keyframes[index - 1];
-    let end = match sequence.keyframes[index].tool {
-        Some(tool) => ToolTarget {
-            position: tool.xyz,
-            orientation: tool.orientation.map(|o| o.quaternion()),
-        },
-        None => {
-            let frame = robot.tcp_frame(to);
-            ToolTarget::pose(frame.t, frame.r)
-        }
-    };
+    let end = end.unwrap_or_else(|| {
+        let frame = robot.tcp_frame(to);
+        ToolTarget::pose(frame.t, frame.r)
+    });
     let start = times[index - 1] + first.hold;
     let span = times[index] - start;
     let count = ((span * robot.control_hz).ceil() as usize).max(2);

@@ -1,7 +1,7 @@
 //! Reading `keypose-sequence/1` files.
 
 use super::{
-    ArmSpec, Ends, KeyValue, Keyframe, Placement, Sequence, ToolKey, ToolOrientation,
+    ArmSpec, Ends, KeyValue, Keyframe, Placement, Sequence, ToolApproach, ToolKey, ToolOrientation,
     DEFAULT_KEY_INTERVAL, SEQUENCE_FORMAT,
 };
 use crate::curve::Interp;
@@ -163,7 +163,7 @@ fn parse_placement(node: &Node) -> Result<Placement, InputError> {
                 quat.error("the rotation is given twice (\"rpy\" and \"quat\"); expected one")
             )
         }
-        (Some(rpy), None) => Some(ToolOrientation::Rpy(rpy.numbers::<3>("radians")?)),
+        (Some(rpy), None) => Some(ToolOrientation::Rpy(radians(&rpy)?)),
         (None, Some(quat)) => {
             let [w, x, y, z] = quat.numbers::<4>("quaternion component, w first")?;
             Some(ToolOrientation::Quaternion(unit_quaternion(
@@ -442,10 +442,11 @@ fn unit(q: DQuat) -> DQuat {
     }
 }
 
-/// A key's `"tool"`: `xyz` in metres, optionally `r` (a unit quaternion) or `rpy` (radians).
+/// A key's `"tool"`: `xyz` in metres, optionally `r` (a unit quaternion) or `rpy` (radians), or
+/// instead of either an `approach` (`"down"`, `"down-or-tilted"`).
 fn parse_tool(node: &Node) -> Result<ToolKey, InputError> {
     node.object()?;
-    node.only_fields(&["xyz", "r", "rpy"])?;
+    node.only_fields(&["xyz", "r", "rpy", "approach"])?;
     let xyz_node = node.require("xyz", "the tool position [x, y, z] in metres")?;
     let xyz = DVec3::from_array(xyz_node.numbers::<3>("metres")?);
     let orientation = match (node.get("r"), node.get("rpy")) {
@@ -455,10 +456,57 @@ fn parse_tool(node: &Node) -> Result<ToolKey, InputError> {
             )
         }
         (Some(r), None) => Some(ToolOrientation::Quaternion(parse_quaternion(&r)?)),
-        (None, Some(rpy)) => Some(ToolOrientation::Rpy(rpy.numbers::<3>("radians")?)),
+        (None, Some(rpy)) => Some(ToolOrientation::Rpy(radians(&rpy)?)),
         (None, None) => None,
     };
-    Ok(ToolKey { xyz, orientation })
+    let approach = match node.get("approach") {
+        Some(a) => Some(parse_approach(&a, orientation.is_some())?),
+        None => None,
+    };
+    Ok(ToolKey {
+        xyz,
+        orientation,
+        approach,
+    })
+}
+
+/// A tool key's `"approach"`, refused beside a whole orientation (`"r"` or `"rpy"`), which
+/// already says which way the tool points.
+fn parse_approach(node: &Node, oriented: bool) -> Result<ToolApproach, InputError> {
+    let spellings = ToolApproach::ALL.map(|a| format!("{:?}", a.spelling()));
+    let expected = format!("one of {}", spellings.join(", "));
+    let text = node
+        .value
+        .as_str()
+        .ok_or_else(|| node.expected(&expected))?;
+    let approach = ToolApproach::parse(text).ok_or_else(|| node.expected(&expected))?;
+    if oriented {
+        return Err(node.error(
+            "an approach and a whole orientation (\"r\" or \"rpy\") both say which way the \
+             tool points; expected one",
+        ));
+    }
+    Ok(approach)
+}
+
+/// Roll, pitch and yaw in radians (URDF order). A value past a full turn is refused: any
+/// orientation is written within ±π, so such a value is degrees typed where radians belong,
+/// and the message gives them in radians.
+fn radians(node: &Node) -> Result<[f64; 3], InputError> {
+    let rpy = node.numbers::<3>("radians")?;
+    if rpy.iter().any(|a| a.abs() > std::f64::consts::TAU) {
+        let converted: Vec<String> = rpy
+            .iter()
+            .map(|a| format!("{:.4}", a.to_radians()))
+            .collect();
+        return Err(node.error(format!(
+            "expected roll, pitch, yaw in radians (each within ±2π), found [{}]: these look \
+             like degrees; in radians they are [{}]",
+            rpy.map(|a| a.to_string()).join(", "),
+            converted.join(", ")
+        )));
+    }
+    Ok(rpy)
 }
 
 /// A key's `"tool"` in a sequence of several arms: one tool target per arm, by arm name.

@@ -65,6 +65,34 @@ impl ToolOrientation {
     }
 }
 
+/// A key's `"approach"`: which way the tool points, the turn about that way left free.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ToolApproach {
+    /// `"down"`: the tool points straight down (the base frame's −z); a key the arm cannot
+    /// reach so is an error.
+    Down,
+    /// `"down-or-tilted"`: down where the arm can, else tilted from down as little as it must.
+    DownOrTilted,
+}
+
+impl ToolApproach {
+    /// Every approach, in the order messages list them.
+    pub const ALL: [ToolApproach; 2] = [ToolApproach::Down, ToolApproach::DownOrTilted];
+
+    /// As written in a file (and `pose --approach`).
+    pub fn spelling(self) -> &'static str {
+        match self {
+            ToolApproach::Down => "down",
+            ToolApproach::DownOrTilted => "down-or-tilted",
+        }
+    }
+
+    /// The approach written `text`, if any.
+    pub fn parse(text: &str) -> Option<ToolApproach> {
+        Self::ALL.into_iter().find(|a| a.spelling() == text)
+    }
+}
+
 /// A key's `"tool"`: where the robot's tool frame (`tcp`) goes, in the base frame. Inverse
 /// kinematics turns it into joint values when the robot is known (`Trajectory::build`).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -73,6 +101,8 @@ pub struct ToolKey {
     pub xyz: DVec3,
     /// The tool frame's orientation; `None` leaves it to the solver.
     pub orientation: Option<ToolOrientation>,
+    /// Which way the tool points, for a key without an orientation.
+    pub approach: Option<ToolApproach>,
 }
 
 /// One key of a sequence: a pose (joint values, a tool target, or both), when it is reached

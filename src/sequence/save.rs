@@ -127,7 +127,7 @@ fn placement_json(placement: &Placement) -> Value {
     Value::Object(p)
 }
 
-/// A tool key as written: `xyz`, and `r` or `rpy` if it had one.
+/// A tool key as written: `xyz`, and `r`, `rpy` or `approach` if it had one.
 fn tool_json(tool: &ToolKey) -> Value {
     let mut t = Map::new();
     t.insert("xyz".into(), json!(tool.xyz.to_array()));
@@ -142,6 +142,9 @@ fn tool_json(tool: &ToolKey) -> Value {
             t.insert("rpy".into(), json!(rpy));
         }
         None => {}
+    }
+    if let Some(approach) = tool.approach {
+        t.insert("approach".into(), json!(approach.spelling()));
     }
     Value::Object(t)
 }

@@ -106,6 +106,7 @@ impl TeachState {
         let tool = ToolKey {
             xyz,
             orientation: Some(ToolOrientation::Rpy(rpy)),
+            approach: None,
         };
         self.list.insert_after(kept);
         match &arm.name {
