@@ -6,9 +6,12 @@ use super::check::ReportFormat;
 use super::{write_output, CommandError, RobotArgs, Verdict};
 use glam::DVec3;
 use keypose::collision::CollisionModel;
-use keypose::kinematics::{tool_joints, Chosen, KeyOrientation, KeyTarget, Preference, Solver};
+use keypose::kinematics::{
+    tool_joints, Approach, Chosen, KeyOrientation, KeyTarget, Preference, Solver, COMFORT,
+};
 use keypose::pose::{quat_from_rpy, rpy_from_quat};
 use keypose::robot::{Joint, JointKind, Robot};
+use keypose::sequence::ToolApproach;
 use keypose::sim::verdict::{collisions, Contact, ContactKind, Thresholds};
 use keypose::sim::{self, Simulation};
 use serde_json::json;
@@ -40,6 +43,19 @@ pub struct PoseArgs {
     /// limits.
     #[arg(long, value_name = "X,Y,Z[,R,P,Y]", conflicts_with_all = ["values", "directions"], allow_hyphen_values = true)]
     pub tool: Option<String>,
+    /// With `--tool X,Y,Z`: which way the tool points, as a sequence's "approach" says it:
+    /// `down` (an error where the arm cannot point the tool straight down there) or
+    /// `down-or-tilted` (down where it can, else the least tilt from down it can).
+    #[arg(long, value_name = "APPROACH", requires = "tool", value_parser = parse_approach)]
+    pub approach: Option<ToolApproach>,
+}
+
+/// `--approach`: a sequence's "approach" spelling.
+fn parse_approach(text: &str) -> Result<ToolApproach, String> {
+    ToolApproach::parse(text).ok_or_else(|| {
+        let spellings: Vec<&str> = ToolApproach::ALL.iter().map(|a| a.spelling()).collect();
+        format!("expected one of: {}", spellings.join(", "))
+    })
 }
 
 /// The step each joint is drawn at in the joint-directions picture, degrees.
@@ -68,7 +84,7 @@ pub fn run(args: &PoseArgs) -> Result<Verdict, CommandError> {
         return draw_directions(&robot, model.as_ref(), path);
     }
     let (pose, solved) = match &args.tool {
-        Some(text) => solve_tool(&robot, text)?,
+        Some(text) => solve_tool(&robot, text, args.approach)?,
         None => (parse_pose(&robot, &args.values)?, None),
     };
     let mut simulation = Simulation::start(&robot, model.as_ref(), None)?;
@@ -108,19 +124,39 @@ struct Solved {
 
 /// `X,Y,Z[,ROLL,PITCH,YAW]` solved as a key from the home pose: the pose (tool joints marked
 /// given).
-fn solve_tool(robot: &Robot, text: &str) -> Result<(Pose, Option<Solved>), CommandError> {
+fn solve_tool(
+    robot: &Robot,
+    text: &str,
+    approach: Option<ToolApproach>,
+) -> Result<(Pose, Option<Solved>), CommandError> {
     let usage = |why: String| CommandError::Usage(format!("--tool {text:?}: {why}"));
     let numbers: Vec<f64> = text
         .split(',')
         .map(|n| n.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
         .collect::<Option<_>>()
         .ok_or_else(|| usage("expected numbers separated by commas".into()))?;
-    let target = match numbers[..] {
-        [x, y, z] => KeyTarget {
+    let target = match (&numbers[..], approach) {
+        (&[x, y, z], None) => KeyTarget {
             position: DVec3::new(x, y, z),
             orientation: KeyOrientation::Free,
         },
-        [x, y, z, r, p, yaw] => KeyTarget {
+        (&[x, y, z], Some(a)) => KeyTarget {
+            position: DVec3::new(x, y, z),
+            orientation: KeyOrientation::Approach(Approach::down(a == ToolApproach::DownOrTilted)),
+        },
+        (&[_, _, _, _, _, _], Some(_)) => {
+            return Err(usage(
+                "--approach says which way the tool points, and so do ROLL,PITCH,YAW: give one"
+                    .into(),
+            ))
+        }
+        (&[_, _, _, r, p, yaw], None) if [r, p, yaw].iter().any(|a| a.abs() > 360.0) => {
+            return Err(usage(format!(
+                "ROLL,PITCH,YAW are degrees (as `keypose pose` prints them), each within \
+                 ±360; found {r}, {p}, {yaw}"
+            )))
+        }
+        (&[x, y, z, r, p, yaw], None) => KeyTarget {
             position: DVec3::new(x, y, z),
             orientation: KeyOrientation::Full(quat_from_rpy(
                 r.to_radians(),
@@ -182,6 +218,11 @@ fn solution_text(robot: &Robot, solved: &Solved) -> String {
             r.x, r.y, r.z
         );
     }
+    if let (Some(tilt), KeyOrientation::Approach(a)) =
+        (solved.chosen.tilt_deg, solved.target.orientation)
+    {
+        let _ = writeln!(out, "{}", approach_line(&a, tilt));
+    }
     for (joint, value) in robot.joints.iter().zip(&solved.chosen.solution.values) {
         let margin = (value - joint.limits.min).min(joint.limits.max - value);
         let _ = writeln!(
@@ -191,7 +232,30 @@ fn solution_text(robot: &Robot, solved: &Solved) -> String {
             joint.kind.unit()
         );
     }
+    if let Some(m) = solved.chosen.margin {
+        let joint = &robot.joints[m.joint];
+        let _ = writeln!(
+            out,
+            "smallest margin: {} {:.2} {}, {:.0} % of its half range (a key keeps {:.0} % \
+             where it can)",
+            joint.name,
+            m.value,
+            joint.kind.unit(),
+            m.share * 100.0,
+            COMFORT * 100.0
+        );
+    }
     out
+}
+
+/// Which way the tool points against the approach asked.
+fn approach_line(approach: &Approach, tilt: f64) -> String {
+    let name = approach.name();
+    if tilt < 0.05 {
+        format!("pointing {name}")
+    } else {
+        format!("tilted {tilt:.1}° from {name}: the arm cannot point the tool {name} there")
+    }
 }
 
 fn solution_json(robot: &Robot, solved: &Solved) -> serde_json::Value {
@@ -201,8 +265,17 @@ fn solution_json(robot: &Robot, solved: &Solved) -> serde_json::Value {
         .zip(&solved.chosen.solution.values)
         .map(|(j, v)| json!({ "name": j.name, "margin": (v - j.limits.min).min(j.limits.max - v) }))
         .collect();
+    let smallest = solved.chosen.margin.map(|m| {
+        json!({
+            "name": robot.joints[m.joint].name,
+            "margin": m.value,
+            "share_of_half_range": m.share,
+        })
+    });
     json!({
         "target": solved.target.position.to_array(),
+        "tilt_deg": solved.chosen.tilt_deg,
+        "smallest_margin": smallest,
         "solver": if solved.closed_form { "closed form" } else { "damped least squares" },
         "orientation_residual_deg": solved.chosen.solution.orientation_residual_deg.map(|r| r.to_array()),
         "margins": margins,
@@ -331,6 +404,13 @@ fn text_report(robot: &Robot, model: &str, pose: &Pose, touching: &[&Contact]) -
         "tool ({}) in the base frame: x {x:.4}  y {y:.4}  z {z:.4} m; roll {roll:.1}  pitch {pitch:.1}  yaw {yaw:.1} deg",
         tool_name(robot)
     );
+    // A sequence's "rpy" is in radians, as URDF and the robot files have it: the same pose
+    // written as a tool key, so nobody converts by hand.
+    let [r, p, w] = [roll, pitch, yaw].map(f64::to_radians);
+    let _ = writeln!(
+        out,
+        "  as a tool key: \"tool\": {{\"xyz\": [{x:.4}, {y:.4}, {z:.4}], \"rpy\": [{r:.4}, {p:.4}, {w:.4}]}} (rpy in radians)"
+    );
     let _ = writeln!(out, "  {:<20} {:>12} {:>26}", "joint", "value", "limits");
     for ((joint, value), given) in robot.joints.iter().zip(&pose.values).zip(&pose.given) {
         let _ = writeln!(out, "{}", joint_line(joint, *value, *given));
@@ -403,7 +483,12 @@ fn json_report(
     json!({
         "robot": robot.name,
         "model": model,
-        "tool": {"frame": tool_name(robot), "position_m": position, "rpy_deg": rpy},
+        "tool": {
+            "frame": tool_name(robot),
+            "position_m": position,
+            "rpy_deg": rpy,
+            "rpy_rad": rpy.map(f64::to_radians),
+        },
         "joints": joints,
         "clear": touching.is_empty(),
         "contact_depth_m": thresholds.contact_depth,

@@ -32,7 +32,8 @@ pub struct Approach {
     /// Unit direction, base frame.
     pub direction: DVec3,
     /// Whether a tilted tool is accepted where the direction cannot be met: then the least tilt
-    /// that can, in whole degrees. Otherwise that is an error.
+    /// that can, in whole degrees, or up to 5° more where that keeps the joints further from
+    /// their limits. Otherwise that is an error.
     pub or_tilted: bool,
 }
 
@@ -93,6 +94,8 @@ pub struct Chosen {
 const APPROACH_EXACT_DEG: f64 = 0.1;
 /// The largest tilt from an approach direction looked at, degrees.
 const MAX_TILT_DEG: u32 = 90;
+/// Degrees of tilt beyond the least that a tilted approach may spend on margins to the limits.
+const TILT_SLACK_DEG: u32 = 5;
 /// Orientation residuals this close count as equal, degrees (as the closed form's choice).
 const RESIDUAL_TIE_DEG: f64 = 0.05;
 /// Turns about the approach direction the general solver tries, degrees apart.
@@ -287,73 +290,65 @@ impl Key<'_> {
 
     /// An approach direction: the solutions pointing the tool that way, the cheapest clear one;
     /// where there is none, the least tilt (in whole degrees) at which there is one, taken
-    /// when the key allows it and reported otherwise.
+    /// when the key allows it and reported otherwise. The seed's roll is kept where any tilt
+    /// works with it (a roll turns the jaws about the approach, which matters to a grasp more
+    /// than a degree of tilt); other rolls are tried after.
     fn approach(
         &self,
         closed: Option<&ArmGeometry>,
         axis: DVec3,
         approach: Approach,
     ) -> Result<Vec<f64>, Unmet> {
-        let exact = match closed {
-            Some(geometry) => self.approach_closed(geometry, axis, approach, 0),
-            None => self.approach_general(axis, approach, 0),
+        let at = |degrees: u32, all_rolls: bool| match closed {
+            Some(geometry) => self.approach_closed(geometry, axis, approach, degrees, all_rolls),
+            None => self.approach_general(axis, approach, degrees),
         };
-        let unmet = match exact {
-            Ok(values) => return Ok(values),
-            Err(unmet) => unmet,
-        };
-        for degrees in 1..=MAX_TILT_DEG {
-            let tilted = match closed {
-                Some(geometry) => self.approach_closed(geometry, axis, approach, degrees),
-                None => self.approach_general(axis, approach, degrees),
-            };
-            if let Ok(values) = tilted {
-                return if approach.or_tilted {
-                    Ok(values)
-                } else {
-                    Err(Unmet::Tilt(Some(degrees)))
-                };
+        let mut exact = Err(Unmet::Nothing);
+        for all_rolls in [false, true] {
+            exact = at(0, all_rolls);
+            if exact.is_ok() {
+                return exact;
             }
         }
-        Err(unmet)
+        for all_rolls in [false, true] {
+            let Some(least) = (1..=MAX_TILT_DEG).find(|&d| at(d, all_rolls).is_ok()) else {
+                continue;
+            };
+            if !approach.or_tilted {
+                return Err(Unmet::Tilt(Some(least)));
+            }
+            // The least tilt puts some joint on the edge of what works (often a limit): a few
+            // degrees more buy the margins, as far as the cost wants them.
+            let tilts = least..=(least + TILT_SLACK_DEG).min(MAX_TILT_DEG);
+            return tilts
+                .filter_map(|d| at(d, all_rolls).ok())
+                .min_by(|a, b| self.scorer.cost(a).total_cmp(&self.scorer.cost(b)))
+                .ok_or(Unmet::Nothing);
+        }
+        exact
     }
 
-    /// The closed form's members tilted `degrees` from the approach (either way), the seed's
-    /// roll first, every roll when none of those is clear.
+    /// The closed form's members tilted `degrees` from the approach (either way), with the
+    /// seed's roll or every roll; the cheapest clear one.
     fn approach_closed(
         &self,
         geometry: &ArmGeometry,
         axis: DVec3,
         approach: Approach,
         degrees: u32,
+        all_rolls: bool,
     ) -> Result<Vec<f64>, Unmet> {
-        let tilt = f64::from(degrees).to_radians();
-        let mut outcome = Err(Unmet::Nothing);
-        for all_rolls in rolls_to_try(geometry) {
-            let rolls = families::rolls(geometry, self.robot, self.seed(), all_rolls);
-            let found = families::approach_members(
-                geometry,
-                self.robot,
-                self.position,
-                &rolls,
-                self.seed(),
-                (axis, approach.direction),
-                tilt,
-            );
-            let members = self.candidates_of(found);
-            outcome = first_clear(
-                self.robot,
-                self.collision(),
-                members,
-                |v| v,
-                |v| self.scorer.cost(v),
-            )
-            .map_err(Unmet::from);
-            if outcome.is_ok() {
-                break;
-            }
-        }
-        outcome
+        let rolls = families::rolls(geometry, self.robot, self.seed(), all_rolls);
+        let found = families::approach_members(
+            geometry,
+            self.robot,
+            self.position,
+            &rolls,
+            self.seed(),
+            (axis, approach.direction),
+            f64::from(degrees).to_radians(),
+        );
+        self.cheapest_clear(found.into_iter().map(|m| m.values).collect())
     }
 
     /// The general solver's solutions for the tool orientations that point the approach axis
@@ -427,11 +422,6 @@ impl Key<'_> {
         );
         let clear = contact(self.robot, self.collision(), &refined.values).is_none();
         Ok(if clear { refined.values } else { best.values })
-    }
-
-    /// The members' joint values.
-    fn candidates_of(&self, found: Vec<Member>) -> Vec<Vec<f64>> {
-        found.into_iter().map(|m| m.values).collect()
     }
 
     /// Of solutions scored by a residual, those clear of contacts, the lowest residual of them

@@ -85,10 +85,11 @@ impl Solution {
 pub enum IkError {
     /// No joint values inside the limits put the tool there.
     #[error(
-        "the tool cannot reach ({}): it misses by {:.1} mm; the nearest reachable point is ({})",
+        "the tool cannot reach ({}): it misses by {:.1} mm; the nearest reachable point is ({}){}",
         mm3(*target),
         miss * 1000.0,
-        mm3(*nearest)
+        mm3(*nearest),
+        millimetres_hint(*target, *nearest)
     )]
     OutOfReach {
         /// The tool position asked for, metres.
@@ -158,6 +159,26 @@ pub enum IkError {
         /// The robot's name.
         robot: String,
     },
+}
+
+/// How many times farther than the arm reaches a target must be to read as millimetres typed
+/// where metres belong: a tool position in millimetres is a thousand times too far, a typo or a
+/// target just out of reach is not a hundred times.
+const MILLIMETRES_FACTOR: f64 = 100.0;
+
+/// A hint for a target that is millimetres typed as metres: farther from the base than
+/// [`MILLIMETRES_FACTOR`] times the nearest reachable point is.
+fn millimetres_hint(target: DVec3, nearest: DVec3) -> String {
+    if target.length() > MILLIMETRES_FACTOR * nearest.length().max(1e-3) {
+        let metres = target / 1000.0;
+        format!(
+            "; positions are in metres, and these look like millimetres: in metres they are \
+             {:.4}, {:.4}, {:.4}",
+            metres.x, metres.y, metres.z
+        )
+    } else {
+        String::new()
+    }
 }
 
 /// What an unreachable approach could be instead, for its message.
