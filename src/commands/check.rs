@@ -1,9 +1,11 @@
 //! `keypose check`: the curve against the robot's limits, exactly (`plan::check`).
 
 use super::{parse_check_rate, write_output, CommandError, SequenceInput, Verdict};
-use keypose::plan::{check, Trajectory};
+use keypose::plan::{check, CheckReport, LimitKind, Trajectory};
 use keypose::plan::{ToolKeyReport, ToolSolve};
 use keypose::report;
+use keypose::robot::Robot;
+use keypose::sequence::ToolApproach;
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct CheckArgs {
@@ -39,12 +41,13 @@ pub fn run(args: &CheckArgs) -> Result<Verdict, CommandError> {
     let tolerance = args.orientation_tolerance;
     let text = match args.format {
         ReportFormat::Text => {
-            report::check_text(&result, &sequence.file, &robot) + &tool_text(tools, tolerance)
+            report::check_text(&result, &sequence.file, &robot)
+                + &tool_text(tools, tolerance, &robot, &result)
         }
         ReportFormat::Json => {
             let mut json = report::check_json(&result, &sequence.file, &robot);
             if !(tools.keys.is_empty() && tools.lines.is_empty()) {
-                json["tool"] = tool_json(tools, tolerance);
+                json["tool"] = tool_json(tools, tolerance, &robot, &result);
             }
             let mut s = json.to_string();
             s.push('\n');
@@ -69,34 +72,82 @@ fn residual_max(key: &ToolKeyReport) -> f64 {
     key.residual_deg.map_or(0.0, |r| r.abs().max_element())
 }
 
-/// The tool keys' orientation residuals and the lines, one line each ("" without any).
-fn tool_text(tools: &ToolSolve, tolerance: f64) -> String {
+/// The tool keys (orientation residual, approach, smallest margin) and the lines, one line
+/// each ("" without any).
+fn tool_text(tools: &ToolSolve, tolerance: f64, robot: &Robot, result: &CheckReport) -> String {
     let mut out = String::new();
     for key in &tools.keys {
-        let Some(r) = key.residual_deg else {
-            continue;
-        };
-        let verdict = if residual_max(key) <= tolerance {
-            "ok"
-        } else {
-            "FAIL"
-        };
-        out += &format!(
-            "tool key {}: orientation off by {:.2}°, {:.2}°, {:.2}° about the tool's x, y, z \
-             (tolerance {tolerance}°) {verdict}\n",
-            key.label, r.x, r.y, r.z
-        );
+        if let Some(r) = key.residual_deg {
+            let verdict = if residual_max(key) <= tolerance {
+                "ok"
+            } else {
+                "FAIL"
+            };
+            out += &format!(
+                "tool key {}: orientation off by {:.2}°, {:.2}°, {:.2}° about the tool's x, y, z \
+                 (tolerance {tolerance}°) {verdict}\n",
+                key.label, r.x, r.y, r.z
+            );
+        }
+        let mut said = Vec::new();
+        if let Some((approach, tilt)) = key.approach {
+            said.push(approach_words(approach, tilt));
+        }
+        if let Some(m) = &key.margin {
+            said.push(format!(
+                "smallest margin {} {:.2} {} ({:.0} % of its half range)",
+                m.joint,
+                m.value,
+                m.unit,
+                m.share * 100.0
+            ));
+        }
+        if !said.is_empty() {
+            out += &format!("tool key {}: {}\n", key.label, said.join("; "));
+        }
     }
     for line in &tools.lines {
-        match &line.problem {
-            None => {
+        let speed = line.speed(robot, &result.violations);
+        match (&line.problem, speed) {
+            (None, None) => {
                 out += &format!(
                     "tool line from key {}: straight, {} samples, ok\n",
                     line.label,
                     line.samples.len()
                 )
             }
-            Some(problem) => {
+            (None, Some(speed)) => {
+                let worst: Vec<String> = speed
+                    .worst
+                    .iter()
+                    .map(|e| {
+                        let per = match e.kind {
+                            LimitKind::Acceleration => "/s²",
+                            _ => "/s",
+                        };
+                        format!(
+                            "{} {} {:.1} {}{per} (limit {:.1} {}{per})",
+                            e.joint,
+                            e.kind.name(),
+                            e.peak,
+                            e.unit,
+                            e.limit,
+                            e.unit
+                        )
+                    })
+                    .collect();
+                out += &format!(
+                    "tool line from key {}: straight, {} samples, FAIL: faster than the joints \
+                     allow: {}; `keypose retime` slows the line (it needs about {:.2} s, it has \
+                     {:.2} s)\n",
+                    line.label,
+                    line.samples.len(),
+                    worst.join(", "),
+                    speed.needed,
+                    line.span.1 - line.span.0
+                )
+            }
+            (Some(problem), _) => {
                 out += &format!(
                     "tool line from key {}: FAIL, {:.0} % feasible: {problem}\n",
                     line.label,
@@ -108,7 +159,24 @@ fn tool_text(tools: &ToolSolve, tolerance: f64) -> String {
     out
 }
 
-fn tool_json(tools: &ToolSolve, tolerance: f64) -> serde_json::Value {
+/// A key's approach in words: pointing down, or tilted from it.
+fn approach_words(approach: ToolApproach, tilt: f64) -> String {
+    if tilt < 0.05 {
+        "pointing down".to_string()
+    } else {
+        format!(
+            "tilted {tilt:.1}° from down (\"{}\": the arm cannot point it down there)",
+            approach.spelling()
+        )
+    }
+}
+
+fn tool_json(
+    tools: &ToolSolve,
+    tolerance: f64,
+    robot: &Robot,
+    result: &CheckReport,
+) -> serde_json::Value {
     let keys: Vec<_> = tools
         .keys
         .iter()
@@ -116,6 +184,12 @@ fn tool_json(tools: &ToolSolve, tolerance: f64) -> serde_json::Value {
             serde_json::json!({
                 "key": k.label,
                 "orientation_residual_deg": k.residual_deg.map(|r| r.to_array()),
+                "approach": k.approach.map(|(a, _)| a.spelling()),
+                "tilt_deg": k.approach.map(|(_, t)| t),
+                "smallest_margin": k.margin.as_ref().map(|m| serde_json::json!({
+                    "joint": m.joint, "margin": m.value, "unit": m.unit,
+                    "share_of_half_range": m.share,
+                })),
                 "ok": residual_max(k) <= tolerance,
             })
         })
@@ -124,10 +198,24 @@ fn tool_json(tools: &ToolSolve, tolerance: f64) -> serde_json::Value {
         .lines
         .iter()
         .map(|l| {
+            let speed = l.speed(robot, &result.violations).map(|s| {
+                let worst: Vec<_> = s
+                    .worst
+                    .iter()
+                    .map(|e| {
+                        serde_json::json!({
+                            "joint": e.joint, "kind": e.kind.name(), "peak": e.peak,
+                            "limit": e.limit, "unit": e.unit,
+                        })
+                    })
+                    .collect();
+                serde_json::json!({ "worst": worst, "needed_s": s.needed, "span_s": l.span.1 - l.span.0 })
+            });
             serde_json::json!({
                 "from_key": l.label,
                 "feasible_fraction": l.fraction,
                 "problem": l.problem,
+                "too_fast": speed,
             })
         })
         .collect();

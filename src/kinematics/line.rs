@@ -29,6 +29,24 @@ pub enum LineError {
         /// Why that sample cannot be reached.
         source: IkError,
     },
+    /// A joint reaches its limit partway and is held there while the others follow the line:
+    /// the joint path turns a corner there, which no timing makes smooth.
+    #[error(
+        "the line runs {joint} onto its limit ({limit} {unit}) after {:.0} % of its length, where \
+         the joints turn a corner no timing smooths; move the line's keys so that it stays \
+         inside the limits",
+        fraction * 100.0
+    )]
+    AlongLimit {
+        /// Share of the path (0 … 1) solved before the joint reached its limit.
+        fraction: f64,
+        /// The joint.
+        joint: String,
+        /// The limit it reached.
+        limit: f64,
+        /// "deg" or "m".
+        unit: &'static str,
+    },
     /// A joint would move more than [`JOINT_JUMP_DEG`] between two samples.
     #[error(
         "the line needs a joint jump after {:.0} % of its length: {joint} moves {jump:.1}° in one sample \
@@ -49,9 +67,9 @@ impl LineError {
     /// Share of the path (0 … 1) that is feasible, as MoveIt reports for Cartesian paths.
     pub fn fraction(&self) -> f64 {
         match self {
-            LineError::LeavesWorkspace { fraction, .. } | LineError::JointJump { fraction, .. } => {
-                *fraction
-            }
+            LineError::LeavesWorkspace { fraction, .. }
+            | LineError::JointJump { fraction, .. }
+            | LineError::AlongLimit { fraction, .. } => *fraction,
         }
     }
 }
@@ -122,10 +140,38 @@ pub fn solve_line(
                 });
             }
         }
+        if let Some((i, limit)) = reached_limit(robot, from, &solution.values, &tool) {
+            let joint = &robot.joints[i];
+            return Err(LineError::AlongLimit {
+                fraction,
+                joint: joint.name.clone(),
+                limit,
+                unit: joint.kind.unit(),
+            });
+        }
         previous = solution.values.clone();
         samples.push(solution.values);
     }
     Ok(LineSolution { samples })
+}
+
+/// A tool joint (of `tool`) that sits on a limit in `values` and was not on it at the line's
+/// start (`from`), with the limit: the solver clamps at the limits, so a joint that runs into
+/// one stays there while the others keep the tool on the line.
+fn reached_limit(
+    robot: &Robot,
+    from: &[f64],
+    values: &[f64],
+    tool: &[bool],
+) -> Option<(usize, f64)> {
+    const ON: f64 = 1e-9;
+    robot.joints.iter().enumerate().find_map(|(i, joint)| {
+        let limits = joint.limits;
+        [limits.min, limits.max].into_iter().find_map(|limit| {
+            let on = |v: f64| (v - limit).abs() <= ON;
+            (tool[i] && on(values[i]) && !on(from[i])).then_some((i, limit))
+        })
+    })
 }
 
 /// The joint that moves most between two poses, and by how much (degrees, or millimetres).

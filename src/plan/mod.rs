@@ -27,7 +27,7 @@ pub use check::{check, check_at_speed, Cause, CheckReport, JointSummary, LimitKi
 pub use retime::{retime, RetimeOutcome};
 pub use sampled::Sampled;
 pub use timeline::{Loops, Phase, Timeline, TimelineOptions};
-pub use tool_keys::{KeyMargin, LineReport, ToolKeyReport, ToolSolve};
+pub use tool_keys::{KeyMargin, LineExcess, LineReport, LineSpeed, ToolKeyReport, ToolSolve};
 
 /// Largest rotation off the joint axis (swing) accepted in a keyed transform, degrees. Hand-typed
 /// quaternions carry rounding of this order; more than that is a rotation the joint cannot make.

@@ -2,6 +2,7 @@
 //! reading a sequence and building its tracks, where the robot is first known. Everything after
 //! it (interpolation, the limit check, retime, playback, simulation) sees joint values only.
 
+use super::{LimitKind, Violation};
 use crate::collision::CollisionModel;
 use crate::json::InputError;
 use crate::kinematics::{
@@ -66,9 +67,85 @@ pub struct LineReport {
     pub joints: Range<usize>,
     /// The arm whose tool it is, in a cell.
     pub arm: Option<String>,
+    /// When the tool moves along it (the end of the first key's hold, the second key's time),
+    /// seconds.
+    pub span: (f64, f64),
+}
+
+/// A joint that moves faster along a line than its limits allow.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LineExcess {
+    /// The joint's name.
+    pub joint: String,
+    /// Which limit: velocity or acceleration (a position outside the limits ends the line
+    /// before, [`crate::kinematics::LineError`]).
+    pub kind: LimitKind,
+    /// The worst value along the line (absolute), per second or per second squared.
+    pub peak: f64,
+    /// The joint's limit.
+    pub limit: f64,
+    /// "deg" or "m".
+    pub unit: &'static str,
+}
+
+/// What the check found a line to need.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LineSpeed {
+    /// The worst joint for each limit exceeded (velocity first).
+    pub worst: Vec<LineExcess>,
+    /// About how long the line needs, seconds: its span stretched by the largest ratio, of
+    /// peak to limit for a velocity and of its square root for an acceleration (the line's
+    /// path stays; timing it over a longer span scales its velocities by the inverse of the
+    /// stretch, its accelerations by the inverse square).
+    pub needed: f64,
 }
 
 impl LineReport {
+    /// How much faster than the limits the line runs, from the check's `violations` in its
+    /// segment on its own joints; None when it keeps them (or could not be followed).
+    pub fn speed(&self, robot: &Robot, violations: &[Violation]) -> Option<LineSpeed> {
+        if self.problem.is_some() {
+            return None;
+        }
+        let mine = violations.iter().filter(|v| {
+            v.segment == self.key
+                && v.kind != LimitKind::Position
+                && robot
+                    .joint_index(&v.joint)
+                    .is_some_and(|j| self.joints.contains(&j))
+        });
+        let mut worst: Vec<LineExcess> = Vec::new();
+        for v in mine {
+            let ratio = |e: &LineExcess| e.peak / e.limit;
+            let candidate = LineExcess {
+                joint: v.joint.clone(),
+                kind: v.kind,
+                peak: v.peak.abs(),
+                limit: v.limit.abs(),
+                unit: v.unit,
+            };
+            match worst.iter_mut().find(|e| e.kind == v.kind) {
+                Some(e) if ratio(&candidate) > ratio(e) => *e = candidate,
+                Some(_) => {}
+                None => worst.push(candidate),
+            }
+        }
+        if worst.is_empty() {
+            return None;
+        }
+        worst.sort_by_key(|e| e.kind != LimitKind::Velocity);
+        let stretch = worst
+            .iter()
+            .map(|e| match e.kind {
+                LimitKind::Acceleration => (e.peak / e.limit).sqrt(),
+                _ => e.peak / e.limit,
+            })
+            .fold(1.0, f64::max);
+        Some(LineSpeed {
+            worst,
+            needed: (self.span.1 - self.span.0) * stretch,
+        })
+    }
     /// The sampled value of the robot's joint `joint` in sample `k`, when the line gives it.
     pub fn value(&self, k: usize, joint: usize) -> Option<f64> {
         self.joints
@@ -438,6 +515,7 @@ fn solve_line_into(
             times: shares.iter().map(|u| start + u * span).collect(),
             joints: 0..robot.joints.len(),
             arm: None,
+            span: (start, times[index]),
         },
         Err(e) => LineReport {
             key: index - 1,
@@ -448,6 +526,7 @@ fn solve_line_into(
             times: Vec::new(),
             joints: 0..robot.joints.len(),
             arm: None,
+            span: (start, times[index]),
         },
     }
 }
