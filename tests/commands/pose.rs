@@ -128,6 +128,114 @@ fn omx_turned_a_quarter_has_the_tool_turned_with_it() {
     );
 }
 
+/// The tool frame's z axis in the base frame from the report's roll-pitch-yaw (URDF:
+/// R = Rz(yaw)·Ry(pitch)·Rx(roll), so R·ẑ is its third column, worked by hand): on the SO-101
+/// the approach axis, wrist to fingertips (docs/robots.md §12.1).
+fn tool_z(report: &Value) -> [f64; 3] {
+    let rpy: Vec<f64> = report["tool"]["rpy_deg"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap().to_radians())
+        .collect();
+    let (r, p, y) = (rpy[0], rpy[1], rpy[2]);
+    [
+        y.cos() * p.sin() * r.cos() + y.sin() * r.sin(),
+        y.sin() * p.sin() * r.cos() - y.cos() * r.sin(),
+        p.cos() * r.cos(),
+    ]
+}
+
+/// Each joint's distance to its nearer limit, degrees, from the report's values and limits
+/// (the limits as robots/so101.json gives them: the report prints the robot's own).
+fn margins(report: &Value) -> Vec<(String, f64)> {
+    report["joints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|j| {
+            let v = j["value"].as_f64().unwrap();
+            let (min, max) = (j["min"].as_f64().unwrap(), j["max"].as_f64().unwrap());
+            (
+                j["name"].as_str().unwrap().to_string(),
+                (v - min).min(max - v),
+            )
+        })
+        .collect()
+}
+
+/// Issue 25's two targets: the nearest solutions put shoulder_lift on its −100° stop
+/// (0.22, −0.08, 0.10) and folded the gripper into the shoulder (0.22, 0.08, 0.04, exit 1).
+/// Solved as keys, every joint that moves the tool is at least 18° inside its limits (the
+/// issue found such tilted-tool solutions), the tool is on the target, and MuJoCo finds
+/// nothing touching (exit 0).
+#[test]
+fn the_issues_tool_targets_are_solved_clear_and_well_inside_the_limits() {
+    for target in [[0.22, -0.08, 0.10], [0.22, 0.08, 0.04]] {
+        let text = format!("{},{},{}", target[0], target[1], target[2]);
+        let (code, report) = pose_json(&["--tool", &text]);
+        assert_eq!(code, Some(0), "{text}: {report:#}");
+        assert_eq!(report["clear"], true, "{report:#}");
+        assert_tool_at(&report, target, 1e-4);
+        for (joint, margin) in margins(&report).into_iter().take(5) {
+            assert!(
+                margin >= 18.0,
+                "{text}: {joint} {margin:.2}° inside: {report:#}"
+            );
+        }
+        let smallest = &report["solved"]["smallest_margin"];
+        assert!(smallest["margin"].as_f64().unwrap() >= 18.0, "{report:#}");
+    }
+}
+
+/// `--approach down` points the tool straight down (its z axis along −z, by the rpy printed)
+/// where the arm can; where it cannot, exit 2 saying so and the least tilt that works, and
+/// `down-or-tilted` takes that tilt, clear of the floor and the arm (MuJoCo's contacts).
+#[test]
+fn approach_down_points_the_tool_down_or_says_it_cannot() {
+    let (code, report) = pose_json(&["--tool", "0.25,0.05,0.06", "--approach", "down"]);
+    assert_eq!(code, Some(0), "{report:#}");
+    assert_eq!(report["clear"], true, "{report:#}");
+    assert_tool_at(&report, [0.25, 0.05, 0.06], 1e-4);
+    let z = tool_z(&report);
+    assert!(z[2] < -(0.01f64.to_radians().cos()), "{z:?}: {report:#}");
+
+    let out = keypose(&["pose", "--tool", "0.22,-0.08,0.10", "--approach", "down"]);
+    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+    let said = crate::common::stderr(&out);
+    assert!(said.contains("not pointing down"), "{said}");
+    assert!(said.contains("least tilt"), "{said}");
+
+    let (code, report) = pose_json(&["--tool", "0.22,-0.08,0.10", "--approach", "down-or-tilted"]);
+    assert_eq!(code, Some(0), "{report:#}");
+    assert_eq!(report["clear"], true, "{report:#}");
+    let z = tool_z(&report);
+    let tilt = (-z[2]).acos().to_degrees();
+    assert!((1.0..=20.0).contains(&tilt), "{tilt}: {report:#}");
+    let reported = report["solved"]["tilt_deg"].as_f64().unwrap();
+    assert!((reported - tilt).abs() < 0.01, "{reported} vs {tilt}");
+}
+
+/// Millimetres typed for metres get a hint with the metres; angles past a turn in --tool are
+/// refused as not degrees; --approach with an orientation is refused. All exit 2.
+#[test]
+fn tool_units_typed_wrong_get_a_hint() {
+    for (args, says) in [
+        (vec!["--tool", "220,-80,100"], "0.2200, -0.0800, 0.1000"),
+        (vec!["--tool", "0.2,0,0.1,0,900,0"], "degrees"),
+        (
+            vec!["--tool", "0.2,0,0.1,0,90,0", "--approach", "down"],
+            "give one",
+        ),
+    ] {
+        let mut all = vec!["pose"];
+        all.extend(args);
+        let out = keypose(&all);
+        assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+        assert!(crate::common::stderr(&out).contains(says), "{}", show(&out));
+    }
+}
+
 #[test]
 fn bad_assignments_are_bad_input() {
     for (args, says) in [

@@ -14,3 +14,4 @@ mod kinematics;
 mod record_extract;
 mod record_keyframes;
 mod robots;
+mod tool_keys;

@@ -1,0 +1,290 @@
+//! Tool keys solved as a person would (issue 25 §3), through sequences: margins to the limits
+//! read from the robot file itself, gripper-down keys checked by hand geometry of the tool
+//! frame, continuity along a sequence, and the units hints. The collision side (clear of the
+//! floor and the arm by MuJoCo's own contacts) is in tests/commands/pose.rs and
+//! tests/simulation/tool_keys.rs.
+
+use glam::DVec3;
+use keypose::plan::Trajectory;
+use keypose::robot::Robot;
+use keypose::sequence::Sequence;
+
+fn sequence(keys: &str) -> Sequence {
+    let text = format!(
+        r#"{{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "monotone",
+            "keyframes": [{keys}]}}"#
+    );
+    Sequence::from_json("keys.json", &text).expect("parses")
+}
+
+const START: &str = r#"{"name": "start", "time": 0, "joints": {"shoulder_pan": 0, "shoulder_lift": 0, "elbow_flex": 0, "wrist_flex": 0, "wrist_roll": 0, "gripper": 0}}"#;
+
+/// The SO-101's joint limits (min, max) in degrees as robots/so101.json writes them.
+fn so101_limits() -> Vec<(String, f64, f64)> {
+    let text = std::fs::read_to_string(crate::common::repo("robots/so101.json")).unwrap();
+    let file: serde_json::Value = serde_json::from_str(&text).unwrap();
+    file["joints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|j| {
+            let limits = &j["limits"];
+            (
+                j["name"].as_str().unwrap().to_string(),
+                limits["min"].as_f64().unwrap(),
+                limits["max"].as_f64().unwrap(),
+            )
+        })
+        .collect()
+}
+
+/// The smallest distance (degrees) of the first five joints (those moving the tool) to their
+/// limits in `values`, and which joint.
+fn smallest_margin(values: &[f64]) -> (String, f64) {
+    so101_limits()
+        .into_iter()
+        .zip(values)
+        .take(5)
+        .map(|((name, min, max), v)| (name, (v - min).min(max - v)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap()
+}
+
+/// The tool frame's z axis in the base frame, from the forward kinematics of the pose: the
+/// SO-101's approach axis (docs/robots.md §12.1, read off the URDF's gripper frame).
+fn tool_z(robot: &Robot, values: &[f64]) -> DVec3 {
+    robot.tcp_frame(values).r * DVec3::Z
+}
+
+/// The issue's two targets as keys of one sequence from the zero pose: solved, every joint
+/// that moves the tool is at least 18° inside its limits (the issue found such solutions; the
+/// nearest ones put shoulder_lift on its −100° stop and wrist_flex on its −95° stop), and the
+/// tool is on the target.
+#[test]
+fn the_issues_targets_as_keys_keep_every_joint_well_inside_its_limits() {
+    let robot = Robot::builtin("so101").unwrap();
+    let keys = format!(
+        r#"{START},
+        {{"name": "a", "time": 2, "tool": {{"xyz": [0.22, -0.08, 0.10]}}}},
+        {{"name": "b", "time": 4, "tool": {{"xyz": [0.22, 0.08, 0.04]}}}}"#
+    );
+    let trajectory = Trajectory::build(&sequence(&keys), &robot).unwrap();
+    for (time, target) in [(2.0, [0.22, -0.08, 0.10]), (4.0, [0.22, 0.08, 0.04])] {
+        let values = trajectory.sample(time);
+        let tool = robot.tcp_position(&values);
+        assert!(tool.distance(DVec3::from_array(target)) < 1e-6, "{tool}");
+        let (joint, margin) = smallest_margin(&values);
+        assert!(
+            margin >= 18.0,
+            "t = {time}: {joint} {margin:.2}° from its limit: {values:?}"
+        );
+    }
+}
+
+/// Keys a centimetre apart along a path keep their branch: the elbow keeps its side and no
+/// joint moves more than 20° from one key to the next (a change of branch flips the elbow
+/// through its straight pose, tens of degrees). The path runs from 0.30 m in to 0.17 m, where
+/// no pose keeps the comfort margin any more and the keys keep as much as they can.
+#[test]
+fn keys_a_centimetre_apart_stay_continuous() {
+    let robot = Robot::builtin("so101").unwrap();
+    let mut keys = vec![START.to_string()];
+    let targets: Vec<[f64; 3]> = (0..14)
+        .map(|k| [0.30 - 0.01 * f64::from(k), 0.05, 0.10])
+        .collect();
+    for (k, t) in targets.iter().enumerate() {
+        keys.push(format!(
+            r#"{{"time": {}, "tool": {{"xyz": [{}, {}, {}]}}}}"#,
+            2 + k,
+            t[0],
+            t[1],
+            t[2]
+        ));
+    }
+    let trajectory = Trajectory::build(&sequence(&keys.join(",")), &robot).unwrap();
+    let poses: Vec<Vec<f64>> = (0..targets.len())
+        .map(|k| trajectory.sample(2.0 + k as f64))
+        .collect();
+    const ELBOW: usize = 2;
+    for pair in poses.windows(2) {
+        let largest = pair[0]
+            .iter()
+            .zip(&pair[1])
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(largest < 20.0, "{:?} → {:?}", pair[0], pair[1]);
+        assert_eq!(
+            pair[0][ELBOW].signum(),
+            pair[1][ELBOW].signum(),
+            "{:?} → {:?}",
+            pair[0],
+            pair[1]
+        );
+    }
+}
+
+/// `"approach": "down"` points the tool straight down where the arm can: the tool frame's z
+/// axis (the approach axis) is the base frame's −z within 0.01°, the tool on the target.
+#[test]
+fn a_down_key_points_the_tool_straight_down() {
+    let robot = Robot::builtin("so101").unwrap();
+    let keys = format!(
+        r#"{START}, {{"name": "grasp", "time": 2, "tool": {{"xyz": [0.25, 0.05, 0.06], "approach": "down"}}}}"#
+    );
+    let trajectory = Trajectory::build(&sequence(&keys), &robot).unwrap();
+    let values = trajectory.sample(2.0);
+    let z = tool_z(&robot, &values);
+    assert!(z.angle_between(DVec3::NEG_Z).to_degrees() < 0.01, "{z}");
+    let tool = robot.tcp_position(&values);
+    assert!(tool.distance(DVec3::new(0.25, 0.05, 0.06)) < 1e-6, "{tool}");
+    let report = &trajectory.tools.keys[0];
+    let (_, tilt) = report.approach.unwrap();
+    assert!(tilt < 0.01, "{tilt}");
+}
+
+/// Where the tool cannot point straight down (0.22, −0.08, 0.10 needs wrist_flex past its 95°
+/// stop), `"down"` is an error naming the key and the least tilt that works, and
+/// `"down-or-tilted"` takes a tilt: the tool's z axis then is that far from −z, and the report
+/// says so.
+#[test]
+fn down_out_of_reach_is_an_error_unless_a_tilt_is_allowed() {
+    let robot = Robot::builtin("so101").unwrap();
+    let key = |approach: &str| {
+        format!(
+            r#"{START}, {{"name": "over", "time": 2, "tool": {{"xyz": [0.22, -0.08, 0.10], "approach": "{approach}"}}}}"#
+        )
+    };
+    let error = Trajectory::build(&sequence(&key("down")), &robot)
+        .unwrap_err()
+        .to_string();
+    for part in [
+        "keys.json",
+        "$.keyframes[1].tool.xyz",
+        "key over",
+        "not pointing down",
+        "least tilt",
+        "down-or-tilted",
+    ] {
+        assert!(error.contains(part), "{part:?} in {error}");
+    }
+    let trajectory = Trajectory::build(&sequence(&key("down-or-tilted")), &robot).unwrap();
+    let values = trajectory.sample(2.0);
+    let tilt = tool_z(&robot, &values)
+        .angle_between(DVec3::NEG_Z)
+        .to_degrees();
+    assert!((1.0..=20.0).contains(&tilt), "{tilt}");
+    let (_, reported) = trajectory.tools.keys[0].approach.unwrap();
+    // The approach axis is the roll axis, which the URDF's gripper frame (rpy 0, 3.14159, 0)
+    // turns onto the tool's z within 0.0002°.
+    assert!((reported - tilt).abs() < 1e-3, "{reported} vs {tilt}");
+}
+
+/// An approach beside a whole orientation, or spelt otherwise, is refused at its path.
+#[test]
+fn an_approach_is_one_of_its_spellings_and_not_beside_an_orientation() {
+    let text = |tool: &str| {
+        format!(
+            r#"{{"format": "keypose-sequence/1", "robot": "so101",
+                "keyframes": [{{"time": 0, "tool": {tool}}}]}}"#
+        )
+    };
+    let both = Sequence::from_json(
+        "t.json",
+        &text(r#"{"xyz": [0.2, 0, 0.1], "rpy": [0, 0, 0], "approach": "down"}"#),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(both.contains("$.keyframes[0].tool.approach"), "{both}");
+    assert!(both.contains("expected one"), "{both}");
+    let misspelt = Sequence::from_json(
+        "t.json",
+        &text(r#"{"xyz": [0.2, 0, 0.1], "approach": "downwards"}"#),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        misspelt.contains(r#"one of "down", "down-or-tilted""#),
+        "{misspelt}"
+    );
+}
+
+/// A saved key keeps its approach as written.
+#[test]
+fn an_approach_saves_as_written() {
+    let keys = format!(
+        r#"{START}, {{"time": 2, "tool": {{"xyz": [0.25, 0.05, 0.06], "approach": "down-or-tilted"}}}}"#
+    );
+    let text = sequence(&keys).to_json();
+    assert!(
+        text.contains(r#""approach":"down-or-tilted""#)
+            || text.contains(r#""approach": "down-or-tilted""#),
+        "{text}"
+    );
+    let again = Sequence::from_json("keys.json", &text).unwrap();
+    assert_eq!(again.keyframes[1].tool, sequence(&keys).keyframes[1].tool);
+}
+
+/// Degrees typed in "rpy" (radians): 90 is past any angle an orientation needs (±π), so the
+/// key is refused with the values in radians (90° = 1.5708 rad, by hand).
+#[test]
+fn degrees_in_rpy_are_refused_with_the_radians() {
+    let text = r#"{"format": "keypose-sequence/1", "robot": "so101",
+        "keyframes": [{"time": 0, "tool": {"xyz": [0.2, 0, 0.1], "rpy": [180, 0, 90]}}]}"#;
+    let error = Sequence::from_json("t.json", text).unwrap_err().to_string();
+    for part in [
+        "$.keyframes[0].tool.rpy",
+        "radians",
+        "look like degrees",
+        "3.1416, 0.0000, 1.5708",
+    ] {
+        assert!(error.contains(part), "{part:?} in {error}");
+    }
+}
+
+/// Millimetres typed in "xyz" (metres): the target is a thousand times past the arm's reach,
+/// and the error gives it in metres.
+#[test]
+fn millimetres_in_xyz_get_a_hint_in_metres() {
+    let robot = Robot::builtin("so101").unwrap();
+    let keys = format!(r#"{START}, {{"time": 2, "tool": {{"xyz": [250, 50, 60]}}}}"#);
+    let error = Trajectory::build(&sequence(&keys), &robot)
+        .unwrap_err()
+        .to_string();
+    for part in ["look like millimetres", "0.2500, 0.0500, 0.0600"] {
+        assert!(error.contains(part), "{part:?} in {error}");
+    }
+    // A target just out of reach (0.6 m; the arm reaches about 0.48 m) gets no such hint.
+    let keys = format!(r#"{START}, {{"time": 2, "tool": {{"xyz": [0.6, 0, 0.1]}}}}"#);
+    let error = Trajectory::build(&sequence(&keys), &robot)
+        .unwrap_err()
+        .to_string();
+    assert!(!error.contains("millimetres"), "{error}");
+}
+
+/// A straight line from (0.38, 0, 0.20) up and in to (0.12, 0, 0.30) runs shoulder_lift onto
+/// its −100° stop (robots/so101.json) partway: the solver would hold it there while the
+/// others keep the tool on the line, a corner in the joint path. The line is reported as
+/// failing there, naming the joint and the limit.
+#[test]
+fn a_line_that_runs_a_joint_onto_its_limit_says_so() {
+    let robot = Robot::builtin("so101").unwrap();
+    let keys = format!(
+        r#"{START},
+        {{"name": "out", "time": 3, "interp": "line", "tool": {{"xyz": [0.38, 0, 0.20]}}}},
+        {{"name": "in", "time": 6, "tool": {{"xyz": [0.12, 0, 0.30]}}}}"#
+    );
+    let trajectory = Trajectory::build(&sequence(&keys), &robot).unwrap();
+    let line = &trajectory.tools.lines[0];
+    let problem = line.problem.as_deref().expect("the line fails");
+    let (_, min, _) = so101_limits()
+        .into_iter()
+        .find(|l| l.0 == "shoulder_lift")
+        .unwrap();
+    assert!(problem.contains("shoulder_lift"), "{problem}");
+    assert!(problem.contains(&format!("({min} deg)")), "{problem}");
+    assert!(
+        line.fraction > 0.5 && line.fraction < 1.0,
+        "{}",
+        line.fraction
+    );
+}
