@@ -11,3 +11,4 @@ mod collision;
 mod harness;
 mod joint_map;
 mod models;
+mod tool_keys;

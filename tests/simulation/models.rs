@@ -75,7 +75,7 @@ const CASES: [Case; 4] = [
 ];
 
 /// keypose's Python environment, built on first use by whichever test gets here first.
-fn config() -> &'static PyConfig {
+pub(crate) fn config() -> &'static PyConfig {
     static SHARED: OnceLock<Result<PyConfig, String>> = OnceLock::new();
     let built = SHARED.get_or_init(|| {
         let cache = crate::common::python_cache();
@@ -97,12 +97,12 @@ fn config() -> &'static PyConfig {
     }
 }
 
-fn harness() -> Harness {
+pub(crate) fn harness() -> Harness {
     Harness::start_in(config(), "sim_harness.py", crate::common::patient_harness())
         .unwrap_or_else(|e| panic!("the MuJoCo harness did not start: {e}"))
 }
 
-fn robot(name: &str) -> Robot {
+pub(crate) fn robot(name: &str) -> Robot {
     Robot::builtin(name).unwrap_or_else(|| panic!("no built-in robot {name:?}"))
 }
 
@@ -110,21 +110,21 @@ fn model_path(name: &str) -> String {
     format!("{}/sim/models/{name}.xml", env!("CARGO_MANIFEST_DIR"))
 }
 
-fn request(harness: &mut Harness, robot: &str, request: Value) -> Value {
+pub(crate) fn request(harness: &mut Harness, robot: &str, request: Value) -> Value {
     harness
         .request(&request)
         .unwrap_or_else(|e| panic!("{robot}: {request} failed: {e}"))
 }
 
 /// Loads a robot's model and returns the harness's description of it.
-fn load(harness: &mut Harness, robot: &str) -> Value {
+pub(crate) fn load(harness: &mut Harness, robot: &str) -> Value {
     let path = model_path(robot);
     request(harness, robot, json!({"op": "load", "mjcf": path}))
 }
 
 /// A joint value in MuJoCo's unit: keypose's revolute joints are in degrees, MuJoCo's hinges in
 /// radians; prismatic joints are in metres on both sides.
-fn to_sim(kind: JointKind, value: f64) -> f64 {
+pub(crate) fn to_sim(kind: JointKind, value: f64) -> f64 {
     match kind {
         JointKind::Revolute => value.to_radians(),
         JointKind::Prismatic => value,
@@ -132,7 +132,7 @@ fn to_sim(kind: JointKind, value: f64) -> f64 {
 }
 
 /// SplitMix64: a fixed seed gives the same poses on every platform.
-struct Prng(u64);
+pub(crate) struct Prng(pub(crate) u64);
 
 impl Prng {
     fn next_u64(&mut self) -> u64 {
@@ -144,13 +144,13 @@ impl Prng {
     }
 
     /// Uniform in [lo, hi].
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+    pub(crate) fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
         let unit = (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
         lo + (hi - lo) * unit
     }
 }
 
-fn vec3(value: &Value, what: &str) -> [f64; 3] {
+pub(crate) fn vec3(value: &Value, what: &str) -> [f64; 3] {
     let items = value
         .as_array()
         .filter(|items| items.len() == 3)
