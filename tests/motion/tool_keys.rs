@@ -288,3 +288,56 @@ fn a_line_that_runs_a_joint_onto_its_limit_says_so() {
         line.fraction
     );
 }
+
+/// A 0.4 s straight line over 20 cm asks the joints for more than their limits: `check`
+/// reports it on the line itself (the worst joint per limit, the value needed against the
+/// limit of robots/so101.json, 115 deg/s and 344 deg/s², with units) with the fix, `retime`
+/// slows the line; and it does: the retimed file passes `check` with the line ok. (On main at
+/// aa5fea0 the line passed as "straight, ok" beside the violations, and retime stretched it
+/// to 73 s without a pass, advising "use a smooth mode".)
+#[test]
+fn a_line_too_fast_for_the_joints_is_reported_on_the_line_and_retime_slows_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let fast = dir.path().join("fast.json");
+    let keys = format!(
+        r#"{START},
+        {{"name": "above", "time": 2.0, "interp": "line", "tool": {{"xyz": [0.25, -0.05, 0.12]}}}},
+        {{"name": "grasp", "time": 2.4, "tool": {{"xyz": [0.15, 0.1, 0.06]}}, "joints": {{"gripper": 30}}}},
+        {{"name": "lift", "time": 4, "tool": {{"xyz": [0.25, 0.05, 0.12]}}}}"#
+    );
+    let text = format!(
+        r#"{{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "monotone",
+            "keyframes": [{keys}]}}"#
+    );
+    std::fs::write(&fast, text).unwrap();
+    let fast = fast.to_str().unwrap();
+    let out = crate::common::run(&["check", fast]);
+    assert_eq!(out.status.code(), Some(1), "{}", crate::common::show(&out));
+    let printed = crate::common::stdout(&out);
+    let line = printed
+        .lines()
+        .find(|l| l.starts_with("tool line from key above"))
+        .unwrap_or_else(|| panic!("{printed}"));
+    for part in [
+        "FAIL",
+        "faster than the joints allow",
+        "(limit 115.0 deg/s)",
+        "(limit 344.0 deg/s²)",
+        "`keypose retime` slows the line",
+        "it has 0.40 s",
+    ] {
+        assert!(line.contains(part), "{part:?} in {line}");
+    }
+    assert!(!printed.contains("smooth mode"), "{printed}");
+
+    let fixed = dir.path().join("fixed.json");
+    let out = crate::common::run(&["retime", fast, "-o", fixed.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{}", crate::common::show(&out));
+    let out = crate::common::run(&["check", fixed.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{}", crate::common::show(&out));
+    assert!(
+        crate::common::stdout(&out).contains("tool line from key above: straight"),
+        "{}",
+        crate::common::show(&out)
+    );
+}
