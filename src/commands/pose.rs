@@ -3,7 +3,7 @@
 //! `--directions FILE.png`, a picture of the robot's joint directions instead.
 
 use super::check::ReportFormat;
-use super::{write_output, CommandError, RobotArgs, Verdict};
+use super::{write_output, BusArgs, CommandError, RobotArgs, Verdict};
 use glam::DVec3;
 use keypose::collision::CollisionModel;
 use keypose::kinematics::{
@@ -39,8 +39,10 @@ pub struct PoseArgs {
     pub directions: Option<PathBuf>,
     /// Instead of joint values, where the tool (the robot's tcp) should be: X,Y,Z in metres in
     /// the base frame, optionally followed by ROLL,PITCH,YAW in degrees (as this command prints
-    /// them). Prints the joint solution nearest the home pose, with each joint's margin to its
-    /// limits.
+    /// them; a sequence's "rpy" takes radians). Solved as a sequence's tool key is: clear of
+    /// the floor and the arm itself, a quarter of each joint's half range from its limits where
+    /// it can be, then nearest the home pose (the arm's present pose with --port). Prints each
+    /// joint's margin to its limits.
     #[arg(long, value_name = "X,Y,Z[,R,P,Y]", conflicts_with_all = ["values", "directions"], allow_hyphen_values = true)]
     pub tool: Option<String>,
     /// With `--tool X,Y,Z`: which way the tool points, as a sequence's "approach" says it:
@@ -48,6 +50,10 @@ pub struct PoseArgs {
     /// `down-or-tilted` (down where it can, else the least tilt from down it can).
     #[arg(long, value_name = "APPROACH", requires = "tool", value_parser = parse_approach)]
     pub approach: Option<ToolApproach>,
+    /// With `--tool`: the arm whose present pose the solution stays near (as a sequence's key
+    /// stays near the previous one), instead of the home pose. Nothing is moved.
+    #[command(flatten)]
+    pub bus: BusArgs,
 }
 
 /// `--approach`: a sequence's "approach" spelling.
@@ -84,7 +90,15 @@ pub fn run(args: &PoseArgs) -> Result<Verdict, CommandError> {
         return draw_directions(&robot, model.as_ref(), path);
     }
     let (pose, solved) = match &args.tool {
-        Some(text) => solve_tool(&robot, text, args.approach)?,
+        Some(text) => {
+            let seed = seed(&robot, &args.bus)?;
+            solve_tool(&robot, text, args.approach, seed)?
+        }
+        None if args.bus.given() => {
+            return Err(CommandError::Usage(
+                "--port gives the pose --tool starts from: give --tool X,Y,Z too".into(),
+            ))
+        }
         None => (parse_pose(&robot, &args.values)?, None),
     };
     let mut simulation = Simulation::start(&robot, model.as_ref(), None)?;
@@ -120,14 +134,45 @@ struct Solved {
     target: KeyTarget,
     chosen: Chosen,
     closed_form: bool,
+    seed: Seed,
 }
 
-/// `X,Y,Z[,ROLL,PITCH,YAW]` solved as a key from the home pose: the pose (tool joints marked
-/// given).
+/// The pose a `--tool` solution stays near.
+struct Seed {
+    values: Vec<f64>,
+    /// "the home pose", or "the arm's present pose".
+    what: &'static str,
+}
+
+/// The arm's present pose when a `--port` is given (read once, nothing written), else home.
+fn seed(robot: &Robot, bus: &BusArgs) -> Result<Seed, CommandError> {
+    if !bus.given() {
+        return Ok(Seed {
+            values: robot.home.clone(),
+            what: "the home pose",
+        });
+    }
+    let mut connection = bus.open(robot)?;
+    let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
+    let ticks = connection.bus.read_positions(&ids)?;
+    let values = robot
+        .joints
+        .iter()
+        .zip(&ticks)
+        .map(|(joint, &tick)| joint.servo.value(tick))
+        .collect();
+    Ok(Seed {
+        values,
+        what: "the arm's present pose",
+    })
+}
+
+/// `X,Y,Z[,ROLL,PITCH,YAW]` solved as a key from `seed`: the pose (tool joints marked given).
 fn solve_tool(
     robot: &Robot,
     text: &str,
     approach: Option<ToolApproach>,
+    seed: Seed,
 ) -> Result<(Pose, Option<Solved>), CommandError> {
     let usage = |why: String| CommandError::Usage(format!("--tool {text:?}: {why}"));
     let numbers: Vec<f64> = text
@@ -175,7 +220,7 @@ fn solve_tool(
     let held = vec![false; robot.joints.len()];
     let collision = CollisionModel::for_robot(robot);
     let preference = Preference {
-        seed: &robot.home,
+        seed: &seed.values,
         held: &held,
         collision: collision.as_ref(),
     };
@@ -193,6 +238,7 @@ fn solve_tool(
             target,
             chosen,
             closed_form,
+            seed,
         }),
     ))
 }
@@ -208,8 +254,8 @@ fn solution_text(robot: &Robot, solved: &Solved) -> String {
     };
     let _ = writeln!(
         out,
-        "solved ({how}) for the tool at x {:.4}  y {:.4}  z {:.4} m",
-        p.x, p.y, p.z
+        "solved ({how}) for the tool at x {:.4}  y {:.4}  z {:.4} m, from {}",
+        p.x, p.y, p.z, solved.seed.what
     );
     if let Some(r) = solved.chosen.solution.orientation_residual_deg {
         let _ = writeln!(
@@ -275,6 +321,7 @@ fn solution_json(robot: &Robot, solved: &Solved) -> serde_json::Value {
     json!({
         "target": solved.target.position.to_array(),
         "tilt_deg": solved.chosen.tilt_deg,
+        "seed": { "from": solved.seed.what, "values": solved.seed.values },
         "smallest_margin": smallest,
         "solver": if solved.closed_form { "closed form" } else { "damped least squares" },
         "orientation_residual_deg": solved.chosen.solution.orientation_residual_deg.map(|r| r.to_array()),

@@ -216,6 +216,54 @@ fn approach_down_points_the_tool_down_or_says_it_cannot() {
     assert!((reported - tilt).abs() < 0.01, "{reported} vs {tilt}");
 }
 
+/// `--tool` with `--port` stays near the arm's present pose, not home: emulated STS3215s at
+/// zero whose Homing_Offset registers hold −500 (shoulder_lift) and 800 (elbow_flex) report
+/// actual − offset (docs/protocols.md §2), so 500 · 360/4096 = 43.945° and −800 · 360/4096 =
+/// −70.3125° (by hand); the solution from there is nearer that
+/// pose (in the sum of squared joint differences) than the one from home is, and both are on
+/// the target and clear.
+#[test]
+fn tool_with_a_port_stays_near_the_arms_present_pose() {
+    let bus = crate::common::VirtualBusProcess::start(&[
+        "--robot",
+        "so101",
+        "--homing-offset",
+        "2:-500",
+        "--homing-offset",
+        "3:800",
+    ]);
+    let target = [0.25, 0.05, 0.12];
+    let (code, from_arm) = pose_json(&["--tool", "0.25,0.05,0.12", "--port", &bus.path]);
+    assert_eq!(code, Some(0), "{from_arm:#}");
+    let present: Vec<f64> = from_arm["solved"]["seed"]["values"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert!((present[1] - 43.9453125).abs() < 1e-9, "{present:?}");
+    assert!((present[2] + 70.3125).abs() < 1e-9, "{present:?}");
+    let (code, from_home) = pose_json(&["--tool", "0.25,0.05,0.12"]);
+    assert_eq!(code, Some(0), "{from_home:#}");
+    let distance = |report: &Value| -> f64 {
+        report["joints"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(&present)
+            .map(|(j, p)| (j["value"].as_f64().unwrap() - p).powi(2))
+            .sum()
+    };
+    assert!(
+        distance(&from_arm) < distance(&from_home),
+        "{from_arm:#} {from_home:#}"
+    );
+    for report in [&from_arm, &from_home] {
+        assert_tool_at(report, target, 1e-4);
+        assert_eq!(report["clear"], true, "{report:#}");
+    }
+}
+
 /// Millimetres typed for metres get a hint with the metres; angles past a turn in --tool are
 /// refused as not degrees; --approach with an orientation is refused. All exit 2.
 #[test]
