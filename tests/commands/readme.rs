@@ -592,7 +592,7 @@ fn example_descriptions_say_what_their_keys_do() {
 
 /// The files docs/commands.md's examples name that are not in the repository, as it describes
 /// them.
-const README_FIXTURES: [(&str, &str); 3] = [
+const README_FIXTURES: [(&str, &str); 4] = [
     // "elbow_flex 0 → 90° in 0.5 s"
     (
         "fast.json",
@@ -611,6 +611,15 @@ const README_FIXTURES: [(&str, &str); 3] = [
         "spike.json",
         r#"{"format":"keypose-sequence/1","robot":"so101","interpolation":"cubic","keyframes":[
           {"time":0,"joints":{"wrist_flex":0}},{"time":0.002,"joints":{"wrist_flex":60}},{"time":0.004,"joints":{"wrist_flex":0}}]}"#,
+    ),
+    // A 0.4 s line from (0.25, −0.05, 0.12) to (0.15, 0.1, 0.06).
+    (
+        "pick.json",
+        r#"{"format":"keypose-sequence/1","robot":"so101","interpolation":"monotone","keyframes":[
+          {"name":"start","time":0,"joints":{"shoulder_pan":0,"shoulder_lift":0,"elbow_flex":0,"wrist_flex":0,"wrist_roll":0,"gripper":0}},
+          {"name":"above","time":2.0,"interp":"line","tool":{"xyz":[0.25,-0.05,0.12]}},
+          {"name":"grasp","time":2.4,"tool":{"xyz":[0.15,0.1,0.06]},"joints":{"gripper":30}},
+          {"name":"lift","time":4,"tool":{"xyz":[0.25,0.05,0.12]}}]}"#,
     ),
 ];
 
@@ -745,7 +754,7 @@ fn the_readme_console_examples_print_what_the_commands_print() {
     }
     assert_eq!(
         compared,
-        ["check", "check", "check", "check", "sample", "sample", "retime", "mirror"]
+        ["check", "check", "check", "check", "check", "sample", "sample", "retime", "mirror"]
     );
 }
 
