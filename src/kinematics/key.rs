@@ -303,9 +303,8 @@ impl Key<'_> {
             Some(geometry) => self.approach_closed(geometry, axis, approach, degrees, all_rolls),
             None => self.approach_general(axis, approach, degrees),
         };
-        let mut exact = Err(Unmet::Nothing);
         for all_rolls in [false, true] {
-            exact = at(0, all_rolls);
+            let exact = at(0, all_rolls);
             if exact.is_ok() {
                 return exact;
             }
@@ -325,7 +324,12 @@ impl Key<'_> {
                 .min_by(|a, b| self.scorer.cost(a).total_cmp(&self.scorer.cost(b)))
                 .ok_or(Unmet::Nothing);
         }
-        exact
+        // Not within 90° of the direction: say so where the position itself has a key, else
+        // why it has none.
+        match self.free(closed) {
+            Ok(_) => Err(Unmet::Tilt(None)),
+            Err(unmet) => Err(unmet),
+        }
     }
 
     /// The closed form's members tilted `degrees` from the approach (either way), with the

@@ -187,7 +187,7 @@ fn tilt_hint(least: Option<u32>) -> String {
         Some(t) => format!(
             "; the least tilt from it that is: {t}° (the approach \"down-or-tilted\" accepts that)"
         ),
-        None => String::new(),
+        None => "; nor tilted less than 90° from it".into(),
     }
 }
 

@@ -179,6 +179,23 @@ fn down_out_of_reach_is_an_error_unless_a_tilt_is_allowed() {
     assert!((reported - tilt).abs() < 1e-3, "{reported} vs {tilt}");
 }
 
+/// Straight above the shoulder, 40 cm up, the SO-101 reaches only pointing up (its stretched
+/// arm is 0.4 m from the shoulder): a down key there is refused as not pointing down, not as
+/// out of reach, even allowing a tilt.
+#[test]
+fn a_target_reached_only_pointing_up_is_not_called_out_of_reach() {
+    let robot = Robot::builtin("so101").unwrap();
+    let keys = format!(
+        r#"{START}, {{"name": "up", "time": 2, "tool": {{"xyz": [0.1, 0, 0.4], "approach": "down-or-tilted"}}}}"#
+    );
+    let error = Trajectory::build(&sequence(&keys), &robot)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("not pointing down"), "{error}");
+    assert!(error.contains("nor tilted less than 90°"), "{error}");
+    assert!(!error.contains("cannot reach"), "{error}");
+}
+
 /// An approach beside a whole orientation, or spelt otherwise, is refused at its path.
 #[test]
 fn an_approach_is_one_of_its_spellings_and_not_beside_an_orientation() {
