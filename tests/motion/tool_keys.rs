@@ -142,6 +142,25 @@ fn a_down_key_points_the_tool_straight_down() {
     assert!(tilt < 0.01, "{tilt}");
 }
 
+/// A straight line into a down key ends pointing down: the line's orientation is slerped to
+/// the down key's own, so the key (which takes the line's last sample) points down.
+#[test]
+fn a_line_into_a_down_key_ends_pointing_down() {
+    let robot = Robot::builtin("so101").unwrap();
+    let keys = format!(
+        r#"{START},
+        {{"name": "above", "time": 2, "interp": "line", "tool": {{"xyz": [0.25, 0.05, 0.12]}}}},
+        {{"name": "grasp", "time": 4, "tool": {{"xyz": [0.25, 0.05, 0.06], "approach": "down"}}}}"#
+    );
+    let trajectory = Trajectory::build(&sequence(&keys), &robot).unwrap();
+    assert_eq!(trajectory.tools.lines[0].problem, None);
+    let values = trajectory.sample(4.0);
+    let z = tool_z(&robot, &values);
+    assert!(z.angle_between(DVec3::NEG_Z).to_degrees() < 0.01, "{z}");
+    let tool = robot.tcp_position(&values);
+    assert!(tool.distance(DVec3::new(0.25, 0.05, 0.06)) < 1e-6, "{tool}");
+}
+
 /// Where the tool cannot point straight down (0.22, −0.08, 0.10 needs wrist_flex past its 95°
 /// stop), `"down"` is an error naming the key and the least tilt that works, and
 /// `"down-or-tilted"` takes a tilt: the tool's z axis then is that far from −z, and the report
