@@ -1,6 +1,12 @@
 //! Tool keys into joint values, and straight tool lines into joint samples: the step between
 //! reading a sequence and building its tracks, where the robot is first known. Everything after
 //! it (interpolation, the limit check, retime, playback, simulation) sees joint values only.
+//!
+//! Each key is solved as a person would choose it (`Solver::solve_key`: clear of the floor and
+//! of the arm itself in the robot's collision model, margins to the limits, near the previous
+//! key's pose, an approach direction when the key gives one); what it found is reported per key
+//! ([`ToolKeyReport`]) and per line ([`LineReport`], with [`LineReport::speed`] saying what the
+//! check found a line to need).
 
 use super::{LimitKind, Violation};
 use crate::collision::CollisionModel;
