@@ -197,12 +197,13 @@ fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
         .unwrap()
         .contains("another page controls the arm"));
     assert_eq!(results["keysAfterRefusal"], json!(2));
-    // Closing the controller's page mid-play stopped the arm along its path.
+    // Closing the controller's page mid-play stopped the arm along its path: decelerated for
+    // the lost page, or, on a machine loaded enough to stall the player first, braked along
+    // the path for the stall.
+    let after_close = results["afterClose"].as_str().unwrap();
     assert!(
-        results["afterClose"]
-            .as_str()
-            .unwrap()
-            .contains("decelerated"),
+        after_close.contains("decelerated")
+            || after_close.contains("braked to rest along the path"),
         "{results}"
     );
 }
