@@ -13,7 +13,7 @@
 use keypose::bus::{connect, Driver};
 use keypose::robot::Robot;
 use std::io::BufRead;
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// Interleaved repetitions of each emulator's run.
@@ -28,6 +28,9 @@ const ROBOTS: [&str; 2] = ["so101", "koch"];
 struct Emulator {
     child: Child,
     path: String,
+    /// Held open: the process serves until its standard input closes.
+    _stdin: ChildStdin,
+    _stdout: std::io::BufReader<ChildStdout>,
 }
 
 impl Emulator {
@@ -38,15 +41,17 @@ impl Emulator {
             command.arg("--no-wire-timing");
         }
         let mut child = command
+            .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
             .expect("start keypose virtual-bus");
+        let mut stdout = std::io::BufReader::new(child.stdout.take().unwrap());
         let mut line = String::new();
-        std::io::BufReader::new(child.stdout.take().unwrap())
-            .read_line(&mut line)
-            .expect("the device path");
+        stdout.read_line(&mut line).expect("the device path");
         Emulator {
+            _stdin: child.stdin.take().unwrap(),
+            _stdout: stdout,
             child,
             path: line.trim().to_string(),
         }
