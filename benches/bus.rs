@@ -167,6 +167,16 @@ fn summary_cycles(vendors: &[VendorResult], timed: bool) {
     println!("summary: ");
 }
 
+/// Whether a section is to run: those named after `--` (`cargo bench --bench bus -- codec
+/// player`; sections: cycles, player, codec, cell), or all.
+fn wanted(section: &str) -> bool {
+    let named: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
+    named.is_empty() || named.iter().any(|n| n == section)
+}
+
 fn main() {
     // `cargo bench` passes `--bench`; `cargo test --benches` runs this too: keep that quick.
     if !common::is_bench_run() {
@@ -184,119 +194,135 @@ fn main() {
          JSON-lines pipe). Untimed: answers at once, only software time."
     );
 
-    let mut modes = Vec::new();
-    for timed in [true, false] {
+    let modes = wanted("cycles").then(|| {
+        let mut modes = Vec::new();
+        for timed in [true, false] {
+            println!(
+                "\n1{}. sync write (6 goals) + sync read (6 positions), {}, {}× {:?} per contender, \
+                 interleaved:",
+                if timed { "a" } else { "b" },
+                if timed { "wire-timed" } else { "untimed" },
+                cycles::REPS,
+                cycles::RUN
+            );
+            let vendors: Vec<VendorResult> = ROBOTS
+                .iter()
+                .map(|name| cycles::bus_cycles(name, timed))
+                .collect();
+            print_cycles(&vendors, timed);
+            modes.push((timed, vendors));
+        }
+
+        modes
+    });
+
+    let playbacks = wanted("player").then(|| {
         println!(
-            "\n1{}. sync write (6 goals) + sync read (6 positions), {}, {}× {:?} per contender, \
-             interleaved:",
-            if timed { "a" } else { "b" },
-            if timed { "wire-timed" } else { "untimed" },
+            "\n2. player on so101, native driver, wire-timed, 10 s cubic on shoulder_pan after the \
+             approach ramp, {}× each, interleaved:",
+            player::REPS
+        );
+        let playbacks = player::playbacks(&PLAYER, player::REPS);
+        for (config, runs) in PLAYER.iter().zip(&playbacks) {
+            for run in runs {
+                match run {
+                    Ok(r) => println!(
+                        "  {:<26} {} cycles in {:.2} s; lateness at start p50 {:.3} ms, p99 {:.3} ms, \
+                         max {:.3} ms; at the write p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms; start → \
+                         write p50 {:.1} µs, p99 {:.1} µs; write call p50 {:.1} µs, p99 {:.1} µs; {} \
+                         cycles written > 1 period late; {} unmatched; CPU steal {}",
+                        config.label(),
+                        r.cycles,
+                        r.wall_seconds,
+                        r.at_start.p50,
+                        r.at_start.p99,
+                        r.at_start.max,
+                        r.at_write.p50,
+                        r.at_write.p99,
+                        r.at_write.max,
+                        r.start_to_write.p50 * 1e3,
+                        r.start_to_write.p99 * 1e3,
+                        r.write_call.p50 * 1e3,
+                        r.write_call.p99 * 1e3,
+                        r.late_by_a_period,
+                        r.unmatched,
+                        r.steal,
+                    ),
+                    Err(reason) => println!("  {:<26} ended: {reason}", config.label()),
+                }
+            }
+        }
+
+        playbacks
+    });
+
+    let costs = wanted("codec").then(|| {
+        println!(
+            "\n3. CPU time per cycle of encode + decode (sync write of 6 goals, sync read of 6 \
+             positions), no I/O, keypose's native driver and rustypot, interleaved:"
+        );
+        let costs: Vec<(&str, Result<codec::CodecCost, String>)> = ROBOTS
+            .iter()
+            .map(|&name| (name, codec::codec_cost(name)))
+            .collect();
+        for (name, cost) in &costs {
+            match cost {
+                Ok(c) => println!(
+                    "  {name}: keypose {} µs, rustypot {} µs, keypose / rustypot {}",
+                    Spread::of(&c.keypose).show(2),
+                    Spread::of(&c.rustypot).show(2),
+                    c.ratio().show(2)
+                ),
+                Err(e) => println!("  {name}: failed: {e}"),
+            }
+        }
+
+        costs
+    });
+
+    let cell = wanted("cell").then(|| {
+        println!(
+            "\n4. two so101 arms, each on its own wire-timed bus, through the cell's bus (12 goals + \
+             12 positions a cycle), against one arm on one bus, {}× {:?} each, interleaved:",
             cycles::REPS,
             cycles::RUN
         );
-        let vendors: Vec<VendorResult> = ROBOTS
-            .iter()
-            .map(|name| cycles::bus_cycles(name, timed))
-            .collect();
-        print_cycles(&vendors, timed);
-        modes.push((timed, vendors));
-    }
-
-    println!(
-        "\n2. player on so101, native driver, wire-timed, 10 s cubic on shoulder_pan after the \
-         approach ramp, {}× each, interleaved:",
-        player::REPS
-    );
-    let playbacks = player::playbacks(&PLAYER, player::REPS);
-    for (config, runs) in PLAYER.iter().zip(&playbacks) {
-        for run in runs {
-            match run {
-                Ok(r) => println!(
-                    "  {:<26} {} cycles in {:.2} s; lateness at start p50 {:.3} ms, p99 {:.3} ms, \
-                     max {:.3} ms; at the write p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms; start → \
-                     write p50 {:.1} µs, p99 {:.1} µs; write call p50 {:.1} µs, p99 {:.1} µs; {} \
-                     cycles written > 1 period late; {} unmatched; CPU steal {}",
-                    config.label(),
-                    r.cycles,
-                    r.wall_seconds,
-                    r.at_start.p50,
-                    r.at_start.p99,
-                    r.at_start.max,
-                    r.at_write.p50,
-                    r.at_write.p99,
-                    r.at_write.max,
-                    r.start_to_write.p50 * 1e3,
-                    r.start_to_write.p99 * 1e3,
-                    r.write_call.p50 * 1e3,
-                    r.write_call.p99 * 1e3,
-                    r.late_by_a_period,
-                    r.unmatched,
-                    r.steal,
-                ),
-                Err(reason) => println!("  {:<26} ended: {reason}", config.label()),
-            }
+        let cells = cell::cell_cycles();
+        cells.one.print("1 arm");
+        cells.cell.print("2 arms");
+        let cell_ratio = match (&cells.one.reps, &cells.cell.reps) {
+            (Ok(one), Ok(two)) => Some(Spread::ratio(two, one)),
+            _ => None,
+        };
+        if let Some(ratio) = cell_ratio {
+            println!(
+                "  two arms' cycles/s over one arm's: {} (1: the buses ran side by side; 0.5: one \
+                 after the other)",
+                ratio.show(2)
+            );
         }
-    }
-
-    println!(
-        "\n3. CPU time per cycle of encode + decode (sync write of 6 goals, sync read of 6 \
-         positions), no I/O, keypose's native driver and rustypot, interleaved:"
-    );
-    let costs: Vec<(&str, Result<codec::CodecCost, String>)> = ROBOTS
-        .iter()
-        .map(|&name| (name, codec::codec_cost(name)))
-        .collect();
-    for (name, cost) in &costs {
-        match cost {
-            Ok(c) => println!(
-                "  {name}: keypose {} µs, rustypot {} µs, keypose / rustypot {}",
-                Spread::of(&c.keypose).show(2),
-                Spread::of(&c.rustypot).show(2),
-                c.ratio().show(2)
-            ),
-            Err(e) => println!("  {name}: failed: {e}"),
-        }
-    }
-
-    println!(
-        "\n4. two so101 arms, each on its own wire-timed bus, through the cell's bus (12 goals + \
-         12 positions a cycle), against one arm on one bus, {}× {:?} each, interleaved:",
-        cycles::REPS,
-        cycles::RUN
-    );
-    let cells = cell::cell_cycles();
-    cells.one.print("1 arm");
-    cells.cell.print("2 arms");
-    let cell_ratio = match (&cells.one.reps, &cells.cell.reps) {
-        (Ok(one), Ok(two)) => Some(Spread::ratio(two, one)),
-        _ => None,
-    };
-    if let Some(ratio) = cell_ratio {
+        let at_gate = cells.at_gate.map(|o| {
+            format!(
+                "median {:.0} µs, p99 {:.0} µs, max {:.0} µs over {} cycles",
+                o.median.as_secs_f64() * 1e6,
+                o.p99.as_secs_f64() * 1e6,
+                o.max.as_secs_f64() * 1e6,
+                o.cycles
+            )
+        });
+        let at_write = cell::show_offsets(&cells.at_write);
         println!(
-            "  two arms' cycles/s over one arm's: {} (1: the buses ran side by side; 0.5: one \
-             after the other)",
-            ratio.show(2)
+            "  goal writes apart, at the start gate (as the cell records them): {}",
+            at_gate.as_deref().unwrap_or("n/a")
         );
-    }
-    let at_gate = cells.at_gate.map(|o| {
-        format!(
-            "median {:.0} µs, p99 {:.0} µs, max {:.0} µs over {} cycles",
-            o.median.as_secs_f64() * 1e6,
-            o.p99.as_secs_f64() * 1e6,
-            o.max.as_secs_f64() * 1e6,
-            o.cycles
-        )
+        println!(
+            "  goal writes apart, at the write (stamped when write() returned): {at_write}; goal \
+             writes {} left, {} right",
+            cells.writes[0], cells.writes[1]
+        );
+
+        (cells, cell_ratio, at_gate, at_write)
     });
-    let at_write = cell::show_offsets(&cells.at_write);
-    println!(
-        "  goal writes apart, at the start gate (as the cell records them): {}",
-        at_gate.as_deref().unwrap_or("n/a")
-    );
-    println!(
-        "  goal writes apart, at the write (stamped when write() returned): {at_write}; goal \
-         writes {} left, {} right",
-        cells.writes[0], cells.writes[1]
-    );
 
     println!();
     session.end();
@@ -304,67 +330,80 @@ fn main() {
     // The tables for docs/benchmarks.md.
     println!();
     println!("summary: {}", session.load());
-    for (timed, vendors) in &modes {
-        summary_cycles(vendors, *timed);
+    if let Some(modes) = &modes {
+        for (timed, vendors) in modes {
+            summary_cycles(vendors, *timed);
+        }
     }
-    println!(
-        "summary: encode + decode, CPU µs per cycle, no I/O, median (range) of the runs: | robot \
-         | keypose | rustypot | keypose / rustypot |"
-    );
-    println!("summary: |---|---|---|---|");
-    for (name, cost) in &costs {
-        if let Ok(c) = cost {
+    if let Some(costs) = &costs {
+        println!(
+            "summary: encode + decode, CPU µs per cycle, no I/O, median (range) of the runs: | robot \
+             | keypose | rustypot | keypose / rustypot |"
+        );
+        println!("summary: |---|---|---|---|");
+        for (name, cost) in costs.iter() {
+            if let Ok(c) = cost {
+                println!(
+                    "summary: | {name} | {} | {} | {} |",
+                    Spread::of(&c.keypose).show(2),
+                    Spread::of(&c.rustypot).show(2),
+                    c.ratio().show(2)
+                );
+            }
+        }
+    }
+    if let Some(playbacks) = &playbacks {
+        println!("summary: ");
+        println!(
+            "summary: | player, so101, native, wire-timed pty | cycles | lateness at the cycle's \
+             start p50 / p99 / max | at the goal write p50 / p99 / max | start → write p50 / p99 | \
+             cycles written > 1 period late |"
+        );
+        println!("summary: |---|---|---|---|---|---|");
+        for (config, runs) in PLAYER.iter().zip(playbacks.iter()) {
+            let (done, failed, reason) = player::finished(runs);
+            let ended = match reason {
+                Some(reason) => format!(
+                    "; {failed} of {} playbacks ended early: {}",
+                    runs.len(),
+                    reason.split(';').next().unwrap_or(reason)
+                ),
+                None => String::new(),
+            };
+            if done.is_empty() {
+                println!(
+                    "summary: | {} | none finished{ended} | | | | |",
+                    config.label()
+                );
+                continue;
+            }
             println!(
-                "summary: | {name} | {} | {} | {} |",
-                Spread::of(&c.keypose).show(2),
-                Spread::of(&c.rustypot).show(2),
-                c.ratio().show(2)
+                "summary: | {} | {} | {} | {} | {} / {} µs | {}{ended} |",
+                config.label(),
+                Spread::over(&done, |r| r.cycles as f64).show(0),
+                player::show_tail(&done, |r| r.at_start),
+                player::show_tail(&done, |r| r.at_write),
+                Spread::over(&done, |r| r.start_to_write.p50 * 1e3).show(1),
+                Spread::over(&done, |r| r.start_to_write.p99 * 1e3).show(1),
+                Spread::over(&done, |r| r.late_by_a_period as f64).show(0),
             );
         }
     }
-    println!("summary: ");
-    println!(
-        "summary: | player, so101, native, wire-timed pty | cycles | lateness at the cycle's \
-         start p50 / p99 / max | at the goal write p50 / p99 / max | start → write p50 / p99 | \
-         cycles written > 1 period late |"
-    );
-    println!("summary: |---|---|---|---|---|---|");
-    for (config, runs) in PLAYER.iter().zip(&playbacks) {
-        let (done, failed, reason) = player::finished(runs);
-        let ended = match reason {
-            Some(reason) => format!(
-                "; {failed} of {} playbacks ended early: {}",
-                runs.len(),
-                reason.split(';').next().unwrap_or(reason)
-            ),
-            None => String::new(),
-        };
-        if done.is_empty() {
-            println!("summary: | {} | none finished{ended} | | | | |", config.label());
-            continue;
+    if let Some((cells, cell_ratio, at_gate, at_write)) = &cell {
+        if let (Some(ratio), Some(one), Some(two)) =
+            (*cell_ratio, cells.one.rate(), cells.cell.rate())
+        {
+            println!("summary: ");
+            println!(
+                "summary: two so101 arms on two wire-timed buses through the cell's bus: {} cycles/s, \
+                 one arm on one bus {} cycles/s: ratio {}; goal writes apart at the start gate: {}; \
+                 at the write: {at_write}",
+                two.show(0),
+                one.show(0),
+                ratio.show(2),
+                at_gate.as_deref().unwrap_or("n/a"),
+            );
         }
-        println!(
-            "summary: | {} | {} | {} | {} | {} / {} µs | {}{ended} |",
-            config.label(),
-            Spread::over(&done, |r| r.cycles as f64).show(0),
-            player::show_tail(&done, |r| r.at_start),
-            player::show_tail(&done, |r| r.at_write),
-            Spread::over(&done, |r| r.start_to_write.p50 * 1e3).show(1),
-            Spread::over(&done, |r| r.start_to_write.p99 * 1e3).show(1),
-            Spread::over(&done, |r| r.late_by_a_period as f64).show(0),
-        );
-    }
-    if let (Some(ratio), Some(one), Some(two)) = (cell_ratio, cells.one.rate(), cells.cell.rate()) {
-        println!("summary: ");
-        println!(
-            "summary: two so101 arms on two wire-timed buses through the cell's bus: {} cycles/s, \
-             one arm on one bus {} cycles/s: ratio {}; goal writes apart at the start gate: {}; \
-             at the write: {at_write}",
-            two.show(0),
-            one.show(0),
-            ratio.show(2),
-            at_gate.as_deref().unwrap_or("n/a"),
-        );
     }
     println!(
         "summary: the wire-timed bus takes the wire's time at the robot's baud rate with the \

@@ -361,7 +361,11 @@ struct Accuracy {
 }
 
 fn angle_deg(a: DVec3, b: DVec3) -> f64 {
-    a.normalize().dot(b.normalize()).clamp(-1.0, 1.0).acos().to_degrees()
+    a.normalize()
+        .dot(b.normalize())
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees()
 }
 
 fn accuracy(bench: &Bench, mujoco: &mut MuJoCo, case: &Case) -> Accuracy {
@@ -376,7 +380,8 @@ fn accuracy(bench: &Bench, mujoco: &mut MuJoCo, case: &Case) -> Accuracy {
         let wanted = &bench.official[i];
         let position = reached.tcp.distance(wanted.tcp);
         let orientation = if case.pose {
-            angle_deg(reached.axes[0], wanted.axes[0]).max(angle_deg(reached.axes[1], wanted.axes[1]))
+            angle_deg(reached.axes[0], wanted.axes[0])
+                .max(angle_deg(reached.axes[1], wanted.axes[1]))
         } else {
             0.0
         };

@@ -319,7 +319,11 @@ fn summary(data: &Data, session: &common::Session) {
     println!("summary: | **increasing order: both look each time up (like for like)** | |");
     row("keypose `Track::sample`", seq_lookup);
     row("splines `clamped_sample`", seq_splines);
-    ratio("ratio keypose / splines, increasing", seq_lookup, seq_splines);
+    ratio(
+        "ratio keypose / splines, increasing",
+        seq_lookup,
+        seq_splines,
+    );
     println!(
         "summary: | **increasing order, keypose's cursor (playback) against splines' lookup: \
          not like for like, splines has no cursor** | |"

@@ -217,7 +217,8 @@ fn main() {
         .collect();
 
     let seconds = |f: fn(&Repeat) -> f64| common::Spread::over(&repeats, f).show(2);
-    let speed = |f: fn(&Repeat) -> f64| common::Spread::over(&repeats, |r| simulated / f(r)).show(0);
+    let speed =
+        |f: fn(&Repeat) -> f64| common::Spread::over(&repeats, |r| simulated / f(r)).show(0);
     let cli_speed: Vec<f64> = repeats.iter().map(|r| simulated / r.cli_wall).collect();
     let bare_speed: Vec<f64> = repeats.iter().map(|r| simulated / r.bare_wall).collect();
     let bare_loop: Vec<f64> = repeats.iter().map(|r| simulated / r.bare.run_s).collect();

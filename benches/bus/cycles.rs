@@ -302,7 +302,8 @@ impl Cycler for SdkDirect {
     }
 
     fn run_for(&mut self, length: Duration) -> Timing {
-        let asked = writeln!(self.stdin, "{}", length.as_secs_f64()).and_then(|_| self.stdin.flush());
+        let asked =
+            writeln!(self.stdin, "{}", length.as_secs_f64()).and_then(|_| self.stdin.flush());
         let mut line = String::new();
         let run = asked
             .map_err(|e| e.to_string())

@@ -188,7 +188,9 @@ pub fn playbacks(configs: &[Config], reps: usize) -> Vec<Vec<Result<Playback, St
 pub fn finished(runs: &[Result<Playback, String>]) -> (Vec<&Playback>, usize, Option<&str>) {
     let done: Vec<&Playback> = runs.iter().filter_map(|r| r.as_ref().ok()).collect();
     let failed = runs.len() - done.len();
-    let reason = runs.iter().find_map(|r| r.as_ref().err().map(String::as_str));
+    let reason = runs
+        .iter()
+        .find_map(|r| r.as_ref().err().map(String::as_str));
     (done, failed, reason)
 }
 

@@ -64,7 +64,13 @@ impl Stamped {
         Ok(Stamped {
             inner,
             protocol: robot.bus.protocol,
-            goal: robot.joints[0].servo.model.spec().table.goal_position.address,
+            goal: robot.joints[0]
+                .servo
+                .model
+                .spec()
+                .table
+                .goal_position
+                .address,
             log,
         })
     }
