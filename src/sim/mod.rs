@@ -8,11 +8,13 @@
 
 mod joint_map;
 mod models;
+mod trace_bytes;
 pub mod verdict;
 mod wire;
 
 pub use joint_map::{JointMap, MjcfModel};
 pub use models::{check_mjcf_file, model_path};
+pub use trace_bytes::TraceBytesError;
 
 use crate::plan::Trajectory;
 use crate::plan::{Phase, Timeline, TimelineOptions};
@@ -21,7 +23,9 @@ use crate::robot::{JointKind, Robot};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 use verdict::{Contact, ContactKind, Trace};
-use wire::{ContactKindReply, ContactReply, Load, ProfileLimits, RefusalKind, Request, SceneArm};
+use wire::{
+    ContactKindReply, ContactReply, Load, ProfileLimits, RefusalKind, Request, SceneArm, TraceForm,
+};
 
 /// The harness script's file name among keypose's embedded Python scripts.
 pub const HARNESS_SCRIPT: &str = "sim_harness.py";
@@ -51,6 +55,9 @@ pub enum SimError {
         /// What is missing or wrong.
         detail: String,
     },
+    /// The binary trace after a run's reply is not what sim/PROTOCOL.md describes.
+    #[error("the trace the simulation sent after its reply to run is malformed")]
+    TraceBytes(#[source] TraceBytesError),
     /// No GL context could be made (each backend's failure, `; `-separated).
     #[error("rendering failed with both EGL and OSMesa: {0}")]
     Render(String),
@@ -392,9 +399,17 @@ impl Simulation {
             reset,
             commands,
             profile: self.servo_profile.as_ref(),
+            trace: TraceForm::Binary,
         };
-        let reply: wire::RunReply = wire::parse(self.harness.request(&request)?, "run")?;
-        let trace = reply.trace;
+        let answer = self.harness.request_with_payload(&request)?;
+        let reply: wire::RunReply = wire::parse(answer.reply, "run")?;
+        let Some(payload) = answer.payload else {
+            return Err(SimError::Reply {
+                op: "run",
+                detail: "no binary trace followed it (no \"payload\" member)".to_string(),
+            });
+        };
+        let trace = trace_bytes::decode(&payload).map_err(SimError::TraceBytes)?;
         let n = trace.time.len();
         trace.check_rows(rows.len(), self.joints.len())?;
         Ok(Trace {
