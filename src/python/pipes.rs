@@ -50,7 +50,9 @@ fn event(buffer: &[u8], reader: &mut impl Read) -> Event {
     if count > MAX_PAYLOAD {
         return Event::ReadError(io::Error::new(
             io::ErrorKind::InvalidData,
-            format!("a line announces a payload of {count} bytes, more than the {MAX_PAYLOAD} allowed"),
+            format!(
+                "a line announces a payload of {count} bytes, more than the {MAX_PAYLOAD} allowed"
+            ),
         ));
     }
     let mut payload = vec![0; count as usize];
@@ -154,14 +156,20 @@ mod tests {
         let got = events(b"{\"payload\": 8}\nabc");
         assert_eq!(got.len(), 1, "{got:?}");
         let error = got[0].as_ref().unwrap_err();
-        assert!(error.contains("8-byte payload") && error.contains("cut short"), "{error}");
+        assert!(
+            error.contains("8-byte payload") && error.contains("cut short"),
+            "{error}"
+        );
     }
 
     #[test]
     fn a_payload_beyond_the_bound_is_refused_unread() {
         let got = events(format!("{{\"payload\": {}}}\n", MAX_PAYLOAD + 1).as_bytes());
         let error = got[0].as_ref().unwrap_err();
-        assert!(error.contains("more than the 1073741824 allowed"), "{error}");
+        assert!(
+            error.contains("more than the 1073741824 allowed"),
+            "{error}"
+        );
     }
 
     #[test]

@@ -10,11 +10,13 @@ mod joint_map;
 mod models;
 mod trace_bytes;
 pub mod verdict;
+mod warm;
 mod wire;
 
 pub use joint_map::{JointMap, MjcfModel};
 pub use models::{check_mjcf_file, model_path};
 pub use trace_bytes::TraceBytesError;
+pub use warm::WarmSimulation;
 
 use crate::plan::Trajectory;
 use crate::plan::{Phase, Timeline, TimelineOptions};
@@ -58,6 +60,18 @@ pub enum SimError {
     /// The binary trace after a run's reply is not what sim/PROTOCOL.md describes.
     #[error("the trace the simulation sent after its reply to run is malformed")]
     TraceBytes(#[source] TraceBytesError),
+    /// The harness died, was started again, and died again.
+    #[error("the simulation's harness died ({first}); started again, it died again")]
+    DiedAgain {
+        /// How it died the first time.
+        first: String,
+        /// How it died the second time.
+        #[source]
+        second: HarnessError,
+    },
+    /// A joint whose servo profile (`--servo-profile`) cannot be modelled.
+    #[error(transparent)]
+    ServoProfile(#[from] crate::robot::ProfileError),
     /// No GL context could be made (each backend's failure, `; `-separated).
     #[error("rendering failed with both EGL and OSMesa: {0}")]
     Render(String),
@@ -68,7 +82,7 @@ impl SimError {
     /// else is the simulation's (its process, its environment).
     pub fn kind(&self) -> crate::error::ErrorKind {
         match self {
-            SimError::Model { .. } => crate::error::ErrorKind::BadInput,
+            SimError::Model { .. } | SimError::ServoProfile(_) => crate::error::ErrorKind::BadInput,
             _ => crate::error::ErrorKind::Hardware,
         }
     }
@@ -296,30 +310,54 @@ impl Simulation {
         if let Some(gl) = gl {
             options.env.push(("MUJOCO_GL".into(), gl.into()));
         }
-        let harness = Harness::start_in(&config, HARNESS_SCRIPT, options)?;
+        // The model's request first: a robot keypose has no model of is refused before Python
+        // starts.
         let (load, model) = load_request(&config, robot, mjcf)?;
-        let no_map = JointMap::default();
-        let map = mjcf.map_or(&no_map, |m| &m.joint_map);
+        let harness = Harness::start_in(&config, HARNESS_SCRIPT, options)?;
         let mut sim = Simulation {
             harness,
-            model: model.clone(),
-            joints: robot
-                .joints
-                .iter()
-                .map(|j| map.model_name(&j.name).to_string())
-                .collect(),
+            model: String::new(),
+            joints: Vec::new(),
             force_limits: Vec::new(),
             timestep: 0.0,
             servo_profile: None,
         };
-        let reply = sim
+        sim.load_model(robot, mjcf, load, model)?;
+        Ok(sim)
+    }
+
+    /// Loads `robot`'s model (or `mjcf`) in place of the one loaded, in the same harness: a
+    /// session that simulates again pays for Python and MuJoCo once. The servos' profile is
+    /// no longer modelled until [`Simulation::model_servo_profile`] is called again.
+    pub fn load(&mut self, robot: &Robot, mjcf: Option<&MjcfModel>) -> Result<(), SimError> {
+        let (load, model) = load_request(&PyConfig::from_env()?, robot, mjcf)?;
+        self.load_model(robot, mjcf, load, model)
+    }
+
+    fn load_model(
+        &mut self,
+        robot: &Robot,
+        mjcf: Option<&MjcfModel>,
+        load: Load,
+        model: String,
+    ) -> Result<(), SimError> {
+        let no_map = JointMap::default();
+        let map = mjcf.map_or(&no_map, |m| &m.joint_map);
+        self.model = model.clone();
+        self.joints = robot
+            .joints
+            .iter()
+            .map(|j| map.model_name(&j.name).to_string())
+            .collect();
+        self.servo_profile = None;
+        let reply = self
             .harness
             .request(&Request::Load(load))
             .map_err(|e| model_error(e, &model))?;
         let reply: wire::LoadReply = wire::parse(reply, "load")?;
-        sim.timestep = reply.timestep;
+        self.timestep = reply.timestep;
         let model_joints: Vec<&str> = reply.joints.iter().map(|j| j.name.as_str()).collect();
-        let missing: Vec<&str> = sim
+        let missing: Vec<&str> = self
             .joints
             .iter()
             .map(String::as_str)
@@ -336,7 +374,7 @@ impl Simulation {
                 ),
             });
         }
-        sim.force_limits = sim
+        self.force_limits = self
             .joints
             .iter()
             .map(|joint| {
@@ -348,7 +386,12 @@ impl Simulation {
                 a.forcelimited.then(|| high.abs().min(low.abs()))
             })
             .collect();
-        Ok(sim)
+        Ok(())
+    }
+
+    /// The harness process's id: the same across the simulations of a warm session.
+    pub fn harness_pid(&self) -> u32 {
+        self.harness.pid()
     }
 
     /// The model's name in reports: its path, or for a cell `ARM=PATH, …`.
@@ -359,7 +402,7 @@ impl Simulation {
     /// Models the servos' own profile from now on, as `play --servo-profile` sets it (each
     /// joint's limits in its servo's register units, rounded down): each servo follows its goal
     /// within these acceleration and velocity limits.
-    pub fn model_servo_profile(&mut self, robot: &Robot) -> Result<(), crate::robot::ProfileError> {
+    pub fn model_servo_profile(&mut self, robot: &Robot) -> Result<(), SimError> {
         let limits = robot
             .joints
             .iter()

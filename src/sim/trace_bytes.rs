@@ -71,7 +71,9 @@ pub(super) fn decode(bytes: &[u8]) -> Result<TraceReply, TraceBytesError> {
             actual: bytes.len(),
         });
     };
-    let word = |at: usize| u32::from_le_bytes([header[at], header[at + 1], header[at + 2], header[at + 3]]);
+    let word = |at: usize| {
+        u32::from_le_bytes([header[at], header[at + 1], header[at + 2], header[at + 3]])
+    };
     let found = [header[0], header[1], header[2], header[3]];
     if found != MAGIC {
         return Err(TraceBytesError::Magic {
@@ -159,7 +161,9 @@ mod tests {
     fn rows_of_several_joints_are_read_row_after_row() {
         // One row of two joints: qpos (0.5, 1.0), qvel (-2.0, 0.25), force (0, 0), limit (1, 0).
         let mut bytes = header(1, 1, 2);
-        for value in [QUARTER, HALF, ONE, MINUS_TWO, QUARTER, ZERO, ZERO, ONE, ZERO] {
+        for value in [
+            QUARTER, HALF, ONE, MINUS_TWO, QUARTER, ZERO, ZERO, ONE, ZERO,
+        ] {
             bytes.extend(value);
         }
         let trace = decode(&bytes).unwrap();

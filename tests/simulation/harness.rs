@@ -774,7 +774,11 @@ fn binary_trace(bytes: &[u8]) -> (u32, Value) {
         .chunks(8)
         .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
         .collect();
-    assert_eq!(values.len(), rows * (1 + 4 * joints), "values after the header");
+    assert_eq!(
+        values.len(),
+        rows * (1 + 4 * joints),
+        "values after the header"
+    );
     let matrix = |k: usize| -> Value {
         let start = rows + k * rows * joints;
         json!(values[start..start + rows * joints]
@@ -807,11 +811,18 @@ fn a_binary_trace_holds_the_values_of_the_json_trace() {
     let (version, trace) = binary_trace(&bytes);
     assert_eq!(version, 1);
     let limit = rows(&listed["trace"]["limit"]);
-    assert!(limit.iter().any(|r| r[1] == 1.0), "the elbow reaches its stop");
+    assert!(
+        limit.iter().any(|r| r[1] == 1.0),
+        "the elbow reaches its stop"
+    );
     assert_eq!(floats(&trace["time"]), floats(&listed["trace"]["time"]));
     // As numbers: the JSON limit column lists integers.
     for column in ["qpos", "qvel", "force", "limit"] {
-        assert_eq!(rows(&trace[column]), rows(&listed["trace"][column]), "{column}");
+        assert_eq!(
+            rows(&trace[column]),
+            rows(&listed["trace"][column]),
+            "{column}"
+        );
     }
     for member in ["contacts", "divergence", "steps"] {
         assert_eq!(answer.reply[member], listed[member], "{member}");
