@@ -32,6 +32,10 @@ use wire::{
 /// The harness script's file name among keypose's embedded Python scripts.
 pub const HARNESS_SCRIPT: &str = "sim_harness.py";
 
+/// MUJOCO_GL of a harness that only simulates: MuJoCo imports none of its rendering, which
+/// takes a fifth of its start-up (sim/PROTOCOL.md).
+const PHYSICS_ONLY: &str = "disable";
+
 /// Why a simulation could not be started, run or rendered.
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
@@ -296,6 +300,8 @@ pub struct Simulation {
 impl Simulation {
     /// Starts the harness (building the Python environment on first use) and loads the robot's
     /// model, or `mjcf` when given (its joints named as the robot's, through its joint map).
+    /// `gl` is the OpenGL backend of a harness that renders; without one the harness simulates
+    /// only, and starts faster.
     pub fn start(
         robot: &Robot,
         mjcf: Option<&MjcfModel>,
@@ -307,9 +313,9 @@ impl Simulation {
             request_timeout: Duration::from_secs(600),
             ..HarnessOptions::default()
         };
-        if let Some(gl) = gl {
-            options.env.push(("MUJOCO_GL".into(), gl.into()));
-        }
+        options
+            .env
+            .push(("MUJOCO_GL".into(), gl.unwrap_or(PHYSICS_ONLY).into()));
         // The model's request first: a robot keypose has no model of is refused before Python
         // starts.
         let (load, model) = load_request(&config, robot, mjcf)?;
