@@ -119,6 +119,10 @@ def main():
     take_stdout()
     ignore_sigint()
     gl, gl_problem = choose_gl()
+    # The harness does no sizeable linear algebra: one BLAS thread, so that importing numpy
+    # starts no pool of threads (a tenth of the import on a 2-core machine, more on larger
+    # ones). A value the user set is kept.
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     try:
         import numpy
         import mujoco

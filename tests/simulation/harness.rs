@@ -726,12 +726,21 @@ fn animations_are_written_as_gif_and_mp4() {
 
 #[test]
 fn an_unusable_gl_backend_is_a_render_error_and_physics_still_works() {
-    let mut harness = start("no-such-backend");
-    assert!(
-        harness.ready()["gl_error"].is_string(),
-        "{}",
-        harness.ready()
-    );
+    physics_without_rendering("no-such-backend", "is not a backend keypose renders with");
+}
+
+/// MUJOCO_GL=disable, as keypose starts a harness that only simulates: no rendering, physics.
+#[test]
+fn a_harness_for_physics_only_refuses_renders_and_simulates() {
+    physics_without_rendering("disable", "rendering is off in this process");
+}
+
+/// A harness started with MUJOCO_GL=`gl` says why it cannot render (`why`), refuses a render
+/// as a render error, and runs physics.
+fn physics_without_rendering(gl: &str, why: &str) {
+    let mut harness = start(gl);
+    let gl_error = harness.ready()["gl_error"].as_str().unwrap_or_default();
+    assert!(gl_error.contains(why), "{}", harness.ready());
     request(
         &mut harness,
         json!({"op": "load", "mjcf": model("pendulum.xml")}),
@@ -743,7 +752,7 @@ fn an_unusable_gl_backend_is_a_render_error_and_physics_still_works() {
                "path": dir.path().join("x.png").display().to_string()}),
     );
     assert_eq!(reply["kind"], json!("render"), "{reply}");
-    assert_eq!(reply["gl"], json!("no-such-backend"), "{reply}");
+    assert_eq!(reply["gl"], json!(gl), "{reply}");
     let reply = request(
         &mut harness,
         hold(&["shoulder", "elbow"], &[0.0, 0.0], &[0.0, 0.0], 10),
