@@ -123,8 +123,11 @@ mod tests {
     use super::*;
     use std::sync::mpsc;
 
-    /// The events the stdout reader passes on for `bytes`, as (line, payload) or the error.
-    fn events(bytes: &[u8]) -> Vec<Result<(String, Option<Vec<u8>>), String>> {
+    /// A line and its payload, or a read error's text.
+    type Seen = Result<(String, Option<Vec<u8>>), String>;
+
+    /// The events the stdout reader passes on for `bytes`.
+    fn events(bytes: &[u8]) -> Vec<Seen> {
         let (sender, receiver) = mpsc::channel();
         spawn_stdout_reader(io::Cursor::new(bytes.to_vec()), sender);
         receiver

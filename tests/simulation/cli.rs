@@ -47,20 +47,25 @@ fn findings(out: &Output) -> String {
         .join("\n")
 }
 
+/// Every example, in one call (each judged on its own, as
+/// `several_sequences_in_one_call_share_one_harness_and_are_judged_each_on_its_own` checks).
 #[test]
 fn every_example_sequence_passes_in_physics() {
-    for entry in std::fs::read_dir(repo("sequences")).unwrap() {
-        let path = entry.unwrap().path();
-        let out = keypose(&["sim", path.to_str().unwrap()]);
-        assert_eq!(
-            out.status.code(),
-            Some(0),
-            "{}: {}",
-            path.display(),
-            text(&out)
-        );
-        assert!(text(&out).contains("PASSED"));
-    }
+    let examples: Vec<String> = std::fs::read_dir(repo("sequences"))
+        .unwrap()
+        .map(|entry| entry.unwrap().path().display().to_string())
+        .collect();
+    let mut args = vec!["sim"];
+    args.extend(examples.iter().map(String::as_str));
+    let out = keypose(&args);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let passed = text(&out).matches("\nPASSED: ").count();
+    assert_eq!(passed, examples.len(), "{}", text(&out));
+    let summary = format!(
+        "{0} of {0} sequences passed in one MuJoCo process",
+        examples.len()
+    );
+    assert!(text(&out).contains(&summary), "{}", text(&out));
 }
 
 #[test]
