@@ -395,11 +395,6 @@ impl Simulation {
         Ok(())
     }
 
-    /// The harness process's id: the same across the simulations of a warm session.
-    pub fn harness_pid(&self) -> u32 {
-        self.harness.pid()
-    }
-
     /// The model's name in reports: its path, or for a cell `ARM=PATH, …`.
     pub fn model(&self) -> &str {
         &self.model

@@ -15,24 +15,12 @@ use crate::robot::Robot;
 #[derive(Default)]
 pub struct WarmSimulation {
     current: Option<Simulation>,
-    starts: u32,
 }
 
 impl WarmSimulation {
     /// No harness yet: the first simulation starts it.
     pub fn new() -> WarmSimulation {
         WarmSimulation::default()
-    }
-
-    /// How many harness processes this session has started: 1 once it has simulated, one more
-    /// for each restart.
-    pub fn starts(&self) -> u32 {
-        self.starts
-    }
-
-    /// The running harness's process id, if one runs.
-    pub fn harness_pid(&self) -> Option<u32> {
-        self.current.as_ref().map(Simulation::harness_pid)
     }
 
     /// Runs `work` on `robot`'s model (or `mjcf`) loaded in the session's harness, which is
@@ -73,10 +61,7 @@ impl WarmSimulation {
                 Ok(()) => simulation,
                 Err(error) => return Err(self.keep_if_usable(simulation, error)),
             },
-            None => {
-                self.starts += 1;
-                Simulation::start(robot, mjcf, None)?
-            }
+            None => Simulation::start(robot, mjcf, None)?,
         };
         match work(&mut simulation) {
             Ok(value) => {
