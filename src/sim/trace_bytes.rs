@@ -4,7 +4,7 @@
 //! The layout: a 16-byte header — the magic `KPTR`, then the format version, the number of rows
 //! and the number of joints, each a little-endian u32 — followed by the columns as
 //! little-endian f64: time (one value per row), then qpos, qvel, force and limit (one value per
-//! row and joint, row after row). A JSON trace of a minute at 100 Hz is about 1.3 MB of text
+//! row and joint, row after row). A JSON trace of a minute at 100 Hz is about 1.6 MB of text
 //! that both sides format and parse number by number; this one is 1.2 MB copied as it is.
 //!
 //! A payload that is not exactly that — cut short, too long, another format or version — is a
