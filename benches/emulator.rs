@@ -5,15 +5,19 @@
 //! serving a cycle costs). The difference is what waiting for the wire's instants costs.
 //!
 //! The emulator runs in a process of its own so that its CPU time (utime + stime of
-//! /proc/PID/stat) is its alone. The two emulators alternate, [`REPS`] times each, and the
-//! median and range are reported with the machine's load. Nothing is asserted.
+//! /proc/PID/stat, in clock ticks: 10 ms over a run's 600 cycles, a resolution of about 17 µs
+//! a cycle) is its alone. The two emulators alternate, [`REPS`] times each, and the median and
+//! range are reported with the machine's load. Nothing is asserted.
 //!
 //! `cargo bench --bench emulator` prints lines starting with `summary:`.
 
+mod common;
+
+use common::Spread;
 use keypose::bus::{connect, Driver};
 use keypose::robot::Robot;
 use std::io::BufRead;
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// Interleaved repetitions of each emulator's run.
@@ -28,6 +32,9 @@ const ROBOTS: [&str; 2] = ["so101", "koch"];
 struct Emulator {
     child: Child,
     path: String,
+    /// Held open: the process serves until its standard input closes.
+    _stdin: ChildStdin,
+    _stdout: std::io::BufReader<ChildStdout>,
 }
 
 impl Emulator {
@@ -38,15 +45,17 @@ impl Emulator {
             command.arg("--no-wire-timing");
         }
         let mut child = command
+            .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
             .expect("start keypose virtual-bus");
+        let mut stdout = std::io::BufReader::new(child.stdout.take().unwrap());
         let mut line = String::new();
-        std::io::BufReader::new(child.stdout.take().unwrap())
-            .read_line(&mut line)
-            .expect("the device path");
+        stdout.read_line(&mut line).expect("the device path");
         Emulator {
+            _stdin: child.stdin.take().unwrap(),
+            _stdout: stdout,
             child,
             path: line.trim().to_string(),
         }
@@ -92,23 +101,11 @@ fn run(robot: &Robot, name: &str, timed: bool) -> f64 {
     (emulator.cpu_seconds() - before) / f64::from(CYCLES) * 1e6
 }
 
-fn median_and_range(mut values: Vec<f64>) -> (f64, f64, f64) {
-    values.sort_by(f64::total_cmp);
-    (
-        values[values.len() / 2],
-        values[0],
-        values[values.len() - 1],
-    )
-}
-
-fn load_average() -> String {
-    std::fs::read_to_string("/proc/loadavg")
-        .map(|l| l.split(' ').take(3).collect::<Vec<_>>().join(" "))
-        .unwrap_or_else(|_| "unknown".into())
-}
-
 fn main() {
-    println!("emulator CPU per 6-servo cycle at {RATE_HZ} Hz, {CYCLES} cycles a run, {REPS} runs each (load {})", load_average());
+    let session = common::Session::start("emulator");
+    println!(
+        "emulator CPU per 6-servo cycle at {RATE_HZ} Hz, {CYCLES} cycles a run, {REPS} runs each"
+    );
     for name in ROBOTS {
         let robot = Robot::builtin(name).expect("a built-in robot");
         let (mut timed, mut untimed) = (Vec::new(), Vec::new());
@@ -116,12 +113,14 @@ fn main() {
             timed.push(run(&robot, name, true));
             untimed.push(run(&robot, name, false));
         }
-        let (t, t_lo, t_hi) = median_and_range(timed);
-        let (u, u_lo, u_hi) = median_and_range(untimed);
+        let waiting: Vec<f64> = timed.iter().zip(&untimed).map(|(t, u)| t - u).collect();
         println!(
-            "summary: {name}: wire-timed {t:.0} µs ({t_lo:.0}–{t_hi:.0}), answering at once {u:.0} µs ({u_lo:.0}–{u_hi:.0}), waiting for the wire costs {:.0} µs a cycle",
-            t - u
+            "summary: {name}: wire-timed {} µs, answering at once {} µs, waiting for the wire costs {} µs a cycle ({})",
+            Spread::of(&timed).show(0),
+            Spread::of(&untimed).show(0),
+            Spread::of(&waiting).show(0),
+            session.load()
         );
     }
-    println!("summary: load after {}", load_average());
+    session.end();
 }

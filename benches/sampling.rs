@@ -2,9 +2,17 @@
 //!
 //! Six joints share 1,000 keys at non-uniform increasing times (gaps 0.2–1.0 s) with values in
 //! ±90; every joint is sampled at the same 1,000,000 times, once in increasing order and once in a
-//! shuffled order of the very same times. keypose samples with a [`Cursor`] per joint
-//! (sequential) or [`Track::sample`] (random); `splines` has no cursor, so both of its variants
-//! call `Spline::clamped_sample` and differ only in the order of the times.
+//! shuffled order of the very same times.
+//!
+//! What is compared with what:
+//! - **Random order, both by lookup** (like for like): keypose's [`Track::sample`] and
+//!   `splines`' `Spline::clamped_sample`, each a binary search over the keys per sample.
+//! - **Increasing order, both by lookup** (like for like): the same two calls on the sorted
+//!   times.
+//! - **Increasing order, keypose's [`Cursor`]** (what playback uses: it steps from segment to
+//!   segment, O(1) per sample) against the two lookups. `splines` has no cursor, so this ratio is
+//!   what the cursor gains, not one library against the other; it is reported apart and never as
+//!   the headline.
 //!
 //! `splines`' Catmull-Rom needs a key before and a key after the segment: it returns `None` in
 //! the first and the last segment, and so does `clamped_sample` there, which only clamps before
@@ -14,9 +22,12 @@
 //! `(v[i+1] − v[i−1]) / (t[i+1] − t[i−1]) · (t[i+1] − t[i])`, exactly keypose's `Interp::Cubic`,
 //! which the setup checks before anything is timed.
 //!
-//! Besides criterion's report, a benchmark run (`cargo bench --bench sampling`) ends with a
-//! same-run timing of the four variants (median of a few interleaved repetitions) printed on
-//! lines starting with `summary:`, in nanoseconds per joint-sample.
+//! Besides criterion's report, a benchmark run (`cargo bench --bench sampling`) prints the load
+//! average and ends with a same-run timing of the five variants, interleaved, as the median and
+//! range of [`SUMMARY_REPS`] repetitions, on lines starting with `summary:` (nanoseconds per
+//! joint-sample).
+
+mod common;
 
 use criterion::{Criterion, SamplingMode, Throughput};
 use keypose::curve::{Cursor, Interp, Track, TrackKey};
@@ -179,7 +190,7 @@ fn keypose_sequential(tracks: &[Track<f64>], times: &[f64]) -> f64 {
     total(acc)
 }
 
-/// keypose, binary search per sample.
+/// keypose, binary search per sample (in whatever order `times` come).
 fn keypose_random(tracks: &[Track<f64>], times: &[f64]) -> f64 {
     let tracks: &[Track<f64>; JOINTS] = tracks.try_into().expect("six joints");
     let mut acc = [0.0; JOINTS];
@@ -217,6 +228,9 @@ fn bench_sequential(c: &mut Criterion, data: &Data) {
     group.bench_function("keypose_cursor", |b| {
         b.iter(|| keypose_sequential(black_box(&data.tracks), black_box(&data.sorted)))
     });
+    group.bench_function("keypose_lookup", |b| {
+        b.iter(|| keypose_random(black_box(&data.tracks), black_box(&data.sorted)))
+    });
     group.bench_function("splines_catmull_rom", |b| {
         b.iter(|| splines_sampled(black_box(&data.splines), black_box(&data.sorted)))
     });
@@ -235,66 +249,88 @@ fn bench_random(c: &mut Criterion, data: &Data) {
     group.finish();
 }
 
-/// Same-run timing of the four variants with `Instant`: the repetitions are interleaved so that
-/// a noisy neighbour on a shared machine slows every variant alike; the median is reported.
-fn summary(data: &Data) {
+/// Same-run timing of the five variants with `Instant`: the repetitions are interleaved so that
+/// a noisy neighbour on a shared machine slows every variant alike. Each figure is the median and
+/// the range over the repetitions; each ratio is taken repetition by repetition (the two sides
+/// ran back to back) before its median and range.
+fn summary(data: &Data, session: &common::Session) {
     type Variant<'a> = (&'a str, Box<dyn Fn() -> f64 + 'a>);
-    let variants: [Variant<'_>; 4] = [
+    let variants: [Variant<'_>; 5] = [
         (
-            "keypose sequential",
+            "keypose cursor",
             Box::new(|| keypose_sequential(black_box(&data.tracks), black_box(&data.sorted))),
         ),
         (
-            "keypose random",
-            Box::new(|| keypose_random(black_box(&data.tracks), black_box(&data.shuffled))),
+            "keypose lookup",
+            Box::new(|| keypose_random(black_box(&data.tracks), black_box(&data.sorted))),
         ),
         (
-            "splines sequential",
+            "splines lookup",
             Box::new(|| splines_sampled(black_box(&data.splines), black_box(&data.sorted))),
         ),
         (
-            "splines random",
+            "keypose lookup",
+            Box::new(|| keypose_random(black_box(&data.tracks), black_box(&data.shuffled))),
+        ),
+        (
+            "splines lookup",
             Box::new(|| splines_sampled(black_box(&data.splines), black_box(&data.shuffled))),
         ),
     ];
-    let mut runs: Vec<Vec<Duration>> = vec![Vec::with_capacity(SUMMARY_REPS); variants.len()];
+    let mut runs: Vec<Vec<f64>> = vec![Vec::with_capacity(SUMMARY_REPS); variants.len()];
     for (_, run) in &variants {
         black_box(run()); // warm caches and page in the data
     }
     for _ in 0..SUMMARY_REPS {
-        for ((_, run), durations) in variants.iter().zip(&mut runs) {
+        for ((_, run), ns) in variants.iter().zip(&mut runs) {
             let start = Instant::now();
             let sum = black_box(run());
-            durations.push(start.elapsed());
+            ns.push(start.elapsed().as_secs_f64() * 1e9 / (JOINTS * SAMPLES) as f64);
             assert!(sum.is_finite());
         }
     }
-    let per_sample: Vec<f64> = runs
-        .iter_mut()
-        .map(|durations| {
-            durations.sort();
-            durations[durations.len() / 2].as_secs_f64() * 1e9 / (JOINTS * SAMPLES) as f64
-        })
-        .collect();
+    let [cursor, seq_lookup, seq_splines, rnd_lookup, rnd_splines] = &runs[..] else {
+        unreachable!("five variants")
+    };
+    let row = |what: &str, ns: &[f64]| {
+        println!(
+            "summary: | {what} | {} ns |",
+            common::Spread::of(ns).show(2)
+        );
+    };
+    let ratio = |what: &str, ours: &[f64], theirs: &[f64]| {
+        println!(
+            "summary: | {what} | {} |",
+            common::Spread::ratio(ours, theirs).show(2)
+        );
+    };
     println!();
     println!(
-        "summary: {JOINTS} joints x {KEYS} cubic keys, {SAMPLES} times, \
-         median of {SUMMARY_REPS} interleaved runs"
+        "summary: {JOINTS} joints x {KEYS} cubic keys, {SAMPLES} times; ns per joint-sample, \
+         median (range) of {SUMMARY_REPS} interleaved runs; {}",
+        session.load()
     );
-    println!("summary: {:<20} {:>16}", "variant", "ns/joint-sample");
-    for ((name, _), ns) in variants.iter().zip(&per_sample) {
-        println!("summary: {name:<20} {ns:>16.2}");
-    }
+    println!("summary: | variant | ns per joint-sample |");
+    println!("summary: |---|---|");
+    println!("summary: | **random order: both look each time up (like for like)** | |");
+    row("keypose `Track::sample` (binary search)", rnd_lookup);
+    row("splines `clamped_sample` (binary search)", rnd_splines);
+    ratio("ratio keypose / splines, random", rnd_lookup, rnd_splines);
+    println!("summary: | **increasing order: both look each time up (like for like)** | |");
+    row("keypose `Track::sample`", seq_lookup);
+    row("splines `clamped_sample`", seq_splines);
+    ratio(
+        "ratio keypose / splines, increasing",
+        seq_lookup,
+        seq_splines,
+    );
     println!(
-        "summary: {:<20} {:>16.2}",
-        "keypose/splines seq",
-        per_sample[0] / per_sample[2]
+        "summary: | **increasing order, keypose's cursor (playback) against splines' lookup: \
+         not like for like, splines has no cursor** | |"
     );
-    println!(
-        "summary: {:<20} {:>16.2}",
-        "keypose/splines rnd",
-        per_sample[1] / per_sample[3]
-    );
+    row("keypose `Cursor::sample`", cursor);
+    ratio("ratio cursor / keypose's own lookup", cursor, seq_lookup);
+    ratio("ratio cursor / splines' lookup", cursor, seq_splines);
 }
 
 /// Whether criterion will measure (rather than test or list), by the same rule criterion uses.
@@ -308,6 +344,7 @@ fn is_benchmark_run() -> bool {
 }
 
 fn main() {
+    let session = common::Session::start("sampling");
     let data = Data::new();
     data.check();
     let mut c = Criterion::default()
@@ -319,6 +356,7 @@ fn main() {
     bench_random(&mut c, &data);
     c.final_summary();
     if is_benchmark_run() {
-        summary(&data);
+        summary(&data, &session);
     }
+    session.end();
 }

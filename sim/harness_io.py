@@ -96,6 +96,14 @@ def take_stdout():
 
 
 def emit(obj):
+    """Writes one reply line; a reply whose "payload" member holds bytes says their length
+    there instead, and the bytes follow the line as they are (sim/PROTOCOL.md, "Binary
+    payloads")."""
+    payload = obj.get("payload") if isinstance(obj, dict) else None
+    if isinstance(payload, (bytes, bytearray)):
+        obj = {**obj, "payload": len(payload)}
+    else:
+        payload = None
     try:
         line = json.dumps(obj, allow_nan=False)
     except ValueError as e:
@@ -104,8 +112,12 @@ def emit(obj):
         if isinstance(obj, dict) and "seq" in obj:
             fallback["seq"] = obj["seq"]
         line = json.dumps(fallback)
+        payload = None
     _protocol_out.write(line + "\n")
     _protocol_out.flush()
+    if payload is not None:
+        _protocol_out.buffer.write(payload)
+        _protocol_out.buffer.flush()
 
 
 def ignore_sigint():

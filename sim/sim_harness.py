@@ -22,6 +22,9 @@ written), "state" (no model loaded), "model" (the MJCF does not load), "render" 
 the reply also carries "gl" and "packages", the Debian packages that provide that backend) or
 "internal"; the process goes on after any of them.
 
+MUJOCO_GL=disable starts a harness for physics only: MuJoCo imports none of its rendering, and
+a render request is a "render" error.
+
 What PROTOCOL.md leaves open, decided here:
 - A run may carry "reset": false (default true) to continue from where the previous run of
   the same model ended, its state and controls kept and "initial" ignored; "time" is then the
@@ -53,7 +56,7 @@ import sys
 
 from harness_io import describe_exception, distribution_version, emit, handle_line, ignore_sigint, interpreter, not_ready, serve, take_stdout
 from sim_model import load_model
-from sim_render import Renderer, choose_gl
+from sim_render import PHYSICS_ONLY, Renderer, choose_gl
 from sim_requests import SimError, reject_constant, request_error
 from sim_run import Simulator
 
@@ -116,11 +119,18 @@ def main():
     take_stdout()
     ignore_sigint()
     gl, gl_problem = choose_gl()
+    # The harness does no sizeable linear algebra: one BLAS thread, so that importing numpy
+    # starts no pool of threads (a tenth of the import on a 2-core machine, more on larger
+    # ones). A value the user set is kept.
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     try:
         import numpy
         import mujoco
-        import PIL  # noqa: F401 (checked now so that a broken environment is reported at start)
-        import imageio_ffmpeg  # noqa: F401
+
+        if gl != PHYSICS_ONLY:
+            # Checked now so that a broken environment is reported at start, not at a render.
+            import PIL  # noqa: F401
+            import imageio_ffmpeg  # noqa: F401
     except ImportError as e:
         return not_ready(f"missing Python package: {e}", missing=getattr(e, "name", None))
     except Exception as e:  # a package that is there but does not import (a broken library)
@@ -148,4 +158,8 @@ def main():
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    status = main()
+    # Every reply is written and flushed: end without the interpreter's teardown of numpy and
+    # MuJoCo, which takes a tenth of a second or more that keypose would wait for.
+    sys.stderr.flush()
+    os._exit(status)

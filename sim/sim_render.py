@@ -23,6 +23,10 @@ GL_PACKAGES = {
     "glfw": "libglfw3 libgl1 (and a display)",
 }
 
+# MUJOCO_GL for a harness that only simulates: MuJoCo then imports none of its rendering
+# (PyOpenGL and the EGL context take a fifth of the start-up on a busy machine).
+PHYSICS_ONLY = "disable"
+
 # Formats a render can write, by file extension.
 RENDER_FORMATS = (".png", ".gif", ".mp4")
 
@@ -45,6 +49,8 @@ def choose_gl():
     if not gl:
         gl = "egl"
     os.environ["MUJOCO_GL"] = gl
+    if gl == PHYSICS_ONLY:
+        return gl, f"rendering is off in this process (MUJOCO_GL={PHYSICS_ONLY}, physics only)"
     if gl not in GL_PACKAGES:
         # MuJoCo's import raises on a value it does not know, physics included.
         os.environ["MUJOCO_GL"] = "disable"

@@ -6,6 +6,7 @@ It knows nothing about rendering or the request loop; thresholds and verdicts ar
 
 import json
 import re
+import struct
 import time
 from types import SimpleNamespace
 
@@ -15,6 +16,12 @@ from sim_requests import SimError, matrix, number, request_error, string_list, v
 
 # Decimals kept in a run's trace.
 TRACE_DECIMALS = 9
+
+# The binary trace (sim/PROTOCOL.md, run): magic, format version, rows, joints, then the
+# columns as little-endian f64.
+TRACE_MAGIC = b"KPTR"
+TRACE_VERSION = 1
+TRACE_FORMATS = ("json", "binary")
 
 
 class Simulator:
@@ -55,7 +62,7 @@ class Simulator:
         rec = self._record(model, wiring, args.commands, args.steps_per_row, profile)
         self._cut_at_non_finite(model, rec)
         self.can_continue = rec.recorded == args.commands.shape[0]
-        return self._run_reply(rec, wiring, args.steps_per_row)
+        return self._run_reply(rec, wiring, args.steps_per_row, args.trace_format)
 
     def pose_contacts(self, model, req):
         """The contacts of one pose, with no dynamics: qpos set, velocities zero, mj_forward.
@@ -97,7 +104,10 @@ class Simulator:
             initial = np.array(vector(member(req, "initial"), len(joints), "'initial'"), dtype=float)
         commands = matrix(np, req, "commands", len(joints), nonempty=False)
         limits = profile_limits(np, req, len(joints))
-        return SimpleNamespace(joints=joints, steps_per_row=steps_per_row, reset=reset, initial=initial, commands=commands, profile_limits=limits)
+        trace_format = member(req, "trace", "json", required=False)
+        if trace_format not in TRACE_FORMATS:
+            raise request_error(f"'trace' must be one of {', '.join(TRACE_FORMATS)}, not {json.dumps(trace_format)}")
+        return SimpleNamespace(joints=joints, steps_per_row=steps_per_row, reset=reset, initial=initial, commands=commands, profile_limits=limits, trace_format=trace_format)
 
     def _profile(self, model, wiring, args):
         """The servo-side profile of this run (None without one): started at rest where the
@@ -232,30 +242,39 @@ class Simulator:
             rec.contacts = [c for c in rec.contacts if c["time"] < round(float(rec.t[bad]), TRACE_DECIMALS)]
             rec.recorded = bad
 
-    def _run_reply(self, rec, wiring, steps_per_row):
+    def _run_reply(self, rec, wiring, steps_per_row, trace_format):
         np = self.np
         recorded = rec.recorded
-
-        def listed(values):
-            # Nine decimals (nanoradians, nanometres, nanonewtons) are far below what any
-            # verdict looks at, and make the numbers short: the reply halves, and so does the
-            # time spent writing and parsing it.
-            return np.round(values, TRACE_DECIMALS).tolist()
-
-        return {
+        # Nine decimals (nanoradians, nanometres, nanonewtons) are far below what any verdict
+        # looks at; they make JSON numbers short, and keep both forms of the trace equal.
+        time_column = np.round(rec.t[:recorded], TRACE_DECIMALS)
+        matrices = [
+            np.round(rec.q[:recorded][:, wiring.qadr], TRACE_DECIMALS),
+            np.round(rec.v[:recorded][:, wiring.vadr], TRACE_DECIMALS),
+            np.round(rec.f[:recorded] @ wiring.force_map, TRACE_DECIMALS),
+            rec.limits[:recorded],
+        ]
+        reply = {
             "steps": rec.steps,
             "steps_per_row": steps_per_row,
             "wall_seconds": rec.wall,
-            "trace": {
-                "time": listed(rec.t[:recorded]),
-                "qpos": listed(rec.q[:recorded][:, wiring.qadr]),
-                "qvel": listed(rec.v[:recorded][:, wiring.vadr]),
-                "force": listed(rec.f[:recorded] @ wiring.force_map),
-                "limit": rec.limits[:recorded].tolist(),
-            },
             "contacts": rec.contacts,
             "divergence": rec.divergence,
         }
+        if trace_format == "binary":
+            reply["payload"] = self._trace_bytes(time_column, matrices, wiring.nj)
+        else:
+            names = ("qpos", "qvel", "force", "limit")
+            reply["trace"] = {"time": time_column.tolist(), **{n: m.tolist() for n, m in zip(names, matrices)}}
+        return reply
+
+    def _trace_bytes(self, time_column, matrices, joints):
+        """The trace as PROTOCOL.md's binary form: a 16-byte header, then time, qpos, qvel,
+        force and limit (1.0 or 0.0), each row after row, as little-endian f64."""
+        np = self.np
+        header = struct.pack("<4sIII", TRACE_MAGIC, TRACE_VERSION, time_column.shape[0], joints)
+        columns = [time_column] + [m.reshape(-1) for m in matrices]
+        return header + np.concatenate(columns).astype("<f8").tobytes()
 
     def _warnings(self, model, d, now, seen, counts, divergence):
         """Lists the warnings MuJoCo raised since the last check; True if the state went bad.

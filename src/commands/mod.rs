@@ -128,11 +128,14 @@ pub enum CommandError {
     },
 }
 
-/// A model MuJoCo refuses is the user's to mend (exit 2); anything else is the simulation's.
+/// A model MuJoCo refuses, or a servo profile that cannot be modelled, is the user's to mend
+/// (exit 2); anything else is the simulation's.
 impl From<keypose::sim::SimError> for CommandError {
     fn from(e: keypose::sim::SimError) -> Self {
         match e {
-            keypose::sim::SimError::Model { .. } => CommandError::Model(e),
+            keypose::sim::SimError::Model { .. } | keypose::sim::SimError::ServoProfile(_) => {
+                CommandError::Model(e)
+            }
             other => CommandError::Sim(other),
         }
     }

@@ -225,7 +225,8 @@ fn play_in_simulation(
             sequence.file, options.rate_hz, args.speed
         );
     }
-    let result = super::sim::simulate(sequence, robot, trajectory, options, None)?;
+    let mut warm = keypose::sim::WarmSimulation::new();
+    let result = super::sim::simulate(&mut warm, sequence, robot, trajectory, options, None)?;
     print!(
         "{}",
         escape_controls(&super::sim::table(&sequence.file, &result))

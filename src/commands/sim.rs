@@ -1,12 +1,12 @@
 //! `keypose sim`: play a sequence in MuJoCo and judge it. Also `keypose play` without `--port`.
 
-use super::{option_values, parse_rate, write_output, CommandError, SequenceInput, Verdict};
+use super::{option_values, parse_rate, write_output, CommandError, SequenceOptions, Verdict};
 use keypose::plan::Trajectory;
 use keypose::player::{print_progress_line, LogRow, PlayError, PlayOptions, PlaybackLog};
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
 use keypose::sim::verdict::{self, KeyMark, Thresholds, Trace};
-use keypose::sim::{self, CommandStream, Simulation};
+use keypose::sim::{self, CommandStream, Simulation, WarmSimulation};
 use keypose::terminal_text::escape_controls;
 use serde_json::json;
 use std::fmt::Write as _;
@@ -15,8 +15,12 @@ use std::time::Instant;
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct SimArgs {
+    /// Sequence files (keypose-sequence/1 JSON). Several are simulated one after the other in
+    /// one MuJoCo process, each judged on its own; --report, --log and --render take one.
+    #[arg(required = true, value_name = "SEQUENCE")]
+    pub sequences: Vec<PathBuf>,
     #[command(flatten)]
-    pub input: SequenceInput,
+    pub options: SequenceOptions,
     /// Another MJCF model to run instead of the built-in one (its joint names must match the
     /// robot's), e.g. the arm maker's official mesh model. One arm only: a sequence of several
     /// arms is simulated with each arm's built-in model.
@@ -53,7 +57,8 @@ pub struct SimArgs {
     pub servo_profile: bool,
 }
 
-/// Simulated seconds per request, so a progress line can follow a long run.
+/// Simulated seconds per request when a progress line follows the run (`play` without a
+/// port); without one the whole run is one request.
 const CHUNK_SECONDS: f64 = 1.0;
 
 /// The outcome of a simulated playback.
@@ -92,8 +97,10 @@ fn write_log(
     log.finish()
 }
 
-/// Runs `trajectory` in MuJoCo as the player would play it with `options`.
+/// Runs `trajectory` in MuJoCo as the player would play it with `options`, in the session's
+/// harness `warm` (started if none runs yet).
 pub fn simulate(
+    warm: &mut WarmSimulation,
     sequence: &Sequence,
     robot: &Robot,
     trajectory: &Trajectory,
@@ -109,39 +116,13 @@ pub fn simulate(
         Some(path) => Some(PlaybackLog::create(path, robot).map_err(log_error)?),
         None => None,
     };
-    let mut simulation = Simulation::start(robot, mjcf, None)?;
-    if options.servo_profile {
-        simulation
-            .model_servo_profile(robot)
-            .map_err(|e| CommandError::Usage(e.to_string()))?;
-    }
-    let chunk = ((CHUNK_SECONDS * stream.rate).round() as usize).max(1);
-    let mut trace = Trace::default();
-    let total = stream.rows.len();
-    let mut start = 0;
-    while start < total {
-        let end = (start + chunk).min(total);
-        let part = simulation.run(robot, &stream, start..end, start == 0)?;
-        let diverged = !part.divergence.is_empty();
-        trace.extend(part);
-        if options.progress {
-            // The hold after the last cycle is the verdict's, not the playback's.
-            let row = end.min(stream.played).max(1) - 1;
-            print_progress_line(
-                stream.phase[row].name(),
-                stream.timeline_time[row],
-                &stream.loop_label[row],
-                trajectory,
-            );
+    let (trace, model) = warm.with_simulation(robot, mjcf, |simulation| {
+        if options.servo_profile {
+            simulation.model_servo_profile(robot)?;
         }
-        if diverged {
-            break;
-        }
-        start = end;
-    }
-    if options.progress {
-        eprintln!();
-    }
+        let trace = run_stream(simulation, robot, &stream, trajectory, options.progress)?;
+        Ok((trace, simulation.model().to_string()))
+    })?;
     if let Some(log) = &mut log {
         write_log(log, &stream, &trace).map_err(log_error)?;
     }
@@ -161,16 +142,143 @@ pub fn simulate(
     Ok(Simulated {
         verdict,
         trace,
-        model: simulation.model().to_string(),
+        model,
         wall_seconds: started.elapsed().as_secs_f64(),
     })
 }
 
+/// The rows of `stream` run from a reset: in one request, or with a progress line in requests
+/// of [`CHUNK_SECONDS`] of simulated time each. A run that diverged ends there.
+fn run_stream(
+    simulation: &mut Simulation,
+    robot: &Robot,
+    stream: &CommandStream,
+    trajectory: &Trajectory,
+    progress: bool,
+) -> Result<Trace, sim::SimError> {
+    let total = stream.rows.len();
+    if !progress {
+        return simulation.run(robot, stream, 0..total, true);
+    }
+    let chunk = ((CHUNK_SECONDS * stream.rate).round() as usize).max(1);
+    let mut trace = Trace::default();
+    let mut start = 0;
+    while start < total {
+        let end = (start + chunk).min(total);
+        let part = simulation.run(robot, stream, start..end, start == 0)?;
+        let diverged = !part.divergence.is_empty();
+        trace.extend(part);
+        // The hold after the last cycle is the verdict's, not the playback's.
+        let row = end.min(stream.played).max(1) - 1;
+        print_progress_line(
+            stream.phase[row].name(),
+            stream.timeline_time[row],
+            &stream.loop_label[row],
+            trajectory,
+        );
+        if diverged {
+            break;
+        }
+        start = end;
+    }
+    eprintln!();
+    Ok(trace)
+}
+
+/// One sequence ready to simulate: everything about it that can be refused has been.
+struct Prepared {
+    sequence: Sequence,
+    robot: Robot,
+    trajectory: Trajectory,
+    render_times: Option<Vec<(f64, String)>>,
+    model: Option<sim::MjcfModel>,
+    options: PlayOptions,
+}
+
 pub fn run(args: &SimArgs) -> Result<Verdict, CommandError> {
-    let (sequence, robot) = args.input.load()?;
+    if let [_, _, ..] = args.sequences[..] {
+        one_sequence_options(args)?;
+    }
+    // Every file is read and checked before MuJoCo starts: a bad one is refused before any
+    // is simulated.
+    let prepared = args
+        .sequences
+        .iter()
+        .map(|path| prepare(args, path))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut warm = WarmSimulation::new();
+    let mut failed = Vec::new();
+    for (index, one) in prepared.iter().enumerate() {
+        if index > 0 {
+            println!();
+        }
+        let result = simulate(
+            &mut warm,
+            &one.sequence,
+            &one.robot,
+            &one.trajectory,
+            &one.options,
+            one.model.as_ref(),
+        )?;
+        print!("{}", escape_controls(&table(&one.sequence.file, &result)));
+        if let Some(path) = &args.report {
+            let report = report_json(&one.sequence.file, &one.robot, &result);
+            write_output(Some(path), &format!("{report:#}\n"))?;
+        }
+        if let (Some(path), Some(times)) = (&args.render, &one.render_times) {
+            render(one, times.clone(), path)?;
+        }
+        if !result.verdict.passed() {
+            failed.push(one.sequence.file.as_str());
+        }
+    }
+    if prepared.len() > 1 {
+        let passed = prepared.len() - failed.len();
+        let failures = if failed.is_empty() {
+            String::new()
+        } else {
+            format!("; FAILED: {}", failed.join(", "))
+        };
+        println!(
+            "\n{passed} of {} sequences passed in one MuJoCo process{failures}",
+            prepared.len()
+        );
+    }
+    Ok(if failed.is_empty() {
+        Verdict::Pass
+    } else {
+        Verdict::Fail
+    })
+}
+
+/// The options that write one file refused with several sequences: each sequence's would
+/// overwrite the last's.
+fn one_sequence_options(args: &SimArgs) -> Result<(), CommandError> {
+    let given: Vec<&str> = [
+        ("--report", args.report.is_some()),
+        ("--log", args.log.is_some()),
+        ("--render", args.render.is_some()),
+        ("--every", args.every.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(name, given)| given.then_some(name))
+    .collect();
+    if given.is_empty() {
+        return Ok(());
+    }
+    Err(CommandError::Usage(format!(
+        "{}: with one sequence only ({} given); simulate the others in a call of their own",
+        given.join(", "),
+        args.sequences.len()
+    )))
+}
+
+/// The sequence at `path` loaded, planned and checked against every option, before MuJoCo
+/// starts.
+fn prepare(args: &SimArgs, path: &Path) -> Result<Prepared, CommandError> {
+    let (sequence, robot) = args.options.load(path)?;
     let trajectory = Trajectory::build(&sequence, &robot)?;
     let rate = args.rate.unwrap_or(robot.control_hz);
-    // Everything that can be refused is refused before MuJoCo starts.
     let render_times = match &args.render {
         Some(path) => Some(render_times(
             render_kind(path, args.every)?,
@@ -213,19 +321,13 @@ pub fn run(args: &SimArgs) -> Result<Verdict, CommandError> {
         log: args.log.clone(),
         ..PlayOptions::new(rate)
     };
-    let result = simulate(&sequence, &robot, &trajectory, &options, model.as_ref())?;
-    print!("{}", escape_controls(&table(&sequence.file, &result)));
-    if let Some(path) = &args.report {
-        let report = report_json(&sequence.file, &robot, &result);
-        write_output(Some(path), &format!("{report:#}\n"))?;
-    }
-    if let (Some(path), Some(times)) = (&args.render, render_times) {
-        render(model.as_ref(), times, &sequence, &robot, &trajectory, path)?;
-    }
-    Ok(if result.verdict.passed() {
-        Verdict::Pass
-    } else {
-        Verdict::Fail
+    Ok(Prepared {
+        sequence,
+        robot,
+        trajectory,
+        render_times,
+        model,
+        options,
     })
 }
 
@@ -307,22 +409,25 @@ fn render_times(
     })
 }
 
-fn render(
-    mjcf: Option<&sim::MjcfModel>,
-    times: Vec<(f64, String)>,
-    sequence: &Sequence,
-    robot: &Robot,
-    trajectory: &Trajectory,
-    path: &Path,
-) -> Result<(), CommandError> {
-    let frames: Vec<Vec<f64>> = times.iter().map(|(t, _)| trajectory.sample(*t)).collect();
+fn render(one: &Prepared, times: Vec<(f64, String)>, path: &Path) -> Result<(), CommandError> {
+    let frames: Vec<Vec<f64>> = times
+        .iter()
+        .map(|(t, _)| one.trajectory.sample(*t))
+        .collect();
     let labels: Vec<String> = times.into_iter().map(|(_, l)| l).collect();
-    let gl = sim::render(robot, mjcf, &frames, &labels, path, &sim::Camera::default())?;
+    let gl = sim::render(
+        &one.robot,
+        one.model.as_ref(),
+        &frames,
+        &labels,
+        path,
+        &sim::Camera::default(),
+    )?;
     eprintln!(
         "{}: rendered {} frame(s) of {} to {} ({gl})",
-        sequence.file,
+        one.sequence.file,
         frames.len(),
-        robot.name,
+        one.robot.name,
         path.display()
     );
     Ok(())

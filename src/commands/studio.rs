@@ -6,11 +6,13 @@ use super::teach::{self, SessionArgs, WithoutPort};
 use super::{CommandError, Verdict};
 use keypose::plan::Trajectory;
 use keypose::player::PlayOptions;
+use keypose::sim::WarmSimulation;
 use keypose::studio::engine::Ended;
 use keypose::studio::{Simulator, Studio};
 use serde_json::json;
 use std::io::Write;
 use std::net::SocketAddr;
+use std::sync::Mutex;
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct StudioArgs {
@@ -90,12 +92,16 @@ pub fn run(args: &StudioArgs) -> Result<Verdict, CommandError> {
 const MAX_TRACE_ROWS: usize = 20_000;
 
 /// `keypose sim` for the page: the list played in MuJoCo at the robot's control rate, the
-/// report `sim --report` writes, and the measured trace to replay on the 3D arm.
+/// report `sim --report` writes, and the measured trace to replay on the 3D arm. The session's
+/// simulations share one harness, started by the first: pressing Simulate again pays for
+/// Python and MuJoCo no more.
 fn simulator() -> Simulator {
-    Box::new(|sequence, robot| {
+    let warm = Mutex::new(WarmSimulation::new());
+    Box::new(move |sequence, robot| {
         let trajectory = Trajectory::build(sequence, robot)?;
         let options = PlayOptions::new(robot.control_hz);
-        let result = super::sim::simulate(sequence, robot, &trajectory, &options, None)?;
+        let mut warm = warm.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        let result = super::sim::simulate(&mut warm, sequence, robot, &trajectory, &options, None)?;
         let trace = &result.trace;
         let rows = trace
             .time

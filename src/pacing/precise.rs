@@ -6,6 +6,11 @@
 //! the instant itself. Even so the kernel wakes a sleeping thread late, by its timer slack
 //! (50 µs for an ordinary thread) plus the scheduling delay, so the last [`SPIN`] before the
 //! deadline is spent polling the clock instead of sleeping.
+//!
+//! A thread that wakes often for others' sake (the emulated servos answer six times a bus
+//! cycle) would burn a good part of a core in those spins; a [`Waker`] learns how late the
+//! kernel actually wakes its thread and spins only that long, which on an idle machine is a
+//! few microseconds, and never longer than [`SPIN`].
 
 use std::cell::Cell;
 use std::time::{Duration, Instant};
@@ -23,6 +28,59 @@ pub fn sleep_until(deadline: Instant) {
     }
     while Instant::now() < deadline {
         std::hint::spin_loop();
+    }
+}
+
+/// Sleeps until `deadline` without spinning: the wake-up may come late by the kernel's
+/// scheduling delay, for waits whose lateness nobody measures (an answer that only precedes
+/// others of the same exchange).
+pub(crate) fn sleep_roughly_until(deadline: Instant) {
+    reduce_timer_slack();
+    if Instant::now() < deadline {
+        sleep_absolute(deadline);
+    }
+}
+
+/// A thread's precise wake-ups, spinning only as long as the kernel has lately been waking it
+/// late: up at once to a later wake-up seen (at most [`SPIN`]), and down by an eighth of the
+/// difference after each earlier one, so one late wake-up is not forgotten at once nor
+/// remembered for ever.
+#[derive(Debug, Clone)]
+pub(crate) struct Waker {
+    lead: Duration,
+}
+
+/// The spin a [`Waker`] starts with, before it has seen its thread wake.
+const FIRST_LEAD: Duration = Duration::from_micros(10);
+
+impl Default for Waker {
+    fn default() -> Waker {
+        Waker { lead: FIRST_LEAD }
+    }
+}
+
+impl Waker {
+    /// Sleeps until `deadline`, waking within a few microseconds of it.
+    pub(crate) fn sleep_until(&mut self, deadline: Instant) {
+        reduce_timer_slack();
+        if let Some(wake) = deadline.checked_sub(self.lead) {
+            if Instant::now() < wake {
+                sleep_absolute(wake);
+                self.learn(Instant::now().saturating_duration_since(wake));
+            }
+        }
+        while Instant::now() < deadline {
+            std::hint::spin_loop();
+        }
+    }
+
+    /// Takes in how late the kernel woke the thread this time.
+    fn learn(&mut self, late: Duration) {
+        self.lead = if late >= self.lead {
+            late.min(SPIN)
+        } else {
+            self.lead - (self.lead - late) / 8
+        };
     }
 }
 
@@ -109,9 +167,35 @@ mod tests {
     }
 
     #[test]
+    fn a_waker_spins_as_long_as_wake_ups_lately_came_late_and_never_more_than_spin() {
+        let us = Duration::from_micros;
+        let mut waker = Waker::default();
+        assert_eq!(waker.lead, us(10));
+        // A later wake-up raises the spin to it at once; a very late one to SPIN only.
+        waker.learn(us(30));
+        assert_eq!(waker.lead, us(30));
+        waker.learn(us(5_000));
+        assert_eq!(waker.lead, SPIN);
+        // Prompt wake-ups lower it by an eighth of the difference each: 50 → 43.75 µs.
+        waker.learn(us(0));
+        assert_eq!(waker.lead, Duration::from_nanos(43_750));
+        // After many, it spins next to nothing (never below what is seen).
+        for _ in 0..100 {
+            waker.learn(us(2));
+        }
+        assert!(
+            waker.lead >= us(2) && waker.lead < us(3),
+            "{:?}",
+            waker.lead
+        );
+    }
+
+    #[test]
     fn sleeping_until_a_past_deadline_returns_without_waiting_for_anything() {
         // Not a timing check: a deadline already passed must not block (the loop ends).
         sleep_until(Instant::now() - Duration::from_millis(1));
         sleep_until(Instant::now());
+        Waker::default().sleep_until(Instant::now() - Duration::from_millis(1));
+        sleep_roughly_until(Instant::now() - Duration::from_millis(1));
     }
 }

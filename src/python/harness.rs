@@ -40,6 +40,15 @@ impl Default for HarnessOptions {
     }
 }
 
+/// A successful reply and the binary payload that followed its line, if it announced one.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Reply {
+    /// The reply object (`"ok": true`).
+    pub reply: Value,
+    /// The bytes its `"payload"` member counted.
+    pub payload: Option<Vec<u8>>,
+}
+
 /// A harness script running as a child process, spoken to in JSON lines.
 ///
 /// Each request carries a `seq` number that the script echoes, so that a late reply to a
@@ -156,7 +165,7 @@ impl Harness {
     /// The child's first line, or why there is none.
     fn ready_line(&mut self, timeout: Duration) -> Result<String, NotReady> {
         match self.lines.recv_timeout(timeout) {
-            Ok(Event::Line(line)) => Ok(line),
+            Ok(Event::Line(line, _)) => Ok(line),
             Ok(Event::ReadError(error)) => Err(NotReady::Read(error.to_string())),
             Err(RecvTimeoutError::Timeout) => Err(NotReady::Silent {
                 seconds: timeout.as_secs_f64(),
@@ -212,6 +221,23 @@ impl Harness {
         request: &impl Serialize,
         timeout: Duration,
     ) -> Result<Value, HarnessError> {
+        Ok(self.request_reply(request, timeout)?.reply)
+    }
+
+    /// Sends one request and returns its reply with the binary payload that followed it, if
+    /// it announced one (`"payload": N`; sim/PROTOCOL.md), with the default timeout.
+    pub fn request_with_payload(
+        &mut self,
+        request: &impl Serialize,
+    ) -> Result<Reply, HarnessError> {
+        self.request_reply(request, self.request_timeout)
+    }
+
+    fn request_reply(
+        &mut self,
+        request: &impl Serialize,
+        timeout: Duration,
+    ) -> Result<Reply, HarnessError> {
         self.seq += 1;
         let seq = self.seq;
         let mut request = serde_json::to_value(request).map_err(|error| HarnessError::Request {
@@ -225,9 +251,10 @@ impl Harness {
         if let Value::Object(fields) = &mut request {
             fields.insert("seq".to_string(), Value::from(seq));
         }
-        let reply = self.exchange(&request.to_string(), &op, Some(seq), timeout)?;
+        let Reply { reply, payload } =
+            self.exchange(&request.to_string(), &op, Some(seq), timeout)?;
         match Envelope::deserialize(&reply).unwrap_or_default() {
-            Envelope { ok: Some(true), .. } => Ok(reply),
+            Envelope { ok: Some(true), .. } => Ok(Reply { reply, payload }),
             Envelope {
                 ok: Some(false),
                 error,
@@ -251,7 +278,9 @@ impl Harness {
     /// malformed input.
     pub fn send_raw_line(&mut self, line: &str) -> Result<Value, HarnessError> {
         let timeout = self.request_timeout;
-        self.exchange(line.trim_end(), "a raw line", None, timeout)
+        Ok(self
+            .exchange(line.trim_end(), "a raw line", None, timeout)?
+            .reply)
     }
 
     fn exchange(
@@ -260,11 +289,11 @@ impl Harness {
         op: &str,
         seq: Option<u64>,
         timeout: Duration,
-    ) -> Result<Value, HarnessError> {
+    ) -> Result<Reply, HarnessError> {
         self.send(line)?;
         let deadline = Instant::now() + timeout;
         loop {
-            let line = self.next_line(op, deadline, timeout)?;
+            let (line, payload) = self.next_line(op, deadline, timeout)?;
             let reply = self.parse_reply(&line)?;
             let answers = Envelope::deserialize(&reply).unwrap_or_default().seq;
             match (seq, answers) {
@@ -277,21 +306,22 @@ impl Harness {
                         line: clip(&line),
                     })
                 }
-                _ => return Ok(reply),
+                _ => return Ok(Reply { reply, payload }),
             }
         }
     }
 
-    /// The next stdout line before `deadline`; `timeout` is the whole wait, for the message.
+    /// The next stdout line before `deadline`, with its payload; `timeout` is the whole wait,
+    /// for the message.
     fn next_line(
         &mut self,
         op: &str,
         deadline: Instant,
         timeout: Duration,
-    ) -> Result<String, HarnessError> {
+    ) -> Result<(String, Option<Vec<u8>>), HarnessError> {
         let left = deadline.saturating_duration_since(Instant::now());
         match self.lines.recv_timeout(left) {
-            Ok(Event::Line(line)) => Ok(line),
+            Ok(Event::Line(line, payload)) => Ok((line, payload)),
             Ok(Event::ReadError(error)) => Err(HarnessError::BadReply {
                 script: self.script.clone(),
                 detail: format!("reading it failed: {error}"),

@@ -38,7 +38,7 @@ pub use config::PyConfig;
 pub use doctor::doctor_report;
 use error::io_error;
 pub use error::PyEnvError;
-pub use harness::{Harness, HarnessOptions};
+pub use harness::{Harness, HarnessOptions, Reply};
 pub use harness_error::{HarnessError, NotReady};
 pub use requirements::{env_key, pinned_versions, REQUIREMENTS};
 pub use venv::PythonEnv;

@@ -55,9 +55,10 @@
 //! best so far; the slope start O(N·J·L·log L) for segments of L samples; a sweep of removals
 //! with slides ~150 window judgements per key, O(K·J·W) — so all of it grows about linearly with
 //! the length of the recording. Measured in a release build on 60 s at 100 Hz × 6 joints of busy
-//! motion (250–450 keys at 1°): 0.9–1.4 s, under 2.5 % of the recording's length; against
-//! top-down greedy insertion in the same run, about 30 % fewer keys for 4–10× its time
-//! (`cargo bench --bench record`).
+//! motion (250–450 keys at 1°): 0.35–1.1 s on a shared 2-core machine, 0.6–1.9 % of the
+//! recording's length; against classic Ramer–Douglas–Peucker in the same run, 24 % fewer keys
+//! where both fit (linear; RDP's keys do not fit the cubic and monotone curves) for 770–1500×
+//! its time (`cargo bench --bench record`, docs/benchmarks.md).
 //!
 //! It is a heuristic, not guaranteed minimal: `tests/motion/record_extract.rs` checks that recordings
 //! made from five keys come back with at most five, and that a four times looser tolerance

@@ -38,12 +38,16 @@ pub struct KeyframeList {
     sequence: Sequence,
     current: usize,
     dirty: bool,
+    /// The keys and settings as loaded or last saved: a version put back by undo or redo that
+    /// equals them leaves the list clean.
+    clean: Sequence,
 }
 
 impl KeyframeList {
     /// The list of `sequence`'s keys, clean, with the first key current.
     pub fn new(sequence: Sequence) -> Self {
         Self {
+            clean: sequence.clone(),
             sequence,
             current: 0,
             dirty: false,
@@ -61,6 +65,7 @@ impl KeyframeList {
         self.sequence.file = path.display().to_string();
         let written = self.sequence.to_text();
         self.sequence.mark_written(&written);
+        self.clean = self.sequence.clone();
         self.dirty = false;
         Ok(())
     }
@@ -121,11 +126,12 @@ impl KeyframeList {
     }
 
     /// Puts an earlier (or later) version of the list in place (undo, redo): its sequence and
-    /// its current key (the last one if `current` is past it). The list has unsaved changes.
+    /// its current key (the last one if `current` is past it). The list has unsaved changes
+    /// unless the version is what was loaded or last saved (undone back to it).
     pub fn restore(&mut self, sequence: Sequence, current: usize) {
         self.current = current.min(sequence.keyframes.len().saturating_sub(1));
+        self.dirty = !sequence.same_content(&self.clean);
         self.sequence = sequence;
-        self.dirty = true;
     }
 
     /// Makes key `index` current; false if there is no such key.

@@ -310,6 +310,23 @@ impl Sequence {
         layout::to_text(self)
     }
 
+    /// Whether `other` has the same keys and settings, wherever each came from and however
+    /// its file is laid out (a key's place in its file is not part of it).
+    pub fn same_content(&self, other: &Sequence) -> bool {
+        let unplaced = |k: &Keyframe| Keyframe {
+            source_index: None,
+            ..k.clone()
+        };
+        self.robot == other.robot
+            && self.arms == other.arms
+            && self.description == other.description
+            && self.interpolation == other.interpolation
+            && self.ends == other.ends
+            && self.key_interval == other.key_interval
+            && self.keyframes.len() == other.keyframes.len()
+            && (self.keyframes.iter().map(unplaced)).eq(other.keyframes.iter().map(unplaced))
+    }
+
     /// Takes `text`, which has just been written for this sequence, as the file it now comes
     /// from: the next save keeps its layout, and keys are matched to their places in it.
     pub fn mark_written(&mut self, text: &str) {

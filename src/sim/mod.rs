@@ -8,11 +8,15 @@
 
 mod joint_map;
 mod models;
+mod trace_bytes;
 pub mod verdict;
+mod warm;
 mod wire;
 
 pub use joint_map::{JointMap, MjcfModel};
 pub use models::{check_mjcf_file, model_path};
+pub use trace_bytes::TraceBytesError;
+pub use warm::WarmSimulation;
 
 use crate::plan::Trajectory;
 use crate::plan::{Phase, Timeline, TimelineOptions};
@@ -21,10 +25,16 @@ use crate::robot::{JointKind, Robot};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 use verdict::{Contact, ContactKind, Trace};
-use wire::{ContactKindReply, ContactReply, Load, ProfileLimits, RefusalKind, Request, SceneArm};
+use wire::{
+    ContactKindReply, ContactReply, Load, ProfileLimits, RefusalKind, Request, SceneArm, TraceForm,
+};
 
 /// The harness script's file name among keypose's embedded Python scripts.
 pub const HARNESS_SCRIPT: &str = "sim_harness.py";
+
+/// MUJOCO_GL of a harness that only simulates: MuJoCo imports none of its rendering, which
+/// takes a fifth of its start-up (sim/PROTOCOL.md).
+const PHYSICS_ONLY: &str = "disable";
 
 /// Why a simulation could not be started, run or rendered.
 #[derive(Debug, thiserror::Error)]
@@ -51,6 +61,21 @@ pub enum SimError {
         /// What is missing or wrong.
         detail: String,
     },
+    /// The binary trace after a run's reply is not what sim/PROTOCOL.md describes.
+    #[error("the trace the simulation sent after its reply to run is malformed")]
+    TraceBytes(#[source] TraceBytesError),
+    /// The harness died, was started again, and died again.
+    #[error("the simulation's harness died ({first}); started again, it died again")]
+    DiedAgain {
+        /// How it died the first time.
+        first: String,
+        /// How it died the second time.
+        #[source]
+        second: HarnessError,
+    },
+    /// A joint whose servo profile (`--servo-profile`) cannot be modelled.
+    #[error(transparent)]
+    ServoProfile(#[from] crate::robot::ProfileError),
     /// No GL context could be made (each backend's failure, `; `-separated).
     #[error("rendering failed with both EGL and OSMesa: {0}")]
     Render(String),
@@ -61,7 +86,7 @@ impl SimError {
     /// else is the simulation's (its process, its environment).
     pub fn kind(&self) -> crate::error::ErrorKind {
         match self {
-            SimError::Model { .. } => crate::error::ErrorKind::BadInput,
+            SimError::Model { .. } | SimError::ServoProfile(_) => crate::error::ErrorKind::BadInput,
             _ => crate::error::ErrorKind::Hardware,
         }
     }
@@ -275,6 +300,8 @@ pub struct Simulation {
 impl Simulation {
     /// Starts the harness (building the Python environment on first use) and loads the robot's
     /// model, or `mjcf` when given (its joints named as the robot's, through its joint map).
+    /// `gl` is the OpenGL backend of a harness that renders; without one the harness simulates
+    /// only, and starts faster.
     pub fn start(
         robot: &Robot,
         mjcf: Option<&MjcfModel>,
@@ -286,33 +313,57 @@ impl Simulation {
             request_timeout: Duration::from_secs(600),
             ..HarnessOptions::default()
         };
-        if let Some(gl) = gl {
-            options.env.push(("MUJOCO_GL".into(), gl.into()));
-        }
-        let harness = Harness::start_in(&config, HARNESS_SCRIPT, options)?;
+        options
+            .env
+            .push(("MUJOCO_GL".into(), gl.unwrap_or(PHYSICS_ONLY).into()));
+        // The model's request first: a robot keypose has no model of is refused before Python
+        // starts.
         let (load, model) = load_request(&config, robot, mjcf)?;
-        let no_map = JointMap::default();
-        let map = mjcf.map_or(&no_map, |m| &m.joint_map);
+        let harness = Harness::start_in(&config, HARNESS_SCRIPT, options)?;
         let mut sim = Simulation {
             harness,
-            model: model.clone(),
-            joints: robot
-                .joints
-                .iter()
-                .map(|j| map.model_name(&j.name).to_string())
-                .collect(),
+            model: String::new(),
+            joints: Vec::new(),
             force_limits: Vec::new(),
             timestep: 0.0,
             servo_profile: None,
         };
-        let reply = sim
+        sim.load_model(robot, mjcf, load, model)?;
+        Ok(sim)
+    }
+
+    /// Loads `robot`'s model (or `mjcf`) in place of the one loaded, in the same harness: a
+    /// session that simulates again pays for Python and MuJoCo once. The servos' profile is
+    /// no longer modelled until [`Simulation::model_servo_profile`] is called again.
+    pub fn load(&mut self, robot: &Robot, mjcf: Option<&MjcfModel>) -> Result<(), SimError> {
+        let (load, model) = load_request(&PyConfig::from_env()?, robot, mjcf)?;
+        self.load_model(robot, mjcf, load, model)
+    }
+
+    fn load_model(
+        &mut self,
+        robot: &Robot,
+        mjcf: Option<&MjcfModel>,
+        load: Load,
+        model: String,
+    ) -> Result<(), SimError> {
+        let no_map = JointMap::default();
+        let map = mjcf.map_or(&no_map, |m| &m.joint_map);
+        self.model = model.clone();
+        self.joints = robot
+            .joints
+            .iter()
+            .map(|j| map.model_name(&j.name).to_string())
+            .collect();
+        self.servo_profile = None;
+        let reply = self
             .harness
             .request(&Request::Load(load))
             .map_err(|e| model_error(e, &model))?;
         let reply: wire::LoadReply = wire::parse(reply, "load")?;
-        sim.timestep = reply.timestep;
+        self.timestep = reply.timestep;
         let model_joints: Vec<&str> = reply.joints.iter().map(|j| j.name.as_str()).collect();
-        let missing: Vec<&str> = sim
+        let missing: Vec<&str> = self
             .joints
             .iter()
             .map(String::as_str)
@@ -329,7 +380,7 @@ impl Simulation {
                 ),
             });
         }
-        sim.force_limits = sim
+        self.force_limits = self
             .joints
             .iter()
             .map(|joint| {
@@ -341,7 +392,7 @@ impl Simulation {
                 a.forcelimited.then(|| high.abs().min(low.abs()))
             })
             .collect();
-        Ok(sim)
+        Ok(())
     }
 
     /// The model's name in reports: its path, or for a cell `ARM=PATH, …`.
@@ -352,7 +403,7 @@ impl Simulation {
     /// Models the servos' own profile from now on, as `play --servo-profile` sets it (each
     /// joint's limits in its servo's register units, rounded down): each servo follows its goal
     /// within these acceleration and velocity limits.
-    pub fn model_servo_profile(&mut self, robot: &Robot) -> Result<(), crate::robot::ProfileError> {
+    pub fn model_servo_profile(&mut self, robot: &Robot) -> Result<(), SimError> {
         let limits = robot
             .joints
             .iter()
@@ -392,9 +443,17 @@ impl Simulation {
             reset,
             commands,
             profile: self.servo_profile.as_ref(),
+            trace: TraceForm::Binary,
         };
-        let reply: wire::RunReply = wire::parse(self.harness.request(&request)?, "run")?;
-        let trace = reply.trace;
+        let answer = self.harness.request_with_payload(&request)?;
+        let reply: wire::RunReply = wire::parse(answer.reply, "run")?;
+        let Some(payload) = answer.payload else {
+            return Err(SimError::Reply {
+                op: "run",
+                detail: "no binary trace followed it (no \"payload\" member)".to_string(),
+            });
+        };
+        let trace = trace_bytes::decode(&payload).map_err(SimError::TraceBytes)?;
         let n = trace.time.len();
         trace.check_rows(rows.len(), self.joints.len())?;
         Ok(Trace {

@@ -31,6 +31,8 @@ pub(super) enum Request<'a> {
         commands: Vec<Vec<f64>>,
         #[serde(skip_serializing_if = "Option::is_none")]
         profile: Option<&'a ProfileLimits>,
+        /// How the trace comes back.
+        trace: TraceForm,
     },
     /// Frames drawn to an image or an animation.
     Render {
@@ -47,6 +49,15 @@ pub(super) enum Request<'a> {
         /// Degrees, negative from above.
         elevation: f64,
     },
+}
+
+/// How a run's trace comes back: keypose always asks for the binary form (`trace_bytes`); the
+/// JSON form (the harness's default) is for people and tests speaking to the harness.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum TraceForm {
+    /// Raw little-endian f64 after the reply line (sim/PROTOCOL.md, run).
+    Binary,
 }
 
 /// What a `load` request loads.
@@ -106,16 +117,15 @@ pub(super) struct Actuator {
     pub forcelimited: bool,
 }
 
-/// The reply to `run`.
+/// The reply to `run`; its trace follows it as bytes ([`super::trace_bytes`]).
 #[derive(Debug, Deserialize)]
 pub(super) struct RunReply {
-    pub trace: TraceReply,
     pub contacts: Vec<ContactReply>,
     pub divergence: Vec<Divergence>,
 }
 
 /// One value per recorded row, or per row and joint in the request's `joints` order.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Clone, PartialEq)]
 pub(super) struct TraceReply {
     pub time: Vec<f64>,
     pub qpos: Vec<Vec<f64>>,
@@ -251,10 +261,6 @@ mod tests {
     use super::*;
     use serde_json::json;
 
-    fn run_reply(trace: Value) -> Value {
-        json!({"ok": true, "steps": 10, "trace": trace, "contacts": [], "divergence": []})
-    }
-
     #[test]
     fn requests_are_the_lines_of_the_protocol() {
         let profile = ProfileLimits {
@@ -269,12 +275,14 @@ mod tests {
             reset: false,
             commands: vec![vec![0.5], vec![0.6]],
             profile: Some(&profile),
+            trace: TraceForm::Binary,
         };
         assert_eq!(
             serde_json::to_value(&run).unwrap(),
             json!({"op": "run", "joints": ["elbow"], "control_hz": 100.0, "initial": [0.5],
                    "reset": false, "commands": [[0.5], [0.6]],
-                   "profile": {"acceleration": [6.0], "velocity": [null]}})
+                   "profile": {"acceleration": [6.0], "velocity": [null]},
+                   "trace": "binary"})
         );
         let load = Request::Load(Load::Model {
             mjcf: "arm.xml".into(),
@@ -307,8 +315,7 @@ mod tests {
 
     #[test]
     fn a_reply_missing_a_member_is_a_reply_error_naming_it() {
-        let reply = run_reply(json!({"time": [0.01], "qvel": [[0.0]], "force": [[0.0]],
-                                     "limit": [[0]]}));
+        let reply = json!({"ok": true, "steps": 10, "payload": 16, "divergence": []});
         let error = parse::<RunReply>(reply, "run").unwrap_err();
         assert!(
             matches!(error, SimError::Reply { op: "run", .. }),
@@ -316,28 +323,26 @@ mod tests {
         );
         let message = error.to_string();
         assert!(
-            message.contains("reply to run") && message.contains("qpos"),
+            message.contains("reply to run") && message.contains("contacts"),
             "{message}"
         );
     }
 
     #[test]
     fn a_trace_whose_rows_do_not_match_is_refused() {
-        let trace = |time: Value, qpos: Value| {
-            parse::<RunReply>(
-                run_reply(json!({"time": time, "qpos": qpos, "qvel": [[0.0]],
-                                 "force": [[0.0]], "limit": [[1]]})),
-                "run",
-            )
-            .unwrap()
-            .trace
+        let trace = |time: Vec<f64>, qpos: Vec<Vec<f64>>| TraceReply {
+            time,
+            qpos,
+            qvel: vec![vec![0.0]],
+            force: vec![vec![0.0]],
+            limit: vec![vec![1.0]],
         };
-        let fits = trace(json!([0.01]), json!([[0.1]]));
+        let fits = trace(vec![0.01], vec![vec![0.1]]);
         assert!(fits.check_rows(1, 1).is_ok());
         // More rows than were commanded: the stream's rows cannot be cut to them.
         let error = fits.check_rows(0, 1).unwrap_err().to_string();
         assert!(error.contains("1 rows; expected at most the 0"), "{error}");
-        let short = trace(json!([0.01]), json!([]));
+        let short = trace(vec![0.01], vec![]);
         let error = short.check_rows(1, 1).unwrap_err().to_string();
         assert!(
             error.contains("trace.qpos has 0 rows; expected 1"),

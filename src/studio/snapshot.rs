@@ -250,7 +250,8 @@ fn activity(activity: &Activity) -> Value {
     }
 }
 
-/// The pending question, and whether it wants a line of text or a yes/no.
+/// The pending question, and whether it wants a line of text, a yes/no, or the direction
+/// check's answer for a joint (moved as drawn, or reversed).
 fn prompt(state: &TeachState) -> Value {
     let Some(question) = format::question(state) else {
         return Value::Null;
@@ -258,6 +259,9 @@ fn prompt(state: &TeachState) -> Value {
     match state.prompt() {
         Some(Prompt::Text { text, .. }) => {
             json!({"kind": "text", "question": question, "text": text})
+        }
+        Some(Prompt::Direction { joint }) => {
+            json!({"kind": "direction", "question": question, "joint": joint})
         }
         _ => json!({"kind": "yesno", "question": question}),
     }

@@ -47,20 +47,25 @@ fn findings(out: &Output) -> String {
         .join("\n")
 }
 
+/// Every example, in one call (each judged on its own, as
+/// `several_sequences_in_one_call_share_one_harness_and_are_judged_each_on_its_own` checks).
 #[test]
 fn every_example_sequence_passes_in_physics() {
-    for entry in std::fs::read_dir(repo("sequences")).unwrap() {
-        let path = entry.unwrap().path();
-        let out = keypose(&["sim", path.to_str().unwrap()]);
-        assert_eq!(
-            out.status.code(),
-            Some(0),
-            "{}: {}",
-            path.display(),
-            text(&out)
-        );
-        assert!(text(&out).contains("PASSED"));
-    }
+    let examples: Vec<String> = std::fs::read_dir(repo("sequences"))
+        .unwrap()
+        .map(|entry| entry.unwrap().path().display().to_string())
+        .collect();
+    let mut args = vec!["sim"];
+    args.extend(examples.iter().map(String::as_str));
+    let out = keypose(&args);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let passed = text(&out).matches("\nPASSED: ").count();
+    assert_eq!(passed, examples.len(), "{}", text(&out));
+    let summary = format!(
+        "{0} of {0} sequences passed in one MuJoCo process",
+        examples.len()
+    );
+    assert!(text(&out).contains(&summary), "{}", text(&out));
 }
 
 #[test]
@@ -413,4 +418,121 @@ fn the_prismatic_gripper_is_shown_in_millimetres() {
     if let Some(f) = findings_of(&json, "saturation").first() {
         assert!(f["message"].as_str().unwrap().contains(" N)"), "{f}");
     }
+}
+
+/// What `keypose sim` printed of one sequence's verdict, without the wall time of its first
+/// line ("… 9.82 s simulated in 0.32 s"), which no two runs share.
+fn verdict_lines(block: &str) -> Vec<String> {
+    block
+        .lines()
+        .map(|line| match line.split_once(" simulated in ") {
+            Some((head, _)) => head.to_string(),
+            None => line.to_string(),
+        })
+        .collect()
+}
+
+/// `keypose sim A B C` simulates each file in one harness process (the operating system's count
+/// of Python started for sim_harness.py: one), and judges each as a call of its own would: the
+/// tables are those of three separate calls, line for line, whatever ran before in the process
+/// (a floor collision, another robot's model). One failing file makes the call fail.
+#[test]
+fn several_sequences_in_one_call_share_one_harness_and_are_judged_each_on_its_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let floor = sequence(
+        dir.path(),
+        "floor.json",
+        "so101",
+        r#"{"time":0,"joints":{"shoulder_lift":0}},{"time":2.5,"hold":0.5,"joints":{"shoulder_lift":90}},
+           {"time":5,"joints":{"shoulder_lift":0}}"#,
+    );
+    let wave = repo("sequences/so101_wave.json");
+    let koch = repo("sequences/koch_wave.json");
+    let python = crate::harness_starts::LoggedPython::new();
+    let out = crate::common::keypose()
+        .args(["sim", &wave, &floor, &koch])
+        .envs(python.env())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    assert_eq!(
+        python.starts().len(),
+        1,
+        "harnesses started: {:?}",
+        python.starts()
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    let blocks: Vec<&str> = stdout.split("\n\n").collect();
+    assert_eq!(blocks.len(), 4, "three tables and the summary: {stdout}");
+    for (block, file) in blocks.iter().zip([&wave, &floor, &koch]) {
+        let alone = keypose(&["sim", file]);
+        assert_eq!(
+            verdict_lines(block),
+            verdict_lines(String::from_utf8_lossy(&alone.stdout).trim_end()),
+            "{file}"
+        );
+    }
+    assert!(blocks[1].contains("floor collision"), "{stdout}");
+    assert_eq!(
+        blocks[3].trim_end(),
+        format!("2 of 3 sequences passed in one MuJoCo process; FAILED: {floor}")
+    );
+}
+
+/// With several sequences, what writes one file (a report, a log, a picture) is refused, and
+/// so is any bad file among them: before MuJoCo starts (no harness), nothing simulated.
+#[test]
+fn several_sequences_are_all_checked_before_any_is_simulated() {
+    let dir = tempfile::tempdir().unwrap();
+    let wave = repo("sequences/so101_wave.json");
+    let bad = sequence(
+        dir.path(),
+        "bad.json",
+        "so101",
+        r#"{"time":0,"joints":{"shoulder_lift":0}},{"time":1,"joints":{"elbow_flex":500}}"#,
+    );
+    let python = crate::harness_starts::LoggedPython::new();
+    let run = |args: &[&str]| {
+        crate::common::keypose()
+            .arg("sim")
+            .args(args)
+            .envs(python.env())
+            .output()
+            .unwrap()
+    };
+    let report = dir.path().join("report.json");
+    let out = run(&[&wave, &wave, "--report", report.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    assert!(
+        text(&out).contains("--report: with one sequence only (2 given)"),
+        "{}",
+        text(&out)
+    );
+    assert!(!report.exists());
+    let out = run(&[&wave, &bad]);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    assert!(text(&out).contains("bad.json"), "{}", text(&out));
+    assert!(!text(&out).contains("PASSED"), "{}", text(&out));
+    assert_eq!(python.starts(), Vec::<u32>::new());
+}
+
+/// A harness that dies is started again once; one that dies again ends the simulation with an
+/// error that says both deaths (exit 3, a failure of the simulation, not of the sequence).
+#[test]
+fn a_harness_that_dies_twice_is_not_started_a_third_time() {
+    let python = crate::harness_starts::LoggedPython::new();
+    python.die_at_first_request();
+    let out = crate::common::keypose()
+        .args(["sim", &repo("sequences/so101_wave.json")])
+        .envs(python.env())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(3), "{}", text(&out));
+    assert_eq!(python.starts().len(), 2, "{:?}", python.starts());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("the simulation's harness died (sim_harness.py exited (exit code 0))")
+            && stderr.contains("started again, it died again"),
+        "{stderr}"
+    );
 }

@@ -726,12 +726,21 @@ fn animations_are_written_as_gif_and_mp4() {
 
 #[test]
 fn an_unusable_gl_backend_is_a_render_error_and_physics_still_works() {
-    let mut harness = start("no-such-backend");
-    assert!(
-        harness.ready()["gl_error"].is_string(),
-        "{}",
-        harness.ready()
-    );
+    physics_without_rendering("no-such-backend", "is not a backend keypose renders with");
+}
+
+/// MUJOCO_GL=disable, as keypose starts a harness that only simulates: no rendering, physics.
+#[test]
+fn a_harness_for_physics_only_refuses_renders_and_simulates() {
+    physics_without_rendering("disable", "rendering is off in this process");
+}
+
+/// A harness started with MUJOCO_GL=`gl` says why it cannot render (`why`), refuses a render
+/// as a render error, and runs physics.
+fn physics_without_rendering(gl: &str, why: &str) {
+    let mut harness = start(gl);
+    let gl_error = harness.ready()["gl_error"].as_str().unwrap_or_default();
+    assert!(gl_error.contains(why), "{}", harness.ready());
     request(
         &mut harness,
         json!({"op": "load", "mjcf": model("pendulum.xml")}),
@@ -743,7 +752,7 @@ fn an_unusable_gl_backend_is_a_render_error_and_physics_still_works() {
                "path": dir.path().join("x.png").display().to_string()}),
     );
     assert_eq!(reply["kind"], json!("render"), "{reply}");
-    assert_eq!(reply["gl"], json!("no-such-backend"), "{reply}");
+    assert_eq!(reply["gl"], json!(gl), "{reply}");
     let reply = request(
         &mut harness,
         hold(&["shoulder", "elbow"], &[0.0, 0.0], &[0.0, 0.0], 10),
@@ -762,4 +771,72 @@ fn a_long_run_is_one_request_with_a_row_per_command() {
     );
     assert_eq!(floats(&reply["trace"]["time"]).len(), 2000);
     assert_eq!(reply["steps"], json!(10_000));
+}
+
+/// The binary trace (sim/PROTOCOL.md, run) read by hand from its documented layout: the header's
+/// magic, version, rows and joints, then time and the four matrices as little-endian f64.
+fn binary_trace(bytes: &[u8]) -> (u32, Value) {
+    let word = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+    assert_eq!(&bytes[..4], b"KPTR");
+    let (version, rows, joints) = (word(4), word(8) as usize, word(12) as usize);
+    let values: Vec<f64> = bytes[16..]
+        .chunks(8)
+        .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
+        .collect();
+    assert_eq!(
+        values.len(),
+        rows * (1 + 4 * joints),
+        "values after the header"
+    );
+    let matrix = |k: usize| -> Value {
+        let start = rows + k * rows * joints;
+        json!(values[start..start + rows * joints]
+            .chunks(joints)
+            .collect::<Vec<_>>())
+    };
+    let trace = json!({"time": &values[..rows], "qpos": matrix(0), "qvel": matrix(1),
+                       "force": matrix(2), "limit": matrix(3)});
+    (version, trace)
+}
+
+/// The same run asked for a binary trace carries, after its reply line, exactly the values the
+/// JSON trace lists (both rounded to nine decimals by the harness; the run is deterministic).
+/// The elbow is sent past its range so that the limit column holds ones too.
+#[test]
+fn a_binary_trace_holds_the_values_of_the_json_trace() {
+    let mut harness = pendulum("egl");
+    let run = hold(&["shoulder", "elbow"], &[0.0, 0.0], &[0.3, 1.4], 60);
+    let listed = request(&mut harness, run.clone());
+    let mut binary_run = run.clone();
+    binary_run["trace"] = json!("binary");
+    let answer = harness
+        .request_with_payload(&binary_run)
+        .unwrap_or_else(|e| panic!("{binary_run}: {e}"));
+    let bytes = answer.payload.expect("a payload after the reply line");
+    // 16-byte header, then 60 rows of time and 4 matrices of 2 joints.
+    assert_eq!(bytes.len(), 16 + 8 * 60 * (1 + 4 * 2));
+    assert_eq!(answer.reply["payload"], json!(bytes.len()));
+    assert!(answer.reply.get("trace").is_none(), "{}", answer.reply);
+    let (version, trace) = binary_trace(&bytes);
+    assert_eq!(version, 1);
+    let limit = rows(&listed["trace"]["limit"]);
+    assert!(
+        limit.iter().any(|r| r[1] == 1.0),
+        "the elbow reaches its stop"
+    );
+    assert_eq!(floats(&trace["time"]), floats(&listed["trace"]["time"]));
+    // As numbers: the JSON limit column lists integers.
+    for column in ["qpos", "qvel", "force", "limit"] {
+        assert_eq!(
+            rows(&trace[column]),
+            rows(&listed["trace"][column]),
+            "{column}"
+        );
+    }
+    for member in ["contacts", "divergence", "steps"] {
+        assert_eq!(answer.reply[member], listed[member], "{member}");
+    }
+    binary_run["trace"] = json!("csv");
+    let reply = refused(&mut harness, binary_run);
+    assert_eq!(reply["kind"], json!("request"), "{reply}");
 }

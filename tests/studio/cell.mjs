@@ -41,15 +41,19 @@ try {
   // Generous waits: SwiftShader draws two arms slowly on a loaded machine.
   await page.waitForFunction(() => window.studio && window.studio.snapshot && window.studio.controller && window.studio.loadMs !== null,
     null, { timeout: 120000 }).catch(e => fail(`${e.message}; errors ${JSON.stringify(errors)}`));
-  // The right arm's lift −30°, its elbow +30°: away from the stretched, singular home.
-  for (const key of ['select-joint:7', 'shift-left', 'shift-left', 'shift-left', 'down', 'shift-right', 'shift-right', 'shift-right']) {
+  // The right arm's lift −30°, its elbow +30°: away from the stretched, singular home. Each
+  // 10° jog watched until it arrives (while a jog runs only the newest press waits behind it,
+  // so quick presses on a loaded machine would give fewer jogs).
+  const jogs = [['select-joint:7', 7, 0], ['shift-left', 7, -10], ['shift-left', 7, -20], ['shift-left', 7, -30],
+    ['down', 8, 0], ['shift-right', 8, 10], ['shift-right', 8, 20], ['shift-right', 8, 30]];
+  for (const [key, joint, value] of jogs) {
     await page.evaluate(k => window.studio.send({ key: k }), key);
+    await page.evaluate(() => window.studio.sent());
+    await page.waitForFunction(([joint, value]) => {
+      const s = window.studio.snapshot;
+      return s.selected === joint && Math.abs(s.joints[joint].present - value) < 0.1 && s.activity.kind === 'idle';
+    }, [joint, value], { timeout: 120000 }).catch(e => fail(`${key} to ${value}° on joint ${joint}: ${e.message}; errors ${JSON.stringify(errors)}`));
   }
-  await page.evaluate(() => window.studio.sent());
-  await page.waitForFunction(() => {
-    const s = window.studio.snapshot;
-    return s.selected === 8 && Math.abs(s.joints[7].present + 30) < 0.1 && Math.abs(s.joints[8].present - 30) < 0.1;
-  }, null, { timeout: 120000 }).catch(e => fail(`${e.message}; errors ${JSON.stringify(errors)}`));
   // Let the stream's last snapshot (the servos at rest) reach the page and be drawn.
   await page.waitForTimeout(500);
   Object.assign(results, await page.evaluate(() => ({

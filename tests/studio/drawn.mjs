@@ -88,6 +88,10 @@ try {
   step = 'save';
   await page.keyboard.press('w');
   await waitFor(() => window.studio.snapshot.dirty === false);
+  // The save's answer shown too (it comes after the file is checked, which may be after the
+  // snapshot that says it is written): what the page says later is about the loss alone.
+  await page.evaluate(() => window.studio.sent());
+  await waitFor(() => document.getElementById('status').textContent.startsWith('wrote '));
 
   step = 'killed';
   const killedAt = await page.evaluate(() => performance.now());

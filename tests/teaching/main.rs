@@ -4,6 +4,8 @@
 
 #[path = "../common/mod.rs"]
 mod common;
+#[path = "../common/harness_starts.rs"]
+mod harness_starts;
 
 mod direction;
 mod session;

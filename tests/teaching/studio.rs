@@ -197,12 +197,13 @@ fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
         .unwrap()
         .contains("another page controls the arm"));
     assert_eq!(results["keysAfterRefusal"], json!(2));
-    // Closing the controller's page mid-play stopped the arm along its path.
+    // Closing the controller's page mid-play stopped the arm along its path: decelerated for
+    // the lost page, or, on a machine loaded enough to stall the player first, braked along
+    // the path for the stall.
+    let after_close = results["afterClose"].as_str().unwrap();
     assert!(
-        results["afterClose"]
-            .as_str()
-            .unwrap()
-            .contains("decelerated"),
+        after_close.contains("decelerated")
+            || after_close.contains("braked to rest along the path"),
         "{results}"
     );
 }
@@ -393,6 +394,28 @@ fn http(addr: &str, method: &str, path: &str, token: &str, body: &str) -> (u16, 
     (status, serde_json::from_str(json).unwrap_or(Value::Null))
 }
 
+/// `keypose studio --port virtual` on a copy of the wave example in `dir`, with `env`, and its
+/// address and token, taken in control by a page.
+fn wave_studio_in_control(dir: &Path, env: &[(&str, PathBuf)]) -> (Studio, String, String) {
+    let sequence = Path::new(env!("CARGO_MANIFEST_DIR")).join("sequences/so101_wave.json");
+    std::fs::copy(&sequence, dir.join("wave.json")).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_keypose"))
+        .args(["studio", "--port", "virtual", "wave.json"])
+        .current_dir(dir)
+        .envs(env.iter().cloned())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    let studio = Studio(child);
+    let mut url = String::new();
+    BufReader::new(stdout).read_line(&mut url).unwrap();
+    let rest = url.trim().strip_prefix("http://").unwrap();
+    let (addr, token) = rest.split_once("/?token=").unwrap();
+    assert_eq!(http(addr, "POST", "/api/control", token, "{}").0, 200);
+    (studio, addr.to_string(), token.to_string())
+}
+
 /// The page's Simulate: the list played in MuJoCo as `keypose sim` plays it. The wave example
 /// passes its verdict (docs/commands.md: every example passes), and the trace the page replays ends
 /// where the last key is (home: every joint at 0°), within the 2° a settled servo model may
@@ -400,22 +423,9 @@ fn http(addr: &str, method: &str, path: &str, token: &str, body: &str) -> (u16, 
 #[test]
 fn the_page_simulates_the_list_in_mujoco() {
     let dir = tempfile::tempdir().unwrap();
-    let sequence = Path::new(env!("CARGO_MANIFEST_DIR")).join("sequences/so101_wave.json");
-    std::fs::copy(&sequence, dir.path().join("wave.json")).unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_keypose"))
-        .args(["studio", "--port", "virtual", "wave.json"])
-        .current_dir(dir.path())
-        .env("KEYPOSE_CACHE", crate::common::python_cache())
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let stdout = child.stdout.take().unwrap();
-    let _studio = Studio(child);
-    let mut url = String::new();
-    BufReader::new(stdout).read_line(&mut url).unwrap();
-    let rest = url.trim().strip_prefix("http://").unwrap();
-    let (addr, token) = rest.split_once("/?token=").unwrap();
-    assert_eq!(http(addr, "POST", "/api/control", token, "{}").0, 200);
+    let env = [("KEYPOSE_CACHE", crate::common::python_cache())];
+    let (_studio, addr, token) = wave_studio_in_control(dir.path(), &env);
+    let (addr, token) = (addr.as_str(), token.as_str());
     let (status, answer) = http(addr, "POST", "/api/simulate", token, "{}");
     assert_eq!(status, 200, "{answer}");
     assert_eq!(
@@ -434,6 +444,69 @@ fn the_page_simulates_the_list_in_mujoco() {
         let value = value.as_f64().unwrap();
         assert!(value.abs() < 2.0, "joint {j} ends at {value}°");
     }
+}
+
+/// The state and parent of process `pid`, from /proc/PID/stat ("S", "R", "Z" …).
+fn state_and_parent(pid: u32) -> (String, u32) {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap();
+    // After the command name in parentheses: state, then the parent's id.
+    let fields: Vec<&str> = stat
+        .rsplit_once(')')
+        .unwrap()
+        .1
+        .split_whitespace()
+        .collect();
+    (fields[0].to_string(), fields[1].parse().unwrap())
+}
+
+/// A studio session simulates in one MuJoCo harness, started by its first Simulate: pressing
+/// it again starts no Python (the operating system's count of harnesses started: one, a child
+/// of the studio, still running between the two). A harness killed between simulations is
+/// started again and the simulation runs; one that then dies again is not started a third time
+/// and the page is told so.
+#[test]
+fn a_second_simulate_reuses_the_sessions_harness_and_a_killed_one_is_started_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let python = crate::harness_starts::LoggedPython::new();
+    let env = python.env();
+    let (studio, addr, token) = wave_studio_in_control(dir.path(), &env);
+    let simulate = || http(&addr, "POST", "/api/simulate", &token, "{}");
+    let passes = |(status, answer): (u16, Value)| {
+        assert_eq!(status, 200, "{answer}");
+        assert_eq!(
+            answer["report"]["passed"],
+            json!(true),
+            "{}",
+            answer["report"]
+        );
+    };
+    passes(simulate());
+    let first = python.starts();
+    assert_eq!(first.len(), 1, "{first:?}");
+    passes(simulate());
+    assert_eq!(
+        python.starts(),
+        first,
+        "the second Simulate started no harness"
+    );
+    let (state, parent) = state_and_parent(first[0]);
+    assert_eq!(parent, studio.0.id(), "the harness is the studio's child");
+    assert_ne!(state, "Z", "the harness runs between simulations");
+    let kill = |pid: u32| {
+        let killed = Command::new("kill").args(["-9", &pid.to_string()]).status();
+        assert!(killed.unwrap().success());
+    };
+    kill(first[0]);
+    passes(simulate());
+    let second = python.starts();
+    assert_eq!(second.len(), 2, "started again once: {second:?}");
+    python.die_at_first_request();
+    kill(second[1]);
+    let (status, answer) = simulate();
+    assert_eq!(status, 422, "{answer}");
+    let error = answer["error"].as_str().unwrap();
+    assert!(error.contains("started again, it died again"), "{error}");
+    assert_eq!(python.starts().len(), 3, "{:?}", python.starts());
 }
 
 /// Stop through the real page wins over everything queued: after an arrow key held for 2 s

@@ -19,7 +19,7 @@
 //! one is answered (the driver waits for that up to its timeout) or [`FORGOTTEN_AFTER`] has
 //! passed since the oldest.
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 /// Read lengths told apart: the register's own, and up to `TAGS - 1` bytes more.
@@ -48,12 +48,27 @@ pub enum Answer {
 
 /// The unanswered requests, by the id that answers them (a servo, or the broadcast id for a
 /// combined answer).
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct InFlight {
-    requests: HashMap<u8, VecDeque<Request>>,
+    /// Indexed by the id itself (one byte): every answer looks its servo up, so no hashing.
+    requests: Vec<VecDeque<Request>>,
+    /// The ids that have been sent requests: what a look at every queue visits.
+    ids: Vec<u8>,
+}
+
+impl Default for InFlight {
+    fn default() -> Self {
+        InFlight {
+            requests: vec![VecDeque::new(); usize::from(u8::MAX) + 1],
+            ids: Vec::new(),
+        }
+    }
 }
 
 impl InFlight {
+    fn queue(&self, id: u8) -> &VecDeque<Request> {
+        &self.requests[usize::from(id)]
+    }
     /// The smallest number of extra bytes (below [`TAGS`]) for which no unanswered request of
     /// any of `ids` expects an answer of `answer_bytes(extra)` data bytes; `None` when every
     /// one is taken, with the id and the age of the oldest request holding them.
@@ -65,10 +80,10 @@ impl InFlight {
     ) -> Result<usize, (u8, Duration)> {
         self.forget_before(now);
         let taken = |extra: usize| {
-            ids.iter().find(|id| {
-                self.requests
-                    .get(id)
-                    .is_some_and(|q| q.iter().any(|r| r.answer_bytes == answer_bytes(extra)))
+            ids.iter().find(|&&id| {
+                self.queue(id)
+                    .iter()
+                    .any(|r| r.answer_bytes == answer_bytes(extra))
             })
         };
         let mut holder = None;
@@ -80,25 +95,24 @@ impl InFlight {
         }
         let id = holder.unwrap_or_default();
         let oldest = self
-            .requests
-            .get(&id)
-            .and_then(|q| q.front())
+            .queue(id)
+            .front()
             .map_or(Duration::ZERO, |r| now.saturating_duration_since(r.sent));
         Err((id, oldest))
     }
 
     /// Whether any request is unanswered.
     pub fn waiting(&self) -> bool {
-        self.requests.values().any(|q| !q.is_empty())
+        self.ids.iter().any(|&id| !self.queue(id).is_empty())
     }
 
     /// A request to each of `ids` went out at `sent`, its answers to carry `answer_bytes`.
     pub fn sent(&mut self, ids: &[u8], answer_bytes: usize, sent: Instant) {
         for &id in ids {
-            self.requests
-                .entry(id)
-                .or_default()
-                .push_back(Request { answer_bytes, sent });
+            if !self.ids.contains(&id) {
+                self.ids.push(id);
+            }
+            self.requests[usize::from(id)].push_back(Request { answer_bytes, sent });
         }
     }
 
@@ -106,9 +120,7 @@ impl InFlight {
     /// that fits a request settles it and every earlier one of the servo (lost, since the servo
     /// answers in order).
     pub fn answered(&mut self, id: u8, answer_bytes: usize, now: Instant) -> Answer {
-        let Some(queue) = self.requests.get_mut(&id) else {
-            return Answer::Unknown;
-        };
+        let queue = &mut self.requests[usize::from(id)];
         let Some(at) = queue.iter().position(|r| r.answer_bytes == answer_bytes) else {
             return Answer::Unknown;
         };
@@ -126,7 +138,8 @@ impl InFlight {
 
     /// Drops the requests sent more than [`FORGOTTEN_AFTER`] before `now`.
     fn forget_before(&mut self, now: Instant) {
-        for queue in self.requests.values_mut() {
+        for &id in &self.ids {
+            let queue = &mut self.requests[usize::from(id)];
             while queue
                 .front()
                 .is_some_and(|r| now.saturating_duration_since(r.sent) > FORGOTTEN_AFTER)

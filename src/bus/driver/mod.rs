@@ -50,6 +50,8 @@ pub struct NativeBus {
     /// Off by default: which models and firmware support it is unverified (docs/protocols.md).
     pub fast_sync_read: bool,
     rx: Vec<u8>,
+    /// When the bytes in `rx` were read from the port: when the answers decoded from them came.
+    received: Instant,
     /// Packets sent whose echo may still come back.
     echoes: Echoes,
     /// Requests whose answers have not come yet.
@@ -74,6 +76,7 @@ impl NativeBus {
             read_retries: DEFAULT_READ_RETRIES,
             fast_sync_read: false,
             rx: Vec::new(),
+            received: Instant::now(),
             echoes: Echoes::default(),
             in_flight: InFlight::default(),
             read_cutoff: None,
@@ -143,7 +146,7 @@ impl NativeBus {
             }
             self.rx.extend_from_slice(&chunk[..n]);
         }
-        let now = Instant::now();
+        self.received = Instant::now();
         loop {
             match self.echoes.strip(&mut self.rx) {
                 Front::Undecided => break,
@@ -156,7 +159,8 @@ impl NativeBus {
                 .decode(&mut self.rx, Direction::FromServo)
             {
                 Ok(Decoded::Packet(packet)) => {
-                    self.in_flight.answered(packet.id, packet.params.len(), now);
+                    let length = packet.params.len();
+                    self.in_flight.answered(packet.id, length, self.received);
                 }
                 Ok(Decoded::NeedMore) => break,
                 Err(_) => continue,
@@ -176,7 +180,8 @@ impl NativeBus {
     }
 
     /// The next status packet from `id` carrying `data_bytes` bytes (when given), or an error
-    /// once the timeout has passed. Status packets carry no request number: an answer is matched
+    /// once the timeout has passed (counted from when it began to wait: answers already read
+    /// take none). Status packets carry no request number: an answer is matched
     /// to its request by [`InFlight`] (the late answer to an earlier request is skipped, and
     /// named only if nothing better comes), and a packet from the right servo that fits no
     /// request, with another length and no error, is skipped as well.
@@ -196,8 +201,11 @@ impl NativeBus {
         data_bytes: Option<usize>,
         copy_may_answer: bool,
     ) -> Result<Packet, BusError> {
-        let asked = Instant::now();
-        let mut deadline = asked + self.timeout;
+        // The wait for the answer starts when nothing complete is left to decode: the answers
+        // of a sync read mostly come in one read of the port, and those decoded from it needed
+        // no clock. The clock is read once per wait, not once per packet.
+        let mut asked: Option<Instant> = None;
+        let mut deadline: Option<Instant> = None;
         let mut starved: Option<Duration> = None;
         let mut corrupt: Option<PacketError> = None;
         let mut stale: Option<usize> = None;
@@ -230,7 +238,7 @@ impl NativeBus {
                     Ok(Decoded::Packet(packet)) if packet.id == id => {
                         let length = packet.params.len();
                         let errorless = packet.error().unwrap_or(0) == 0;
-                        match self.in_flight.answered(id, length, Instant::now()) {
+                        match self.in_flight.answered(id, length, self.received) {
                             Answer::Earlier { late: by } => {
                                 late = late.max(Some(by));
                                 continue;
@@ -251,7 +259,7 @@ impl NativeBus {
                     // requests up to the one it answers.
                     Ok(Decoded::Packet(packet)) => {
                         let length = packet.params.len();
-                        self.in_flight.answered(packet.id, length, Instant::now());
+                        self.in_flight.answered(packet.id, length, self.received);
                         continue;
                     }
                     Ok(Decoded::NeedMore) => break,
@@ -260,17 +268,20 @@ impl NativeBus {
                     Err(e) => corrupt = Some(e),
                 }
             }
-            let n = self.wait_input(&mut chunk, asked, deadline)?;
+            let asked = *asked.get_or_insert_with(Instant::now);
+            let until = *deadline.get_or_insert(asked + self.timeout);
+            let n = self.wait_input(&mut chunk, asked, until)?;
             if n > 0 {
+                self.received = Instant::now();
                 self.rx.extend_from_slice(&chunk[..n]);
                 continue;
             }
             // Cut short (a cell's other arms are not held for it): no second wait.
             let cut = self.cut_off();
-            let overslept = Instant::now().saturating_duration_since(deadline);
+            let overslept = Instant::now().saturating_duration_since(until);
             if overslept > STARVED_AFTER && starved.is_none() && !cut {
                 starved = Some(overslept);
-                deadline = Instant::now() + self.timeout;
+                deadline = Some(Instant::now() + self.timeout);
                 continue;
             }
             // Anything else after the copy, even corrupt, shows the copy was an echo.
@@ -388,18 +399,17 @@ impl NativeBus {
         ids: &[u8],
         answer_bytes: impl Fn(usize) -> usize,
     ) -> Result<u16, BusError> {
-        let deadline = Instant::now() + self.timeout;
-        let mut until = Instant::now();
+        let mut now = Instant::now();
+        let deadline = now + self.timeout;
+        let mut until = now;
         loop {
             if self.in_flight.waiting() {
                 self.settle_input(until)?;
+                now = Instant::now();
             }
-            match self
-                .in_flight
-                .extra_bytes(ids, &answer_bytes, Instant::now())
-            {
+            match self.in_flight.extra_bytes(ids, &answer_bytes, now) {
                 Ok(extra) => return Ok(extra as u16),
-                Err((id, oldest)) if Instant::now() >= deadline || self.cut_off() => {
+                Err((id, oldest)) if now >= deadline || self.cut_off() => {
                     return Err(BusError::Stale {
                         id,
                         timeout_ms: self.timeout.as_millis() as u64,

@@ -7,22 +7,27 @@ mod tests;
 
 use super::BusError;
 use crate::servo::{Register, RegisterTable, ServoModel};
-use std::collections::HashMap;
 
-/// The servos of one bus by id: which table each one's registers are in.
+/// The servos of one bus by id: which table each one's registers are in. Indexed by the id
+/// itself (one byte): every transaction looks up each of its servos, so no hashing.
 #[derive(Debug, Clone, Default)]
-pub struct Servos(HashMap<u8, ServoModel>);
+pub struct Servos(Vec<Option<ServoModel>>);
 
 impl Servos {
     pub fn new(servos: &[(u8, ServoModel)]) -> Servos {
-        Servos(servos.iter().copied().collect())
+        let mut by_id = vec![None; usize::from(u8::MAX) + 1];
+        for &(id, model) in servos {
+            by_id[usize::from(id)] = Some(model);
+        }
+        Servos(by_id)
     }
 
     pub fn model(&self, id: u8) -> Result<ServoModel, BusError> {
         self.0
-            .get(&id)
+            .get(usize::from(id))
             .copied()
-            .ok_or(BusError::UnknownServo { id })
+            .flatten()
+            .ok_or_else(|| BusError::UnknownServo { id })
     }
 
     pub fn table(&self, id: u8) -> Result<&'static RegisterTable, BusError> {

@@ -129,17 +129,14 @@ impl Framing for FfFraming {
                     found: found as u16,
                 });
             }
-            let bytes: Vec<u8> = buf.drain(..total).collect();
-            let code = bytes[PREFIX];
+            let code = buf[PREFIX];
+            let params = buf[PREFIX + 1..total - 1].to_vec();
+            buf.drain(..total);
             let kind = match direction {
                 Direction::ToServo => PacketKind::Instruction(code),
                 Direction::FromServo => PacketKind::Status { error: code },
             };
-            return Ok(Decoded::Packet(Packet {
-                id,
-                kind,
-                params: bytes[PREFIX + 1..total - 1].to_vec(),
-            }));
+            return Ok(Decoded::Packet(Packet { id, kind, params }));
         }
     }
 }

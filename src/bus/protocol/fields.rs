@@ -34,7 +34,17 @@ impl Fields {
 
     /// READ parameters: address and length.
     pub fn read(self, address: u16, length: u16) -> Result<Vec<u8>, PacketError> {
-        let mut params = Vec::with_capacity(2 * self.width);
+        self.address_length(address, length, 0)
+    }
+
+    /// Address and length, in a buffer with room for `more` bytes after them.
+    fn address_length(
+        self,
+        address: u16,
+        length: u16,
+        more: usize,
+    ) -> Result<Vec<u8>, PacketError> {
+        let mut params = Vec::with_capacity(2 * self.width + more);
         self.push(&mut params, address)?;
         self.push(&mut params, length)?;
         Ok(params)
@@ -51,7 +61,7 @@ impl Fields {
     /// SYNC READ (and Dynamixel FAST SYNC READ) parameters: address, length, ids. Sent to the
     /// broadcast id.
     pub fn sync_read(self, address: u16, length: u16, ids: &[u8]) -> Result<Vec<u8>, PacketError> {
-        let mut params = self.read(address, length)?;
+        let mut params = self.address_length(address, length, ids.len())?;
         params.extend_from_slice(ids);
         Ok(params)
     }
@@ -64,7 +74,8 @@ impl Fields {
         length: u16,
         entries: &[(u8, Vec<u8>)],
     ) -> Result<Vec<u8>, PacketError> {
-        let mut params = self.read(address, length)?;
+        let each = 1 + usize::from(length);
+        let mut params = self.address_length(address, length, entries.len() * each)?;
         for (id, data) in entries {
             if data.len() != usize::from(length) {
                 return Err(PacketError::DataLength {

@@ -6,10 +6,17 @@
 //! written to the pseudo-terminal no earlier than the instruction's last byte would have
 //! arrived at the robot's baud rate, plus each answering servo's return delay and its own
 //! bytes' time, plus the adapter latency asked for. Without wire timing it answers at once.
+//!
+//! Only the last answer of an exchange is what its client waits for (a sync read is complete
+//! with its last status packet), so only that one gets a precise wake-up; the others are
+//! written when a plain sleep ends, a few microseconds late at most on an idle machine. A
+//! precise wake-up for each would spin before every answer and cost the emulator most of its
+//! CPU time.
 
 use super::wire::{Wire, WireTiming};
 use super::{VirtualBus, VirtualServos};
 use crate::bus::BusError;
+use crate::pacing::precise::{sleep_roughly_until, Waker};
 use crate::robot::Robot;
 use serialport::{SerialPort, TTYPort};
 use std::io::{Read, Write};
@@ -94,6 +101,7 @@ fn serve_loop(
     mut wire: Option<&mut Wire>,
 ) {
     let mut buf = [0u8; 1024];
+    let mut waker = Waker::default();
     while !stop.load(Ordering::Relaxed) {
         if !bus.lock().connected {
             // The port "disappears": closing the master hangs up every client.
@@ -111,7 +119,7 @@ fn serve_loop(
         };
         // A client that hung up mid-answer: serve the next one.
         let _ = match wire.as_deref_mut() {
-            Some(wire) => answer_timed(master, bus, wire, &buf[..n]),
+            Some(wire) => answer_timed(master, bus, wire, &mut waker, &buf[..n]),
             None => answer_at_once(master, bus, &buf[..n]),
         };
     }
@@ -134,6 +142,7 @@ fn answer_timed(
     master: &mut TTYPort,
     bus: &VirtualBus,
     wire: &mut Wire,
+    waker: &mut Waker,
     bytes: &[u8],
 ) -> std::io::Result<()> {
     // The client wrote these bytes just now (a pseudo-terminal passes them on at once).
@@ -141,8 +150,12 @@ fn answer_timed(
     let exchanges = bus.lock().exchanges(bytes);
     for exchange in exchanges {
         let readable = wire.schedule(written_at, &exchange);
-        for (answer, at) in exchange.answers.iter().zip(readable) {
-            crate::pacing::precise::sleep_until(at);
+        let last = readable.len().saturating_sub(1);
+        for (k, (answer, at)) in exchange.answers.iter().zip(readable).enumerate() {
+            match k == last {
+                true => waker.sleep_until(at),
+                false => sleep_roughly_until(at),
+            }
             master
                 .write_all(&answer.bytes)
                 .and_then(|_| master.flush())?;

@@ -308,6 +308,7 @@ function renderPrompt(prompt) {
   $('question').textContent = prompt.kind === 'text' ? prompt.question.replace(/:[^:]*▏.*$/, '') : prompt.question;
   $('textanswer').hidden = prompt.kind !== 'text';
   $('yesno').hidden = prompt.kind !== 'yesno';
+  $('direction').hidden = prompt.kind !== 'direction';
   if (prompt.kind === 'text') {
     $('answer').value = prompt.text;
     $('answer').focus();

@@ -1,7 +1,7 @@
 //! Protocol 2.0 framing: `FF FF FD 00 ID LEN_L LEN_H INST params CRC_L CRC_H`, stuffed.
 
 use super::crc::crc16;
-use super::stuffing::{stuff, unstuff};
+use super::stuffing::{stuff_into, unstuff};
 use super::{BROADCAST_ID, HEADER, MAX_DEVICE_ID, MAX_LENGTH_FIELD, MAX_PACKET, PREFIX, STATUS};
 use crate::bus::protocol::packet::{
     seek_header, Decoded, Direction, Framing, Packet, PacketError, PacketKind,
@@ -24,31 +24,35 @@ fn valid_id(id: u8) -> bool {
 pub struct Dynamixel2;
 
 impl Dynamixel2 {
-    /// `region` is INST [ERR] params, unstuffed.
-    fn encode_region(&self, id: u8, region: &[u8]) -> Result<Vec<u8>, PacketError> {
+    /// The packet whose region (unstuffed) is `head` (INST, or 0x55 ERR) then `params`, built
+    /// in one buffer: the region is stuffed straight into it and the length field set after.
+    fn encode_region(&self, id: u8, head: &[u8], params: &[u8]) -> Result<Vec<u8>, PacketError> {
         if !valid_id(id) {
             return Err(PacketError::Id { id });
         }
-        let region = if is_unstuffed_status(id, region.first().copied()) {
-            region.to_vec()
+        let region = head.iter().chain(params).copied();
+        let unstuffed = head.len() + params.len();
+        // Stuffing adds at most one byte per three.
+        let mut out = Vec::with_capacity(PREFIX + unstuffed + unstuffed / 3 + 2);
+        out.extend_from_slice(&HEADER);
+        out.push(id);
+        out.extend_from_slice(&[0, 0]); // the length field, set once the region is in
+        if is_unstuffed_status(id, head.first().copied()) {
+            out.extend(region);
         } else {
-            stuff(region)
-        };
-        let total = PREFIX + region.len() + 2;
-        if total > MAX_PACKET {
+            stuff_into(&mut out, region);
+        }
+        let region_len = out.len() - PREFIX;
+        if PREFIX + region_len + 2 > MAX_PACKET {
             return Err(PacketError::TooLong {
                 id,
-                length: region.len(),
+                length: region_len,
                 max: MAX_PACKET - PREFIX - 2,
             });
         }
-        // Fits: total ≤ 1024, so the length field fits a u16.
-        let length = (region.len() + 2) as u16;
-        let mut out = Vec::with_capacity(total);
-        out.extend_from_slice(&HEADER);
-        out.push(id);
-        out.extend_from_slice(&length.to_le_bytes());
-        out.extend_from_slice(&region);
+        // Fits: the packet is at most 1024 bytes, so the length field fits a u16.
+        let length = (region_len + 2) as u16;
+        out[PREFIX - 2..PREFIX].copy_from_slice(&length.to_le_bytes());
         let crc = crc16(&out);
         out.extend_from_slice(&crc.to_le_bytes());
         Ok(out)
@@ -72,18 +76,11 @@ impl Framing for Dynamixel2 {
                 detail: "0x55 is the status instruction, not one a controller sends".into(),
             });
         }
-        let mut region = Vec::with_capacity(1 + params.len());
-        region.push(instruction);
-        region.extend_from_slice(params);
-        self.encode_region(id, &region)
+        self.encode_region(id, &[instruction], params)
     }
 
     fn try_encode_status(&self, id: u8, error: u8, params: &[u8]) -> Result<Vec<u8>, PacketError> {
-        let mut region = Vec::with_capacity(2 + params.len());
-        region.push(STATUS);
-        region.push(error);
-        region.extend_from_slice(params);
-        self.encode_region(id, &region)
+        self.encode_region(id, &[STATUS, error], params)
     }
 
     fn decode(&self, buf: &mut Vec<u8>, direction: Direction) -> Result<Decoded, PacketError> {
@@ -133,36 +130,30 @@ impl Framing for Dynamixel2 {
                     found,
                 });
             }
-            let bytes: Vec<u8> = buf.drain(..total).collect();
-            let raw = &bytes[PREFIX..total - 2];
+            let raw = &buf[PREFIX..total - 2];
             let region = if is_unstuffed_status(id, raw.first().copied()) {
                 raw.to_vec()
             } else {
                 unstuff(raw)
             };
-            return packet_from_region(id, length, &region, direction);
+            buf.drain(..total);
+            return packet_from_region(id, length, region, direction);
         }
     }
 }
 
+/// The packet of an unstuffed `region` (INST params, or 0x55 ERR params); its buffer becomes
+/// the packet's parameters.
 fn packet_from_region(
     id: u8,
     length: u16,
-    region: &[u8],
+    mut region: Vec<u8>,
     direction: Direction,
 ) -> Result<Decoded, PacketError> {
-    let (found, kind, params) = match region {
-        [STATUS, error, params @ ..] => (
-            Direction::FromServo,
-            PacketKind::Status { error: *error },
-            params,
-        ),
+    let (found, kind, head) = match region[..] {
+        [STATUS, error, ..] => (Direction::FromServo, PacketKind::Status { error }, 2),
         [STATUS] => return Err(PacketError::Length { id, length }),
-        [instruction, params @ ..] => (
-            Direction::ToServo,
-            PacketKind::Instruction(*instruction),
-            params,
-        ),
+        [instruction, ..] => (Direction::ToServo, PacketKind::Instruction(instruction), 1),
         [] => return Err(PacketError::Length { id, length }),
     };
     if found != direction {
@@ -172,9 +163,10 @@ fn packet_from_region(
             found,
         });
     }
+    region.drain(..head);
     Ok(Decoded::Packet(Packet {
         id,
         kind,
-        params: params.to_vec(),
+        params: region,
     }))
 }

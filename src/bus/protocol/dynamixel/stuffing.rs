@@ -4,13 +4,24 @@
 /// `region` is the instruction byte and the parameters (for a status: 0x55, ERR, parameters).
 pub fn stuff(region: &[u8]) -> Vec<u8> {
     let mut out = Vec::with_capacity(region.len() + region.len() / 3);
-    for (i, &byte) in region.iter().enumerate() {
+    stuff_into(&mut out, region.iter().copied());
+    out
+}
+
+/// [`stuff`] appending to `out`, so that a packet is built in one buffer: the region may come
+/// in parts (the instruction byte, then the parameters), and a header spanning them is found
+/// all the same.
+pub fn stuff_into(out: &mut Vec<u8>, region: impl IntoIterator<Item = u8>) {
+    // The two region bytes before the current one (not the stuffed output: an inserted 0xFD
+    // is no part of a header).
+    let (mut second_last, mut last) = (None, None);
+    for byte in region {
         out.push(byte);
-        if byte == 0xFD && i >= 2 && region[i - 1] == 0xFF && region[i - 2] == 0xFF {
+        if byte == 0xFD && second_last == Some(0xFF) && last == Some(0xFF) {
             out.push(0xFD);
         }
+        (second_last, last) = (last, Some(byte));
     }
-    out
 }
 
 /// Reverses [`stuff`]: drops the 0xFD that follows each `FF FF FD` of the received bytes.

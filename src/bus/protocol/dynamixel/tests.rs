@@ -135,6 +135,43 @@ fn stuffing_edge_cases() {
 }
 
 #[test]
+fn a_header_spanning_the_instruction_or_error_byte_and_the_params_is_stuffed() {
+    // The region is INST params (or 0x55 ERR params): an `FF FF FD` across the instruction or
+    // error byte and the first parameters is stuffed like any other (e-Manual, Protocol 2.0,
+    // "Byte Stuffing"), though the packet is built from the two parts.
+    let instruction = Dynamixel2
+        .try_encode_instruction(1, 0xFF, &[0xFF, 0xFD, 0x07])
+        .unwrap();
+    // Header, id 1, length 7 (4 + 1 stuffed region bytes + CRC 2), FF · FF FD FD 07.
+    assert_eq!(
+        instruction[..instruction.len() - 2],
+        [0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x07, 0x00, 0xFF, 0xFF, 0xFD, 0xFD, 0x07]
+    );
+    let status = Dynamixel2
+        .try_encode_status(2, 0xFF, &[0xFF, 0xFD])
+        .unwrap();
+    // Header, id 2, length 7 (4 + 1 stuffed region bytes + CRC 2), 55 FF · FF FD FD.
+    assert_eq!(
+        status[..status.len() - 2],
+        [0xFF, 0xFF, 0xFD, 0x00, 0x02, 0x07, 0x00, 0x55, 0xFF, 0xFF, 0xFD, 0xFD]
+    );
+    let mut buf = instruction;
+    assert_eq!(
+        Dynamixel2.decode(&mut buf, Direction::ToServo),
+        Ok(Decoded::Packet(Packet::instruction(
+            1,
+            0xFF,
+            vec![0xFF, 0xFD, 0x07]
+        )))
+    );
+    let mut buf = status;
+    assert_eq!(
+        Dynamixel2.decode(&mut buf, Direction::FromServo),
+        Ok(Decoded::Packet(Packet::status(2, 0xFF, vec![0xFF, 0xFD])))
+    );
+}
+
+#[test]
 fn leading_garbage_is_skipped() {
     let mut buf = vec![0x00, 0x13, 0xFF, 0x42, 0xFF, 0xFF, 0x00];
     buf.extend_from_slice(&Dynamixel2.encode_status(7, 0, &[1, 2]));

@@ -137,6 +137,31 @@ fn a_hundred_edits_can_be_undone() {
     assert_eq!(state.list().len(), 20);
 }
 
+#[test]
+fn undoing_back_to_the_saved_list_leaves_it_clean_and_redoing_leaves_it_unsaved() {
+    let mut state = unjournaled_at_home();
+    assert!(!state.is_dirty());
+    press(&mut state, Key::Char('n'));
+    assert!(state.is_dirty());
+    undo_key(&mut state, Key::Undo);
+    assert!(!state.is_dirty(), "back to the list as it started");
+    undo_key(&mut state, Key::Redo);
+    assert!(state.is_dirty());
+    // Saved with one key: undoing the second capture comes back to the file's list, undoing
+    // the first goes past it.
+    let mut list = state.list().clone();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("taught.json");
+    list.save(&path).unwrap();
+    assert!(!list.is_dirty());
+    list.insert_after(Vec::new());
+    let saved = state.list().sequence().clone();
+    list.restore(saved, 0);
+    assert!(!list.is_dirty(), "restored to what was saved");
+    list.restore(Sequence::new("so101"), 0);
+    assert!(list.is_dirty(), "restored to before the save");
+}
+
 fn unjournaled_at_home() -> TeachState {
     let robot = super::super::tests::so101();
     let present = robot.home.clone();
