@@ -86,7 +86,7 @@ try {
   // ----- the key list: Tab into it, arrows within it -----
   step = 'key list';
   // The control before the list in the tab order: the last joint button.
-  await page.focus('button[data-key="v"]');
+  await page.focus('#jointbuttons button:last-of-type');
   await page.keyboard.press('Tab');
   results.tabbedInto = await page.evaluate(() => ({
     role: document.activeElement.getAttribute('role'),
