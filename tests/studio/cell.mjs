@@ -52,7 +52,12 @@ try {
     await page.waitForFunction(([joint, value]) => {
       const s = window.studio.snapshot;
       return s.selected === joint && Math.abs(s.joints[joint].present - value) < 0.1 && s.activity.kind === 'idle';
-    }, [joint, value], { timeout: 120000 }).catch(e => fail(`${key} to ${value}° on joint ${joint}: ${e.message}; errors ${JSON.stringify(errors)}`));
+    }, [joint, value], { timeout: 120000 }).catch(async e => {
+      const s = await page.evaluate(() => window.studio.snapshot).catch(() => null);
+      fail(`${key} to ${value}° on joint ${joint}: ${e.message}; errors ${JSON.stringify(errors)}; ` +
+        `status ${JSON.stringify(s && s.status)}; activity ${JSON.stringify(s && s.activity)}; ` +
+        `present ${JSON.stringify(s && s.joints.map(j => j.present))}`);
+    });
   }
   // Let the stream's last snapshot (the servos at rest) reach the page and be drawn.
   await page.waitForTimeout(500);
