@@ -82,7 +82,7 @@ pub struct PlayArgs {
 }
 
 /// `--max-stall` in milliseconds, returned in seconds.
-fn parse_max_stall(s: &str) -> Result<f64, String> {
+pub(super) fn parse_max_stall(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(ms) if ms.is_finite() && (1.0..=10_000.0).contains(&ms) => Ok(ms / 1000.0),
         _ => Err(format!(

@@ -231,6 +231,8 @@ pub struct Session {
     torque: Vec<bool>,
     /// Last goal sent to each joint, for settling.
     goal_ticks: Vec<Option<i64>>,
+    /// The user's stall bound, seconds: every motion tolerates a stall at least this long.
+    max_stall: Option<f64>,
 }
 
 impl Session {
@@ -247,7 +249,15 @@ impl Session {
             playhead: player::Playhead::default(),
             torque: vec![false; n],
             goal_ticks: vec![None; n],
+            max_stall: None,
         }
+    }
+
+    /// The session with every motion tolerating a stall of at least `seconds` (`None`: each
+    /// motion's own bound, [`crate::player::PlayOptions`]'s default for a playback).
+    pub fn with_max_stall(mut self, seconds: Option<f64>) -> Session {
+        self.max_stall = seconds;
+        self
     }
 
     /// A session without servos: the arm is drawn only ([`super::DrawnArm`]), at the robot's
@@ -409,6 +419,9 @@ impl Session {
         } = plan;
         if matches!(kind, super::MotionKind::Play { .. }) {
             options.playhead = Some(self.playhead.clone());
+        }
+        if let Some(bound) = self.max_stall {
+            options.max_stall = options.max_stall.max(bound);
         }
         let thread_stop = stop.clone();
         let brake = self.brake.clone();

@@ -45,6 +45,11 @@ pub struct SessionArgs {
     /// Recover the journal of an interrupted session without asking.
     #[arg(long)]
     pub recover: bool,
+    /// A goal held this many milliseconds longer than one control period (the process did not
+    /// run: a stall) stops a playback or a move to a key, braking along its path, as
+    /// `keypose play --max-stall` does [default: 250; a jog plays on through 2000].
+    #[arg(long, value_name = "MS", value_parser = super::play::parse_max_stall, allow_negative_numbers = true)]
+    pub max_stall: Option<f64>,
 }
 
 /// A session ready to teach: the arm held where it is, the list loaded, the journal offered.
@@ -102,7 +107,10 @@ pub fn open<T>(
 
     let (mut session, virtual_bus) = if args.bus.given() {
         let connection = args.bus.open(&robot)?;
-        (Session::new(connection.bus, &robot), connection.virtual_bus)
+        (
+            Session::new(connection.bus, &robot).with_max_stall(args.max_stall),
+            connection.virtual_bus,
+        )
     } else {
         (Session::drawn(&robot), None)
     };
