@@ -427,13 +427,7 @@ fn the_page_simulates_the_list_in_mujoco() {
     let (_studio, addr, token) = wave_studio_in_control(dir.path(), &env);
     let (addr, token) = (addr.as_str(), token.as_str());
     let (status, answer) = http(addr, "POST", "/api/simulate", token, "{}");
-    assert_eq!(status, 200, "{answer}");
-    assert_eq!(
-        answer["report"]["passed"],
-        json!(true),
-        "{}",
-        answer["report"]
-    );
+    simulated_and_passed(status, &answer);
     let last = answer["trace"]["position"]
         .as_array()
         .unwrap()
@@ -444,6 +438,17 @@ fn the_page_simulates_the_list_in_mujoco() {
         let value = value.as_f64().unwrap();
         assert!(value.abs() < 2.0, "joint {j} ends at {value}°");
     }
+}
+
+/// A Simulate answered 200 with a report that passes.
+fn simulated_and_passed(status: u16, answer: &Value) {
+    assert_eq!(status, 200, "{answer}");
+    assert_eq!(
+        answer["report"]["passed"],
+        json!(true),
+        "{}",
+        answer["report"]
+    );
 }
 
 /// The state and parent of process `pid`, from /proc/PID/stat ("S", "R", "Z" …).
@@ -471,15 +476,7 @@ fn a_second_simulate_reuses_the_sessions_harness_and_a_killed_one_is_started_aga
     let env = python.env();
     let (studio, addr, token) = wave_studio_in_control(dir.path(), &env);
     let simulate = || http(&addr, "POST", "/api/simulate", &token, "{}");
-    let passes = |(status, answer): (u16, Value)| {
-        assert_eq!(status, 200, "{answer}");
-        assert_eq!(
-            answer["report"]["passed"],
-            json!(true),
-            "{}",
-            answer["report"]
-        );
-    };
+    let passes = |(status, answer): (u16, Value)| simulated_and_passed(status, &answer);
     passes(simulate());
     let first = python.starts();
     assert_eq!(first.len(), 1, "{first:?}");
