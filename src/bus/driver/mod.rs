@@ -586,6 +586,27 @@ impl NativeBus {
         }
     }
 
+    /// A write whose status answer did not come is confirmed by reading the register back.
+    /// The answer can be lost on the line, or reach keypose after the timeout although the
+    /// servo answered at once: on a loaded machine the kernel hands a serial port's input
+    /// (a USB adapter's as a pseudo-terminal's) to the reader from a worker thread of
+    /// ordinary priority, measured up to 120 ms late beside busy processes. The read is
+    /// retried and tells its answer from late ones by its length ([`InFlight`]); when it too
+    /// fails, or the register does not hold `value`, the write's own error stands.
+    fn confirm_by_reading(
+        &mut self,
+        id: u8,
+        register: Register,
+        table: &'static RegisterTable,
+        value: i64,
+        lost: BusError,
+    ) -> Result<(), BusError> {
+        match self.read_register_values(&[id], register, table) {
+            Ok(read) if read == [value] => Ok(()),
+            _ => Err(lost),
+        }
+    }
+
     /// Dynamixel REBOOT: the only way to clear a hardware-error shutdown (ROBOTIS e-Manual,
     /// X series Shutdown register).
     /// The servo comes back with torque off.
@@ -788,7 +809,13 @@ impl ServoBus for NativeBus {
                 .map_err(|error| BusError::Unencodable { id, error })?;
             let params = self.codec.fields().write(register.address, &data);
             let params = params.map_err(|e| self.protocol_error(e))?;
-            self.transaction(id, write, &params, None)?;
+            match self.transaction(id, write, &params, None) {
+                Ok(_) => {}
+                Err(lost) if lost.is_no_answer() => {
+                    self.confirm_by_reading(id, register, table, i64::from(on), lost)?
+                }
+                Err(e) => return Err(e),
+            }
         }
         Ok(())
     }

@@ -367,3 +367,64 @@ fn a_wait_keypose_overslept_is_given_again_and_told_as_starvation() {
         other => panic!("expected starvation to be told, got {other:?}"),
     }
 }
+
+/// A line that loses the status answers to WRITE instructions, once each servo has taken the
+/// write (`taken`) or before it reaches the servo (not `taken`); every other answer comes.
+struct LosesWriteAnswers {
+    bus: VirtualBus,
+    codec: &'static dyn Codec,
+    taken: bool,
+}
+
+impl Responder for LosesWriteAnswers {
+    fn respond(&mut self, written: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+        let mut bytes = written.to_vec();
+        let instruction = match self.codec.framing().decode(&mut bytes, Direction::ToServo) {
+            Ok(Decoded::Packet(packet)) => packet.instruction_code(),
+            _ => None,
+        };
+        if instruction != Some(self.codec.instructions().write) {
+            return self.bus.lock().handle(written);
+        }
+        if self.taken {
+            self.bus.lock().handle(written);
+        }
+        Vec::new()
+    }
+}
+
+#[test]
+fn a_torque_write_whose_answer_is_lost_is_confirmed_by_reading_it_back() {
+    for name in ["so101", "koch"] {
+        let (robot, servos, ids) = builtin(name);
+        let connect = |taken: bool| {
+            let bus = VirtualBus::new(VirtualServos::for_robot(&robot));
+            let responder = LosesWriteAnswers {
+                bus: bus.clone(),
+                codec: codec(robot.bus.protocol),
+                taken,
+            };
+            let transport = MemoryTransport::new(responder);
+            let driver = NativeBus::new(Box::new(transport), robot.bus.protocol, &servos);
+            (driver, bus)
+        };
+        let torque = |bus: &VirtualBus| -> Vec<bool> {
+            let mut servos = bus.lock();
+            ids.iter()
+                .map(|&id| servos.servo_mut(id).unwrap().motion.torque)
+                .collect()
+        };
+        // Every servo took the write; no answer said so, the registers do.
+        let (mut driver, bus) = connect(true);
+        driver.set_torque(&ids, true).unwrap();
+        assert_eq!(torque(&bus), vec![true; ids.len()], "{name}");
+        // The writes were lost: the read-back shows torque still off, and the write's own
+        // timeout is the error, naming the first servo.
+        let (mut driver, bus) = connect(false);
+        match driver.set_torque(&ids, true) {
+            Err(BusError::Timeout { id, .. }) => assert_eq!(id, ids[0], "{name}"),
+            other => panic!("{name}: expected the write's timeout, got {other:?}"),
+        }
+        assert_eq!(torque(&bus), vec![false; ids.len()], "{name}");
+    }
+}
