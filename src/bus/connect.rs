@@ -185,7 +185,7 @@ pub fn scan(
                 let mut native = NativeBus::new(Box::new(transport), protocol, &[]);
                 // A present servo answers within a millisecond at 1 Mbps plus the adapter's
                 // latency; 253 ids at this timeout take about 5 s.
-                native.timeout = std::time::Duration::from_millis(20);
+                native.setup_timeout = std::time::Duration::from_millis(20);
                 Box::new(native)
             }
             Driver::Sdk => {

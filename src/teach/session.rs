@@ -89,6 +89,9 @@ impl ServoBus for ObservedBus {
     fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError> {
         self.inner.set_torque(ids, on)
     }
+    fn pace(&mut self, period: Option<std::time::Duration>) {
+        self.inner.pace(period)
+    }
     fn read_health(&mut self, ids: &[u8]) -> Result<Vec<crate::bus::Health>, BusError> {
         self.inner.read_health(ids)
     }

@@ -835,6 +835,17 @@ impl Op {
     /// Does the operation through our driver, when it is one the driver has: the `ServoBus`
     /// methods use sync writes for goals and sync reads for positions, single writes for
     /// torque. Returns whether it went as expected with nobody answering.
+    /// What our driver sends after this operation on a silent wire: a torque write whose
+    /// answer does not come is confirmed by reading the register back.
+    fn read_back(&self) -> Option<Op> {
+        match self {
+            Op::Write(id, Item::TorqueEnable, _) => {
+                Some(Op::SyncRead(Item::TorqueEnable, vec![*id]))
+            }
+            _ => None,
+        }
+    }
+
     fn through_native(&self, bus: &mut NativeBus) -> Option<Result<(), String>> {
         let timed_out = |result: Result<(), BusError>| match result {
             // Keypose starved on a loaded machine is told apart, and is still no answer.
@@ -905,10 +916,17 @@ fn sdk_bytes_equal_ours(robot_name: &str, vendor: Vendor, ops: &[Op]) {
         };
         outcome.unwrap_or_else(|e| panic!("{robot_name}: {op:?} through our driver: {e}"));
         let captured = native_wire.next_packet();
+        let (sent, after) = captured.split_at(sdk_packet.len().min(captured.len()));
         assert_eq!(
-            hex(&captured),
+            hex(sent),
             hex(sdk_packet),
             "{robot_name}: {op:?}: our driver's bytes (left) differ from the SDK's (right)"
+        );
+        let read_back = op.read_back().map(|r| r.our_bytes(vendor.protocol, model));
+        assert_eq!(
+            hex(after),
+            hex(&read_back.unwrap_or_default()),
+            "{robot_name}: {op:?}: what our driver sent after it (left), expected (right)"
         );
         compared += 1;
     }

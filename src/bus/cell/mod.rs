@@ -40,9 +40,10 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 use worker::{Done, Worker};
 
-/// The longest one arm's transaction may take before its bus counts as hung: far beyond any
-/// read's retries, well short of a user's patience.
-pub const HUNG_AFTER: Duration = Duration::from_secs(1);
+/// The longest one arm's transaction may take before its bus counts as hung: beyond any
+/// transaction's retries outside a control loop (a health check's two reads, three attempts
+/// each at [`super::driver::DEFAULT_SETUP_TIMEOUT`]), well short of a user's patience.
+pub const HUNG_AFTER: Duration = Duration::from_millis(1500);
 /// The share of the control period, from the start of the cycle's goal write, that an arm's
 /// read may take while another arm's is done: the rest is the loop's own work before the next
 /// cycle's goals are due.
@@ -490,6 +491,16 @@ impl ServoBus for CellBus {
 
     fn pace(&mut self, period: Option<Duration>) {
         self.period = period;
+        // Each arm's own bus times its answers by whether a loop drives it, too.
+        let every_servo = (1..=self.route.len()).filter_map(|id| u8::try_from(id).ok());
+        if let Ok(parts) = self.split(every_servo) {
+            let _ = self.each(&parts, false, |_| {
+                move |bus: &mut dyn ServoBus| {
+                    bus.pace(period);
+                    Ok(())
+                }
+            });
+        }
     }
 }
 
@@ -548,13 +559,13 @@ mod tests {
         let ids: Vec<u8> = (1..=12).collect();
         let asked = |since: usize| right.lock().received.len() - since;
         // Unpaced (teach, record): the silent arm's read is tried three times, each waited
-        // out, as on a bus of one arm.
+        // out at the patient timeout outside a control loop, as on a bus of one arm.
         let before = right.lock().received.len();
         let error = bus.read_positions(&ids).unwrap_err();
         assert!(
             error
                 .to_string()
-                .starts_with("right bus: servo 1: no answer within 40 ms"),
+                .starts_with("right bus: servo 1: no answer within 200 ms"),
             "{error}"
         );
         assert_eq!(asked(before), 3);

@@ -26,9 +26,17 @@ use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// How long to wait for one answer. Generous against the wire time of any packet here (under
-/// 1 ms at 1 Mbps) because a USB adapter adds its latency timer (up to 16 ms on FTDI).
+/// How long to wait for one answer inside a control loop ([`ServoBus::pace`]). Generous against
+/// the wire time of any packet here (under 1 ms at 1 Mbps) because a USB adapter adds its
+/// latency timer (up to 16 ms on FTDI).
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_millis(40);
+/// How long a one-off exchange outside a control loop (a session's start, torque, settings,
+/// health between motions) waits for its answer. Nothing is late for waiting there, and on a
+/// loaded machine the kernel hands a serial port's input to its reader from a worker thread of
+/// ordinary priority (a USB adapter's as a pseudo-terminal's): measured beside busy processes,
+/// a pseudo-terminal's round trip took over 40 ms a few times a minute, once 350 ms. A control
+/// loop keeps the short timeout: its reads come every period, and a lost one is skipped.
+pub const DEFAULT_SETUP_TIMEOUT: Duration = Duration::from_millis(200);
 /// Extra attempts for a read that got no valid answer.
 pub const DEFAULT_READ_RETRIES: u32 = 2;
 /// A wait for an answer that ends this long after its deadline was not the servo's silence
@@ -42,8 +50,12 @@ pub struct NativeBus {
     transport: Box<dyn Transport>,
     codec: &'static dyn Codec,
     servos: Servos,
-    /// How long to wait for one answer.
+    /// How long to wait for one answer inside a control loop.
     pub timeout: Duration,
+    /// How long to wait for one answer outside a control loop.
+    pub setup_timeout: Duration,
+    /// Whether a control loop drives the bus ([`ServoBus::pace`]): which timeout applies.
+    paced: bool,
     /// Extra attempts for a read that got no valid answer.
     pub read_retries: u32,
     /// Dynamixel: read with Fast Sync Read (0x8A, one combined answer) instead of Sync Read.
@@ -73,6 +85,8 @@ impl NativeBus {
             codec: codec(protocol),
             servos: Servos::new(servos),
             timeout: DEFAULT_TIMEOUT,
+            setup_timeout: DEFAULT_SETUP_TIMEOUT,
+            paced: false,
             read_retries: DEFAULT_READ_RETRIES,
             fast_sync_read: false,
             rx: Vec::new(),
@@ -167,6 +181,14 @@ impl NativeBus {
             }
         }
         Ok(())
+    }
+
+    /// How long one answer is waited for now: in a control loop or outside one.
+    fn answer_timeout(&self) -> Duration {
+        match self.paced {
+            true => self.timeout,
+            false => self.setup_timeout,
+        }
     }
 
     /// The next status packet from `id`, or a timeout.
@@ -269,7 +291,7 @@ impl NativeBus {
                 }
             }
             let asked = *asked.get_or_insert_with(Instant::now);
-            let until = *deadline.get_or_insert(asked + self.timeout);
+            let until = *deadline.get_or_insert(asked + self.answer_timeout());
             let n = self.wait_input(&mut chunk, asked, until)?;
             if n > 0 {
                 self.received = Instant::now();
@@ -281,7 +303,7 @@ impl NativeBus {
             let overslept = Instant::now().saturating_duration_since(until);
             if overslept > STARVED_AFTER && starved.is_none() && !cut {
                 starved = Some(overslept);
-                deadline = Some(Instant::now() + self.timeout);
+                deadline = Some(Instant::now() + self.answer_timeout());
                 continue;
             }
             // Anything else after the copy, even corrupt, shows the copy was an echo.
@@ -291,8 +313,8 @@ impl NativeBus {
             }
             // How long it waited: less than the timeout when cut short.
             let waited = match cut {
-                true => asked.elapsed().min(self.timeout),
-                false => self.timeout,
+                true => asked.elapsed().min(self.answer_timeout()),
+                false => self.answer_timeout(),
             };
             let timeout_ms = waited.as_millis() as u64;
             return Err(match (corrupt, late, stale, data_bytes) {
@@ -400,7 +422,7 @@ impl NativeBus {
         answer_bytes: impl Fn(usize) -> usize,
     ) -> Result<u16, BusError> {
         let mut now = Instant::now();
-        let deadline = now + self.timeout;
+        let deadline = now + self.answer_timeout();
         let mut until = now;
         loop {
             if self.in_flight.waiting() {
@@ -412,7 +434,7 @@ impl NativeBus {
                 Err((id, oldest)) if now >= deadline || self.cut_off() => {
                     return Err(BusError::Stale {
                         id,
-                        timeout_ms: self.timeout.as_millis() as u64,
+                        timeout_ms: self.answer_timeout().as_millis() as u64,
                         late_ms: oldest.as_millis() as u64,
                     })
                 }
@@ -762,6 +784,10 @@ impl ServoBus for NativeBus {
 
     fn set_read_cutoff(&mut self, cutoff: Arc<ReadCutoff>) {
         self.read_cutoff = Some(cutoff);
+    }
+
+    fn pace(&mut self, period: Option<Duration>) {
+        self.paced = period.is_some();
     }
 
     fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError> {

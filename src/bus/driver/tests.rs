@@ -263,7 +263,8 @@ fn so101_with_a_late_servo(late_id: u8, late: Duration) -> (NativeBus, VirtualBu
 
 #[test]
 fn a_servo_answering_later_than_the_timeout_is_never_read_as_present() {
-    // Servo 4 answers 300 ms late, far beyond the 40 ms timeout: every answer it gives belongs
+    // Servo 4 answers 300 ms late, beyond the 200 ms timeout outside a control loop: every
+    // answer it gives belongs
     // to a request at least 300 ms old. Without telling answers apart, the late answer to an
     // earlier read lands while a later read waits for servo 4, and is taken for the present.
     // Servo 4 is moved by hand before every read, so an answer says which read it belongs to.
@@ -427,4 +428,21 @@ fn a_torque_write_whose_answer_is_lost_is_confirmed_by_reading_it_back() {
         }
         assert_eq!(torque(&bus), vec![false; ids.len()], "{name}");
     }
+}
+
+#[test]
+fn outside_a_control_loop_an_answer_is_waited_for_longer_than_inside_one() {
+    // Servo 4 answers 100 ms late: more than a control loop's 40 ms, less than the 200 ms a
+    // one-off exchange waits.
+    let (mut bus, servos, ids) = so101_with_a_late_servo(4, Duration::from_millis(100));
+    servos.lock().servo_mut(4).unwrap().push_to(1234.0);
+    let at = ids.iter().position(|&id| id == 4).unwrap();
+    assert_eq!(bus.read_positions(&ids).unwrap()[at], 1234);
+    bus.pace(Some(Duration::from_millis(10)));
+    let error = bus.read_positions(&ids).unwrap_err();
+    assert!(error.is_no_answer(), "{error}");
+    bus.pace(None);
+    // The late answers of the paced read are skipped by their length; this one is waited for.
+    servos.lock().servo_mut(4).unwrap().push_to(1300.0);
+    assert_eq!(bus.read_positions(&ids).unwrap()[at], 1300);
 }
