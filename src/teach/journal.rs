@@ -25,6 +25,12 @@ use std::time::SystemTime;
 const JOURNAL_DIR: &str = "teach";
 /// The journal's own format: the list with its history.
 pub const JOURNAL_FORMAT: &str = "keypose-journal/1";
+/// The most the history takes in a journal, bytes. The whole file is written after every edit:
+/// a list of a few hundred keys is tens of kilobytes as JSON, and [`super::history::DEPTH`]
+/// copies of it would be megabytes written per key press. Past this budget the steps farthest
+/// from the present are left out of the journal (the session still has them): what a crash can
+/// lose is the far end of the undo history, never the list.
+pub const HISTORY_BYTES: usize = 1 << 20;
 
 /// What a journal holds: the list being edited and its undo history.
 #[derive(Debug, Clone, PartialEq)]
@@ -145,16 +151,18 @@ impl Journal {
 /// history's shape.
 fn entry_json(entry: &Entry) -> String {
     let step = |s: &Edit| {
-        json!({
+        let line = json!({
             "what": s.what,
             "current": s.version.current,
             "after": s.after,
             "list": s.version.sequence.to_value(),
-        })
-        .to_string()
+        });
+        format!("    {line}")
     };
-    let steps = |steps: &[Edit]| {
-        let lines: Vec<String> = steps.iter().map(|s| format!("    {}", step(s))).collect();
+    let undo: Vec<String> = entry.history.undo.iter().map(step).collect();
+    let redo: Vec<String> = entry.history.redo.iter().map(step).collect();
+    let (undo, redo) = nearest_within(&undo, &redo, HISTORY_BYTES);
+    let steps = |lines: &[String]| {
         if lines.is_empty() {
             "[]".to_string()
         } else {
@@ -166,8 +174,39 @@ fn entry_json(entry: &Entry) -> String {
         Value::from(JOURNAL_FORMAT),
         entry.list.current,
         entry.list.sequence.to_value(),
-        steps(&entry.history.undo),
-        steps(&entry.history.redo)
+        steps(undo),
+        steps(redo)
+    )
+}
+
+/// The steps of `undo` and `redo` nearest the present (the end of each: the last edit, the next
+/// redo) that fit in `budget` bytes, taken one from each side in turn.
+fn nearest_within<'a>(
+    undo: &'a [String],
+    redo: &'a [String],
+    budget: usize,
+) -> (&'a [String], &'a [String]) {
+    let (mut kept_undo, mut kept_redo, mut spent) = (0, 0, 0);
+    loop {
+        let mut took = false;
+        for (lines, kept) in [(undo, &mut kept_undo), (redo, &mut kept_redo)] {
+            let Some(line) = lines.len().checked_sub(*kept + 1).map(|i| &lines[i]) else {
+                continue;
+            };
+            if spent + line.len() > budget {
+                continue;
+            }
+            spent += line.len();
+            *kept += 1;
+            took = true;
+        }
+        if !took {
+            break;
+        }
+    }
+    (
+        &undo[undo.len() - kept_undo..],
+        &redo[redo.len() - kept_redo..],
     )
 }
 
@@ -294,6 +333,58 @@ pub(crate) mod tests {
         journal.save(&entry(Sequence::new("so101"))).unwrap();
         assert!(!journal.path().exists());
         journal.remove().unwrap();
+    }
+
+    #[test]
+    fn a_long_history_of_a_long_list_is_journaled_within_its_budget_nearest_first() {
+        let dir = tempfile::tempdir().unwrap();
+        let journal = Journal::for_target(dir.path(), &dir.path().join("seq.json"));
+        // 500 keys of six joints with long decimals: about 100 KB a copy, so 100 steps would
+        // be about 10 MB.
+        let mut list = Sequence::new("so101");
+        for k in 0..500 {
+            list.keyframes.push(Keyframe::new(
+                [
+                    "shoulder_pan",
+                    "shoulder_lift",
+                    "elbow_flex",
+                    "wrist_flex",
+                    "wrist_roll",
+                    "gripper",
+                ]
+                .iter()
+                .map(|j| (j.to_string(), KeyValue::Joint(f64::from(k) / 7.0)))
+                .collect(),
+            ));
+        }
+        let mut saved = entry(list.clone());
+        for step in 0..100 {
+            saved
+                .history
+                .record(format!("edit {step}"), entry(list.clone()).list, 0);
+        }
+        // Two undone: the redo side keeps its nearest steps too.
+        for _ in 0..2 {
+            let back = saved.history.undo(saved.list.clone()).unwrap();
+            saved.list = back.version;
+        }
+        journal.save(&saved).unwrap();
+        let size = std::fs::metadata(journal.path()).unwrap().len() as usize;
+        let one_copy = list.to_value().to_string().len();
+        assert!(size <= HISTORY_BYTES + 2 * one_copy, "{size} bytes");
+        let read = journal.read().unwrap();
+        assert!(
+            read.list.sequence.to_json() == saved.list.sequence.to_json(),
+            "the list itself is always whole"
+        );
+        let names = |steps: &[Edit]| steps.iter().map(|s| s.what.clone()).collect::<Vec<_>>();
+        let (undo, redo) = (names(&read.history.undo), names(&read.history.redo));
+        // About ten copies fit in 1 MiB: the most recent edits (97, the last not undone,
+        // backwards) and both undone ones (98 next, then 99).
+        assert!((5..98).contains(&undo.len()), "{} undo steps", undo.len());
+        assert_eq!(undo.last().map(String::as_str), Some("edit 97"));
+        assert_eq!(undo, names(&saved.history.undo[98 - undo.len()..]));
+        assert_eq!(redo, ["edit 99", "edit 98"]);
     }
 
     #[test]
