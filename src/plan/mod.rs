@@ -12,6 +12,7 @@ mod check;
 mod retime;
 mod sampled;
 mod timeline;
+mod timing;
 mod tool_keys;
 
 use crate::curve::{Cursor, CurveError, Track, TrackKey};
@@ -27,6 +28,7 @@ pub use check::{check, check_at_speed, Cause, CheckReport, JointSummary, LimitKi
 pub use retime::{retime, RetimeOutcome};
 pub use sampled::Sampled;
 pub use timeline::{Loops, Phase, Timeline, TimelineOptions};
+pub use timing::{Timing, TimingPiece};
 pub use tool_keys::{KeyMargin, LineExcess, LineReport, LineSpeed, ToolKeyReport, ToolSolve};
 
 /// Largest rotation off the joint axis (swing) accepted in a keyed transform, degrees. Hand-typed
@@ -70,6 +72,9 @@ pub struct Trajectory {
     pub key_labels: Vec<String>,
     /// The tool keys and straight tool lines solved on the way (empty without them).
     pub tools: ToolSolve,
+    /// Sequence time to path time, over which the tracks are built (the identity unless a
+    /// segment has a timing profile).
+    timing: Timing,
 }
 
 impl Trajectory {
@@ -115,6 +120,7 @@ impl Trajectory {
         let sequence = solved.as_ref();
         let file = sequence.file.as_str();
         let key_times = sequence.key_times();
+        let path_times = sequence.path_times();
         for (index, key) in sequence.keyframes.iter().enumerate() {
             for (name, value) in &key.values {
                 if robot.joint_index(name).is_none() {
@@ -160,12 +166,12 @@ impl Trajectory {
                 }
                 previous = Some(v);
                 let interp = key.interp.unwrap_or(sequence.interpolation);
-                keys.push(TrackKey::new(key_times[index], v, interp).with_hold(key.hold));
+                keys.push(TrackKey::new(path_times[index], v, interp).with_hold(key.hold));
                 push_line_samples(&mut keys, &tools, index, joint_index);
             }
             if keys.is_empty() {
                 keys.push(TrackKey::new(
-                    key_times[0],
+                    path_times[0],
                     robot.home[joint_index],
                     sequence.interpolation,
                 ));
@@ -192,6 +198,7 @@ impl Trajectory {
                 .collect(),
             key_times,
             tools,
+            timing: Timing::of(sequence),
         })
     }
 
@@ -211,6 +218,7 @@ impl Trajectory {
             key_times: self.key_times.clone(),
             key_labels: self.key_labels.clone(),
             tools: ToolSolve::default(),
+            timing: self.timing.clone(),
         }
     }
 
@@ -232,9 +240,20 @@ impl Trajectory {
         }
     }
 
-    /// One track per joint, in joint order, over sequence time.
+    /// One track per joint, in joint order, over path time ([`Trajectory::path_time`]): the
+    /// sequence's own time unless a segment has a timing profile.
     pub fn tracks(&self) -> &[Track<f64>] {
         &self.tracks
+    }
+
+    /// How sequence time maps to the tracks' path time.
+    pub fn timing(&self) -> &Timing {
+        &self.timing
+    }
+
+    /// The tracks' path time at sequence time `t` (`t` itself without timing profiles).
+    pub fn path_time(&self, t: f64) -> f64 {
+        self.timing.path_time(t)
     }
 
     /// Sequence time of the first key played.
@@ -249,9 +268,9 @@ impl Trajectory {
 
     /// Joint values at `t`, clamped to the played window.
     pub fn sample_into(&self, t: f64, out: &mut [f64]) {
-        let t = t.clamp(self.start, self.end);
+        let u = self.path_time(t.clamp(self.start, self.end));
         for (slot, track) in out.iter_mut().zip(&self.tracks) {
-            *slot = track.sample(t);
+            *slot = track.sample(u);
         }
     }
 
@@ -313,8 +332,9 @@ impl Sampler<'_> {
     /// Joint values at `t` into `out`, clamped to the played window; `t` must not go back.
     pub fn sample_into(&mut self, t: f64, out: &mut [f64]) {
         let t = t.clamp(self.trajectory.start, self.trajectory.end);
+        let u = self.trajectory.path_time(t);
         for (slot, cursor) in out.iter_mut().zip(&mut self.cursors) {
-            *slot = cursor.sample(t);
+            *slot = cursor.sample(u);
         }
     }
 }
