@@ -28,7 +28,7 @@ use crate::sequence::{Ends, SegmentTiming, Sequence, TimeProfile};
 
 /// The share of each limit a profile is planned for at first; the exact check says whether the
 /// curve between grid points needs less.
-const FIRST_SHARE: f64 = 0.97;
+const FIRST_SHARE: f64 = 0.995;
 /// A segment over a limit is planned again for this much less than the limit over its peak.
 const SHARE_BACKOFF: f64 = 0.98;
 const MAX_ROUNDS: usize = 40;
@@ -55,9 +55,26 @@ pub struct FastestOutcome {
     pub rounds: usize,
     /// (segment, moving seconds before, after) of every segment given a profile.
     pub segments: Vec<(usize, f64, f64)>,
+    /// The paths the arm runs from rest to rest (or from and to a segment that keeps its
+    /// time): runs of profiled segments without a hold between them.
+    pub runs: Vec<FastestRun>,
     /// The check of the result; violations left here cannot be fixed by timing (positions,
     /// steps).
     pub report: CheckReport,
+}
+
+/// Profiled segments the path runs through without stopping.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FastestRun {
+    /// Its segments, `first .. end` (segment i runs from key i to key i + 1).
+    pub segments: std::ops::Range<usize>,
+    /// Path time it starts and ends ([`Trajectory::path_time`]).
+    pub path: (f64, f64),
+    /// Whether it starts and ends at rest (else at the pace of a hold or a segment beside it
+    /// in which a joint moves).
+    pub from_rest: [bool; 2],
+    /// Seconds it takes after retiming.
+    pub seconds: f64,
 }
 
 impl FastestOutcome {
@@ -95,10 +112,30 @@ pub fn fastest(sequence: &Sequence, robot: &Robot, rate: f64) -> Result<FastestO
                     (i, before[i + 1] - before[i] - hold, times[i + 1] - times[i] - hold)
                 })
                 .collect();
+            let runs = path
+                .runs()
+                .into_iter()
+                .map(|(first, end)| {
+                    let grids = (path.segments[first], path.segments[end - 1]);
+                    let (Some(a), Some(b)) = grids else {
+                        unreachable!("a run is of profiled segments")
+                    };
+                    FastestRun {
+                        segments: first..end,
+                        path: (a.from, b.to),
+                        from_rest: [
+                            path.boundary(first, Side::After) == 0.0,
+                            path.boundary(end, Side::Before) == 0.0,
+                        ],
+                        seconds: times[end] - times[first] - base.keyframes[first].hold,
+                    }
+                })
+                .collect();
             return Ok(FastestOutcome {
                 sequence: candidate,
                 rounds,
                 segments,
+                runs,
                 report,
             });
         }
@@ -200,14 +237,25 @@ impl<'a> Path<'a> {
     /// limits; `None` for the others.
     fn plan(&self, robot: &Robot, shares: &[f64], period: f64) -> Vec<Option<Vec<f64>>> {
         let mut out = vec![None; self.segments.len()];
+        for (first, end) in self.runs() {
+            let speeds = self.plan_run(robot, shares, period, first, end);
+            for (k, s) in speeds.into_iter().enumerate() {
+                out[first + k] = Some(s);
+            }
+        }
+        out
+    }
+
+    /// The runs of profiled segments the path goes through without stopping (no hold between
+    /// them), as `(first, end)`.
+    fn runs(&self) -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
         let mut i = 0;
         while i < self.segments.len() {
             if self.segments[i].is_none() {
                 i += 1;
                 continue;
             }
-            // A run of profiled segments the path goes through without stopping: no hold
-            // between them.
             let mut end = i + 1;
             while end < self.segments.len()
                 && self.segments[end].is_some()
@@ -215,10 +263,7 @@ impl<'a> Path<'a> {
             {
                 end += 1;
             }
-            let speeds = self.plan_run(robot, shares, period, i, end);
-            for (k, s) in speeds.into_iter().enumerate() {
-                out[i + k] = Some(s);
-            }
+            out.push((i, end));
             i = end;
         }
         out
