@@ -1,7 +1,7 @@
 //! `keypose retime`: stretch key times until velocity and acceleration limits hold.
 
 use super::{parse_check_rate, write_output, CommandError, SequenceInput, Verdict};
-use keypose::plan::{retime, LimitKind};
+use keypose::plan::{advice, retime};
 use keypose::terminal_text::escape_controls;
 use std::path::PathBuf;
 
@@ -45,7 +45,7 @@ pub fn run(args: &RetimeArgs) -> Result<Verdict, CommandError> {
     if outcome.stretched.is_empty() {
         eprintln!("no segment needed stretching");
     }
-    if report_unfixable(&outcome.report.violations) {
+    if report_unfixable(&sequence, &outcome.report.violations) {
         return Ok(Verdict::Fail);
     }
     write_output(args.output.as_deref(), &outcome.sequence.to_json())?;
@@ -72,7 +72,7 @@ fn run_fastest(
         "moving time {before:.3} s → {after:.3} s ({} plan-and-check round(s))",
         outcome.rounds
     );
-    if report_unfixable(&outcome.report.violations) {
+    if report_unfixable(sequence, &outcome.report.violations) {
         return Ok(Verdict::Fail);
     }
     write_output(args.output.as_deref(), &outcome.sequence.to_json())?;
@@ -80,19 +80,16 @@ fn run_fastest(
 }
 
 /// Prints the violations timing cannot fix, each with its advice; whether there were any.
-fn report_unfixable(remaining: &[keypose::plan::Violation]) -> bool {
+fn report_unfixable(
+    sequence: &keypose::sequence::Sequence,
+    remaining: &[keypose::plan::Violation],
+) -> bool {
     if remaining.is_empty() {
         return false;
     }
-    eprintln!(
-        "{} violation(s) cannot be fixed by retiming (positions outside limits, or step jumps):",
-        remaining.len()
-    );
+    eprintln!("{} violation(s) cannot be fixed by retiming:", remaining.len());
     for v in remaining {
-        let hint = match v.kind {
-            LimitKind::Position => "move the keys inside the limits or use monotone",
-            _ => "use a smooth mode for this segment",
-        };
+        let hint = advice(sequence, v);
         let line = format!(
             "  {} {} in segment {} ({}) at t = {:.3} s: {:.3} vs limit {:.3} — {hint}",
             v.joint,

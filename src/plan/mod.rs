@@ -27,7 +27,7 @@ pub(crate) use approach::Approach;
 pub use approach::{APPROACH_LIMIT_SHARE, MIN_APPROACH_SECONDS};
 pub use check::{check, check_at_speed, Cause, CheckReport, JointSummary, LimitKind, Violation};
 pub use fastest::{fastest, FastestOutcome, FastestRun};
-pub use retime::{retime, RetimeOutcome};
+pub use retime::{advice, retime, RetimeOutcome, MAX_STRETCH};
 pub use sampled::Sampled;
 pub use timeline::{Loops, Phase, Timeline, TimelineOptions};
 pub use timing::{Timing, TimingPiece};
