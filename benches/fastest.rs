@@ -42,8 +42,17 @@ fn main() {
         let started = Instant::now();
         let outcome = fastest(&sequence, &robot, rate).expect("an example retimes");
         let plan_ms = started.elapsed().as_secs_f64() * 1e3;
-        let checked = check(&Trajectory::build(&outcome.sequence, &robot).unwrap(), &robot, rate);
-        assert!(checked.passed(), "{}: {:?}", file.display(), checked.violations);
+        let checked = check(
+            &Trajectory::build(&outcome.sequence, &robot).unwrap(),
+            &robot,
+            rate,
+        );
+        assert!(
+            checked.passed(),
+            "{}: {:?}",
+            file.display(),
+            checked.violations
+        );
         let request = topp::request(&outcome, &robot);
         let started = Instant::now();
         let (durations, toppra) =

@@ -17,7 +17,8 @@ pub const ORACLE_POINTS_PER_SECOND: f64 = 500.0;
 /// What TOPP-RA is asked: every run of `outcome` (the paths the arm runs without stopping),
 /// sampled with the joints' first and second derivatives along the path, and the limits.
 pub fn request(outcome: &FastestOutcome, robot: &Robot) -> Value {
-    let trajectory = Trajectory::build(&outcome.sequence, robot).expect("the retimed sequence builds");
+    let trajectory =
+        Trajectory::build(&outcome.sequence, robot).expect("the retimed sequence builds");
     let stretches: Vec<Value> = outcome
         .runs
         .iter()
@@ -25,16 +26,27 @@ pub fn request(outcome: &FastestOutcome, robot: &Robot) -> Value {
             let (from, to) = run.path;
             let n = ((to - from) * ORACLE_POINTS_PER_SECOND).ceil().max(50.0) as usize;
             let ss: Vec<f64> = (0..=n)
-                .map(|k| if k == n { to } else { from + (to - from) * k as f64 / n as f64 })
+                .map(|k| {
+                    if k == n {
+                        to
+                    } else {
+                        from + (to - from) * k as f64 / n as f64
+                    }
+                })
                 .collect();
-            let per_joint = |f: &dyn Fn(&keypose::curve::Track<f64>, f64, bool) -> f64| -> Vec<Vec<f64>> {
-                ss.iter()
-                    .enumerate()
-                    .map(|(k, &s)| {
-                        trajectory.tracks().iter().map(|t| f(t, s, k == n)).collect()
-                    })
-                    .collect()
-            };
+            let per_joint =
+                |f: &dyn Fn(&keypose::curve::Track<f64>, f64, bool) -> f64| -> Vec<Vec<f64>> {
+                    ss.iter()
+                        .enumerate()
+                        .map(|(k, &s)| {
+                            trajectory
+                                .tracks()
+                                .iter()
+                                .map(|t| f(t, s, k == n))
+                                .collect()
+                        })
+                        .collect()
+                };
             let q = per_joint(&|t, s, _| t.sample(s));
             let qd = per_joint(&|t, s, last| if last { t.rate_before(s) } else { t.rate_at(s) });
             let qdd = per_joint(&|t, s, last| {
@@ -87,5 +99,8 @@ pub fn toppra_durations(python: &Path, request: &Value) -> Result<(Vec<f64>, Str
         .iter()
         .map(|d| d.as_f64().ok_or("a duration that is not a number"))
         .collect::<Result<Vec<f64>, _>>()?;
-    Ok((durations, reply["toppra"].as_str().unwrap_or("?").to_string()))
+    Ok((
+        durations,
+        reply["toppra"].as_str().unwrap_or("?").to_string(),
+    ))
 }

@@ -87,7 +87,10 @@ fn report_unfixable(
     if remaining.is_empty() {
         return false;
     }
-    eprintln!("{} violation(s) cannot be fixed by retiming:", remaining.len());
+    eprintln!(
+        "{} violation(s) cannot be fixed by retiming:",
+        remaining.len()
+    );
     for v in remaining {
         let hint = advice(sequence, v);
         let line = format!(

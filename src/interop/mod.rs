@@ -32,8 +32,16 @@ pub struct TimingNotExportable {
 }
 
 /// Refuses a trajectory with a timing profile for `export`, naming its first profiled segment.
-pub fn refuse_timing(trajectory: &Trajectory, export: &'static str) -> Result<(), TimingNotExportable> {
-    let Some(piece) = trajectory.timing().pieces().iter().find(|p| p.v0 != 1.0 || p.a != 0.0) else {
+pub fn refuse_timing(
+    trajectory: &Trajectory,
+    export: &'static str,
+) -> Result<(), TimingNotExportable> {
+    let Some(piece) = trajectory
+        .timing()
+        .pieces()
+        .iter()
+        .find(|p| p.v0 != 1.0 || p.a != 0.0)
+    else {
         return Ok(());
     };
     let segment = trajectory.segment_at(piece.t0);

@@ -82,13 +82,19 @@ impl FastestOutcome {
     pub fn moving_time(&self) -> (f64, f64) {
         self.segments
             .iter()
-            .fold((0.0, 0.0), |(a, b), (_, before, after)| (a + before, b + after))
+            .fold((0.0, 0.0), |(a, b), (_, before, after)| {
+                (a + before, b + after)
+            })
     }
 }
 
 /// `sequence` timed as fast as `robot`'s velocity and acceleration limits allow along its path,
 /// corners judged at a control rate of `rate` Hz.
-pub fn fastest(sequence: &Sequence, robot: &Robot, rate: f64) -> Result<FastestOutcome, InputError> {
+pub fn fastest(
+    sequence: &Sequence,
+    robot: &Robot,
+    rate: f64,
+) -> Result<FastestOutcome, InputError> {
     let mut base = sequence.clone();
     base.make_times_absolute();
     let trajectory = Trajectory::build(&base, robot)?;
@@ -101,7 +107,9 @@ pub fn fastest(sequence: &Sequence, robot: &Robot, rate: f64) -> Result<FastestO
         let candidate = path.timed(&base, &speeds);
         let report = check(&Trajectory::build(&candidate, robot)?, robot, rate);
         let over = over_limits(&report);
-        let done = over.iter().all(|&(i, _)| path.segments.get(i).is_none_or(|s| s.is_none()));
+        let done = over
+            .iter()
+            .all(|&(i, _)| path.segments.get(i).is_none_or(|s| s.is_none()));
         if done || rounds == MAX_ROUNDS {
             let times = candidate.key_times();
             let before = base.key_times();
@@ -109,7 +117,11 @@ pub fn fastest(sequence: &Sequence, robot: &Robot, rate: f64) -> Result<FastestO
                 .filter(|&i| path.segments[i].is_some())
                 .map(|i| {
                     let hold = base.keyframes[i].hold;
-                    (i, before[i + 1] - before[i] - hold, times[i + 1] - times[i] - hold)
+                    (
+                        i,
+                        before[i + 1] - before[i] - hold,
+                        times[i + 1] - times[i] - hold,
+                    )
                 })
                 .collect();
             let runs = path
@@ -281,9 +293,9 @@ impl<'a> Path<'a> {
         let tracks = self.trajectory.tracks();
         let mut points: Vec<Point> = Vec::new();
         let mut steps: Vec<f64> = Vec::new();
-        for i in first..end {
-            let grid = self.segments[i].expect("a profiled segment");
-            let share = shares[i];
+        let run = self.segments[first..end].iter().zip(&shares[first..end]);
+        for (offset, (grid, &share)) in run.enumerate() {
+            let grid = grid.expect("a profiled segment");
             let step = (grid.to - grid.from) / grid.intervals as f64;
             for k in 0..=grid.intervals {
                 let u = grid.point(k);
@@ -294,7 +306,7 @@ impl<'a> Path<'a> {
                 if k < grid.intervals {
                     rows.extend(rows_at(tracks, robot, share, u, Side::After));
                 }
-                if k == 0 && i > first {
+                if k == 0 && offset > 0 {
                     // The key between two segments of the run: both sides' rows, and its
                     // corner if the curve turns one there.
                     let previous = points.pop().expect("the previous segment's last point");
@@ -317,7 +329,12 @@ impl<'a> Path<'a> {
         let mut at = 0;
         for i in first..end {
             let intervals = self.segments[i].expect("a profiled segment").intervals;
-            out.push(squared[at..=at + intervals].iter().map(|x| x.sqrt()).collect());
+            out.push(
+                squared[at..=at + intervals]
+                    .iter()
+                    .map(|x| x.sqrt())
+                    .collect(),
+            );
             at += intervals;
         }
         out

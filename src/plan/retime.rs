@@ -142,7 +142,11 @@ pub fn retime(sequence: &Sequence, robot: &Robot, rate: f64) -> Result<RetimeOut
 }
 
 fn zip(needs: &[(usize, f64)], factors: &[f64]) -> Vec<(usize, f64)> {
-    needs.iter().zip(factors).map(|(&(i, _), &f)| (i, f)).collect()
+    needs
+        .iter()
+        .zip(factors)
+        .map(|(&(i, _), &f)| (i, f))
+        .collect()
 }
 
 /// Whether timing can mend a violation: not a position, not a step's jump.
@@ -211,9 +215,7 @@ fn stretch(sequence: &mut Sequence, factors: &[(usize, f64)], segments: usize) {
 pub fn advice(sequence: &Sequence, v: &Violation) -> &'static str {
     let key = sequence.keyframes.get(v.segment);
     let line = key.is_some_and(|k| k.line);
-    let mode = key
-        .and_then(|k| k.interp)
-        .unwrap_or(sequence.interpolation);
+    let mode = key.and_then(|k| k.interp).unwrap_or(sequence.interpolation);
     match (v.kind, v.cause) {
         (LimitKind::Position, _) if mode == Interp::Cubic && !line => {
             "the cubic overshoots its keys here: use monotone for this segment (it never leaves \

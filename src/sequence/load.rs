@@ -305,7 +305,11 @@ pub(super) fn validate_keys(sequence: &Sequence) -> Result<(), InputError> {
             ));
         }
         if let Some(message) = timing_refusal(sequence, i) {
-            return Err(InputError::at_path(file, &format!("{path}.timing"), message));
+            return Err(InputError::at_path(
+                file,
+                &format!("{path}.timing"),
+                message,
+            ));
         }
         if i + 1 < n {
             let gap = times[i + 1] - times[i];

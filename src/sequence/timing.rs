@@ -62,7 +62,7 @@ pub(super) fn parse(node: &Node) -> Result<SegmentTiming, InputError> {
     node.only_fields(&["path_time", "speeds"])?;
     let path_node = node.require("path_time", "seconds of path time the segment spans")?;
     let path_time = path_node.number("seconds")?;
-    if !(path_time >= super::MIN_GAP && path_time <= super::MAX_TIME) {
+    if !(super::MIN_GAP..=super::MAX_TIME).contains(&path_time) {
         return Err(path_node.expected(&format!(
             "a path time of {} … {} s",
             super::MIN_GAP,
@@ -80,7 +80,7 @@ pub(super) fn parse(node: &Node) -> Result<SegmentTiming, InputError> {
     let mut speeds = Vec::with_capacity(items.len());
     for item in &items {
         let v = item.number("a path speed (path seconds per second)")?;
-        if !(v >= 0.0 && v <= 1e6) {
+        if !(0.0..=1e6).contains(&v) {
             return Err(item.expected("a path speed of 0 … 1e6 (path seconds per second)"));
         }
         if v == 0.0 && speeds.last() == Some(&0.0) {

@@ -52,7 +52,10 @@ fn retime_stretches_a_segment_to_the_time_its_limit_needs_and_no_more() {
     let fast = write(
         dir.path(),
         "fast.json",
-        &elbow("cubic", &[(0.0, 0.0, 0.0), (2.0, 0.5, -40.0), (2.9, 0.0, 50.0)]),
+        &elbow(
+            "cubic",
+            &[(0.0, 0.0, 0.0), (2.0, 0.5, -40.0), (2.9, 0.0, 50.0)],
+        ),
     );
     let fixed = dir.path().join("fixed.json");
     let out = run(&["retime", &fast, "-o", fixed.to_str().unwrap()]);
@@ -71,7 +74,10 @@ fn retime_stretches_a_segment_to_the_time_its_limit_needs_and_no_more() {
     let shorter = write(
         dir.path(),
         "shorter.json",
-        &elbow("cubic", &[(0.0, 0.0, 0.0), (2.0, 0.5, -40.0), (3.752, 0.0, 50.0)]),
+        &elbow(
+            "cubic",
+            &[(0.0, 0.0, 0.0), (2.0, 0.5, -40.0), (3.752, 0.0, 50.0)],
+        ),
     );
     assert_eq!(run(&["check", &shorter]).status.code(), Some(1));
 }
@@ -129,13 +135,22 @@ fn retime_advises_per_segment_kind() {
     let step = write(
         dir.path(),
         "step.json",
-        &elbow("step", &[(0.0, 0.0, 0.0), (1.0, 0.0, 40.0), (2.0, 0.0, 40.0)]),
+        &elbow(
+            "step",
+            &[(0.0, 0.0, 0.0), (1.0, 0.0, 40.0), (2.0, 0.0, 40.0)],
+        ),
     );
     let out = run(&["retime", &step]);
     assert_eq!(out.status.code(), Some(1), "{}", show(&out));
     let said = stderr(&out);
-    assert!(said.contains("a step jumps within one control period"), "{said}");
-    assert!(said.contains("give this segment linear, cubic or monotone"), "{said}");
+    assert!(
+        said.contains("a step jumps within one control period"),
+        "{said}"
+    );
+    assert!(
+        said.contains("give this segment linear, cubic or monotone"),
+        "{said}"
+    );
     assert!(!said.contains("smooth mode"), "{said}");
     // elbow_flex's upper limit is 96.83° (robots/so101.json). Keys 60, 95, 96 a second apart
     // give the middle key the slope (96 − 60)/2 = 18 deg/s and the last 0, so the second
@@ -144,7 +159,10 @@ fn retime_advises_per_segment_kind() {
     let overshoot = write(
         dir.path(),
         "overshoot.json",
-        &elbow("cubic", &[(0.0, 0.0, 60.0), (1.0, 0.0, 95.0), (2.0, 0.0, 96.0)]),
+        &elbow(
+            "cubic",
+            &[(0.0, 0.0, 60.0), (1.0, 0.0, 95.0), (2.0, 0.0, 96.0)],
+        ),
     );
     let out = run(&["check", &overshoot]);
     assert_eq!(out.status.code(), Some(1), "{}", show(&out));
@@ -152,7 +170,10 @@ fn retime_advises_per_segment_kind() {
     let out = run(&["retime", &overshoot]);
     assert_eq!(out.status.code(), Some(1), "{}", show(&out));
     let said = stderr(&out);
-    assert!(said.contains("the cubic overshoots its keys here: use monotone"), "{said}");
+    assert!(
+        said.contains("the cubic overshoots its keys here: use monotone"),
+        "{said}"
+    );
 }
 
 /// Every example of sequences/, retimed `--fastest` by the binary, passes the exact check and
@@ -192,7 +213,11 @@ fn fastest_examples_pass_the_exact_check() {
         );
         assert_eq!(after.keyframes.len(), before.keyframes.len(), "{name}");
         for (x, y) in before.keyframes.iter().zip(&after.keyframes) {
-            assert_eq!((&x.name, &x.values, x.hold), (&y.name, &y.values, y.hold), "{name}");
+            assert_eq!(
+                (&x.name, &x.values, x.hold),
+                (&y.name, &y.values, y.hold),
+                "{name}"
+            );
         }
     }
 }
@@ -269,7 +294,13 @@ fn a_timing_profile_is_played_as_written() {
     assert_eq!(out.status.code(), Some(2), "{}", show(&out));
     assert!(stderr(&out).contains("timing profile"), "{}", show(&out));
     // play_motion2 samples the trajectory: it carries the profile.
-    let out = run(&["export", "play_motion2", &profiled, "-o", yaml.to_str().unwrap()]);
+    let out = run(&[
+        "export",
+        "play_motion2",
+        &profiled,
+        "-o",
+        yaml.to_str().unwrap(),
+    ]);
     assert_eq!(out.status.code(), Some(0), "{}", show(&out));
 
     // A profile on the last key has no segment to time.
@@ -282,7 +313,11 @@ fn a_timing_profile_is_played_as_written() {
     );
     let out = run(&["check", &last]);
     assert_eq!(out.status.code(), Some(2), "{}", show(&out));
-    assert!(stderr(&out).contains("$.keyframes[1].timing"), "{}", show(&out));
+    assert!(
+        stderr(&out).contains("$.keyframes[1].timing"),
+        "{}",
+        show(&out)
+    );
 }
 
 /// `--fastest` against TOPP-RA (toppra, in keypose's Python environment) on every example's own
@@ -306,7 +341,8 @@ fn fastest_is_within_five_percent_of_toppra_on_every_example() {
         let outcome = fastest(&sequence, &robot, robot.control_hz).unwrap();
         assert!(outcome.report.passed(), "{example:?}");
         let request = topp::request(&outcome, &robot);
-        let (durations, _) = topp::toppra_durations(&python, &request).unwrap_or_else(|e| panic!("{e}"));
+        let (durations, _) =
+            topp::toppra_durations(&python, &request).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(durations.len(), outcome.runs.len());
         let ours: f64 = outcome.runs.iter().map(|r| r.seconds).sum();
         let theirs: f64 = durations.iter().sum();

@@ -13,8 +13,8 @@
 //! judges them. The arm is at rest before the window and after it, as it is after the approach
 //! ramp and at the end of playback, so a sequence that starts or ends in motion is flagged.
 
-mod poly;
 mod period;
+mod poly;
 mod runs;
 mod spans;
 

@@ -204,8 +204,16 @@ fn composed(pieces: &[(f64, f64, Poly)], window: &TimingPiece) -> Vec<(f64, f64,
         .take_while(|p| p.0 < u_b)
     {
         let (lo, hi) = (from.max(u_a), to.min(u_b));
-        let a = if lo <= u_a { window.t0 } else { window.time_at(lo) };
-        let b = if hi >= u_b { window.t1 } else { window.time_at(hi) };
+        let a = if lo <= u_a {
+            window.t0
+        } else {
+            window.time_at(lo)
+        };
+        let b = if hi >= u_b {
+            window.t1
+        } else {
+            window.time_at(hi)
+        };
         if b <= a {
             continue;
         }
