@@ -347,9 +347,12 @@ proptest! {
     }
 }
 
+/// A key of `random_sequence` with the path time and speeds of its segment's profile.
+type ProfiledKey = ((f64, f64, usize, f64, f64), f64, Vec<f64>);
+
 /// `random_sequence`'s keys, each segment that moves along a curve given a timing profile of
 /// `path_time` and `speeds` (two zeros in a row made 0, 0.2).
-fn profiled_sequence(keys: &[((f64, f64, usize, f64, f64), f64, Vec<f64>)]) -> Sequence {
+fn profiled_sequence(keys: &[ProfiledKey]) -> Sequence {
     let plain: Vec<_> = keys.iter().map(|k| k.0).collect();
     let mut sequence = random_sequence(&plain, false);
     let last = sequence.keyframes.len() - 1;
@@ -372,7 +375,7 @@ fn profiled_sequence(keys: &[((f64, f64, usize, f64, f64), f64, Vec<f64>)]) -> S
     Sequence::from_json("profiled.json", &sequence.to_json()).unwrap()
 }
 
-fn profiled_key() -> impl Strategy<Value = ((f64, f64, usize, f64, f64), f64, Vec<f64>)> {
+fn profiled_key() -> impl Strategy<Value = ProfiledKey> {
     (
         key(),
         0.01f64..1.0,
