@@ -2,10 +2,13 @@
 //! work on it.
 //!
 //! [`Trajectory::build`] turns a [`Sequence`] into one track per joint (solving tool keys and
-//! straight tool lines on the way); [`check`] finds, exactly, where it exceeds the robot's
-//! position, velocity and acceleration limits; [`retime`] stretches key times until it does
-//! not; [`Timeline`] says what the arm should do at each control cycle of playback (approach,
-//! loops, braking, stalls); [`Sampled`] samples it on an even grid for plots and tables.
+//! straight tool lines on the way), over path time, which [`Timing`] maps sequence time to (the
+//! identity unless a segment has a timing profile); [`check`] finds, exactly, where it exceeds
+//! the robot's position, velocity and acceleration limits; [`retime`] stretches key times, each
+//! segment as little as it needs, until it does not, and [`fastest`] gives every moving segment
+//! the time-optimal profile along its curve; [`Timeline`] says what the arm should do at each
+//! control cycle of playback (approach, loops, braking, stalls); [`Sampled`] samples it on an
+//! even grid for plots and tables.
 
 mod approach;
 mod check;
