@@ -230,4 +230,12 @@ fn edits_drop_the_timing_profiles_of_the_segments_they_change() {
     assert_eq!(timed(&list), [true, false, false]);
     let again = Sequence::from_json("again.json", &list.sequence().to_json()).unwrap();
     assert_eq!(timed(&KeyframeList::new(again)), [true, false, false]);
+    // Saved in the file's own layout, the profile left is kept as written, word for word.
+    let kept = list.sequence().to_text();
+    assert!(
+        kept.contains(r#""timing": {"path_time": 1, "speeds": [0, 1, 0]}"#),
+        "{kept}"
+    );
+    let again = Sequence::from_json("kept.json", &kept).unwrap();
+    assert!(again.same_content(list.sequence()));
 }
