@@ -565,6 +565,36 @@ impl Track<f64> {
         (c[1] + f * (2.0 * c[2] + f * 3.0 * c[3])) * self.inv_duration[i]
     }
 
+    /// The second derivative (per second²) at `t`, from the right at a key, 0 at rest: with
+    /// [`Track::rate_at`], what a time-scaling of the curve needs (`plan::fastest`).
+    pub fn second_rate_at(&self, t: f64) -> f64 {
+        match self.place(t) {
+            Place::Moving(i, f) if self.modes[i] != Interp::Step => self.segment_second_rate(i, f),
+            _ => 0.0,
+        }
+    }
+
+    /// The second derivative just before `t` (the limit from the left).
+    pub fn second_rate_before(&self, t: f64) -> f64 {
+        let next = self.times.partition_point(|&k| k < t);
+        if next == 0 || next >= self.times.len() {
+            return 0.0;
+        }
+        let i = next - 1;
+        if t <= self.move_start[i] || self.modes[i] == Interp::Step {
+            return 0.0;
+        }
+        let f = ((t - self.move_start[i]) * self.inv_duration[i]).clamp(0.0, 1.0);
+        self.segment_second_rate(i, f)
+    }
+
+    /// d²/dt² of segment `i` at fraction `f`.
+    fn segment_second_rate(&self, i: usize, f: f64) -> f64 {
+        let c = &self.segments[i];
+        let k = self.inv_duration[i];
+        (2.0 * c[2] + 6.0 * c[3] * f) * k * k
+    }
+
     /// When segment `i` starts moving (its key's time plus hold).
     pub fn move_start(&self, i: usize) -> f64 {
         self.move_start[i]

@@ -1,7 +1,7 @@
 //! `keypose retime`: stretch key times until velocity and acceleration limits hold.
 
 use super::{parse_check_rate, write_output, CommandError, SequenceInput, Verdict};
-use keypose::plan::{retime, LimitKind};
+use keypose::plan::{advice, retime};
 use keypose::terminal_text::escape_controls;
 use std::path::PathBuf;
 
@@ -16,6 +16,10 @@ pub struct RetimeArgs {
     /// linear corner is turned within one period, so a faster rate needs a gentler corner.
     #[arg(long, value_name = "HZ", value_parser = parse_check_rate, allow_negative_numbers = true)]
     pub rate: Option<f64>,
+    /// As fast as the joints' velocity and acceleration limits allow along the path: every
+    /// moving segment gets a timing profile (its curve unchanged), keys, holds and steps stay.
+    #[arg(long)]
+    pub fastest: bool,
 }
 
 pub fn run(args: &RetimeArgs) -> Result<Verdict, CommandError> {
@@ -26,6 +30,9 @@ pub fn run(args: &RetimeArgs) -> Result<Verdict, CommandError> {
         &keypose::plan::Trajectory::build(&sequence, &robot)?,
         rate,
     )?;
+    if args.fastest {
+        return run_fastest(args, &sequence, &robot, rate);
+    }
     let outcome = retime(&sequence, &robot, rate)?;
     for (segment, before, after) in &outcome.stretched {
         let line = format!(
@@ -38,31 +45,65 @@ pub fn run(args: &RetimeArgs) -> Result<Verdict, CommandError> {
     if outcome.stretched.is_empty() {
         eprintln!("no segment needed stretching");
     }
-    let remaining = &outcome.report.violations;
-    if !remaining.is_empty() {
-        eprintln!(
-            "{} violation(s) cannot be fixed by retiming (positions outside limits, or step jumps):",
-            remaining.len()
-        );
-        for v in remaining {
-            let hint = match v.kind {
-                LimitKind::Position => "move the keys inside the limits or use monotone",
-                _ => "use a smooth mode for this segment",
-            };
-            let line = format!(
-                "  {} {} in segment {} ({}) at t = {:.3} s: {:.3} vs limit {:.3} — {hint}",
-                v.joint,
-                v.kind.name(),
-                v.segment,
-                v.segment_label,
-                v.peak_time,
-                v.peak,
-                v.limit
-            );
-            eprintln!("{}", escape_controls(&line));
-        }
+    if report_unfixable(&sequence, &outcome.report.violations) {
         return Ok(Verdict::Fail);
     }
     write_output(args.output.as_deref(), &outcome.sequence.to_json())?;
     Ok(Verdict::Pass)
+}
+
+fn run_fastest(
+    args: &RetimeArgs,
+    sequence: &keypose::sequence::Sequence,
+    robot: &keypose::robot::Robot,
+    rate: f64,
+) -> Result<Verdict, CommandError> {
+    let outcome = keypose::plan::fastest(sequence, robot, rate)?;
+    for (segment, before, after) in &outcome.segments {
+        let line = format!(
+            "segment {segment} ({} → {}): {before:.3} s → {after:.3} s",
+            sequence.keyframes[*segment].label(*segment),
+            sequence.keyframes[segment + 1].label(segment + 1),
+        );
+        eprintln!("{}", escape_controls(&line));
+    }
+    let (before, after) = outcome.moving_time();
+    eprintln!(
+        "moving time {before:.3} s → {after:.3} s ({} plan-and-check round(s))",
+        outcome.rounds
+    );
+    if report_unfixable(sequence, &outcome.report.violations) {
+        return Ok(Verdict::Fail);
+    }
+    write_output(args.output.as_deref(), &outcome.sequence.to_json())?;
+    Ok(Verdict::Pass)
+}
+
+/// Prints the violations timing cannot fix, each with its advice; whether there were any.
+fn report_unfixable(
+    sequence: &keypose::sequence::Sequence,
+    remaining: &[keypose::plan::Violation],
+) -> bool {
+    if remaining.is_empty() {
+        return false;
+    }
+    eprintln!(
+        "{} violation(s) cannot be fixed by retiming:",
+        remaining.len()
+    );
+    for v in remaining {
+        let hint = advice(sequence, v);
+        let line = format!(
+            "  {} {} in segment {} ({}) at t = {:.3} s: {:.3} vs limit {:.3} — {hint}",
+            v.joint,
+            v.kind.name(),
+            v.segment,
+            v.segment_label,
+            v.peak_time,
+            v.peak,
+            v.limit
+        );
+        eprintln!("{}", escape_controls(&line));
+    }
+    true
 }

@@ -29,6 +29,9 @@ const MAX_SECONDS: f64 = u32::MAX as f64 / 1e6;
 /// Why a trajectory cannot become a header for the C player.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum CExportError {
+    /// A segment has a timing profile, which the player's cubic pieces cannot carry.
+    #[error(transparent)]
+    Timing(#[from] super::TimingNotExportable),
     /// The trajectory lasts longer than the player's 32-bit microsecond clock counts.
     #[error("{seconds:.1} s is longer than the player's {MAX_SECONDS:.0} s (32-bit microseconds)")]
     TooLong {
@@ -105,6 +108,7 @@ pub fn header(
     robot: &Robot,
     source: &str,
 ) -> Result<String, CExportError> {
+    super::refuse_timing(trajectory, "export c")?;
     let duration = trajectory.duration();
     if duration > MAX_SECONDS {
         return Err(CExportError::TooLong { seconds: duration });

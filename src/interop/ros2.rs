@@ -66,6 +66,8 @@ pub fn joint_names(robot: &Robot) -> Vec<String> {
 }
 
 /// The points of `trajectory`, each corner approached over one period of `corner_rate` Hz.
+/// The points follow the tracks' cubics in time: a trajectory with a timing profile is refused
+/// before (`interop::refuse_timing`), as `export ros2` does.
 pub fn joint_trajectory(
     trajectory: &Trajectory,
     robot: &Robot,

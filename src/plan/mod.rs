@@ -2,16 +2,21 @@
 //! work on it.
 //!
 //! [`Trajectory::build`] turns a [`Sequence`] into one track per joint (solving tool keys and
-//! straight tool lines on the way); [`check`] finds, exactly, where it exceeds the robot's
-//! position, velocity and acceleration limits; [`retime`] stretches key times until it does
-//! not; [`Timeline`] says what the arm should do at each control cycle of playback (approach,
-//! loops, braking, stalls); [`Sampled`] samples it on an even grid for plots and tables.
+//! straight tool lines on the way), over path time, which [`Timing`] maps sequence time to (the
+//! identity unless a segment has a timing profile); [`check`] finds, exactly, where it exceeds
+//! the robot's position, velocity and acceleration limits; [`retime`] stretches key times, each
+//! segment as little as it needs, until it does not, and [`fastest`] gives every moving segment
+//! the time-optimal profile along its curve; [`Timeline`] says what the arm should do at each
+//! control cycle of playback (approach, loops, braking, stalls); [`Sampled`] samples it on an
+//! even grid for plots and tables.
 
 mod approach;
 mod check;
+mod fastest;
 mod retime;
 mod sampled;
 mod timeline;
+mod timing;
 mod tool_keys;
 
 use crate::curve::{Cursor, CurveError, Track, TrackKey};
@@ -24,9 +29,11 @@ use std::f64::consts::TAU;
 pub(crate) use approach::Approach;
 pub use approach::{APPROACH_LIMIT_SHARE, MIN_APPROACH_SECONDS};
 pub use check::{check, check_at_speed, Cause, CheckReport, JointSummary, LimitKind, Violation};
-pub use retime::{retime, RetimeOutcome};
+pub use fastest::{fastest, FastestOutcome, FastestRun};
+pub use retime::{advice, retime, RetimeOutcome, MAX_STRETCH};
 pub use sampled::Sampled;
 pub use timeline::{Loops, Phase, Timeline, TimelineOptions};
+pub use timing::{Timing, TimingPiece};
 pub use tool_keys::{KeyMargin, LineExcess, LineReport, LineSpeed, ToolKeyReport, ToolSolve};
 
 /// Largest rotation off the joint axis (swing) accepted in a keyed transform, degrees. Hand-typed
@@ -70,6 +77,9 @@ pub struct Trajectory {
     pub key_labels: Vec<String>,
     /// The tool keys and straight tool lines solved on the way (empty without them).
     pub tools: ToolSolve,
+    /// Sequence time to path time, over which the tracks are built (the identity unless a
+    /// segment has a timing profile).
+    timing: Timing,
 }
 
 impl Trajectory {
@@ -115,6 +125,7 @@ impl Trajectory {
         let sequence = solved.as_ref();
         let file = sequence.file.as_str();
         let key_times = sequence.key_times();
+        let path_times = sequence.path_times();
         for (index, key) in sequence.keyframes.iter().enumerate() {
             for (name, value) in &key.values {
                 if robot.joint_index(name).is_none() {
@@ -160,12 +171,12 @@ impl Trajectory {
                 }
                 previous = Some(v);
                 let interp = key.interp.unwrap_or(sequence.interpolation);
-                keys.push(TrackKey::new(key_times[index], v, interp).with_hold(key.hold));
+                keys.push(TrackKey::new(path_times[index], v, interp).with_hold(key.hold));
                 push_line_samples(&mut keys, &tools, index, joint_index);
             }
             if keys.is_empty() {
                 keys.push(TrackKey::new(
-                    key_times[0],
+                    path_times[0],
                     robot.home[joint_index],
                     sequence.interpolation,
                 ));
@@ -192,6 +203,7 @@ impl Trajectory {
                 .collect(),
             key_times,
             tools,
+            timing: Timing::of(sequence),
         })
     }
 
@@ -211,6 +223,7 @@ impl Trajectory {
             key_times: self.key_times.clone(),
             key_labels: self.key_labels.clone(),
             tools: ToolSolve::default(),
+            timing: self.timing.clone(),
         }
     }
 
@@ -232,9 +245,20 @@ impl Trajectory {
         }
     }
 
-    /// One track per joint, in joint order, over sequence time.
+    /// One track per joint, in joint order, over path time ([`Trajectory::path_time`]): the
+    /// sequence's own time unless a segment has a timing profile.
     pub fn tracks(&self) -> &[Track<f64>] {
         &self.tracks
+    }
+
+    /// How sequence time maps to the tracks' path time.
+    pub fn timing(&self) -> &Timing {
+        &self.timing
+    }
+
+    /// The tracks' path time at sequence time `t` (`t` itself without timing profiles).
+    pub fn path_time(&self, t: f64) -> f64 {
+        self.timing.path_time(t)
     }
 
     /// Sequence time of the first key played.
@@ -249,9 +273,9 @@ impl Trajectory {
 
     /// Joint values at `t`, clamped to the played window.
     pub fn sample_into(&self, t: f64, out: &mut [f64]) {
-        let t = t.clamp(self.start, self.end);
+        let u = self.path_time(t.clamp(self.start, self.end));
         for (slot, track) in out.iter_mut().zip(&self.tracks) {
-            *slot = track.sample(t);
+            *slot = track.sample(u);
         }
     }
 
@@ -313,8 +337,9 @@ impl Sampler<'_> {
     /// Joint values at `t` into `out`, clamped to the played window; `t` must not go back.
     pub fn sample_into(&mut self, t: f64, out: &mut [f64]) {
         let t = t.clamp(self.trajectory.start, self.trajectory.end);
+        let u = self.trajectory.path_time(t);
         for (slot, cursor) in out.iter_mut().zip(&mut self.cursors) {
-            *slot = cursor.sample(t);
+            *slot = cursor.sample(u);
         }
     }
 }

@@ -201,7 +201,8 @@ fn solve_arm<'a>(
     let mut solved = sequence.clone();
     let mut report = ToolSolve::default();
     let mut pose = robot.home.clone();
-    let times = sequence.key_times();
+    // A line's samples are keys of the tracks, which run over path time.
+    let times = sequence.path_times();
     for index in 0..solved.keyframes.len() {
         let before = pose.clone();
         apply_joint_values(robot, &solved, index, &mut pose);

@@ -178,14 +178,23 @@ pub fn plot_data(
         .enumerate()
         .map(|(j, joint)| {
             let track = &trajectory.tracks()[j];
+            // The track's keys are at path times; the sequence's keys at these (the same
+            // unless a segment has a timing profile).
+            let key_times: Vec<(f64, f64)> = trajectory
+                .key_times
+                .iter()
+                .map(|&t| (trajectory.path_time(t), t))
+                .collect();
             let keys = track
                 .times()
                 .iter()
                 .zip(track.values())
-                .filter(|(t, _)| **t >= trajectory.start && **t <= trajectory.end)
                 // A straight tool line's samples are track keys too; only the sequence's are dots.
-                .filter(|(t, _)| trajectory.key_times.contains(t))
-                .map(|(t, v)| (*t, *v))
+                .filter_map(|(u, v)| {
+                    let (_, t) = key_times.iter().find(|(path, _)| path == u)?;
+                    Some((*t, *v))
+                })
+                .filter(|(t, _)| *t >= trajectory.start && *t <= trajectory.end)
                 .collect();
             plot::PlotJoint {
                 name: joint.name.clone(),

@@ -192,6 +192,7 @@ impl KeyframeList {
             key.time = Some(time);
         }
         self.sequence.keyframes.insert(at, key);
+        self.untime_around(at);
         self.current = at;
         self.dirty = true;
     }
@@ -227,6 +228,7 @@ impl KeyframeList {
         let mut key = Keyframe::new(values);
         key.time = Some(time);
         self.sequence.keyframes.insert(at, key);
+        self.untime_around(at);
         self.current = at;
         self.dirty = true;
         Ok(())
@@ -238,6 +240,11 @@ impl KeyframeList {
             return None;
         }
         let removed = self.sequence.keyframes.remove(self.current);
+        if self.current < self.len() {
+            self.untime_around(self.current);
+        } else if let Some(last) = self.sequence.keyframes.last_mut() {
+            last.timing = None;
+        }
         self.current = self.current.saturating_sub(1);
         self.dirty = true;
         Some(removed)
@@ -267,9 +274,28 @@ impl KeyframeList {
             self.sequence.keyframes = before;
             return false;
         }
+        for index in self.current.min(target)..=self.current.max(target) {
+            self.untime_around(index);
+        }
         self.current = target;
         self.dirty = true;
         true
+    }
+
+    /// Drops the timing profiles of the segments into and out of key `index`, whose segments an
+    /// edit has just split, joined or reordered: a profile's path time belongs to the curve it
+    /// was made for (the segments' keys then move at the pace of their key times), and the
+    /// last key times no segment.
+    fn untime_around(&mut self, index: usize) {
+        let keys = &mut self.sequence.keyframes;
+        for i in [index.checked_sub(1), Some(index)].into_iter().flatten() {
+            if let Some(key) = keys.get_mut(i) {
+                key.timing = None;
+            }
+        }
+        if let Some(last) = keys.last_mut() {
+            last.timing = None;
+        }
     }
 
     /// Whether every key's hold ends at least [`super::MIN_GAP`] before the next key, as a
@@ -288,7 +314,14 @@ impl KeyframeList {
     /// Sets the mode of the segment from the current key to the next; `None` follows the
     /// sequence's.
     pub fn set_interp(&mut self, interp: Option<Interp>) -> bool {
-        self.edit_current(|k| k.interp = interp)
+        let step = interp == Some(Interp::Step);
+        self.edit_current(|k| {
+            k.interp = interp;
+            // A step does not move along a curve: a timing profile has nothing to time.
+            if step {
+                k.timing = None;
+            }
+        })
     }
 
     /// Sets one joint's value in the current key (added if the key did not name the joint).

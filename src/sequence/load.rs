@@ -304,6 +304,13 @@ pub(super) fn validate_keys(sequence: &Sequence) -> Result<(), InputError> {
                 format!("expected a hold of 0 s or more, found {}", key.hold),
             ));
         }
+        if let Some(message) = timing_refusal(sequence, i) {
+            return Err(InputError::at_path(
+                file,
+                &format!("{path}.timing"),
+                message,
+            ));
+        }
         if i + 1 < n {
             let gap = times[i + 1] - times[i];
             if gap < MIN_GAP {
@@ -341,6 +348,23 @@ pub(super) fn validate_keys(sequence: &Sequence) -> Result<(), InputError> {
     Ok(())
 }
 
+/// Why key `i`'s timing profile has no segment to time, if it has one and none.
+fn timing_refusal(sequence: &Sequence, i: usize) -> Option<&'static str> {
+    let key = &sequence.keyframes[i];
+    key.timing.as_ref()?;
+    if i + 1 == sequence.keyframes.len() {
+        return Some(
+            "a timing profile times the segment after its key, but this is the last key; \
+             expected it on a key that a segment starts from",
+        );
+    }
+    let mode = key.interp.unwrap_or(sequence.interpolation);
+    (mode == Interp::Step && !key.line).then_some(
+        "the segment after this key is a step, which does not move along a curve; expected \
+         no timing on it (or another interpolation)",
+    )
+}
+
 fn parse_interp(node: &Node) -> Result<Interp, InputError> {
     node.value
         .as_str()
@@ -358,6 +382,7 @@ fn parse_keyframe(node: &Node, arms: &[ArmSpec]) -> Result<Keyframe, InputError>
         "joints",
         "transforms",
         "tool",
+        "timing",
     ])?;
     let mut key = Keyframe::new(Vec::new());
     if let Some(n) = node.get("name") {
@@ -379,6 +404,9 @@ fn parse_keyframe(node: &Node, arms: &[ArmSpec]) -> Result<Keyframe, InputError>
         } else {
             key.interp = Some(parse_interp(&n)?);
         }
+    }
+    if let Some(n) = node.get("timing") {
+        key.timing = Some(super::timing::parse(&n)?);
     }
     if let Some(n) = node.get("tool") {
         if arms.is_empty() {

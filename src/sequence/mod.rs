@@ -8,6 +8,7 @@ mod edit;
 mod layout;
 mod load;
 mod save;
+mod timing;
 
 use crate::curve::Interp;
 use crate::json::InputError;
@@ -17,6 +18,7 @@ use std::path::Path;
 
 pub use edit::{KeyframeList, TimeRefusal};
 pub use load::{valid_arm_name, MAX_TIME, MIN_GAP};
+pub use timing::{SegmentTiming, TimeProfile, MAX_SPEEDS};
 
 /// The `"format"` field of a sequence file this version reads and writes.
 pub const SEQUENCE_FORMAT: &str = "keypose-sequence/1";
@@ -126,6 +128,9 @@ pub struct Keyframe {
     pub arm_tools: Vec<(String, ToolKey)>,
     /// `"interp": "line"`: the tool moves in a straight line from this key to the next.
     pub line: bool,
+    /// `"timing"`: how the segment after this key runs along its curve; `None` runs it at the
+    /// pace of the key times.
+    pub timing: Option<SegmentTiming>,
     /// Index of this key in the file it was loaded from, for error paths after sorting.
     pub source_index: Option<usize>,
 }
@@ -142,6 +147,7 @@ impl Keyframe {
             tool: None,
             arm_tools: Vec::new(),
             line: false,
+            timing: None,
             source_index: None,
         }
     }
@@ -373,6 +379,34 @@ impl Sequence {
         (0..self.keyframes.len())
             .map(|i| self.key_time(i))
             .collect()
+    }
+
+    /// Every keyframe's path time, seconds: the time its segments' curves are shaped with.
+    /// The key times themselves, except after a segment with a timing profile, whose curve
+    /// spans the profile's `path_time` however long it takes to run.
+    pub fn path_times(&self) -> Vec<f64> {
+        let times = self.key_times();
+        let mut out = Vec::with_capacity(times.len());
+        for (i, &t) in times.iter().enumerate() {
+            let path = match i.checked_sub(1) {
+                None => t,
+                Some(p) => {
+                    let key = &self.keyframes[p];
+                    let moving = match &key.timing {
+                        Some(timing) => timing.path_time,
+                        None => t - times[p] - key.hold,
+                    };
+                    out[p] + key.hold + moving
+                }
+            };
+            out.push(path);
+        }
+        out
+    }
+
+    /// Whether any segment has a timing profile.
+    pub fn has_timing(&self) -> bool {
+        self.keyframes.iter().any(|k| k.timing.is_some())
     }
 
     /// Gives every key an absolute time (the uniform spacing made explicit).

@@ -49,6 +49,9 @@ pub(super) fn to_value(sequence: &Sequence) -> Value {
             } else if let Some(interp) = key.interp {
                 k.insert("interp".into(), json!(interp.name()));
             }
+            if let Some(timing) = &key.timing {
+                k.insert("timing".into(), super::timing::to_value(timing));
+            }
             if let Some(tool) = &key.tool {
                 k.insert("tool".into(), tool_json(tool));
             }

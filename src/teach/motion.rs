@@ -108,7 +108,10 @@ fn pose_at(trajectory: &Trajectory, robot: &Robot, time: f64) -> Vec<f64> {
         .tracks()
         .iter()
         .zip(&robot.joints)
-        .map(|(track, joint)| track.sample(time).clamp(joint.limits.min, joint.limits.max))
+        .map(|(track, joint)| {
+            let value = track.sample(trajectory.path_time(time));
+            value.clamp(joint.limits.min, joint.limits.max)
+        })
         .collect()
 }
 

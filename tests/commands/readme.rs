@@ -366,10 +366,25 @@ fn retime_fixes_a_too_fast_sequence_and_leaves_a_sequence_that_checks() {
     let text = std::fs::read_to_string(&fixed).unwrap();
     let seq: serde_json::Value = serde_json::from_str(&text).unwrap();
     let keys = seq["keyframes"].as_array().unwrap();
-    // The hold is kept and the moving time grows at least by the velocity ratio 270/115.
+    // The hold is kept; the moving time grows, but only until a limit is reached: the key-time
+    // cubic's slope at the middle key changes with the stretch too, so no ratio gives the time,
+    // but the stretched curve touches a limit (here elbow_flex's 344 deg/s², to 1 %). (On main
+    // at bb14c46, which stretched by the velocity ratio, it peaked at 93 %.)
     assert_eq!(keys[0]["hold"], 0.2);
     let moving = keys[1]["time"].as_f64().unwrap() - 0.2;
-    assert!(moving >= 0.5 * 270.0 / 115.0, "moving time {moving}");
+    assert!(moving > 0.5, "moving time {moving}");
+    let out = keypose(&["check", fixed.to_str().unwrap()]);
+    let printed = String::from_utf8_lossy(&out.stdout).into_owned();
+    let elbow = printed
+        .lines()
+        .find(|l| l.trim_start().starts_with("elbow_flex"))
+        .unwrap();
+    let percent: Vec<f64> = elbow
+        .split('(')
+        .skip(1)
+        .filter_map(|p| p.split('%').next()?.trim().parse().ok())
+        .collect();
+    assert!(percent.iter().any(|&p| p >= 99.0), "{elbow}");
 }
 
 #[test]
@@ -754,7 +769,10 @@ fn the_readme_console_examples_print_what_the_commands_print() {
     }
     assert_eq!(
         compared,
-        ["check", "check", "check", "check", "check", "sample", "sample", "retime", "mirror"]
+        [
+            "check", "check", "check", "check", "check", "sample", "sample", "retime", "retime",
+            "mirror"
+        ]
     );
 }
 

@@ -346,3 +346,67 @@ proptest! {
         }
     }
 }
+
+/// A key of `random_sequence` with the path time and speeds of its segment's profile.
+type ProfiledKey = ((f64, f64, usize, f64, f64), f64, Vec<f64>);
+
+/// `random_sequence`'s keys, each segment that moves along a curve given a timing profile of
+/// `path_time` and `speeds` (two zeros in a row made 0, 0.2).
+fn profiled_sequence(keys: &[ProfiledKey]) -> Sequence {
+    let plain: Vec<_> = keys.iter().map(|k| k.0).collect();
+    let mut sequence = random_sequence(&plain, false);
+    let last = sequence.keyframes.len() - 1;
+    for (i, (_, path_time, speeds)) in keys.iter().enumerate() {
+        let key = &mut sequence.keyframes[i];
+        if i == last || key.interp == Some(keypose::curve::Interp::Step) {
+            continue;
+        }
+        let mut speeds = speeds.clone();
+        for k in 1..speeds.len() {
+            if speeds[k] == 0.0 && speeds[k - 1] == 0.0 {
+                speeds[k] = 0.2;
+            }
+        }
+        key.timing = Some(keypose::sequence::SegmentTiming {
+            path_time: *path_time,
+            profile: keypose::sequence::TimeProfile::Speeds(speeds),
+        });
+    }
+    Sequence::from_json("profiled.json", &sequence.to_json()).unwrap()
+}
+
+fn profiled_key() -> impl Strategy<Value = ProfiledKey> {
+    (
+        key(),
+        0.01f64..1.0,
+        prop::collection::vec(prop_oneof![Just(0.0), 0.05f64..3.0], 2..7),
+    )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// With timing profiles (each segment's curve run at a changing path speed, a polynomial
+    /// of degree six in time) the check's peaks still bound what the player asks for at every
+    /// phase of the control period.
+    #[test]
+    fn the_exact_verdict_holds_for_timing_profiles(
+        keys in prop::collection::vec(profiled_key(), 2..6),
+        rate in prop_oneof![Just(10.0), Just(100.0), Just(1000.0)],
+        offset in 0.0f64..1.0,
+        slow in any::<bool>(),
+    ) {
+        let mut robot = Robot::builtin("so101").unwrap();
+        if slow {
+            for joint in &mut robot.joints {
+                joint.limits.velocity = 5000.0;
+                joint.limits.acceleration = 1e6;
+            }
+        }
+        let sequence = profiled_sequence(&keys);
+        let trajectory = Trajectory::build(&sequence, &robot).unwrap();
+        let report = check(&trajectory, &robot, rate);
+        let sampled = player_differences::player_extremes(&trajectory, rate, 16, offset);
+        player_differences::assert_within_report(&report, &robot, &sampled);
+    }
+}

@@ -199,3 +199,43 @@ fn a_segment_mode_and_a_joint_value_are_set_on_the_current_key_and_written() {
         })
     );
 }
+
+/// A timing profile belongs to the segment it was made for: inserting a key into that segment
+/// splits it and drops its profile (the halves move at the pace of their key times), while the
+/// other segments keep theirs; deleting a key joins two segments and drops the profile of the
+/// one before it; a step segment keeps none. Saved, the list loads again.
+#[test]
+fn edits_drop_the_timing_profiles_of_the_segments_they_change() {
+    let text = r#"{"format": "keypose-sequence/1", "robot": "so101", "keyframes": [
+        {"time": 0, "timing": {"path_time": 1, "speeds": [0, 1, 0]}, "joints": {"elbow_flex": 0}},
+        {"time": 2, "timing": {"path_time": 1, "speeds": [0, 2, 0]}, "joints": {"elbow_flex": 40}},
+        {"time": 3, "joints": {"elbow_flex": 0}}]}"#;
+    let timed = |list: &KeyframeList| -> Vec<bool> {
+        list.sequence()
+            .keyframes
+            .iter()
+            .map(|k| k.timing.is_some())
+            .collect()
+    };
+    let mut list = KeyframeList::new(Sequence::from_json("t.json", text).unwrap());
+    list.insert_at(pose(20.0), 1.0).unwrap();
+    assert_eq!(timed(&list), [false, false, true, false]);
+    let mut list = KeyframeList::new(Sequence::from_json("t.json", text).unwrap());
+    assert!(list.select(2));
+    list.delete();
+    assert_eq!(timed(&list), [true, false]);
+    let mut list = KeyframeList::new(Sequence::from_json("t.json", text).unwrap());
+    assert!(list.select(1));
+    assert!(list.set_interp(Some(Interp::Step)));
+    assert_eq!(timed(&list), [true, false, false]);
+    let again = Sequence::from_json("again.json", &list.sequence().to_json()).unwrap();
+    assert_eq!(timed(&KeyframeList::new(again)), [true, false, false]);
+    // Saved in the file's own layout, the profile left is kept as written, word for word.
+    let kept = list.sequence().to_text();
+    assert!(
+        kept.contains(r#""timing": {"path_time": 1, "speeds": [0, 1, 0]}"#),
+        "{kept}"
+    );
+    let again = Sequence::from_json("kept.json", &kept).unwrap();
+    assert!(again.same_content(list.sequence()));
+}

@@ -13,5 +13,6 @@ mod interpolation;
 mod kinematics;
 mod record_extract;
 mod record_keyframes;
+mod retime;
 mod robots;
 mod tool_keys;

@@ -13,8 +13,8 @@
 //! judges them. The arm is at rest before the window and after it, as it is after the approach
 //! ramp and at the end of playback, so a sequence that starts or ends in motion is flagged.
 
-mod cubic;
 mod period;
+mod poly;
 mod runs;
 mod spans;
 
@@ -229,6 +229,7 @@ impl Quantities {
     fn of(trajectory: &Trajectory, joint: usize, period: f64) -> Quantities {
         let curve = JointCurve::new(
             &trajectory.tracks()[joint],
+            trajectory.timing(),
             trajectory.start,
             trajectory.end,
             &trajectory.key_times,

@@ -13,7 +13,7 @@
 //! are polynomials of degree three at most between the times where one of their terms crosses a
 //! span boundary, so their worst over every phase is found exactly as the curve's own.
 
-use super::cubic::Cubic;
+use super::poly::Poly;
 use super::spans::{JointCurve, Span};
 
 /// A difference over the control period: the terms `(offset in periods, weight)` and the power
@@ -63,7 +63,7 @@ pub fn differences(
             let poly = stencil
                 .terms
                 .iter()
-                .fold(Cubic::ZERO, |sum, &(offset, weight)| {
+                .fold(Poly::ZERO, |sum, &(offset, weight)| {
                     let at = offset * period;
                     let span = curve.span_at(middle + at);
                     sum.add_scaled(&span.origin_at(u0 + at), weight)

@@ -6,16 +6,21 @@
 //! lies in one keyframe segment), gives spans on which position, velocity and acceleration are
 //! polynomials. Where two spans meet, the value may jump (the end of a step) and the slope may
 //! jump (a linear corner, a start in motion): those are the curve's discontinuities.
+//!
+//! A track runs over path time; where a segment has a timing profile, path time is a quadratic
+//! of sequence time on each piece of the profile (`plan::timing`), so the curve's polynomial
+//! there is the track's cubic of that quadratic, split at the pieces' ends too.
 
-use super::cubic::Cubic;
+use super::poly::Poly;
 use crate::curve::Track;
+use crate::plan::{Timing, TimingPiece};
 
 /// A polynomial in the seconds since `start`, on [start, end].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Span {
     pub start: f64,
     pub end: f64,
-    pub poly: Cubic,
+    pub poly: Poly,
 }
 
 impl Span {
@@ -40,7 +45,7 @@ impl Span {
     }
 
     /// The polynomial with its origin at time `t`.
-    pub fn origin_at(&self, t: f64) -> Cubic {
+    pub fn origin_at(&self, t: f64) -> Poly {
         self.poly.shifted(t - self.start)
     }
 }
@@ -65,32 +70,33 @@ pub struct JointCurve {
 }
 
 impl JointCurve {
-    /// `track` played from `start` to `end`, split at `splits` (the sequence's key times).
-    pub fn new(track: &Track<f64>, start: f64, end: f64, splits: &[f64], margin: f64) -> Self {
+    /// `track` played from `start` to `end` (sequence time, mapped to the track's path time
+    /// by `timing`), split at `splits` (the sequence's key times).
+    pub fn new(
+        track: &Track<f64>,
+        timing: &Timing,
+        start: f64,
+        end: f64,
+        splits: &[f64],
+        margin: f64,
+    ) -> Self {
         let mut played = Vec::new();
-        for (from, to, poly) in track_pieces(track) {
-            let (a, b) = (from.max(start), to.min(end));
-            if b <= a {
-                continue;
+        let pieces = track_pieces(track);
+        for window in timing_windows(timing, start, end) {
+            for (a, b, poly) in composed(&pieces, &window) {
+                push_split(&mut played, a, b, poly, splits);
             }
-            // A piece reaching to ±∞ is constant: no origin to move.
-            let poly = if from.is_finite() {
-                poly.shifted(a - from)
-            } else {
-                poly
-            };
-            push_split(&mut played, a, b, poly, splits);
         }
         // The player holds the window's end values, which a track gives at those times.
         let before = Span {
             start: start - margin,
             end: start,
-            poly: Cubic::constant(track.sample(start)),
+            poly: Poly::constant(track.sample(timing.path_time(start))),
         };
         let after = Span {
             start: end,
             end: end + margin,
-            poly: Cubic::constant(track.sample(end)),
+            poly: Poly::constant(track.sample(timing.path_time(end))),
         };
         let mut extended = Vec::with_capacity(played.len() + 2);
         extended.push(before);
@@ -143,25 +149,86 @@ impl JointCurve {
 /// The track's pieces over all time, as (from, to, polynomial from `from`): the first value
 /// before the first key, each key's hold, each segment's motion, the last value after the last
 /// key.
-fn track_pieces(track: &Track<f64>) -> Vec<(f64, f64, Cubic)> {
+fn track_pieces(track: &Track<f64>) -> Vec<(f64, f64, Poly)> {
     let times = track.times();
     let values = track.values();
     let n = times.len();
-    let mut pieces = vec![(f64::NEG_INFINITY, times[0], Cubic::constant(values[0]))];
+    let mut pieces = vec![(f64::NEG_INFINITY, times[0], Poly::constant(values[0]))];
     for i in 0..n - 1 {
         let moving = track.move_start(i);
         if moving > times[i] {
-            pieces.push((times[i], moving, Cubic::constant(values[i])));
+            pieces.push((times[i], moving, Poly::constant(values[i])));
         }
-        let poly = Cubic(track.segment_polynomial(i));
+        let poly = Poly::cubic(track.segment_polynomial(i));
         pieces.push((moving, times[i + 1], poly));
     }
-    pieces.push((times[n - 1], f64::INFINITY, Cubic::constant(values[n - 1])));
+    pieces.push((times[n - 1], f64::INFINITY, Poly::constant(values[n - 1])));
     pieces
 }
 
+/// The pieces of `timing` over [start, end], cut to it: one piece of slope 1 for the identity.
+fn timing_windows(timing: &Timing, start: f64, end: f64) -> Vec<TimingPiece> {
+    let mut cuts = vec![start, end];
+    cuts.extend(
+        timing
+            .pieces()
+            .iter()
+            .flat_map(|p| [p.t0, p.t1])
+            .filter(|&t| t > start && t < end),
+    );
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup();
+    cuts.windows(2)
+        .filter(|w| w[1] > w[0])
+        .map(|w| {
+            let middle = timing.piece_at(0.5 * (w[0] + w[1]));
+            TimingPiece {
+                t0: w[0],
+                t1: w[1],
+                u0: middle.path_time(w[0]),
+                v0: middle.speed(w[0]),
+                a: middle.a,
+            }
+        })
+        .collect()
+}
+
+/// The track's pieces (over path time) that `window` runs through, each as (from, to,
+/// polynomial from `from`) in sequence time: the piece's cubic of the window's quadratic.
+fn composed(pieces: &[(f64, f64, Poly)], window: &TimingPiece) -> Vec<(f64, f64, Poly)> {
+    let (u_a, u_b) = (window.u0, window.path_time(window.t1));
+    let first = pieces.partition_point(|p| p.1 <= u_a);
+    let mut out = Vec::new();
+    for &(from, to, poly) in pieces[first.min(pieces.len())..]
+        .iter()
+        .take_while(|p| p.0 < u_b)
+    {
+        let (lo, hi) = (from.max(u_a), to.min(u_b));
+        let a = if lo <= u_a {
+            window.t0
+        } else {
+            window.time_at(lo)
+        };
+        let b = if hi >= u_b {
+            window.t1
+        } else {
+            window.time_at(hi)
+        };
+        if b <= a {
+            continue;
+        }
+        let mut q = window.quadratic_from(a);
+        // A piece reaching to ±∞ is constant: no origin to move.
+        if from.is_finite() {
+            q[0] -= from;
+        }
+        out.push((a, b, poly.of_quadratic(q)));
+    }
+    out
+}
+
 /// Pushes [a, b] of `poly` (from a) as spans split at the `splits` inside it.
-fn push_split(spans: &mut Vec<Span>, a: f64, b: f64, poly: Cubic, splits: &[f64]) {
+fn push_split(spans: &mut Vec<Span>, a: f64, b: f64, poly: Poly, splits: &[f64]) {
     let first = splits.partition_point(|&s| s <= a);
     let mut from = a;
     for &s in splits[first..].iter().take_while(|&&s| s < b) {

@@ -1,0 +1,106 @@
+//! keypose's `retime --fastest` against TOPP-RA (the `toppra` package, run by
+//! `benches/toppra_oracle.py` in keypose's Python environment) on the same path and limits:
+//! shared by `benches/fastest.rs` and `tests/commands/fastest.rs`.
+#![allow(dead_code)]
+
+use keypose::plan::{FastestOutcome, Trajectory};
+use keypose::robot::Robot;
+use serde_json::{json, Value};
+use std::io::Write;
+use std::path::Path;
+use std::process::{Command, Stdio};
+
+/// Grid points per second of path time given to TOPP-RA: far finer than keypose's own grid, so
+/// its optimum is the path's, not a coarse grid's.
+pub const ORACLE_POINTS_PER_SECOND: f64 = 500.0;
+
+/// What TOPP-RA is asked: every run of `outcome` (the paths the arm runs without stopping),
+/// sampled with the joints' first and second derivatives along the path, and the limits.
+pub fn request(outcome: &FastestOutcome, robot: &Robot) -> Value {
+    let trajectory =
+        Trajectory::build(&outcome.sequence, robot).expect("the retimed sequence builds");
+    let stretches: Vec<Value> = outcome
+        .runs
+        .iter()
+        .map(|run| {
+            let (from, to) = run.path;
+            let n = ((to - from) * ORACLE_POINTS_PER_SECOND).ceil().max(50.0) as usize;
+            let ss: Vec<f64> = (0..=n)
+                .map(|k| {
+                    if k == n {
+                        to
+                    } else {
+                        from + (to - from) * k as f64 / n as f64
+                    }
+                })
+                .collect();
+            let per_joint =
+                |f: &dyn Fn(&keypose::curve::Track<f64>, f64, bool) -> f64| -> Vec<Vec<f64>> {
+                    ss.iter()
+                        .enumerate()
+                        .map(|(k, &s)| {
+                            trajectory
+                                .tracks()
+                                .iter()
+                                .map(|t| f(t, s, k == n))
+                                .collect()
+                        })
+                        .collect()
+                };
+            let q = per_joint(&|t, s, _| t.sample(s));
+            let qd = per_joint(&|t, s, last| if last { t.rate_before(s) } else { t.rate_at(s) });
+            let qdd = per_joint(&|t, s, last| {
+                if last {
+                    t.second_rate_before(s)
+                } else {
+                    t.second_rate_at(s)
+                }
+            });
+            let sd = run.from_rest.map(|rest| if rest { 0.0 } else { 1.0 });
+            json!({
+                "ss": ss, "q": q, "qd": qd, "qdd": qdd, "sd": sd,
+                "vlim": robot.joints.iter().map(|j| j.limits.velocity).collect::<Vec<_>>(),
+                "alim": robot.joints.iter().map(|j| j.limits.acceleration).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    json!({ "stretches": stretches })
+}
+
+/// TOPP-RA's time for each stretch of `request`, seconds, and toppra's version.
+pub fn toppra_durations(python: &Path, request: &Value) -> Result<(Vec<f64>, String), String> {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/toppra_oracle.py");
+    let mut child = Command::new(python)
+        .arg(&script)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("cannot run {}: {e}", python.display()))?;
+    child
+        .stdin
+        .take()
+        .expect("stdin")
+        .write_all(request.to_string().as_bytes())
+        .map_err(|e| e.to_string())?;
+    let output = child.wait_with_output().map_err(|e| e.to_string())?;
+    if !output.status.success() {
+        return Err(format!(
+            "{} failed ({}): {}",
+            script.display(),
+            output.status,
+            String::from_utf8_lossy(&output.stderr)
+        ));
+    }
+    let reply: Value = serde_json::from_slice(&output.stdout).map_err(|e| e.to_string())?;
+    let durations = reply["durations"]
+        .as_array()
+        .ok_or("no durations in the reply")?
+        .iter()
+        .map(|d| d.as_f64().ok_or("a duration that is not a number"))
+        .collect::<Result<Vec<f64>, _>>()?;
+    Ok((
+        durations,
+        reply["toppra"].as_str().unwrap_or("?").to_string(),
+    ))
+}

@@ -1,0 +1,87 @@
+//! `retime --fastest` against TOPP-RA: on every example of `sequences/`, the moving time keypose's
+//! timing profiles give and the time-optimal one TOPP-RA (the `toppra` package, in keypose's
+//! Python environment, run in the same process tree beside it) finds on the same path under the
+//! same velocity and acceleration limits, and their ratio. Moving time is that of the paths the
+//! profiles time (holds, steps and pauses keep their time in both). The machine's load is
+//! printed, and how long each side took to compute (a ratio of times on a shared machine).
+//!
+//! `cargo bench --bench fastest` (no criterion: one plan per example, checked exactly before
+//! anything is printed).
+
+mod common;
+#[path = "common/topp.rs"]
+mod topp;
+
+use keypose::plan::{builtin_robot_of, check, fastest, Trajectory};
+use keypose::python::PyConfig;
+use keypose::sequence::Sequence;
+use std::time::Instant;
+
+fn main() {
+    let session = common::Session::start("fastest");
+    let python = PyConfig::from_env()
+        .and_then(|config| config.ensure_python())
+        .unwrap_or_else(|e| panic!("keypose's Python environment (with toppra) is needed: {e}"))
+        .python;
+    let mut files: Vec<_> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/sequences"))
+        .expect("sequences/")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .collect();
+    files.sort();
+    println!(
+        "{:<28} {:>9} {:>9} {:>9} {:>7} {:>6} {:>9} {:>9}",
+        "example", "as keyed", "fastest", "TOPP-RA", "ratio", "rounds", "plan ms", "toppra ms"
+    );
+    let mut ratios = Vec::new();
+    let mut version = String::new();
+    for file in &files {
+        let sequence = Sequence::load(file).expect("an example loads");
+        let robot = builtin_robot_of(&sequence).expect("an example's robot is built in");
+        let rate = robot.control_hz;
+        let started = Instant::now();
+        let outcome = fastest(&sequence, &robot, rate).expect("an example retimes");
+        let plan_ms = started.elapsed().as_secs_f64() * 1e3;
+        let checked = check(
+            &Trajectory::build(&outcome.sequence, &robot).unwrap(),
+            &robot,
+            rate,
+        );
+        assert!(
+            checked.passed(),
+            "{}: {:?}",
+            file.display(),
+            checked.violations
+        );
+        let request = topp::request(&outcome, &robot);
+        let started = Instant::now();
+        let (durations, toppra) =
+            topp::toppra_durations(&python, &request).unwrap_or_else(|e| panic!("{e}"));
+        let toppra_ms = started.elapsed().as_secs_f64() * 1e3;
+        version = toppra;
+        let ours: f64 = outcome.runs.iter().map(|r| r.seconds).sum();
+        let theirs: f64 = durations.iter().sum();
+        let (keyed, _) = outcome.moving_time();
+        let ratio = ours / theirs;
+        ratios.push(ratio);
+        println!(
+            "{:<28} {:>8.3}s {:>8.3}s {:>8.3}s {:>7.3} {:>6} {:>9.1} {:>9.1}",
+            file.file_name().unwrap().to_string_lossy(),
+            keyed,
+            ours,
+            theirs,
+            ratio,
+            outcome.rounds,
+            plan_ms,
+            toppra_ms
+        );
+    }
+    println!(
+        "fastest / TOPP-RA (toppra {version}): median {:.3}, worst {:.3}, over {} examples; {}",
+        common::median(&ratios),
+        ratios.iter().cloned().fold(f64::NAN, f64::max),
+        ratios.len(),
+        session.load()
+    );
+    session.end();
+}

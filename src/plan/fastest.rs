@@ -1,0 +1,581 @@
+//! `retime --fastest`: each segment as fast as the joints' velocity and acceleration limits
+//! allow along its curve, written as timing profiles (`sequence::SegmentTiming`).
+//!
+//! The curve stays the one the keys and interpolation define over path time; only how fast it
+//! is run through changes. This is time-optimal path parameterisation as TOPP-RA does it: the
+//! path is cut into a grid; at each grid point the joints' first and second derivatives along
+//! the path turn the limits into bounds on the squared path speed x and the path acceleration
+//! (`|q'|·√x ≤ v`, `|q'·ẍ/2 + q''·x| ≤ a`); a backward pass finds, from the end, the largest x
+//! each point may have and still be brought to what the next allows, and a forward pass
+//! accelerates as hard as allowed without leaving those sets. The grid's speeds are the
+//! profile's, and between grid points the path accelerates evenly, exactly as the profile
+//! plays it.
+//!
+//! The limits hold at the grid points; between them the curve's derivatives change, so the
+//! profile is planned for a share of each limit (`FIRST_SHARE`) and the result checked exactly
+//! (`check`): a segment still over a limit gets a smaller share and the plan is made again.
+//! Keys stay where they are on the path, in order; holds stay as long and at rest; a step
+//! segment and a segment along which nothing moves (a pause between equal keys) keep their
+//! time; the played window starts and ends at rest. Between keys without a hold the path does
+//! not stop: the profile runs through them at the speed both sides allow, and through a linear
+//! corner at the speed whose velocity change the player turns within one control period.
+
+use super::{check, CheckReport, Trajectory};
+use crate::curve::{Interp, Track};
+use crate::json::InputError;
+use crate::robot::Robot;
+use crate::sequence::{Ends, SegmentTiming, Sequence, TimeProfile};
+
+/// The share of each limit a profile is planned for at first; the exact check says whether the
+/// curve between grid points needs less.
+const FIRST_SHARE: f64 = 0.995;
+/// A segment over a limit is planned again for this much less than the limit over its peak.
+const SHARE_BACKOFF: f64 = 0.98;
+const MAX_ROUNDS: usize = 40;
+/// Grid intervals per second of path time, and the fewest and most in one segment.
+const INTERVALS_PER_SECOND: f64 = 50.0;
+const MIN_INTERVALS: usize = 32;
+const MAX_INTERVALS: usize = 400;
+/// Largest squared path speed: a thousand times the speed the keys gave, where almost nothing
+/// moves.
+const MAX_SQUARED_SPEED: f64 = 1e6;
+/// A path slope below this (degrees or metres per path second) is at rest.
+const AT_REST: f64 = 1e-9;
+/// Share of a linear corner's allowance (its velocity change turned within one control period
+/// at the acceleration limit) the profile plans for: the curve's own acceleration on either
+/// side is turned in the same period.
+const CORNER_SHARE: f64 = 0.5;
+
+/// What [`fastest`] made of a sequence.
+#[derive(Debug, Clone)]
+pub struct FastestOutcome {
+    /// The sequence with timing profiles and the key times they give.
+    pub sequence: Sequence,
+    /// Plan-and-check rounds it took.
+    pub rounds: usize,
+    /// (segment, moving seconds before, after) of every segment given a profile.
+    pub segments: Vec<(usize, f64, f64)>,
+    /// The paths the arm runs from rest to rest (or from and to a segment that keeps its
+    /// time): runs of profiled segments without a hold between them.
+    pub runs: Vec<FastestRun>,
+    /// The check of the result; violations left here cannot be fixed by timing (positions,
+    /// steps).
+    pub report: CheckReport,
+}
+
+/// Profiled segments the path runs through without stopping.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FastestRun {
+    /// Its segments, `first .. end` (segment i runs from key i to key i + 1).
+    pub segments: std::ops::Range<usize>,
+    /// Path time it starts and ends ([`Trajectory::path_time`]).
+    pub path: (f64, f64),
+    /// Whether it starts and ends at rest (else at the pace of a hold or a segment beside it
+    /// in which a joint moves).
+    pub from_rest: [bool; 2],
+    /// Seconds it takes after retiming.
+    pub seconds: f64,
+}
+
+impl FastestOutcome {
+    /// Moving seconds of the profiled segments, before and after.
+    pub fn moving_time(&self) -> (f64, f64) {
+        self.segments
+            .iter()
+            .fold((0.0, 0.0), |(a, b), (_, before, after)| {
+                (a + before, b + after)
+            })
+    }
+}
+
+/// `sequence` timed as fast as `robot`'s velocity and acceleration limits allow along its path,
+/// corners judged at a control rate of `rate` Hz.
+pub fn fastest(
+    sequence: &Sequence,
+    robot: &Robot,
+    rate: f64,
+) -> Result<FastestOutcome, InputError> {
+    let mut base = sequence.clone();
+    base.make_times_absolute();
+    let trajectory = Trajectory::build(&base, robot)?;
+    let path = Path::of(&base, &trajectory);
+    let mut shares = vec![FIRST_SHARE; path.segments.len()];
+    let mut rounds = 0;
+    loop {
+        rounds += 1;
+        let speeds = path.plan(robot, &shares, 1.0 / rate);
+        let candidate = path.timed(&base, &speeds);
+        let report = check(&Trajectory::build(&candidate, robot)?, robot, rate);
+        let over = over_limits(&report);
+        let done = over
+            .iter()
+            .all(|&(i, _)| path.segments.get(i).is_none_or(|s| s.is_none()));
+        if done || rounds == MAX_ROUNDS {
+            let times = candidate.key_times();
+            let before = base.key_times();
+            let segments = (0..path.segments.len())
+                .filter(|&i| path.segments[i].is_some())
+                .map(|i| {
+                    let hold = base.keyframes[i].hold;
+                    (
+                        i,
+                        before[i + 1] - before[i] - hold,
+                        times[i + 1] - times[i] - hold,
+                    )
+                })
+                .collect();
+            let runs = path
+                .runs()
+                .into_iter()
+                .map(|(first, end)| {
+                    let grids = (path.segments[first], path.segments[end - 1]);
+                    let (Some(a), Some(b)) = grids else {
+                        unreachable!("a run is of profiled segments")
+                    };
+                    FastestRun {
+                        segments: first..end,
+                        path: (a.from, b.to),
+                        from_rest: [
+                            path.boundary(first, Side::After) == 0.0,
+                            path.boundary(end, Side::Before) == 0.0,
+                        ],
+                        seconds: times[end] - times[first] - base.keyframes[first].hold,
+                    }
+                })
+                .collect();
+            return Ok(FastestOutcome {
+                sequence: candidate,
+                rounds,
+                segments,
+                runs,
+                report,
+            });
+        }
+        for (segment, ratio) in over {
+            if let Some(share) = shares.get_mut(segment) {
+                *share *= SHARE_BACKOFF / ratio;
+            }
+        }
+    }
+}
+
+/// Each segment's worst ratio of peak to limit, for violations timing can mend.
+fn over_limits(report: &CheckReport) -> Vec<(usize, f64)> {
+    let mut out: Vec<(usize, f64)> = Vec::new();
+    for v in &report.violations {
+        if v.kind == super::LimitKind::Position || v.cause == super::Cause::Step {
+            continue;
+        }
+        let ratio = (v.peak.abs() / v.limit.abs()).max(1.0 + 1e-6);
+        match out.iter_mut().find(|(s, _)| *s == v.segment) {
+            Some(entry) => entry.1 = entry.1.max(ratio),
+            None => out.push((v.segment, ratio)),
+        }
+    }
+    out
+}
+
+/// The grid of one segment that gets a profile: its moving part in path time.
+#[derive(Debug, Clone, Copy)]
+struct Grid {
+    /// Path time the moving part starts and ends.
+    from: f64,
+    to: f64,
+    intervals: usize,
+}
+
+impl Grid {
+    fn point(&self, k: usize) -> f64 {
+        if k == self.intervals {
+            return self.to;
+        }
+        self.from + (self.to - self.from) * k as f64 / self.intervals as f64
+    }
+}
+
+/// Which segments get a profile, and the tracks their curves are on.
+struct Path<'a> {
+    trajectory: &'a Trajectory,
+    /// Per segment, its grid; `None` for one that keeps its time.
+    segments: Vec<Option<Grid>>,
+    /// Keys where the played window starts and ends.
+    window: (usize, usize),
+    /// Each key's path time and hold.
+    paths: Vec<f64>,
+    holds: Vec<f64>,
+}
+
+impl<'a> Path<'a> {
+    fn of(sequence: &Sequence, trajectory: &'a Trajectory) -> Path<'a> {
+        let paths = sequence.path_times();
+        let n = paths.len();
+        let window = match sequence.ends {
+            Ends::Played => (0, n - 1),
+            Ends::Control => (1, n - 2),
+        };
+        let segments = (0..n - 1)
+            .map(|i| {
+                let key = &sequence.keyframes[i];
+                let mode = key.interp.unwrap_or(sequence.interpolation);
+                let played = i >= window.0 && i < window.1;
+                let grid = Grid {
+                    from: paths[i] + key.hold,
+                    to: paths[i + 1],
+                    intervals: ((paths[i + 1] - paths[i] - key.hold) * INTERVALS_PER_SECOND)
+                        .ceil()
+                        .clamp(MIN_INTERVALS as f64, MAX_INTERVALS as f64)
+                        as usize,
+                };
+                let moves = (0..=grid.intervals).any(|k| {
+                    let u = grid.point(k);
+                    trajectory
+                        .tracks()
+                        .iter()
+                        .any(|t| t.rate_at(u).abs() > AT_REST || t.rate_before(u).abs() > AT_REST)
+                });
+                (played && (mode != Interp::Step || key.line) && moves).then_some(grid)
+            })
+            .collect();
+        Path {
+            trajectory,
+            segments,
+            window,
+            holds: sequence.keyframes.iter().map(|k| k.hold).collect(),
+            paths,
+        }
+    }
+
+    /// Every profiled segment's path speeds at its grid points, planned for `shares` of the
+    /// limits; `None` for the others.
+    fn plan(&self, robot: &Robot, shares: &[f64], period: f64) -> Vec<Option<Vec<f64>>> {
+        let mut out = vec![None; self.segments.len()];
+        for (first, end) in self.runs() {
+            let speeds = self.plan_run(robot, shares, period, first, end);
+            for (k, s) in speeds.into_iter().enumerate() {
+                out[first + k] = Some(s);
+            }
+        }
+        out
+    }
+
+    /// The runs of profiled segments the path goes through without stopping (no hold between
+    /// them), as `(first, end)`.
+    fn runs(&self) -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
+        let mut i = 0;
+        while i < self.segments.len() {
+            if self.segments[i].is_none() {
+                i += 1;
+                continue;
+            }
+            let mut end = i + 1;
+            while end < self.segments.len()
+                && self.segments[end].is_some()
+                && self.holds[end] == 0.0
+            {
+                end += 1;
+            }
+            out.push((i, end));
+            i = end;
+        }
+        out
+    }
+
+    /// Segments `first .. end`, one path from rest (or the speed its neighbour keeps) to rest.
+    fn plan_run(
+        &self,
+        robot: &Robot,
+        shares: &[f64],
+        period: f64,
+        first: usize,
+        end: usize,
+    ) -> Vec<Vec<f64>> {
+        let tracks = self.trajectory.tracks();
+        let mut points: Vec<Point> = Vec::new();
+        let mut steps: Vec<f64> = Vec::new();
+        let run = self.segments[first..end].iter().zip(&shares[first..end]);
+        for (offset, (grid, &share)) in run.enumerate() {
+            let grid = grid.expect("a profiled segment");
+            let step = (grid.to - grid.from) / grid.intervals as f64;
+            for k in 0..=grid.intervals {
+                let u = grid.point(k);
+                let mut rows = Vec::new();
+                if k > 0 {
+                    rows.extend(rows_at(tracks, robot, share, u, Side::Before));
+                }
+                if k < grid.intervals {
+                    rows.extend(rows_at(tracks, robot, share, u, Side::After));
+                }
+                if k == 0 && offset > 0 {
+                    // The key between two segments of the run: both sides' rows, and its
+                    // corner if the curve turns one there.
+                    let previous = points.pop().expect("the previous segment's last point");
+                    rows.extend(previous.rows);
+                    let corner = corner_bound(tracks, robot, share, u, period);
+                    points.push(Point::new(rows, corner));
+                } else {
+                    points.push(Point::new(rows, f64::INFINITY));
+                }
+                if k < grid.intervals {
+                    steps.push(step);
+                }
+            }
+        }
+        let start_speed = self.boundary(first, Side::After);
+        let end_speed = self.boundary(end, Side::Before);
+        let squared = plan_squared_speeds(&points, &steps, start_speed, end_speed);
+        // Back to per-segment lists: each segment's first point is the previous one's last.
+        let mut out = Vec::new();
+        let mut at = 0;
+        for i in first..end {
+            let intervals = self.segments[i].expect("a profiled segment").intervals;
+            out.push(
+                squared[at..=at + intervals]
+                    .iter()
+                    .map(|x| x.sqrt())
+                    .collect(),
+            );
+            at += intervals;
+        }
+        out
+    }
+
+    /// The squared path speed at key `key` from the side of the run: 0 at the window's ends
+    /// and where every joint is at rest, else 1 (the pace of the hold or the segment beside it,
+    /// which keeps its time).
+    fn boundary(&self, key: usize, side: Side) -> f64 {
+        if key == self.window.0 || key == self.window.1 {
+            return 0.0;
+        }
+        let u = match side {
+            // The run starts after the key's hold.
+            Side::After => self.paths[key] + self.holds[key],
+            Side::Before => self.paths[key],
+        };
+        let tracks = self.trajectory.tracks();
+        let moving = tracks.iter().any(|t| {
+            let rate = match side {
+                Side::After => t.rate_at(u),
+                Side::Before => t.rate_before(u),
+            };
+            rate.abs() > AT_REST
+        });
+        if moving {
+            1.0
+        } else {
+            0.0
+        }
+    }
+
+    /// `base` with the profiles of `speeds` and the key times they give (to the microsecond).
+    fn timed(&self, base: &Sequence, speeds: &[Option<Vec<f64>>]) -> Sequence {
+        let mut out = base.clone();
+        let times = base.key_times();
+        let mut time = times[0];
+        for i in 0..out.keyframes.len() {
+            out.keyframes[i].time = Some(time);
+            let Some(next) = times.get(i + 1) else {
+                break;
+            };
+            let hold = out.keyframes[i].hold;
+            let moving = match (&speeds[i], self.segments[i]) {
+                (Some(speeds), Some(grid)) => {
+                    let timing = SegmentTiming {
+                        path_time: grid.to - grid.from,
+                        profile: TimeProfile::Speeds(speeds.iter().map(|&v| written(v)).collect()),
+                    };
+                    let seconds = timing.seconds();
+                    out.keyframes[i].timing = Some(timing);
+                    seconds
+                }
+                _ => next - times[i] - hold,
+            };
+            time = ((time + hold + moving) * 1e6).round() / 1e6;
+        }
+        out
+    }
+}
+
+/// A speed as the file keeps it: six significant digits.
+fn written(v: f64) -> f64 {
+    format!("{v:.5e}").parse().unwrap_or(v)
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Side {
+    Before,
+    After,
+}
+
+/// One joint at one grid point: its slope `p` and curvature `c` along the path (per path
+/// second), and its limits times the segment's share.
+#[derive(Debug, Clone, Copy)]
+struct Row {
+    p: f64,
+    c: f64,
+    velocity: f64,
+    acceleration: f64,
+}
+
+fn rows_at(tracks: &[Track<f64>], robot: &Robot, share: f64, u: f64, side: Side) -> Vec<Row> {
+    tracks
+        .iter()
+        .zip(&robot.joints)
+        .map(|(track, joint)| {
+            let (p, c) = match side {
+                Side::After => (track.rate_at(u), track.second_rate_at(u)),
+                Side::Before => (track.rate_before(u), track.second_rate_before(u)),
+            };
+            Row {
+                p,
+                c,
+                velocity: joint.limits.velocity * share,
+                acceleration: joint.limits.acceleration * share,
+            }
+        })
+        .collect()
+}
+
+/// The largest squared path speed at which the corner at path time `u` (the slope jumping) is
+/// turned within one control period inside the acceleration limit; ∞ without a corner.
+fn corner_bound(tracks: &[Track<f64>], robot: &Robot, share: f64, u: f64, period: f64) -> f64 {
+    tracks
+        .iter()
+        .zip(&robot.joints)
+        .map(|(track, joint)| {
+            let jump = (track.rate_at(u) - track.rate_before(u)).abs();
+            if jump <= AT_REST {
+                return f64::INFINITY;
+            }
+            let allowed = CORNER_SHARE * share * joint.limits.acceleration * period / jump;
+            allowed * allowed
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// One grid point: the rows of its joints and the largest squared speed it allows.
+#[derive(Debug, Clone)]
+struct Point {
+    rows: Vec<Row>,
+    max_x: f64,
+}
+
+impl Point {
+    fn new(rows: Vec<Row>, corner: f64) -> Point {
+        let mut max_x = MAX_SQUARED_SPEED.min(corner);
+        for row in &rows {
+            if row.p.abs() > AT_REST {
+                max_x = max_x.min((row.velocity / row.p).powi(2));
+            } else if row.c.abs() > 0.0 {
+                max_x = max_x.min(row.acceleration / row.c.abs());
+            }
+        }
+        let mut point = Point { rows, max_x };
+        point.max_x = point.largest_feasible(max_x);
+        point
+    }
+
+    /// The path accelerations (d²u/dt²) the limits allow at squared speed `x`.
+    fn accelerations(&self, x: f64) -> (f64, f64) {
+        let (mut low, mut high) = (f64::NEG_INFINITY, f64::INFINITY);
+        for row in &self.rows {
+            if row.p.abs() <= AT_REST {
+                continue;
+            }
+            // |p·ü + c·x| ≤ a.
+            let a = (-row.acceleration - row.c * x) / row.p;
+            let b = (row.acceleration - row.c * x) / row.p;
+            low = low.max(a.min(b));
+            high = high.min(a.max(b));
+        }
+        (low, high)
+    }
+
+    /// The largest squared speed up to `limit` at which some path acceleration keeps every
+    /// joint inside its limit (the set of such speeds is an interval from 0).
+    fn largest_feasible(&self, limit: f64) -> f64 {
+        let feasible = |x: f64| {
+            let (low, high) = self.accelerations(x);
+            low <= high
+        };
+        if feasible(limit) {
+            return limit;
+        }
+        let (mut a, mut b) = (0.0, limit);
+        for _ in 0..100 {
+            let m = 0.5 * (a + b);
+            if feasible(m) {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        a
+    }
+}
+
+/// The constraints on one step from a grid point to the next, the path acceleration ü constant
+/// on it: every joint's at the first point at squared speed x, and at the second at
+/// x + 2·step·ü (TOPP-RA's "interpolation" discretisation: a step from rest cannot leap to a
+/// speed the second point forbids).
+fn stage(first: &Point, second: &Point, step: f64) -> Point {
+    let mut rows = first.rows.clone();
+    rows.extend(second.rows.iter().map(|r| Row {
+        p: r.p + 2.0 * step * r.c,
+        ..*r
+    }));
+    // The second point's rows bound the first point's x through ü only; its own velocity
+    // limits act on its own x (its `max_x`), so only acceleration matters here.
+    let mut point = Point {
+        rows,
+        max_x: first.max_x,
+    };
+    point.max_x = point.largest_feasible(first.max_x);
+    point
+}
+
+/// Squared path speeds at `points` (`steps` apart in path time), from `start` to `end`, as
+/// fast as the points allow: TOPP-RA's backward pass of controllable sets and its greedy
+/// forward pass, the path acceleration constant on each step.
+fn plan_squared_speeds(points: &[Point], steps: &[f64], start: f64, end: f64) -> Vec<f64> {
+    let m = points.len() - 1;
+    let stages: Vec<Point> = (0..m)
+        .map(|k| stage(&points[k], &points[k + 1], steps[k]))
+        .collect();
+    // Backward: the largest squared speed at each point from which the next point's set is
+    // reached with an allowed acceleration.
+    let mut reach = vec![0.0; m + 1];
+    reach[m] = end.min(points[m].max_x);
+    for k in (0..m).rev() {
+        let stage = &stages[k];
+        let (step, next) = (steps[k], reach[k + 1]);
+        // x + 2·step·low(x) is convex in x: the set where it is at most `next` is an interval.
+        let fits = |x: f64| {
+            let (low, high) = stage.accelerations(x);
+            low <= high && x + 2.0 * step * low <= next
+        };
+        reach[k] = if fits(stage.max_x) {
+            stage.max_x
+        } else {
+            let (mut a, mut b) = (0.0, stage.max_x);
+            for _ in 0..100 {
+                let mid = 0.5 * (a + b);
+                if fits(mid) {
+                    a = mid;
+                } else {
+                    b = mid;
+                }
+            }
+            a
+        };
+    }
+    // Forward: as hard as allowed, never leaving the controllable sets.
+    let mut x = vec![0.0; m + 1];
+    x[0] = start.min(reach[0]);
+    for k in 0..m {
+        let high = stages[k].accelerations(x[k]).1;
+        let next = x[k] + 2.0 * steps[k] * high;
+        x[k + 1] = next.min(reach[k + 1]).max(0.0);
+    }
+    x
+}

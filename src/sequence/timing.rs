@@ -1,0 +1,120 @@
+//! A segment's timing profile (`"timing"` on the key that starts it): how fast the motion runs
+//! along the curve its keys define, instead of at the pace of the key times it was shaped with.
+//!
+//! A segment's curve is defined by its keys and its interpolation over *path time*: the times
+//! its keys had when it was shaped (the file's key times for a segment without a profile). A
+//! profile keeps that curve and changes only when each point of it is reached, as an industrial
+//! controller's velocity profile along a programmed path does: `path_time` says how long the
+//! segment's moving part lasts in path time, `speeds` the path speed (path seconds per second)
+//! at evenly spaced points of it, from the end of the key's hold to the next key. Between two
+//! points the path accelerates evenly (its squared speed changes linearly along the path, as the
+//! time-optimal methods discretise it), so each stretch lasts `2·Δ / (v_k + v_k+1)`. The speeds
+//! give the shape: they are scaled by one factor so that the segment lasts what its key times
+//! give, so rounding in the file, or moving a key, never leaves the two disagreeing.
+//!
+//! The profile is an enum so that a jerk-limited (S-curve) one can join the speed samples
+//! without changing what a segment's timing is (a map from time to path time).
+
+use crate::json::{InputError, Node};
+use serde_json::{json, Value};
+
+/// Most speed samples in one segment's profile.
+pub const MAX_SPEEDS: usize = 10_000;
+
+/// How the moving part of one segment runs along its curve.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SegmentTiming {
+    /// Seconds of path time the segment's moving part spans: how long it lasted when its curve
+    /// was shaped (the curve's slopes at its keys are per second of path time).
+    pub path_time: f64,
+    /// How the path speed changes along it.
+    pub profile: TimeProfile,
+}
+
+/// The path speed along a segment.
+#[derive(Debug, Clone, PartialEq)]
+pub enum TimeProfile {
+    /// Path speeds at evenly spaced points of path time, the first at the start of the moving
+    /// part and the last at the next key (at least two); even path acceleration between them.
+    Speeds(Vec<f64>),
+}
+
+impl SegmentTiming {
+    /// Real seconds each stretch of the profile lasts at the speeds as written (before the
+    /// scaling that makes the segment last what its key times give).
+    pub fn stretch_seconds(&self) -> Vec<f64> {
+        let TimeProfile::Speeds(speeds) = &self.profile;
+        let step = self.path_time / (speeds.len() - 1) as f64;
+        speeds
+            .windows(2)
+            .map(|w| 2.0 * step / (w[0] + w[1]))
+            .collect()
+    }
+
+    /// Real seconds the profile lasts at the speeds as written.
+    pub fn seconds(&self) -> f64 {
+        self.stretch_seconds().iter().sum()
+    }
+}
+
+pub(super) fn parse(node: &Node) -> Result<SegmentTiming, InputError> {
+    node.object()?;
+    node.only_fields(&["path_time", "speeds"])?;
+    let path_node = node.require("path_time", "seconds of path time the segment spans")?;
+    let path_time = path_node.number("seconds")?;
+    if !(super::MIN_GAP..=super::MAX_TIME).contains(&path_time) {
+        return Err(path_node.expected(&format!(
+            "a path time of {} … {} s",
+            super::MIN_GAP,
+            super::MAX_TIME
+        )));
+    }
+    let speeds_node = node.require("speeds", "the path speeds along the segment")?;
+    let items = speeds_node.items()?;
+    if items.len() < 2 || items.len() > MAX_SPEEDS {
+        return Err(speeds_node.expected(&format!(
+            "2 … {MAX_SPEEDS} path speeds (one at each end of the segment at least), found {}",
+            items.len()
+        )));
+    }
+    let mut speeds = Vec::with_capacity(items.len());
+    for item in &items {
+        let v = item.number("a path speed (path seconds per second)")?;
+        if !(0.0..=1e6).contains(&v) {
+            return Err(item.expected("a path speed of 0 … 1e6 (path seconds per second)"));
+        }
+        if v == 0.0 && speeds.last() == Some(&0.0) {
+            return Err(item.error(
+                "two path speeds of 0 in a row: the motion would never get between them; \
+                 expected at most one of two neighbours at 0",
+            ));
+        }
+        speeds.push(v);
+    }
+    Ok(SegmentTiming {
+        path_time,
+        profile: TimeProfile::Speeds(speeds),
+    })
+}
+
+pub(super) fn to_value(timing: &SegmentTiming) -> Value {
+    let TimeProfile::Speeds(speeds) = &timing.profile;
+    json!({ "path_time": timing.path_time, "speeds": speeds })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_stretch_lasts_its_path_time_over_its_mean_speed() {
+        // 2 s of path time in two stretches of 1 s: from rest to 1 (mean 0.5: 2 s), then from
+        // 1 to 3 (mean 2: 0.5 s).
+        let timing = SegmentTiming {
+            path_time: 2.0,
+            profile: TimeProfile::Speeds(vec![0.0, 1.0, 3.0]),
+        };
+        assert_eq!(timing.stretch_seconds(), vec![2.0, 0.5]);
+        assert_eq!(timing.seconds(), 2.5);
+    }
+}
