@@ -1,0 +1,5 @@
+"""``python -m keypose ARGS`` runs the command line, as the ``keypose`` script does."""
+
+from ._cli import main
+
+main()
