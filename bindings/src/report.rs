@@ -1,8 +1,8 @@
 //! `keypose.Report`: what the exact check found, as `keypose check` reports it.
 
 use crate::cli::commands::check::{tool_text, tools_pass};
-use keypose::plan::{check, CheckReport, JointSummary as LibJointSummary, Trajectory};
 use keypose::plan::Violation as LibViolation;
+use keypose::plan::{check, CheckReport, JointSummary as LibJointSummary, Trajectory};
 use keypose::robot::Robot;
 use pyo3::prelude::*;
 
@@ -64,7 +64,12 @@ impl Report {
     /// How close each joint comes to its limits, in joint order.
     #[getter]
     fn joints(&self) -> Vec<JointSummary> {
-        self.report.joints.iter().cloned().map(JointSummary).collect()
+        self.report
+            .joints
+            .iter()
+            .cloned()
+            .map(JointSummary)
+            .collect()
     }
 
     /// The control rate steps and corners were judged at, Hz.

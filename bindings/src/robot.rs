@@ -71,7 +71,10 @@ impl Robot {
             }
             values
         } else {
-            let values: Vec<f64> = q.try_iter()?.map(|v| v?.extract()).collect::<PyResult<_>>()?;
+            let values: Vec<f64> = q
+                .try_iter()?
+                .map(|v| v?.extract())
+                .collect::<PyResult<_>>()?;
             if values.len() != robot.joints.len() {
                 return Err(argument_error(
                     py,
@@ -93,7 +96,10 @@ impl Robot {
         {
             return Err(argument_error(
                 py,
-                format!("{what}: {} is {value}; expected a finite number", joint.name),
+                format!(
+                    "{what}: {} is {value}; expected a finite number",
+                    joint.name
+                ),
             ));
         }
         Ok(values)
@@ -231,7 +237,10 @@ impl Robot {
                         ToolApproach::ALL.iter().map(|a| a.spelling()).collect();
                     argument_error(
                         py,
-                        format!("approach: expected one of: {}, found {text:?}", spellings.join(", ")),
+                        format!(
+                            "approach: expected one of: {}, found {text:?}",
+                            spellings.join(", ")
+                        ),
                     )
                 })
             })
@@ -248,7 +257,10 @@ impl Robot {
         };
         let target = tool_target(DVec3::from_array(position), rpy, approach);
         let chosen = solve_target(&self.robot, &target, &seed).map_err(|e| {
-            argument_error(py, format!("solve {position:?}: {}", keypose::error::Report(&e)))
+            argument_error(
+                py,
+                format!("solve {position:?}: {}", keypose::error::Report(&e)),
+            )
         })?;
         let values = chosen.solution.values;
         array(py, &values, (values.len(), None))
@@ -284,7 +296,7 @@ pub struct Limits {
 impl Limits {
     fn __repr__(&self) -> String {
         format!(
-            "Limits(min={}, max={}, velocity={}, acceleration={}, unit={:?})",
+            "Limits(min={:?}, max={:?}, velocity={:?}, acceleration={:?}, unit={:?})",
             self.min, self.max, self.velocity, self.acceleration, self.unit
         )
     }

@@ -194,7 +194,10 @@ impl Sequence {
         .map_err(|e| command_error(py, e))?;
         let columns = self.trajectory.joint_names.len();
         let times: Vec<f64> = rows.iter().map(|row| row[0]).collect();
-        let values: Vec<f64> = rows.iter().flat_map(|row| row[1..].iter().copied()).collect();
+        let values: Vec<f64> = rows
+            .iter()
+            .flat_map(|row| row[1..].iter().copied())
+            .collect();
         let t = array(py, &times, (times.len(), None))?;
         let q = array(py, &values, (rows.len(), Some(columns)))?;
         Ok((t, q))

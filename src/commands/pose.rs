@@ -137,9 +137,11 @@ pub fn tool_target(
     approach: Option<ToolApproach>,
 ) -> KeyTarget {
     let orientation = match (rpy_deg, approach) {
-        (Some([r, p, y]), _) => {
-            KeyOrientation::Full(quat_from_rpy(r.to_radians(), p.to_radians(), y.to_radians()))
-        }
+        (Some([r, p, y]), _) => KeyOrientation::Full(quat_from_rpy(
+            r.to_radians(),
+            p.to_radians(),
+            y.to_radians(),
+        )),
         (None, Some(a)) => {
             KeyOrientation::Approach(Approach::down(a == ToolApproach::DownOrTilted))
         }
