@@ -15,13 +15,10 @@ def test_the_sessions_of_docs_python_md_print_what_the_page_shows(tmp_path, monk
     blocks = [b.split("```", 1)[0] for b in text.split("```python\n")[1:]]
     sessions = [b for b in blocks if b.startswith(">>> ")]
     assert len(sessions) >= 3, "docs/python.md shows no session"
-    parser = doctest.DocTestParser()
+    # One test of the whole page: later sessions use what earlier ones made.
+    page = doctest.DocTestParser().get_doctest("\n".join(sessions), {}, "docs/python.md", None, 0)
     runner = doctest.DocTestRunner(optionflags=doctest.NORMALIZE_WHITESPACE | doctest.ELLIPSIS)
-    globs = {}
-    for number, session in enumerate(sessions):
-        name = f"docs/python.md session {number + 1}"
-        # One namespace for the page: later sessions use what earlier ones made.
-        runner.run(parser.get_doctest(session, globs, name, "docs/python.md", 0), clear_globs=False)
+    runner.run(page)
     result = runner.summarize(verbose=False)
     assert result.failed == 0, f"{result.failed} of {result.attempted} examples of docs/python.md differ (above)"
     assert (tmp_path / "pan.json").exists()

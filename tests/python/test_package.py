@@ -2,7 +2,7 @@
 `python -m keypose` running the command line."""
 
 import ast
-import inspect
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -65,3 +65,35 @@ def test_the_command_lines_exit_codes_come_through(tmp_path):
     bad.write_text("{")
     assert cli("check", bad).returncode == 2
     assert keypose_command().name == "keypose"
+
+
+def test_the_packages_version_is_the_crates():
+    text = repo("Cargo.toml").read_text()
+    package = text.split("[package]", 1)[1].split("\n[", 1)[0]
+    (line,) = [l for l in package.splitlines() if l.startswith("version")]
+    assert keypose.__version__ == line.split("=", 1)[1].strip().strip('"')
+
+
+def test_ctrl_c_stops_the_console_scripts_playback_softly():
+    # The command line handles SIGINT itself inside the Python process: the arm (emulated
+    # servos behind the real serial code) brakes along its path and the exit code is 130.
+    process = subprocess.Popen(
+        [str(keypose_command()), "play", str(repo("sequences/so101_wave.json")), "--port", "virtual"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    seen = b""
+    try:
+        # The progress line shows once playback runs; then the stop request.
+        while b"loop 1/1" not in seen:
+            chunk = process.stderr.read1(4096)
+            assert chunk, f"keypose play ended before playing: {seen.decode(errors='replace')}"
+            seen += chunk
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=600)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    said = (seen + err + out).decode(errors="replace")
+    assert process.returncode == 130, said[-2000:]
+    assert "stopped on request: the arm decelerated along its path" in said

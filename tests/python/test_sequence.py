@@ -216,3 +216,15 @@ def test_bad_arguments_are_input_errors():
         keypose.load(repo(WAVE), interpolation="spline")
     with pytest.raises(keypose.InputError, match="unknown robot|no built-in"):
         keypose.load(repo(WAVE), robot="nonesuch")
+
+
+def test_a_sequence_of_two_arms_samples_as_the_command_line_does():
+    path = repo("sequences/bimanual_wave.json")
+    sequence = keypose.load(path)
+    assert all("/" in joint for joint in sequence.joints)
+    t, q = sequence.sample(rate=50)
+    rows = np.array(json.loads(cli("sample", path, "--rate", 50, "--format", "json", check_code=0).stdout)["rows"])
+    assert np.array_equal(t, rows[:, 0]) and np.array_equal(q, rows[:, 1:])
+    # One tool per arm: the pose of "the" tool is refused, naming the arms.
+    with pytest.raises(keypose.InputError, match="several arms"):
+        sequence.robot.tool(q[0])
