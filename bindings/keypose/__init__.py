@@ -2,7 +2,7 @@
 joints' limits, sampled, retimed and saved; robots' limits and kinematics.
 
 The native module ``keypose._keypose`` is built from keypose's Rust library; this package
-re-exports it (``__init__.pyi`` has the types). docs/python.md in keypose's repository tells
+re-exports it (``_keypose.pyi`` has its types). docs/python.md in keypose's repository tells
 how to use it.
 """
 

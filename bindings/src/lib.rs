@@ -1,5 +1,5 @@
 //! keypose's Python package: the native module `keypose._keypose`, which `keypose/__init__.py`
-//! re-exports (bindings/keypose/__init__.pyi types it).
+//! re-exports (bindings/keypose/_keypose.pyi types it).
 //!
 //! It mirrors the library, not the command line: a sequence on its robot (`Sequence`: samples,
 //! the exact check, retiming, saving), a robot (`Robot`: limits, forward and inverse

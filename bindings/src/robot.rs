@@ -7,7 +7,7 @@ use crate::cli::commands::{load_robot, CalibrationArgs};
 use crate::errors::{argument_error, command_error};
 use crate::sequence::array;
 use glam::DVec3;
-use keypose::robot::Robot as LibRobot;
+use keypose::robot::{names_a_file, Robot as LibRobot};
 use keypose::sequence::ToolApproach;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -46,7 +46,13 @@ impl Robot {
             robot_id: robot_id.into_iter().collect(),
         };
         let robot = load_robot(spec, &calibration).map_err(|e| command_error(py, e))?;
-        Ok(Robot::new(robot, spec.to_string()))
+        // A sequence built in code names its robot by this; a file's relative path in a saved
+        // sequence would be read relative to the sequence's folder, so it is made absolute.
+        let spec = match names_a_file(spec) {
+            true => std::path::absolute(spec).map_or(spec.into(), |p| p.display().to_string()),
+            false => spec.to_string(),
+        };
+        Ok(Robot::new(robot, spec))
     }
 
     /// A pose from `q`: a value per joint in joint order, or a mapping of joint names to
@@ -256,7 +262,8 @@ impl Robot {
             None => self.robot.home.clone(),
         };
         let target = tool_target(DVec3::from_array(position), rpy, approach);
-        let chosen = solve_target(&self.robot, &target, &seed).map_err(|e| {
+        let chosen = py.detach(|| solve_target(&self.robot, &target, &seed));
+        let chosen = chosen.map_err(|e| {
             argument_error(
                 py,
                 format!("solve {position:?}: {}", keypose::error::Report(&e)),

@@ -185,13 +185,17 @@ impl Sequence {
             .map_err(|e| argument_error(py, format!("rate: {e}")))?;
         check_sample_budget(&self.sequence.file, &self.trajectory, rate)
             .map_err(|e| command_error(py, e))?;
-        let rows = sample::sample_rows(
-            &self.trajectory,
-            &self.robot.robot,
-            rate,
-            sample::Units::Deg,
-        )
-        .map_err(|e| command_error(py, e))?;
+        // Long sequences take a while: other Python threads run meanwhile.
+        let rows = py
+            .detach(|| {
+                sample::sample_rows(
+                    &self.trajectory,
+                    &self.robot.robot,
+                    rate,
+                    sample::Units::Deg,
+                )
+            })
+            .map_err(|e| command_error(py, e))?;
         let columns = self.trajectory.joint_names.len();
         let times: Vec<f64> = rows.iter().map(|row| row[0]).collect();
         let values: Vec<f64> = rows
@@ -208,7 +212,8 @@ impl Sequence {
         let robot = &self.robot.robot;
         check_sample_budget(&self.sequence.file, &self.trajectory, robot.control_hz)
             .map_err(|e| command_error(py, e))?;
-        Ok(Report::of(&self.trajectory, &self.sequence.file, robot))
+        let file = &self.sequence.file;
+        Ok(py.detach(|| Report::of(&self.trajectory, file, robot)))
     }
 
     /// The sequence with its key times stretched, segment by segment, until the velocity and
@@ -228,7 +233,9 @@ impl Sequence {
         let rate = limit_check_rate(None, robot);
         check_sample_budget(&self.sequence.file, &self.trajectory, rate)
             .map_err(|e| command_error(py, e))?;
-        let outcome = retime(&self.sequence, robot, rate).map_err(|e| input_error(py, &e))?;
+        let outcome = py
+            .detach(|| retime(&self.sequence, robot, rate))
+            .map_err(|e| input_error(py, &e))?;
         let retimed = Sequence::on(py, outcome.sequence, self.robot.clone())?;
         let report = retimed.check(py)?;
         if !report.passed() {

@@ -1,7 +1,6 @@
 """The installed package: its typing (the stub file and py.typed), the console script and
 `python -m keypose` running the command line."""
 
-import ast
 import signal
 import subprocess
 import sys
@@ -15,33 +14,51 @@ PACKAGE = Path(keypose.__file__).parent
 
 def test_the_package_is_typed():
     assert (PACKAGE / "py.typed").exists()
-    assert (PACKAGE / "__init__.pyi").exists()
+    assert (PACKAGE / "_keypose.pyi").exists()
 
 
-def _stub_classes():
-    tree = ast.parse((PACKAGE / "__init__.pyi").read_text())
-    classes = {}
-    functions = set()
-    for node in tree.body:
-        if isinstance(node, ast.ClassDef):
-            classes[node.name] = {
-                n.name for n in node.body if isinstance(n, ast.FunctionDef) and n.name != "__init__"
-            } | {n.target.id for n in node.body if isinstance(n, ast.AnnAssign)}
-        elif isinstance(node, ast.FunctionDef):
-            functions.add(node.name)
-    return classes, functions
+def test_the_stub_is_the_native_modules_as_mypys_stubtest_sees_it():
+    # Every name, class, method, property and parameter of keypose._keypose against the stub.
+    done = subprocess.run(
+        [sys.executable, "-m", "mypy.stubtest", "keypose"], capture_output=True, text=True, timeout=600
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
 
 
-def test_the_stub_types_every_public_name_and_nothing_else():
-    classes, functions = _stub_classes()
-    public = set(keypose.__all__) - {"__version__"}
-    assert set(classes) | functions == public
-    for name, members in classes.items():
-        cls = getattr(keypose, name)
-        if issubclass(cls, BaseException):
-            continue  # exception attributes are set on each instance
-        runtime = {m for m in dir(cls) if not m.startswith("_")}
-        assert members == runtime, name
+USER_CODE = """
+import keypose
+import numpy as np
+import numpy.typing as npt
+
+sequence: keypose.Sequence = keypose.load("wave.json", robot_id="my_follower")
+t, q = sequence.sample(rate=30)
+first: npt.NDArray[np.float64] = q[0]
+report = sequence.check()
+worst = max((v.excess for v in report.violations), default=0.0)
+arm = keypose.Robot("so101")
+joints = arm.solve([0.25, 0.0, 0.15], seed=arm.home)
+x, y, z = arm.tool(joints).xyz
+try:
+    sequence.retime().save("out.json")
+except keypose.InputError as error:
+    print(error.path, error.reason)
+"""
+
+
+def test_code_using_the_api_type_checks_and_a_wrong_call_does_not(tmp_path):
+    good = tmp_path / "good.py"
+    good.write_text(USER_CODE)
+    bad = tmp_path / "bad.py"
+    bad.write_text(USER_CODE + "sequence.sample(rate='fast')\nkeypose.Robot('so101').tool(3)\n")
+    run = lambda path: subprocess.run(
+        [sys.executable, "-m", "mypy", "--strict", "--no-incremental", str(path)],
+        capture_output=True, text=True, timeout=600,
+    )
+    checked = run(good)
+    assert checked.returncode == 0, checked.stdout + checked.stderr
+    refused = run(bad)
+    assert refused.returncode == 1, refused.stdout
+    assert refused.stdout.count("error:") == 2, refused.stdout
 
 
 def test_the_console_script_is_the_command_line():

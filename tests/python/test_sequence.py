@@ -228,3 +228,17 @@ def test_a_sequence_of_two_arms_samples_as_the_command_line_does():
     # One tool per arm: the pose of "the" tool is refused, naming the arms.
     with pytest.raises(keypose.InputError, match="several arms"):
         sequence.robot.tool(q[0])
+
+
+def test_a_sequence_built_on_a_robot_file_finds_it_again_once_saved_elsewhere(tmp_path, monkeypatch):
+    # The robot file named relative to the working directory; the sequence saved in another
+    # folder, where a relative name would be read relative to the sequence.
+    (tmp_path / "arm.json").write_text(repo("robots/so101.json").read_text())
+    monkeypatch.chdir(tmp_path)
+    robot = keypose.Robot("arm.json")
+    sequence = keypose.Sequence(robot, [{"time": 0, "joints": {"elbow_flex": 0}}, {"time": 1, "joints": {"elbow_flex": 20}}])
+    (tmp_path / "saved").mkdir()
+    sequence.save(tmp_path / "saved" / "seq.json")
+    again = keypose.load(tmp_path / "saved" / "seq.json")
+    assert again.robot.joints == robot.joints
+    assert np.array_equal(again.sample()[1], sequence.sample()[1])

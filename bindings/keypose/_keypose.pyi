@@ -1,14 +1,35 @@
-# Types of keypose's Python API (the native module keypose._keypose, re-exported here).
+# Types of the native module keypose._keypose: keypose's Python API, which keypose/__init__.py
+# re-exports (checked against the module by mypy's stubtest, tests/python/test_package.py).
 from os import PathLike
-from typing import Any, Dict, List, Literal, Mapping, Optional, Sequence as Seq, Tuple, Union
+from typing import Any, Dict, List, Literal, Mapping, Optional, Sequence as Seq, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
+__all__ = [
+    "cli_main",
+    "load",
+    "Sequence",
+    "Report",
+    "Violation",
+    "JointSummary",
+    "Robot",
+    "Limits",
+    "ToolPose",
+    "Error",
+    "InputError",
+    "HardwareError",
+    "LimitError",
+    "__version__",
+]
+
 __version__: str
 
+def cli_main(argv: List[str]) -> int:
+    """Runs the `keypose` command line with `argv` (the program's name first); its exit code."""
+
 _Path = Union[str, "PathLike[str]"]
-_Pose = Union[Seq[float], Mapping[str, float], npt.ArrayLike]
+_Pose = Union[Seq[float], Mapping[str, float], npt.NDArray[np.float64]]
 
 class Error(Exception):
     """Every error keypose raises: the message is what the command line prints after `error: `."""
@@ -48,17 +69,19 @@ def load(
     robot the file names; a LeRobot calibration from a file or from the id LeRobot calibrated
     the arm with is applied to it."""
 
+# Native classes: not to be subclassed.
+@final
 class Sequence:
     """A sequence on its robot (calibration applied)."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         robot: Union[str, Robot],
         keys: Seq[Mapping[str, Any]],
         *,
         interpolation: Literal["step", "linear", "cubic", "monotone"] = "cubic",
         description: Optional[str] = None,
-    ) -> None:
+    ) -> Sequence:
         """A sequence built from keys in code, each a dict as a sequence file writes a keyframe
         (`{"time": 1.0, "joints": {"elbow_flex": 30}}`); errors name `<keys>` and the JSON path
         `$.keyframes[i]…` of the key."""
@@ -97,6 +120,7 @@ class Sequence:
         """Writes the sequence atomically, in the layout of the file it was read from."""
     def to_json(self) -> str: ...
 
+@final
 class Report:
     """What the exact check found."""
 
@@ -113,6 +137,7 @@ class Report:
     def text(self) -> str:
         """The report as `keypose check` prints it."""
 
+@final
 class Violation:
     """One stretch of time where a joint exceeds a limit."""
 
@@ -142,6 +167,7 @@ class Violation:
     @property
     def excess(self) -> float: ...
 
+@final
 class JointSummary:
     """How close one joint comes to its limits."""
 
@@ -162,6 +188,7 @@ class JointSummary:
     @property
     def acceleration_limit(self) -> float: ...
 
+@final
 class Limits:
     """A joint's limits in its unit and per second."""
 
@@ -176,6 +203,7 @@ class Limits:
     @property
     def unit(self) -> Literal["deg", "m"]: ...
 
+@final
 class ToolPose:
     """Where the tool is: metres and URDF roll, pitch, yaw in degrees, base frame."""
 
@@ -184,16 +212,17 @@ class ToolPose:
     @property
     def rpy(self) -> Tuple[float, float, float]: ...
 
+@final
 class Robot:
     """An arm: a built-in, a LeRobot robot type or a robot file, calibration applied."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         name_or_path: str,
         *,
         calibration: Optional[_Path] = None,
         robot_id: Optional[str] = None,
-    ) -> None: ...
+    ) -> Robot: ...
     @property
     def name(self) -> str: ...
     @property
