@@ -17,10 +17,12 @@ def test_the_package_is_typed():
     assert (PACKAGE / "_keypose.pyi").exists()
 
 
-def test_the_stub_is_the_native_modules_as_mypys_stubtest_sees_it():
-    # Every name, class, method, property and parameter of keypose._keypose against the stub.
+def test_the_stub_is_the_native_modules_as_mypys_stubtest_sees_it(tmp_path):
+    # Every name, class, method, property and parameter of keypose._keypose against the stub
+    # (mypy's cache goes to the test's own folder).
     done = subprocess.run(
-        [sys.executable, "-m", "mypy.stubtest", "keypose"], capture_output=True, text=True, timeout=600
+        [sys.executable, "-m", "mypy.stubtest", "keypose"],
+        capture_output=True, text=True, timeout=600, cwd=tmp_path,
     )
     assert done.returncode == 0, done.stdout + done.stderr
 
@@ -52,7 +54,7 @@ def test_code_using_the_api_type_checks_and_a_wrong_call_does_not(tmp_path):
     bad.write_text(USER_CODE + "sequence.sample(rate='fast')\nkeypose.Robot('so101').tool(3)\n")
     run = lambda path: subprocess.run(
         [sys.executable, "-m", "mypy", "--strict", "--no-incremental", str(path)],
-        capture_output=True, text=True, timeout=600,
+        capture_output=True, text=True, timeout=600, cwd=tmp_path,
     )
     checked = run(good)
     assert checked.returncode == 0, checked.stdout + checked.stderr
