@@ -1,9 +1,14 @@
 //! The `keypose` command line: parse arguments, run the verb, map the outcome to an exit code.
+//!
+//! The Python package (bindings/) compiles this file too, as a module: its `keypose` console
+//! script calls [`run`] with the script's arguments, and its API reuses the verbs' loading of
+//! sequences, robots and calibrations so that its errors say what the command line says.
 
-mod commands;
+pub(crate) mod commands;
 
 use clap::{Parser, Subcommand};
 use commands::{CommandError, Verdict};
+use std::ffi::OsString;
 use std::process::ExitCode;
 
 #[derive(Debug, Parser)]
@@ -100,7 +105,20 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    ExitCode::from(run(std::env::args_os()))
+}
+
+/// Runs the command line `args` (the program's name first) and returns its exit code.
+pub fn run(args: impl IntoIterator<Item = OsString>) -> u8 {
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        // Help, the version and usage errors are printed as `Cli::parse` prints them, with its
+        // exit codes (0, or 2 for a usage error).
+        Err(error) => {
+            let _ = error.print();
+            return error.exit_code() as u8;
+        }
+    };
     commands::set_verbose(cli.verbose);
     let result: Result<Verdict, CommandError> = match &cli.command {
         Command::Check(args) => commands::check::run(args),
@@ -141,5 +159,5 @@ fn main() -> ExitCode {
             error.exit_code()
         }
     };
-    ExitCode::from(code as u8)
+    code as u8
 }

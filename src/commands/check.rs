@@ -63,7 +63,7 @@ pub fn run(args: &CheckArgs) -> Result<Verdict, CommandError> {
 }
 
 /// Whether every tool key is oriented within `tolerance` and every line can be followed.
-fn tools_pass(tools: &ToolSolve, tolerance: f64) -> bool {
+pub fn tools_pass(tools: &ToolSolve, tolerance: f64) -> bool {
     tools.keys.iter().all(|k| residual_max(k) <= tolerance)
         && tools.lines.iter().all(|l| l.problem.is_none())
 }
@@ -74,7 +74,7 @@ fn residual_max(key: &ToolKeyReport) -> f64 {
 
 /// The tool keys (orientation residual, approach, smallest margin) and the lines, one line
 /// each ("" without any).
-fn tool_text(tools: &ToolSolve, tolerance: f64, robot: &Robot, result: &CheckReport) -> String {
+pub fn tool_text(tools: &ToolSolve, tolerance: f64, robot: &Robot, result: &CheckReport) -> String {
     let mut out = String::new();
     for key in &tools.keys {
         if let Some(r) = key.residual_deg {

@@ -7,7 +7,7 @@ use super::{write_output, BusArgs, CommandError, RobotArgs, Verdict};
 use glam::DVec3;
 use keypose::collision::CollisionModel;
 use keypose::kinematics::{
-    tool_joints, Approach, Chosen, KeyOrientation, KeyTarget, Preference, Solver, COMFORT,
+    tool_joints, Approach, Chosen, IkError, KeyOrientation, KeyTarget, Preference, Solver, COMFORT,
 };
 use keypose::pose::{quat_from_rpy, rpy_from_quat};
 use keypose::robot::{Joint, JointKind, Robot};
@@ -129,6 +129,43 @@ pub fn run(args: &PoseArgs) -> Result<Verdict, CommandError> {
     })
 }
 
+/// The target of a tool at `position` (metres, base frame): oriented by ROLL, PITCH, YAW in
+/// degrees (URDF's, as this command prints them), pointing as `approach` says, or free.
+pub fn tool_target(
+    position: DVec3,
+    rpy_deg: Option<[f64; 3]>,
+    approach: Option<ToolApproach>,
+) -> KeyTarget {
+    let orientation = match (rpy_deg, approach) {
+        (Some([r, p, y]), _) => KeyOrientation::Full(quat_from_rpy(
+            r.to_radians(),
+            p.to_radians(),
+            y.to_radians(),
+        )),
+        (None, Some(a)) => {
+            KeyOrientation::Approach(Approach::down(a == ToolApproach::DownOrTilted))
+        }
+        (None, None) => KeyOrientation::Free,
+    };
+    KeyTarget {
+        position,
+        orientation,
+    }
+}
+
+/// The joints for `target`, solved as a sequence's tool key is from `seed` (every joint,
+/// robot order): clear of the floor and the arm itself, away from the limits, then near `seed`.
+pub fn solve_target(robot: &Robot, target: &KeyTarget, seed: &[f64]) -> Result<Chosen, IkError> {
+    let held = vec![false; robot.joints.len()];
+    let collision = CollisionModel::for_robot(robot);
+    let preference = Preference {
+        seed,
+        held: &held,
+        collision: collision.as_ref(),
+    };
+    Solver::for_robot(robot).solve_key(robot, target, &preference)
+}
+
 /// A tool target from `--tool` and its solution.
 struct Solved {
     target: KeyTarget,
@@ -180,15 +217,9 @@ fn solve_tool(
         .map(|n| n.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
         .collect::<Option<_>>()
         .ok_or_else(|| usage("expected numbers separated by commas".into()))?;
+    let position = |x, y, z| DVec3::new(x, y, z);
     let target = match (&numbers[..], approach) {
-        (&[x, y, z], None) => KeyTarget {
-            position: DVec3::new(x, y, z),
-            orientation: KeyOrientation::Free,
-        },
-        (&[x, y, z], Some(a)) => KeyTarget {
-            position: DVec3::new(x, y, z),
-            orientation: KeyOrientation::Approach(Approach::down(a == ToolApproach::DownOrTilted)),
-        },
+        (&[x, y, z], approach) => tool_target(position(x, y, z), None, approach),
         (&[_, _, _, _, _, _], Some(_)) => {
             return Err(usage(
                 "--approach says which way the tool points, and so do ROLL,PITCH,YAW: give one"
@@ -201,14 +232,7 @@ fn solve_tool(
                  ±360; found {r}, {p}, {yaw}"
             )))
         }
-        (&[x, y, z, r, p, yaw], None) => KeyTarget {
-            position: DVec3::new(x, y, z),
-            orientation: KeyOrientation::Full(quat_from_rpy(
-                r.to_radians(),
-                p.to_radians(),
-                yaw.to_radians(),
-            )),
-        },
+        (&[x, y, z, r, p, yaw], None) => tool_target(position(x, y, z), Some([r, p, yaw]), None),
         _ => {
             return Err(usage(format!(
                 "expected X,Y,Z (metres) or X,Y,Z,ROLL,PITCH,YAW (degrees), found {} numbers",
@@ -216,22 +240,12 @@ fn solve_tool(
             )))
         }
     };
-    let solver = Solver::for_robot(robot);
-    let held = vec![false; robot.joints.len()];
-    let collision = CollisionModel::for_robot(robot);
-    let preference = Preference {
-        seed: &seed.values,
-        held: &held,
-        collision: collision.as_ref(),
-    };
-    let chosen = solver
-        .solve_key(robot, &target, &preference)
-        .map_err(|e| usage(e.to_string()))?;
+    let chosen = solve_target(robot, &target, &seed.values).map_err(|e| usage(e.to_string()))?;
     let pose = Pose {
         values: chosen.solution.values.clone(),
         given: tool_joints(robot),
     };
-    let closed_form = solver.is_closed_form();
+    let closed_form = Solver::for_robot(robot).is_closed_form();
     Ok((
         pose,
         Some(Solved {
@@ -381,7 +395,7 @@ fn parse_assignment(robot: &Robot, text: &str) -> Result<(usize, f64), CommandEr
 }
 
 /// The tool frame at `values`: position (m) and URDF roll-pitch-yaw (degrees), base frame.
-fn tool(robot: &Robot, values: &[f64]) -> ([f64; 3], [f64; 3]) {
+pub fn tool(robot: &Robot, values: &[f64]) -> ([f64; 3], [f64; 3]) {
     let frame = robot.tcp_frame(values);
     let (roll, pitch, yaw) = rpy_from_quat(frame.r);
     (

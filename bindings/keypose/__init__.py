@@ -1,0 +1,39 @@
+"""keypose from Python: sequences of keyframes on robot arms, checked exactly against the
+joints' limits, sampled, retimed and saved; robots' limits and kinematics.
+
+The native module ``keypose._keypose`` is built from keypose's Rust library; this package
+re-exports it (``_keypose.pyi`` has its types). docs/python.md in keypose's repository tells
+how to use it.
+"""
+
+from ._keypose import (
+    Error,
+    HardwareError,
+    InputError,
+    JointSummary,
+    LimitError,
+    Limits,
+    Report,
+    Robot,
+    Sequence,
+    ToolPose,
+    Violation,
+    __version__,
+    load,
+)
+
+__all__ = [
+    "Error",
+    "HardwareError",
+    "InputError",
+    "JointSummary",
+    "LimitError",
+    "Limits",
+    "Report",
+    "Robot",
+    "Sequence",
+    "ToolPose",
+    "Violation",
+    "__version__",
+    "load",
+]

@@ -1,0 +1,254 @@
+//! `keypose.Report`: what the exact check found, as `keypose check` reports it.
+
+use crate::cli::commands::check::{tool_text, tools_pass};
+use keypose::plan::Violation as LibViolation;
+use keypose::plan::{check, CheckReport, JointSummary as LibJointSummary, Trajectory};
+use keypose::robot::Robot;
+use pyo3::prelude::*;
+
+/// The largest orientation a tool key may miss by, degrees: `keypose check`'s default.
+const ORIENTATION_TOLERANCE_DEG: f64 = 2.0;
+
+/// The check of a sequence: every violation, each joint's peaks, and whether it passed (as
+/// `keypose check`'s exit code says: limits kept, and every tool key oriented and every tool
+/// line followed).
+#[pyclass(module = "keypose", name = "Report", frozen)]
+pub struct Report {
+    report: CheckReport,
+    passed: bool,
+    text: String,
+}
+
+impl Report {
+    /// The check of `trajectory` on `robot` at the robot's control rate, as `keypose check`
+    /// makes it; `file` names the sequence in the text.
+    pub fn of(trajectory: &Trajectory, file: &str, robot: &Robot) -> Report {
+        let report = check(trajectory, robot, robot.control_hz);
+        let tools = &trajectory.tools;
+        let passed = report.passed() && tools_pass(tools, ORIENTATION_TOLERANCE_DEG);
+        let text = keypose::report::check_text(&report, file, robot)
+            + &tool_text(tools, ORIENTATION_TOLERANCE_DEG, robot, &report);
+        Report {
+            report,
+            passed,
+            text,
+        }
+    }
+
+    /// How many violations there are.
+    pub fn violation_count(&self) -> usize {
+        self.report.violations.len()
+    }
+
+    /// One line per violation.
+    pub fn violation_lines(&self) -> Vec<String> {
+        self.report.violations.iter().map(describe).collect()
+    }
+}
+
+#[pymethods]
+impl Report {
+    /// Whether the sequence keeps every limit (and its tool keys and lines hold).
+    #[getter]
+    pub fn passed(&self) -> bool {
+        self.passed
+    }
+
+    /// Every stretch of time where a joint exceeds a limit, joint by joint.
+    #[getter]
+    fn violations(&self) -> Vec<Violation> {
+        let to = |v: &LibViolation| Violation(v.clone());
+        self.report.violations.iter().map(to).collect()
+    }
+
+    /// How close each joint comes to its limits, in joint order.
+    #[getter]
+    fn joints(&self) -> Vec<JointSummary> {
+        self.report
+            .joints
+            .iter()
+            .cloned()
+            .map(JointSummary)
+            .collect()
+    }
+
+    /// The control rate steps and corners were judged at, Hz.
+    #[getter]
+    fn rate(&self) -> f64 {
+        self.report.rate
+    }
+
+    /// The report as `keypose check` prints it.
+    #[getter]
+    fn text(&self) -> String {
+        self.text.clone()
+    }
+
+    fn __str__(&self) -> String {
+        self.text.clone()
+    }
+
+    fn __repr__(&self) -> String {
+        let verdict = if self.passed { "passed" } else { "failed" };
+        format!(
+            "<keypose.Report {verdict}: {} violation(s)>",
+            self.report.violations.len()
+        )
+    }
+}
+
+/// A violation in one line: joint, limit, how far past, where and what from.
+fn describe(v: &LibViolation) -> String {
+    let per = match v.kind {
+        keypose::plan::LimitKind::Position => "",
+        keypose::plan::LimitKind::Velocity => "/s",
+        keypose::plan::LimitKind::Acceleration => "/s²",
+    };
+    format!(
+        "{} {} {:.3} {}{per} vs limit {:.3} {}{per} in segment {} ({}) at t = {:.3} s ({})",
+        v.joint,
+        v.kind.name(),
+        v.peak,
+        v.unit,
+        v.limit,
+        v.unit,
+        v.segment,
+        v.segment_label,
+        v.peak_time,
+        v.cause.name()
+    )
+}
+
+/// One stretch of time where a joint exceeds a limit.
+#[pyclass(module = "keypose", name = "Violation", frozen)]
+pub struct Violation(LibViolation);
+
+#[pymethods]
+impl Violation {
+    /// The joint's name.
+    #[getter]
+    fn joint(&self) -> String {
+        self.0.joint.clone()
+    }
+    /// "position", "velocity" or "acceleration".
+    #[getter]
+    fn kind(&self) -> &'static str {
+        self.0.kind.name()
+    }
+    /// What the worst value comes from: "curve", "step" or "corner".
+    #[getter]
+    fn cause(&self) -> &'static str {
+        self.0.cause.name()
+    }
+    /// "deg" or "m" (velocities per s, accelerations per s²).
+    #[getter]
+    fn unit(&self) -> &'static str {
+        self.0.unit
+    }
+    /// The segment, from key `segment` to key `segment + 1`.
+    #[getter]
+    fn segment(&self) -> usize {
+        self.0.segment
+    }
+    /// "from → to": the names of the segment's keys.
+    #[getter]
+    fn segment_label(&self) -> String {
+        self.0.segment_label.clone()
+    }
+    /// Sequence time the violation starts, seconds.
+    #[getter]
+    fn start(&self) -> f64 {
+        self.0.from
+    }
+    /// Sequence time it ends, seconds.
+    #[getter]
+    fn end(&self) -> f64 {
+        self.0.to
+    }
+    /// Sequence time of the worst point, seconds.
+    #[getter]
+    fn peak_time(&self) -> f64 {
+        self.0.peak_time
+    }
+    /// The worst value (signed).
+    #[getter]
+    fn peak(&self) -> f64 {
+        self.0.peak
+    }
+    /// The limit it crosses (signed).
+    #[getter]
+    fn limit(&self) -> f64 {
+        self.0.limit
+    }
+    /// How far past the limit the worst value is (positive).
+    #[getter]
+    fn excess(&self) -> f64 {
+        self.0.excess
+    }
+    fn __repr__(&self) -> String {
+        format!("<keypose.Violation {}>", describe(&self.0))
+    }
+    fn __str__(&self) -> String {
+        describe(&self.0)
+    }
+}
+
+/// How close one joint comes to its limits.
+#[pyclass(module = "keypose", name = "JointSummary", frozen)]
+pub struct JointSummary(LibJointSummary);
+
+#[pymethods]
+impl JointSummary {
+    /// The joint's name.
+    #[getter]
+    fn joint(&self) -> String {
+        self.0.joint.clone()
+    }
+    /// "deg" or "m".
+    #[getter]
+    fn unit(&self) -> &'static str {
+        self.0.unit
+    }
+    /// Lowest position over the played window.
+    #[getter]
+    fn min_position(&self) -> f64 {
+        self.0.min_position
+    }
+    /// Highest position over the played window.
+    #[getter]
+    fn max_position(&self) -> f64 {
+        self.0.max_position
+    }
+    /// Largest speed, per second.
+    #[getter]
+    fn peak_velocity(&self) -> f64 {
+        self.0.peak_velocity
+    }
+    /// The joint's velocity limit, per second.
+    #[getter]
+    fn velocity_limit(&self) -> f64 {
+        self.0.velocity_limit
+    }
+    /// Largest acceleration, per second squared.
+    #[getter]
+    fn peak_acceleration(&self) -> f64 {
+        self.0.peak_acceleration
+    }
+    /// The joint's acceleration limit, per second squared.
+    #[getter]
+    fn acceleration_limit(&self) -> f64 {
+        self.0.acceleration_limit
+    }
+    fn __repr__(&self) -> String {
+        let s = &self.0;
+        format!(
+            "<keypose.JointSummary {}: {:.2} … {:.2} {u}, peak {:.1} {u}/s, {:.1} {u}/s²>",
+            s.joint,
+            s.min_position,
+            s.max_position,
+            s.peak_velocity,
+            s.peak_acceleration,
+            u = s.unit
+        )
+    }
+}

@@ -1,0 +1,295 @@
+//! `keypose.Sequence` and `keypose.load`: a sequence on its robot, its samples, its check,
+//! retiming and saving, each through the library (and the verbs' loading, for the same
+//! messages as `keypose check FILE`).
+
+use crate::cli::commands::{
+    check_sample_budget, limit_check_rate, sample, CalibrationArgs, SequenceOptions,
+};
+use crate::errors::{argument_error, command_error, input_error, LimitError};
+use crate::report::Report;
+use crate::robot::Robot;
+use keypose::curve::Interp;
+use keypose::plan::{retime, Trajectory};
+use keypose::sequence::Sequence as LibSequence;
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+use std::path::PathBuf;
+
+/// What a sequence built from keys in code is called in messages.
+const KEYS_FILE: &str = "<keys>";
+
+/// A sequence on its robot (calibration applied), and the trajectory they make.
+#[pyclass(module = "keypose", name = "Sequence", frozen)]
+pub struct Sequence {
+    sequence: LibSequence,
+    robot: Robot,
+    trajectory: Trajectory,
+}
+
+impl Sequence {
+    /// The sequence on `robot`, its trajectory built (which checks its keys against the
+    /// robot's joints).
+    fn on(py: Python<'_>, sequence: LibSequence, robot: Robot) -> PyResult<Sequence> {
+        let trajectory =
+            Trajectory::build(&sequence, &robot.robot).map_err(|e| input_error(py, &e))?;
+        Ok(Sequence {
+            sequence,
+            robot,
+            trajectory,
+        })
+    }
+}
+
+/// Reads a sequence file (keypose-sequence/1) and its robot, as `keypose check FILE` does:
+/// the robot the file names (a built-in, a LeRobot type, or a robot file relative to the
+/// sequence) or `robot`, with a LeRobot calibration from `calibration` (a file) or `robot_id`
+/// (the id LeRobot calibrated the arm with).
+#[pyfunction]
+#[pyo3(signature = (path, *, robot = None, calibration = None, robot_id = None, interpolation = None))]
+pub fn load(
+    py: Python<'_>,
+    path: PathBuf,
+    robot: Option<String>,
+    calibration: Option<PathBuf>,
+    robot_id: Option<String>,
+    interpolation: Option<String>,
+) -> PyResult<Sequence> {
+    let options = SequenceOptions {
+        robot,
+        calibration: CalibrationArgs {
+            calibration: calibration
+                .into_iter()
+                .map(|p| p.to_string_lossy().into_owned())
+                .collect(),
+            robot_id: robot_id.into_iter().collect(),
+        },
+        interpolation: interpolation.map(|m| parse_interp(py, &m)).transpose()?,
+    };
+    let (sequence, robot) = options.load(&path).map_err(|e| command_error(py, e))?;
+    let spec = sequence.robot.clone();
+    Sequence::on(py, sequence, Robot::new(robot, spec))
+}
+
+/// An interpolation mode by name, as the sequence format and `--interpolation` spell it.
+fn parse_interp(py: Python<'_>, name: &str) -> PyResult<Interp> {
+    Interp::parse(name).ok_or_else(|| {
+        argument_error(
+            py,
+            format!("interpolation: expected one of step, linear, cubic, monotone, found {name:?}"),
+        )
+    })
+}
+
+#[pymethods]
+impl Sequence {
+    /// A sequence built from keys in code: each key a dict as a sequence file writes a
+    /// keyframe (`{"time": 1.0, "joints": {"elbow_flex": 30}}`, with `"name"`, `"hold"`,
+    /// `"interp"`, `"tool"` …), checked as a file's keys are; errors name `<keys>` and the
+    /// key's path (`$.keyframes[1].joints.elbow_flex`).
+    #[new]
+    #[pyo3(signature = (robot, keys, *, interpolation = "cubic", description = None))]
+    fn new(
+        py: Python<'_>,
+        robot: &Bound<'_, PyAny>,
+        keys: &Bound<'_, PyAny>,
+        interpolation: &str,
+        description: Option<String>,
+    ) -> PyResult<Sequence> {
+        let robot = match robot.cast::<Robot>() {
+            Ok(given) => given.get().clone(),
+            Err(_) => Robot::named(py, &robot.extract::<String>()?, None, None)?,
+        };
+        let keys_text: String = py
+            .import("json")?
+            .call_method1("dumps", (keys,))?
+            .extract()?;
+        let keys: serde_json::Value = serde_json::from_str(&keys_text)
+            .map_err(|e| argument_error(py, format!("keys: {e}")))?;
+        let mut file = serde_json::json!({
+            "format": "keypose-sequence/1",
+            "robot": robot.spec,
+            "interpolation": interpolation,
+        });
+        if let Some(text) = description {
+            file["description"] = text.into();
+        }
+        file["keyframes"] = keys;
+        let sequence = LibSequence::from_json(KEYS_FILE, &file.to_string())
+            .map_err(|e| input_error(py, &e))?;
+        Sequence::on(py, sequence, robot)
+    }
+
+    /// The joints' names, in the order of the columns of `sample`'s q (`ARM/JOINT` on a
+    /// sequence of several arms).
+    #[getter]
+    fn joints(&self) -> Vec<String> {
+        self.trajectory.joint_names.clone()
+    }
+
+    /// The robot the sequence plays on, its calibration applied.
+    #[getter]
+    fn robot(&self) -> Robot {
+        self.robot.clone()
+    }
+
+    /// The file it was read from (`<keys>` when built in code).
+    #[getter]
+    fn file(&self) -> String {
+        self.sequence.file.clone()
+    }
+
+    /// The interpolation of segments that do not set their own.
+    #[getter]
+    fn interpolation(&self) -> &'static str {
+        self.sequence.interpolation.name()
+    }
+
+    /// Sequence time of the first played key, seconds.
+    #[getter]
+    fn start(&self) -> f64 {
+        self.trajectory.start()
+    }
+
+    /// Sequence time of the last played key, seconds.
+    #[getter]
+    fn end(&self) -> f64 {
+        self.trajectory.end
+    }
+
+    /// Every key's time, seconds.
+    #[getter]
+    fn key_times(&self) -> Vec<f64> {
+        self.sequence.key_times()
+    }
+
+    /// The keys as a sequence file writes them (a list of dicts).
+    #[getter]
+    fn keys<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let file = py
+            .import("json")?
+            .call_method1("loads", (self.sequence.to_json(),))?;
+        file.get_item("keyframes")
+    }
+
+    /// The trajectory at `rate` Hz from the first to the last played key: `(t, q)`, t of shape
+    /// (n,) in seconds, q of shape (n, len(joints)) in the joints' units (degrees; metres for
+    /// a prismatic joint), as `keypose sample --rate RATE` writes them.
+    #[pyo3(signature = (rate = 100.0))]
+    fn sample<'py>(
+        &self,
+        py: Python<'py>,
+        rate: f64,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        // The command line's rule for --rate, given the number's exact text.
+        let rate = crate::cli::commands::parse_rate(&rate.to_string())
+            .map_err(|e| argument_error(py, format!("rate: {e}")))?;
+        check_sample_budget(&self.sequence.file, &self.trajectory, rate)
+            .map_err(|e| command_error(py, e))?;
+        // Long sequences take a while: other Python threads run meanwhile.
+        let rows = py
+            .detach(|| {
+                sample::sample_rows(
+                    &self.trajectory,
+                    &self.robot.robot,
+                    rate,
+                    sample::Units::Deg,
+                )
+            })
+            .map_err(|e| command_error(py, e))?;
+        let columns = self.trajectory.joint_names.len();
+        let times: Vec<f64> = rows.iter().map(|row| row[0]).collect();
+        let values: Vec<f64> = rows
+            .iter()
+            .flat_map(|row| row[1..].iter().copied())
+            .collect();
+        let t = array(py, &times, (times.len(), None))?;
+        let q = array(py, &values, (rows.len(), Some(columns)))?;
+        Ok((t, q))
+    }
+
+    /// The exact check against the joints' limits, as `keypose check` makes it.
+    fn check(&self, py: Python<'_>) -> PyResult<Report> {
+        let robot = &self.robot.robot;
+        check_sample_budget(&self.sequence.file, &self.trajectory, robot.control_hz)
+            .map_err(|e| command_error(py, e))?;
+        let file = &self.sequence.file;
+        Ok(py.detach(|| Report::of(&self.trajectory, file, robot)))
+    }
+
+    /// The sequence with its key times stretched, segment by segment, until the velocity and
+    /// acceleration limits hold, as `keypose retime` writes it. Raises `LimitError` (its
+    /// `report` the retimed sequence's check) where timing cannot mend the motion: positions
+    /// outside the limits, steps.
+    #[pyo3(signature = (fastest = false))]
+    fn retime(&self, py: Python<'_>, fastest: bool) -> PyResult<Sequence> {
+        if fastest {
+            return Err(pyo3::exceptions::PyNotImplementedError::new_err(
+                "retime(fastest=True): this build of keypose has no time-optimal retiming \
+                 (`keypose retime --fastest`) yet; retime() stretches the given timing until the \
+                 limits hold",
+            ));
+        }
+        let robot = &self.robot.robot;
+        let rate = limit_check_rate(None, robot);
+        check_sample_budget(&self.sequence.file, &self.trajectory, rate)
+            .map_err(|e| command_error(py, e))?;
+        let outcome = py
+            .detach(|| retime(&self.sequence, robot, rate))
+            .map_err(|e| input_error(py, &e))?;
+        let retimed = Sequence::on(py, outcome.sequence, self.robot.clone())?;
+        let report = retimed.check(py)?;
+        if !report.passed() {
+            let err = LimitError::new_err(format!(
+                "{}: {} violation(s) cannot be fixed by retiming (positions outside limits, or \
+                 step jumps): {}",
+                self.sequence.file,
+                report.violation_count(),
+                report.violation_lines().join("; ")
+            ));
+            let _ = err.value(py).setattr("report", Py::new(py, report)?);
+            return Err(err);
+        }
+        Ok(retimed)
+    }
+
+    /// Writes the sequence to `path` atomically, in the layout of the file it was read from
+    /// (every value nobody changed as it was written).
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        self.sequence.save(&path).map_err(|e| input_error(py, &e))
+    }
+
+    /// The sequence as keypose-sequence/1 JSON text, in the canonical layout.
+    fn to_json(&self) -> String {
+        self.sequence.to_json()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<keypose.Sequence {:?}: robot {}, {} keys, {:.3} s … {:.3} s>",
+            self.sequence.file,
+            self.robot.robot.name,
+            self.sequence.keyframes.len(),
+            self.trajectory.start(),
+            self.trajectory.end
+        )
+    }
+}
+
+/// A numpy float64 array of `values` in the shape `(rows,)` or `(rows, columns)`, writable.
+pub fn array<'py>(
+    py: Python<'py>,
+    values: &[f64],
+    shape: (usize, Option<usize>),
+) -> PyResult<Bound<'py, PyAny>> {
+    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_ne_bytes()).collect();
+    let numpy = py.import("numpy")?;
+    let kwargs = PyDict::new(py);
+    kwargs.set_item("dtype", numpy.getattr("float64")?)?;
+    let flat = numpy.call_method("frombuffer", (PyBytes::new(py, &bytes),), Some(&kwargs))?;
+    let shaped = match shape {
+        (rows, None) => flat.call_method1("reshape", ((rows,),))?,
+        (rows, Some(columns)) => flat.call_method1("reshape", ((rows, columns),))?,
+    };
+    // frombuffer's array is a read-only view of the bytes: hand out a copy of its own.
+    shaped.call_method0("copy")
+}
