@@ -114,8 +114,8 @@ class Sequence:
         """The exact check against the joints' limits, as `keypose check`."""
     def retime(self, fastest: bool = False) -> Sequence:
         """Key times stretched until the limits hold, as `keypose retime`; LimitError when
-        timing cannot mend it. `fastest=True` raises NotImplementedError until the library has
-        time-optimal retiming."""
+        timing cannot mend it. `fastest=True`: as fast as the limits allow along the path,
+        as `keypose retime --fastest`."""
     def save(self, path: _Path) -> None:
         """Writes the sequence atomically, in the layout of the file it was read from."""
     def to_json(self) -> str: ...

@@ -9,7 +9,7 @@ use crate::errors::{argument_error, command_error, input_error, LimitError};
 use crate::report::Report;
 use crate::robot::Robot;
 use keypose::curve::Interp;
-use keypose::plan::{retime, Trajectory};
+use keypose::plan::{self, retime, Trajectory};
 use keypose::sequence::Sequence as LibSequence;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
@@ -217,26 +217,23 @@ impl Sequence {
     }
 
     /// The sequence with its key times stretched, segment by segment, until the velocity and
-    /// acceleration limits hold, as `keypose retime` writes it. Raises `LimitError` (its
+    /// acceleration limits hold, as `keypose retime` writes it; with `fastest`, timed as fast as
+    /// those limits allow along its path (`keypose retime --fastest`: a timing profile per
+    /// segment). Raises `LimitError` (its
     /// `report` the retimed sequence's check) where timing cannot mend the motion: positions
     /// outside the limits, steps.
     #[pyo3(signature = (fastest = false))]
     fn retime(&self, py: Python<'_>, fastest: bool) -> PyResult<Sequence> {
-        if fastest {
-            return Err(pyo3::exceptions::PyNotImplementedError::new_err(
-                "retime(fastest=True): this build of keypose has no time-optimal retiming \
-                 (`keypose retime --fastest`) yet; retime() stretches the given timing until the \
-                 limits hold",
-            ));
-        }
         let robot = &self.robot.robot;
         let rate = limit_check_rate(None, robot);
         check_sample_budget(&self.sequence.file, &self.trajectory, rate)
             .map_err(|e| command_error(py, e))?;
-        let outcome = py
-            .detach(|| retime(&self.sequence, robot, rate))
-            .map_err(|e| input_error(py, &e))?;
-        let retimed = Sequence::on(py, outcome.sequence, self.robot.clone())?;
+        let timed = py.detach(|| match fastest {
+            true => plan::fastest(&self.sequence, robot, rate).map(|o| o.sequence),
+            false => retime(&self.sequence, robot, rate).map(|o| o.sequence),
+        });
+        let timed = timed.map_err(|e| input_error(py, &e))?;
+        let retimed = Sequence::on(py, timed, self.robot.clone())?;
         let report = retimed.check(py)?;
         if !report.passed() {
             let err = LimitError::new_err(format!(

@@ -142,9 +142,15 @@ def test_retiming_what_time_cannot_mend_raises_limit_error_with_the_check(tmp_pa
     assert not raised.value.report.passed
 
 
-def test_the_fastest_retiming_says_it_is_not_there_yet():
-    with pytest.raises(NotImplementedError, match="--fastest"):
-        keypose.load(repo(WAVE)).retime(fastest=True)
+def test_the_fastest_retiming_is_what_the_cli_writes_and_passes_the_check(tmp_path):
+    fastest = keypose.load(repo(WAVE)).retime(fastest=True)
+    assert fastest.check().passed
+    out = tmp_path / "fast.json"
+    cli("retime", repo(WAVE), "--fastest", "-o", str(out), check_code=0)
+    by_cli = keypose.load(str(out))
+    assert fastest.key_times == pytest.approx(by_cli.key_times, abs=1e-9)
+    # The wave as keyed lasts 8.8 s; timed as fast as its limits allow, it is shorter.
+    assert fastest.end < keypose.load(repo(WAVE)).end
 
 
 def test_saving_keeps_the_files_own_layout_and_reads_back_the_same(tmp_path):
