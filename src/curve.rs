@@ -546,17 +546,25 @@ impl Track<f64> {
     /// The slope just before `t` (the limit from the left): where it differs from
     /// [`Track::rate_at`] the curve turns a corner at `t`.
     pub fn rate_before(&self, t: f64) -> f64 {
-        // The segment from key i to key i + 1 with times[i] < t <= times[i + 1].
+        self.moving_before(t)
+            .map_or(0.0, |(i, f)| self.segment_rate(i, f))
+    }
+
+    /// The segment moving just before `t` and the fraction of it at `t`: the one from key i
+    /// to key i + 1 with times[i] < t <= times[i + 1], unless it rests there (a hold, a step).
+    fn moving_before(&self, t: f64) -> Option<(usize, f64)> {
         let next = self.times.partition_point(|&k| k < t);
         if next == 0 || next >= self.times.len() {
-            return 0.0;
+            return None;
         }
         let i = next - 1;
         if t <= self.move_start[i] || self.modes[i] == Interp::Step {
-            return 0.0;
+            return None;
         }
-        let f = ((t - self.move_start[i]) * self.inv_duration[i]).clamp(0.0, 1.0);
-        self.segment_rate(i, f)
+        Some((
+            i,
+            ((t - self.move_start[i]) * self.inv_duration[i]).clamp(0.0, 1.0),
+        ))
     }
 
     /// d/dt of segment `i` at fraction `f`: d/df of c0 + c1 f + c2 f² + c3 f³, over its duration.
@@ -576,16 +584,8 @@ impl Track<f64> {
 
     /// The second derivative just before `t` (the limit from the left).
     pub fn second_rate_before(&self, t: f64) -> f64 {
-        let next = self.times.partition_point(|&k| k < t);
-        if next == 0 || next >= self.times.len() {
-            return 0.0;
-        }
-        let i = next - 1;
-        if t <= self.move_start[i] || self.modes[i] == Interp::Step {
-            return 0.0;
-        }
-        let f = ((t - self.move_start[i]) * self.inv_duration[i]).clamp(0.0, 1.0);
-        self.segment_second_rate(i, f)
+        self.moving_before(t)
+            .map_or(0.0, |(i, f)| self.segment_second_rate(i, f))
     }
 
     /// d²/dt² of segment `i` at fraction `f`.
