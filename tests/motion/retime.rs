@@ -68,8 +68,7 @@ fn retime_stretches_a_segment_to_the_time_its_limit_needs_and_no_more() {
         moving >= needed && moving <= needed + 0.001 + 1e-9,
         "{moving} s, needed {needed} s"
     );
-    let out = run(&["check", fixed.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    assert_passes_check(fixed.to_str().unwrap());
     // A millisecond less is over the limit.
     let shorter = write(
         dir.path(),
@@ -122,8 +121,7 @@ fn retime_stretches_a_straight_line_no_further_than_the_first_time_that_passes()
         span <= first_pass * 1.05 + 0.001,
         "retimed to {span} s; {first_pass} s passes"
     );
-    let out = run(&["check", fixed.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    assert_passes_check(fixed.to_str().unwrap());
 }
 
 /// What retime cannot mend is said with advice that fits the segment: a step's jump (no time
@@ -245,8 +243,7 @@ fn fastest_moves_a_straight_joint_path_as_the_trapezoid() {
         took >= optimum && took <= optimum * 1.02,
         "{took} s; the trapezoid takes {optimum} s"
     );
-    let out = run(&["check", fast.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    assert_passes_check(fast.to_str().unwrap());
 }
 
 /// A profile written by hand: the elbow's straight path 0 → 90° over 1 s of path time (90
@@ -352,4 +349,10 @@ fn fastest_is_within_five_percent_of_toppra_on_every_example() {
             "{example:?}: {ours} s against TOPP-RA's {theirs} s ({ratio})"
         );
     }
+}
+
+/// `keypose check FILE` passes (exit 0).
+fn assert_passes_check(file: &str) {
+    let out = run(&["check", file]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
 }
