@@ -35,9 +35,14 @@ pub enum TimeRefusal {
 /// A sequence being edited, with its current key and whether it has unsaved changes.
 #[derive(Debug, Clone)]
 pub struct KeyframeList {
-    sequence: Sequence,
-    current: usize,
-    dirty: bool,
+    pub(super) sequence: Sequence,
+    pub(super) current: usize,
+    pub(super) dirty: bool,
+    /// The keys selected with the current one (a studio's Ctrl- or Shift-click), in order,
+    /// without it: what copy, delete and a drag in time act on besides the current key
+    /// ([`super::selection`]). Any edit that renumbers the keys, and any move of the current
+    /// key, leaves the current key alone selected.
+    pub(super) also: Vec<usize>,
     /// The keys and settings as loaded or last saved: a version put back by undo or redo that
     /// equals them leaves the list clean.
     clean: Sequence,
@@ -51,6 +56,7 @@ impl KeyframeList {
             sequence,
             current: 0,
             dirty: false,
+            also: Vec::new(),
         }
     }
 
@@ -107,6 +113,7 @@ impl KeyframeList {
 
     /// Moves to the next key; false (and no move) at the last one.
     pub fn next_key(&mut self) -> bool {
+        self.also.clear();
         if self.current + 1 < self.len() {
             self.current += 1;
             true
@@ -117,6 +124,7 @@ impl KeyframeList {
 
     /// Moves to the previous key; false (and no move) at the first one.
     pub fn previous_key(&mut self) -> bool {
+        self.also.clear();
         if self.current > 0 {
             self.current -= 1;
             true
@@ -129,6 +137,7 @@ impl KeyframeList {
     /// its current key (the last one if `current` is past it). The list has unsaved changes
     /// unless the version is what was loaded or last saved (undone back to it).
     pub fn restore(&mut self, sequence: Sequence, current: usize) {
+        self.also.clear();
         self.current = current.min(sequence.keyframes.len().saturating_sub(1));
         self.dirty = !sequence.same_content(&self.clean);
         self.sequence = sequence;
@@ -136,6 +145,7 @@ impl KeyframeList {
 
     /// Makes key `index` current; false if there is no such key.
     pub fn select(&mut self, index: usize) -> bool {
+        self.also.clear();
         if index < self.len() {
             self.current = index;
             true
@@ -162,6 +172,7 @@ impl KeyframeList {
     /// the interval or longer (a file may have it so) gets absolute times first when a key is
     /// added after that one: one interval later would be inside the hold.
     pub fn insert_after(&mut self, values: Vec<(String, KeyValue)>) {
+        self.also.clear();
         let mut key = Keyframe::new(values);
         let at = if self.is_empty() { 0 } else { self.current + 1 };
         if let (Some(interval), Some(last)) =
@@ -224,6 +235,7 @@ impl KeyframeList {
                 return Err(TimeRefusal::Next { latest });
             }
         }
+        self.also.clear();
         self.sequence.make_times_absolute();
         let mut key = Keyframe::new(values);
         key.time = Some(time);
@@ -236,6 +248,7 @@ impl KeyframeList {
 
     /// Deletes the current key; the key before it (or the new first key) becomes current.
     pub fn delete(&mut self) -> Option<Keyframe> {
+        self.also.clear();
         if self.is_empty() {
             return None;
         }
@@ -256,6 +269,7 @@ impl KeyframeList {
     /// would bring a key's hold into the key after it (a held key moved to a shorter gap, the
     /// last key's hold moved before another key): the list stays one that loads.
     pub fn move_by(&mut self, delta: isize) -> bool {
+        self.also.clear();
         let Some(target) = self.current.checked_add_signed(delta) else {
             return false;
         };
@@ -286,7 +300,7 @@ impl KeyframeList {
     /// edit has just split, joined or reordered: a profile's path time belongs to the curve it
     /// was made for (the segments' keys then move at the pace of their key times), and the
     /// last key times no segment.
-    fn untime_around(&mut self, index: usize) {
+    pub(super) fn untime_around(&mut self, index: usize) {
         let keys = &mut self.sequence.keyframes;
         for i in [index.checked_sub(1), Some(index)].into_iter().flatten() {
             if let Some(key) = keys.get_mut(i) {
@@ -300,7 +314,7 @@ impl KeyframeList {
 
     /// Whether every key's hold ends at least [`super::MIN_GAP`] before the next key, as a
     /// sequence file must have it.
-    fn holds_fit(&self) -> bool {
+    pub(super) fn holds_fit(&self) -> bool {
         let times = self.sequence.key_times();
         (self.sequence.keyframes.iter().zip(times.windows(2)))
             .all(|(key, pair)| key.hold <= pair[1] - pair[0] - super::MIN_GAP)

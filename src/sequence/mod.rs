@@ -8,6 +8,7 @@ mod edit;
 mod layout;
 mod load;
 mod save;
+mod selection;
 mod timing;
 
 use crate::curve::Interp;

@@ -416,7 +416,9 @@ pub(crate) enum PageKeyError {
 }
 
 /// A key of the page, in the tokens of a `--keys` script (`space`, `shift-left`, `u`, …)
-/// plus the page's own: `select-key:N`, `select-joint:N`, `key-time:MS`, `capture-at:MS` and
+/// plus the page's own: `select-key:N`, `toggle-key:N` (Ctrl-click), `range-key:N`
+/// (Shift-click), `shift-keys:±MS` (the selection dragged in time), `select-joint:N`,
+/// `key-time:MS`, `capture-at:MS` and
 /// `tool-target:X,Y,Z` (the tool handle, millimetres in the base frame). The script's
 /// `import:`, `write:` and `wait:` are refused: the page imports through the `i` prompt, and
 /// writes where the session writes.
@@ -429,6 +431,21 @@ pub(crate) fn parse_key(token: &str) -> Result<Key, PageKeyError> {
     };
     if let Some(rest) = token.strip_prefix("select-key:") {
         return number(rest, "a key index").map(|i| Key::SelectKey(i as usize));
+    }
+    if let Some(rest) = token.strip_prefix("toggle-key:") {
+        return number(rest, "a key index").map(|i| Key::ToggleKey(i as usize));
+    }
+    if let Some(rest) = token.strip_prefix("range-key:") {
+        return number(rest, "a key index").map(|i| Key::RangeKey(i as usize));
+    }
+    if let Some(rest) = token.strip_prefix("shift-keys:") {
+        return (rest.parse::<i64>().ok())
+            .filter(|ms| ms.unsigned_abs() <= MAX_SHIFT_MS)
+            .map(Key::ShiftKeys)
+            .ok_or_else(|| PageKeyError::NoNumber {
+                token: token.to_string(),
+                what: "a signed number of whole milliseconds",
+            });
     }
     if let Some(rest) = token.strip_prefix("select-joint:") {
         return number(rest, "a joint index").map(|i| Key::SelectJoint(i as usize));
@@ -454,6 +471,10 @@ pub(crate) fn parse_key(token: &str) -> Result<Key, PageKeyError> {
     }
 }
 
+/// The longest move in time a page may ask for: beyond a day no key can be (the list's own
+/// bound refuses it anyway), and the bound keeps the conversion to seconds exact.
+const MAX_SHIFT_MS: u64 = 86_400_000;
+
 /// `X,Y,Z` in millimetres as a [`Key::ToolTarget`] in whole micrometres; ten metres or more
 /// from the base is no arm's (and keeps the conversion far from overflowing).
 fn tool_target(text: &str) -> Option<Key> {
@@ -478,6 +499,13 @@ mod tests {
         assert_eq!(parse_key(">"), Ok(Key::Char('>')));
         assert_eq!(parse_key("select-key:3"), Ok(Key::SelectKey(3)));
         assert_eq!(parse_key("select-joint:0"), Ok(Key::SelectJoint(0)));
+        assert_eq!(parse_key("toggle-key:2"), Ok(Key::ToggleKey(2)));
+        assert_eq!(parse_key("range-key:4"), Ok(Key::RangeKey(4)));
+        assert_eq!(parse_key("shift-keys:-250"), Ok(Key::ShiftKeys(-250)));
+        assert_eq!(parse_key("copy"), Ok(Key::Copy));
+        assert_eq!(parse_key("paste"), Ok(Key::Paste));
+        assert!(parse_key("shift-keys:1.5").is_err());
+        assert!(parse_key("shift-keys:99999999999").is_err());
         assert_eq!(parse_key("key-time:2500"), Ok(Key::KeyTime(2500)));
         assert!(parse_key("key-time:-1").is_err());
         assert!(parse_key("key-time:1.5").is_err());

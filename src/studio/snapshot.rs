@@ -201,6 +201,7 @@ fn keys(state: &TeachState, poses: Option<&[Vec<f64>]>) -> Vec<Value> {
     let robot = state.robot();
     let sequence = state.list().sequence();
     let n = sequence.keyframes.len();
+    let selection = state.list().selection();
     sequence
         .keyframes
         .iter()
@@ -218,6 +219,8 @@ fn keys(state: &TeachState, poses: Option<&[Vec<f64>]>) -> Vec<Value> {
                 "label": format::key_label(sequence, i),
                 "name": key.name,
                 "time": sequence.key_time(i),
+                // Among the keys copy, delete and a drag in time act on (the current one too).
+                "selected": selection.binary_search(&i).is_ok(),
                 "hold": key.hold,
                 // The mode of the segment from this key; none after the last.
                 "interp": (i + 1 < n).then(|| format::segment_interp(sequence, i).name()),

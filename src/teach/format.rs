@@ -105,6 +105,18 @@ pub(crate) fn key_label(sequence: &Sequence, index: usize) -> String {
     }
 }
 
+/// "keys 2, 3 and 5" (or `key_label` of one), for the status line.
+pub(crate) fn keys_label(sequence: &Sequence, indices: &[usize]) -> String {
+    match indices {
+        [one] => key_label(sequence, *one),
+        [rest @ .., last] => {
+            let rest: Vec<String> = rest.iter().map(usize::to_string).collect();
+            format!("keys {} and {last}", rest.join(", "))
+        }
+        [] => "no key".into(),
+    }
+}
+
 /// The mode of the segment from key `index`: its own, else the sequence's.
 pub fn segment_interp(sequence: &Sequence, index: usize) -> Interp {
     sequence

@@ -40,6 +40,19 @@ pub enum Key {
     Write(PathBuf),
     /// The studio's list: make key `index` current (a click on it).
     SelectKey(usize),
+    /// The studio's list or timeline: add key `index` to the selection, or take it out (a
+    /// Ctrl-click).
+    ToggleKey(usize),
+    /// The studio's list or timeline: select the keys from the current one to `index` (a
+    /// Shift-click).
+    RangeKey(usize),
+    /// Copy the selected keys (Ctrl+C in the studio; `copy` in a script).
+    Copy,
+    /// Paste the copied keys after the current one (Ctrl+V in the studio; `paste`).
+    Paste,
+    /// The studio's timeline: move every selected key this many milliseconds (a drag of one
+    /// of several selected keys; negative is earlier).
+    ShiftKeys(i64),
     /// The studio's joint table: select joint `index` (a click on it).
     SelectJoint(usize),
     /// The studio's timeline: move the current key to this time, in whole milliseconds (a
@@ -192,7 +205,7 @@ pub fn help_text() -> String {
     text.push_str(
         "\nA --keys script holds tokens separated by spaces or lines (# starts a comment):\n  \
          space u n d > < ] [ N h p v m M U R i w y + - t T q, up down left right shift-left\n  \
-         shift-right, enter esc backspace, undo redo (as U R), yes no (answers), any single character (typed into a prompt;\n  \
+         shift-right, enter esc backspace, undo redo (as U R), copy paste (the selected keys), yes no (answers), any single character (typed into a prompt;\n  \
          space types a space there), import:PATH, write:PATH (paths without spaces), wait:500ms or wait:2s.\n  \
          Each step waits until the arm has reached its goal; `-` as the file reads standard \
          input.",
@@ -234,6 +247,8 @@ pub(crate) fn parse_token(token: &str) -> Result<Step, TokenError> {
         "backspace" => Key::Backspace,
         "undo" => Key::Undo,
         "redo" => Key::Redo,
+        "copy" => Key::Copy,
+        "paste" => Key::Paste,
         "yes" => Key::Char('y'),
         "no" => Key::Char('n'),
         _ => {

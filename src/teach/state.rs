@@ -18,7 +18,7 @@ use super::prompt::{yes_no, Field, Prompt};
 use crate::plan::{self, Trajectory};
 use crate::player::Outcome;
 use crate::robot::{JointKind, Robot};
-use crate::sequence::{KeyValue, KeyframeList, Sequence};
+use crate::sequence::{KeyValue, Keyframe, KeyframeList, Sequence};
 use std::path::{Path, PathBuf};
 
 /// Jog steps: arrow keys, and with shift.
@@ -93,6 +93,8 @@ pub struct TeachState {
     quit: bool,
     /// The built-in models' shapes, to refuse moves into contact (`None`: not checked).
     collision: Option<crate::collision::CollisionModel>,
+    /// The keys the last copy took (`Copy`), for `Paste`.
+    clipboard: Vec<Keyframe>,
     /// The quit question was answered "write": quit once the file is written.
     quit_after_write: bool,
     /// The direction check under way (`D`), if any.
@@ -144,6 +146,7 @@ impl TeachState {
             status: Status::default(),
             quit: false,
             collision,
+            clipboard: Vec::new(),
             quit_after_write: false,
             direction_check: None,
             direction_record: DirectionRecord::SessionOnly(
@@ -327,6 +330,11 @@ impl TeachState {
             Key::Char('t') => self.toggle_torque(false),
             Key::Char('T') => self.toggle_torque(true),
             Key::SelectKey(index) => self.select_key(index),
+            Key::ToggleKey(index) => self.toggle_key(index),
+            Key::RangeKey(index) => self.select_range(index),
+            Key::Copy => self.copy_keys(),
+            Key::Paste => self.paste_keys(),
+            Key::ShiftKeys(millis) => self.shift_keys(millis),
             Key::SelectJoint(index) => self.select_joint(index),
             Key::KeyTime(millis) => self.set_key_time(millis),
             Key::CaptureAt(millis) => self.capture_at(millis),
@@ -472,6 +480,9 @@ impl TeachState {
     }
 
     fn delete_key(&mut self) -> Vec<Command> {
+        if self.list.selection().len() > 1 {
+            return self.delete_keys();
+        }
         let index = self.list.current_index();
         let label = self.key_label(index);
         if self.list.delete().is_none() {
@@ -865,6 +876,7 @@ mod edits;
 mod mirroring;
 mod quitting;
 mod reports;
+mod selection;
 mod tool;
 mod undo;
 pub use direction::DirectionRecord;

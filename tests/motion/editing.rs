@@ -239,3 +239,113 @@ fn edits_drop_the_timing_profiles_of_the_segments_they_change() {
     let again = Sequence::from_json("kept.json", &kept).unwrap();
     assert!(again.same_content(list.sequence()));
 }
+
+/// A timed list of keys at `times` (elbow 0, 10, 20, …), `hold` on key 1.
+fn timed(times: &[f64], hold: f64) -> KeyframeList {
+    let keys: Vec<serde_json::Value> = times
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let h = if i == 1 { hold } else { 0.0 };
+            json!({"time": t, "hold": h, "joints": {"elbow_flex": 10.0 * i as f64}})
+        })
+        .collect();
+    let text = json!({"format": "keypose-sequence/1", "robot": "so101", "keyframes": keys});
+    KeyframeList::new(Sequence::from_json("t.json", &text.to_string()).unwrap())
+}
+
+#[test]
+fn a_selection_grows_by_toggles_and_ranges_and_any_move_of_the_current_key_ends_it() {
+    let mut list = timed(&[0.0, 1.0, 2.0, 3.0, 4.0], 0.0);
+    assert_eq!(list.selection(), [0]);
+    assert!(list.toggle_selected(3));
+    assert!(list.toggle_selected(1));
+    assert_eq!(list.selection(), [0, 1, 3]);
+    assert!(list.toggle_selected(1), "a second toggle takes it out");
+    assert_eq!(list.selection(), [0, 3]);
+    // Taking the current key out makes the nearest selected one current.
+    assert!(list.toggle_selected(0));
+    assert_eq!((list.current_index(), list.selection()), (3, vec![3]));
+    assert!(!list.toggle_selected(5), "no key 5");
+    // A range runs from the current key, which stays current.
+    assert!(list.select_range(1));
+    assert_eq!((list.current_index(), list.selection()), (3, vec![1, 2, 3]));
+    assert!(list.next_key());
+    assert_eq!(
+        list.selection(),
+        [4],
+        "stepping on leaves the current key alone"
+    );
+}
+
+#[test]
+fn selected_keys_move_in_time_together_or_not_at_all() {
+    // Keys at 0, 1 (hold 0.5), 2, 3, 4; select 2 and 3.
+    let mut list = timed(&[0.0, 1.0, 2.0, 3.0, 4.0], 0.5);
+    assert!(list.select(2) && list.select_range(3));
+    list.shift_selected(0.4).unwrap();
+    assert_eq!(list.sequence().key_times(), [0.0, 1.0, 2.4, 3.4, 4.0]);
+    // Key 4 is at 4.0: key 3 may reach 4.0 − 1 ms, so 0.6 s more is too far; the refusal
+    // names that latest time for the first selected key (2.4 + 0.599 = 2.999).
+    match list.shift_selected(0.6) {
+        Err(keypose::sequence::TimeRefusal::Next { latest }) => {
+            assert!((latest - 2.999).abs() < 1e-9, "{latest}")
+        }
+        other => panic!("expected a refusal at the next key, got {other:?}"),
+    }
+    assert_eq!(
+        list.sequence().key_times(),
+        [0.0, 1.0, 2.4, 3.4, 4.0],
+        "moved"
+    );
+    // Back: key 1 holds until 1.5, so key 2 may come at 1.501 at the earliest.
+    match list.shift_selected(-1.0) {
+        Err(keypose::sequence::TimeRefusal::Previous { earliest }) => {
+            assert!((earliest - 1.501).abs() < 1e-9, "{earliest}")
+        }
+        other => panic!("expected a refusal at the previous hold, got {other:?}"),
+    }
+    assert!(list.shift_selected(-5.0).is_err(), "before 0 s");
+    Sequence::from_json("t.json", &list.sequence().to_json()).expect("still a valid file");
+}
+
+#[test]
+fn pasted_keys_keep_their_spacing_after_the_current_key_and_push_the_rest_later() {
+    // Keys at 0, 1, 3, 6; copy keys 1 and 2 (2 s apart) and paste them after key 0. The gap
+    // after key 0 was 1 s, so the copies come at 1 and 3; the old key 1 keeps its 1 s gap to
+    // what precedes it (now the copy at 3), so it and every later key move 3 s later.
+    let mut list = timed(&[0.0, 1.0, 3.0, 6.0], 0.0);
+    assert!(list.select(1) && list.select_range(2));
+    let copied = list.copy_selected();
+    assert_eq!(copied.len(), 2);
+    assert!(list.select(0));
+    list.paste_after(&copied).unwrap();
+    assert_eq!(list.sequence().key_times(), [0.0, 1.0, 3.0, 4.0, 6.0, 9.0]);
+    assert_eq!(
+        (0..6).map(|i| elbow(&list, i)).collect::<Vec<_>>(),
+        [0.0, 10.0, 20.0, 10.0, 20.0, 30.0]
+    );
+    assert_eq!((list.current_index(), list.selection()), (1, vec![1, 2]));
+    // Deleting the pasted pair leaves the later keys where the paste put them.
+    assert_eq!(list.delete_selected(), 2);
+    assert_eq!(list.current_index(), 0);
+    assert_eq!(list.sequence().key_times(), [0.0, 4.0, 6.0, 9.0]);
+}
+
+#[test]
+fn pasting_into_a_uniform_list_takes_the_next_places() {
+    let mut list = KeyframeList::new(Sequence::new("so101"));
+    for deg in [10.0, 20.0, 30.0] {
+        list.insert_after(pose(deg));
+    }
+    assert!(list.select(0));
+    let copied = list.copy_selected();
+    assert!(list.select(2));
+    list.paste_after(&copied).unwrap();
+    assert_eq!(list.sequence().key_interval, Some(2.0), "still uniform");
+    assert_eq!(
+        (0..4).map(|i| elbow(&list, i)).collect::<Vec<_>>(),
+        [10.0, 20.0, 30.0, 10.0]
+    );
+    assert_eq!(list.current_time(), Some(6.0));
+}

@@ -1428,3 +1428,61 @@ fn a_jog_into_the_floor_is_refused_and_the_arm_may_jog_back() {
     press(&mut state, Key::ShiftLeft);
     assert_eq!(state.goals()[1], back, "{}", state.status().text);
 }
+
+#[test]
+fn several_selected_keys_copy_paste_move_and_delete_as_one_undoable_step_each() {
+    let dir = tempfile::tempdir().unwrap();
+    // Keys at 0, 2 and 4 s (uniform), key 0 current.
+    let mut state = two_keys_at_the_first(dir.path());
+    press_all(
+        &mut state,
+        &[Key::Char('>'), Key::Char('n'), Key::SelectKey(0)],
+    );
+    assert_eq!(state.list().len(), 3);
+    press(&mut state, Key::RangeKey(1));
+    assert_eq!(state.list().selection(), [0, 1]);
+    assert!(
+        state.status().text.contains("keys 0 and 1 selected"),
+        "{:?}",
+        state.status()
+    );
+    press_all(&mut state, &[Key::Copy, Key::SelectKey(2), Key::Paste]);
+    assert_eq!(state.list().len(), 5, "{:?}", state.status());
+    assert_eq!(
+        state.list().selection(),
+        [3, 4],
+        "the pasted keys are the selection"
+    );
+    assert_eq!(key_values(&state, 3), key_values(&state, 0));
+    assert_eq!(journaled(&state).unwrap().keyframes.len(), 5);
+    // Their move in time: the list gets absolute times, the two keys move together.
+    press(&mut state, Key::ShiftKeys(500));
+    assert_eq!(
+        state.list().sequence().key_times(),
+        [0.0, 2.0, 4.0, 6.5, 8.5]
+    );
+    // A move through the unselected key 2 is refused whole.
+    press(&mut state, Key::ShiftKeys(-3_000));
+    assert!(state.status().error, "{:?}", state.status());
+    assert_eq!(
+        state.list().sequence().key_times(),
+        [0.0, 2.0, 4.0, 6.5, 8.5]
+    );
+    // `d` deletes both; each edit is one step of undo.
+    press(&mut state, Key::Char('d'));
+    assert_eq!(state.list().len(), 3);
+    press(&mut state, Key::Undo);
+    assert_eq!(state.list().len(), 5);
+    press(&mut state, Key::Undo);
+    assert_eq!(
+        state.list().sequence().key_times()[3],
+        6.0,
+        "the move undone"
+    );
+    press(&mut state, Key::Undo);
+    assert_eq!(state.list().len(), 3, "the paste undone");
+    // Nothing copied in a new session: paste says so.
+    let mut fresh = session(&dir.path().join("other"));
+    press(&mut fresh, Key::Paste);
+    assert!(fresh.status().text.contains("nothing copied"));
+}
