@@ -16,6 +16,7 @@ const FILES: &[(&str, &str, &[u8])] = &[
     ("/framing.js", JS, include_bytes!("web/framing.js")),
     ("/collision.js", JS, include_bytes!("web/collision.js")),
     ("/undo.js", JS, include_bytes!("web/undo.js")),
+    ("/selection.js", JS, include_bytes!("web/selection.js")),
     ("/a11y.js", JS, include_bytes!("web/a11y.js")),
     ("/unsaved.js", JS, include_bytes!("web/unsaved.js")),
     ("/connection.js", JS, include_bytes!("web/connection.js")),

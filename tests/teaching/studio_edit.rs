@@ -146,3 +146,54 @@ fn without_a_port_the_studio_edits_a_drawn_arm_and_a_lost_server_is_said() {
         results["lostMs"].as_f64().unwrap()
     );
 }
+
+/// Several keys at once through the page: Shift-click selects a range, Ctrl-click takes a key
+/// out, Ctrl+C and Ctrl+V paste copies after the last key with their own spacing, a drag of
+/// one pasted mark moves both by the same time, `d` deletes both and Ctrl+Z brings them back,
+/// Ctrl+A selects every key. The pasted times are worked out here from the file's times and
+/// the paste rule (docs/studio.md), not read from the page.
+#[test]
+fn the_page_selects_copies_pastes_drags_and_deletes_several_keys() {
+    require_browser_tools();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(wave(), dir.path().join("wave.json")).unwrap();
+    let (studio, url) = start_studio(dir.path(), &["wave.json"]);
+    let results = browser_run("selection.mjs", &[Path::new(&url)]);
+    drop(studio);
+
+    assert_eq!(results["errors"], json!([]), "the page ran without errors");
+    assert_eq!(results["range"], json!([1, 2, 3]));
+    assert_eq!(results["ariaRange"], json!([1, 2, 3]), "the list says so too");
+    assert_eq!(results["toggled"], json!([1, 3]));
+    let said = results["statusToggled"].as_str().unwrap();
+    assert!(said.starts_with("keys 1 and 3 selected"), "{said}");
+
+    // Pasted after key 7 (the last): one gap after it, the gap key 7 had after key 6's hold;
+    // the copies keep their own spacing (key 3's time − key 1's).
+    let wave = keypose::sequence::Sequence::load(&wave()).unwrap();
+    let t = wave.key_times();
+    let hold = |i: usize| wave.keyframes[i].hold;
+    let gap = t[7] - (t[6] + hold(6));
+    let first = t[7] + hold(7) + gap;
+    let mut expected = t.clone();
+    expected.extend([first, first + t[3] - t[1]]);
+    let pasted = numbers(&results["pasted"]["times"]);
+    for (got, want) in pasted.iter().zip(&expected) {
+        assert!((got - want).abs() < 1e-9, "{pasted:?} vs {expected:?}");
+    }
+    assert_eq!(pasted.len(), 10);
+    let values = &results["pasted"]["values"];
+    assert_eq!(values[8], values[1], "key 1's pose");
+    assert_eq!(values[9], values[3], "key 3's pose");
+    assert_eq!(results["pasted"]["current"], json!(8));
+    assert_eq!(results["pastedSelection"], json!([8, 9]));
+
+    let dragged = numbers(&results["dragged"]);
+    let (d8, d9) = (dragged[8] - pasted[8], dragged[9] - pasted[9]);
+    assert!(d8 > 0.0, "moved later: {dragged:?}");
+    assert!((d8 - d9).abs() < 1e-9, "both by the same time: {d8} {d9}");
+    assert_eq!(dragged[..8], pasted[..8], "the other keys stay");
+    let deleted = results["statusDeleted"].as_str().unwrap();
+    assert!(deleted.starts_with("deleted keys 8 and 9"), "{deleted}");
+    assert_eq!(results["all"], json!((0..10).collect::<Vec<_>>()));
+}

@@ -15,6 +15,7 @@ export function installKeyboard(send) {
   const list = $('keys').tBodies[0];
   list.setAttribute('role', 'listbox');
   list.setAttribute('aria-label', 'keys');
+  list.setAttribute('aria-multiselectable', 'true');
   list.tabIndex = 0;
   // On the window, in the capture phase: before the page's bindings, which listen on the
   // document; stopping the event there leaves the browser's default (the press) alone.
@@ -40,6 +41,15 @@ function listKey(e, list, send) {
   const selected = list.querySelector('tr.selected');
   const current = selected ? Number(selected.dataset.index) : -1;
   let to = null;
+  if (e.shiftKey && (e.key === 'ArrowUp' || e.key === 'ArrowDown')) {
+    // Shift+arrows extend the selection from the current key, as in a file list.
+    e.stopPropagation();
+    e.preventDefault();
+    const chosen = [...list.querySelectorAll('tr.selected, tr.chosen')].map(r => Number(r.dataset.index));
+    const end = e.key === 'ArrowUp' ? Math.min(...chosen) - 1 : Math.max(...chosen) + 1;
+    if (end >= 0 && end < count) send({ key: `range-key:${end}` });
+    return;
+  }
   switch (e.key) {
     case 'ArrowUp': to = Math.max(current - 1, 0); break;
     case 'ArrowDown': to = Math.min(current + 1, count - 1); break;
@@ -53,15 +63,16 @@ function listKey(e, list, send) {
   if (count && to !== current) send({ key: `select-key:${to}` });
 }
 
-// After the key list is drawn: each row an option, the current one selected and named as the
-// list's active option (the focus stays on the list, which is not redrawn).
-export function showKeyList(current) {
+// After the key list is drawn: each row an option, the selected ones selected, the current
+// one named as the list's active option (the focus stays on the list, which is not redrawn).
+export function showKeyList(s) {
   const list = $('keys').tBodies[0];
+  const current = s.current;
   for (const row of list.rows) {
     const index = Number(row.dataset.index);
     row.id = `key-${index}`;
     row.setAttribute('role', 'option');
-    row.setAttribute('aria-selected', String(index === current));
+    row.setAttribute('aria-selected', String(Boolean(s.keys[index] && s.keys[index].selected)));
   }
   const active = current === null ? null : $(`key-${current}`);
   if (active) {

@@ -9,6 +9,7 @@ import { showContacts } from '/collision.js';
 import { installUndo, showUndo } from '/undo.js';
 import { installKeyboard, showKeyList } from '/a11y.js';
 import { installUnsaved, showUnsaved } from '/unsaved.js';
+import { installSelection, clickToken } from '/selection.js';
 import { request, watchStream, NO_ANSWER, SIMULATE_MS } from '/connection.js';
 
 const token = new URLSearchParams(location.search).get('token') || '';
@@ -211,6 +212,7 @@ $('stop').onclick = () => stopNow();
 installUndo(send);
 installKeyboard(send);
 installUnsaved(() => studio.snapshot);
+installSelection(send, () => studio.snapshot);
 $('ok').onclick = () => send({ line: $('answer').value });
 $('answer').addEventListener('keydown', e => {
   if (e.key === 'Enter') { e.preventDefault(); send({ line: $('answer').value }); }
@@ -227,7 +229,7 @@ function render(s) {
   const joints = JSON.stringify([s.joints, s.selected]);
   if (joints !== lastJoints) { lastJoints = joints; renderJoints(s); }
   const keys = JSON.stringify([s.keys, s.current]);
-  if (keys !== lastKeys) { lastKeys = keys; renderKeys(s); showKeyList(s.current); refreshTimeline(s); }
+  if (keys !== lastKeys) { lastKeys = keys; renderKeys(s); showKeyList(s); refreshTimeline(s); }
   const prompt = JSON.stringify(s.prompt);
   if (prompt !== lastPrompt) { lastPrompt = prompt; renderPrompt(s.prompt); }
   if (!s.prompt) showStatus(s.status.text, s.status.error);
@@ -284,14 +286,14 @@ function renderJoints(s) {
 function renderKeys(s) {
   $('keyinfo').textContent = `(${s.keys.length}), default ${s.interpolation}`;
   $('keys').tBodies[0].innerHTML = s.keys.map((k, i) =>
-    `<tr data-index="${i}" class="${i === s.current ? 'selected' : ''}"><td>${i}</td><td>${text(k.name)}</td>` +
+    `<tr data-index="${i}" class="${i === s.current ? 'selected' : k.selected ? 'chosen' : ''}"><td>${i}</td><td>${text(k.name)}</td>` +
     `<td>${k.time.toFixed(2)}</td><td>${k.hold > 0 ? k.hold.toFixed(2) : ''}</td>` +
     `<td>${k.interp ? text(k.interp) + (k.own_interp ? '*' : '') : ''}</td></tr>`).join('');
 }
 
 $('keys').addEventListener('click', e => {
   const row = e.target.closest('tr[data-index]');
-  if (row) send({ key: `select-key:${row.dataset.index}` });
+  if (row) send({ key: clickToken(e, row.dataset.index) });
 });
 $('joints').addEventListener('click', e => {
   const row = e.target.closest('tr[data-joint]');
@@ -323,7 +325,9 @@ const findings = studio.findings = new Findings($('findings'), t => timeline.par
 const timeline = new Timeline($('timeline'), {
   onScrub: (values, t) => (studio.playback ? studio.playback.scrub(values, t) : showGhost(values)),
   onPark: (t, values) => studio.playback && studio.playback.park(t, values),
-  onKeyClick: index => send({ key: `select-key:${index}` }),
+  onKeyClick: (index, e) => send({ key: clickToken(e, index) }),
+  // A drag of one of several selected keys moves all of them by the same time.
+  onKeysShift: millis => send({ key: `shift-keys:${millis}` }),
   onKeyTime: async (index, millis) => {
     if (await send({ key: `select-key:${index}` })) send({ key: `key-time:${millis}` });
   },
@@ -344,7 +348,7 @@ async function fetchTimeline() {
       const s = timelineTimer;
       timelineTimer = null;
       const { answer } = await api('/api/timeline');
-      const keys = s.keys.map((k, i) => ({ time: k.time, current: i === s.current }));
+      const keys = s.keys.map((k, i) => ({ time: k.time, current: i === s.current, selected: k.selected }));
       timeline.set(answer, keys);
       findings.setCheck(answer.findings);
       studio.timeline = answer;

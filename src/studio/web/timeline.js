@@ -1,6 +1,8 @@
 // The timeline: per joint, the position curve between its limits (the band) and the velocity
 // curve against its limit (dashed), the keys as vertical marks, check findings in red, a time
 // axis in seconds. Dragging a key mark moves the key in time (the engine validates it);
+// with several keys selected, dragging one of them moves them all (onKeysShift); a click
+// selects (with Ctrl or Shift, adds to the selection: onKeyClick gets the event);
 // dragging elsewhere scrubs, and letting go parks there (onPark): the ghost shows the pose at
 // that time. A playback's playhead and the tracking error (what the arm or the simulation did
 // against what was commanded) are drawn on it too. Everything is drawn in CSS pixels on a
@@ -17,7 +19,7 @@ const AXIS = 16;
 const DRAG_PX = 4;
 
 export class Timeline {
-  constructor(canvas, { onScrub, onKeyTime, onPark, onKeyClick }) {
+  constructor(canvas, { onScrub, onKeyTime, onPark, onKeyClick, onKeysShift }) {
     this.canvas = canvas;
     this.ctx = canvas.getContext('2d');
     this.data = null;
@@ -32,6 +34,7 @@ export class Timeline {
     // Tracking error per source ('measured', 'simulated'): { times, joints: [[error…]…] }.
     this.errors = {};
     this.onKeyClick = onKeyClick || (() => {});
+    this.onKeysShift = onKeysShift || (() => {});
     this.drag = null;
     canvas.addEventListener('pointerdown', e => this.down(e));
     canvas.addEventListener('pointermove', e => this.move(e));
@@ -92,7 +95,8 @@ export class Timeline {
     const x = e.offsetX;
     const key = this.keys.findIndex(k => Math.abs(this.x(k.time) - x) < GRAB);
     this.canvas.setPointerCapture(e.pointerId);
-    this.drag = key >= 0 ? { key, x, from: x, moved: false } : { scrub: true };
+    const { ctrlKey, metaKey, shiftKey } = e;
+    this.drag = key >= 0 ? { key, x, from: x, moved: false, click: { ctrlKey, metaKey, shiftKey } } : { scrub: true };
     if (this.drag.scrub) this.scrub(x);
   }
 
@@ -111,9 +115,19 @@ export class Timeline {
     this.drag = null;
     if (!drag) return;
     if (drag.scrub) { this.park(this.cursor); return; }
-    if (!drag.moved) { this.draw(); this.onKeyClick(drag.key); return; }
+    if (!drag.moved) { this.draw(); this.onKeyClick(drag.key, drag.click); return; }
+    if (this.together(drag.key)) {
+      const shift = this.time(drag.x) - this.time(drag.from);
+      this.onKeysShift(Math.round(shift * 1000));
+      return;
+    }
     const t = Math.max(0, this.time(drag.x));
     this.onKeyTime(drag.key, Math.round(t * 1000));
+  }
+
+  // Whether a drag of key `index` moves several keys: it is one of several selected.
+  together(index) {
+    return Boolean(this.keys[index] && this.keys[index].selected) && this.keys.filter(k => k.selected).length > 1;
   }
 
   scrub(x) {
@@ -250,9 +264,13 @@ export class Timeline {
 
   marks() {
     const g = this.ctx, h = this.height - AXIS;
+    const drag = this.drag && this.drag.key !== undefined ? this.drag : null;
+    const dragged = i => drag && (drag.key === i || (this.together(drag.key) && this.keys[i].selected));
     this.keys.forEach((k, i) => {
-      const x = this.drag && this.drag.key === i ? this.drag.x : this.x(k.time);
-      g.strokeStyle = i === this.playing ? '#66bb6a' : k.current ? '#ffd54f' : 'rgba(255,255,255,0.35)';
+      // A key dragged alone lands where the pointer lets go; several keep their spacing.
+      const alone = drag && drag.key === i && !this.together(i);
+      const x = alone ? drag.x : dragged(i) ? this.x(k.time) + drag.x - drag.from : this.x(k.time);
+      g.strokeStyle = i === this.playing ? '#66bb6a' : k.current ? '#ffd54f' : k.selected ? '#ffe9a8' : 'rgba(255,255,255,0.35)';
       g.lineWidth = i === this.playing ? 2 : 1;
       g.beginPath(); g.moveTo(x, 0); g.lineTo(x, h - MARKS); g.stroke();
       g.fillStyle = g.strokeStyle;

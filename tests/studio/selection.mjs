@@ -1,0 +1,99 @@
+// Several keys at once through the real page (run by tests/teaching/studio_edit.rs as
+// `node selection.mjs URL`), on sequences/so101_wave.json (8 keys): a click, a Shift-click and
+// a Ctrl-click in the key list; Ctrl+C, a click on the last key, Ctrl+V; a drag of one pasted
+// key's mark on the timeline (both move); `d` deletes both; Ctrl+Z brings them back; Ctrl+A
+// selects every key. Prints one JSON line of what the page saw; the test judges it.
+import { launchChromium } from './browser.mjs';
+
+const [url] = process.argv.slice(2);
+let step = 'start';
+setTimeout(() => fail(`no result after 300 s, at: ${step}`), 300000).unref();
+
+function fail(message) {
+  console.error(`selection: ${message}`);
+  process.exit(1);
+}
+
+const browser = await launchChromium();
+const results = { errors: [] };
+try {
+  const page = await (await browser.newContext({ viewport: { width: 1280, height: 800 } })).newPage();
+  page.on('pageerror', e => results.errors.push(`page error: ${e.message}`));
+  page.on('console', m => { if (m.type() === 'error') results.errors.push(`console: ${m.text()}`); });
+  await page.goto(url);
+  await page.waitForFunction(() => window.studio && window.studio.snapshot && window.studio.controller && window.studio.timeline);
+  const waitFor = (fn, arg) => page.waitForFunction(fn, arg, { timeout: 30000 }).catch(e => fail(`${e.message}: ${fn}`));
+  const selected = () => page.evaluate(() => window.studio.snapshot.keys.flatMap((k, i) => (k.selected ? [i] : [])));
+  const ariaSelected = () => page.evaluate(() =>
+    [...document.querySelectorAll('#keys tbody tr[aria-selected="true"]')].map(r => Number(r.dataset.index)));
+  const row = i => page.click(`#keys tbody tr[data-index="${i}"] td:nth-child(2)`, { force: true });
+  const sameSelection = want => waitFor(w => {
+    const got = window.studio.snapshot.keys.flatMap((k, i) => (k.selected ? [i] : []));
+    return JSON.stringify(got) === JSON.stringify(w);
+  }, want);
+
+  step = 'click, shift-click, ctrl-click';
+  await row(1);
+  await waitFor(() => window.studio.snapshot.current === 1);
+  await page.keyboard.down('Shift'); await row(3); await page.keyboard.up('Shift');
+  await sameSelection([1, 2, 3]);
+  results.range = await selected();
+  results.ariaRange = await ariaSelected();
+  await page.keyboard.down('Control'); await row(2); await page.keyboard.up('Control');
+  await sameSelection([1, 3]);
+  results.toggled = await selected();
+  results.statusToggled = await page.evaluate(() => document.getElementById('status').textContent);
+
+  step = 'copy and paste';
+  await page.keyboard.press('Control+c');
+  await waitFor(() => /copied/.test(document.getElementById('status').textContent));
+  await row(7);
+  await waitFor(() => window.studio.snapshot.current === 7);
+  await page.keyboard.press('Control+v');
+  await waitFor(() => window.studio.snapshot.keys.length === 10);
+  results.pasted = await page.evaluate(() => ({
+    times: window.studio.snapshot.keys.map(k => k.time),
+    values: window.studio.snapshot.keys.map(k => k.values),
+    current: window.studio.snapshot.current,
+  }));
+  results.pastedSelection = await selected();
+
+  step = 'drag the pasted pair';
+  const timelineCaughtUp = () => waitFor(() =>
+    window.studio.timeline.joints[3].keys.length === window.studio.snapshot.keys.length);
+  const markX = async index => (await timelineCaughtUp(), page.evaluate(i => {
+    const c = document.getElementById('timeline');
+    const t = window.studio.snapshot.keys[i].time;
+    const d = window.studio.timeline, keys = window.studio.snapshot.keys.map(k => k.time);
+    const a = Math.min(d.start, ...keys), b = Math.max(d.end, ...keys, d.start + 0.1);
+    const x = 110 + (t - a) / (b - a) * (c.clientWidth - 120);
+    const box = c.getBoundingClientRect();
+    return { x: box.left + x, y: box.top + 30 };
+  }, index));
+  const before = results.pasted.times;
+  const from = await markX(8), to = await markX(9);
+  await page.mouse.move(from.x, from.y);
+  await page.mouse.down();
+  await page.mouse.move(from.x + (to.x - from.x) / 4, from.y, { steps: 5 });
+  await page.mouse.up();
+  await page.waitForFunction(t => window.studio.snapshot.keys[8].time !== t, before[8], { timeout: 30000 })
+    .catch(async () => fail(`the drag moved nothing: ${await page.evaluate(() => document.getElementById('status').textContent)}`));
+  results.dragged = await page.evaluate(() => window.studio.snapshot.keys.map(k => k.time));
+
+  step = 'delete and undo';
+  await page.keyboard.press('d');
+  await waitFor(() => window.studio.snapshot.keys.length === 8);
+  results.statusDeleted = await page.evaluate(() => document.getElementById('status').textContent);
+  await page.keyboard.press('Control+z');
+  await waitFor(() => window.studio.snapshot.keys.length === 10);
+
+  step = 'select all';
+  await page.keyboard.press('Control+a');
+  await sameSelection([0, 1, 2, 3, 4, 5, 6, 7, 8, 9]);
+  results.all = await selected();
+} catch (e) {
+  fail(`${step}: ${e.stack || e}`);
+} finally {
+  await browser.close();
+}
+console.log(JSON.stringify(results));
