@@ -52,6 +52,13 @@ impl Source {
     }
 }
 
+impl Source {
+    /// The text of the file, if the sequence came from one.
+    pub(super) fn text(&self) -> Option<&str> {
+        self.0.as_ref().map(|origin| origin.text.as_str())
+    }
+}
+
 /// `sequence` as text in the layout of the file it came from (see the module's doc); the
 /// canonical layout when it came from no file, or when the merged text would not read back
 /// as this very sequence.

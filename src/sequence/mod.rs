@@ -334,6 +334,28 @@ impl Sequence {
             && (self.keyframes.iter().map(unplaced)).eq(other.keyframes.iter().map(unplaced))
     }
 
+    /// The text of the file this sequence was loaded from or last written to, when it keeps
+    /// that file's layout ([`Sequence::to_text`]).
+    pub(crate) fn source_text(&self) -> Option<&str> {
+        self.source.text()
+    }
+
+    /// Where each key was in the file of [`Sequence::source_text`] (`None`: a new key).
+    pub(crate) fn source_places(&self) -> Vec<Option<usize>> {
+        self.keyframes.iter().map(|k| k.source_index).collect()
+    }
+
+    /// Takes on the layout of `file` (a sequence loaded from the file this one was edited
+    /// from), `places` saying where each of this one's keys was in it: a list recovered from
+    /// the teach journal is then saved in its file's layout, as it would have been before the
+    /// crash. Places beyond the keys, or keys beyond the places, count as new keys.
+    pub(crate) fn adopt_layout(&mut self, file: &Sequence, places: &[Option<usize>]) {
+        self.source = file.source.clone();
+        for (index, key) in self.keyframes.iter_mut().enumerate() {
+            key.source_index = places.get(index).copied().flatten();
+        }
+    }
+
     /// Takes `text`, which has just been written for this sequence, as the file it now comes
     /// from: the next save keeps its layout, and keys are matched to their places in it.
     pub fn mark_written(&mut self, text: &str) {

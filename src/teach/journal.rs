@@ -6,7 +6,10 @@
 //! The journal is a `keypose-journal/1` file: `"list"` is the list as a `keypose-sequence/1`
 //! sequence (copy it out to open it with any keypose command), `"current"` its current key,
 //! `"undo"` and `"redo"` the history ([`History`]), each step `{"what", "current", "after",
-//! "list"}` ([`Edit`]).
+//! "list"}` ([`Edit`]), and `"layout"`, when the list came from a file, `{"file_hash",
+//! "places"}`: a hash of that file's text and where each key of the list was in it, so that a
+//! recovered list is written in its file's layout again (its formatting and numbers as
+//! written, [`Sequence::to_text`]) as long as the file is still the one it was edited from.
 //! A journal of an older keypose, a bare `keypose-sequence/1` file, is read as a list without
 //! history. It is named after the target file's name plus a hash of its absolute path (two
 //! `taught.json` in different directories do not share a journal), and removed after a
@@ -114,10 +117,15 @@ impl Journal {
 
     /// Reads the journal: its list and history.
     pub fn read(&self) -> Result<Entry, InputError> {
+        self.read_with_layout().map(|(entry, _)| entry)
+    }
+
+    fn read_with_layout(&self) -> Result<(Entry, Option<FileLayout>), InputError> {
         let file = self.path.display().to_string();
         let text = crate::json::read_text(&self.path)?;
         let value = crate::json::parse(&file, &text)?;
-        read_entry(&Node::root(&file, &value))
+        let root = Node::root(&file, &value);
+        Ok((read_entry(&root)?, read_layout(&root)?))
     }
 
     /// Removes the journal; a journal that is not there is not an error.
@@ -142,9 +150,72 @@ impl Journal {
         if target_time.is_some_and(|t| modified < t) {
             return Ok(None);
         }
-        let entry = self.read()?;
+        let (mut entry, layout) = self.read_with_layout()?;
+        if let Some(layout) = layout {
+            layout.restore(&mut entry.list.sequence, target);
+        }
         Ok(Some(Pending { entry, modified }))
     }
+}
+
+/// Which file's layout a journaled list keeps, and where its keys were in that file.
+#[derive(Debug, Clone, PartialEq)]
+struct FileLayout {
+    /// [`fnv1a`] of the file's text.
+    file_hash: u64,
+    /// Each key's place in the file, `None` for a key added since.
+    places: Vec<Option<usize>>,
+}
+
+impl FileLayout {
+    fn of(sequence: &Sequence) -> Option<FileLayout> {
+        Some(FileLayout {
+            file_hash: fnv1a(sequence.source_text()?.as_bytes()),
+            places: sequence.source_places(),
+        })
+    }
+
+    /// Gives `sequence` the layout of `target` when `target` is still the text the list was
+    /// edited from; otherwise (changed, gone, unreadable) the list keeps the canonical layout,
+    /// as any list that came from no file.
+    fn restore(&self, sequence: &mut Sequence, target: &Path) {
+        let Ok(text) = std::fs::read_to_string(target) else {
+            return;
+        };
+        if fnv1a(text.as_bytes()) != self.file_hash {
+            return;
+        }
+        if let Ok(file) = Sequence::from_json(&target.display().to_string(), &text) {
+            sequence.adopt_layout(&file, &self.places);
+        }
+    }
+
+    fn to_value(&self) -> Value {
+        json!({"file_hash": format!("{:016x}", self.file_hash), "places": self.places})
+    }
+}
+
+/// The journal's `"layout"`, if it has one.
+fn read_layout(root: &Node) -> Result<Option<FileLayout>, InputError> {
+    let Some(node) = root.get("layout") else {
+        return Ok(None);
+    };
+    node.only_fields(&["file_hash", "places"])?;
+    let hash_node = node.require("file_hash", "16 hex digits")?;
+    let file_hash = u64::from_str_radix(hash_node.str("16 hex digits")?, 16)
+        .map_err(|_| hash_node.expected("16 hex digits"))?;
+    let places = (node
+        .require("places", "each key's place in the file")?
+        .items()?)
+    .iter()
+    .map(|item| match item.value.is_null() {
+        true => Ok(None),
+        false => item
+            .integer("a key's place in the file, or null", 0, u32::MAX.into())
+            .map(|i| Some(i as usize)),
+    })
+    .collect::<Result<_, _>>()?;
+    Ok(Some(FileLayout { file_hash, places }))
 }
 
 /// The journal's text: one line per member and per step, so that a look at it shows the
@@ -169,8 +240,11 @@ fn entry_json(entry: &Entry) -> String {
             format!("[\n{}\n  ]", lines.join(",\n"))
         }
     };
+    let layout = FileLayout::of(&entry.list.sequence)
+        .map(|layout| format!(",\n  \"layout\": {}", layout.to_value()))
+        .unwrap_or_default();
     format!(
-        "{{\n  \"format\": {},\n  \"current\": {},\n  \"list\": {},\n  \"undo\": {},\n  \"redo\": {}\n}}\n",
+        "{{\n  \"format\": {},\n  \"current\": {},\n  \"list\": {},\n  \"undo\": {},\n  \"redo\": {}{layout}\n}}\n",
         Value::from(JOURNAL_FORMAT),
         entry.list.current,
         entry.list.sequence.to_value(),
@@ -224,7 +298,7 @@ fn read_entry(root: &Node) -> Result<Entry, InputError> {
         });
     }
     root.check_format(JOURNAL_FORMAT)?;
-    root.only_fields(&["format", "current", "list", "undo", "redo"])?;
+    root.only_fields(&["format", "current", "list", "undo", "redo", "layout"])?;
     let list = read_version(root)?;
     let steps = |name: &'static str| -> Result<Vec<Edit>, InputError> {
         let Some(node) = root.get(name) else {

@@ -163,7 +163,11 @@ fn the_page_selects_copies_pastes_drags_and_deletes_several_keys() {
 
     assert_eq!(results["errors"], json!([]), "the page ran without errors");
     assert_eq!(results["range"], json!([1, 2, 3]));
-    assert_eq!(results["ariaRange"], json!([1, 2, 3]), "the list says so too");
+    assert_eq!(
+        results["ariaRange"],
+        json!([1, 2, 3]),
+        "the list says so too"
+    );
     assert_eq!(results["toggled"], json!([1, 3]));
     let said = results["statusToggled"].as_str().unwrap();
     assert!(said.starts_with("keys 1 and 3 selected"), "{said}");

@@ -1486,3 +1486,49 @@ fn several_selected_keys_copy_paste_move_and_delete_as_one_undoable_step_each() 
     press(&mut fresh, Key::Paste);
     assert!(fresh.status().text.contains("nothing copied"));
 }
+
+/// A list recovered from the journal is written in its file's layout, as it would have been
+/// before the crash: the file's spacing, field order and numbers as typed (`10.50`, `0.7071`)
+/// stay, and only the edited name changes. Once the file has changed since, the journal's list
+/// is written in the canonical layout instead (its places would point into another text).
+#[test]
+fn a_recovered_list_keeps_its_files_layout_while_the_file_is_the_one_it_came_from() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = dir.path().join("taught.json");
+    let written = "{ \"format\": \"keypose-sequence/1\", \"robot\": \"so101\",\n  \"keyframes\": [\n    \
+                   {\"name\": \"a\",  \"joints\": {\"elbow_flex\": 10.50, \"wrist_flex\": 0.7071}},\n    \
+                   {\"name\": \"b\",  \"joints\": {\"elbow_flex\": 20}}\n  ] }\n";
+    let on = |list: KeyframeList| {
+        let robot = so101();
+        let present = robot.home.clone();
+        let journal = Journal::for_target(dir.path(), &output);
+        TeachState::new(robot, list, output.clone(), Some(journal), present)
+    };
+    for file_changed in [false, true] {
+        std::fs::write(&output, written).unwrap();
+        let mut crashed = on(KeyframeList::load(&output).unwrap());
+        press(&mut crashed, Key::Char('>'));
+        // The name prompt starts from the key's name, "b".
+        edit(&mut crashed, 'N', "2");
+        let journal = crashed.journal().unwrap().clone();
+        drop(crashed);
+        if file_changed {
+            std::fs::write(&output, written.replace("10.50", "10.5")).unwrap();
+            // The journal written again after the file, so that it is still offered.
+            let text = std::fs::read(journal.path()).unwrap();
+            std::fs::write(journal.path(), text).unwrap();
+        }
+        let mut state = on(KeyframeList::load(&output).unwrap());
+        let pending = journal.pending(&output).unwrap().expect("offered");
+        state.recover(pending);
+        press(&mut state, Key::Char('w'));
+        let text = std::fs::read_to_string(&output).unwrap();
+        if file_changed {
+            assert!(text.starts_with("{\n"), "the canonical layout:\n{text}");
+        } else {
+            assert_eq!(text, written.replace("\"b\"", "\"b2\""));
+        }
+        let back = Sequence::load(&output).unwrap();
+        assert_eq!(back.keyframes[1].name.as_deref(), Some("b2"));
+    }
+}
