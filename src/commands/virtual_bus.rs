@@ -125,16 +125,40 @@ pub fn run(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
         args.wire.timing(args.baud.unwrap_or(robot.bus.baud)),
     )?;
     set_homing_offsets(&server, &robot, &args.homing_offset)?;
-    let _hand = hand_trajectory.map(|trajectory| start_hand(server.bus(), &robot, trajectory));
+    let hand = hand_trajectory.map(|trajectory| start_hand(server.bus(), &robot, trajectory));
     println!("{}", server.path());
     // Flush now: the parent reads the path to connect while this process keeps running.
     let _ = std::io::Write::flush(&mut std::io::stdout());
     if !args.fault.is_empty() {
         inject_faults_after(&server, args.fault.clone(), args.fault_after);
     }
-    wait_for_the_end();
+    let ended = std::sync::atomic::AtomicBool::new(false);
+    std::thread::scope(|scope| {
+        if let Some(hand) = &hand {
+            scope.spawn(|| say_when_the_hand_starts(hand, &ended));
+        }
+        wait_for_the_end();
+        ended.store(true, std::sync::atomic::Ordering::SeqCst);
+    });
+    drop(hand);
     drop(server);
     Ok(Verdict::Pass)
+}
+
+/// Says on standard error when the hand began to move, in milliseconds since 1970 (the wall
+/// clock other programs share): a test times what a browser shows of the motion against it.
+fn say_when_the_hand_starts(hand: &keypose::testing::Hand, ended: &std::sync::atomic::AtomicBool) {
+    while !ended.load(std::sync::atomic::Ordering::SeqCst) {
+        if let Some(at) = hand.started_at() {
+            let ms = at.duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+            eprintln!(
+                "virtual-bus: the hand moves from {} ms (since 1970)",
+                ms.as_millis()
+            );
+            return;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
 }
 
 /// Refuses a fault for a servo the robot does not have, before anything starts.

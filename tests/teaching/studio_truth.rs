@@ -297,3 +297,84 @@ fn the_page_shows_what_the_arm_will_do() {
         }
     }
 }
+
+/// How long a servo's move takes to reach the page's 3D view, end to end: `keypose
+/// virtual-bus --hand` steps the limp arm's pan between 0° and 30° every second (a step
+/// sequence: each move happens at once, at a known instant after the hand's start, which the
+/// bus stamps on the wall clock), and the page stamps each drawn frame with the pose it shows.
+/// The time from each move to the first frame that shows it is printed (docs/commands.md
+/// quotes it); the test asserts only that every move was seen, in order.
+#[test]
+fn a_servo_moved_by_hand_reaches_the_3d_view_and_the_time_it_takes_is_measured() {
+    require_browser_tools();
+    let dir = tempfile::tempdir().unwrap();
+    let steps = [0.0, 30.0, 0.0, 30.0, 0.0, 30.0];
+    let keys: Vec<Value> = steps
+        .iter()
+        .map(|pan| json!({"joints": {"shoulder_pan": pan}}))
+        .collect();
+    let hand = dir.path().join("hand.json");
+    let sequence = json!({"format": "keypose-sequence/1", "robot": "so101",
+        "interpolation": "step", "key_interval": 1.0, "keyframes": keys});
+    std::fs::write(&hand, sequence.to_string()).unwrap();
+    let mut bus = Command::new(env!("CARGO_BIN_EXE_keypose"))
+        .args(["virtual-bus", "--robot", "so101", "--hand"])
+        .arg(&hand)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start keypose virtual-bus");
+    let mut port = String::new();
+    BufReader::new(bus.stdout.take().unwrap())
+        .read_line(&mut port)
+        .unwrap();
+    let stderr = bus.stderr.take().unwrap();
+    let _bus = Studio(bus);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_keypose"))
+        .args(["studio", "--port", port.trim(), "--robot", "so101"])
+        .current_dir(dir.path())
+        .env("KEYPOSE_CACHE", dir.path().join("cache"))
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("start keypose studio");
+    let mut url = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut url)
+        .unwrap();
+    let _studio = Studio(child);
+    let results = browser_run("latency.mjs", &[Path::new(url.trim()), Path::new("8")]);
+    assert_eq!(results["errors"], json!([]), "the page ran without errors");
+
+    let said = BufReader::new(stderr)
+        .lines()
+        .map_while(Result::ok)
+        .find_map(|line| {
+            let rest = line.strip_prefix("virtual-bus: the hand moves from ")?;
+            rest.split(' ').next()?.parse::<f64>().ok()
+        })
+        .expect("the bus says when the hand started");
+    let frames: Vec<(f64, f64)> = (results["frames"].as_array().unwrap().iter())
+        .map(|f| (f["at"].as_f64().unwrap(), f["present"][0].as_f64().unwrap()))
+        .collect();
+    let mut delays = Vec::new();
+    for (k, pair) in steps.windows(2).enumerate() {
+        // The move to key k + 1 happens at k + 1 seconds; its first frame is the first one
+        // past the middle of the step.
+        let moved_at = said + 1000.0 * (k + 1) as f64;
+        let middle = (pair[0] + pair[1]) / 2.0;
+        let past = |pan: f64| (pan - middle).signum() == (pair[1] - middle).signum();
+        let seen = frames
+            .iter()
+            .find(|(at, pan)| *at >= moved_at - 1.0 && past(*pan))
+            .unwrap_or_else(|| panic!("move {} never drawn: {frames:?}", k + 1));
+        delays.push(seen.0 - moved_at);
+    }
+    let mut sorted = delays.clone();
+    sorted.sort_by(f64::total_cmp);
+    eprintln!(
+        "a servo's move → the frame that shows it: {:?} ms (median {:.0} ms)",
+        delays,
+        sorted[sorted.len() / 2]
+    );
+}

@@ -10,9 +10,9 @@
 
 use super::VirtualBus;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime};
 
 /// How often the hand moves the servos: faster than any control rate keypose samples at, so a
 /// recording sees a continuous motion, not the hand's steps.
@@ -26,6 +26,9 @@ pub type HandPath = Box<dyn FnMut(f64, &mut [f64]) + Send>;
 pub struct Hand {
     stop: Arc<AtomicBool>,
     started: Arc<AtomicBool>,
+    /// The wall-clock instant the hand began to move, for a test that times what another
+    /// process (a browser) shows of the motion against it.
+    started_at: Arc<Mutex<Option<SystemTime>>>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -35,18 +38,21 @@ impl Hand {
     pub fn start(bus: VirtualBus, ids: Vec<u8>, duration: f64, path: HandPath) -> Hand {
         let stop = Arc::new(AtomicBool::new(false));
         let started = Arc::new(AtomicBool::new(false));
+        let started_at = Arc::new(Mutex::new(None));
         let thread = {
             let (stop, started) = (stop.clone(), started.clone());
+            let at = started_at.clone();
             std::thread::spawn(move || {
                 // The hand is outside the computer: it moves on time however busy it is (as
                 // far as the system lets this thread run first).
                 let _ = crate::pacing::realtime::serve_promptly();
-                run(&bus, &ids, duration, path, &stop, &started)
+                run(&bus, &ids, duration, path, &stop, &started, &at)
             })
         };
         Hand {
             stop,
             started,
+            started_at,
             thread: Some(thread),
         }
     }
@@ -54,6 +60,12 @@ impl Hand {
     /// Whether the hand has begun to move the servos.
     pub fn started(&self) -> bool {
         self.started.load(Ordering::SeqCst)
+    }
+
+    /// When the hand began to move the servos (the wall clock, which other processes on the
+    /// machine share), if it has.
+    pub fn started_at(&self) -> Option<SystemTime> {
+        *self.started_at.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     /// Whether the hand has finished its path (or was stopped).
@@ -94,6 +106,7 @@ fn run(
     mut path: HandPath,
     stop: &AtomicBool,
     started: &AtomicBool,
+    started_at: &Mutex<Option<SystemTime>>,
 ) {
     let mut ticks = vec![0.0; ids.len()];
     path(0.0, &mut ticks);
@@ -105,8 +118,9 @@ fn run(
         }
         std::thread::sleep(PUSH_PERIOD);
     }
-    started.store(true, Ordering::SeqCst);
     let start = Instant::now();
+    *started_at.lock().unwrap_or_else(|e| e.into_inner()) = Some(SystemTime::now());
+    started.store(true, Ordering::SeqCst);
     while !stop.load(Ordering::SeqCst) {
         let t = start.elapsed().as_secs_f64().min(duration);
         path(t, &mut ticks);

@@ -24,7 +24,7 @@ const HEARTBEAT_MS = 700;
 
 // What the page knows; exposed for the browser test and the latency figures.
 const studio = window.studio = {
-  snapshot: null, controller: false, refusals: [], latencies: [], arrivals: [], loadMs: null, view: null,
+  snapshot: null, controller: false, refusals: [], latencies: [], arrivals: [], frames: [], loadMs: null, view: null,
   handle: null, targets: [],
   send, press: key => send({ key }), moveTool,
   // Resolves once the tool targets asked for so far have been answered.
@@ -440,6 +440,10 @@ async function start() {
       studio.view.onFrame = null;
       studio.latencies.push(Date.now() - s.at_ms);
       if (studio.latencies.length > 500) studio.latencies.shift();
+      // When each pose read from the arm was drawn (the wall clock, which the emulated
+      // servos' hand shares): the measured time from a servo's move to the screen.
+      studio.frames.push({ at: Date.now(), present: s.joints.map(j => j.present) });
+      if (studio.frames.length > 1000) studio.frames.shift();
       // From the navigation's start (performance's time origin) to the first drawn arm.
       if (studio.loadMs === null) studio.loadMs = performance.now();
     };
