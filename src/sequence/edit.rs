@@ -338,6 +338,12 @@ impl KeyframeList {
         })
     }
 
+    /// Sets (or clears) the timing profile of the segment from the current key (the studio's
+    /// easing); false when there is no key.
+    pub fn set_timing(&mut self, timing: Option<super::SegmentTiming>) -> bool {
+        self.edit_current(|k| k.timing = timing)
+    }
+
     /// Sets one joint's value in the current key (added if the key did not name the joint).
     pub fn set_value(&mut self, joint: &str, value: KeyValue) -> bool {
         self.edit_current(|k| k.set(joint, value))

@@ -19,7 +19,7 @@ use std::path::Path;
 
 pub use edit::{KeyframeList, TimeRefusal};
 pub use load::{valid_arm_name, MAX_TIME, MIN_GAP};
-pub use timing::{SegmentTiming, TimeProfile, MAX_SPEEDS};
+pub use timing::{SegmentTiming, TimeProfile, EASE_STEPS, MAX_SPEEDS};
 
 /// The `"format"` field of a sequence file this version reads and writes.
 pub const SEQUENCE_FORMAT: &str = "keypose-sequence/1";

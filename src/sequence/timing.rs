@@ -39,7 +39,51 @@ pub enum TimeProfile {
     Speeds(Vec<f64>),
 }
 
+/// How finely an eased segment's ramps are placed: in twentieths of its path, so that each ramp
+/// ends on one of the profile's evenly spaced points and the profile is an exact trapezoid.
+pub const EASE_STEPS: usize = 20;
+
 impl SegmentTiming {
+    /// An eased segment (the studio's easing handles): from rest, the path speed rises evenly
+    /// over the first `ease_out` of the path (a share, 0 … 1), runs steady, and falls evenly to
+    /// rest over the last `ease_in` — a trapezoidal velocity profile, as a teach pendant's
+    /// accelerate / decelerate settings give. Shares are rounded to whole steps of
+    /// 1 / [`EASE_STEPS`]; `None` when both round to nothing (steady all the way: no profile)
+    /// or together exceed the path.
+    pub fn eased(path_time: f64, ease_out: f64, ease_in: f64) -> Option<SegmentTiming> {
+        let steps = |share: f64| (share * EASE_STEPS as f64).round() as usize;
+        let (up, down) = (steps(ease_out), steps(ease_in));
+        if (up == 0 && down == 0) || up + down > EASE_STEPS {
+            return None;
+        }
+        // Speed² grows linearly along the path while the speed ramps (even acceleration).
+        let speed = |k: usize| {
+            let rising = if up == 0 { 1.0 } else { k as f64 / up as f64 };
+            let falling = if down == 0 {
+                1.0
+            } else {
+                (EASE_STEPS - k) as f64 / down as f64
+            };
+            rising.min(falling).min(1.0).sqrt()
+        };
+        Some(SegmentTiming {
+            path_time,
+            profile: TimeProfile::Speeds((0..=EASE_STEPS).map(speed).collect()),
+        })
+    }
+
+    /// The shares of the path over which the speed rises from the start to its highest, and
+    /// falls from its highest to the end: an eased segment's `ease_out` and `ease_in`; for any
+    /// other profile, the ramps around its fastest stretch.
+    pub fn ease_shares(&self) -> (f64, f64) {
+        let TimeProfile::Speeds(speeds) = &self.profile;
+        let top = speeds.iter().copied().fold(0.0, f64::max);
+        let at_top = |v: &f64| *v >= top * (1.0 - 1e-9);
+        let last = (speeds.len() - 1) as f64;
+        let first_top = speeds.iter().position(at_top).unwrap_or(0) as f64;
+        let last_top = speeds.iter().rposition(at_top).unwrap_or(0) as f64;
+        (first_top / last, (last - last_top) / last)
+    }
     /// Real seconds each stretch of the profile lasts at the speeds as written (before the
     /// scaling that makes the segment last what its key times give).
     pub fn stretch_seconds(&self) -> Vec<f64> {
@@ -105,6 +149,26 @@ pub(super) fn to_value(timing: &SegmentTiming) -> Value {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_eased_segment_is_a_trapezoid_whose_ramps_read_back() {
+        let timing = SegmentTiming::eased(2.0, 0.2, 0.3).unwrap();
+        let TimeProfile::Speeds(speeds) = &timing.profile;
+        assert_eq!(speeds.len(), EASE_STEPS + 1);
+        // From rest; 2 of the 4 steps up: v² = ½; steady from step 4 to 14; at rest at 20.
+        assert_eq!(speeds[0], 0.0);
+        assert!((speeds[2] - 0.5f64.sqrt()).abs() < 1e-15);
+        assert!(speeds[4..=14].iter().all(|&v| v == 1.0));
+        assert!(speeds[15] < 1.0 && speeds[20] == 0.0);
+        let (out, into) = timing.ease_shares();
+        assert!((out - 0.2).abs() < 1e-12 && (into - 0.3).abs() < 1e-12);
+        assert_eq!(SegmentTiming::eased(2.0, 0.01, 0.0), None, "rounds to none");
+        assert_eq!(
+            SegmentTiming::eased(2.0, 0.6, 0.5),
+            None,
+            "more than the path"
+        );
+    }
 
     #[test]
     fn a_stretch_lasts_its_path_time_over_its_mean_speed() {

@@ -17,6 +17,7 @@ const FILES: &[(&str, &str, &[u8])] = &[
     ("/collision.js", JS, include_bytes!("web/collision.js")),
     ("/undo.js", JS, include_bytes!("web/undo.js")),
     ("/selection.js", JS, include_bytes!("web/selection.js")),
+    ("/easing.js", JS, include_bytes!("web/easing.js")),
     ("/a11y.js", JS, include_bytes!("web/a11y.js")),
     ("/unsaved.js", JS, include_bytes!("web/unsaved.js")),
     ("/connection.js", JS, include_bytes!("web/connection.js")),

@@ -417,7 +417,8 @@ pub(crate) enum PageKeyError {
 
 /// A key of the page, in the tokens of a `--keys` script (`space`, `shift-left`, `u`, …)
 /// plus the page's own: `select-key:N`, `toggle-key:N` (Ctrl-click), `range-key:N`
-/// (Shift-click), `shift-keys:±MS` (the selection dragged in time), `select-joint:N`,
+/// (Shift-click), `shift-keys:±MS` (the selection dragged in time), `ease:OUT,IN` (the easing
+/// handles, percent), `select-joint:N`,
 /// `key-time:MS`, `capture-at:MS` and
 /// `tool-target:X,Y,Z` (the tool handle, millimetres in the base frame). The script's
 /// `import:`, `write:` and `wait:` are refused: the page imports through the `i` prompt, and
@@ -447,6 +448,12 @@ pub(crate) fn parse_key(token: &str) -> Result<Key, PageKeyError> {
                 what: "a signed number of whole milliseconds",
             });
     }
+    if let Some(rest) = token.strip_prefix("ease:") {
+        return ease(rest).ok_or_else(|| PageKeyError::NoNumber {
+            token: token.to_string(),
+            what: "two whole percentages, OUT,IN",
+        });
+    }
     if let Some(rest) = token.strip_prefix("select-joint:") {
         return number(rest, "a joint index").map(|i| Key::SelectJoint(i as usize));
     }
@@ -469,6 +476,15 @@ pub(crate) fn parse_key(token: &str) -> Result<Key, PageKeyError> {
         }
         teach::Step::Key(key) => Ok(key),
     }
+}
+
+/// `OUT,IN` in whole percent as a [`Key::Ease`] (the state judges the values).
+fn ease(text: &str) -> Option<Key> {
+    let (out, into) = text.split_once(',')?;
+    Some(Key::Ease {
+        out: out.trim().parse().ok()?,
+        into: into.trim().parse().ok()?,
+    })
 }
 
 /// The longest move in time a page may ask for: beyond a day no key can be (the list's own
@@ -503,6 +519,9 @@ mod tests {
         assert_eq!(parse_key("range-key:4"), Ok(Key::RangeKey(4)));
         assert_eq!(parse_key("shift-keys:-250"), Ok(Key::ShiftKeys(-250)));
         assert_eq!(parse_key("copy"), Ok(Key::Copy));
+        assert_eq!(parse_key("ease:20,35"), Ok(Key::Ease { out: 20, into: 35 }));
+        assert!(parse_key("ease:20").is_err());
+        assert!(parse_key("ease:300,0").is_err());
         assert_eq!(parse_key("paste"), Ok(Key::Paste));
         assert!(parse_key("shift-keys:1.5").is_err());
         assert!(parse_key("shift-keys:99999999999").is_err());

@@ -70,6 +70,7 @@ pub(crate) fn snapshot(
         "interpolation": state.list().sequence().interpolation.name(),
         "speed": state.speed(),
         "activity": activity(state.activity()),
+        "easing": easing(state),
         "status": {"text": state.status().text, "error": state.status().error},
         "prompt": prompt(state),
         "controlled": controlled,
@@ -81,6 +82,40 @@ pub(crate) fn snapshot(
         // What the next undo and redo would take back or make again (null: nothing).
         "undo": state.history().next_undo(),
         "redo": state.history().next_redo(),
+    })
+}
+
+/// The easing of the segment from the current key, for the page's curve and handles: the
+/// shares of its path spent speeding up (`out`) and slowing down (`in`), whether the handles
+/// may change them (a linear segment that is no tool line) and why not; null after the last key.
+fn easing(state: &TeachState) -> Value {
+    let list = state.list();
+    let index = list.current_index();
+    if index + 1 >= list.len() {
+        return Value::Null;
+    }
+    let sequence = list.sequence();
+    let key = &sequence.keyframes[index];
+    let mode = format::segment_interp(sequence, index);
+    let why = if key.line {
+        Some("a straight tool line is timed by its own ease".to_string())
+    } else if mode != crate::curve::Interp::Linear {
+        Some(format!(
+            "easing is for linear segments; this one is {} (p changes it)",
+            mode.name()
+        ))
+    } else {
+        None
+    };
+    let (out, into) = key.timing.as_ref().map_or((0.0, 0.0), |t| t.ease_shares());
+    json!({
+        "from": index,
+        "to": index + 1,
+        "allowed": why.is_none(),
+        "why": why,
+        "out": out,
+        "in": into,
+        "profiled": key.timing.is_some(),
     })
 }
 

@@ -53,6 +53,15 @@ pub enum Key {
     /// The studio's timeline: move every selected key this many milliseconds (a drag of one
     /// of several selected keys; negative is earlier).
     ShiftKeys(i64),
+    /// The studio's easing handles: the segment from the current key speeds up over the first
+    /// `out` percent of its path and slows to rest over the last `into` percent (multiples of
+    /// 5; both 0: steady). Linear segments only.
+    Ease {
+        /// Percent of the path spent speeding up from the current key.
+        out: u8,
+        /// Percent of the path spent slowing down into the next key.
+        into: u8,
+    },
     /// The studio's joint table: select joint `index` (a click on it).
     SelectJoint(usize),
     /// The studio's timeline: move the current key to this time, in whole milliseconds (a

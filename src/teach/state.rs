@@ -335,6 +335,7 @@ impl TeachState {
             Key::Copy => self.copy_keys(),
             Key::Paste => self.paste_keys(),
             Key::ShiftKeys(millis) => self.shift_keys(millis),
+            Key::Ease { out, into } => self.ease(out, into),
             Key::SelectJoint(index) => self.select_joint(index),
             Key::KeyTime(millis) => self.set_key_time(millis),
             Key::CaptureAt(millis) => self.capture_at(millis),

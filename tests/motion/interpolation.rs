@@ -350,3 +350,44 @@ fn rigid_transform_tracks_lerp_translation_and_slerp_rotation_together() {
     assert!((mid.t - DVec3::new(0.1, 0.0, -0.05)).length() < 1e-15);
     assert!((mid.r.to_axis_angle().1 - PI / 4.0).abs() < 1e-12);
 }
+
+/// An eased linear segment (the studio's easing handles, `SegmentTiming::eased`) is a
+/// trapezoidal velocity profile along its straight path, worked out by hand: elbow 0° → 60° in
+/// 3 s, speeding up over 20 % of the way and slowing down over 30 %. The steady speed is
+/// (1 + 0.2 + 0.3) × 60 / 3 = 30 °/s, reached at 2·0.2 / 1.5 × 3 = 0.8 s (12° done: 20 % of
+/// the way, ½·30·0.8) and held until 3 − 2·0.3 / 1.5 × 3 = 1.8 s (42°), then braked evenly to
+/// rest at 3 s. The keys' times and poses are unchanged.
+#[test]
+fn an_eased_linear_segment_is_the_hand_worked_trapezoid() {
+    use keypose::sequence::SegmentTiming;
+    let robot = Robot::builtin("so101").unwrap();
+    let mut sequence = Sequence::from_json(
+        "t.json",
+        r#"{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "linear",
+            "keyframes": [{"time": 0, "joints": {"elbow_flex": 0}},
+                          {"time": 3, "joints": {"elbow_flex": 60}}]}"#,
+    )
+    .unwrap();
+    sequence.keyframes[0].timing = SegmentTiming::eased(3.0, 0.2, 0.3);
+    let back = Sequence::from_json("t.json", &sequence.to_json()).expect("written and read back");
+    let trajectory = Trajectory::build(&back, &robot).unwrap();
+    let elbow = robot.joint_index("elbow_flex").unwrap();
+    let at = |t: f64| trajectory.sample(t)[elbow];
+    let speed = |t: f64| (at(t + 1e-6) - at(t - 1e-6)) / 2e-6;
+    for (t, want) in [(0.0, 0.0), (0.8, 12.0), (1.8, 42.0), (3.0, 60.0)] {
+        assert!(
+            (at(t) - want).abs() < 1e-6,
+            "{t} s: {} ° vs {want} °",
+            at(t)
+        );
+    }
+    // Even acceleration from rest: 30 / 0.8 = 37.5 °/s², so 0.4 s in, 15 °/s and 3°.
+    assert!((speed(0.4) - 15.0).abs() < 1e-4, "{}", speed(0.4));
+    assert!((at(0.4) - 3.0).abs() < 1e-6);
+    for t in [1.0, 1.3, 1.7] {
+        assert!((speed(t) - 30.0).abs() < 1e-4, "{t} s: {}", speed(t));
+    }
+    // Braking at 30 / 1.2 = 25 °/s²: 0.6 s before the end, 15 °/s.
+    assert!((speed(2.4) - 15.0).abs() < 1e-4, "{}", speed(2.4));
+    assert!(speed(3.0 - 1e-5).abs() < 1e-2, "at rest at the key");
+}

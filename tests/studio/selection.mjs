@@ -2,7 +2,8 @@
 // `node selection.mjs URL`), on sequences/so101_wave.json (8 keys): a click, a Shift-click and
 // a Ctrl-click in the key list; Ctrl+C, a click on the last key, Ctrl+V; a drag of one pasted
 // key's mark on the timeline (both move); `d` deletes both; Ctrl+Z brings them back; Ctrl+A
-// selects every key. Prints one JSON line of what the page saw; the test judges it.
+// selects every key; the easing curve of key 0's segment (cubic: no handles; made linear:
+// both handles dragged), then `w`. Prints one JSON line of what the page saw; the test judges it.
 import { launchChromium } from './browser.mjs';
 
 const [url] = process.argv.slice(2);
@@ -86,6 +87,39 @@ try {
   results.statusDeleted = await page.evaluate(() => document.getElementById('status').textContent);
   await page.keyboard.press('Control+z');
   await waitFor(() => window.studio.snapshot.keys.length === 10);
+
+  step = 'easing';
+  // Key 0 → 1 of the wave is cubic: the curve is drawn without handles, and says why.
+  await row(0);
+  await waitFor(() => window.studio.snapshot.current === 0 && window.studio.snapshot.easing.from === 0);
+  results.easingCubic = await page.evaluate(() => window.studio.snapshot.easing);
+  results.easingLabel = await page.evaluate(() => document.getElementById('easinginfo').textContent);
+  // p: cubic → monotone → step → linear; then the handles.
+  for (let i = 0; i < 3; i++) await page.keyboard.press('p');
+  await waitFor(() => window.studio.snapshot.easing.allowed);
+  const handle = which => page.evaluate(w => {
+    const c = document.getElementById('easing'), e = window.studio.snapshot.easing;
+    const h = window.studio.easing.handles(e.out, e.in).find(h => h.which === w);
+    const box = c.getBoundingClientRect();
+    return { x: box.left + window.studio.easing.x(h.t), y: box.top + window.studio.easing.y(h.s) };
+  }, which);
+  await page.locator('#easing').scrollIntoViewIfNeeded();
+  const dragTo = async (from, dx) => {
+    await page.mouse.move(from.x, from.y);
+    await page.mouse.down();
+    await page.mouse.move(from.x + dx, from.y, { steps: 6 });
+    await page.mouse.up();
+  };
+  // Steady: both handles sit on the diagonal's ends; drag the start's right, the end's left.
+  await dragTo(await handle('out'), 50);
+  await page.waitForFunction(() => window.studio.snapshot.easing.out > 0, null, { timeout: 30000 })
+    .catch(async () => fail(`the handle did not move: ${await page.evaluate(() => JSON.stringify([document.getElementById('status').textContent, window.studio.snapshot.easing, document.getElementById('easing').getBoundingClientRect()]))}`));
+  await dragTo(await handle('in'), -40);
+  await waitFor(() => window.studio.snapshot.easing.in > 0);
+  results.eased = await page.evaluate(() => window.studio.snapshot.easing);
+  results.easedStatus = await page.evaluate(() => document.getElementById('status').textContent);
+  await page.keyboard.press('w');
+  await waitFor(() => window.studio.snapshot.dirty === false);
 
   step = 'select all';
   await page.keyboard.press('Control+a');

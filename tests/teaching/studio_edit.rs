@@ -200,4 +200,35 @@ fn the_page_selects_copies_pastes_drags_and_deletes_several_keys() {
     let deleted = results["statusDeleted"].as_str().unwrap();
     assert!(deleted.starts_with("deleted keys 8 and 9"), "{deleted}");
     assert_eq!(results["all"], json!((0..10).collect::<Vec<_>>()));
+
+    // Easing: refused on the wave's cubic segment, said on the page; on the segment made
+    // linear both handles moved, and the file written has the segment eased from rest to rest.
+    assert_eq!(results["easingCubic"]["allowed"], json!(false));
+    let label = results["easingLabel"].as_str().unwrap();
+    assert!(label.contains("linear segments"), "{label}");
+    let eased = &results["eased"];
+    let (out, into) = (
+        eased["out"].as_f64().unwrap(),
+        eased["in"].as_f64().unwrap(),
+    );
+    assert!(out > 0.0 && into > 0.0 && out + into <= 1.0, "{eased}");
+    let said = results["easedStatus"].as_str().unwrap();
+    assert!(said.contains("slows down over"), "{said}");
+    let written = keypose::sequence::Sequence::load(&dir.path().join("wave.json")).unwrap();
+    let timing = written.keyframes[0]
+        .timing
+        .as_ref()
+        .expect("key 0's segment is eased");
+    let keypose::sequence::TimeProfile::Speeds(speeds) = &timing.profile;
+    assert_eq!(
+        (speeds[0], speeds[speeds.len() - 1]),
+        (0.0, 0.0),
+        "from rest to rest"
+    );
+    let (o, i) = timing.ease_shares();
+    assert!((o - out).abs() < 1e-9 && (i - into).abs() < 1e-9);
+    assert_eq!(
+        written.keyframes[0].interp,
+        Some(keypose::curve::Interp::Linear)
+    );
 }

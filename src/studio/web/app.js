@@ -10,6 +10,7 @@ import { installUndo, showUndo } from '/undo.js';
 import { installKeyboard, showKeyList } from '/a11y.js';
 import { installUnsaved, showUnsaved } from '/unsaved.js';
 import { installSelection, clickToken } from '/selection.js';
+import { Easing } from '/easing.js';
 import { request, watchStream, NO_ANSWER, SIMULATE_MS } from '/connection.js';
 
 const token = new URLSearchParams(location.search).get('token') || '';
@@ -235,6 +236,7 @@ function render(s) {
   if (!s.prompt) showStatus(s.status.text, s.status.error);
   showUndo(s);
   showUnsaved(s);
+  easing.show(s.easing);
   $('activity').textContent = `${s.activity.text} · ${s.journal ? 'journal ' + s.journal : 'no journal'}`;
   $('tcp').textContent = 'tool ' + (s.tool_arm ? `(${s.tool_arm}) ` : '') +
     // Rounded first, so a coordinate a hair below zero shows as 0, not −0.
@@ -321,6 +323,7 @@ function renderPrompt(prompt) {
 
 // The snapshot whose timeline is still to fetch, and the fetch on its way.
 let timelineTimer = null, timelineFetch = null;
+const easing = studio.easing = new Easing($('easing'), $('easinginfo'), body => send(body));
 const findings = studio.findings = new Findings($('findings'), t => timeline.park(t));
 const timeline = new Timeline($('timeline'), {
   onScrub: (values, t) => (studio.playback ? studio.playback.scrub(values, t) : showGhost(values)),

@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::curve::Interp;
+use crate::sequence::SegmentTiming;
 use crate::teach::prompt::number;
 
 impl TeachState {
@@ -138,6 +139,62 @@ impl TeachState {
             index + 1,
             next.name()
         ));
+        self.edited()
+    }
+
+    /// Eases the segment from the current key: it speeds up evenly from rest over `out` % of
+    /// its path and slows evenly to rest over the last `into` % (a trapezoidal profile,
+    /// [`SegmentTiming::eased`](crate::sequence::SegmentTiming::eased)), its keys' times and
+    /// path unchanged. Only where the interpolation allows it: a linear segment, whose path
+    /// is the same however it is timed. A cubic's slopes at its keys come from its neighbours,
+    /// so slowing to rest there would break the motion's smoothness; a tool line has its own
+    /// timing.
+    pub(super) fn ease(&mut self, out: u8, into: u8) -> Vec<Command> {
+        if self.list.is_empty() {
+            return self.fail("no key yet: n adds one from the present pose");
+        }
+        let index = self.list.current_index();
+        let label = self.key_label(index);
+        let sequence = self.list.sequence();
+        if index + 1 >= self.list.len() {
+            return self.fail(format!(
+                "{label} is the last key: no segment follows it to ease"
+            ));
+        }
+        let mode = format::segment_interp(sequence, index);
+        let key = &sequence.keyframes[index];
+        if key.line {
+            return self.fail(format!(
+                "{label} → key {}: a straight tool line is timed by its own ease",
+                index + 1
+            ));
+        }
+        if mode != Interp::Linear {
+            return self.fail(format!(
+                "{label} → key {}: easing is for linear segments (this one is {}: p makes it linear)",
+                index + 1,
+                mode.name()
+            ));
+        }
+        if u16::from(out) + u16::from(into) > 100 || out % 5 != 0 || into % 5 != 0 {
+            return self.fail(format!(
+                "ease {out} % and {into} %: expected multiples of 5 % that add up to 100 % at most"
+            ));
+        }
+        let paths = sequence.path_times();
+        let path_time = paths[index + 1] - paths[index] - key.hold;
+        let timing =
+            SegmentTiming::eased(path_time, f64::from(out) / 100.0, f64::from(into) / 100.0);
+        let steady = timing.is_none();
+        self.list.set_timing(timing);
+        if steady {
+            self.info(format!("{label} → key {}: steady (no easing)", index + 1));
+        } else {
+            self.info(format!(
+                "{label} → key {}: speeds up over {out} % of the way, slows down over {into} %",
+                index + 1
+            ));
+        }
         self.edited()
     }
 

@@ -1532,3 +1532,52 @@ fn a_recovered_list_keeps_its_files_layout_while_the_file_is_the_one_it_came_fro
         assert_eq!(back.keyframes[1].name.as_deref(), Some("b2"));
     }
 }
+
+#[test]
+fn easing_is_for_linear_segments_and_one_step_of_undo() {
+    let dir = tempfile::tempdir().unwrap();
+    // Keys at 0, 2 and 4 s, monotone (a new list's mode), key 0 current.
+    let mut state = two_keys_at_the_first(dir.path());
+    press(&mut state, Key::Ease { out: 20, into: 30 });
+    assert!(state.status().error, "{:?}", state.status());
+    assert!(
+        state.status().text.contains("linear"),
+        "{:?}",
+        state.status()
+    );
+    assert!(state.list().sequence().keyframes[0].timing.is_none());
+    // p: monotone → step → linear.
+    press_all(&mut state, &[Key::Char('p'), Key::Char('p')]);
+    press(&mut state, Key::Ease { out: 20, into: 30 });
+    assert!(!state.status().error, "{:?}", state.status());
+    let timing = state.list().sequence().keyframes[0]
+        .timing
+        .clone()
+        .expect("eased");
+    assert_eq!(timing.path_time, 2.0, "the segment's own 2 s");
+    let (out, into) = timing.ease_shares();
+    assert!((out - 0.2).abs() < 1e-12 && (into - 0.3).abs() < 1e-12);
+    assert_eq!(journaled(&state).unwrap().keyframes[0].timing, Some(timing));
+    for (out, into) in [(60, 50), (7, 0)] {
+        press(&mut state, Key::Ease { out, into });
+        assert!(state.status().error, "{out} {into}: {:?}", state.status());
+    }
+    press(&mut state, Key::Ease { out: 0, into: 0 });
+    assert!(
+        state.list().sequence().keyframes[0].timing.is_none(),
+        "steady"
+    );
+    press(&mut state, Key::Undo);
+    assert!(
+        state.list().sequence().keyframes[0].timing.is_some(),
+        "undone"
+    );
+    press(&mut state, Key::Char('>'));
+    press(&mut state, Key::Char('>'));
+    press(&mut state, Key::Ease { out: 20, into: 30 });
+    assert!(
+        state.status().text.contains("last key"),
+        "{:?}",
+        state.status()
+    );
+}
