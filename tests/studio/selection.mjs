@@ -6,7 +6,7 @@
 // both handles dragged), then `w`. Prints one JSON line of what the page saw; the test judges it.
 import { launchChromium } from './browser.mjs';
 
-const [url] = process.argv.slice(2);
+const [url, shots] = process.argv.slice(2);
 let step = 'start';
 setTimeout(() => fail(`no result after 300 s, at: ${step}`), 300000).unref();
 
@@ -118,6 +118,10 @@ try {
   await waitFor(() => window.studio.snapshot.easing.in > 0);
   results.eased = await page.evaluate(() => window.studio.snapshot.easing);
   results.easedStatus = await page.evaluate(() => document.getElementById('status').textContent);
+  // The pasted pair selected beside the eased segment's curve, for docs/commands.md.
+  await page.keyboard.down('Control'); await row(8); await row(9); await page.keyboard.up('Control');
+  await sameSelection([0, 8, 9]);
+  await page.screenshot({ path: `${shots}/studio-selection-easing.png` });
   await page.keyboard.press('w');
   await waitFor(() => window.studio.snapshot.dirty === false);
 

@@ -158,8 +158,14 @@ fn the_page_selects_copies_pastes_drags_and_deletes_several_keys() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::copy(wave(), dir.path().join("wave.json")).unwrap();
     let (studio, url) = start_studio(dir.path(), &["wave.json"]);
-    let results = browser_run("selection.mjs", &[Path::new(&url)]);
+    let shots = tempfile::tempdir().unwrap();
+    let results = browser_run("selection.mjs", &[Path::new(&url), shots.path()]);
     drop(studio);
+    let shot = "studio-selection-easing.png";
+    assert!(shots.path().join(shot).exists(), "the screenshot was taken");
+    if let Ok(keep) = std::env::var("KEYPOSE_STUDIO_SHOTS") {
+        std::fs::copy(shots.path().join(shot), Path::new(&keep).join(shot)).unwrap();
+    }
 
     assert_eq!(results["errors"], json!([]), "the page ran without errors");
     assert_eq!(results["range"], json!([1, 2, 3]));
