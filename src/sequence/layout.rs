@@ -519,15 +519,16 @@ impl Merge<'_> {
             .unwrap_or_else(Style::inline);
         match value {
             Value::Object(map) => {
-                // The template's order of fields first, as the file writes them.
+                // The template's order of fields, as the file writes them, when the template
+                // has every one of them; else the value's own order (a key's joints are in the
+                // order the list holds them, which a partial template would change: a sibling
+                // naming only the gripper would put it first).
                 let mut names: Vec<&String> = map.keys().collect();
                 if let Some(Node::Object { members, .. }) = template {
-                    names.sort_by_key(|name| {
-                        members
-                            .iter()
-                            .position(|m| m.name == **name)
-                            .unwrap_or(members.len())
-                    });
+                    let place = |name: &String| members.iter().position(|m| m.name == *name);
+                    if names.iter().all(|name| place(name).is_some()) {
+                        names.sort_by_key(|name| place(name));
+                    }
                 }
                 out.push('{');
                 for (n, (name, v)) in names.into_iter().map(|k| (k, &map[k])).enumerate() {
@@ -645,6 +646,54 @@ mod tests {
         r#"{"format":"keypose-sequence/1","robot":"so101","keyframes":[{"name":"a","time":0,"hold":0,"joints":{"elbow_flex":90,"wrist_flex":1.50}},{"name":"b","time":2.000,"joints":{"elbow_flex":30,"wrist_flex":-0.1}}],"ends":"played","interpolation":"cubic"}"#,
         "{ \"keyframes\": [ { \"joints\": { \"elbow_flex\": 90, \"wrist_flex\": 1.50 }, \"name\": \"a\" },\n                  { \"joints\": { \"elbow_flex\": 30, \"wrist_flex\": -0.1 }, \"name\": \"b\" } ],\n  \"robot\": \"so101\", \"key_interval\": 2, \"format\": \"keypose-sequence/1\" }",
     ];
+
+    /// Found by the journal fuzz target: a new key's joints laid out after a sibling that
+    /// names only the gripper came back with the gripper first. A new key keeps its own order
+    /// of joints unless the sibling it is laid out like has every one of them.
+    #[test]
+    fn a_new_keys_joints_keep_their_order_beside_a_key_that_names_fewer() {
+        // The joints' names in the order the last key of `saved` writes them.
+        let order = |saved: &str| -> Vec<String> {
+            let last = saved.lines().rev().find(|l| l.contains("joints")).unwrap();
+            let back = Sequence::from_json(
+                "back.json",
+                &format!(
+                "{{\"format\": \"keypose-sequence/1\", \"robot\": \"so101\", \"keyframes\": [{}]}}",
+                last.trim().trim_end_matches(',')
+            ),
+            )
+            .unwrap();
+            back.keyframes[0]
+                .values
+                .iter()
+                .map(|(n, _)| n.clone())
+                .collect()
+        };
+        let joints = ["shoulder_pan", "elbow_flex", "gripper"];
+        let new_key = || {
+            Keyframe::new(
+                joints
+                    .map(|j| (j.to_string(), KeyValue::Joint(1.0)))
+                    .to_vec(),
+            )
+        };
+        let text =
+            "{\"format\": \"keypose-sequence/1\", \"robot\": \"so101\", \"keyframes\": [\n  \
+                    {\"joints\": {\"gripper\": 0}}\n]}\n";
+        let mut sequence = load(text);
+        sequence.keyframes.push(new_key());
+        assert_eq!(order(&sequence.to_text()), joints, "{}", sequence.to_text());
+        // Beside a sibling with every joint, the sibling's order.
+        let text =
+            "{\"format\": \"keypose-sequence/1\", \"robot\": \"so101\", \"keyframes\": [\n  \
+                    {\"joints\": {\"gripper\": 0, \"elbow_flex\": 0, \"shoulder_pan\": 0}}\n]}\n";
+        let mut sequence = load(text);
+        sequence.keyframes.push(new_key());
+        assert_eq!(
+            order(&sequence.to_text()),
+            ["gripper", "elbow_flex", "shoulder_pan"]
+        );
+    }
 
     #[test]
     fn hand_written_styles_save_back_byte_for_byte() {
