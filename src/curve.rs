@@ -73,6 +73,9 @@ pub struct TrackKey<V> {
     pub hold: f64,
     /// How the segment from this key to the next one moves.
     pub interp: Interp,
+    /// The motion is at rest at this key whatever its neighbours (the ends of a straight tool
+    /// line, timed to start and stop there): its rate is zero, as at a hold.
+    pub rest: bool,
 }
 
 impl<V> TrackKey<V> {
@@ -83,7 +86,14 @@ impl<V> TrackKey<V> {
             value,
             hold: 0.0,
             interp,
+            rest: false,
         }
+    }
+
+    /// The same key, with the motion at rest there (rate zero) whatever its neighbours.
+    pub fn at_rest(mut self) -> Self {
+        self.rest = true;
+        self
     }
 
     /// The same key, staying at its value for `hold` seconds before it moves on.
@@ -408,10 +418,11 @@ impl<V: Interpolant> Track<V> {
         let values: Vec<V> = keys.iter().map(|k| k.value).collect();
         let holds: Vec<f64> = keys.iter().map(|k| k.hold).collect();
         let modes: Vec<Interp> = keys.iter().map(|k| k.interp).collect();
+        let rest: Vec<bool> = keys.iter().map(|k| k.rest).collect();
         let moving: Vec<f64> = (0..n.saturating_sub(1))
             .map(|i| times[i + 1] - times[i] - holds[i])
             .collect();
-        let rates = key_rates(&times, &values, &holds, &modes, &moving);
+        let rates = key_rates(&times, &values, &holds, &modes, &rest, &moving);
         let segments = (0..n.saturating_sub(1))
             .map(|i| {
                 V::segment(
@@ -671,7 +682,8 @@ fn validate<V>(keys: &[TrackKey<V>]) -> Result<(), CurveError> {
 
 /// The rate each key gets, following the modes of the segments on either side of it.
 ///
-/// - first key, last key, a key with a hold, a key next to a step: zero (the motion is at rest);
+/// - first key, last key, a key with a hold or marked at rest, a key next to a step: zero (the
+///   motion is at rest);
 /// - a key between a linear segment and a smooth one: the linear segment's rate, so the join is
 ///   continuous in velocity;
 /// - otherwise the key-time central difference `(v[i+1] − v[i−1]) / (t[i+1] − t[i−1])`;
@@ -681,6 +693,7 @@ fn key_rates<V: Interpolant>(
     values: &[V],
     holds: &[f64],
     modes: &[Interp],
+    rest: &[bool],
     moving: &[f64],
 ) -> Vec<V::Rate> {
     let n = times.len();
@@ -694,7 +707,7 @@ fn key_rates<V: Interpolant>(
     let secant = |i: usize| displacement[i].scale(1.0 / moving[i]);
     for i in 1..n - 1 {
         let (before, after) = (modes[i - 1], modes[i]);
-        if holds[i] > 0.0 || before == Interp::Step || after == Interp::Step {
+        if holds[i] > 0.0 || rest[i] || before == Interp::Step || after == Interp::Step {
             continue;
         }
         rates[i] = match (before.is_smooth(), after.is_smooth()) {

@@ -146,6 +146,8 @@ impl Trajectory {
         for (joint_index, joint) in robot.joints.iter().enumerate() {
             let mut keys = Vec::new();
             let mut previous: Option<f64> = None;
+            // The key a straight tool line runs into: the line stops there.
+            let mut line_ends_here = false;
             for (index, key) in sequence.keyframes.iter().enumerate() {
                 let Some(value) = key.value(&joint.name) else {
                     continue;
@@ -171,8 +173,12 @@ impl Trajectory {
                 }
                 previous = Some(v);
                 let interp = key.interp.unwrap_or(sequence.interpolation);
-                keys.push(TrackKey::new(path_times[index], v, interp).with_hold(key.hold));
-                push_line_samples(&mut keys, &tools, index, joint_index);
+                let mut track_key = TrackKey::new(path_times[index], v, interp).with_hold(key.hold);
+                if line_ends_here {
+                    track_key = track_key.at_rest();
+                }
+                keys.push(track_key);
+                line_ends_here = push_line_samples(&mut keys, &tools, index, joint_index);
             }
             if keys.is_empty() {
                 keys.push(TrackKey::new(
@@ -372,21 +378,38 @@ pub(crate) fn key_value_path(key_path: &str, joint: &str, value: &KeyValue) -> S
     }
 }
 
-/// The solved samples of a straight tool line starting at key `index`, as monotone keys of
-/// joint `joint`'s track (none when the line could not be followed).
-fn push_line_samples(keys: &mut Vec<TrackKey<f64>>, tools: &ToolSolve, index: usize, joint: usize) {
+/// The solved samples of a straight tool line starting at key `index`, as keys of joint
+/// `joint`'s track; whether there were any (none when the line could not be followed).
+///
+/// The line is timed to start and stop at rest (minimum jerk), so its first key is at rest and
+/// the key it runs into must be too (the caller marks it). Between them the samples are a
+/// key-time cubic: dense samples of a smooth path, whose central-difference slopes follow the
+/// path's own. A monotone cubic would stop at every sample where a joint turns back (its slope
+/// is zero at a local extreme), and how hard it stops depends on where the control-rate
+/// samples fall: a line that passed the check at one duration failed it 40 ms later.
+fn push_line_samples(
+    keys: &mut Vec<TrackKey<f64>>,
+    tools: &ToolSolve,
+    index: usize,
+    joint: usize,
+) -> bool {
     let Some(line) = tools
         .lines
         .iter()
         .find(|l| l.key == index && l.joints.contains(&joint))
     else {
-        return;
+        return false;
     };
+    if let Some(start) = keys.last_mut() {
+        start.rest = true;
+    }
+    let before = keys.len();
     for (k, time) in line.times.iter().enumerate() {
         if let Some(value) = line.value(k, joint) {
-            keys.push(TrackKey::new(*time, value, crate::curve::Interp::Monotone));
+            keys.push(TrackKey::new(*time, value, crate::curve::Interp::Cubic));
         }
     }
+    keys.len() > before
 }
 
 fn curve_error(sequence: &Sequence, error: CurveError) -> InputError {

@@ -83,10 +83,9 @@ fn retime_stretches_a_segment_to_the_time_its_limit_needs_and_no_more() {
 
 /// A 0.4 s straight tool line over 20 cm (tests/motion/tool_keys.rs has it too) is too fast for
 /// the joints. The shortest time in which it passes `check` is found here by trying the line's
-/// times 10 ms apart through the binary; `retime` must land within 5 % above it. (Whether a
-/// line's time passes flickers from one 10 ms to the next, since the line is solved again at
-/// the control rate and its samples' monotone interpolation changes with their count: 1.11 s
-/// passes, 1.12 s does not, 1.15 s does. `retime` climbs in steps of 3 %.) On main at bb14c46
+/// times 10 ms apart through the binary; `retime` must land within 5 % above it (it climbs in
+/// steps of 3 %; a line's verdict only improves as it slows, tests/motion/tool_keys.rs). On
+/// main at bb14c46
 /// it stretched the line to 1.300 s, its peaks at 77 % of the velocity limit and 70 % of the
 /// acceleration limit.
 #[test]

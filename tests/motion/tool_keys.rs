@@ -377,3 +377,47 @@ fn a_line_too_fast_for_the_joints_is_reported_on_the_line_and_retime_slows_it() 
         crate::common::show(&out)
     );
 }
+
+/// A slower straight line never fails where a faster one passes: the exact check's verdict on
+/// a line is monotone in its duration. Three lines, each tried every 5 ms from too fast to
+/// comfortably slow, flip from failing to passing exactly once. (With the samples joined by a
+/// monotone cubic, the first line flipped eleven times between 1.14 s and 1.39 s: each joint
+/// that turns back stopped at whichever sample lay nearest its turn.)
+#[test]
+fn a_lines_verdict_only_improves_as_it_slows() {
+    let robot = Robot::builtin("so101").unwrap();
+    let lines = [
+        ([0.25, -0.05, 0.12], [0.15, 0.1, 0.06]),
+        ([0.2, 0.1, 0.15], [0.28, -0.08, 0.05]),
+        ([0.3, 0.0, 0.1], [0.18, 0.0, 0.2]),
+    ];
+    for (from, to) in lines {
+        let verdicts: Vec<(f64, bool)> = (160..=360)
+            .map(|k| k as f64 * 0.005)
+            .map(|span| {
+                let keys = format!(
+                    r#"{START},
+                    {{"name": "above", "time": 2.0, "interp": "line", "tool": {{"xyz": {from:?}}}}},
+                    {{"name": "grasp", "time": {}, "tool": {{"xyz": {to:?}}}}},
+                    {{"name": "lift", "time": {}, "tool": {{"xyz": [0.25, 0.05, 0.12]}}}}"#,
+                    2.0 + span,
+                    4.0 + span
+                );
+                let trajectory = Trajectory::build(&sequence(&keys), &robot).unwrap();
+                let passed = keypose::plan::check(&trajectory, &robot, robot.control_hz).passed();
+                (span, passed)
+            })
+            .collect();
+        let flips: Vec<f64> = verdicts
+            .windows(2)
+            .filter(|w| w[0].1 != w[1].1)
+            .map(|w| w[1].0)
+            .collect();
+        assert!(!verdicts[0].1, "{from:?} → {to:?}: too fast at 0.8 s");
+        assert!(
+            verdicts.last().unwrap().1,
+            "{from:?} → {to:?}: passes at 1.8 s"
+        );
+        assert_eq!(flips.len(), 1, "{from:?} → {to:?} flips at {flips:?}");
+    }
+}
