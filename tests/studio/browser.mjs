@@ -12,3 +12,36 @@ export function launchChromium() {
     // the temporary directory, removed on close); it never downloads a browser.
   });
 }
+
+// One browser script's frame: `name` for its messages, a deadline of `seconds`, the results
+// it prints as its last line (a JSON object with `errors`), and `open(url)`, a page of the
+// studio at 1280×800 whose errors go into the results (`quiet(text)` leaves out a console error
+// the script causes on purpose). `body` gets { open, results, fail, at }; `at(step)` names
+// what a failure or the deadline interrupted.
+export async function run(name, seconds, body) {
+  let step = 'start';
+  const fail = message => {
+    console.error(`${name}: ${message}`);
+    process.exit(1);
+  };
+  setTimeout(() => fail(`no result after ${seconds} s, at: ${step}`), seconds * 1000).unref();
+  const browser = await launchChromium();
+  const results = { errors: [] };
+  const open = async (url, { quiet = () => false } = {}) => {
+    const page = await (await browser.newContext({ viewport: { width: 1280, height: 800 } })).newPage();
+    page.on('pageerror', e => results.errors.push(`page error: ${e.message}`));
+    page.on('console', m => {
+      if (m.type() === 'error' && !quiet(m.text())) results.errors.push(`console: ${m.text()}`);
+    });
+    await page.goto(url);
+    return page;
+  };
+  try {
+    await body({ open, results, fail, at: s => { step = s; } });
+  } catch (e) {
+    fail(`${step}: ${e.stack || e}`);
+  } finally {
+    await browser.close();
+  }
+  console.log(JSON.stringify(results));
+}

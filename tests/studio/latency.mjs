@@ -3,27 +3,15 @@
 // the limp arm; the page releases every joint (`T`, answered yes) and then records, for
 // SECONDS, when each drawn frame showed which pose (window.studio.frames: the wall clock the
 // hand's start is stamped with). Prints one JSON line; the test finds the moves in it.
-import { launchChromium } from './browser.mjs';
+import { run } from './browser.mjs';
 
 const [url, seconds] = process.argv.slice(2);
-let step = 'start';
-setTimeout(() => fail(`no result after 300 s, at: ${step}`), 300000).unref();
 
-function fail(message) {
-  console.error(`latency: ${message}`);
-  process.exit(1);
-}
-
-const browser = await launchChromium();
-const results = { errors: [] };
-try {
-  const page = await (await browser.newContext({ viewport: { width: 1280, height: 800 } })).newPage();
-  page.on('pageerror', e => results.errors.push(`page error: ${e.message}`));
-  page.on('console', m => { if (m.type() === 'error') results.errors.push(`console: ${m.text()}`); });
-  await page.goto(url);
+await run('latency', 300, async ({ open, results, fail, at }) => {
+  const page = await open(url);
   await page.waitForFunction(() => window.studio && window.studio.snapshot && window.studio.controller && window.studio.view,
     null, { timeout: 60000 });
-  step = 'release';
+  at('release');
   await page.evaluate(() => window.studio.press('T'));
   // Weight-bearing joints are asked about first; the answer releases them.
   if (await page.evaluate(() => Boolean(window.studio.snapshot.prompt))) {
@@ -31,12 +19,7 @@ try {
   }
   await page.waitForFunction(() => window.studio.snapshot.joints.every(j => !j.torque), null, { timeout: 30000 })
     .catch(e => fail(`not released: ${e.message}`));
-  step = 'watch';
+  at('watch');
   await new Promise(resolve => setTimeout(resolve, Number(seconds) * 1000));
   results.frames = await page.evaluate(() => window.studio.frames);
-} catch (e) {
-  fail(`${step}: ${e.stack || e}`);
-} finally {
-  await browser.close();
-}
-console.log(JSON.stringify(results));
+});

@@ -4,24 +4,12 @@
 // key's mark on the timeline (both move); `d` deletes both; Ctrl+Z brings them back; Ctrl+A
 // selects every key; the easing curve of key 0's segment (cubic: no handles; made linear:
 // both handles dragged), then `w`. Prints one JSON line of what the page saw; the test judges it.
-import { launchChromium } from './browser.mjs';
+import { run } from './browser.mjs';
 
 const [url, shots] = process.argv.slice(2);
-let step = 'start';
-setTimeout(() => fail(`no result after 300 s, at: ${step}`), 300000).unref();
 
-function fail(message) {
-  console.error(`selection: ${message}`);
-  process.exit(1);
-}
-
-const browser = await launchChromium();
-const results = { errors: [] };
-try {
-  const page = await (await browser.newContext({ viewport: { width: 1280, height: 800 } })).newPage();
-  page.on('pageerror', e => results.errors.push(`page error: ${e.message}`));
-  page.on('console', m => { if (m.type() === 'error') results.errors.push(`console: ${m.text()}`); });
-  await page.goto(url);
+await run('selection', 300, async ({ open, results, fail, at }) => {
+  const page = await open(url);
   await page.waitForFunction(() => window.studio && window.studio.snapshot && window.studio.controller && window.studio.timeline);
   const waitFor = (fn, arg) => page.waitForFunction(fn, arg, { timeout: 30000 }).catch(e => fail(`${e.message}: ${fn}`));
   const selected = () => page.evaluate(() => window.studio.snapshot.keys.flatMap((k, i) => (k.selected ? [i] : [])));
@@ -33,7 +21,7 @@ try {
     return JSON.stringify(got) === JSON.stringify(w);
   }, want);
 
-  step = 'click, shift-click, ctrl-click';
+  at('click, shift-click, ctrl-click');
   await row(1);
   await waitFor(() => window.studio.snapshot.current === 1);
   await page.keyboard.down('Shift'); await row(3); await page.keyboard.up('Shift');
@@ -45,7 +33,7 @@ try {
   results.toggled = await selected();
   results.statusToggled = await page.evaluate(() => document.getElementById('status').textContent);
 
-  step = 'copy and paste';
+  at('copy and paste');
   await page.keyboard.press('Control+c');
   await waitFor(() => /copied/.test(document.getElementById('status').textContent));
   await row(7);
@@ -59,7 +47,7 @@ try {
   }));
   results.pastedSelection = await selected();
 
-  step = 'drag the pasted pair';
+  at('drag the pasted pair');
   const timelineCaughtUp = () => waitFor(() =>
     window.studio.timeline.joints[3].keys.length === window.studio.snapshot.keys.length);
   const markX = async index => (await timelineCaughtUp(), page.evaluate(i => {
@@ -81,14 +69,14 @@ try {
     .catch(async () => fail(`the drag moved nothing: ${await page.evaluate(() => document.getElementById('status').textContent)}`));
   results.dragged = await page.evaluate(() => window.studio.snapshot.keys.map(k => k.time));
 
-  step = 'delete and undo';
+  at('delete and undo');
   await page.keyboard.press('d');
   await waitFor(() => window.studio.snapshot.keys.length === 8);
   results.statusDeleted = await page.evaluate(() => document.getElementById('status').textContent);
   await page.keyboard.press('Control+z');
   await waitFor(() => window.studio.snapshot.keys.length === 10);
 
-  step = 'easing';
+  at('easing');
   // Key 0 → 1 of the wave is cubic: the curve is drawn without handles, and says why.
   await row(0);
   await waitFor(() => window.studio.snapshot.current === 0 && window.studio.snapshot.easing.from === 0);
@@ -125,13 +113,8 @@ try {
   await page.keyboard.press('w');
   await waitFor(() => window.studio.snapshot.dirty === false);
 
-  step = 'select all';
+  at('select all');
   await page.keyboard.press('Control+a');
   await sameSelection([0, 1, 2, 3, 4, 5, 6, 7, 8, 9]);
   results.all = await selected();
-} catch (e) {
-  fail(`${step}: ${e.stack || e}`);
-} finally {
-  await browser.close();
-}
-console.log(JSON.stringify(results));
+});

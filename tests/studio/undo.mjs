@@ -3,27 +3,13 @@
 // timeline selects it without moving it; `d`, Ctrl+Z, Ctrl+Shift+Z, Ctrl+Y and the undo
 // button; a key dragged in time and the drag undone; a refusal on the status line replaced by
 // the next answer. Prints one JSON line of what the page saw; the test judges it.
-import { launchChromium } from './browser.mjs';
+import { run } from './browser.mjs';
 
 const [url] = process.argv.slice(2);
-let step = 'start';
-setTimeout(() => fail(`no result after 300 s, at: ${step}`), 300000).unref();
 
-function fail(message) {
-  console.error(`undo: ${message}`);
-  process.exit(1);
-}
-
-const browser = await launchChromium();
-const results = { errors: [] };
-try {
-  const page = await (await browser.newContext({ viewport: { width: 1280, height: 800 } })).newPage();
-  page.on('pageerror', e => results.errors.push(`page error: ${e.message}`));
-  page.on('console', m => {
-    // The refused key's 400 is this test's own doing.
-    if (m.type() === 'error' && !/status of 400/.test(m.text())) results.errors.push(`console: ${m.text()}`);
-  });
-  await page.goto(url);
+await run('undo', 300, async ({ open, results, fail, at }) => {
+  // The refused key's 400 is this test's own doing.
+  const page = await open(url, { quiet: text => /status of 400/.test(text) });
   await page.waitForFunction(() => window.studio && window.studio.snapshot && window.studio.controller && window.studio.timeline);
   const waitFor = (fn, arg) => page.waitForFunction(fn, arg, { timeout: 30000 }).catch(e => fail(`${e.message}: ${fn}`));
   const times = () => page.evaluate(() => window.studio.snapshot.keys.map(k => k.time));
@@ -32,7 +18,7 @@ try {
   results.goalsBefore = await goals();
 
   // ----- a plain click on key 2's mark: selected, not moved -----
-  step = 'click';
+  at('click');
   // The timeline drawn for the list as it is now (it is fetched after each change): the wave's
   // wrist_flex is set by every key, so its row has a mark per key.
   const timelineCaughtUp = () => waitFor(() =>
@@ -48,17 +34,17 @@ try {
     const box = c.getBoundingClientRect();
     return { x: box.left + x * c.clientWidth / c.width, y: box.top + 30 };
   }, index));
-  const at = await markX(2);
-  await page.mouse.move(at.x, at.y);
+  const mark = await markX(2);
+  await page.mouse.move(mark.x, mark.y);
   await page.mouse.down();
-  await page.mouse.move(at.x + 1, at.y);
+  await page.mouse.move(mark.x + 1, mark.y);
   await page.mouse.up();
   await waitFor(() => window.studio.snapshot.current === 2);
   await page.evaluate(() => window.studio.sent());
   results.afterClick = await times();
 
   // ----- delete, undo, redo by the keyboard and the button -----
-  step = 'delete';
+  at('delete');
   await page.keyboard.press('d');
   await waitFor(() => window.studio.snapshot.keys.length === 7);
   results.undoTitle = await page.evaluate(() => document.getElementById('undo').title);
@@ -78,7 +64,7 @@ try {
   await waitFor(() => window.studio.snapshot.keys.length === 8);
 
   // ----- a drag of key 2's mark moves it in time; Ctrl+Z puts it back -----
-  step = 'drag';
+  at('drag');
   const from = await markX(2), to = await markX(3);
   await page.mouse.move(from.x, from.y);
   await page.mouse.down();
@@ -94,7 +80,7 @@ try {
   results.goalsAfter = await goals();
 
   // ----- a refusal on the status line is replaced by the next answer -----
-  step = 'stale error';
+  at('stale error');
   await page.evaluate(() => window.studio.send({ key: 'select-key:3' }));
   const said = await page.evaluate(() => document.getElementById('status').textContent);
   await page.evaluate(() => window.studio.send({ key: 'jump' }));
@@ -107,12 +93,7 @@ try {
   }));
   results.saidBefore = said;
 
-  step = 'write';
+  at('write');
   await page.keyboard.press('w');
   await waitFor(() => window.studio.snapshot.dirty === false);
-} catch (e) {
-  fail(`${step}: ${e.stack || e}`);
-} finally {
-  await browser.close();
-}
-console.log(JSON.stringify(results));
+});
