@@ -45,3 +45,21 @@ export async function run(name, seconds, body) {
   }
   console.log(JSON.stringify(results));
 }
+
+// Where key `index`'s mark is on the page's timeline (viewport pixels, 30 px below its top),
+// once the timeline drawn is the one of the list as it is now (it is fetched after each
+// change; the wave's wrist_flex is set by every key, so its row has a mark per key). The same
+// span the timeline uses: the curves' and the keys' times.
+export async function keyMark(page, index) {
+  await page.waitForFunction(() =>
+    window.studio.timeline.joints[3].keys.length === window.studio.snapshot.keys.length, null, { timeout: 30000 });
+  return page.evaluate(i => {
+    const c = document.getElementById('timeline');
+    const t = window.studio.snapshot.keys[i].time;
+    const d = window.studio.timeline, keys = window.studio.snapshot.keys.map(k => k.time);
+    const a = Math.min(d.start, ...keys), b = Math.max(d.end, ...keys, d.start + 0.1);
+    const x = 110 + (t - a) / (b - a) * (c.clientWidth - 120);
+    const box = c.getBoundingClientRect();
+    return { x: box.left + x, y: box.top + 30 };
+  }, index);
+}

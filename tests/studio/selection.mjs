@@ -4,7 +4,7 @@
 // key's mark on the timeline (both move); `d` deletes both; Ctrl+Z brings them back; Ctrl+A
 // selects every key; the easing curve of key 0's segment (cubic: no handles; made linear:
 // both handles dragged), then `w`. Prints one JSON line of what the page saw; the test judges it.
-import { run } from './browser.mjs';
+import { keyMark, run } from './browser.mjs';
 
 const [url, shots] = process.argv.slice(2);
 
@@ -48,17 +48,7 @@ await run('selection', 300, async ({ open, results, fail, at }) => {
   results.pastedSelection = await selected();
 
   at('drag the pasted pair');
-  const timelineCaughtUp = () => waitFor(() =>
-    window.studio.timeline.joints[3].keys.length === window.studio.snapshot.keys.length);
-  const markX = async index => (await timelineCaughtUp(), page.evaluate(i => {
-    const c = document.getElementById('timeline');
-    const t = window.studio.snapshot.keys[i].time;
-    const d = window.studio.timeline, keys = window.studio.snapshot.keys.map(k => k.time);
-    const a = Math.min(d.start, ...keys), b = Math.max(d.end, ...keys, d.start + 0.1);
-    const x = 110 + (t - a) / (b - a) * (c.clientWidth - 120);
-    const box = c.getBoundingClientRect();
-    return { x: box.left + x, y: box.top + 30 };
-  }, index));
+  const markX = index => keyMark(page, index);
   const before = results.pasted.times;
   const from = await markX(8), to = await markX(9);
   await page.mouse.move(from.x, from.y);

@@ -3,7 +3,7 @@
 // timeline selects it without moving it; `d`, Ctrl+Z, Ctrl+Shift+Z, Ctrl+Y and the undo
 // button; a key dragged in time and the drag undone; a refusal on the status line replaced by
 // the next answer. Prints one JSON line of what the page saw; the test judges it.
-import { run } from './browser.mjs';
+import { keyMark, run } from './browser.mjs';
 
 const [url] = process.argv.slice(2);
 
@@ -19,21 +19,7 @@ await run('undo', 300, async ({ open, results, fail, at }) => {
 
   // ----- a plain click on key 2's mark: selected, not moved -----
   at('click');
-  // The timeline drawn for the list as it is now (it is fetched after each change): the wave's
-  // wrist_flex is set by every key, so its row has a mark per key.
-  const timelineCaughtUp = () => waitFor(() =>
-    window.studio.timeline.joints[3].keys.length === window.studio.snapshot.keys.length);
-  // The mark's x in CSS pixels: the timeline draws in canvas pixels.
-  const markX = async index => (await timelineCaughtUp(), page.evaluate(i => {
-    const c = document.getElementById('timeline');
-    const t = window.studio.snapshot.keys[i].time;
-    // The same span the timeline uses: the curves' and the keys' times.
-    const d = window.studio.timeline, keys = window.studio.snapshot.keys.map(k => k.time);
-    const a = Math.min(d.start, ...keys), b = Math.max(d.end, ...keys, d.start + 0.1);
-    const x = 110 + (t - a) / (b - a) * (c.width - 120);
-    const box = c.getBoundingClientRect();
-    return { x: box.left + x * c.clientWidth / c.width, y: box.top + 30 };
-  }, index));
+  const markX = index => keyMark(page, index);
   const mark = await markX(2);
   await page.mouse.move(mark.x, mark.y);
   await page.mouse.down();
