@@ -286,7 +286,7 @@ static const uint32_t kp_seq_piece_start_us[2] = {0, 1000000};
 static const uint32_t kp_seq_piece_duration_us[2] = {1000000, 5000000};
 static const int32_t kp_seq_coefficients[8] = {2047 * 65536, 0, 0, 0, 2647 * 65536, 0, 0, 0};
 static const kp_sequence kp_seq = {
-    1, 2, 6000000u, kp_seq_ids, kp_seq_tick_min, kp_seq_tick_max, kp_seq_max_speed,
+    1, 2, 3, 6000000u, kp_seq_ids, kp_seq_tick_min, kp_seq_tick_max, kp_seq_max_speed,
     kp_seq_max_accel, kp_seq_piece_start_us, kp_seq_piece_duration_us, kp_seq_coefficients};
 #endif
 "#;
