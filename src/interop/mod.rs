@@ -58,7 +58,9 @@ pub(crate) fn sorted_once(times: &mut Vec<f64>) {
 /// origin at `a`.
 pub(crate) fn polynomial_from(spans: &[Span], a: f64, b: f64) -> Poly {
     let middle = 0.5 * (a + b);
-    let i = spans.partition_point(|s| s.start <= middle).saturating_sub(1);
+    let i = spans
+        .partition_point(|s| s.start <= middle)
+        .saturating_sub(1);
     spans[i].origin_at(a)
 }
 
