@@ -77,9 +77,8 @@ fn export_ros2(args: &Ros2Args) -> Result<Verdict, CommandError> {
         return Ok(Verdict::Fail);
     };
     super::check_sample_budget(&sequence.file, &trajectory, args.corner_rate)?;
-    keypose::interop::refuse_timing(&trajectory, "export ros2")
+    let message = ros2::joint_trajectory(&trajectory, &robot, args.corner_rate)
         .map_err(|e| CommandError::Usage(format!("{}: {e}", sequence.file)))?;
-    let message = ros2::joint_trajectory(&trajectory, &robot, args.corner_rate);
     write_output(Some(&args.output), &ros2::to_yaml(&message))?;
     println!(
         "wrote {} ({} points, {:.3} s)",
