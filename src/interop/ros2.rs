@@ -11,6 +11,14 @@
 //! next to a linear segment) or the value jumps (a step): each point carries the slope after
 //! it, and one more point, a period of the corner rate earlier, confines the difference to that
 //! last period before the corner (a step's jump falls in it too).
+//!
+//! A segment with a timing profile is a cubic of path time run at a changing path speed: on each
+//! piece of the profile a polynomial of a higher degree in time, whose acceleration jumps where
+//! pieces meet. Points stay positions and velocities (cubic joins may change their acceleration
+//! at a point, as the curve does; a quintic join would force one acceleration there): one at
+//! every end of every piece, and between two of them more, by halving, until the controller's
+//! cubic follows the curve and keeps the limits, judged exactly (`hermite_fit`); a stretch that
+//! still does not after [`MAX_HALVINGS`] halvings is refused, naming its segment.
 
 use super::{hermite_fit, yaml, SAME_TIME};
 use crate::plan::check::spans::{JointCurve, Span};
@@ -182,7 +190,13 @@ impl Fit<'_> {
     }
 
     /// Pushes the points after `a` up to `b` that the stretch [a, b] needs.
-    fn refine(&self, a: f64, b: f64, halvings: u32, out: &mut Vec<f64>) -> Result<(), Ros2ExportError> {
+    fn refine(
+        &self,
+        a: f64,
+        b: f64,
+        halvings: u32,
+        out: &mut Vec<f64>,
+    ) -> Result<(), Ros2ExportError> {
         if let Some((joint, shortfall)) = self.shortfall(a, b) {
             if halvings == MAX_HALVINGS {
                 let segment = self.trajectory.segment_at(0.5 * (a + b));
@@ -219,9 +233,7 @@ impl Fit<'_> {
         self.played
             .iter()
             .zip(&self.robot.joints)
-            .find_map(|(spans, joint)| {
-                hermite_fit::judge(spans, joint, a, b).map(|s| (joint, s))
-            })
+            .find_map(|(spans, joint)| hermite_fit::judge(spans, joint, a, b).map(|s| (joint, s)))
     }
 }
 

@@ -187,6 +187,25 @@ pub(crate) fn eased_sequence(dir: &Path) -> PathBuf {
     path
 }
 
+/// An SO-101 sequence whose first segment is a cubic run by a hand-written profile of three
+/// long pieces (path speeds 0, 1, 1.5, 0): a polynomial of degree six in time on each, which
+/// the cubic through its ends strays from by 0.11°. The profile ends at rest and the next
+/// cubic segment starts moving: a corner at 2 s (within the limits at 100 Hz).
+pub(crate) fn curved_sequence(dir: &Path) -> PathBuf {
+    let path = dir.join("curved.json");
+    std::fs::write(
+        &path,
+        r#"{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "cubic",
+            "keyframes": [
+              {"time": 0, "timing": {"path_time": 2, "speeds": [0, 1, 1.5, 0]},
+               "joints": {"elbow_flex": 0, "wrist_flex": 0}},
+              {"time": 2, "joints": {"elbow_flex": 40, "wrist_flex": -20}},
+              {"time": 3.5, "joints": {"elbow_flex": 0, "wrist_flex": 10}}]}"#,
+    )
+    .unwrap();
+    path
+}
+
 /// `sequences/so101_pick_place.json` through `keypose retime --fastest`: every moving segment
 /// a time-optimal profile along its monotone cubic.
 pub(crate) fn fastest_sequence(dir: &Path) -> PathBuf {
@@ -224,6 +243,7 @@ fn timing_profiles_play_as_keypose_samples_them() {
         (eased_sequence(dir.path()), 3),
         // A cubic of a quadratic of time: degree 6.
         (fastest_sequence(dir.path()), 6),
+        (curved_sequence(dir.path()), 6),
     ] {
         let sequence = sequence.to_str().unwrap();
         assert_same_ticks(sequence);
