@@ -321,4 +321,37 @@ mod tests {
         assert_eq!(sec_nanosec(1.2), (1, 200_000_000));
         assert_eq!(sec_nanosec(2.999_999_999_6), (3, 0));
     }
+
+    /// A cubic run by a profile of three long pieces (tests/commands/export.rs follows it on
+    /// the SO-101), from rest to rest: the elbow's 40° in 2 s.
+    fn curved() -> (Trajectory, Robot) {
+        let text = r#"{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "cubic",
+            "keyframes": [
+              {"time": 0, "timing": {"path_time": 2, "speeds": [0, 1, 1.5, 0]},
+               "joints": {"elbow_flex": 0, "wrist_flex": 0}},
+              {"time": 2, "joints": {"elbow_flex": 40, "wrist_flex": -20}},
+              {"time": 3.5, "joints": {"elbow_flex": 0, "wrist_flex": 10}}]}"#;
+        let sequence = crate::sequence::Sequence::from_json("curved.json", text).unwrap();
+        let robot = Robot::builtin("so101").unwrap();
+        (Trajectory::build(&sequence, &robot).unwrap(), robot)
+    }
+
+    #[test]
+    fn a_profile_no_cubics_can_follow_within_the_limits_is_refused_naming_it() {
+        let (trajectory, mut robot) = curved();
+        assert!(joint_trajectory(&trajectory, &robot, 100.0).is_ok());
+        // 40° from rest to rest in 2 s needs 4·40/2² = 40 °/s² at least (bang-bang): below
+        // that the curve itself exceeds the limit, and halving brings the cubics to the curve,
+        // never under it.
+        let elbow = robot.joint_index("elbow_flex").unwrap();
+        robot.joints[elbow].limits.acceleration = 30.0;
+        let error = joint_trajectory(&trajectory, &robot, 100.0).unwrap_err();
+        assert_eq!((error.segment, error.joint.as_str()), (0, "elbow_flex"));
+        assert!(error.spacing < 2.0 / 4096.0, "{error}");
+        let text = error.to_string();
+        assert!(
+            text.contains("past the acceleration limit of 30 deg/s²"),
+            "{text}"
+        );
+    }
 }
