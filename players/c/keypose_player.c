@@ -3,7 +3,7 @@
 
 #include <math.h>
 
-/* Slack of the step limiter's bands, Q16.16 ticks (1/1024 of a tick): the fixed-point cubic's
+/* Slack of the step limiter's bands, Q16.16 ticks (1/1024 of a tick): the fixed-point polynomial's
  * rounding, far below what a servo resolves. */
 #define KP_LIMIT_SLACK 64
 
@@ -51,11 +51,12 @@ static int64_t sample_q16(const kp_sequence *s, uint32_t t_us, uint8_t joint) {
     if (elapsed > duration) elapsed = duration;
     /* u in Q16.16, 0 ... 65536 */
     int64_t u = duration ? ((int64_t)elapsed << 16) / duration : 0;
-    const int32_t *c = s->coefficients + ((uint32_t)p * s->joints + joint) * 4;
-    int64_t acc = c[3];
-    acc = shr16(acc * u) + c[2];
-    acc = shr16(acc * u) + c[1];
-    acc = shr16(acc * u) + c[0];
+    uint32_t n = (uint32_t)s->degree + 1u;
+    const int32_t *c = s->coefficients + ((uint32_t)p * s->joints + joint) * n;
+    /* Horner: |acc| stays within the sum of the |c| (u <= 1), at most 256 * 2^31, so acc * u
+     * stays within 2^56. */
+    int64_t acc = c[s->degree];
+    for (uint32_t k = s->degree; k-- > 0;) acc = shr16(acc * u) + c[k];
     return clamp_q16(s, joint, acc);
 }
 

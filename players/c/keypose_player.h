@@ -2,7 +2,8 @@
  * on a microcontroller (ESP32, RP2040, ...) that drives the servo bus itself.
  *
  * The header holds the checked trajectory as pieces of time; in each piece every joint's goal
- * is a cubic in servo ticks (Q16.16 fixed point). The player eases in from the arm's present
+ * is a polynomial in servo ticks (Q16.16 fixed point): a cubic, or of a higher degree where a
+ * segment has a timing profile (an eased or time-optimal segment). The player eases in from the arm's present
  * ticks to the first pose (a smoothstep, as long as the joints' speed and acceleration limits
  * need), then plays the pieces; every goal is clamped to the joint's tick limits and passed
  * through a step limiter before it is handed to the bus write, a function the application
@@ -24,6 +25,7 @@
 typedef struct kp_sequence {
     uint8_t joints;
     uint16_t pieces;
+    uint8_t degree;               /* highest power of u: degree + 1 coefficients per joint and piece */
     uint32_t duration_us;
     const uint8_t *ids;           /* servo id of each joint */
     const int32_t *tick_min;      /* every goal is clamped to [tick_min, tick_max] */
@@ -32,7 +34,7 @@ typedef struct kp_sequence {
     const float *max_accel;
     const uint32_t *piece_start_us;
     const uint32_t *piece_duration_us;
-    const int32_t *coefficients;  /* [piece][joint][4], Q16.16 ticks in u = (t - start)/duration */
+    const int32_t *coefficients;  /* [piece][joint][degree + 1], Q16.16 ticks in u = (t - start)/duration */
 } kp_sequence;
 
 /* Writes one goal per joint (ids and ticks in joint order); returns 0 on success. */

@@ -12,13 +12,15 @@ use std::path::PathBuf;
 #[derive(Debug, Clone, clap::Subcommand)]
 pub enum ExportFormat {
     /// A trajectory_msgs/msg/JointTrajectory as YAML: positions (rad, m) and velocities at
-    /// every key, holds as two points, step and linear segments densified.
+    /// every key, holds as two points, corners approached over a period, segments with a
+    /// timing profile densified until the controller's cubics follow them within the limits.
     Ros2(Ros2Args),
     /// A play_motion2 motion (parameter YAML): positions sampled at --rate.
     #[command(name = "play_motion2")]
     PlayMotion2(PlayMotion2Args),
-    /// A C header for the stand-alone player (players/c/): per-piece cubics in servo ticks
-    /// (Q16.16 fixed point), servo ids and tick limits.
+    /// A C header for the stand-alone player (players/c/): per-piece polynomials in servo
+    /// ticks (Q16.16 fixed point; cubics, of a higher degree on a timing profile), servo ids
+    /// and tick limits.
     C(CArgs),
 }
 
@@ -77,9 +79,8 @@ fn export_ros2(args: &Ros2Args) -> Result<Verdict, CommandError> {
         return Ok(Verdict::Fail);
     };
     super::check_sample_budget(&sequence.file, &trajectory, args.corner_rate)?;
-    keypose::interop::refuse_timing(&trajectory, "export ros2")
+    let message = ros2::joint_trajectory(&trajectory, &robot, args.corner_rate)
         .map_err(|e| CommandError::Usage(format!("{}: {e}", sequence.file)))?;
-    let message = ros2::joint_trajectory(&trajectory, &robot, args.corner_rate);
     write_output(Some(&args.output), &ros2::to_yaml(&message))?;
     println!(
         "wrote {} ({} points, {:.3} s)",

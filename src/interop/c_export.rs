@@ -1,42 +1,53 @@
 //! A checked trajectory as a C header for the stand-alone player (`players/c/`,
-//! docs/interop.md §4): per piece of time, every joint's cubic in servo ticks as fixed-point
-//! coefficients, the servo ids, the tick limits every goal is clamped to and the speed and
-//! acceleration limits the player's step limiter bounds every step by.
+//! docs/interop.md §4): per piece of time, every joint's polynomial in servo ticks as
+//! fixed-point coefficients, the servo ids, the tick limits every goal is clamped to and the
+//! speed and acceleration limits the player's step limiter bounds every step by.
 //!
-//! Between two breakpoints (key times and hold ends of any joint) each
-//! joint's curve is one polynomial of degree three at most, and ticks are a linear function of
-//! the joint value (`zero_tick + direction · value / units_per_tick`), so each piece is exactly
-//! the Hermite through its ends' ticks and tick rates. With u = (t − start)/duration in
-//! [0, 1], ticks = c0 + c1·u + c2·u² + c3·u³; the header stores each c·2¹⁶ rounded (Q16.16),
-//! which the player evaluates by Horner's rule in 64-bit integers.
+//! The pieces are the limit check's own: each joint's played curve as exact polynomials in
+//! sequence time (`plan::check::spans::JointCurve`: a cubic between keys and hold ends, a
+//! constant in a hold or a step, and on a segment with a timing profile the cubic of path time
+//! composed with the profile's path time of time, a higher degree), cut where any joint's
+//! polynomial changes. Ticks are a linear function of the joint value (`zero_tick + direction ·
+//! value / units_per_tick`), so each piece is, exactly, a polynomial in ticks of
+//! u = (t − start)/duration in [0, 1]: ticks = c0 + c1·u + … + cd·u^d, d the highest degree of
+//! any piece (`KP_SEQ_DEGREE`). The header stores each c·2¹⁶ rounded (Q16.16), which the
+//! player evaluates by Horner's rule in 64-bit integers.
 //!
 //! Nothing from a file becomes C code: the header's identifiers and comments are keypose's
 //! own, and the names it carries (the joints', the source file's) are in string literals only,
 //! every byte outside a few safe characters written as an octal escape. So a
 //! name holding `*/`, a quote, a backslash, `??/` or a line break reads back as itself.
 
-use super::ros2;
-use crate::curve::{Interp, Track};
 use crate::plan::Trajectory;
-use crate::robot::{Joint, Robot};
+use crate::robot::Robot;
 use std::fmt::Write;
 
 /// Fixed-point scale of the coefficients: Q16.16.
 const ONE: f64 = 65536.0;
 /// The player counts time in microseconds in 32 bits: 71 minutes.
 const MAX_SECONDS: f64 = u32::MAX as f64 / 1e6;
+/// The player counts pieces in 16 bits (`kp_sequence.pieces`).
+const MAX_PIECES: usize = u16::MAX as usize;
 
 /// Why a trajectory cannot become a header for the C player.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum CExportError {
-    /// A segment has a timing profile, which the player's cubic pieces cannot carry.
-    #[error(transparent)]
-    Timing(#[from] super::TimingNotExportable),
     /// The trajectory lasts longer than the player's 32-bit microsecond clock counts.
     #[error("{seconds:.1} s is longer than the player's {MAX_SECONDS:.0} s (32-bit microseconds)")]
     TooLong {
         /// The trajectory's duration, seconds.
         seconds: f64,
+    },
+    /// More pieces than the player's 16-bit piece count holds (a timing profile has a piece per
+    /// stretch of its speeds).
+    #[error(
+        "{pieces} pieces of time are more than the player's {MAX_PIECES} (16-bit count); \
+         timing profiles add one per stretch of their speeds: export a shorter part \
+         (--start/--end) or fewer profiled segments"
+    )]
+    TooManyPieces {
+        /// How many the trajectory needs.
+        pieces: usize,
     },
     /// A coefficient does not fit the player's Q16.16 fixed point.
     #[error(
@@ -61,45 +72,57 @@ pub struct Piece {
     pub start: f64,
     /// Seconds.
     pub duration: f64,
-    /// Per joint, `[c0, c1, c2, c3]` of ticks = c0 + c1·u + c2·u² + c3·u³, u from 0 to 1.
-    pub coefficients: Vec<[f64; 4]>,
+    /// Per joint, `[c0, c1, …]` of ticks = c0 + c1·u + c2·u² + …, u from 0 to 1, up to the
+    /// highest power with a coefficient other than 0.
+    pub coefficients: Vec<Vec<f64>>,
 }
 
 /// The pieces of `trajectory` in ticks.
 pub fn pieces(trajectory: &Trajectory, robot: &Robot) -> Vec<Piece> {
-    let times = ros2::breakpoints(trajectory);
+    let curves = super::played_spans(trajectory);
+    let times = super::span_boundaries(&curves);
     times
         .windows(2)
         .map(|w| Piece {
             start: w[0] - trajectory.start,
             duration: w[1] - w[0],
-            coefficients: trajectory
-                .tracks()
+            coefficients: curves
                 .iter()
                 .zip(&robot.joints)
-                .map(|(track, joint)| tick_cubic(track, joint, w[0], w[1]))
+                .map(|(spans, joint)| {
+                    let poly = super::polynomial_from(spans, w[0], w[1]);
+                    tick_polynomial(poly.coefficients(), joint, w[1] - w[0])
+                })
                 .collect(),
         })
         .collect()
 }
 
-/// The Hermite in ticks of `track` between `a` and `b`, in u = (t − a)/(b − a).
-fn tick_cubic(track: &Track<f64>, joint: &Joint, a: f64, b: f64) -> [f64; 4] {
-    let h = b - a;
+/// The highest power any joint's polynomial of any piece has.
+pub fn degree(pieces: &[Piece]) -> usize {
+    pieces
+        .iter()
+        .flat_map(|p| &p.coefficients)
+        .map(|c| c.len().saturating_sub(1))
+        .max()
+        .unwrap_or(0)
+}
+
+/// A joint's polynomial in its own units of the seconds since a piece's start as a
+/// polynomial in ticks of u = seconds / `duration`.
+fn tick_polynomial(c: &[f64], joint: &crate::robot::Joint, duration: f64) -> Vec<f64> {
     let scale = joint.servo.direction / joint.servo.units_per_tick;
-    let p0 = joint.servo.tick_exact(track.sample(a));
-    // A step holds its first value to the end of the piece (the jump is the next piece's).
-    let i = track.key_index_at(a);
-    if track.modes()[i] == Interp::Step && i + 1 < track.len() {
-        return [p0, 0.0, 0.0, 0.0];
-    }
-    let p1 = joint.servo.tick_exact(track.sample(b));
-    let (d0, d1) = (
-        track.rate_at(a) * scale * h,
-        track.rate_before(b) * scale * h,
-    );
-    let delta = p1 - p0;
-    [p0, d0, 3.0 * delta - 2.0 * d0 - d1, -2.0 * delta + d0 + d1]
+    let mut power = 1.0;
+    c.iter()
+        .enumerate()
+        .map(|(k, &x)| {
+            if k == 0 {
+                return joint.servo.tick_exact(x);
+            }
+            power *= duration;
+            x * power * scale
+        })
+        .collect()
 }
 
 /// The header text; `source` names the sequence file in it (`kp_seq_source`).
@@ -108,12 +131,17 @@ pub fn header(
     robot: &Robot,
     source: &str,
 ) -> Result<String, CExportError> {
-    super::refuse_timing(trajectory, "export c")?;
     let duration = trajectory.duration();
     if duration > MAX_SECONDS {
         return Err(CExportError::TooLong { seconds: duration });
     }
     let pieces = pieces(trajectory, robot);
+    if pieces.len() > MAX_PIECES {
+        return Err(CExportError::TooManyPieces {
+            pieces: pieces.len(),
+        });
+    }
+    let degree = degree(&pieces);
     let mut out = String::new();
     out.push_str("/* Generated by keypose export c (from kp_seq_source): do not edit. */\n");
     out.push_str("#ifndef KP_SEQUENCE_H\n#define KP_SEQUENCE_H\n#include \"keypose_player.h\"\n\n");
@@ -125,14 +153,16 @@ pub fn header(
     let joints = robot.joints.len();
     let _ = writeln!(
         out,
-        "#define KP_SEQ_JOINTS {joints}\n#define KP_SEQ_PIECES {}\n",
+        "#define KP_SEQ_JOINTS {joints}\n#define KP_SEQ_PIECES {}\n\
+         /* The highest power of u in any piece: (KP_SEQ_DEGREE + 1) coefficients each. */\n\
+         #define KP_SEQ_DEGREE {degree}\n",
         pieces.len()
     );
     write_joint_tables(&mut out, robot);
-    write_piece_tables(&mut out, robot, &pieces)?;
+    write_piece_tables(&mut out, robot, &pieces, degree)?;
     let _ = writeln!(
         out,
-        "static const kp_sequence kp_seq = {{\n    KP_SEQ_JOINTS, KP_SEQ_PIECES, {}u,\n    kp_seq_ids, kp_seq_tick_min, kp_seq_tick_max, kp_seq_max_speed, kp_seq_max_accel,\n    kp_seq_piece_start_us, kp_seq_piece_duration_us, kp_seq_coefficients\n}};\n\n#endif",
+        "static const kp_sequence kp_seq = {{\n    KP_SEQ_JOINTS, KP_SEQ_PIECES, KP_SEQ_DEGREE, {}u,\n    kp_seq_ids, kp_seq_tick_min, kp_seq_tick_max, kp_seq_max_speed, kp_seq_max_accel,\n    kp_seq_piece_start_us, kp_seq_piece_duration_us, kp_seq_coefficients\n}};\n\n#endif",
         (duration * 1e6).round() as u32
     );
     Ok(out)
@@ -205,10 +235,16 @@ fn write_piece_tables(
     out: &mut String,
     robot: &Robot,
     pieces: &[Piece],
+    degree: usize,
 ) -> Result<(), CExportError> {
-    let us = |t: f64| ((t * 1e6).round() as u32).to_string();
-    let starts: Vec<String> = pieces.iter().map(|p| us(p.start)).collect();
-    let durations: Vec<String> = pieces.iter().map(|p| us(p.duration)).collect();
+    // Each piece's duration is the difference of the rounded times of its ends, so the pieces
+    // tile the microseconds without a gap or an overlap.
+    let us = |t: f64| (t * 1e6).round() as u32;
+    let starts: Vec<String> = pieces.iter().map(|p| us(p.start).to_string()).collect();
+    let durations: Vec<String> = pieces
+        .iter()
+        .map(|p| (us(p.start + p.duration) - us(p.start)).to_string())
+        .collect();
     let _ = writeln!(
         out,
         "static const uint32_t kp_seq_piece_start_us[KP_SEQ_PIECES] = {{{}}};",
@@ -219,14 +255,17 @@ fn write_piece_tables(
         "static const uint32_t kp_seq_piece_duration_us[KP_SEQ_PIECES] = {{{}}};",
         durations.join(", ")
     );
-    out.push_str("/* [piece][joint][c0..c3], ticks in Q16.16, of u = (t - start) / duration. */\n");
     out.push_str(
-        "static const int32_t kp_seq_coefficients[KP_SEQ_PIECES * KP_SEQ_JOINTS * 4] = {\n",
+        "/* [piece][joint][c0..cKP_SEQ_DEGREE], ticks in Q16.16, of u = (t - start) / duration. */\n",
+    );
+    out.push_str(
+        "static const int32_t kp_seq_coefficients[KP_SEQ_PIECES * KP_SEQ_JOINTS * (KP_SEQ_DEGREE + 1)] = {\n",
     );
     for piece in pieces {
         let mut row = Vec::new();
         for (joint, c) in robot.joints.iter().zip(&piece.coefficients) {
-            for &x in c {
+            let padded = c.iter().copied().chain(std::iter::repeat(0.0));
+            for x in padded.take(degree + 1) {
                 let q = (x * ONE).round();
                 if q.abs() > i32::MAX as f64 {
                     return Err(CExportError::Overflow {

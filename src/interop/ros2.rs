@@ -11,17 +11,19 @@
 //! next to a linear segment) or the value jumps (a step): each point carries the slope after
 //! it, and one more point, a period of the corner rate earlier, confines the difference to that
 //! last period before the corner (a step's jump falls in it too).
+//!
+//! A segment with a timing profile is a cubic of path time run at a changing path speed: on each
+//! piece of the profile a polynomial of a higher degree in time, whose acceleration jumps where
+//! pieces meet. Points stay positions and velocities (cubic joins may change their acceleration
+//! at a point, as the curve does; a quintic join would force one acceleration there): one at
+//! every end of every piece, and between two of them more, by halving, until the controller's
+//! cubic follows the curve and keeps the limits, judged exactly (`hermite_fit`); a stretch that
+//! still does not after [`MAX_HALVINGS`] halvings is refused, naming its segment.
 
-use super::yaml;
-use crate::curve::{Interp, Track};
-use crate::plan::Trajectory;
-use crate::robot::{JointKind, Robot};
-
-/// Times closer than this are one point (seconds; a nanosecond stamp's resolution).
-const SAME_TIME: f64 = 1e-9;
-/// A slope change above this (degrees or metres per second) is a corner: smooth joins agree
-/// to rounding, far below it.
-const CORNER_SLOPE: f64 = 1e-9;
+use super::{hermite_fit, yaml, SAME_TIME};
+use crate::plan::check::spans::{JointCurve, Span};
+use crate::plan::{LimitKind, Trajectory};
+use crate::robot::{Joint, JointKind, Robot};
 
 /// One point: seconds from the start, and per joint a position (rad or m) and velocity.
 #[derive(Debug, Clone, PartialEq)]
@@ -65,15 +67,51 @@ pub fn joint_names(robot: &Robot) -> Vec<String> {
     robot.joint_names().iter().map(|n| n.to_string()).collect()
 }
 
-/// The points of `trajectory`, each corner approached over one period of `corner_rate` Hz.
-/// The points follow the tracks' cubics in time: a trajectory with a timing profile is refused
-/// before (`interop::refuse_timing`), as `export ros2` does.
+/// Halvings of a stretch between two points on a profiled segment before the export gives up:
+/// points 2⁻¹² of a profile's piece apart.
+const MAX_HALVINGS: u32 = 12;
+
+/// A profiled segment the controller's cubics cannot follow within the limits.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "segment {segment} ({label}), t = {time:.3} s: even with points {spacing:.2e} s apart, the \
+     controller's cubics through them {what} on joint {joint}; export play_motion2 (sampled) \
+     or give the segment a gentler timing profile"
+)]
+pub struct Ros2ExportError {
+    /// The segment (from key `segment` to the next).
+    pub segment: usize,
+    /// Its "from → to" label.
+    pub label: String,
+    /// Sequence time of the piece, seconds.
+    pub time: f64,
+    /// The points' spacing reached, seconds.
+    pub spacing: f64,
+    /// The joint.
+    pub joint: String,
+    /// What the cubic misses, in words.
+    pub what: String,
+}
+
+/// The points of `trajectory`, each corner approached over one period of `corner_rate` Hz; on
+/// a segment with a timing profile, dense enough that the controller's cubics follow the curve
+/// and keep the limits (`hermite_fit`), else an error naming the segment.
 pub fn joint_trajectory(
     trajectory: &Trajectory,
     robot: &Robot,
     corner_rate: f64,
-) -> JointTrajectory {
-    let times = point_times(trajectory, corner_rate);
+) -> Result<JointTrajectory, Ros2ExportError> {
+    let curves = super::joint_curves(trajectory);
+    let played: Vec<Vec<Span>> = curves.iter().map(|c| c.played.clone()).collect();
+    let corners = corner_times(&curves);
+    let times = point_times(trajectory, &played, &corners, corner_rate);
+    let times = Fit {
+        trajectory,
+        robot,
+        played: &played,
+        corners: &corners,
+    }
+    .refined(&times)?;
     let scale: Vec<f64> = robot
         .joints
         .iter()
@@ -85,74 +123,146 @@ pub fn joint_trajectory(
     let points = times
         .iter()
         .map(|&t| {
-            let tracks = trajectory.tracks();
+            let states: Vec<(f64, f64)> = played
+                .iter()
+                .map(|spans| hermite_fit::state_at(spans, t))
+                .collect();
             Point {
                 time: t - trajectory.start,
-                positions: tracks
-                    .iter()
-                    .zip(&scale)
-                    .map(|(k, s)| k.sample(t) * s)
-                    .collect(),
-                velocities: tracks
-                    .iter()
-                    .zip(&scale)
-                    .map(|(k, s)| k.rate_at(t) * s)
-                    .collect(),
+                positions: states.iter().zip(&scale).map(|(s, k)| s.0 * k).collect(),
+                velocities: states.iter().zip(&scale).map(|(s, k)| s.1 * k).collect(),
             }
         })
         .collect();
-    JointTrajectory {
+    Ok(JointTrajectory {
         joint_names: joint_names(robot),
         points,
-    }
+    })
 }
 
-/// Every joint's key times and hold ends, a point one period before every corner, and the
-/// played window's ends; sorted, each once, within the window.
-fn point_times(trajectory: &Trajectory, corner_rate: f64) -> Vec<f64> {
-    let period = 1.0 / corner_rate;
-    let mut times = breakpoints(trajectory);
-    let corners: Vec<f64> = times
+/// Where any joint's curve jumps in value or slope (a step's end, a linear corner, a hold
+/// beside a linear segment, a profile ending in motion beside a segment that does not start
+/// so), in sequence time, sorted.
+fn corner_times(curves: &[JointCurve]) -> Vec<f64> {
+    let mut times: Vec<f64> = curves
         .iter()
-        .copied()
-        .filter(|&t| trajectory.tracks().iter().any(|track| is_corner(track, t)))
-        .map(|t| t - period)
+        .flat_map(|c| c.discontinuities())
+        .map(|d| d.time)
         .collect();
-    times.extend(corners);
-    sorted_within(trajectory, times)
-}
-
-/// Every joint's key times and hold ends and the played window's ends, sorted, each once,
-/// within the window: between two of them every joint's curve is one polynomial.
-pub(crate) fn breakpoints(trajectory: &Trajectory) -> Vec<f64> {
-    let mut times = vec![trajectory.start, trajectory.end];
-    for track in trajectory.tracks() {
-        for (i, &t) in track.times().iter().enumerate() {
-            times.push(t);
-            times.push(track.move_start(i));
-        }
-    }
-    sorted_within(trajectory, times)
-}
-
-fn sorted_within(trajectory: &Trajectory, mut times: Vec<f64>) -> Vec<f64> {
-    let (start, end) = (trajectory.start, trajectory.end);
-    times.retain(|t| (start..=end).contains(t));
-    times.sort_by(f64::total_cmp);
-    times.dedup_by(|later, earlier| *later - *earlier < SAME_TIME);
+    super::sorted_once(&mut times);
     times
 }
 
-/// Whether the curve's slope or value changes at once at `t`: the slope just before differs
-/// from the slope after, or a step segment ends there with another value.
-fn is_corner(track: &Track<f64>, t: f64) -> bool {
-    if (track.rate_before(t) - track.rate_at(t)).abs() > CORNER_SLOPE {
-        return true;
+/// Where any joint's polynomial changes (key times, hold ends, the pieces of timing profiles),
+/// a point one period before every corner, and the played window's ends; sorted, each once,
+/// within the window.
+fn point_times(
+    trajectory: &Trajectory,
+    played: &[Vec<Span>],
+    corners: &[f64],
+    corner_rate: f64,
+) -> Vec<f64> {
+    let period = 1.0 / corner_rate;
+    let mut times = super::span_boundaries(played);
+    times.extend([trajectory.start, trajectory.end]);
+    times.extend(corners.iter().map(|t| t - period));
+    times.retain(|t| (trajectory.start..=trajectory.end).contains(t));
+    super::sorted_once(&mut times);
+    times
+}
+
+/// The curves the points stand for, and what judges the cubics between them.
+struct Fit<'a> {
+    trajectory: &'a Trajectory,
+    robot: &'a Robot,
+    played: &'a [Vec<Span>],
+    corners: &'a [f64],
+}
+
+impl Fit<'_> {
+    /// `times` with points added, by halving, where a profiled stretch needs them.
+    fn refined(&self, times: &[f64]) -> Result<Vec<f64>, Ros2ExportError> {
+        let mut out = times[..times.len().min(1)].to_vec();
+        for w in times.windows(2) {
+            self.refine(w[0], w[1], 0, &mut out)?;
+        }
+        Ok(out)
     }
-    let (times, values) = (track.times(), track.values());
-    (1..times.len()).any(|k| {
-        times[k] == t && track.modes()[k - 1] == Interp::Step && values[k] != values[k - 1]
-    })
+
+    /// Pushes the points after `a` up to `b` that the stretch [a, b] needs.
+    fn refine(
+        &self,
+        a: f64,
+        b: f64,
+        halvings: u32,
+        out: &mut Vec<f64>,
+    ) -> Result<(), Ros2ExportError> {
+        if let Some((joint, shortfall)) = self.shortfall(a, b) {
+            if halvings == MAX_HALVINGS {
+                let segment = self.trajectory.segment_at(0.5 * (a + b));
+                return Err(Ros2ExportError {
+                    segment,
+                    label: self.trajectory.segment_label(segment),
+                    time: a,
+                    spacing: b - a,
+                    joint: joint.name.clone(),
+                    what: describe(shortfall, joint),
+                });
+            }
+            let middle = 0.5 * (a + b);
+            self.refine(a, middle, halvings + 1, out)?;
+            return self.refine(middle, b, halvings + 1, out);
+        }
+        out.push(b);
+        Ok(())
+    }
+
+    /// The first joint whose cubic on [a, b] misses, on a profiled stretch (elsewhere the
+    /// cubic through the points is keypose's own cubic); a stretch ending at a corner is the
+    /// corner's last period, which the limit check judged as the player turns it.
+    fn shortfall(&self, a: f64, b: f64) -> Option<(&Joint, hermite_fit::Shortfall)> {
+        let piece = self.trajectory.timing().piece_at(0.5 * (a + b));
+        let profiled = piece.v0 != 1.0 || piece.a != 0.0;
+        let at_corner = |t: f64| {
+            let i = self.corners.partition_point(|&c| c < t - SAME_TIME);
+            self.corners.get(i).is_some_and(|&c| c - t < SAME_TIME)
+        };
+        if !profiled || at_corner(b) {
+            return None;
+        }
+        self.played
+            .iter()
+            .zip(&self.robot.joints)
+            .find_map(|(spans, joint)| hermite_fit::judge(spans, joint, a, b).map(|s| (joint, s)))
+    }
+}
+
+/// A shortfall in words, in the joint's units.
+fn describe(shortfall: hermite_fit::Shortfall, joint: &Joint) -> String {
+    let unit = joint.kind.unit();
+    match shortfall {
+        hermite_fit::Shortfall::Strays(by) => {
+            format!("stray {by:.2e} {unit} from keypose's curve")
+        }
+        hermite_fit::Shortfall::Exceeds(kind, peak) => {
+            let (limit, per) = match kind {
+                LimitKind::Position => (
+                    if peak < joint.limits.min {
+                        joint.limits.min
+                    } else {
+                        joint.limits.max
+                    },
+                    "",
+                ),
+                LimitKind::Velocity => (joint.limits.velocity, "/s"),
+                LimitKind::Acceleration => (joint.limits.acceleration, "/s²"),
+            };
+            format!(
+                "reach {peak:.4} {unit}{per}, past the {} limit of {limit} {unit}{per}",
+                kind.name()
+            )
+        }
+    }
 }
 
 /// The message as YAML, the form `ros2 topic pub` and `ros2 action send_goal` take and
@@ -210,5 +320,38 @@ mod tests {
         assert_eq!(sec_nanosec(0.0), (0, 0));
         assert_eq!(sec_nanosec(1.2), (1, 200_000_000));
         assert_eq!(sec_nanosec(2.999_999_999_6), (3, 0));
+    }
+
+    /// A cubic run by a profile of three long pieces (tests/commands/export.rs follows it on
+    /// the SO-101), from rest to rest: the elbow's 40° in 2 s.
+    fn curved() -> (Trajectory, Robot) {
+        let text = r#"{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "cubic",
+            "keyframes": [
+              {"time": 0, "timing": {"path_time": 2, "speeds": [0, 1, 1.5, 0]},
+               "joints": {"elbow_flex": 0, "wrist_flex": 0}},
+              {"time": 2, "joints": {"elbow_flex": 40, "wrist_flex": -20}},
+              {"time": 3.5, "joints": {"elbow_flex": 0, "wrist_flex": 10}}]}"#;
+        let sequence = crate::sequence::Sequence::from_json("curved.json", text).unwrap();
+        let robot = Robot::builtin("so101").unwrap();
+        (Trajectory::build(&sequence, &robot).unwrap(), robot)
+    }
+
+    #[test]
+    fn a_profile_no_cubics_can_follow_within_the_limits_is_refused_naming_it() {
+        let (trajectory, mut robot) = curved();
+        assert!(joint_trajectory(&trajectory, &robot, 100.0).is_ok());
+        // 40° from rest to rest in 2 s needs 4·40/2² = 40 °/s² at least (bang-bang): below
+        // that the curve itself exceeds the limit, and halving brings the cubics to the curve,
+        // never under it.
+        let elbow = robot.joint_index("elbow_flex").unwrap();
+        robot.joints[elbow].limits.acceleration = 30.0;
+        let error = joint_trajectory(&trajectory, &robot, 100.0).unwrap_err();
+        assert_eq!((error.segment, error.joint.as_str()), (0, "elbow_flex"));
+        assert!(error.spacing < 2.0 / 4096.0, "{error}");
+        let text = error.to_string();
+        assert!(
+            text.contains("past the acceleration limit of 30 deg/s²"),
+            "{text}"
+        );
     }
 }

@@ -11,7 +11,7 @@
 //! even grid for plots and tables.
 
 mod approach;
-mod check;
+pub(crate) mod check;
 mod fastest;
 mod retime;
 mod sampled;

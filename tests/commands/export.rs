@@ -361,3 +361,80 @@ fn sampled_csv_columns_named_with_commas_or_quotes_stay_one_column() {
     );
     assert_eq!(lines.last(), Some("1,10,0,0,0,0,0"));
 }
+
+/// The controller's cubic Hermite between consecutive points, its velocity and acceleration
+/// at time `t` (per second, per second squared).
+fn controller_rates_at(points: &[Point], t: f64) -> Vec<(f64, f64)> {
+    let k = points
+        .partition_point(|p| p.time <= t)
+        .clamp(1, points.len() - 1)
+        - 1;
+    let (a, b) = (&points[k], &points[k + 1]);
+    let h = b.time - a.time;
+    let s = ((t - a.time) / h).clamp(0.0, 1.0);
+    (0..a.positions.len())
+        .map(|j| {
+            // p(s) = p0 + h·v0·s + c2·s² + c3·s³ with the Hermite's c2, c3.
+            let delta = b.positions[j] - a.positions[j];
+            let (m0, m1) = (h * a.velocities[j], h * b.velocities[j]);
+            let c2 = 3.0 * delta - 2.0 * m0 - m1;
+            let c3 = -2.0 * delta + m0 + m1;
+            let velocity = (m0 + 2.0 * c2 * s + 3.0 * c3 * s * s) / h;
+            let acceleration = (2.0 * c2 + 6.0 * c3 * s) / (h * h);
+            (velocity, acceleration)
+        })
+        .collect()
+}
+
+#[test]
+fn timing_profiles_are_followed_by_the_controllers_cubics_within_the_limits() {
+    // Before, these were refused ("cannot carry a timing profile"). An eased straight segment
+    // plays a quadratic of time on each piece of its trapezoid, which the cubic through a point
+    // at each end of the piece is: a point per key (3), at the hold's end, and at the
+    // trapezoid's 19 inner points of 20, nothing more.
+    let dir = tempfile::tempdir().unwrap();
+    let eased = crate::export_c::eased_sequence(dir.path());
+    let eased = eased.to_str().unwrap();
+    assert_eq!(assert_follows(eased, &[], "1000"), 3 + 1 + 19);
+    // A cubic run by three long pieces of a profile: the cubics through the keys (3), the
+    // profile's inner points (2) and the corner's point (1) alone stray 0.11° from keypose's
+    // curve; the export adds points until they follow it (within 0.01°, at 1 kHz).
+    let curved = crate::export_c::curved_sequence(dir.path());
+    let curved = curved.to_str().unwrap();
+    assert!(assert_follows(curved, &[], "1000") > 6);
+    // A time-optimal profile along monotone cubics: degree six in time.
+    let fastest = crate::export_c::fastest_sequence(dir.path());
+    let fastest = fastest.to_str().unwrap();
+    assert_follows(fastest, &[], "1000");
+    // The cubics the controller plays keep the SO-101's limits (115 °/s, 344 °/s² on every
+    // joint), sampled at 1 kHz and at every point from either side: all of them, but for the
+    // curved sequence's corner at 2 s, turned over the 10 ms before it (judged by the limit
+    // check at the control rate, as for any corner), and its unprofiled cubic after it.
+    let robot = keypose::robot::Robot::builtin("so101").unwrap();
+    for (sequence, until) in [
+        (eased, f64::INFINITY),
+        (fastest, f64::INFINITY),
+        (curved, 1.99),
+    ] {
+        let points = export_ros2(sequence, &dir.path().join("t.yaml"));
+        let end = points.last().unwrap().time.min(until);
+        let mut times: Vec<f64> = (0..=(end * 1000.0) as usize)
+            .map(|k| k as f64 / 1000.0)
+            .collect();
+        times.extend(points.iter().flat_map(|p| [p.time - 1e-7, p.time + 1e-7]));
+        for t in times.into_iter().filter(|t| (0.0..=end).contains(t)) {
+            for (j, (v, a)) in controller_rates_at(&points, t).into_iter().enumerate() {
+                let limits = robot.joints[j].limits;
+                let (v, a) = (v.to_degrees(), a.to_degrees());
+                assert!(
+                    v.abs() <= limits.velocity * (1.0 + 1e-9),
+                    "{sequence}: joint {j} at {t} s: {v} °/s"
+                );
+                assert!(
+                    a.abs() <= limits.acceleration * (1.0 + 1e-9),
+                    "{sequence}: joint {j} at {t} s: {a} °/s²"
+                );
+            }
+        }
+    }
+}

@@ -164,6 +164,108 @@ fn the_approach_eases_in_to_the_first_pose_within_the_limits() {
     assert!(approach.windows(2).all(|w| w[1][1] >= w[0][1]));
 }
 
+/// An SO-101 sequence whose first segment (after a 0.5 s hold) is linear and eased as the
+/// studio's easing handles ease it (`SegmentTiming::eased`: a quarter of the path speeding up
+/// evenly from rest, a quarter slowing down evenly to rest), then a monotone segment back.
+/// Elbow 0 → 60° over 1.5 s: the trapezoid's speeds are scaled by 1.5 to last that, peaking at
+/// 60 °/s and 120 °/s², within the SO-101's 115 °/s and 344 °/s².
+pub(crate) fn eased_sequence(dir: &Path) -> PathBuf {
+    use keypose::sequence::{SegmentTiming, TimeProfile};
+    let timing = SegmentTiming::eased(1.5, 0.25, 0.25).unwrap();
+    let TimeProfile::Speeds(speeds) = &timing.profile;
+    let text = format!(
+        r#"{{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "monotone",
+            "keyframes": [
+              {{"time": 0, "hold": 0.5, "interp": "linear",
+               "timing": {{"path_time": 1.5, "speeds": {speeds:?}}},
+               "joints": {{"elbow_flex": 0, "wrist_flex": 0, "shoulder_pan": 10}}}},
+              {{"time": 2, "joints": {{"elbow_flex": 60, "wrist_flex": -30, "shoulder_pan": 40}}}},
+              {{"time": 3.5, "joints": {{"elbow_flex": 10, "wrist_flex": 20, "shoulder_pan": 0}}}}]}}"#
+    );
+    let path = dir.join("eased.json");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// An SO-101 sequence whose first segment is a cubic run by a hand-written profile of three
+/// long pieces (path speeds 0, 1, 1.5, 0): a polynomial of degree six in time on each, which
+/// the cubic through its ends strays from by 0.11°. The profile ends at rest and the next
+/// cubic segment starts moving: a corner at 2 s (within the limits at 100 Hz).
+pub(crate) fn curved_sequence(dir: &Path) -> PathBuf {
+    let path = dir.join("curved.json");
+    std::fs::write(
+        &path,
+        r#"{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "cubic",
+            "keyframes": [
+              {"time": 0, "timing": {"path_time": 2, "speeds": [0, 1, 1.5, 0]},
+               "joints": {"elbow_flex": 0, "wrist_flex": 0}},
+              {"time": 2, "joints": {"elbow_flex": 40, "wrist_flex": -20}},
+              {"time": 3.5, "joints": {"elbow_flex": 0, "wrist_flex": 10}}]}"#,
+    )
+    .unwrap();
+    path
+}
+
+/// `sequences/so101_pick_place.json` through `keypose retime --fastest`: every moving segment
+/// a time-optimal profile along its monotone cubic.
+pub(crate) fn fastest_sequence(dir: &Path) -> PathBuf {
+    let path = dir.join("fastest.json");
+    let out = run(&[
+        "retime",
+        &repo("sequences/so101_pick_place.json"),
+        "--fastest",
+        "-o",
+        path.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    path
+}
+
+/// The `#define KP_SEQ_DEGREE` of an exported header.
+fn header_degree(header: &Path) -> usize {
+    let text = std::fs::read_to_string(header).unwrap();
+    let line = text
+        .lines()
+        .find_map(|l| l.strip_prefix("#define KP_SEQ_DEGREE "))
+        .unwrap_or_else(|| panic!("no KP_SEQ_DEGREE in {text}"));
+    line.trim().parse().unwrap()
+}
+
+#[test]
+fn timing_profiles_play_as_keypose_samples_them() {
+    // Before, both were refused ("cannot carry a timing profile"). keypose samples a profiled
+    // segment by mapping time to path time and the path time to the curve
+    // (`Trajectory::sample`); the player evaluates the check's composed polynomials. Ticks
+    // within one, and the limiter changed no goal.
+    let dir = tempfile::tempdir().unwrap();
+    for (sequence, degree) in [
+        // A straight path of a quadratic of time (degree 2), and a monotone cubic: degree 3.
+        (eased_sequence(dir.path()), 3),
+        // A cubic of a quadratic of time: degree 6.
+        (fastest_sequence(dir.path()), 6),
+        (curved_sequence(dir.path()), 6),
+    ] {
+        let sequence = sequence.to_str().unwrap();
+        assert_same_ticks(sequence);
+        let build = tempfile::tempdir().unwrap();
+        let program = build_player(sequence, build.path(), &[]);
+        assert_eq!(
+            header_degree(&build.path().join("seq.h")),
+            degree,
+            "{sequence}"
+        );
+        // At the control rate the sequence was checked for (at a higher one the dump's start,
+        // the first goal rounded to a whole tick, is a fraction of a tick off the curve, more
+        // than a·T² there: the limiter eases that in, with or without a profile).
+        let out = Command::new(&program).arg("100").output().unwrap();
+        assert_eq!(stderr(&out).trim(), "limited 0", "{sequence}");
+    }
+    // A sequence without profiles keeps its cubics: four coefficients per joint and piece.
+    let build = tempfile::tempdir().unwrap();
+    build_player(&repo("sequences/so101_pick_place.json"), build.path(), &[]);
+    assert_eq!(header_degree(&build.path().join("seq.h")), 3);
+}
+
 /// Prints the Sync Write packets keypose_bus.c builds for ids 1, 2 and the ticks given.
 const PACKETS_MAIN: &str = r#"
 #include <stdio.h>
@@ -286,7 +388,7 @@ static const uint32_t kp_seq_piece_start_us[2] = {0, 1000000};
 static const uint32_t kp_seq_piece_duration_us[2] = {1000000, 5000000};
 static const int32_t kp_seq_coefficients[8] = {2047 * 65536, 0, 0, 0, 2647 * 65536, 0, 0, 0};
 static const kp_sequence kp_seq = {
-    1, 2, 6000000u, kp_seq_ids, kp_seq_tick_min, kp_seq_tick_max, kp_seq_max_speed,
+    1, 2, 3, 6000000u, kp_seq_ids, kp_seq_tick_min, kp_seq_tick_max, kp_seq_max_speed,
     kp_seq_max_accel, kp_seq_piece_start_us, kp_seq_piece_duration_us, kp_seq_coefficients};
 #endif
 "#;

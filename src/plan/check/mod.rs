@@ -14,9 +14,9 @@
 //! ramp and at the end of playback, so a sequence that starts or ends in motion is flagged.
 
 mod period;
-mod poly;
-mod runs;
-mod spans;
+pub(crate) mod poly;
+pub(crate) mod runs;
+pub(crate) mod spans;
 
 use super::Trajectory;
 use crate::robot::Robot;

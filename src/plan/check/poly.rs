@@ -31,6 +31,12 @@ impl Poly {
         Poly(out)
     }
 
+    /// The coefficients up to the highest power with one other than 0 (`[c0]` for a constant),
+    /// lowest power first: what an export writes for a span (`interop::c_export`).
+    pub fn coefficients(&self) -> &[f64] {
+        &self.0[..=self.degree()]
+    }
+
     /// The highest power with a coefficient other than 0 (0 for a constant).
     fn degree(&self) -> usize {
         (0..LEN).rev().find(|&k| self.0[k] != 0.0).unwrap_or(0)
