@@ -163,7 +163,7 @@ pub fn fastest(
 fn over_limits(report: &CheckReport) -> Vec<(usize, f64)> {
     let mut out: Vec<(usize, f64)> = Vec::new();
     for v in &report.violations {
-        if v.kind == super::LimitKind::Position || v.cause == super::Cause::Step {
+        if !v.mendable_by_timing() {
             continue;
         }
         let ratio = (v.peak.abs() / v.limit.abs()).max(1.0 + 1e-6);

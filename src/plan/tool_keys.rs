@@ -115,7 +115,7 @@ impl LineReport {
         }
         let mine = violations.iter().filter(|v| {
             v.segment == self.key
-                && v.kind != LimitKind::Position
+                && v.mendable_by_timing()
                 && robot
                     .joint_index(&v.joint)
                     .is_some_and(|j| self.joints.contains(&j))
@@ -144,6 +144,7 @@ impl LineReport {
             .iter()
             .map(|e| match e.kind {
                 LimitKind::Acceleration => (e.peak / e.limit).sqrt(),
+                LimitKind::Jerk => (e.peak / e.limit).cbrt(),
                 _ => e.peak / e.limit,
             })
             .fold(1.0, f64::max);

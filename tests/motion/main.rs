@@ -10,6 +10,7 @@ mod check_exact;
 mod editing;
 mod fuzz_loader;
 mod interpolation;
+mod jerk;
 mod kinematics;
 mod record_extract;
 mod record_keyframes;

@@ -1,0 +1,173 @@
+//! Jerk limits (`"jerk"` in a robot file's joint limits): the loader's checks, the exact
+//! check's jerk and acceleration jumps against hand-derived values, and a robot without them
+//! checked exactly as before.
+
+use crate::common::{run, show, stdout};
+use keypose::plan::{check, Cause, LimitKind, Trajectory};
+use keypose::robot::Robot;
+use keypose::sequence::Sequence;
+use serde_json::Value;
+
+/// The SO-101's robot file with `jerk` set on every joint (None: as it is).
+fn so101_text(jerk: Option<&str>) -> String {
+    let text = std::fs::read_to_string(crate::common::repo("robots/so101.json")).unwrap();
+    let mut robot: Value = serde_json::from_str(&text).unwrap();
+    robot["name"] = "so101-jerk".into();
+    if let Some(jerk) = jerk {
+        for joint in robot["joints"].as_array_mut().unwrap() {
+            joint["limits"]["jerk"] = serde_json::from_str(jerk).unwrap();
+        }
+    }
+    serde_json::to_string_pretty(&robot).unwrap()
+}
+
+fn so101_with_jerk(jerk: f64) -> Robot {
+    Robot::from_json("so101-jerk.json", &so101_text(Some(&jerk.to_string()))).unwrap()
+}
+
+/// wrist_flex keys `(time, value)` in `mode`, for the robot file `robot`.
+fn wrist(robot: &str, mode: &str, keys: &[(f64, f64)]) -> String {
+    let keys: Vec<String> = keys
+        .iter()
+        .map(|(t, v)| format!(r#"{{"time": {t}, "joints": {{"wrist_flex": {v}}}}}"#))
+        .collect();
+    format!(
+        r#"{{"format": "keypose-sequence/1", "robot": "{robot}", "interpolation": "{mode}",
+            "keyframes": [{}]}}"#,
+        keys.join(",")
+    )
+}
+
+fn trajectory(text: &str, robot: &Robot) -> Trajectory {
+    let sequence = Sequence::from_json("wrist.json", text).unwrap();
+    Trajectory::build(&sequence, robot).unwrap()
+}
+
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-9 * b.abs().max(1.0)
+}
+
+#[test]
+fn a_jerk_limit_is_optional_positive_and_named_in_errors() {
+    let robot = Robot::from_json("r.json", &so101_text(None)).unwrap();
+    assert!(robot.joints.iter().all(|j| j.limits.jerk.is_none()));
+    assert_eq!(so101_with_jerk(2500.0).joints[3].limits.jerk, Some(2500.0));
+    for bad in ["0", "-5", "\"fast\"", "1e9"] {
+        let err = Robot::from_json("r.json", &so101_text(Some(bad)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("r.json") && err.contains("limits.jerk"),
+            "{bad}: {err}"
+        );
+    }
+}
+
+#[test]
+fn a_smoothstep_has_its_constant_jerk_and_jumps_at_both_ends() {
+    // 0 → 30° in 2 s, cubic between two keys at rest: 30·(3f² − 2f³), f = t/2. Its
+    // acceleration 30·(6 − 12f)/4 goes from 45 to −45 °/s², its jerk is −30·12/8 = −45 °/s³
+    // throughout, and the acceleration jumps by +45 °/s² from rest at 0 s and back at 2 s.
+    let text = wrist("so101", "cubic", &[(0.0, 0.0), (2.0, 30.0)]);
+    for (limit, curve_violations) in [(1000.0, 0), (40.0, 1)] {
+        let robot = so101_with_jerk(limit);
+        let report = check(&trajectory(&text, &robot), &robot, 50.0);
+        let wrist = report
+            .joints
+            .iter()
+            .find(|j| j.joint == "wrist_flex")
+            .unwrap();
+        assert!(close(wrist.peak_jerk, 45.0), "{wrist:?}");
+        assert!(close(wrist.acceleration_jump, 45.0), "{wrist:?}");
+        assert_eq!(wrist.jerk_limit, Some(limit));
+        let jumps: Vec<_> = report
+            .violations
+            .iter()
+            .filter(|v| v.cause == Cause::AccelerationJump)
+            .collect();
+        assert_eq!(jumps.len(), 2, "{:?}", report.violations);
+        for (v, t) in jumps.iter().zip([0.0, 2.0]) {
+            assert_eq!((v.kind, v.joint.as_str()), (LimitKind::Jerk, "wrist_flex"));
+            assert!(close(v.peak_time, t), "{v:?}");
+            assert!(close(v.acceleration_jump.unwrap(), 45.0), "{v:?}");
+            assert!(v.peak.is_infinite() && !v.mendable_by_timing());
+        }
+        let curve: Vec<_> = report
+            .violations
+            .iter()
+            .filter(|v| v.kind == LimitKind::Jerk && v.cause == Cause::Curve)
+            .collect();
+        assert_eq!(curve.len(), curve_violations, "{:?}", report.violations);
+        if let Some(v) = curve.first() {
+            assert!(close(v.peak, -45.0) && close(v.excess, 5.0), "{v:?}");
+            assert!(close(v.from, 0.0) && close(v.to, 2.0), "{v:?}");
+        }
+    }
+}
+
+#[test]
+fn a_key_of_a_cubic_jumps_by_the_change_of_its_second_derivative() {
+    // 0 → 10 → 30° at 0, 1, 2 s with zero end slopes and the central slope (30 − 0)/2 = 15 °/s
+    // at the middle key. First segment: 0 + 0·t + c2·t² + c3·t³ with c2 + c3 = 10,
+    // 2c2 + 3c3 = 15 → c2 = 15, c3 = −5, so its acceleration at 1 s is 30 − 30 = 0. Second
+    // (s = t − 1): 10 + 15s + c2·s² + c3·s³ with 15 + c2 + c3 = 20, 15 + 2c2 + 3c3 = 0 →
+    // c2 = 30, c3 = −25, acceleration 60 at the key: a jump of +60 °/s² at 1 s.
+    let robot = so101_with_jerk(1e6);
+    let text = wrist("so101", "cubic", &[(0.0, 0.0), (1.0, 10.0), (2.0, 30.0)]);
+    let report = check(&trajectory(&text, &robot), &robot, 50.0);
+    let at_key = report
+        .violations
+        .iter()
+        .find(|v| close(v.peak_time, 1.0))
+        .unwrap_or_else(|| panic!("{:?}", report.violations));
+    assert_eq!(at_key.cause, Cause::AccelerationJump);
+    assert!(close(at_key.acceleration_jump.unwrap(), 60.0), "{at_key:?}");
+}
+
+#[test]
+fn without_jerk_limits_the_report_is_as_before() {
+    // The same sequence on the built-in (no jerk limits): no jerk violation, no jerk column.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("wrist.json");
+    std::fs::write(&path, wrist("so101", "cubic", &[(0.0, 0.0), (2.0, 30.0)])).unwrap();
+    let out = run(&["check", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    assert!(!stdout(&out).contains("jerk"), "{}", show(&out));
+}
+
+#[test]
+fn check_names_each_acceleration_jump_with_its_time_and_size() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("robot.json"), so101_text(Some("500"))).unwrap();
+    let path = dir.path().join("wrist.json");
+    let text = wrist("./robot.json", "cubic", &[(0.0, 0.0), (2.0, 30.0)]);
+    std::fs::write(&path, text).unwrap();
+    let out = run(&["check", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1), "{}", show(&out));
+    let text = stdout(&out);
+    assert!(
+        text.contains("t = 0.000 s: the acceleration jumps by 45.000 deg/s², an infinite jerk (limit 500.000 deg/s³)"),
+        "{}",
+        show(&out)
+    );
+    assert!(text.contains("peak jerk"), "{text}");
+    let out = run(&["check", path.to_str().unwrap(), "--format", "json"]);
+    let report: Value = serde_json::from_str(&stdout(&out)).unwrap();
+    let wrist = report["joints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|j| j["joint"] == "wrist_flex")
+        .unwrap();
+    assert_eq!(wrist["jerk_limit"], 500.0);
+    assert!(close(wrist["peak_jerk"].as_f64().unwrap(), 45.0));
+    let jumps: Vec<&Value> = report["violations"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|v| v["cause"] == "jump")
+        .collect();
+    assert_eq!(jumps.len(), 2, "{report}");
+    assert_eq!(jumps[0]["kind"], "jerk");
+    assert!(close(jumps[0]["acceleration_jump"].as_f64().unwrap(), 45.0));
+}
