@@ -9,6 +9,8 @@
 //! anything is printed).
 
 mod common;
+#[path = "common/oracle.rs"]
+mod oracle;
 #[path = "common/topp.rs"]
 mod topp;
 

@@ -19,16 +19,28 @@
 //! time; the played window starts and ends at rest. Between keys without a hold the path does
 //! not stop: the profile runs through them at the speed both sides allow, and through a linear
 //! corner at the speed whose velocity change the player turns within one control period.
+//!
+//! A robot with jerk limits gets S-curve profiles instead (`plan::scurve`): each segment from
+//! rest to rest, its path acceleration changing at a bounded path jerk. It stops at every key
+//! because the curves through the keys do not let it go on: a key-time cubic's second
+//! derivative jumps at its keys and a linear corner's first, so passing one in motion jumps the
+//! joints' acceleration (an infinite jerk). The path limits of each segment come from bounds on
+//! its curve's first three derivatives (`scurve::along_path`), which makes the profile keep the
+//! limits wherever it is; the exact check confirms it, with the same rounds as above.
 
+use super::scurve::{along_path, AlongPath, JerkLimits};
 use super::{check, CheckReport, Trajectory};
 use crate::curve::{Interp, Track};
 use crate::json::InputError;
-use crate::robot::Robot;
+use crate::robot::{Limits, Robot};
 use crate::sequence::{Ends, SegmentTiming, Sequence, TimeProfile};
 
 /// The share of each limit a profile is planned for at first; the exact check says whether the
 /// curve between grid points needs less.
 const FIRST_SHARE: f64 = 0.995;
+/// The share of each limit an S-curve is planned for at first: its bounds hold everywhere on
+/// the segment, so this only covers the key times' rounding to the microsecond.
+const SCURVE_SHARE: f64 = 0.999;
 /// A segment over a limit is planned again for this much less than the limit over its peak.
 const SHARE_BACKOFF: f64 = 0.98;
 const MAX_ROUNDS: usize = 40;
@@ -98,13 +110,23 @@ pub fn fastest(
     let mut base = sequence.clone();
     base.make_times_absolute();
     let trajectory = Trajectory::build(&base, robot)?;
-    let path = Path::of(&base, &trajectory);
-    let mut shares = vec![FIRST_SHARE; path.segments.len()];
+    let jerk_limited = robot.joints.iter().any(|j| j.limits.jerk.is_some());
+    let path = Path::of(&base, &trajectory, jerk_limited);
+    let first_share = if jerk_limited {
+        SCURVE_SHARE
+    } else {
+        FIRST_SHARE
+    };
+    let mut shares = vec![first_share; path.segments.len()];
     let mut rounds = 0;
     loop {
         rounds += 1;
-        let speeds = path.plan(robot, &shares, 1.0 / rate);
-        let candidate = path.timed(&base, &speeds);
+        let candidate = if jerk_limited {
+            path.s_curves(&base, robot, &shares)
+        } else {
+            let speeds = path.plan(robot, &shares, 1.0 / rate);
+            path.timed(&base, &speeds)
+        };
         let report = check(&Trajectory::build(&candidate, robot)?, robot, rate);
         let over = over_limits(&report);
         let done = over
@@ -136,8 +158,8 @@ pub fn fastest(
                         segments: first..end,
                         path: (a.from, b.to),
                         from_rest: [
-                            path.boundary(first, Side::After) == 0.0,
-                            path.boundary(end, Side::Before) == 0.0,
+                            jerk_limited || path.boundary(first, Side::After) == 0.0,
+                            jerk_limited || path.boundary(end, Side::Before) == 0.0,
                         ],
                         seconds: times[end] - times[first] - base.keyframes[first].hold,
                     }
@@ -203,10 +225,12 @@ struct Path<'a> {
     /// Each key's path time and hold.
     paths: Vec<f64>,
     holds: Vec<f64>,
+    /// Whether the path stops at every key (S-curve profiles for jerk limits).
+    stops_at_keys: bool,
 }
 
 impl<'a> Path<'a> {
-    fn of(sequence: &Sequence, trajectory: &'a Trajectory) -> Path<'a> {
+    fn of(sequence: &Sequence, trajectory: &'a Trajectory, stops_at_keys: bool) -> Path<'a> {
         let paths = sequence.path_times();
         let n = paths.len();
         let window = match sequence.ends {
@@ -242,6 +266,7 @@ impl<'a> Path<'a> {
             window,
             holds: sequence.keyframes.iter().map(|k| k.hold).collect(),
             paths,
+            stops_at_keys,
         }
     }
 
@@ -270,6 +295,7 @@ impl<'a> Path<'a> {
             }
             let mut end = i + 1;
             while end < self.segments.len()
+                && !self.stops_at_keys
                 && self.segments[end].is_some()
                 && self.holds[end] == 0.0
             {
@@ -394,6 +420,88 @@ impl<'a> Path<'a> {
         }
         out
     }
+}
+
+impl Path<'_> {
+    /// `base` with an S-curve profile on every profiled segment, each planned for its share
+    /// of the limits, and the key times they give (rounded up to the microsecond, so a
+    /// profile never runs faster than planned).
+    fn s_curves(&self, base: &Sequence, robot: &Robot, shares: &[f64]) -> Sequence {
+        let mut out = base.clone();
+        let times = base.key_times();
+        let mut time = times[0];
+        for i in 0..out.keyframes.len() {
+            out.keyframes[i].time = Some(time);
+            let Some(next) = times.get(i + 1) else {
+                break;
+            };
+            let hold = out.keyframes[i].hold;
+            let keep = next - times[i] - hold;
+            let curve = self.segments[i].and_then(|grid| {
+                let length = grid.to - grid.from;
+                let joints: Vec<AlongPath> = self
+                    .trajectory
+                    .tracks()
+                    .iter()
+                    .zip(&robot.joints)
+                    .map(|(track, joint)| {
+                        along(track, grid.from, grid.to, &joint.limits, shares[i])
+                    })
+                    .collect();
+                Some((length, along_path(length, &joints)?))
+            });
+            let moving = match curve {
+                Some((path_time, curve)) => {
+                    out.keyframes[i].timing = Some(SegmentTiming {
+                        path_time,
+                        profile: TimeProfile::SCurve(curve.shape()),
+                    });
+                    curve.duration()
+                }
+                None => keep,
+            };
+            time = ((time + hold + moving) * 1e6).ceil() / 1e6;
+        }
+        out
+    }
+}
+
+/// How `track` moves between path times `from` and `to`: the largest magnitudes of its first
+/// three derivatives there (exact: each piece is a cubic), with `limits` times `share`.
+fn along(track: &Track<f64>, from: f64, to: f64, limits: &Limits, share: f64) -> AlongPath {
+    let mut out = AlongPath {
+        slope: 0.0,
+        curvature: 0.0,
+        third: 0.0,
+        limits: JerkLimits::of(limits, share),
+    };
+    let times = track.times();
+    for k in 0..times.len().saturating_sub(1) {
+        let start = track.move_start(k);
+        let (lo, hi) = (start.max(from), times[k + 1].min(to));
+        if hi <= lo {
+            continue;
+        }
+        let [_, c1, c2, c3] = track.segment_polynomial(k);
+        let slope = |s: f64| (c1 + s * (2.0 * c2 + 3.0 * s * c3)).abs();
+        let (a, b) = (lo - start, hi - start);
+        let mut steepest = slope(a).max(slope(b));
+        if c3 != 0.0 {
+            let vertex = -c2 / (3.0 * c3);
+            if vertex > a && vertex < b {
+                steepest = steepest.max(slope(vertex));
+            }
+        }
+        let curvature = |s: f64| (2.0 * c2 + 6.0 * c3 * s).abs();
+        out.slope = out.slope.max(steepest);
+        out.curvature = out.curvature.max(curvature(a).max(curvature(b)));
+        out.third = out.third.max((6.0 * c3).abs());
+    }
+    // Rounding of a joint that does not move is no slope.
+    if out.slope <= AT_REST {
+        out.slope = 0.0;
+    }
+    out
 }
 
 /// A speed as the file keeps it: six significant digits.

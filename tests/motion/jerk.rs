@@ -1,12 +1,18 @@
 //! Jerk limits (`"jerk"` in a robot file's joint limits): the loader's checks, the exact
-//! check's jerk and acceleration jumps against hand-derived values, and a robot without them
-//! checked exactly as before.
+//! check's jerk and acceleration jumps against hand-derived values, a robot without them
+//! checked exactly as before, and S-curve moves against Ruckig (the `ruckig` package in
+//! keypose's Python environment, which these tests need: without it they fail).
 
 use crate::common::{run, show, stdout};
 use keypose::plan::{check, Cause, LimitKind, Trajectory};
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
 use serde_json::Value;
+
+#[path = "../../benches/common/oracle.rs"]
+mod oracle;
+#[path = "../../benches/common/ruckig.rs"]
+mod ruckig;
 
 /// The SO-101's robot file with `jerk` set on every joint (None: as it is).
 fn so101_text(jerk: Option<&str>) -> String {
@@ -170,4 +176,151 @@ fn check_names_each_acceleration_jump_with_its_time_and_size() {
     assert_eq!(jumps.len(), 2, "{report}");
     assert_eq!(jumps[0]["kind"], "jerk");
     assert!(close(jumps[0]["acceleration_jump"].as_f64().unwrap(), 45.0));
+}
+
+/// keypose's Python environment (with ruckig): these tests fail without it.
+fn python() -> std::path::PathBuf {
+    keypose::python::PyConfig::with_cache_dir(crate::common::python_cache())
+        .ensure_python()
+        .unwrap_or_else(|e| panic!("keypose's Python environment (with ruckig) is needed: {e}"))
+        .python
+}
+
+/// `robot` moving every joint from `from` to `to` on a linear segment of `seconds`.
+fn point_to_point_sequence(robot: &Robot, from: &[f64], to: &[f64], seconds: f64) -> Sequence {
+    let key = |time: f64, values: &[f64]| {
+        let joints: Vec<String> = robot
+            .joints
+            .iter()
+            .zip(values)
+            .map(|(j, v)| format!("\"{}\": {v}", j.name))
+            .collect();
+        format!(r#"{{"time": {time}, "joints": {{{}}}}}"#, joints.join(", "))
+    };
+    let text = format!(
+        r#"{{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "linear",
+            "keyframes": [{}, {}]}}"#,
+        key(0.0, from),
+        key(seconds, to)
+    );
+    Sequence::from_json("p2p.json", &text).unwrap()
+}
+
+/// Rest-to-rest moves of the SO-101: one joint far, one joint a little (it never reaches its
+/// acceleration limit), several joints by different amounts, all of them.
+fn so101_moves() -> Vec<(Vec<f64>, Vec<f64>)> {
+    let zero = vec![0.0; 6];
+    let with = |changes: &[(usize, f64)]| {
+        let mut pose = zero.clone();
+        for &(j, v) in changes {
+            pose[j] = v;
+        }
+        pose
+    };
+    vec![
+        (zero.clone(), with(&[(3, 90.0)])),
+        (zero.clone(), with(&[(3, 2.0)])),
+        (zero.clone(), with(&[(3, 25.0)])),
+        (
+            with(&[(0, -60.0)]),
+            with(&[(0, 45.0), (1, 30.0), (2, -10.0)]),
+        ),
+        (
+            with(&[
+                (0, 10.0),
+                (1, -20.0),
+                (2, 30.0),
+                (3, -40.0),
+                (4, 50.0),
+                (5, 5.0),
+            ]),
+            with(&[
+                (0, -80.0),
+                (1, 60.0),
+                (2, -50.0),
+                (3, 30.0),
+                (4, -90.0),
+                (5, 60.0),
+            ]),
+        ),
+    ]
+}
+
+#[test]
+fn the_s_curve_of_one_joint_takes_ruckigs_time() {
+    // One axis from rest to rest: the closed form against Ruckig's time-optimal profile, in
+    // each of its cases (a cruise at the velocity limit, the acceleration limit reached or not).
+    let cases: Vec<(f64, f64, f64, f64)> = vec![
+        (200.0, 100.0, 400.0, 4000.0),
+        (30.0, 100.0, 400.0, 4000.0),
+        (1.0, 100.0, 400.0, 4000.0),
+        (90.0, 115.0, 344.0, 3440.0),
+        (0.05, 0.0333, 0.103, 1.03),
+        (500.0, 370.0, 1146.0, 500.0),
+    ];
+    let moves: Vec<Value> = cases
+        .iter()
+        .map(|&(d, v, a, j)| {
+            serde_json::json!({"from": [0.0], "to": [d], "vlim": [v], "alim": [a], "jlim": [j],
+                               "sync": "time"})
+        })
+        .collect();
+    let (theirs, _) = ruckig::ruckig_durations(&python(), &moves).unwrap();
+    for (&(d, v, a, j), theirs) in cases.iter().zip(theirs) {
+        let limits = keypose::plan::scurve::JerkLimits {
+            velocity: v,
+            acceleration: a,
+            jerk: j,
+        };
+        let ours = keypose::plan::scurve::SCurve::fastest(d, limits).duration();
+        assert!(
+            (ours / theirs - 1.0).abs() < 1e-6,
+            "{d} under {limits:?}: {ours} s against Ruckig's {theirs} s"
+        );
+    }
+}
+
+#[test]
+fn a_point_to_point_move_under_jerk_limits_is_within_five_percent_of_ruckig() {
+    // `retime --fastest` of a linear segment between two poses at rest, for the SO-101 with a
+    // jerk limit of ten times its acceleration limit per second: the move passes the exact
+    // check with jerk, and lasts no less than Ruckig's time-optimal move under the same limits
+    // and at most 5 % more (Ruckig's default synchronisation: each joint its own profile,
+    // ending together). Along the straight line (Ruckig's phase synchronisation), it is the
+    // same move: the same time to the planning share and key-time rounding.
+    let robot = so101_with_jerk(3440.0);
+    let moves = so101_moves();
+    let request = |sync| -> Vec<Value> {
+        moves
+            .iter()
+            .map(|(from, to)| ruckig::move_request(&robot, from, to, sync))
+            .collect()
+    };
+    let python = python();
+    let (time_sync, _) = ruckig::ruckig_durations(&python, &request(ruckig::Sync::Time)).unwrap();
+    let (phase_sync, _) = ruckig::ruckig_durations(&python, &request(ruckig::Sync::Phase)).unwrap();
+    for (k, (from, to)) in moves.iter().enumerate() {
+        let sequence = point_to_point_sequence(&robot, from, to, 5.0);
+        let outcome = keypose::plan::fastest(&sequence, &robot, 50.0).unwrap();
+        assert!(
+            outcome.report.passed(),
+            "{k}: {:?}",
+            outcome.report.violations
+        );
+        let times = outcome.sequence.key_times();
+        let ours = times[1] - times[0];
+        assert!(
+            ours >= time_sync[k] && ours <= 1.05 * time_sync[k],
+            "move {k}: {ours} s against Ruckig's {} s",
+            time_sync[k]
+        );
+        assert!(
+            ours >= phase_sync[k] && ours <= 1.002 * phase_sync[k],
+            "move {k}: {ours} s against Ruckig's {} s along the line",
+            phase_sync[k]
+        );
+        // The library's point-to-point move (the approach ramp's) is the same S-curve.
+        let direct = keypose::plan::scurve::point_to_point(&robot, from, to, 1.0).unwrap();
+        assert!((direct.duration() / phase_sync[k] - 1.0).abs() < 1e-6);
+    }
 }
