@@ -16,6 +16,19 @@ pub enum Sync {
     Phase,
 }
 
+/// The rise time of the jerk limit the benchmark and the tests give a robot without one:
+/// each joint reaches its acceleration limit from zero in a tenth of a second (docs/robots.md).
+pub const RISE_SECONDS: f64 = 0.1;
+
+/// `robot` with a jerk limit on every joint: its acceleration limit over `rise` seconds.
+pub fn with_jerk(robot: &Robot, rise: f64) -> Robot {
+    let mut out = robot.clone();
+    for joint in &mut out.joints {
+        joint.limits.jerk = Some(joint.limits.acceleration / rise);
+    }
+    out
+}
+
 /// One rest-to-rest move of `robot` from `from` to `to` (joint values in robot order) under
 /// its limits, as Ruckig is asked for it. Every joint must have a jerk limit.
 pub fn move_request(robot: &Robot, from: &[f64], to: &[f64], sync: Sync) -> Value {

@@ -128,7 +128,7 @@ pub fn fastest(
             path.timed(&base, &speeds)
         };
         let report = check(&Trajectory::build(&candidate, robot)?, robot, rate);
-        let over = over_limits(&report);
+        let over = over_limits(&report, jerk_limited);
         let done = over
             .iter()
             .all(|&(i, _)| path.segments.get(i).is_none_or(|s| s.is_none()));
@@ -181,11 +181,13 @@ pub fn fastest(
     }
 }
 
-/// Each segment's worst ratio of peak to limit, for violations timing can mend.
-fn over_limits(report: &CheckReport) -> Vec<(usize, f64)> {
+/// Each segment's worst ratio of peak to limit, for violations timing can mend. With S-curves
+/// (`stops_at_keys`) the path is at rest at every key, so a corner left is where a joint keeps
+/// moving through a hold (a joint without a key there), whose pace no segment's profile sets.
+fn over_limits(report: &CheckReport, stops_at_keys: bool) -> Vec<(usize, f64)> {
     let mut out: Vec<(usize, f64)> = Vec::new();
     for v in &report.violations {
-        if !v.mendable_by_timing() {
+        if !v.mendable_by_timing() || (stops_at_keys && v.cause == super::Cause::Corner) {
             continue;
         }
         let ratio = (v.peak.abs() / v.limit.abs()).max(1.0 + 1e-6);
