@@ -83,8 +83,7 @@ impl SCurve {
             let ta = (v / a).min((d / a).sqrt());
             [0.0, ta, (d / (a * ta) - ta).max(0.0)]
         } else {
-            let tj = (a / j).min((v / j).sqrt());
-            let ta = v / (j * tj) - tj;
+            let [tj, ta] = speed_change(v, a, j);
             if v * (2.0 * tj + ta) <= d {
                 [tj, ta, d / v - (2.0 * tj + ta)]
             } else {
@@ -178,6 +177,24 @@ impl SCurve {
         }
         state
     }
+}
+
+/// The fastest change of speed by `change` from rest (zero acceleration at both ends) under the
+/// acceleration and jerk limits: `[tj, ta]`, jerk phases of `tj` on either side of `ta` at the
+/// full acceleration (none when the jerk phases meet first). A jerk phase lasts no time with
+/// an infinite jerk limit; with both limits infinite the change is instant.
+pub fn speed_change(change: f64, acceleration: f64, jerk: f64) -> [f64; 2] {
+    if acceleration.is_infinite() {
+        return [0.0, 0.0];
+    }
+    if jerk.is_infinite() {
+        return [0.0, change / acceleration];
+    }
+    let tj = (acceleration / jerk).min((change / jerk).sqrt());
+    if tj == 0.0 {
+        return [0.0, 0.0];
+    }
+    [tj, change / (jerk * tj) - tj]
 }
 
 /// One joint along a stretch of path: the largest magnitudes of its first three derivatives

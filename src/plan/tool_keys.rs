@@ -8,6 +8,7 @@
 //! ([`ToolKeyReport`]) and per line ([`LineReport`], with [`LineReport::speed`] saying what the
 //! check found a line to need).
 
+use super::approach::minimum_jerk;
 use super::{LimitKind, Violation};
 use crate::collision::CollisionModel;
 use crate::json::InputError;
@@ -537,10 +538,4 @@ fn solve_line_into(
             span: (start, times[index]),
         },
     }
-}
-
-/// The minimum-jerk share of the path at the share `u` of the time: 10u³ − 15u⁴ + 6u⁵, at rest
-/// (zero velocity and acceleration) at both ends.
-fn minimum_jerk(u: f64) -> f64 {
-    u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
 }

@@ -324,3 +324,124 @@ fn a_point_to_point_move_under_jerk_limits_is_within_five_percent_of_ruckig() {
         assert!((direct.duration() / phase_sync[k] - 1.0).abs() < 1e-6);
     }
 }
+
+/// The commanded positions of joint `joint` every `dt` seconds until the timeline ends; a stop
+/// is requested once it has run `stop_at` seconds.
+fn play(timeline: &mut keypose::plan::Timeline, joint: usize, dt: f64, stop_at: f64) -> Vec<f64> {
+    let mut out = vec![0.0; 6];
+    let mut positions = Vec::new();
+    let mut t = 0.0;
+    while timeline.sample_into(&mut out).is_some() {
+        positions.push(out[joint]);
+        if t >= stop_at && t - dt < stop_at {
+            timeline.request_stop();
+        }
+        timeline.advance(dt);
+        t += dt;
+    }
+    positions
+}
+
+/// The largest |second| and |third| differences of `p` over `dt`: a piecewise-cubic curve's
+/// are averages of its acceleration and jerk, so they never exceed the curve's peaks.
+fn peak_differences(p: &[f64], dt: f64) -> (f64, f64) {
+    let second = p
+        .windows(3)
+        .map(|w| ((w[2] - 2.0 * w[1] + w[0]) / (dt * dt)).abs())
+        .fold(0.0, f64::max);
+    let third = p
+        .windows(4)
+        .map(|w| ((w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]) / (dt * dt * dt)).abs())
+        .fold(0.0, f64::max);
+    (second, third)
+}
+
+#[test]
+fn the_approach_ramp_under_jerk_limits_is_ruckigs_straight_line_at_half_the_limits() {
+    let robot = so101_with_jerk(3440.0);
+    let (from, to) = so101_moves().swap_remove(4);
+    let sequence = point_to_point_sequence(&robot, &to, &to, 1.0);
+    let trajectory = Trajectory::build(&sequence, &robot).unwrap();
+    let options = keypose::plan::TimelineOptions::default();
+    let timeline = keypose::plan::Timeline::new(&robot, &trajectory, &options, &from);
+    let mut halved = robot.clone();
+    for joint in &mut halved.joints {
+        joint.limits.velocity *= 0.5;
+        joint.limits.acceleration *= 0.5;
+        joint.limits.jerk = joint.limits.jerk.map(|j| 0.5 * j);
+    }
+    let request = [ruckig::move_request(
+        &halved,
+        &from,
+        &to,
+        ruckig::Sync::Phase,
+    )];
+    let (theirs, _) = ruckig::ruckig_durations(&python(), &request).unwrap();
+    assert!(
+        (timeline.approach_seconds() / theirs[0] - 1.0).abs() < 1e-9,
+        "{} s against Ruckig's {} s",
+        timeline.approach_seconds(),
+        theirs[0]
+    );
+    // Sampled at 1 kHz: within half of every limit, and it arrives.
+    for j in 0..6 {
+        let mut timeline = keypose::plan::Timeline::new(&robot, &trajectory, &options, &from);
+        let p = play(&mut timeline, j, 1e-3, f64::INFINITY);
+        let (acceleration, jerk) = peak_differences(&p, 1e-3);
+        assert!(acceleration <= 172.0 * (1.0 + 1e-6), "{j}: {acceleration}");
+        assert!(jerk <= 1720.0 * (1.0 + 1e-6), "{j}: {jerk}");
+        assert!((p[p.len() - 1] - to[j]).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn a_soft_stop_under_jerk_limits_brakes_along_the_path_without_an_acceleration_jump() {
+    // The wrist's S-curve from −90 to 90° (its cruise at 115 °/s from 0.43 to 1.57 s), stopped
+    // at 0.5 s and sampled at 1 kHz: braking lowers the rate along the first half of an S-curve
+    // whose rate of change is within 172/115 /s and its change within 1720/115 /s², which
+    // lasts 0.1 + 0.567 + 0.1 s (before the path's own deceleration). It keeps within half the
+    // acceleration and jerk limits (the path's own are 0 in the cruise), and stays on the path.
+    // The same stop without jerk limits lowers the rate linearly: the acceleration jumps where
+    // it starts, which the third difference shows.
+    let (from, to) = (
+        [0.0, 0.0, 0.0, -90.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0, 90.0, 0.0, 0.0],
+    );
+    for (robot, jerk_limited) in [
+        (so101_with_jerk(3440.0), true),
+        (so101_with_jerk(1e7), false),
+    ] {
+        let robot = if jerk_limited {
+            robot
+        } else {
+            let mut plain = robot;
+            plain.joints.iter_mut().for_each(|j| j.limits.jerk = None);
+            plain
+        };
+        let planner = so101_with_jerk(3440.0);
+        let sequence = point_to_point_sequence(&planner, &from, &to, 5.0);
+        let timed = keypose::plan::fastest(&sequence, &planner, 50.0).unwrap();
+        let trajectory = Trajectory::build(&timed.sequence, &robot).unwrap();
+        let options = keypose::plan::TimelineOptions {
+            approach: false,
+            ..Default::default()
+        };
+        let mut timeline = keypose::plan::Timeline::new(&robot, &trajectory, &options, &from);
+        let p = play(&mut timeline, 3, 1e-3, 0.5);
+        assert!(timeline.stopped());
+        let end = p[p.len() - 1];
+        assert!(end < 90.0, "{end}");
+        assert!(p.windows(2).all(|w| w[1] >= w[0]), "it never turns back");
+        let (acceleration, jerk) = peak_differences(&p[490..], 1e-3);
+        if jerk_limited {
+            // Cruising at 0.999 · 115 °/s (the planning share): tj = 0.1 s and
+            // ta = 114.885/172 − 0.1 = 0.5679 s.
+            let braking = (p.len() - 501) as f64 * 1e-3;
+            assert!((braking - 0.7679).abs() < 2e-3, "{braking}");
+            assert!(acceleration <= 172.0 * (1.0 + 1e-6), "{acceleration}");
+            assert!(jerk <= 1720.0 * (1.0 + 1e-6), "{jerk}");
+        } else {
+            assert!(jerk > 50_000.0, "{jerk}");
+        }
+    }
+}
