@@ -28,7 +28,7 @@
 //! its curve's first three derivatives (`scurve::along_path`), which makes the profile keep the
 //! limits wherever it is; the exact check confirms it, with the same rounds as above.
 
-use super::scurve::{along_path, AlongPath, JerkLimits};
+use super::scurve::{along_track, candidates, time_scale, AlongPath, SCurve};
 use super::{check, CheckReport, Trajectory};
 use crate::curve::{Interp, Track};
 use crate::json::InputError;
@@ -425,6 +425,30 @@ impl<'a> Path<'a> {
 }
 
 impl Path<'_> {
+    /// The fastest S-curve along `grid`'s stretch of path within `share` of the limits: of the
+    /// shapes whose bounds keep the limits everywhere (`scurve::candidates`), each stretched or
+    /// shrunk in time until its measured peaks meet the limits (`scurve::time_scale`), the
+    /// shortest. The bounds take every derivative at its worst at once; the measured peaks do
+    /// not, so the result is faster than the bounds alone give, and still checked exactly.
+    fn s_curve(&self, robot: &Robot, grid: Grid, share: f64) -> Option<SCurve> {
+        let length = grid.to - grid.from;
+        let tracks = self.trajectory.tracks();
+        let joints: Vec<AlongPath> = tracks
+            .iter()
+            .zip(&robot.joints)
+            .map(|(track, joint)| along_track(track, grid.from, grid.to, &joint.limits, share))
+            .collect();
+        let limits: Vec<&Limits> = robot.joints.iter().map(|j| &j.limits).collect();
+        candidates(length, &joints)
+            .into_iter()
+            .map(|curve| {
+                let factor = time_scale(&curve, tracks, &limits, grid.from, share);
+                SCurve::shaped(curve.shape(), curve.duration() * factor, length)
+            })
+            .filter(|curve| curve.duration().is_finite() && curve.duration() > 0.0)
+            .min_by(|a, b| a.duration().total_cmp(&b.duration()))
+    }
+
     /// `base` with an S-curve profile on every profiled segment, each planned for its share
     /// of the limits, and the key times they give (rounded up to the microsecond, so a
     /// profile never runs faster than planned).
@@ -441,16 +465,7 @@ impl Path<'_> {
             let keep = next - times[i] - hold;
             let curve = self.segments[i].and_then(|grid| {
                 let length = grid.to - grid.from;
-                let joints: Vec<AlongPath> = self
-                    .trajectory
-                    .tracks()
-                    .iter()
-                    .zip(&robot.joints)
-                    .map(|(track, joint)| {
-                        along(track, grid.from, grid.to, &joint.limits, shares[i])
-                    })
-                    .collect();
-                Some((length, along_path(length, &joints)?))
+                Some((length, self.s_curve(robot, grid, shares[i])?))
             });
             let moving = match curve {
                 Some((path_time, curve)) => {
@@ -466,44 +481,6 @@ impl Path<'_> {
         }
         out
     }
-}
-
-/// How `track` moves between path times `from` and `to`: the largest magnitudes of its first
-/// three derivatives there (exact: each piece is a cubic), with `limits` times `share`.
-fn along(track: &Track<f64>, from: f64, to: f64, limits: &Limits, share: f64) -> AlongPath {
-    let mut out = AlongPath {
-        slope: 0.0,
-        curvature: 0.0,
-        third: 0.0,
-        limits: JerkLimits::of(limits, share),
-    };
-    let times = track.times();
-    for k in 0..times.len().saturating_sub(1) {
-        let start = track.move_start(k);
-        let (lo, hi) = (start.max(from), times[k + 1].min(to));
-        if hi <= lo {
-            continue;
-        }
-        let [_, c1, c2, c3] = track.segment_polynomial(k);
-        let slope = |s: f64| (c1 + s * (2.0 * c2 + 3.0 * s * c3)).abs();
-        let (a, b) = (lo - start, hi - start);
-        let mut steepest = slope(a).max(slope(b));
-        if c3 != 0.0 {
-            let vertex = -c2 / (3.0 * c3);
-            if vertex > a && vertex < b {
-                steepest = steepest.max(slope(vertex));
-            }
-        }
-        let curvature = |s: f64| (2.0 * c2 + 6.0 * c3 * s).abs();
-        out.slope = out.slope.max(steepest);
-        out.curvature = out.curvature.max(curvature(a).max(curvature(b)));
-        out.third = out.third.max((6.0 * c3).abs());
-    }
-    // Rounding of a joint that does not move is no slope.
-    if out.slope <= AT_REST {
-        out.slope = 0.0;
-    }
-    out
 }
 
 /// A speed as the file keeps it: six significant digits.

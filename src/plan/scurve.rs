@@ -18,7 +18,11 @@
 //! is the time-optimal profile Ruckig finds for a rest-to-rest move of one axis; the benchmark
 //! `benches/scurve.rs` and the tests compare the two.
 
+use crate::curve::Track;
 use crate::robot::{Limits, Robot};
+
+/// A path slope below this (degrees or metres per path second) is at rest.
+const AT_REST: f64 = 1e-9;
 
 /// Limits on one motion (or on a path parameter), each positive; the jerk may be infinite (no
 /// jerk limit: the S-curve becomes the trapezoid of a plain acceleration limit).
@@ -226,15 +230,24 @@ const UNLIMITED_JERK_SECONDS: f64 = 1e-3;
 ///
 /// for a path speed up to `V`, path acceleration up to `A` and path jerk up to `J`. Each
 /// bound within each joint's limit is sufficient; the split of the acceleration and jerk
-/// budgets between the terms is chosen among [`SPLITS`]² shares of `V` and `A` as the one that
-/// takes the least time. On a straight line (`curvature` and `third` 0) the best is the whole
-/// budget, and the result is the time-optimal straight-line move. None when no joint moves.
+/// budgets between the terms is chosen among [`SPLITS`]² shares of `V` and `A` ([`candidates`])
+/// as the one that takes the least time. On a straight line (`curvature` and `third` 0) the
+/// best is the whole budget, and the result is the time-optimal straight-line move. None when
+/// no joint moves.
 pub fn along_path(length: f64, joints: &[AlongPath]) -> Option<SCurve> {
+    candidates(length, joints)
+        .into_iter()
+        .min_by(|a, b| a.duration().total_cmp(&b.duration()))
+}
+
+/// The S-curves over `length` for every split of the budgets [`along_path`] tries, each within
+/// the limits by the bounds there.
+pub fn candidates(length: f64, joints: &[AlongPath]) -> Vec<SCurve> {
     let moving: Vec<&AlongPath> = joints.iter().filter(|j| j.slope > 0.0).collect();
     let least =
         |f: &dyn Fn(&AlongPath) -> f64| moving.iter().map(|j| f(j)).fold(f64::INFINITY, f64::min);
     let top_speed = least(&|j| j.limits.velocity / j.slope);
-    let mut best: Option<SCurve> = None;
+    let mut out = Vec::new();
     for kv in 1..=SPLITS {
         let v = top_speed * f64::from(kv) / f64::from(SPLITS);
         let room = least(&|j| (j.limits.acceleration - j.curvature * v * v) / j.slope);
@@ -254,13 +267,124 @@ pub fn along_path(length: f64, joints: &[AlongPath]) -> Option<SCurve> {
                 acceleration: a,
                 jerk: jerk.min(a / UNLIMITED_JERK_SECONDS),
             };
-            let candidate = SCurve::fastest(length, limits);
-            if best.is_none_or(|b| candidate.duration() < b.duration()) {
-                best = Some(candidate);
-            }
+            out.push(SCurve::fastest(length, limits));
         }
     }
-    best
+    out
+}
+
+/// How `track` moves between path times `from` and `to`: the largest magnitudes of its first
+/// three derivatives there (exact: each piece is a cubic), with `limits` times `share`.
+pub fn along_track(
+    track: &Track<f64>,
+    from: f64,
+    to: f64,
+    limits: &Limits,
+    share: f64,
+) -> AlongPath {
+    let mut out = AlongPath {
+        slope: 0.0,
+        curvature: 0.0,
+        third: 0.0,
+        limits: JerkLimits::of(limits, share),
+    };
+    let times = track.times();
+    for k in 0..times.len().saturating_sub(1) {
+        let start = track.move_start(k);
+        let (lo, hi) = (start.max(from), times[k + 1].min(to));
+        if hi <= lo {
+            continue;
+        }
+        let [_, c1, c2, c3] = track.segment_polynomial(k);
+        let slope = |s: f64| (c1 + s * (2.0 * c2 + 3.0 * s * c3)).abs();
+        let (a, b) = (lo - start, hi - start);
+        let mut steepest = slope(a).max(slope(b));
+        if c3 != 0.0 {
+            let vertex = -c2 / (3.0 * c3);
+            if vertex > a && vertex < b {
+                steepest = steepest.max(slope(vertex));
+            }
+        }
+        let curvature = |s: f64| (2.0 * c2 + 6.0 * c3 * s).abs();
+        out.slope = out.slope.max(steepest);
+        out.curvature = out.curvature.max(curvature(a).max(curvature(b)));
+        out.third = out.third.max((6.0 * c3).abs());
+    }
+    // Rounding of a joint that does not move is no slope.
+    if out.slope <= AT_REST {
+        out.slope = 0.0;
+    }
+    out
+}
+
+/// Instants per phase at which [`time_scale`] measures the joints.
+const SAMPLES_PER_PHASE: usize = 48;
+
+/// The factor by which `curve`, run along the tracks from path time `from`, must be stretched in
+/// time (below 1: may be shrunk) for its peaks to be `share` of the joints' limits at most.
+/// Stretching by k divides velocities by k, accelerations by k² and jerks by k³, so the
+/// factor is the largest of the peak ratios, their square and cube roots. The peaks are
+/// measured at evenly spaced instants of each phase, both ends included (the jerk changes only
+/// there), from the exact derivatives; the exact check confirms the result.
+pub fn time_scale(
+    curve: &SCurve,
+    tracks: &[Track<f64>],
+    limits: &[&Limits],
+    from: f64,
+    share: f64,
+) -> f64 {
+    let mut factor: f64 = 0.0;
+    let mut state = MotionState {
+        position: 0.0,
+        velocity: 0.0,
+        acceleration: 0.0,
+    };
+    for (seconds, jerk) in curve.phases() {
+        if seconds <= 0.0 {
+            continue;
+        }
+        for k in 0..=SAMPLES_PER_PHASE {
+            let at = advance(state, jerk, seconds * k as f64 / SAMPLES_PER_PHASE as f64);
+            let (ud, udd) = (at.velocity, at.acceleration);
+            for (track, limits) in tracks.iter().zip(limits) {
+                let [d1, d2, d3] = derivatives(track, from + at.position);
+                let v = d1 * ud;
+                let a = d2 * ud * ud + d1 * udd;
+                let j = d3 * ud * ud * ud + 3.0 * d2 * ud * udd + d1 * jerk;
+                factor = factor
+                    .max(v.abs() / (share * limits.velocity))
+                    .max((a.abs() / (share * limits.acceleration)).sqrt());
+                if let Some(limit) = limits.jerk {
+                    factor = factor.max((j.abs() / (share * limit)).cbrt());
+                }
+            }
+        }
+        state = advance(state, jerk, seconds);
+    }
+    factor
+}
+
+/// The first three derivatives of `track` at path time `u`, from the cubic it moves on there
+/// (0 in a hold and outside its keys).
+fn derivatives(track: &Track<f64>, u: f64) -> [f64; 3] {
+    let times = track.times();
+    if times.len() < 2 || u < times[0] || u > times[times.len() - 1] {
+        return [0.0; 3];
+    }
+    let k = times
+        .partition_point(|&t| t <= u)
+        .saturating_sub(1)
+        .min(times.len() - 2);
+    let s = u - track.move_start(k);
+    if s < 0.0 {
+        return [0.0; 3];
+    }
+    let [_, c1, c2, c3] = track.segment_polynomial(k);
+    [
+        c1 + s * (2.0 * c2 + 3.0 * s * c3),
+        2.0 * c2 + 6.0 * c3 * s,
+        6.0 * c3,
+    ]
 }
 
 /// A point-to-point move of `robot` from `from` to `to` (joint values in robot order) from

@@ -445,3 +445,86 @@ fn a_soft_stop_under_jerk_limits_brakes_along_the_path_without_an_acceleration_j
         }
     }
 }
+
+#[test]
+fn fastest_with_jerk_limits_writes_s_curves_that_pass_the_check_with_jerk() {
+    // The SO-101 wave (cubic keys) for an SO-101 with jerk limits: through the binary, every
+    // moving segment gets an S-curve profile, the file checks clean (jerk and acceleration
+    // jumps included), and the stretch-only retime cannot mend the jumps at its keys.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("robot.json"), so101_text(Some("3440"))).unwrap();
+    let wave = std::fs::read_to_string(crate::common::repo("sequences/so101_wave.json")).unwrap();
+    let mut wave: Value = serde_json::from_str(&wave).unwrap();
+    wave["robot"] = "./robot.json".into();
+    let path = dir.path().join("wave.json");
+    std::fs::write(&path, wave.to_string()).unwrap();
+    let out_path = dir.path().join("fast.json");
+    let (input, output) = (path.to_str().unwrap(), out_path.to_str().unwrap());
+    let out = run(&["retime", "--fastest", input, "-o", output]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let out = run(&["check", output]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let timed = Sequence::load(&out_path).unwrap();
+    let profiled = timed
+        .keyframes
+        .iter()
+        .filter(|k| {
+            matches!(
+                k.timing.as_ref().map(|t| &t.profile),
+                Some(keypose::sequence::TimeProfile::SCurve(_))
+            )
+        })
+        .count();
+    assert_eq!(profiled, timed.keyframes.len() - 1);
+    let out = run(&["check", input]);
+    assert_eq!(out.status.code(), Some(1), "{}", show(&out));
+    let out = run(&["retime", input, "-o", output]);
+    assert_eq!(out.status.code(), Some(1), "{}", show(&out));
+    assert!(
+        crate::common::stderr(&out).contains("use retime --fastest"),
+        "{}",
+        show(&out)
+    );
+}
+
+#[test]
+fn an_s_curve_profile_in_a_file_is_checked_for_its_shape() {
+    let with_timing = |timing: &str| {
+        format!(
+            r#"{{"format": "keypose-sequence/1", "robot": "so101", "keyframes": [
+              {{"time": 0, "timing": {timing}, "joints": {{"wrist_flex": 0}}}},
+              {{"time": 1, "joints": {{"wrist_flex": 9}}}}]}}"#
+        )
+    };
+    let ok = Sequence::from_json(
+        "s.json",
+        &with_timing(r#"{"path_time": 1, "scurve": [0.1, 0, 0.2]}"#),
+    );
+    assert!(ok.is_ok(), "{ok:?}");
+    for (timing, expected) in [
+        (
+            r#"{"path_time": 1, "scurve": [0, 0.1, 0.2]}"#,
+            "seconds above 0",
+        ),
+        (
+            r#"{"path_time": 1, "scurve": [0.1, -1, 0.2]}"#,
+            "seconds 0 or more",
+        ),
+        (
+            r#"{"path_time": 1, "scurve": [0.1, 0.2]}"#,
+            "three numbers; found 2",
+        ),
+        (
+            r#"{"path_time": 1, "scurve": [0.1, 0, 0], "speeds": [1, 1]}"#,
+            "expected one profile",
+        ),
+    ] {
+        let err = Sequence::from_json("s.json", &with_timing(timing))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("$.keyframes[0].timing") && err.contains(expected),
+            "{timing}: {err}"
+        );
+    }
+}
