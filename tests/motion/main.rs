@@ -4,6 +4,9 @@
 
 #[path = "../common/mod.rs"]
 mod common;
+/// The oracle scripts' runner, shared by the TOPP-RA (`retime`) and Ruckig (`jerk`) tests.
+#[path = "../../benches/common/oracle.rs"]
+mod oracle;
 
 mod cell_sequences;
 mod check_exact;

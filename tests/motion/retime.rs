@@ -8,8 +8,7 @@ use keypose::plan::{builtin_robot_of, fastest, Trajectory};
 use keypose::sequence::Sequence;
 use std::path::Path;
 
-#[path = "../../benches/common/oracle.rs"]
-mod oracle;
+use crate::oracle;
 #[path = "../../benches/common/topp.rs"]
 mod topp;
 
