@@ -527,3 +527,79 @@ fn an_s_curve_profile_in_a_file_is_checked_for_its_shape() {
         );
     }
 }
+
+/// Cubic keys on wrist_flex and elbow_flex, `(seconds to the next key, wrist, elbow, S-curve
+/// shape of the segment after it)`.
+fn s_curve_keys(keys: &[(f64, f64, f64, [f64; 3])]) -> Sequence {
+    let mut time = 0.0;
+    let mut text = Vec::new();
+    for (i, &(gap, wrist, elbow, shape)) in keys.iter().enumerate() {
+        let timing = if i + 1 < keys.len() {
+            format!(r#""timing": {{"path_time": {gap}, "scurve": {shape:?}}},"#)
+        } else {
+            String::new()
+        };
+        text.push(format!(
+            r#"{{"time": {time}, {timing} "joints": {{"wrist_flex": {wrist}, "elbow_flex": {elbow}}}}}"#
+        ));
+        time += gap;
+    }
+    let json = format!(
+        r#"{{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "cubic",
+            "keyframes": [{}]}}"#,
+        text.join(",")
+    );
+    Sequence::from_json("scurve.json", &json).unwrap()
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
+
+    /// Cubic keys run along S-curves: the check's peak velocity, acceleration and jerk are the
+    /// curve's, sampled every 0.1 ms by finite differences of `Trajectory::sample` (which knows
+    /// nothing of the check's polynomials of degree nine), from above and from below; and the
+    /// acceleration never jumps, since each S-curve is at rest at its keys.
+    #[test]
+    fn the_checks_jerk_is_the_sampled_curves(
+        keys in proptest::collection::vec(
+            (0.2f64..1.0, -90.0f64..90.0, -90.0f64..90.0,
+             (0.05f64..1.0, 0.0f64..1.0, 0.0f64..1.0)),
+            2..5,
+        ),
+    ) {
+        let keys: Vec<_> = keys.into_iter().map(|(g, w, e, (a, b, c))| (g, w, e, [a, b, c])).collect();
+        let robot = so101_with_jerk(1e7);
+        let trajectory = Trajectory::build(&s_curve_keys(&keys), &robot).unwrap();
+        let report = check(&trajectory, &robot, 100.0);
+        let h = 1e-4;
+        let n = ((trajectory.end - trajectory.start) / h).ceil() as usize;
+        let samples: Vec<Vec<f64>> = (0..=n + 3)
+            .map(|k| trajectory.sample(trajectory.start + (k as f64 - 1.0) * h))
+            .collect();
+        for name in ["wrist_flex", "elbow_flex"] {
+            let j = robot.joint_index(name).unwrap();
+            let p: Vec<f64> = samples.iter().map(|s| s[j]).collect();
+            let velocity = p
+                .windows(2)
+                .map(|w| ((w[1] - w[0]) / h).abs())
+                .fold(0.0, f64::max);
+            let (acceleration, jerk) = peak_differences(&p, h);
+            let summary = report.joints.iter().find(|s| s.joint == name).unwrap();
+            for (what, sampled, reported, below) in [
+                ("velocity", velocity, summary.peak_velocity, 1e-3),
+                ("acceleration", acceleration, summary.peak_acceleration, 1e-2),
+                ("jerk", jerk, summary.peak_jerk, 3e-2),
+            ] {
+                proptest::prop_assert!(
+                    sampled <= reported * (1.0 + 1e-6) + 1e-6
+                        && sampled >= reported * (1.0 - below) - 1e-6,
+                    "{name} {what}: sampled {sampled}, reported {reported}"
+                );
+            }
+            proptest::prop_assert!(
+                summary.acceleration_jump <= 1e-6 * (1.0 + summary.peak_acceleration),
+                "{summary:?}"
+            );
+        }
+    }
+}
