@@ -128,7 +128,7 @@ enum Braking {
     /// By this much per second.
     Linear(f64),
     /// From `from`, by the speed an S-curve's first half reaches `elapsed` seconds in (jerk
-    /// limits): it reaches `from` at its end.
+    /// limits): it reaches `from` at its end. A stall scales what is left.
     SCurve {
         from: f64,
         ramp: SCurve,
@@ -146,12 +146,16 @@ impl Braking {
                 ramp,
                 elapsed,
             } => {
+                let before = *from - ramp.state_at(*elapsed).velocity;
                 *elapsed += dt;
                 let end = 2.0 * ramp.jerk_time + ramp.acceleration_time;
-                if *elapsed >= end {
+                if *elapsed >= end || before <= 0.0 {
                     return 0.0;
                 }
-                *from - ramp.state_at(*elapsed).velocity
+                // In proportion, not the ramp's value itself: a stall while braking has
+                // lowered the factor below the ramp's (`after_stall`), and it must not climb
+                // back.
+                factor * (*from - ramp.state_at(*elapsed).velocity) / before
             }
         }
     }

@@ -603,3 +603,87 @@ proptest::proptest! {
         }
     }
 }
+
+#[test]
+fn at_another_speed_jerk_scales_with_its_cube_and_a_jump_with_its_square() {
+    // The smoothstep above (jerk −45 °/s³, jumps of 45 °/s²) played at half and at double
+    // speed: what the servos see is S³ times the jerk and S² times each jump, against the
+    // robot's own limit of 100 °/s³.
+    let robot = so101_with_jerk(100.0);
+    let trajectory = trajectory(&wrist("so101", "cubic", &[(0.0, 0.0), (2.0, 30.0)]), &robot);
+    for (speed, curve_violations) in [(0.5, 0), (2.0, 1)] {
+        let report = keypose::plan::check_at_speed(&trajectory, &robot, 50.0, speed);
+        let wrist = report
+            .joints
+            .iter()
+            .find(|j| j.joint == "wrist_flex")
+            .unwrap();
+        assert!(
+            close(wrist.peak_jerk, 45.0 * speed * speed * speed),
+            "{wrist:?}"
+        );
+        assert!(
+            close(wrist.acceleration_jump, 45.0 * speed * speed),
+            "{wrist:?}"
+        );
+        assert_eq!(wrist.jerk_limit, Some(100.0));
+        let jerks: Vec<_> = report
+            .violations
+            .iter()
+            .filter(|v| v.kind == LimitKind::Jerk)
+            .collect();
+        assert_eq!(jerks.len(), 2 + curve_violations, "{jerks:?}");
+        for v in jerks {
+            match v.acceleration_jump {
+                Some(jump) => assert!(close(jump, 45.0 * speed * speed), "{v:?}"),
+                None => assert!(close(v.peak, -360.0) && close(v.limit, -100.0), "{v:?}"),
+            }
+        }
+    }
+}
+
+#[test]
+fn a_stall_while_braking_under_jerk_limits_never_speeds_the_arm_up_again() {
+    // Braking from the wrist's cruise as above; 0.2 s into it the process stalls and the path
+    // was followed at half the rate meanwhile (`after_stall(0.5)`): the next step is half the
+    // one before, every later step is no longer than the one before it, and the arm still
+    // comes to rest.
+    let robot = so101_with_jerk(3440.0);
+    let (from, to) = (
+        [0.0, 0.0, 0.0, -90.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0, 90.0, 0.0, 0.0],
+    );
+    let sequence = point_to_point_sequence(&robot, &from, &to, 5.0);
+    let timed = keypose::plan::fastest(&sequence, &robot, 50.0).unwrap();
+    let trajectory = Trajectory::build(&timed.sequence, &robot).unwrap();
+    let options = keypose::plan::TimelineOptions {
+        approach: false,
+        ..Default::default()
+    };
+    let mut timeline = keypose::plan::Timeline::new(&robot, &trajectory, &options, &from);
+    let (dt, mut out, mut p) = (1e-3, vec![0.0; 6], Vec::new());
+    let mut k = 0;
+    while timeline.sample_into(&mut out).is_some() {
+        p.push(out[3]);
+        match k {
+            500 => timeline.request_stop(),
+            700 => timeline.after_stall(0.5),
+            _ => {}
+        }
+        timeline.advance(dt);
+        k += 1;
+    }
+    assert!(timeline.stopped() && p.len() > 702);
+    let steps: Vec<f64> = p.windows(2).map(|w| w[1] - w[0]).collect();
+    // The stall halves the rate braking had reached, and it never climbs back.
+    assert!(
+        steps[700] <= 0.5 * steps[699] * (1.0 + 1e-9) && steps[700] > 0.4 * steps[699],
+        "{} after {}",
+        steps[700],
+        steps[699]
+    );
+    assert!(
+        steps[505..].windows(2).all(|w| w[1] <= w[0] + 1e-12),
+        "a step grew while braking"
+    );
+}
