@@ -12,6 +12,11 @@
 //! at `rate` are checked, at their worst over every phase (`period`), as the step limiter
 //! judges them. The arm is at rest before the window and after it, as it is after the approach
 //! ramp and at the end of playback, so a sequence that starts or ends in motion is flagged.
+//!
+//! A joint with a jerk limit (`Limits::jerk`) is checked for jerk too (`jerk`): the curve's third
+//! derivative on each span, exactly like the others, and every jump of its acceleration where
+//! two spans meet, each a violation of its own (an infinite jerk at any control rate). Without
+//! a jerk limit no jerk violation is reported: the verdict is what it was before.
 
 mod jerk;
 mod period;
