@@ -24,9 +24,12 @@
 //! rest to rest, its path acceleration changing at a bounded path jerk. It stops at every key
 //! because the curves through the keys do not let it go on: a key-time cubic's second
 //! derivative jumps at its keys and a linear corner's first, so passing one in motion jumps the
-//! joints' acceleration (an infinite jerk). The path limits of each segment come from bounds on
-//! its curve's first three derivatives (`scurve::along_path`), which makes the profile keep the
-//! limits wherever it is; the exact check confirms it, with the same rounds as above.
+//! joints' acceleration (an infinite jerk). Bounds on each segment's first three derivatives
+//! along the path give S-curves that keep the limits wherever they are (`scurve::candidates`);
+//! each is then stretched or shrunk in time to the peaks measured along it
+//! (`scurve::time_scale`), the shortest kept, and the exact check confirms it, with the same
+//! rounds as above. A hold through which a joint without a key there keeps moving is left as a
+//! corner: the path runs through a hold at pace 1, so it cannot be at rest on both sides.
 
 use super::scurve::{along_track, candidates, time_scale, AlongPath, SCurve};
 use super::{check, CheckReport, Trajectory};
