@@ -5,14 +5,25 @@
 //! profiles time (holds, steps and pauses keep their time in both). The machine's load is
 //! printed, and how long each side took to compute (a ratio of times on a shared machine).
 //!
+//! With jerk limits (each joint's acceleration limit reached in `ruckig::RISE_SECONDS`): the
+//! moving time `--fastest` gives with its S-curve profiles, which stop at every key (checked
+//! exactly with jerk; a straight tool line's samples jump in acceleration and are reported as
+//! such), and point-to-point moves between the example's consecutive keys, keypose's S-curve
+//! along the straight line (`plan::scurve::point_to_point`) against Ruckig's time-optimal
+//! jerk-limited move (the `ruckig` package) under the same limits, summed per example.
+//!
 //! `cargo bench --bench fastest` (no criterion: one plan per example, checked exactly before
 //! anything is printed).
 
 mod common;
+#[path = "common/oracle.rs"]
+mod oracle;
+#[path = "common/ruckig.rs"]
+mod ruckig;
 #[path = "common/topp.rs"]
 mod topp;
 
-use keypose::plan::{builtin_robot_of, check, fastest, Trajectory};
+use keypose::plan::{builtin_robot_of, check, fastest, scurve, Trajectory};
 use keypose::python::PyConfig;
 use keypose::sequence::Sequence;
 use std::time::Instant;
@@ -83,5 +94,78 @@ fn main() {
         ratios.len(),
         session.load()
     );
+    jerk_limited(&python, &files);
     session.end();
+}
+
+/// The second table: with jerk limits, `--fastest` and point-to-point moves against Ruckig.
+fn jerk_limited(python: &std::path::Path, files: &[std::path::PathBuf]) {
+    println!();
+    println!(
+        "jerk limits: each joint's acceleration limit reached in {} s",
+        ruckig::RISE_SECONDS
+    );
+    println!(
+        "{:<28} {:>9} {:>8} {:>6} {:>10} {:>10} {:>7}",
+        "example", "fastest", "check", "moves", "S-curves", "Ruckig", "ratio"
+    );
+    let mut ratios = Vec::new();
+    let mut version = String::new();
+    for file in files {
+        let sequence = Sequence::load(file).expect("an example loads");
+        let robot = ruckig::with_jerk(
+            &builtin_robot_of(&sequence).expect("an example's robot is built in"),
+            ruckig::RISE_SECONDS,
+        );
+        let outcome = fastest(&sequence, &robot, robot.control_hz).expect("an example retimes");
+        let seconds: f64 = outcome.runs.iter().map(|r| r.seconds).sum();
+        let verdict = if outcome.report.passed() {
+            "ok".to_string()
+        } else {
+            format!("{} left", outcome.report.violations.len())
+        };
+        // Point to point between the poses at consecutive keys.
+        let trajectory = Trajectory::build(&sequence, &robot).expect("an example builds");
+        let poses: Vec<Vec<f64>> = trajectory
+            .key_times
+            .iter()
+            .map(|&t| trajectory.sample(t))
+            .collect();
+        let pairs: Vec<(&Vec<f64>, &Vec<f64>)> = poses
+            .windows(2)
+            .map(|w| (&w[0], &w[1]))
+            .filter(|(a, b)| a != b)
+            .collect();
+        let ours: f64 = pairs
+            .iter()
+            .filter_map(|(a, b)| scurve::point_to_point(&robot, a, b, 1.0))
+            .map(|c| c.duration())
+            .sum();
+        let moves: Vec<serde_json::Value> = pairs
+            .iter()
+            .map(|(a, b)| ruckig::move_request(&robot, a, b, ruckig::Sync::Time))
+            .collect();
+        let (durations, ruckig_version) =
+            ruckig::ruckig_durations(python, &moves).unwrap_or_else(|e| panic!("{e}"));
+        version = ruckig_version;
+        let theirs: f64 = durations.iter().sum();
+        let ratio = ours / theirs;
+        ratios.push(ratio);
+        println!(
+            "{:<28} {:>8.3}s {:>8} {:>6} {:>9.3}s {:>9.3}s {:>7.3}",
+            file.file_name().unwrap().to_string_lossy(),
+            seconds,
+            verdict,
+            pairs.len(),
+            ours,
+            theirs,
+            ratio
+        );
+    }
+    println!(
+        "point to point / Ruckig (ruckig {version}, time-synchronised): median {:.3}, worst {:.3}, over {} examples",
+        common::median(&ratios),
+        ratios.iter().cloned().fold(f64::NAN, f64::max),
+        ratios.len(),
+    );
 }

@@ -6,9 +6,7 @@
 use keypose::plan::{FastestOutcome, Trajectory};
 use keypose::robot::Robot;
 use serde_json::{json, Value};
-use std::io::Write;
 use std::path::Path;
-use std::process::{Command, Stdio};
 
 /// Grid points per second of path time given to TOPP-RA: far finer than keypose's own grid, so
 /// its optimum is the path's, not a coarse grid's.
@@ -69,38 +67,6 @@ pub fn request(outcome: &FastestOutcome, robot: &Robot) -> Value {
 
 /// TOPP-RA's time for each stretch of `request`, seconds, and toppra's version.
 pub fn toppra_durations(python: &Path, request: &Value) -> Result<(Vec<f64>, String), String> {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/toppra_oracle.py");
-    let mut child = Command::new(python)
-        .arg(&script)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .map_err(|e| format!("cannot run {}: {e}", python.display()))?;
-    child
-        .stdin
-        .take()
-        .expect("stdin")
-        .write_all(request.to_string().as_bytes())
-        .map_err(|e| e.to_string())?;
-    let output = child.wait_with_output().map_err(|e| e.to_string())?;
-    if !output.status.success() {
-        return Err(format!(
-            "{} failed ({}): {}",
-            script.display(),
-            output.status,
-            String::from_utf8_lossy(&output.stderr)
-        ));
-    }
-    let reply: Value = serde_json::from_slice(&output.stdout).map_err(|e| e.to_string())?;
-    let durations = reply["durations"]
-        .as_array()
-        .ok_or("no durations in the reply")?
-        .iter()
-        .map(|d| d.as_f64().ok_or("a duration that is not a number"))
-        .collect::<Result<Vec<f64>, _>>()?;
-    Ok((
-        durations,
-        reply["toppra"].as_str().unwrap_or("?").to_string(),
-    ))
+    let reply = super::oracle::run_oracle(python, "toppra_oracle.py", request)?;
+    super::oracle::durations(&reply, "toppra")
 }

@@ -103,6 +103,7 @@ fn describe(v: &LibViolation) -> String {
         keypose::plan::LimitKind::Position => "",
         keypose::plan::LimitKind::Velocity => "/s",
         keypose::plan::LimitKind::Acceleration => "/s²",
+        keypose::plan::LimitKind::Jerk => "/s³",
     };
     format!(
         "{} {} {:.3} {}{per} vs limit {:.3} {}{per} in segment {} ({}) at t = {:.3} s ({})",

@@ -123,6 +123,7 @@ pub fn tool_text(tools: &ToolSolve, tolerance: f64, robot: &Robot, result: &Chec
                     .map(|e| {
                         let per = match e.kind {
                             LimitKind::Acceleration => "/s²",
+                            LimitKind::Jerk => "/s³",
                             _ => "/s",
                         };
                         format!(

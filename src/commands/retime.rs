@@ -93,15 +93,20 @@ fn report_unfixable(
     );
     for v in remaining {
         let hint = advice(sequence, v);
+        let measure = match v.acceleration_jump {
+            Some(jump) => format!(
+                "the acceleration jumps by {jump:.3} (limit {:.3} per s³)",
+                v.limit.abs()
+            ),
+            None => format!("{:.3} vs limit {:.3}", v.peak, v.limit),
+        };
         let line = format!(
-            "  {} {} in segment {} ({}) at t = {:.3} s: {:.3} vs limit {:.3} — {hint}",
+            "  {} {} in segment {} ({}) at t = {:.3} s: {measure} — {hint}",
             v.joint,
             v.kind.name(),
             v.segment,
             v.segment_label,
             v.peak_time,
-            v.peak,
-            v.limit
         );
         eprintln!("{}", escape_controls(&line));
     }

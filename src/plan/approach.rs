@@ -1,11 +1,16 @@
 //! The approach ramp: from wherever the arm is to the first pose of playback, never a jump.
 //!
-//! Every joint follows the same minimum-jerk profile `s(τ) = 10τ³ − 15τ⁴ + 6τ⁵`, which starts and
-//! ends at rest with zero acceleration, so all joints arrive together. Its peak velocity is
-//! `15/8 · Δ/T` and its peak acceleration `10/√3 · Δ/T²`; the duration is the shortest that keeps
-//! every joint within a fraction of its limits — the arm starts from an unknown pose, so the
-//! approach is deliberately gentler than the sequence may be.
+//! Every joint follows the same profile `s` from 0 to 1 along the straight line between the two
+//! poses, which starts and ends at rest with zero acceleration, so all joints arrive together.
+//! Without jerk limits it is the minimum-jerk profile `s(τ) = 10τ³ − 15τ⁴ + 6τ⁵` ([`minimum_jerk`]),
+//! whose peak velocity is `15/8 · Δ/T` and peak acceleration `10/√3 · Δ/T²`. A robot with jerk
+//! limits gets the S-curve of `plan::scurve` instead, time-optimal under every joint's velocity,
+//! acceleration and jerk limit (its jerk bounded, where the minimum-jerk profile's is not set by
+//! any limit). Either way the duration is the shortest that keeps every joint within a fraction
+//! of its limits — the arm starts from an unknown pose, so the approach is deliberately gentler
+//! than the sequence may be.
 
+use super::scurve::{point_to_point, SCurve};
 use crate::robot::Robot;
 
 /// Peak of ds/dτ for the minimum-jerk profile.
@@ -17,7 +22,7 @@ pub const APPROACH_LIMIT_SHARE: f64 = 0.5;
 /// Shortest approach, seconds: even a tiny correction is a visible, deliberate motion.
 pub const MIN_APPROACH_SECONDS: f64 = 0.5;
 
-/// A minimum-jerk ramp of every joint at once, in joint units.
+/// A ramp of every joint at once, in joint units.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Approach {
     /// Where it starts, in robot joint order.
@@ -26,6 +31,23 @@ pub(crate) struct Approach {
     pub to: Vec<f64>,
     /// Seconds.
     pub duration: f64,
+    /// How the share of the way runs over time.
+    profile: Profile,
+}
+
+/// The ramp's profile, from rest to rest.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Profile {
+    /// 10τ³ − 15τ⁴ + 6τ⁵ of the share of the time τ.
+    MinimumJerk,
+    /// An S-curve over the distance 1 (the robot has jerk limits).
+    SCurve(SCurve),
+}
+
+/// The minimum-jerk share of the way at the share `u` of the time: 10u³ − 15u⁴ + 6u⁵, at rest
+/// (zero velocity and acceleration) at both ends.
+pub(crate) fn minimum_jerk(u: f64) -> f64 {
+    u * u * u * (10.0 + u * (-15.0 + 6.0 * u))
 }
 
 impl Approach {
@@ -37,6 +59,22 @@ impl Approach {
     /// [`Approach::new`] with another shortest duration (a jog of a joint held where it is,
     /// whose start is known exactly, needs no deliberate half second).
     pub fn at_least(robot: &Robot, from: &[f64], to: &[f64], shortest: f64) -> Approach {
+        if robot.joints.iter().any(|j| j.limits.jerk.is_some()) {
+            if let Some(curve) = point_to_point(robot, from, to, APPROACH_LIMIT_SHARE) {
+                // Stretched to the shortest duration, the same shape at a lower jerk.
+                let curve = if curve.duration() < shortest {
+                    SCurve::shaped(curve.shape(), shortest, 1.0)
+                } else {
+                    curve
+                };
+                return Approach {
+                    from: from.to_vec(),
+                    to: to.to_vec(),
+                    duration: curve.duration(),
+                    profile: Profile::SCurve(curve),
+                };
+            }
+        }
         let duration = robot
             .joints
             .iter()
@@ -53,13 +91,17 @@ impl Approach {
             from: from.to_vec(),
             to: to.to_vec(),
             duration,
+            profile: Profile::MinimumJerk,
         }
     }
 
     /// Joint values at `t` seconds into the ramp (held at the ends outside it).
     pub fn sample_into(&self, t: f64, out: &mut [f64]) {
-        let tau = (t / self.duration).clamp(0.0, 1.0);
-        let s = tau * tau * tau * (10.0 + tau * (-15.0 + 6.0 * tau));
+        let s = match self.profile {
+            Profile::MinimumJerk => minimum_jerk((t / self.duration).clamp(0.0, 1.0)),
+            Profile::SCurve(curve) if t >= curve.duration() => 1.0,
+            Profile::SCurve(curve) => curve.state_at(t).position,
+        };
         for ((slot, a), b) in out.iter_mut().zip(&self.from).zip(&self.to) {
             *slot = a + (b - a) * s;
         }

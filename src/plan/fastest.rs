@@ -19,16 +19,31 @@
 //! time; the played window starts and ends at rest. Between keys without a hold the path does
 //! not stop: the profile runs through them at the speed both sides allow, and through a linear
 //! corner at the speed whose velocity change the player turns within one control period.
+//!
+//! A robot with jerk limits gets S-curve profiles instead (`plan::scurve`): each segment from
+//! rest to rest, its path acceleration changing at a bounded path jerk. It stops at every key
+//! because the curves through the keys do not let it go on: a key-time cubic's second
+//! derivative jumps at its keys and a linear corner's first, so passing one in motion jumps the
+//! joints' acceleration (an infinite jerk). Bounds on each segment's first three derivatives
+//! along the path give S-curves that keep the limits wherever they are (`scurve::candidates`);
+//! each is then stretched or shrunk in time to the peaks measured along it
+//! (`scurve::time_scale`), the shortest kept, and the exact check confirms it, with the same
+//! rounds as above. A hold through which a joint without a key there keeps moving is left as a
+//! corner: the path runs through a hold at pace 1, so it cannot be at rest on both sides.
 
+use super::scurve::{along_track, candidates, time_scale, AlongPath, SCurve};
 use super::{check, CheckReport, Trajectory};
 use crate::curve::{Interp, Track};
 use crate::json::InputError;
-use crate::robot::Robot;
+use crate::robot::{Limits, Robot};
 use crate::sequence::{Ends, SegmentTiming, Sequence, TimeProfile};
 
 /// The share of each limit a profile is planned for at first; the exact check says whether the
 /// curve between grid points needs less.
 const FIRST_SHARE: f64 = 0.995;
+/// The share of each limit an S-curve is planned for at first: its bounds hold everywhere on
+/// the segment, so this only covers the key times' rounding to the microsecond.
+const SCURVE_SHARE: f64 = 0.999;
 /// A segment over a limit is planned again for this much less than the limit over its peak.
 const SHARE_BACKOFF: f64 = 0.98;
 const MAX_ROUNDS: usize = 40;
@@ -98,15 +113,25 @@ pub fn fastest(
     let mut base = sequence.clone();
     base.make_times_absolute();
     let trajectory = Trajectory::build(&base, robot)?;
-    let path = Path::of(&base, &trajectory);
-    let mut shares = vec![FIRST_SHARE; path.segments.len()];
+    let jerk_limited = robot.joints.iter().any(|j| j.limits.jerk.is_some());
+    let path = Path::of(&base, &trajectory, jerk_limited);
+    let first_share = if jerk_limited {
+        SCURVE_SHARE
+    } else {
+        FIRST_SHARE
+    };
+    let mut shares = vec![first_share; path.segments.len()];
     let mut rounds = 0;
     loop {
         rounds += 1;
-        let speeds = path.plan(robot, &shares, 1.0 / rate);
-        let candidate = path.timed(&base, &speeds);
+        let candidate = if jerk_limited {
+            path.s_curves(&base, robot, &shares)
+        } else {
+            let speeds = path.plan(robot, &shares, 1.0 / rate);
+            path.timed(&base, &speeds)
+        };
         let report = check(&Trajectory::build(&candidate, robot)?, robot, rate);
-        let over = over_limits(&report);
+        let over = over_limits(&report, jerk_limited);
         let done = over
             .iter()
             .all(|&(i, _)| path.segments.get(i).is_none_or(|s| s.is_none()));
@@ -136,8 +161,8 @@ pub fn fastest(
                         segments: first..end,
                         path: (a.from, b.to),
                         from_rest: [
-                            path.boundary(first, Side::After) == 0.0,
-                            path.boundary(end, Side::Before) == 0.0,
+                            jerk_limited || path.boundary(first, Side::After) == 0.0,
+                            jerk_limited || path.boundary(end, Side::Before) == 0.0,
                         ],
                         seconds: times[end] - times[first] - base.keyframes[first].hold,
                     }
@@ -159,11 +184,13 @@ pub fn fastest(
     }
 }
 
-/// Each segment's worst ratio of peak to limit, for violations timing can mend.
-fn over_limits(report: &CheckReport) -> Vec<(usize, f64)> {
+/// Each segment's worst ratio of peak to limit, for violations timing can mend. With S-curves
+/// (`stops_at_keys`) the path is at rest at every key, so a corner left is where a joint keeps
+/// moving through a hold (a joint without a key there), whose pace no segment's profile sets.
+fn over_limits(report: &CheckReport, stops_at_keys: bool) -> Vec<(usize, f64)> {
     let mut out: Vec<(usize, f64)> = Vec::new();
     for v in &report.violations {
-        if v.kind == super::LimitKind::Position || v.cause == super::Cause::Step {
+        if !v.mendable_by_timing() || (stops_at_keys && v.cause == super::Cause::Corner) {
             continue;
         }
         let ratio = (v.peak.abs() / v.limit.abs()).max(1.0 + 1e-6);
@@ -203,10 +230,12 @@ struct Path<'a> {
     /// Each key's path time and hold.
     paths: Vec<f64>,
     holds: Vec<f64>,
+    /// Whether the path stops at every key (S-curve profiles for jerk limits).
+    stops_at_keys: bool,
 }
 
 impl<'a> Path<'a> {
-    fn of(sequence: &Sequence, trajectory: &'a Trajectory) -> Path<'a> {
+    fn of(sequence: &Sequence, trajectory: &'a Trajectory, stops_at_keys: bool) -> Path<'a> {
         let paths = sequence.path_times();
         let n = paths.len();
         let window = match sequence.ends {
@@ -242,6 +271,7 @@ impl<'a> Path<'a> {
             window,
             holds: sequence.keyframes.iter().map(|k| k.hold).collect(),
             paths,
+            stops_at_keys,
         }
     }
 
@@ -270,6 +300,7 @@ impl<'a> Path<'a> {
             }
             let mut end = i + 1;
             while end < self.segments.len()
+                && !self.stops_at_keys
                 && self.segments[end].is_some()
                 && self.holds[end] == 0.0
             {
@@ -391,6 +422,65 @@ impl<'a> Path<'a> {
                 _ => next - times[i] - hold,
             };
             time = ((time + hold + moving) * 1e6).round() / 1e6;
+        }
+        out
+    }
+}
+
+impl Path<'_> {
+    /// The fastest S-curve along `grid`'s stretch of path within `share` of the limits: of the
+    /// shapes whose bounds keep the limits everywhere (`scurve::candidates`), each stretched or
+    /// shrunk in time until its measured peaks meet the limits (`scurve::time_scale`), the
+    /// shortest. The bounds take every derivative at its worst at once; the measured peaks do
+    /// not, so the result is faster than the bounds alone give, and still checked exactly.
+    fn s_curve(&self, robot: &Robot, grid: Grid, share: f64) -> Option<SCurve> {
+        let length = grid.to - grid.from;
+        let tracks = self.trajectory.tracks();
+        let joints: Vec<AlongPath> = tracks
+            .iter()
+            .zip(&robot.joints)
+            .map(|(track, joint)| along_track(track, grid.from, grid.to, &joint.limits, share))
+            .collect();
+        let limits: Vec<&Limits> = robot.joints.iter().map(|j| &j.limits).collect();
+        candidates(length, &joints)
+            .into_iter()
+            .map(|curve| {
+                let factor = time_scale(&curve, tracks, &limits, grid.from, share);
+                SCurve::shaped(curve.shape(), curve.duration() * factor, length)
+            })
+            .filter(|curve| curve.duration().is_finite() && curve.duration() > 0.0)
+            .min_by(|a, b| a.duration().total_cmp(&b.duration()))
+    }
+
+    /// `base` with an S-curve profile on every profiled segment, each planned for its share
+    /// of the limits, and the key times they give (rounded up to the microsecond, so a
+    /// profile never runs faster than planned).
+    fn s_curves(&self, base: &Sequence, robot: &Robot, shares: &[f64]) -> Sequence {
+        let mut out = base.clone();
+        let times = base.key_times();
+        let mut time = times[0];
+        for i in 0..out.keyframes.len() {
+            out.keyframes[i].time = Some(time);
+            let Some(next) = times.get(i + 1) else {
+                break;
+            };
+            let hold = out.keyframes[i].hold;
+            let keep = next - times[i] - hold;
+            let curve = self.segments[i].and_then(|grid| {
+                let length = grid.to - grid.from;
+                Some((length, self.s_curve(robot, grid, shares[i])?))
+            });
+            let moving = match curve {
+                Some((path_time, curve)) => {
+                    out.keyframes[i].timing = Some(SegmentTiming {
+                        path_time,
+                        profile: TimeProfile::SCurve(curve.shape()),
+                    });
+                    curve.duration()
+                }
+                None => keep,
+            };
+            time = ((time + hold + moving) * 1e6).ceil() / 1e6;
         }
         out
     }

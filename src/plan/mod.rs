@@ -15,6 +15,7 @@ pub(crate) mod check;
 mod fastest;
 mod retime;
 mod sampled;
+pub mod scurve;
 mod timeline;
 mod timing;
 mod tool_keys;

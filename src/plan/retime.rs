@@ -149,17 +149,12 @@ fn zip(needs: &[(usize, f64)], factors: &[f64]) -> Vec<(usize, f64)> {
         .collect()
 }
 
-/// Whether timing can mend a violation: not a position, not a step's jump.
-fn timing_mends(v: &Violation) -> bool {
-    v.kind != LimitKind::Position && v.cause != Cause::Step
-}
-
 /// The segments with a violation timing can mend, in order, each once.
 fn segments_over(report: &CheckReport) -> Vec<usize> {
     let mut out: Vec<usize> = report
         .violations
         .iter()
-        .filter(|v| timing_mends(v))
+        .filter(|v| v.mendable_by_timing())
         .map(|v| v.segment)
         .collect();
     out.sort_unstable();
@@ -168,16 +163,18 @@ fn segments_over(report: &CheckReport) -> Vec<usize> {
 }
 
 /// Each segment over a limit, with a first estimate of its stretch: a velocity falls as 1/s, a
-/// curve's acceleration as 1/s², a corner's as 1/s (its period does not stretch).
+/// curve's acceleration as 1/s², its jerk as 1/s³, a corner's acceleration as 1/s (its period
+/// does not stretch).
 fn estimates(report: &CheckReport, segments: usize) -> Vec<(usize, f64)> {
     let mut out: Vec<(usize, f64)> = Vec::new();
-    for v in report.violations.iter().filter(|v| timing_mends(v)) {
+    for v in report.violations.iter().filter(|v| v.mendable_by_timing()) {
         if v.segment >= segments {
             continue;
         }
         let ratio = v.peak.abs() / v.limit.abs();
         let needed = match (v.kind, v.cause) {
             (LimitKind::Acceleration, Cause::Curve) => ratio.sqrt(),
+            (LimitKind::Jerk, Cause::Curve) => ratio.cbrt(),
             _ => ratio,
         };
         match out.iter_mut().find(|(s, _)| *s == v.segment) {
@@ -222,6 +219,12 @@ pub fn advice(sequence: &Sequence, v: &Violation) -> &'static str {
              the range of its keys), or move the keys away from the limit"
         }
         (LimitKind::Position, _) => "move the keys inside the limits",
+        (LimitKind::Jerk, _) if v.acceleration_jump.is_some() => {
+            "the acceleration jumps here (at a key of a key-time curve, where it starts or ends \
+             moving, or at a step or corner), an infinite jerk no stretch mends: use retime \
+             --fastest, which runs each segment from rest to rest along an S-curve when the \
+             robot has jerk limits"
+        }
         (_, Cause::Step) => {
             "a step jumps within one control period, whatever its time: give this segment \
              linear, cubic or monotone interpolation"

@@ -4,13 +4,18 @@
 //! The rate at which the path is followed is a factor of the wall-clock rate:
 //! - braking lowers it linearly from where it is to 0, so the arm slows down along the very path
 //!   it was on instead of cutting across; the braking time keeps the extra deceleration within
-//!   half of each joint's acceleration limit;
+//!   half of each joint's acceleration limit. A robot with jerk limits brakes along the path
+//!   too, its factor lowered by the first half of an S-curve (`plan::scurve`: the rate of
+//!   change of the factor ramps up and down at a bounded second derivative), so braking adds
+//!   no acceleration jump; its time keeps the extra deceleration and jerk within half of each
+//!   joint's limits;
 //! - a stall (the process did not run for a while, so the last goal was held) lowers it to the
 //!   rate the arm really followed, `period / gap` of it; it then climbs back to 1 no faster than
 //!   each joint's acceleration limit leaves room for next to the path's own acceleration. The
 //!   sequence resumes along the path from where it was, later by the stall; it never jumps
 //!   ahead to where the clock says it should be.
 
+use super::scurve::{speed_change, SCurve};
 use super::{Approach, Trajectory, MIN_APPROACH_SECONDS};
 use crate::robot::Robot;
 
@@ -113,8 +118,47 @@ const DIFFERENCE_STEP: f64 = 1e-3;
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct PathRate {
     factor: f64,
-    /// While braking: the factor lost per second.
-    braking: Option<f64>,
+    /// While braking: how the factor falls.
+    braking: Option<Braking>,
+}
+
+/// How the rate factor falls to 0 after a stop request.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Braking {
+    /// By this much per second.
+    Linear(f64),
+    /// From `from`, by the speed an S-curve's first half reaches `elapsed` seconds in (jerk
+    /// limits): it reaches `from` at its end. A stall scales what is left.
+    SCurve {
+        from: f64,
+        ramp: SCurve,
+        elapsed: f64,
+    },
+}
+
+impl Braking {
+    /// The factor after `dt` more seconds of braking (0 or less: at rest).
+    fn advance(&mut self, factor: f64, dt: f64) -> f64 {
+        match self {
+            Braking::Linear(per_second) => factor - *per_second * dt,
+            Braking::SCurve {
+                from,
+                ramp,
+                elapsed,
+            } => {
+                let before = *from - ramp.state_at(*elapsed).velocity;
+                *elapsed += dt;
+                let end = 2.0 * ramp.jerk_time + ramp.acceleration_time;
+                if *elapsed >= end || before <= 0.0 {
+                    return 0.0;
+                }
+                // In proportion, not the ramp's value itself: a stall while braking has
+                // lowered the factor below the ramp's (`after_stall`), and it must not climb
+                // back.
+                factor * (*from - ramp.state_at(*elapsed).velocity) / before
+            }
+        }
+    }
 }
 
 /// Playback of a trajectory as a state machine: [`Timeline::sample_into`] gives the pose to
@@ -256,9 +300,9 @@ impl<'a> Timeline<'a> {
 
     /// Moves on by `dt` seconds of wall-clock time.
     pub fn advance(&mut self, dt: f64) {
-        let factor = match self.rate.braking {
-            Some(per_second) => {
-                self.rate.factor -= per_second * dt;
+        let factor = match &mut self.rate.braking {
+            Some(braking) => {
+                self.rate.factor = braking.advance(self.rate.factor, dt);
                 if self.rate.factor <= 0.0 {
                     self.state = State::Done;
                     self.stopped = true;
@@ -347,6 +391,10 @@ impl<'a> Timeline<'a> {
             return;
         }
         let (velocity, _) = self.derivatives();
+        if self.robot.joints.iter().any(|j| j.limits.jerk.is_some()) {
+            self.rate.braking = Some(self.s_curve_braking(&velocity));
+            return;
+        }
         let seconds = self
             .robot
             .joints
@@ -355,7 +403,44 @@ impl<'a> Timeline<'a> {
             .map(|(j, v)| v.abs() / (BRAKE_LIMIT_SHARE * j.limits.acceleration))
             .fold(MIN_BRAKE_SECONDS, f64::max);
         // From the rate the path is followed at now (lower after a stall) down to zero.
-        self.rate.braking = Some(self.rate.factor / seconds);
+        self.rate.braking = Some(Braking::Linear(self.rate.factor / seconds));
+    }
+
+    /// Braking for a robot with jerk limits: the factor falls from where it is to 0 along the
+    /// first half of an S-curve, its rate of change (times each joint's velocity at the full
+    /// rate, the deceleration braking adds) within half the acceleration limit and that rate's
+    /// own change (the jerk braking adds) within half the jerk limit, lasting at least
+    /// [`MIN_BRAKE_SECONDS`].
+    fn s_curve_braking(&self, velocity: &[f64]) -> Braking {
+        let from = self.rate.factor;
+        let least = |limit: &dyn Fn(&crate::robot::Limits) -> f64| {
+            self.robot
+                .joints
+                .iter()
+                .zip(velocity)
+                .map(|(j, v)| BRAKE_LIMIT_SHARE * limit(&j.limits) / v.abs())
+                .fold(f64::INFINITY, f64::min)
+        };
+        let change = least(&|l| l.acceleration);
+        let jerk = least(&|l| l.jerk.unwrap_or(f64::INFINITY));
+        let [tj, ta] = speed_change(from, change, jerk);
+        // Without a jerk limit on a joint that moves, any shape within the acceleration limit
+        // will do: all jerk phases, whose peak rate of change is twice the mean.
+        let (shape, least) = if tj > 0.0 && (2.0 * tj + ta).is_finite() {
+            ([tj, ta, 0.0], 2.0 * tj + ta)
+        } else {
+            ([1.0, 0.0, 0.0], 2.0 * from / change)
+        };
+        // The whole S-curve whose first half reaches the speed `from` in `half` seconds lasts
+        // twice that and covers `from · half` (its mean speed is half its peak). Stretched to
+        // the shortest braking time, the same shape falls gentler.
+        let half = least.max(MIN_BRAKE_SECONDS);
+        let ramp = SCurve::shaped(shape, 2.0 * half, from * half);
+        Braking::SCurve {
+            from,
+            ramp,
+            elapsed: 0.0,
+        }
     }
 
     /// How fast the rate factor may climb back to 1 (per second): the extra acceleration it

@@ -6,14 +6,16 @@
 //! never the curve. Sequence time runs through path time piece by piece: at slope 1 in a hold
 //! and in a segment without a profile (there the two differ by a constant), and in a profiled
 //! segment with the path speed changing evenly between the profile's points, so path time is a
-//! quadratic of sequence time on each piece. Everything that samples a trajectory (the player's
+//! quadratic of sequence time on each piece; in a segment with an S-curve profile the path
+//! acceleration changes evenly instead (constant path jerk), and path time is a cubic. Everything that samples a trajectory (the player's
 //! timeline, `sample`, `plot`, `sim`) goes through [`Trajectory::sample`](super::Trajectory),
 //! which goes through here; the exact check composes each curve with these pieces.
 
-use crate::sequence::Sequence;
+use super::scurve::{advance, MotionState, SCurve};
+use crate::sequence::{Sequence, TimeProfile};
 
 /// One piece of the map: from sequence time `t0` to `t1`, path time
-/// `u0 + v0·τ + a·τ²/2` with τ = t − t0.
+/// `u0 + v0·τ + a·τ²/2 + j·τ³/6` with τ = t − t0.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TimingPiece {
     /// Sequence time the piece starts, seconds.
@@ -24,25 +26,38 @@ pub struct TimingPiece {
     pub u0: f64,
     /// Path speed at `t0` (path seconds per second).
     pub v0: f64,
-    /// Path acceleration on the piece (per second).
+    /// Path acceleration at `t0` (per second).
     pub a: f64,
+    /// Path jerk on the piece (per second squared): 0 but in an S-curve profile.
+    pub j: f64,
 }
 
 impl TimingPiece {
     /// Path time at sequence time `t` (extrapolated outside the piece).
     pub fn path_time(&self, t: f64) -> f64 {
         let tau = t - self.t0;
-        self.u0 + tau * (self.v0 + 0.5 * self.a * tau)
+        self.u0 + tau * (self.v0 + tau * (0.5 * self.a + tau * self.j / 6.0))
     }
 
     /// Path speed at sequence time `t`.
     pub fn speed(&self, t: f64) -> f64 {
-        self.v0 + self.a * (t - self.t0)
+        let tau = t - self.t0;
+        self.v0 + tau * (self.a + 0.5 * self.j * tau)
     }
 
-    /// Path time as a quadratic `[c0, c1, c2]` of the seconds since `t`.
-    pub fn quadratic_from(&self, t: f64) -> [f64; 3] {
-        [self.path_time(t), self.speed(t), 0.5 * self.a]
+    /// Path acceleration at sequence time `t`.
+    pub fn acceleration(&self, t: f64) -> f64 {
+        self.a + self.j * (t - self.t0)
+    }
+
+    /// Path time as a cubic `[c0, c1, c2, c3]` of the seconds since `t`.
+    pub fn cubic_from(&self, t: f64) -> [f64; 4] {
+        [
+            self.path_time(t),
+            self.speed(t),
+            0.5 * self.acceleration(t),
+            self.j / 6.0,
+        ]
     }
 
     /// The sequence time inside the piece at which path time reaches `u` (clamped to it).
@@ -50,6 +65,22 @@ impl TimingPiece {
         let du = u - self.u0;
         if du <= 0.0 {
             return self.t0;
+        }
+        if self.j != 0.0 {
+            // Path time never falls along a piece: bisect to the last bit.
+            let (mut lo, mut hi) = (self.t0, self.t1);
+            for _ in 0..200 {
+                let m = 0.5 * (lo + hi);
+                if m <= lo || m >= hi {
+                    break;
+                }
+                if self.path_time(m) < u {
+                    lo = m;
+                } else {
+                    hi = m;
+                }
+            }
+            return 0.5 * (lo + hi);
         }
         // v0·τ + a·τ²/2 = du, in the form that does not cancel when a is small.
         let root = (self.v0 * self.v0 + 2.0 * self.a * du).max(0.0).sqrt();
@@ -86,6 +117,7 @@ impl Timing {
                     u0: paths[i],
                     v0: 1.0,
                     a: 0.0,
+                    j: 0.0,
                 });
             }
             let u_from = paths[i] + key.hold;
@@ -96,29 +128,37 @@ impl Timing {
                     u0: u_from,
                     v0: 1.0,
                     a: 0.0,
+                    j: 0.0,
                 }),
-                Some(timing) => {
-                    let crate::sequence::TimeProfile::Speeds(speeds) = &timing.profile;
-                    let seconds = timing.stretch_seconds();
-                    // The speeds are a shape: one factor makes them last the key times' span.
-                    let scale = (times[i + 1] - moving_from) / seconds.iter().sum::<f64>();
-                    let step = timing.path_time / seconds.len() as f64;
-                    let mut t = moving_from;
-                    for (k, &dt) in seconds.iter().enumerate() {
-                        let dt = dt * scale;
-                        let (v0, v1) = (speeds[k] / scale, speeds[k + 1] / scale);
-                        let last = k + 1 == seconds.len();
-                        let t1 = if last { times[i + 1] } else { t + dt };
-                        pieces.push(TimingPiece {
-                            t0: t,
-                            t1,
-                            u0: u_from + k as f64 * step,
-                            v0,
-                            a: (v1 - v0) / dt,
-                        });
-                        t = t1;
+                Some(timing) => match &timing.profile {
+                    TimeProfile::Speeds(speeds) => {
+                        let seconds = timing.stretch_seconds();
+                        // The speeds are a shape: one factor makes them last the key times' span.
+                        let scale = (times[i + 1] - moving_from) / seconds.iter().sum::<f64>();
+                        let step = timing.path_time / seconds.len() as f64;
+                        let mut t = moving_from;
+                        for (k, &dt) in seconds.iter().enumerate() {
+                            let dt = dt * scale;
+                            let (v0, v1) = (speeds[k] / scale, speeds[k + 1] / scale);
+                            let last = k + 1 == seconds.len();
+                            let t1 = if last { times[i + 1] } else { t + dt };
+                            pieces.push(TimingPiece {
+                                t0: t,
+                                t1,
+                                u0: u_from + k as f64 * step,
+                                v0,
+                                a: (v1 - v0) / dt,
+                                j: 0.0,
+                            });
+                            t = t1;
+                        }
                     }
-                }
+                    TimeProfile::SCurve(shape) => {
+                        let curve =
+                            SCurve::shaped(*shape, times[i + 1] - moving_from, timing.path_time);
+                        s_curve_pieces(&mut pieces, &curve, moving_from, times[i + 1], u_from);
+                    }
+                },
             }
         }
         let last = times.len() - 1;
@@ -148,6 +188,7 @@ impl Timing {
                 u0: t,
                 v0: 1.0,
                 a: 0.0,
+                j: 0.0,
             };
         };
         if t < first.t0 {
@@ -157,6 +198,7 @@ impl Timing {
                 u0: first.u0,
                 v0: 1.0,
                 a: 0.0,
+                j: 0.0,
             };
         }
         if t >= self.tail.0 {
@@ -166,6 +208,7 @@ impl Timing {
                 u0: self.tail.1,
                 v0: 1.0,
                 a: 0.0,
+                j: 0.0,
             };
         }
         let i = self.pieces.partition_point(|p| p.t0 <= t).saturating_sub(1);
@@ -186,6 +229,39 @@ impl Timing {
             return 1.0;
         }
         self.piece_at(t).speed(t)
+    }
+}
+
+/// The pieces of an S-curve profile from sequence time `from` and path time `u_from`, its last
+/// piece ending at `to` (the next key).
+fn s_curve_pieces(pieces: &mut Vec<TimingPiece>, curve: &SCurve, from: f64, to: f64, u_from: f64) {
+    let mut state = MotionState {
+        position: u_from,
+        velocity: 0.0,
+        acceleration: 0.0,
+    };
+    let mut t = from;
+    let phases: Vec<(f64, f64)> = curve
+        .phases()
+        .into_iter()
+        .filter(|&(seconds, _)| seconds > 0.0)
+        .collect();
+    for (k, &(seconds, jerk)) in phases.iter().enumerate() {
+        let t1 = if k + 1 == phases.len() {
+            to
+        } else {
+            t + seconds
+        };
+        pieces.push(TimingPiece {
+            t0: t,
+            t1,
+            u0: state.position,
+            v0: state.velocity,
+            a: state.acceleration,
+            j: jerk,
+        });
+        state = advance(state, jerk, seconds);
+        t = t1;
     }
 }
 

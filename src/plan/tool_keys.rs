@@ -8,6 +8,7 @@
 //! ([`ToolKeyReport`]) and per line ([`LineReport`], with [`LineReport::speed`] saying what the
 //! check found a line to need).
 
+use super::approach::minimum_jerk;
 use super::{LimitKind, Violation};
 use crate::collision::CollisionModel;
 use crate::json::InputError;
@@ -115,7 +116,7 @@ impl LineReport {
         }
         let mine = violations.iter().filter(|v| {
             v.segment == self.key
-                && v.kind != LimitKind::Position
+                && v.mendable_by_timing()
                 && robot
                     .joint_index(&v.joint)
                     .is_some_and(|j| self.joints.contains(&j))
@@ -144,6 +145,7 @@ impl LineReport {
             .iter()
             .map(|e| match e.kind {
                 LimitKind::Acceleration => (e.peak / e.limit).sqrt(),
+                LimitKind::Jerk => (e.peak / e.limit).cbrt(),
                 _ => e.peak / e.limit,
             })
             .fold(1.0, f64::max);
@@ -536,10 +538,4 @@ fn solve_line_into(
             span: (start, times[index]),
         },
     }
-}
-
-/// The minimum-jerk share of the path at the share `u` of the time: 10u³ − 15u⁴ + 6u⁵, at rest
-/// (zero velocity and acceleration) at both ends.
-fn minimum_jerk(u: f64) -> f64 {
-    u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
 }

@@ -50,16 +50,33 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
         .iter()
         .map(|j| j.joint.chars().count())
         .fold(14, usize::max);
+    let jerk_header = if report.joints.iter().any(|j| j.jerk_limit.is_some()) {
+        format!(" {:>26}", "peak jerk")
+    } else {
+        String::new()
+    };
     let _ = writeln!(
         out,
-        "  {:<w$} {:>22} {:>24} {:>26}",
+        "  {:<w$} {:>22} {:>24} {:>26}{jerk_header}",
         "joint", "range", "peak velocity", "peak acceleration"
     );
     for j in &report.joints {
         let (scale, unit) = units::display_scale(j.unit);
+        let jerk = match j.jerk_limit {
+            // Only a robot with jerk limits gets the column: other reports read as before.
+            Some(limit) => format!(
+                " {:>10.0} {:<7} ({:>4.0} %), acceleration jumps {:.1} {}",
+                j.peak_jerk * scale,
+                per_unit(unit, LimitKind::Jerk),
+                100.0 * j.peak_jerk / limit,
+                j.acceleration_jump * scale,
+                per_unit(unit, LimitKind::Acceleration),
+            ),
+            None => String::new(),
+        };
         let _ = writeln!(
             out,
-            "  {:<w$} {:>9.2} … {:>7.2} {:<3} {:>8.1} {:<6} ({:>4.0} %) {:>9.1} {:<7} ({:>4.0} %)",
+            "  {:<w$} {:>9.2} … {:>7.2} {:<3} {:>8.1} {:<6} ({:>4.0} %) {:>9.1} {:<7} ({:>4.0} %){jerk}",
             j.joint,
             units::no_negative_zero(j.min_position * scale, 2),
             units::no_negative_zero(j.max_position * scale, 2),
@@ -80,6 +97,17 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
 /// deg/s, by 15.000 deg/s", and what a step or a corner asks of the servos checked at `rate`.
 pub fn violation_measure(v: &Violation, rate: f64) -> String {
     let (scale, shown_unit) = units::display_scale(v.unit);
+    if let Some(jump) = v.acceleration_jump {
+        return format!(
+            "t = {:.3} s: the acceleration jumps by {:.3} {}, an infinite jerk (limit {:.3} {}){}",
+            v.peak_time,
+            jump * scale,
+            per_unit(shown_unit, LimitKind::Acceleration),
+            v.limit.abs() * scale,
+            per_unit(shown_unit, LimitKind::Jerk),
+            cause_note(v.cause, rate)
+        );
+    }
     let unit = per_unit(shown_unit, v.kind);
     let relation = if v.peak > v.limit { ">" } else { "<" };
     let bound = match (v.kind, v.peak > v.limit) {
@@ -107,6 +135,7 @@ fn cause_note(cause: Cause, rate: f64) -> String {
         Cause::Curve => String::new(),
         Cause::Step => format!(" (a step: the goals jump within one {period} ms period)"),
         Cause::Corner => format!(" (a corner: the velocity turns within one {period} ms period)"),
+        Cause::AccelerationJump => String::new(),
     }
 }
 
@@ -115,6 +144,7 @@ fn per_unit(unit: &str, kind: LimitKind) -> String {
         LimitKind::Position => unit.to_string(),
         LimitKind::Velocity => format!("{unit}/s"),
         LimitKind::Acceleration => format!("{unit}/s²"),
+        LimitKind::Jerk => format!("{unit}/s³"),
     }
 }
 
@@ -147,6 +177,7 @@ pub fn check_json(report: &CheckReport, sequence_file: &str, robot: &Robot) -> V
             "limit": v.limit,
             "excess": v.excess,
             "cause": v.cause.name(),
+            "acceleration_jump": v.acceleration_jump,
         })).collect::<Vec<_>>(),
         "joints": report.joints.iter().map(|j| json!({
             "joint": j.joint,
@@ -157,6 +188,9 @@ pub fn check_json(report: &CheckReport, sequence_file: &str, robot: &Robot) -> V
             "velocity_limit": j.velocity_limit,
             "peak_acceleration": j.peak_acceleration,
             "acceleration_limit": j.acceleration_limit,
+            "peak_jerk": j.peak_jerk,
+            "acceleration_jump": j.acceleration_jump,
+            "jerk_limit": j.jerk_limit,
         })).collect::<Vec<_>>(),
     })
 }

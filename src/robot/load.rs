@@ -193,7 +193,7 @@ const MAX_TRAVEL_M: f64 = 100.0;
 const MAX_RATE: f64 = 1e7;
 
 fn parse_limits(node: &Node, kind: JointKind) -> Result<Limits, InputError> {
-    node.only_fields(&["min", "max", "velocity", "acceleration"])?;
+    node.only_fields(&["min", "max", "velocity", "acceleration", "jerk"])?;
     let bound = match kind {
         JointKind::Revolute => MAX_ANGLE_DEG,
         JointKind::Prismatic => MAX_TRAVEL_M,
@@ -221,11 +221,19 @@ fn parse_limits(node: &Node, kind: JointKind) -> Result<Limits, InputError> {
             Err(n.expected(&format!("a positive limit up to {MAX_RATE}")))
         }
     };
+    let velocity = positive("velocity")?;
+    let acceleration = positive("acceleration")?;
+    // Optional: a robot file without it plans and checks exactly as before jerk existed.
+    let jerk = match node.get("jerk") {
+        Some(_) => Some(positive("jerk")?),
+        None => None,
+    };
     Ok(Limits {
         min,
         max,
-        velocity: positive("velocity")?,
-        acceleration: positive("acceleration")?,
+        velocity,
+        acceleration,
+        jerk,
     })
 }
 

@@ -81,6 +81,9 @@ pub struct Limits {
     pub velocity: f64,
     /// Highest acceleration, per second squared.
     pub acceleration: f64,
+    /// Highest jerk (rate of change of acceleration), per second cubed; None (the default)
+    /// leaves jerk unlimited, and then nothing about jerk is checked or planned for.
+    pub jerk: Option<f64>,
 }
 
 impl Limits {

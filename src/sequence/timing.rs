@@ -12,8 +12,11 @@
 //! give the shape: they are scaled by one factor so that the segment lasts what its key times
 //! give, so rounding in the file, or moving a key, never leaves the two disagreeing.
 //!
-//! The profile is an enum so that a jerk-limited (S-curve) one can join the speed samples
-//! without changing what a segment's timing is (a map from time to path time).
+//! The other profile is the jerk-limited S-curve (`"scurve": [tj, ta, tv]`, `plan::scurve`):
+//! from rest to rest, the path jerk `+J, 0, −J, 0, −J, 0, +J` over `tj, ta, tj, tv, tj, ta, tj`
+//! seconds, so the path acceleration never jumps. The three times are a shape too: scaled by
+//! one factor so that the segment lasts what its key times give, with the jerk `J` that covers
+//! `path_time`. `retime --fastest` writes one on each segment for a robot with jerk limits.
 
 use crate::json::{InputError, Node};
 use serde_json::{json, Value};
@@ -37,6 +40,9 @@ pub enum TimeProfile {
     /// Path speeds at evenly spaced points of path time, the first at the start of the moving
     /// part and the last at the next key (at least two); even path acceleration between them.
     Speeds(Vec<f64>),
+    /// A rest-to-rest S-curve: seconds of each jerk phase, of each constant path acceleration
+    /// and of the cruise, `[tj, ta, tv]` (`tj` > 0), before scaling.
+    SCurve([f64; 3]),
 }
 
 /// How finely an eased segment's ramps are placed: in twentieths of its path, so that each ramp
@@ -86,13 +92,18 @@ impl SegmentTiming {
     }
     /// Real seconds each stretch of the profile lasts at the speeds as written (before the
     /// scaling that makes the segment last what its key times give).
+    /// (An S-curve's is its seven phases.)
     pub fn stretch_seconds(&self) -> Vec<f64> {
-        let TimeProfile::Speeds(speeds) = &self.profile;
-        let step = self.path_time / (speeds.len() - 1) as f64;
-        speeds
-            .windows(2)
-            .map(|w| 2.0 * step / (w[0] + w[1]))
-            .collect()
+        match &self.profile {
+            TimeProfile::Speeds(speeds) => {
+                let step = self.path_time / (speeds.len() - 1) as f64;
+                speeds
+                    .windows(2)
+                    .map(|w| 2.0 * step / (w[0] + w[1]))
+                    .collect()
+            }
+            TimeProfile::SCurve([tj, ta, tv]) => vec![*tj, *ta, *tj, *tv, *tj, *ta, *tj],
+        }
     }
 
     /// Real seconds the profile lasts at the speeds as written.
@@ -103,7 +114,7 @@ impl SegmentTiming {
 
 pub(super) fn parse(node: &Node) -> Result<SegmentTiming, InputError> {
     node.object()?;
-    node.only_fields(&["path_time", "speeds"])?;
+    node.only_fields(&["path_time", "speeds", "scurve"])?;
     let path_node = node.require("path_time", "seconds of path time the segment spans")?;
     let path_time = path_node.number("seconds")?;
     if !(super::MIN_GAP..=super::MAX_TIME).contains(&path_time) {
@@ -112,6 +123,18 @@ pub(super) fn parse(node: &Node) -> Result<SegmentTiming, InputError> {
             super::MIN_GAP,
             super::MAX_TIME
         )));
+    }
+    if let Some(shape) = node.get("scurve") {
+        if node.get("speeds").is_some() {
+            return Err(node.error(
+                "both \"speeds\" and \"scurve\": expected one profile, the path speeds or \
+                 the S-curve's phase times",
+            ));
+        }
+        return Ok(SegmentTiming {
+            path_time,
+            profile: TimeProfile::SCurve(parse_shape(&shape)?),
+        });
     }
     let speeds_node = node.require("speeds", "the path speeds along the segment")?;
     let items = speeds_node.items()?;
@@ -141,9 +164,35 @@ pub(super) fn parse(node: &Node) -> Result<SegmentTiming, InputError> {
     })
 }
 
+/// `[tj, ta, tv]`: three times in seconds, tj above 0 (a jerk phase of no time is a jump of
+/// the acceleration), the others 0 or more.
+fn parse_shape(node: &Node) -> Result<[f64; 3], InputError> {
+    const WHAT: &str = "the S-curve's phase times [tj, ta, tv] in seconds";
+    let items = node.items()?;
+    if items.len() != 3 {
+        return Err(node.expected(&format!("{WHAT}, three numbers; found {}", items.len())));
+    }
+    let mut shape = [0.0; 3];
+    for (k, item) in items.iter().enumerate() {
+        let x = item.number("seconds")?;
+        let least = if k == 0 { "above 0" } else { "0 or more" };
+        let ok = if k == 0 { x > 0.0 } else { x >= 0.0 };
+        if !ok || x > super::MAX_TIME {
+            return Err(item.expected(&format!(
+                "seconds {least}, up to {} ({WHAT})",
+                super::MAX_TIME
+            )));
+        }
+        shape[k] = x;
+    }
+    Ok(shape)
+}
+
 pub(super) fn to_value(timing: &SegmentTiming) -> Value {
-    let TimeProfile::Speeds(speeds) = &timing.profile;
-    json!({ "path_time": timing.path_time, "speeds": speeds })
+    match &timing.profile {
+        TimeProfile::Speeds(speeds) => json!({ "path_time": timing.path_time, "speeds": speeds }),
+        TimeProfile::SCurve(shape) => json!({ "path_time": timing.path_time, "scurve": shape }),
+    }
 }
 
 #[cfg(test)]

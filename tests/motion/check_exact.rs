@@ -410,3 +410,46 @@ proptest! {
         player_differences::assert_within_report(&report, &robot, &sampled);
     }
 }
+
+/// A key of `random_sequence` with the path time and S-curve shape of its segment's profile.
+type SCurveKey = ((f64, f64, usize, f64, f64), f64, [f64; 3]);
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// With S-curve profiles (path time a cubic of time on each phase, each joint's curve a
+    /// polynomial of degree nine) the check's peaks still bound what the player asks for at
+    /// every phase of the control period.
+    #[test]
+    fn the_exact_verdict_holds_for_s_curve_profiles(
+        keys in prop::collection::vec(
+            (key(), 0.01f64..1.0, (0.01f64..1.0, prop_oneof![Just(0.0), 0.01f64..1.0],
+                                   prop_oneof![Just(0.0), 0.01f64..1.0])),
+            2..6,
+        ),
+        rate in prop_oneof![Just(10.0), Just(100.0), Just(1000.0)],
+        offset in 0.0f64..1.0,
+    ) {
+        let keys: Vec<SCurveKey> =
+            keys.into_iter().map(|(k, path, (tj, ta, tv))| (k, path, [tj, ta, tv])).collect();
+        let plain: Vec<_> = keys.iter().map(|k| k.0).collect();
+        let mut sequence = random_sequence(&plain, false);
+        let last = sequence.keyframes.len() - 1;
+        for (i, (_, path_time, shape)) in keys.iter().enumerate() {
+            let key = &mut sequence.keyframes[i];
+            if i == last || key.interp == Some(keypose::curve::Interp::Step) {
+                continue;
+            }
+            key.timing = Some(keypose::sequence::SegmentTiming {
+                path_time: *path_time,
+                profile: keypose::sequence::TimeProfile::SCurve(*shape),
+            });
+        }
+        let sequence = Sequence::from_json("scurve.json", &sequence.to_json()).unwrap();
+        let robot = Robot::builtin("so101").unwrap();
+        let trajectory = Trajectory::build(&sequence, &robot).unwrap();
+        let report = check(&trajectory, &robot, rate);
+        let sampled = player_differences::player_extremes(&trajectory, rate, 16, offset);
+        player_differences::assert_within_report(&report, &robot, &sampled);
+    }
+}

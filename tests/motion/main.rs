@@ -4,12 +4,16 @@
 
 #[path = "../common/mod.rs"]
 mod common;
+/// The oracle scripts' runner, shared by the TOPP-RA (`retime`) and Ruckig (`jerk`) tests.
+#[path = "../../benches/common/oracle.rs"]
+mod oracle;
 
 mod cell_sequences;
 mod check_exact;
 mod editing;
 mod fuzz_loader;
 mod interpolation;
+mod jerk;
 mod kinematics;
 mod record_extract;
 mod record_keyframes;

@@ -8,6 +8,7 @@ use keypose::plan::{builtin_robot_of, fastest, Trajectory};
 use keypose::sequence::Sequence;
 use std::path::Path;
 
+use crate::oracle;
 #[path = "../../benches/common/topp.rs"]
 mod topp;
 

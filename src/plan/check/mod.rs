@@ -12,7 +12,13 @@
 //! at `rate` are checked, at their worst over every phase (`period`), as the step limiter
 //! judges them. The arm is at rest before the window and after it, as it is after the approach
 //! ramp and at the end of playback, so a sequence that starts or ends in motion is flagged.
+//!
+//! A joint with a jerk limit (`Limits::jerk`) is checked for jerk too (`jerk`): the curve's third
+//! derivative on each span, exactly like the others, and every jump of its acceleration where
+//! two spans meet, each a violation of its own (an infinite jerk at any control rate). Without
+//! a jerk limit no jerk violation is reported: the verdict is what it was before.
 
+mod jerk;
 mod period;
 pub(crate) mod poly;
 pub(crate) mod runs;
@@ -32,6 +38,8 @@ pub enum LimitKind {
     Velocity,
     /// The acceleration, per second squared.
     Acceleration,
+    /// The jerk, per second cubed: only for a joint with a jerk limit.
+    Jerk,
 }
 
 impl LimitKind {
@@ -41,6 +49,7 @@ impl LimitKind {
             LimitKind::Position => "position",
             LimitKind::Velocity => "velocity",
             LimitKind::Acceleration => "acceleration",
+            LimitKind::Jerk => "jerk",
         }
     }
 }
@@ -56,6 +65,10 @@ pub enum Cause {
     /// A corner: the velocity jumps (linear segments meeting, a hold next to a linear segment, a
     /// start or an end in motion), so the player turns it within one control period.
     Corner,
+    /// The acceleration jumps (a key of a key-time cubic, a change of a timing profile's path
+    /// acceleration, a start or an end with the acceleration other than zero): an infinite
+    /// jerk, reported for a joint with a jerk limit. Stretching time does not mend it.
+    AccelerationJump,
 }
 
 impl Cause {
@@ -65,6 +78,7 @@ impl Cause {
             Cause::Curve => "curve",
             Cause::Step => "step",
             Cause::Corner => "corner",
+            Cause::AccelerationJump => "jump",
         }
     }
 }
@@ -96,6 +110,19 @@ pub struct Violation {
     pub excess: f64,
     /// What the worst value comes from.
     pub cause: Cause,
+    /// For a jerk violation where the acceleration jumps (`peak` is then infinite): how far it
+    /// jumps, per second squared (after minus before). None for any other violation.
+    pub acceleration_jump: Option<f64>,
+}
+
+impl Violation {
+    /// Whether changing the timing can mend it: not a position, not a step's jump, not a jump
+    /// of the acceleration (each is there however long the segment lasts).
+    pub fn mendable_by_timing(&self) -> bool {
+        self.kind != LimitKind::Position
+            && self.cause != Cause::Step
+            && self.acceleration_jump.is_none()
+    }
 }
 
 /// How close each joint comes to its limits.
@@ -117,6 +144,14 @@ pub struct JointSummary {
     pub peak_acceleration: f64,
     /// The joint's acceleration limit, per second squared.
     pub acceleration_limit: f64,
+    /// Largest jerk of the curve between the places where its acceleration jumps, per second
+    /// cubed, at the checked playback speed.
+    pub peak_jerk: f64,
+    /// Largest jump of the acceleration (the played window's ends included), per second
+    /// squared, at the checked playback speed; 0 where the acceleration is continuous.
+    pub acceleration_jump: f64,
+    /// The joint's jerk limit, per second cubed; None without one (jerk is then not checked).
+    pub jerk_limit: Option<f64>,
 }
 
 /// What [`check`] found: every violation, and how close each joint comes to its limits.
@@ -171,6 +206,7 @@ pub fn check(trajectory: &Trajectory, robot: &Robot, rate: f64) -> CheckReport {
                         limit: run.limit,
                         excess: run.excess,
                         cause: run.cause,
+                        acceleration_jump: None,
                     }
                 }));
             };
@@ -187,6 +223,27 @@ pub fn check(trajectory: &Trajectory, robot: &Robot, rate: f64) -> CheckReport {
             -limits.acceleration,
             limits.acceleration,
         );
+        if let Some(jerk) = limits.jerk {
+            record(&q.jerk, LimitKind::Jerk, -jerk, jerk);
+            violations.extend(q.jumps.iter().map(|jump| {
+                let segment = trajectory.segment_at(jump.time);
+                Violation {
+                    joint: joint.name.clone(),
+                    unit,
+                    kind: LimitKind::Jerk,
+                    segment,
+                    segment_label: trajectory.segment_label(segment),
+                    from: jump.time,
+                    to: jump.time,
+                    peak_time: jump.time,
+                    peak: f64::INFINITY.copysign(jump.jump),
+                    limit: jerk.copysign(jump.jump),
+                    excess: f64::INFINITY,
+                    cause: jump.cause,
+                    acceleration_jump: Some(jump.jump),
+                }
+            }));
+        }
         let (low, high) = runs::range(&spans_of(&q.position));
         let (low, high) = q
             .rest
@@ -201,6 +258,9 @@ pub fn check(trajectory: &Trajectory, robot: &Robot, rate: f64) -> CheckReport {
             velocity_limit: limits.velocity,
             peak_acceleration: runs::peak(&spans_of(&q.acceleration)),
             acceleration_limit: limits.acceleration,
+            peak_jerk: runs::peak(&spans_of(&q.jerk)),
+            acceleration_jump: q.jumps.iter().fold(0.0, |m, j| m.max(j.jump.abs())),
+            jerk_limit: limits.jerk,
         });
     }
     violations.sort_by(|a, b| a.from.total_cmp(&b.from));
@@ -219,6 +279,10 @@ struct Quantities {
     position: Vec<Attributed>,
     velocity: Vec<Attributed>,
     acceleration: Vec<Attributed>,
+    /// The curve's own jerk on each span.
+    jerk: Vec<Attributed>,
+    /// Where the acceleration jumps.
+    jumps: Vec<jerk::AccelerationJump>,
     /// The values held before and after the window.
     rest: [f64; 2],
 }
@@ -246,6 +310,11 @@ impl Quantities {
         let mut acceleration: Vec<Attributed> = velocity_spans
             .iter()
             .map(|s| in_segment(s.derivative()))
+            .collect();
+        let jerk = curve
+            .played
+            .iter()
+            .map(|s| in_segment(jerk::jerk(s)))
             .collect();
 
         let jumps = curve.discontinuities();
@@ -279,6 +348,8 @@ impl Quantities {
             position,
             velocity,
             acceleration,
+            jerk,
+            jumps: jerk::acceleration_jumps(&curve),
             rest: curve.rest_values(),
         }
     }
@@ -341,6 +412,7 @@ pub fn check_at_speed(
     for joint in &mut scaled.joints {
         joint.limits.velocity /= speed;
         joint.limits.acceleration /= speed * speed;
+        joint.limits.jerk = joint.limits.jerk.map(|j| j / speed.powi(3));
     }
     let mut report = check(trajectory, &scaled, rate / speed);
     to_wall_clock(&mut report, robot, rate, speed);
@@ -360,7 +432,9 @@ fn to_wall_clock(report: &mut CheckReport, robot: &Robot, rate: f64, speed: f64)
             LimitKind::Position => continue,
             LimitKind::Velocity => (speed, joint.limits.velocity),
             LimitKind::Acceleration => (speed * speed, joint.limits.acceleration),
+            LimitKind::Jerk => (speed.powi(3), joint.limits.jerk.unwrap_or(f64::INFINITY)),
         };
+        v.acceleration_jump = v.acceleration_jump.map(|a| a * speed * speed);
         v.peak *= factor;
         v.limit = limit.copysign(v.limit);
         v.excess = v.peak.abs() - limit;
@@ -370,6 +444,9 @@ fn to_wall_clock(report: &mut CheckReport, robot: &Robot, rate: f64, speed: f64)
         summary.velocity_limit = joint.limits.velocity;
         summary.peak_acceleration *= speed * speed;
         summary.acceleration_limit = joint.limits.acceleration;
+        summary.peak_jerk *= speed.powi(3);
+        summary.acceleration_jump *= speed * speed;
+        summary.jerk_limit = joint.limits.jerk;
     }
 }
 

@@ -1,17 +1,18 @@
 //! Polynomials of low degree on a span of time, and where they peak: what makes the limit check
 //! exact. A segment's curve is a cubic in its path time; a segment with a timing profile
 //! (`plan::timing`) runs through its path time as a quadratic of real time between the
-//! profile's knots, so its curve is the cubic of a quadratic there: degree six at most. Between
+//! profile's knots (a cubic for a jerk-limited S-curve profile), so its curve is the cubic of a
+//! quadratic or of a cubic there: degree nine at most. Between
 //! its ends a polynomial's extremes are at the roots of its derivative, found by isolating them
 //! between the roots of the next derivative (down to a quadratic, in closed form) and bisecting
 //! each to the last bit; between two such points it is monotone, so it crosses a level at most
 //! once there.
 
-/// Highest degree a span's polynomial has: a cubic path composed with a quadratic timing.
-pub const MAX_DEGREE: usize = 6;
+/// Highest degree a span's polynomial has: a cubic path composed with a cubic timing.
+pub const MAX_DEGREE: usize = 9;
 const LEN: usize = MAX_DEGREE + 1;
 
-/// `c0 + c1·x + … + c6·x⁶`, x in seconds from the start of the span it belongs to.
+/// `c0 + c1·x + … + c9·x⁹`, x in seconds from the start of the span it belongs to.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Poly(pub [f64; LEN]);
 
@@ -70,11 +71,11 @@ impl Poly {
         Poly(c)
     }
 
-    /// `p(q(x))` for a quadratic `q = q0 + q1·x + q2·x²`; `self` must be a cubic, so the
+    /// `p(q(x))` for a cubic `q = q0 + q1·x + q2·x² + q3·x³`; `self` must be a cubic, so the
     /// result stays within [`MAX_DEGREE`].
-    pub fn of_quadratic(&self, q: [f64; 3]) -> Poly {
+    pub fn of_cubic(&self, q: [f64; 4]) -> Poly {
         debug_assert!(self.degree() <= 3, "{self:?}");
-        let q = Poly::cubic([q[0], q[1], q[2], 0.0]);
+        let q = Poly::cubic(q);
         // Horner: ((c3·q + c2)·q + c1)·q + c0.
         let mut out = Poly::constant(self.0[3]);
         for k in (0..3).rev() {
@@ -200,7 +201,7 @@ mod tests {
 
     #[test]
     fn shifting_moves_the_origin() {
-        let p = Poly([1.0, -2.0, 0.5, 3.0, -1.0, 0.25, 0.5]);
+        let p = Poly([1.0, -2.0, 0.5, 3.0, -1.0, 0.25, 0.5, 0.0, 0.0, 0.0]);
         let q = p.shifted(0.75);
         for x in [-1.0, 0.0, 0.3, 2.0] {
             let (a, b) = (q.eval(x), p.eval(x + 0.75));
@@ -209,13 +210,19 @@ mod tests {
     }
 
     #[test]
-    fn a_cubic_of_a_quadratic_is_composed() {
+    fn a_cubic_of_a_quadratic_or_of_a_cubic_is_composed() {
         // p(u) = u³ − u, q(x) = 1 + 2x − x²: p(q(x)) at a few points, by hand.
         let p = Poly::cubic([0.0, -1.0, 0.0, 1.0]);
-        let c = p.of_quadratic([1.0, 2.0, -1.0]);
+        let c = p.of_cubic([1.0, 2.0, -1.0, 0.0]);
         for x in [-1.0, 0.0, 0.5, 2.0] {
             let u: f64 = 1.0 + 2.0 * x - x * x;
             assert!((c.eval(x) - (u * u * u - u)).abs() < 1e-12, "x = {x}");
+        }
+        // Of a cubic, q(x) = x³ − x: degree nine.
+        let c = p.of_cubic([0.0, -1.0, 0.0, 1.0]);
+        for x in [-1.5, 0.3, 1.2] {
+            let u: f64 = x * x * x - x;
+            assert!((c.eval(x) - (u * u * u - u)).abs() < 1e-9, "x = {x}");
         }
     }
 

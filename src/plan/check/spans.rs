@@ -9,7 +9,8 @@
 //!
 //! A track runs over path time; where a segment has a timing profile, path time is a quadratic
 //! of sequence time on each piece of the profile (`plan::timing`), so the curve's polynomial
-//! there is the track's cubic of that quadratic, split at the pieces' ends too.
+//! there is the track's cubic of that quadratic (of a cubic in an S-curve profile, whose path
+//! jerk is constant on each piece), split at the pieces' ends too.
 
 use super::poly::Poly;
 use crate::curve::Track;
@@ -187,29 +188,35 @@ fn timing_windows(timing: &Timing, start: f64, end: f64) -> Vec<TimingPiece> {
                 t1: w[1],
                 u0: middle.path_time(w[0]),
                 v0: middle.speed(w[0]),
-                a: middle.a,
+                a: middle.acceleration(w[0]),
+                j: middle.j,
             }
         })
         .collect()
 }
 
 /// The track's pieces (over path time) that `window` runs through, each as (from, to,
-/// polynomial from `from`) in sequence time: the piece's cubic of the window's quadratic.
+/// polynomial from `from`) in sequence time: the piece's cubic of the window's quadratic (or cubic).
 fn composed(pieces: &[(f64, f64, Poly)], window: &TimingPiece) -> Vec<(f64, f64, Poly)> {
     let (u_a, u_b) = (window.u0, window.path_time(window.t1));
-    let first = pieces.partition_point(|p| p.1 <= u_a);
+    // A window's ends land on a key's path time only to rounding; a sliver of the piece
+    // beyond, a few rounding errors long in path time, is no piece of its own. Where the path
+    // comes to rest at a key (an S-curve), that sliver would last microseconds of sequence
+    // time and start the held value while the path still creeps: a false corner.
+    let sliver = 1e-12 * (1.0 + u_a.abs().max(u_b.abs()));
+    let first = pieces.partition_point(|p| p.1 <= u_a + sliver);
     let mut out = Vec::new();
     for &(from, to, poly) in pieces[first.min(pieces.len())..]
         .iter()
-        .take_while(|p| p.0 < u_b)
+        .take_while(|p| p.0 < u_b - sliver)
     {
         let (lo, hi) = (from.max(u_a), to.min(u_b));
-        let a = if lo <= u_a {
+        let a = if lo <= u_a + sliver {
             window.t0
         } else {
             window.time_at(lo)
         };
-        let b = if hi >= u_b {
+        let b = if hi >= u_b - sliver {
             window.t1
         } else {
             window.time_at(hi)
@@ -217,12 +224,12 @@ fn composed(pieces: &[(f64, f64, Poly)], window: &TimingPiece) -> Vec<(f64, f64,
         if b <= a {
             continue;
         }
-        let mut q = window.quadratic_from(a);
+        let mut q = window.cubic_from(a);
         // A piece reaching to ±∞ is constant: no origin to move.
         if from.is_finite() {
             q[0] -= from;
         }
-        out.push((a, b, poly.of_quadratic(q)));
+        out.push((a, b, poly.of_cubic(q)));
     }
     out
 }

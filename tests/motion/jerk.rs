@@ -1,0 +1,689 @@
+//! Jerk limits (`"jerk"` in a robot file's joint limits): the loader's checks, the exact
+//! check's jerk and acceleration jumps against hand-derived values, a robot without them
+//! checked exactly as before, and S-curve moves against Ruckig (the `ruckig` package in
+//! keypose's Python environment, which these tests need: without it they fail).
+
+use crate::common::{run, show, stdout};
+use keypose::plan::{check, Cause, LimitKind, Trajectory};
+use keypose::robot::Robot;
+use keypose::sequence::Sequence;
+use serde_json::Value;
+
+use crate::oracle;
+#[path = "../../benches/common/ruckig.rs"]
+mod ruckig;
+
+/// The SO-101's robot file with `jerk` set on every joint (None: as it is).
+fn so101_text(jerk: Option<&str>) -> String {
+    let text = std::fs::read_to_string(crate::common::repo("robots/so101.json")).unwrap();
+    let mut robot: Value = serde_json::from_str(&text).unwrap();
+    robot["name"] = "so101-jerk".into();
+    if let Some(jerk) = jerk {
+        for joint in robot["joints"].as_array_mut().unwrap() {
+            joint["limits"]["jerk"] = serde_json::from_str(jerk).unwrap();
+        }
+    }
+    serde_json::to_string_pretty(&robot).unwrap()
+}
+
+fn so101_with_jerk(jerk: f64) -> Robot {
+    Robot::from_json("so101-jerk.json", &so101_text(Some(&jerk.to_string()))).unwrap()
+}
+
+/// wrist_flex keys `(time, value)` in `mode`, for the robot file `robot`.
+fn wrist(robot: &str, mode: &str, keys: &[(f64, f64)]) -> String {
+    let keys: Vec<String> = keys
+        .iter()
+        .map(|(t, v)| format!(r#"{{"time": {t}, "joints": {{"wrist_flex": {v}}}}}"#))
+        .collect();
+    format!(
+        r#"{{"format": "keypose-sequence/1", "robot": "{robot}", "interpolation": "{mode}",
+            "keyframes": [{}]}}"#,
+        keys.join(",")
+    )
+}
+
+fn trajectory(text: &str, robot: &Robot) -> Trajectory {
+    let sequence = Sequence::from_json("wrist.json", text).unwrap();
+    Trajectory::build(&sequence, robot).unwrap()
+}
+
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-9 * b.abs().max(1.0)
+}
+
+#[test]
+fn a_jerk_limit_is_optional_positive_and_named_in_errors() {
+    let robot = Robot::from_json("r.json", &so101_text(None)).unwrap();
+    assert!(robot.joints.iter().all(|j| j.limits.jerk.is_none()));
+    assert_eq!(so101_with_jerk(2500.0).joints[3].limits.jerk, Some(2500.0));
+    for bad in ["0", "-5", "\"fast\"", "1e9"] {
+        let err = Robot::from_json("r.json", &so101_text(Some(bad)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("r.json") && err.contains("limits.jerk"),
+            "{bad}: {err}"
+        );
+    }
+}
+
+#[test]
+fn a_smoothstep_has_its_constant_jerk_and_jumps_at_both_ends() {
+    // 0 → 30° in 2 s, cubic between two keys at rest: 30·(3f² − 2f³), f = t/2. Its
+    // acceleration 30·(6 − 12f)/4 goes from 45 to −45 °/s², its jerk is −30·12/8 = −45 °/s³
+    // throughout, and the acceleration jumps by +45 °/s² from rest at 0 s and back at 2 s.
+    let text = wrist("so101", "cubic", &[(0.0, 0.0), (2.0, 30.0)]);
+    for (limit, curve_violations) in [(1000.0, 0), (40.0, 1)] {
+        let robot = so101_with_jerk(limit);
+        let report = check(&trajectory(&text, &robot), &robot, 50.0);
+        let wrist = report
+            .joints
+            .iter()
+            .find(|j| j.joint == "wrist_flex")
+            .unwrap();
+        assert!(close(wrist.peak_jerk, 45.0), "{wrist:?}");
+        assert!(close(wrist.acceleration_jump, 45.0), "{wrist:?}");
+        assert_eq!(wrist.jerk_limit, Some(limit));
+        let jumps: Vec<_> = report
+            .violations
+            .iter()
+            .filter(|v| v.cause == Cause::AccelerationJump)
+            .collect();
+        assert_eq!(jumps.len(), 2, "{:?}", report.violations);
+        for (v, t) in jumps.iter().zip([0.0, 2.0]) {
+            assert_eq!((v.kind, v.joint.as_str()), (LimitKind::Jerk, "wrist_flex"));
+            assert!(close(v.peak_time, t), "{v:?}");
+            assert!(close(v.acceleration_jump.unwrap(), 45.0), "{v:?}");
+            assert!(v.peak.is_infinite() && !v.mendable_by_timing());
+        }
+        let curve: Vec<_> = report
+            .violations
+            .iter()
+            .filter(|v| v.kind == LimitKind::Jerk && v.cause == Cause::Curve)
+            .collect();
+        assert_eq!(curve.len(), curve_violations, "{:?}", report.violations);
+        if let Some(v) = curve.first() {
+            assert!(close(v.peak, -45.0) && close(v.excess, 5.0), "{v:?}");
+            assert!(close(v.from, 0.0) && close(v.to, 2.0), "{v:?}");
+        }
+    }
+}
+
+#[test]
+fn a_key_of_a_cubic_jumps_by_the_change_of_its_second_derivative() {
+    // 0 → 10 → 30° at 0, 1, 2 s with zero end slopes and the central slope (30 − 0)/2 = 15 °/s
+    // at the middle key. First segment: 0 + 0·t + c2·t² + c3·t³ with c2 + c3 = 10,
+    // 2c2 + 3c3 = 15 → c2 = 15, c3 = −5, so its acceleration at 1 s is 30 − 30 = 0. Second
+    // (s = t − 1): 10 + 15s + c2·s² + c3·s³ with 15 + c2 + c3 = 20, 15 + 2c2 + 3c3 = 0 →
+    // c2 = 30, c3 = −25, acceleration 60 at the key: a jump of +60 °/s² at 1 s.
+    let robot = so101_with_jerk(1e6);
+    let text = wrist("so101", "cubic", &[(0.0, 0.0), (1.0, 10.0), (2.0, 30.0)]);
+    let report = check(&trajectory(&text, &robot), &robot, 50.0);
+    let at_key = report
+        .violations
+        .iter()
+        .find(|v| close(v.peak_time, 1.0))
+        .unwrap_or_else(|| panic!("{:?}", report.violations));
+    assert_eq!(at_key.cause, Cause::AccelerationJump);
+    assert!(close(at_key.acceleration_jump.unwrap(), 60.0), "{at_key:?}");
+}
+
+#[test]
+fn without_jerk_limits_the_report_is_as_before() {
+    // The same sequence on the built-in (no jerk limits): no jerk violation, no jerk column.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("wrist.json");
+    std::fs::write(&path, wrist("so101", "cubic", &[(0.0, 0.0), (2.0, 30.0)])).unwrap();
+    let out = run(&["check", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    assert!(!stdout(&out).contains("jerk"), "{}", show(&out));
+}
+
+#[test]
+fn check_names_each_acceleration_jump_with_its_time_and_size() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("robot.json"), so101_text(Some("500"))).unwrap();
+    let path = dir.path().join("wrist.json");
+    let text = wrist("./robot.json", "cubic", &[(0.0, 0.0), (2.0, 30.0)]);
+    std::fs::write(&path, text).unwrap();
+    let out = run(&["check", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1), "{}", show(&out));
+    let text = stdout(&out);
+    assert!(
+        text.contains("t = 0.000 s: the acceleration jumps by 45.000 deg/s², an infinite jerk (limit 500.000 deg/s³)"),
+        "{}",
+        show(&out)
+    );
+    assert!(text.contains("peak jerk"), "{text}");
+    let out = run(&["check", path.to_str().unwrap(), "--format", "json"]);
+    let report: Value = serde_json::from_str(&stdout(&out)).unwrap();
+    let wrist = report["joints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|j| j["joint"] == "wrist_flex")
+        .unwrap();
+    assert_eq!(wrist["jerk_limit"], 500.0);
+    assert!(close(wrist["peak_jerk"].as_f64().unwrap(), 45.0));
+    let jumps: Vec<&Value> = report["violations"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|v| v["cause"] == "jump")
+        .collect();
+    assert_eq!(jumps.len(), 2, "{report}");
+    assert_eq!(jumps[0]["kind"], "jerk");
+    assert!(close(jumps[0]["acceleration_jump"].as_f64().unwrap(), 45.0));
+}
+
+/// keypose's Python environment (with ruckig): these tests fail without it.
+fn python() -> std::path::PathBuf {
+    keypose::python::PyConfig::with_cache_dir(crate::common::python_cache())
+        .ensure_python()
+        .unwrap_or_else(|e| panic!("keypose's Python environment (with ruckig) is needed: {e}"))
+        .python
+}
+
+/// `robot` moving every joint from `from` to `to` on a linear segment of `seconds`.
+fn point_to_point_sequence(robot: &Robot, from: &[f64], to: &[f64], seconds: f64) -> Sequence {
+    let key = |time: f64, values: &[f64]| {
+        let joints: Vec<String> = robot
+            .joints
+            .iter()
+            .zip(values)
+            .map(|(j, v)| format!("\"{}\": {v}", j.name))
+            .collect();
+        format!(r#"{{"time": {time}, "joints": {{{}}}}}"#, joints.join(", "))
+    };
+    let text = format!(
+        r#"{{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "linear",
+            "keyframes": [{}, {}]}}"#,
+        key(0.0, from),
+        key(seconds, to)
+    );
+    Sequence::from_json("p2p.json", &text).unwrap()
+}
+
+/// Rest-to-rest moves of the SO-101: one joint far, one joint a little (it never reaches its
+/// acceleration limit), several joints by different amounts, all of them.
+fn so101_moves() -> Vec<(Vec<f64>, Vec<f64>)> {
+    let zero = vec![0.0; 6];
+    let with = |changes: &[(usize, f64)]| {
+        let mut pose = zero.clone();
+        for &(j, v) in changes {
+            pose[j] = v;
+        }
+        pose
+    };
+    vec![
+        (zero.clone(), with(&[(3, 90.0)])),
+        (zero.clone(), with(&[(3, 2.0)])),
+        (zero.clone(), with(&[(3, 25.0)])),
+        (
+            with(&[(0, -60.0)]),
+            with(&[(0, 45.0), (1, 30.0), (2, -10.0)]),
+        ),
+        (
+            with(&[
+                (0, 10.0),
+                (1, -20.0),
+                (2, 30.0),
+                (3, -40.0),
+                (4, 50.0),
+                (5, 5.0),
+            ]),
+            with(&[
+                (0, -80.0),
+                (1, 60.0),
+                (2, -50.0),
+                (3, 30.0),
+                (4, -90.0),
+                (5, 60.0),
+            ]),
+        ),
+    ]
+}
+
+#[test]
+fn the_s_curve_of_one_joint_takes_ruckigs_time() {
+    // One axis from rest to rest: the closed form against Ruckig's time-optimal profile, in
+    // each of its cases (a cruise at the velocity limit, the acceleration limit reached or not).
+    let cases: Vec<(f64, f64, f64, f64)> = vec![
+        (200.0, 100.0, 400.0, 4000.0),
+        (30.0, 100.0, 400.0, 4000.0),
+        (1.0, 100.0, 400.0, 4000.0),
+        (90.0, 115.0, 344.0, 3440.0),
+        (0.05, 0.0333, 0.103, 1.03),
+        (500.0, 370.0, 1146.0, 500.0),
+    ];
+    let moves: Vec<Value> = cases
+        .iter()
+        .map(|&(d, v, a, j)| {
+            serde_json::json!({"from": [0.0], "to": [d], "vlim": [v], "alim": [a], "jlim": [j],
+                               "sync": "time"})
+        })
+        .collect();
+    let (theirs, _) = ruckig::ruckig_durations(&python(), &moves).unwrap();
+    for (&(d, v, a, j), theirs) in cases.iter().zip(theirs) {
+        let limits = keypose::plan::scurve::JerkLimits {
+            velocity: v,
+            acceleration: a,
+            jerk: j,
+        };
+        let ours = keypose::plan::scurve::SCurve::fastest(d, limits).duration();
+        assert!(
+            (ours / theirs - 1.0).abs() < 1e-6,
+            "{d} under {limits:?}: {ours} s against Ruckig's {theirs} s"
+        );
+    }
+}
+
+#[test]
+fn a_point_to_point_move_under_jerk_limits_is_within_five_percent_of_ruckig() {
+    // `retime --fastest` of a linear segment between two poses at rest, for the SO-101 with a
+    // jerk limit of ten times its acceleration limit per second: the move passes the exact
+    // check with jerk, and lasts no less than Ruckig's time-optimal move under the same limits
+    // and at most 5 % more (Ruckig's default synchronisation: each joint its own profile,
+    // ending together). Along the straight line (Ruckig's phase synchronisation), it is the
+    // same move: the same time to the planning share and key-time rounding.
+    let robot = so101_with_jerk(3440.0);
+    let moves = so101_moves();
+    let request = |sync| -> Vec<Value> {
+        moves
+            .iter()
+            .map(|(from, to)| ruckig::move_request(&robot, from, to, sync))
+            .collect()
+    };
+    let python = python();
+    let (time_sync, _) = ruckig::ruckig_durations(&python, &request(ruckig::Sync::Time)).unwrap();
+    let (phase_sync, _) = ruckig::ruckig_durations(&python, &request(ruckig::Sync::Phase)).unwrap();
+    for (k, (from, to)) in moves.iter().enumerate() {
+        let sequence = point_to_point_sequence(&robot, from, to, 5.0);
+        let outcome = keypose::plan::fastest(&sequence, &robot, 50.0).unwrap();
+        assert!(
+            outcome.report.passed(),
+            "{k}: {:?}",
+            outcome.report.violations
+        );
+        let times = outcome.sequence.key_times();
+        let ours = times[1] - times[0];
+        assert!(
+            ours >= time_sync[k] && ours <= 1.05 * time_sync[k],
+            "move {k}: {ours} s against Ruckig's {} s",
+            time_sync[k]
+        );
+        assert!(
+            ours >= phase_sync[k] && ours <= 1.002 * phase_sync[k],
+            "move {k}: {ours} s against Ruckig's {} s along the line",
+            phase_sync[k]
+        );
+        // The library's point-to-point move (the approach ramp's) is the same S-curve.
+        let direct = keypose::plan::scurve::point_to_point(&robot, from, to, 1.0).unwrap();
+        assert!((direct.duration() / phase_sync[k] - 1.0).abs() < 1e-6);
+    }
+}
+
+/// The commanded positions of joint `joint` every `dt` seconds until the timeline ends; a stop
+/// is requested once it has run `stop_at` seconds.
+fn play(timeline: &mut keypose::plan::Timeline, joint: usize, dt: f64, stop_at: f64) -> Vec<f64> {
+    let mut out = vec![0.0; 6];
+    let mut positions = Vec::new();
+    let mut t = 0.0;
+    while timeline.sample_into(&mut out).is_some() {
+        positions.push(out[joint]);
+        if t >= stop_at && t - dt < stop_at {
+            timeline.request_stop();
+        }
+        timeline.advance(dt);
+        t += dt;
+    }
+    positions
+}
+
+/// The largest |second| and |third| differences of `p` over `dt`: a piecewise-cubic curve's
+/// are averages of its acceleration and jerk, so they never exceed the curve's peaks.
+fn peak_differences(p: &[f64], dt: f64) -> (f64, f64) {
+    let second = p
+        .windows(3)
+        .map(|w| ((w[2] - 2.0 * w[1] + w[0]) / (dt * dt)).abs())
+        .fold(0.0, f64::max);
+    let third = p
+        .windows(4)
+        .map(|w| ((w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]) / (dt * dt * dt)).abs())
+        .fold(0.0, f64::max);
+    (second, third)
+}
+
+#[test]
+fn the_approach_ramp_under_jerk_limits_is_ruckigs_straight_line_at_half_the_limits() {
+    let robot = so101_with_jerk(3440.0);
+    let (from, to) = so101_moves().swap_remove(4);
+    let sequence = point_to_point_sequence(&robot, &to, &to, 1.0);
+    let trajectory = Trajectory::build(&sequence, &robot).unwrap();
+    let options = keypose::plan::TimelineOptions::default();
+    let timeline = keypose::plan::Timeline::new(&robot, &trajectory, &options, &from);
+    let mut halved = robot.clone();
+    for joint in &mut halved.joints {
+        joint.limits.velocity *= 0.5;
+        joint.limits.acceleration *= 0.5;
+        joint.limits.jerk = joint.limits.jerk.map(|j| 0.5 * j);
+    }
+    let request = [ruckig::move_request(
+        &halved,
+        &from,
+        &to,
+        ruckig::Sync::Phase,
+    )];
+    let (theirs, _) = ruckig::ruckig_durations(&python(), &request).unwrap();
+    assert!(
+        (timeline.approach_seconds() / theirs[0] - 1.0).abs() < 1e-9,
+        "{} s against Ruckig's {} s",
+        timeline.approach_seconds(),
+        theirs[0]
+    );
+    // Sampled at 1 kHz: within half of every limit, and it arrives.
+    for (j, &end) in to.iter().enumerate() {
+        let mut timeline = keypose::plan::Timeline::new(&robot, &trajectory, &options, &from);
+        let p = play(&mut timeline, j, 1e-3, f64::INFINITY);
+        let (acceleration, jerk) = peak_differences(&p, 1e-3);
+        assert!(acceleration <= 172.0 * (1.0 + 1e-6), "{j}: {acceleration}");
+        assert!(jerk <= 1720.0 * (1.0 + 1e-6), "{j}: {jerk}");
+        assert!((p[p.len() - 1] - end).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn a_soft_stop_under_jerk_limits_brakes_along_the_path_without_an_acceleration_jump() {
+    // The wrist's S-curve from −90 to 90° (its cruise at 115 °/s from 0.43 to 1.57 s), stopped
+    // at 0.5 s and sampled at 1 kHz: braking lowers the rate along the first half of an S-curve
+    // whose rate of change is within 172/115 /s and its change within 1720/115 /s², which
+    // lasts 0.1 + 0.567 + 0.1 s (before the path's own deceleration). It keeps within half the
+    // acceleration and jerk limits (the path's own are 0 in the cruise), and stays on the path.
+    // The same stop without jerk limits lowers the rate linearly: the acceleration jumps where
+    // it starts, which the third difference shows.
+    let (from, to) = (
+        [0.0, 0.0, 0.0, -90.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0, 90.0, 0.0, 0.0],
+    );
+    for (robot, jerk_limited) in [
+        (so101_with_jerk(3440.0), true),
+        (so101_with_jerk(1e7), false),
+    ] {
+        let robot = if jerk_limited {
+            robot
+        } else {
+            let mut plain = robot;
+            plain.joints.iter_mut().for_each(|j| j.limits.jerk = None);
+            plain
+        };
+        let planner = so101_with_jerk(3440.0);
+        let sequence = point_to_point_sequence(&planner, &from, &to, 5.0);
+        let timed = keypose::plan::fastest(&sequence, &planner, 50.0).unwrap();
+        let trajectory = Trajectory::build(&timed.sequence, &robot).unwrap();
+        let options = keypose::plan::TimelineOptions {
+            approach: false,
+            ..Default::default()
+        };
+        let mut timeline = keypose::plan::Timeline::new(&robot, &trajectory, &options, &from);
+        let p = play(&mut timeline, 3, 1e-3, 0.5);
+        assert!(timeline.stopped());
+        let end = p[p.len() - 1];
+        assert!(end < 90.0, "{end}");
+        assert!(p.windows(2).all(|w| w[1] >= w[0]), "it never turns back");
+        let (acceleration, jerk) = peak_differences(&p[490..], 1e-3);
+        if jerk_limited {
+            // Cruising at 0.999 · 115 °/s (the planning share): tj = 0.1 s and
+            // ta = 114.885/172 − 0.1 = 0.5679 s.
+            let braking = (p.len() - 501) as f64 * 1e-3;
+            assert!((braking - 0.7679).abs() < 2e-3, "{braking}");
+            assert!(acceleration <= 172.0 * (1.0 + 1e-6), "{acceleration}");
+            assert!(jerk <= 1720.0 * (1.0 + 1e-6), "{jerk}");
+        } else {
+            assert!(jerk > 50_000.0, "{jerk}");
+        }
+    }
+}
+
+#[test]
+fn fastest_with_jerk_limits_writes_s_curves_that_pass_the_check_with_jerk() {
+    // The SO-101 wave (cubic keys) for an SO-101 with jerk limits: through the binary, every
+    // moving segment gets an S-curve profile, the file checks clean (jerk and acceleration
+    // jumps included), and the stretch-only retime cannot mend the jumps at its keys.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("robot.json"), so101_text(Some("3440"))).unwrap();
+    let wave = std::fs::read_to_string(crate::common::repo("sequences/so101_wave.json")).unwrap();
+    let mut wave: Value = serde_json::from_str(&wave).unwrap();
+    wave["robot"] = "./robot.json".into();
+    let path = dir.path().join("wave.json");
+    std::fs::write(&path, wave.to_string()).unwrap();
+    let out_path = dir.path().join("fast.json");
+    let (input, output) = (path.to_str().unwrap(), out_path.to_str().unwrap());
+    let out = run(&["retime", "--fastest", input, "-o", output]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let out = run(&["check", output]);
+    assert_eq!(out.status.code(), Some(0), "{}", show(&out));
+    let timed = Sequence::load(&out_path).unwrap();
+    let profiled = timed
+        .keyframes
+        .iter()
+        .filter(|k| {
+            matches!(
+                k.timing.as_ref().map(|t| &t.profile),
+                Some(keypose::sequence::TimeProfile::SCurve(_))
+            )
+        })
+        .count();
+    assert_eq!(profiled, timed.keyframes.len() - 1);
+    let out = run(&["check", input]);
+    assert_eq!(out.status.code(), Some(1), "{}", show(&out));
+    let out = run(&["retime", input, "-o", output]);
+    assert_eq!(out.status.code(), Some(1), "{}", show(&out));
+    assert!(
+        crate::common::stderr(&out).contains("use retime --fastest"),
+        "{}",
+        show(&out)
+    );
+}
+
+#[test]
+fn an_s_curve_profile_in_a_file_is_checked_for_its_shape() {
+    let with_timing = |timing: &str| {
+        format!(
+            r#"{{"format": "keypose-sequence/1", "robot": "so101", "keyframes": [
+              {{"time": 0, "timing": {timing}, "joints": {{"wrist_flex": 0}}}},
+              {{"time": 1, "joints": {{"wrist_flex": 9}}}}]}}"#
+        )
+    };
+    let ok = Sequence::from_json(
+        "s.json",
+        &with_timing(r#"{"path_time": 1, "scurve": [0.1, 0, 0.2]}"#),
+    );
+    assert!(ok.is_ok(), "{ok:?}");
+    for (timing, expected) in [
+        (
+            r#"{"path_time": 1, "scurve": [0, 0.1, 0.2]}"#,
+            "seconds above 0",
+        ),
+        (
+            r#"{"path_time": 1, "scurve": [0.1, -1, 0.2]}"#,
+            "seconds 0 or more",
+        ),
+        (
+            r#"{"path_time": 1, "scurve": [0.1, 0.2]}"#,
+            "three numbers; found 2",
+        ),
+        (
+            r#"{"path_time": 1, "scurve": [0.1, 0, 0], "speeds": [1, 1]}"#,
+            "expected one profile",
+        ),
+    ] {
+        let err = Sequence::from_json("s.json", &with_timing(timing))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("$.keyframes[0].timing") && err.contains(expected),
+            "{timing}: {err}"
+        );
+    }
+}
+
+/// Cubic keys on wrist_flex and elbow_flex, `(seconds to the next key, wrist, elbow, S-curve
+/// shape of the segment after it)`.
+fn s_curve_keys(keys: &[(f64, f64, f64, [f64; 3])]) -> Sequence {
+    let mut time = 0.0;
+    let mut text = Vec::new();
+    for (i, &(gap, wrist, elbow, shape)) in keys.iter().enumerate() {
+        let timing = if i + 1 < keys.len() {
+            format!(r#""timing": {{"path_time": {gap}, "scurve": {shape:?}}},"#)
+        } else {
+            String::new()
+        };
+        text.push(format!(
+            r#"{{"time": {time}, {timing} "joints": {{"wrist_flex": {wrist}, "elbow_flex": {elbow}}}}}"#
+        ));
+        time += gap;
+    }
+    let json = format!(
+        r#"{{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "cubic",
+            "keyframes": [{}]}}"#,
+        text.join(",")
+    );
+    Sequence::from_json("scurve.json", &json).unwrap()
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
+
+    /// Cubic keys run along S-curves: the check's peak velocity, acceleration and jerk are the
+    /// curve's, sampled every 0.1 ms by finite differences of `Trajectory::sample` (which knows
+    /// nothing of the check's polynomials of degree nine), from above and from below; and the
+    /// acceleration never jumps, since each S-curve is at rest at its keys.
+    #[test]
+    fn the_checks_jerk_is_the_sampled_curves(
+        keys in proptest::collection::vec(
+            (0.2f64..1.0, -90.0f64..90.0, -90.0f64..90.0,
+             (0.05f64..1.0, 0.0f64..1.0, 0.0f64..1.0)),
+            2..5,
+        ),
+    ) {
+        let keys: Vec<_> = keys.into_iter().map(|(g, w, e, (a, b, c))| (g, w, e, [a, b, c])).collect();
+        let robot = so101_with_jerk(1e7);
+        let trajectory = Trajectory::build(&s_curve_keys(&keys), &robot).unwrap();
+        let report = check(&trajectory, &robot, 100.0);
+        let h = 1e-4;
+        let n = ((trajectory.end - trajectory.start) / h).ceil() as usize;
+        let samples: Vec<Vec<f64>> = (0..=n + 3)
+            .map(|k| trajectory.sample(trajectory.start + (k as f64 - 1.0) * h))
+            .collect();
+        for name in ["wrist_flex", "elbow_flex"] {
+            let j = robot.joint_index(name).unwrap();
+            let p: Vec<f64> = samples.iter().map(|s| s[j]).collect();
+            let velocity = p
+                .windows(2)
+                .map(|w| ((w[1] - w[0]) / h).abs())
+                .fold(0.0, f64::max);
+            let (acceleration, jerk) = peak_differences(&p, h);
+            let summary = report.joints.iter().find(|s| s.joint == name).unwrap();
+            for (what, sampled, reported, below) in [
+                ("velocity", velocity, summary.peak_velocity, 1e-3),
+                ("acceleration", acceleration, summary.peak_acceleration, 1e-2),
+                ("jerk", jerk, summary.peak_jerk, 3e-2),
+            ] {
+                proptest::prop_assert!(
+                    sampled <= reported * (1.0 + 1e-6) + 1e-6
+                        && sampled >= reported * (1.0 - below) - 1e-6,
+                    "{name} {what}: sampled {sampled}, reported {reported}"
+                );
+            }
+            proptest::prop_assert!(
+                summary.acceleration_jump <= 1e-6 * (1.0 + summary.peak_acceleration),
+                "{summary:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn at_another_speed_jerk_scales_with_its_cube_and_a_jump_with_its_square() {
+    // The smoothstep above (jerk −45 °/s³, jumps of 45 °/s²) played at half and at double
+    // speed: what the servos see is S³ times the jerk and S² times each jump, against the
+    // robot's own limit of 100 °/s³.
+    let robot = so101_with_jerk(100.0);
+    let trajectory = trajectory(&wrist("so101", "cubic", &[(0.0, 0.0), (2.0, 30.0)]), &robot);
+    for (speed, curve_violations) in [(0.5, 0), (2.0, 1)] {
+        let report = keypose::plan::check_at_speed(&trajectory, &robot, 50.0, speed);
+        let wrist = report
+            .joints
+            .iter()
+            .find(|j| j.joint == "wrist_flex")
+            .unwrap();
+        assert!(
+            close(wrist.peak_jerk, 45.0 * speed * speed * speed),
+            "{wrist:?}"
+        );
+        assert!(
+            close(wrist.acceleration_jump, 45.0 * speed * speed),
+            "{wrist:?}"
+        );
+        assert_eq!(wrist.jerk_limit, Some(100.0));
+        let jerks: Vec<_> = report
+            .violations
+            .iter()
+            .filter(|v| v.kind == LimitKind::Jerk)
+            .collect();
+        assert_eq!(jerks.len(), 2 + curve_violations, "{jerks:?}");
+        for v in jerks {
+            match v.acceleration_jump {
+                Some(jump) => assert!(close(jump, 45.0 * speed * speed), "{v:?}"),
+                None => assert!(close(v.peak, -360.0) && close(v.limit, -100.0), "{v:?}"),
+            }
+        }
+    }
+}
+
+#[test]
+fn a_stall_while_braking_under_jerk_limits_never_speeds_the_arm_up_again() {
+    // Braking from the wrist's cruise as above; 0.2 s into it the process stalls and the path
+    // was followed at half the rate meanwhile (`after_stall(0.5)`): the next step is half the
+    // one before, every later step is no longer than the one before it, and the arm still
+    // comes to rest.
+    let robot = so101_with_jerk(3440.0);
+    let (from, to) = (
+        [0.0, 0.0, 0.0, -90.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0, 90.0, 0.0, 0.0],
+    );
+    let sequence = point_to_point_sequence(&robot, &from, &to, 5.0);
+    let timed = keypose::plan::fastest(&sequence, &robot, 50.0).unwrap();
+    let trajectory = Trajectory::build(&timed.sequence, &robot).unwrap();
+    let options = keypose::plan::TimelineOptions {
+        approach: false,
+        ..Default::default()
+    };
+    let mut timeline = keypose::plan::Timeline::new(&robot, &trajectory, &options, &from);
+    let (dt, mut out, mut p) = (1e-3, vec![0.0; 6], Vec::new());
+    let mut k = 0;
+    while timeline.sample_into(&mut out).is_some() {
+        p.push(out[3]);
+        match k {
+            500 => timeline.request_stop(),
+            700 => timeline.after_stall(0.5),
+            _ => {}
+        }
+        timeline.advance(dt);
+        k += 1;
+    }
+    assert!(timeline.stopped() && p.len() > 702);
+    let steps: Vec<f64> = p.windows(2).map(|w| w[1] - w[0]).collect();
+    // The stall halves the rate braking had reached, and it never climbs back.
+    assert!(
+        steps[700] <= 0.5 * steps[699] * (1.0 + 1e-9) && steps[700] > 0.4 * steps[699],
+        "{} after {}",
+        steps[700],
+        steps[699]
+    );
+    assert!(
+        steps[505..].windows(2).all(|w| w[1] <= w[0] + 1e-12),
+        "a step grew while braking"
+    );
+}
