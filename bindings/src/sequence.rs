@@ -38,6 +38,16 @@ impl Sequence {
             trajectory,
         })
     }
+
+    /// The robot it plays on.
+    pub fn robot_ref(&self) -> &Robot {
+        &self.robot
+    }
+
+    /// The trajectory its keys make on that robot.
+    pub fn trajectory(&self) -> &Trajectory {
+        &self.trajectory
+    }
 }
 
 /// Reads a sequence file (keypose-sequence/1) and its robot, as `keypose check FILE` does:
@@ -205,6 +215,13 @@ impl Sequence {
         let t = array(py, &times, (times.len(), None))?;
         let q = array(py, &values, (rows.len(), Some(columns)))?;
         Ok((t, q))
+    }
+
+    /// The same keys on the same robot with the LeRobot calibration `calibration` (a file)
+    /// applied instead, checked against its joints as a file's keys are.
+    fn with_calibration(&self, py: Python<'_>, calibration: PathBuf) -> PyResult<Sequence> {
+        let robot = Robot::named(py, &self.robot.spec, Some(calibration), None)?;
+        Sequence::on(py, self.sequence.clone(), robot)
     }
 
     /// The exact check against the joints' limits, as `keypose check` makes it.

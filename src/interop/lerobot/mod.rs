@@ -20,6 +20,7 @@ mod frames;
 mod info;
 pub mod layout;
 mod limits;
+pub mod motor_norm;
 mod reader;
 mod timing;
 mod units;
