@@ -19,7 +19,7 @@ import tempfile
 import threading
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Dict, Iterator, List, Tuple, Union
+from typing import Any, Dict, Iterator, List, Union
 
 from . import _keypose
 from ._keypose import Sequence, StopRequests
@@ -50,18 +50,27 @@ def calibration_json(robot: Any) -> Dict[str, Dict[str, int]]:
     }
 
 
-def motors_of(robot: Any) -> List[Tuple[str, int, str, int, int, bool, int]]:
-    """How the robot's motor bus normalises each motor: (name, id, norm mode, range_min,
-    range_max, mirrored, ticks a turn), what the player converts goals with."""
+def motors_of(robot: Any) -> List[Dict[str, Any]]:
+    """How the robot's motor bus normalises each motor, what the player converts goals with:
+    ``name``, ``id``, ``model``, ``norm_mode``, ``range_min``, ``range_max``, ``mirrored``
+    (drive_mode 1 on a bus that applies it) and ``resolution`` (ticks a turn)."""
     bus = robot.bus
     calibration = calibration_json(robot)
     motors = []
     for name, motor in bus.motors.items():
         c = calibration[name]
-        mirrored = bool(getattr(bus, "apply_drive_mode", False) and c["drive_mode"])
-        resolution = int(bus.model_resolution_table[motor.model])
-        mode = getattr(motor.norm_mode, "value", motor.norm_mode)
-        motors.append((name, int(motor.id), str(mode), c["range_min"], c["range_max"], mirrored, resolution))
+        motors.append(
+            {
+                "name": name,
+                "id": int(motor.id),
+                "model": str(motor.model),
+                "norm_mode": str(getattr(motor.norm_mode, "value", motor.norm_mode)),
+                "range_min": c["range_min"],
+                "range_max": c["range_max"],
+                "mirrored": bool(getattr(bus, "apply_drive_mode", False) and c["drive_mode"]),
+                "resolution": int(bus.model_resolution_table[motor.model]),
+            }
+        )
     return motors
 
 

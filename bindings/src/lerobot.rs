@@ -14,7 +14,8 @@ use keypose::bus::{BusError, Health, PingInfo, ServoBus};
 use keypose::error::Report;
 use keypose::interop::lerobot::motor_norm::{MotorNorm, NormMode};
 use keypose::player::{play, Outcome, PlayOptions, StopSignal, DEFAULT_MAX_STALL};
-use keypose::robot::{Robot as LibRobot, ServoModel};
+use keypose::robot::Robot as LibRobot;
+use keypose::servo::ServoModel;
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -205,62 +206,83 @@ impl ServoBus for LeRobotBus {
     }
 }
 
-/// The motors of `robot`, matched to its joints by name: `motors` as the Python side reads
-/// them from LeRobot's bus, (name, id, norm mode, range_min, range_max, mirrored, resolution).
-fn matched_motors(
-    py: Python<'_>,
-    robot: &LibRobot,
-    motors: Vec<(String, u8, String, i64, i64, bool, i64)>,
-) -> PyResult<Vec<Motor>> {
+/// One motor of LeRobot's bus as keypose/lerobot.py reads it (`motors_of`): a dict.
+#[derive(FromPyObject, Clone)]
+pub struct MotorSpec {
+    #[pyo3(item)]
+    name: String,
+    #[pyo3(item)]
+    id: u8,
+    /// LeRobot's model name (`sts3215`, `xl430-w250`), as keypose's robot files spell them.
+    #[pyo3(item)]
+    model: String,
+    /// `MotorNormMode.value`.
+    #[pyo3(item)]
+    norm_mode: String,
+    #[pyo3(item)]
+    range_min: i64,
+    #[pyo3(item)]
+    range_max: i64,
+    /// `drive_mode` 1 on a bus that applies it.
+    #[pyo3(item)]
+    mirrored: bool,
+    /// Ticks a turn (`model_resolution_table`).
+    #[pyo3(item)]
+    resolution: i64,
+}
+
+/// The motors of `robot`, matched to its joints by name, id and model: a sequence of another
+/// arm (another id or servo model behind a joint's name) is refused, not played.
+fn matched_motors(py: Python<'_>, robot: &LibRobot, motors: &[MotorSpec]) -> PyResult<Vec<Motor>> {
+    let refuse = |message: String| argument_error(py, format!("robot: {message}"));
     let mut matched = Vec::with_capacity(robot.joints.len());
     for joint in &robot.joints {
-        let Some(m) = motors.iter().find(|m| m.0 == joint.name) else {
-            return Err(argument_error(
-                py,
-                format!(
-                    "robot: the LeRobot robot has no motor {:?} (joint of {}); its motors are: {}",
-                    joint.name,
-                    robot.name,
-                    motors
-                        .iter()
-                        .map(|m| m.0.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            ));
+        let Some(m) = motors.iter().find(|m| m.name == joint.name) else {
+            let names: Vec<&str> = motors.iter().map(|m| m.name.as_str()).collect();
+            return Err(refuse(format!(
+                "the LeRobot robot has no motor {:?} (a joint of {}); its motors are: {}",
+                joint.name,
+                robot.name,
+                names.join(", ")
+            )));
         };
-        let (name, id, mode, range_min, range_max, mirrored, resolution) = m.clone();
-        if id != joint.servo.id {
-            return Err(argument_error(
-                py,
-                format!(
-                    "robot: motor {name} has id {id} on the LeRobot robot, {} in {}",
-                    joint.servo.id, robot.name
-                ),
-            ));
+        if m.id != joint.servo.id {
+            return Err(refuse(format!(
+                "motor {} has id {} on the LeRobot robot, {} in {}: the sequence is for another arm",
+                m.name, m.id, joint.servo.id, robot.name
+            )));
         }
-        let mode = NormMode::from_lerobot(&mode).ok_or_else(|| {
-            argument_error(
-                py,
-                format!("robot: motor {name}: unknown LeRobot norm mode {mode:?}; expected degrees, range_m100_100 or range_0_100"),
-            )
+        if ServoModel::parse(&m.model) != Some(joint.servo.model) {
+            return Err(refuse(format!(
+                "motor {} is an {} on the LeRobot robot, an {} in {}: the sequence is for another arm",
+                m.name,
+                m.model,
+                joint.servo.model.name(),
+                robot.name
+            )));
+        }
+        let mode = NormMode::from_lerobot(&m.norm_mode).ok_or_else(|| {
+            refuse(format!(
+                "motor {}: unknown LeRobot norm mode {:?}; expected degrees, range_m100_100 or range_0_100",
+                m.name, m.norm_mode
+            ))
         })?;
-        if range_max <= range_min || resolution < 2 {
-            return Err(argument_error(
-                py,
-                format!("robot: motor {name}: calibration range {range_min} … {range_max} at {resolution} ticks a turn is not a range"),
-            ));
+        if m.range_max <= m.range_min || m.resolution < 2 {
+            return Err(refuse(format!(
+                "motor {}: calibration range {} … {} at {} ticks a turn is not a range",
+                m.name, m.range_min, m.range_max, m.resolution
+            )));
         }
         matched.push(Motor {
-            key: format!("{name}.pos"),
-            name,
-            id,
+            key: format!("{}.pos", m.name),
+            name: m.name.clone(),
+            id: m.id,
             norm: MotorNorm {
                 mode,
-                range_min,
-                range_max,
-                mirrored,
-                resolution,
+                range_min: m.range_min,
+                range_max: m.range_max,
+                mirrored: m.mirrored,
+                resolution: m.resolution,
             },
         });
     }
@@ -277,7 +299,7 @@ pub fn play_lerobot<'py>(
     py: Python<'py>,
     sequence: &Sequence,
     robot: Py<PyAny>,
-    motors: Vec<(String, u8, String, i64, i64, bool, i64)>,
+    motors: Vec<MotorSpec>,
     stop: &StopRequests,
     rate: Option<f64>,
     speed: f64,
@@ -307,7 +329,7 @@ pub fn play_lerobot<'py>(
     let name: String = robot.bind(py).str()?.extract()?;
     let mut bus = LeRobotBus {
         robot,
-        motors: matched_motors(py, lib_robot, motors)?,
+        motors: matched_motors(py, lib_robot, &motors)?,
         stop: stop.signal.clone(),
         name,
     };
