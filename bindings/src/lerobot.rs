@@ -289,11 +289,14 @@ fn matched_motors(py: Python<'_>, robot: &LibRobot, motors: &[MotorSpec]) -> PyR
     Ok(matched)
 }
 
+// The signature's default is the player's (a literal there, for the stub's checker).
+const _: () = assert!(DEFAULT_MAX_STALL == 0.25);
+
 /// Plays `sequence` on the LeRobot robot object `robot` (connected, calibrated) through
 /// keypose's player; `motors` describes its motor bus (keypose/lerobot.py reads it). Returns
 /// what the playback did.
 #[pyfunction]
-#[pyo3(signature = (sequence, robot, motors, *, stop, rate = None, speed = 1.0, max_stall = DEFAULT_MAX_STALL, judge_pace = true))]
+#[pyo3(signature = (sequence, robot, motors, *, stop, rate = None, speed = 1.0, max_stall = 0.25, judge_pace = true))]
 #[allow(clippy::too_many_arguments)]
 pub fn play_lerobot<'py>(
     py: Python<'py>,
