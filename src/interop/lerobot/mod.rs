@@ -16,6 +16,7 @@
 mod arms;
 mod episode;
 mod error;
+pub mod export;
 mod frames;
 mod info;
 pub mod layout;
