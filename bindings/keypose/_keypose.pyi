@@ -114,6 +114,11 @@ class Sequence:
         (n, len(joints)) in degrees (metres for a prismatic joint), as `keypose sample`."""
     def check(self) -> Report:
         """The exact check against the joints' limits, as `keypose check`."""
+    def lerobot_frames(
+        self, fps: int = 30, units: Literal["degrees", "range"] = "degrees"
+    ) -> Tuple[List[str], npt.NDArray[np.float64]]:
+        """The trajectory as LeRobot's frames at `fps`: feature names and values (frames, joints)
+        in LeRobot's units, as `keypose export lerobot` writes its `action`."""
     def with_calibration(self, calibration: _Path) -> Sequence:
         """The same keys on the same robot with the LeRobot calibration `calibration` applied."""
     def retime(self, fastest: bool = False) -> Sequence:

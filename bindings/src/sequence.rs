@@ -224,6 +224,50 @@ impl Sequence {
         Sequence::on(py, self.sequence.clone(), robot)
     }
 
+    /// The trajectory as LeRobot's frames at `fps`, as `keypose export lerobot` writes its
+    /// `action`: `(names, values)`, names `shoulder_pan.pos` … in joint order, values of shape
+    /// (frames, joints) in LeRobot's units — body joints in `units` (`degrees`, or `range`:
+    /// −100…100 of the calibrated range, which needs a calibration), the gripper in 0…100 % of
+    /// its calibrated range (of its limits without a calibration, said in a warning).
+    #[pyo3(signature = (fps = 30, units = "degrees"))]
+    fn lerobot_frames<'py>(
+        &self,
+        py: Python<'py>,
+        fps: u32,
+        units: &str,
+    ) -> PyResult<(Vec<String>, Bound<'py, PyAny>)> {
+        use keypose::interop::lerobot::{export, BodyUnits};
+        let units = match units {
+            "degrees" => BodyUnits::Degrees,
+            "range" => BodyUnits::Range,
+            other => {
+                return Err(argument_error(
+                    py,
+                    format!("units: expected degrees or range, found {other:?}"),
+                ))
+            }
+        };
+        if fps == 0 {
+            return Err(argument_error(
+                py,
+                "fps: expected a positive integer, found 0".into(),
+            ));
+        }
+        check_sample_budget(&self.sequence.file, &self.trajectory, f64::from(fps))
+            .map_err(|e| command_error(py, e))?;
+        let frames = export::lerobot_frames(&self.trajectory, &self.robot.robot, fps, units)
+            .map_err(|e| {
+                crate::errors::kind_error(py, e.kind(), keypose::error::Report(&e).to_string())
+            })?;
+        let warnings = py.import("warnings")?;
+        for notice in &frames.notices {
+            warnings.call_method1("warn", (notice.as_str(),))?;
+        }
+        let values: Vec<f64> = frames.rows.iter().flatten().copied().collect();
+        let q = array(py, &values, (frames.rows.len(), Some(frames.names.len())))?;
+        Ok((frames.names, q))
+    }
+
     /// The exact check against the joints' limits, as `keypose check` makes it.
     fn check(&self, py: Python<'_>) -> PyResult<Report> {
         let robot = &self.robot.robot;

@@ -105,6 +105,49 @@ pub fn frames(trajectory: &Trajectory, robot: &Robot, fps: u32) -> Vec<Vec<f64>>
         .collect()
 }
 
+/// A trajectory as LeRobot's frames: the feature names and, per frame, the values in LeRobot's
+/// units (float32 precision, as LeRobot keeps them).
+#[derive(Debug, Clone)]
+pub struct LeRobotFrames {
+    /// `shoulder_pan.pos` …, in joint order.
+    pub names: Vec<String>,
+    /// One row per frame, `k / fps` from the trajectory's start to its end.
+    pub rows: Vec<Vec<f64>>,
+    /// Notices (a gripper without a calibration).
+    pub notices: Vec<String>,
+}
+
+/// `trajectory` at `fps` in LeRobot's units: the body joints in `units`, the gripper in 0…100 %
+/// of its calibrated range ([`conversion`], inverted).
+pub fn lerobot_frames(
+    trajectory: &Trajectory,
+    robot: &Robot,
+    fps: u32,
+    units: BodyUnits,
+) -> Result<LeRobotFrames, LeRobotError> {
+    let mut notices = Vec::new();
+    let mut conversions = Vec::with_capacity(robot.joints.len());
+    for joint in &robot.joints {
+        let (c, notice) = conversion(joint, units)?;
+        conversions.push(c);
+        notices.extend(notice);
+    }
+    let rows = frames(trajectory, robot, fps)
+        .iter()
+        .map(|pose| {
+            pose.iter()
+                .zip(&conversions)
+                .map(|(&v, c)| f64::from(c.invert(v) as f32))
+                .collect()
+        })
+        .collect();
+    Ok(LeRobotFrames {
+        names: robot.joints.iter().map(|j| feature_name(&j.name)).collect(),
+        rows,
+        notices,
+    })
+}
+
 /// Writes `trajectory` as episode 0 of a new dataset at `dir` (which must not exist).
 pub fn export(
     trajectory: &Trajectory,
@@ -119,24 +162,11 @@ pub fn export(
             source: None,
         });
     }
-    let mut notices = Vec::new();
-    let mut conversions = Vec::with_capacity(robot.joints.len());
-    for joint in &robot.joints {
-        let (c, notice) = conversion(joint, options.units)?;
-        conversions.push(c);
-        notices.extend(notice);
-    }
-    let names: Vec<String> = robot.joints.iter().map(|j| feature_name(&j.name)).collect();
-    // LeRobot keeps float32.
-    let action: Vec<Vec<f64>> = frames(trajectory, robot, options.fps)
-        .iter()
-        .map(|pose| {
-            pose.iter()
-                .zip(&conversions)
-                .map(|(&v, c)| f64::from(c.invert(v) as f32))
-                .collect()
-        })
-        .collect();
+    let LeRobotFrames {
+        names,
+        rows: action,
+        notices,
+    } = lerobot_frames(trajectory, robot, options.fps, options.units)?;
     // The arm is measured where the previous frame's action sent it (a follower that keeps up).
     let state: Vec<Vec<f64>> = std::iter::once(action[0].clone())
         .chain(action[..action.len() - 1].iter().cloned())
