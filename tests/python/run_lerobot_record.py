@@ -2,8 +2,8 @@
 its record loop, LeRobotDataset) run in this process with two stand-ins, for the recording test:
 
 - the ``pattern`` camera of ``lerobot_stand_ins`` (no camera hardware);
-- the Feetech SDK's packet timeout widened from its USB latency timer of 16 ms (34 ms a read)
-  to 200 ms: the emulated servos answer from another process on a shared, busy machine, and
+- the Feetech SDK's packet timeout widened from 34 ms a read (its USB latency timer of 16 ms,
+  twice, plus 2 ms) to 402 ms (the timer set to 200 ms): the emulated servos answer from another process on a shared, busy machine, and
   LeRobot reads each observation with a single try, so a 34 ms preemption would end the
   recording. Nothing else about the bus changes.
 
