@@ -63,13 +63,14 @@ def load(
     path: _Path,
     *,
     robot: Optional[str] = None,
-    calibration: Optional[_Path] = None,
-    robot_id: Optional[str] = None,
+    calibration: Union[_Path, Seq[_Path], None] = None,
+    robot_id: Union[str, Seq[str], None] = None,
     interpolation: Optional[Literal["step", "linear", "cubic", "monotone"]] = None,
 ) -> Sequence:
     """Reads a sequence file and its robot as `keypose check FILE` does; `robot` replaces the
     robot the file names; a LeRobot calibration from a file or from the id LeRobot calibrated
-    the arm with is applied to it."""
+    the arm with is applied to it (on a sequence of several arms a list, `"ARM=FILE"` or
+    `"ARM=ID"` each)."""
 
 # Native classes: not to be subclassed.
 @final
@@ -119,8 +120,9 @@ class Sequence:
     ) -> Tuple[List[str], npt.NDArray[np.float64]]:
         """The trajectory as LeRobot's frames at `fps`: feature names and values (frames, joints)
         in LeRobot's units, as `keypose export lerobot` writes its `action`."""
-    def with_calibration(self, calibration: _Path) -> Sequence:
-        """The same keys on the same robot with the LeRobot calibration `calibration` applied."""
+    def with_calibration(self, calibration: Union[_Path, Seq[_Path]]) -> Sequence:
+        """The same keys on the same robot with the LeRobot calibration `calibration` applied
+        (a list of `"ARM=FILE"` on a sequence of several arms)."""
     def retime(self, fastest: bool = False) -> Sequence:
         """Key times stretched until the limits hold, as `keypose retime`; LimitError when
         timing cannot mend it. `fastest=True`: as fast as the limits allow along the path,

@@ -19,7 +19,7 @@ import tempfile
 import threading
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Dict, Iterator, List, Union
+from typing import Any, Dict, Iterator, List, Optional, Tuple, Union
 
 from . import _keypose
 from ._keypose import Sequence, StopRequests
@@ -29,8 +29,22 @@ __all__ = ["play", "calibration_json", "motors_of"]
 _SequenceLike = Union[str, "os.PathLike[str]", Sequence]
 
 
+def _arms(robot: Any) -> List[Tuple[Optional[str], Any]]:
+    """The robot's arms: ``[(None, robot)]`` for one arm, ``[("left", robot.left_arm),
+    ("right", robot.right_arm)]`` for LeRobot's bimanual robots, each with its own bus."""
+    if hasattr(robot, "bus"):
+        return [(None, robot)]
+    if hasattr(robot, "left_arm") and hasattr(robot, "right_arm"):
+        return [("left", robot.left_arm), ("right", robot.right_arm)]
+    raise _keypose.InputError(
+        f"robot: {robot!r} is not a LeRobot robot with a motor bus (robot.bus), nor a bimanual "
+        "one (robot.left_arm, robot.right_arm); expected a connected SO101Follower, KochFollower "
+        "or BiSOFollower"
+    )
+
+
 def calibration_json(robot: Any) -> Dict[str, Dict[str, int]]:
-    """The robot's calibration (``robot.bus.calibration``) as LeRobot writes its calibration
+    """The calibration of one arm (``robot.bus.calibration``) as LeRobot writes its calibration
     file: per motor ``id``, ``drive_mode``, ``homing_offset``, ``range_min``, ``range_max``."""
     calibration = getattr(robot.bus, "calibration", None)
     if not calibration:
@@ -51,42 +65,52 @@ def calibration_json(robot: Any) -> Dict[str, Dict[str, int]]:
 
 
 def motors_of(robot: Any) -> List[Dict[str, Any]]:
-    """How the robot's motor bus normalises each motor, what the player converts goals with:
-    ``name``, ``id``, ``model``, ``norm_mode``, ``range_min``, ``range_max``, ``mirrored``
-    (drive_mode 1 on a bus that applies it) and ``resolution`` (ticks a turn)."""
-    bus = robot.bus
-    calibration = calibration_json(robot)
+    """How the robot's motor buses normalise each motor, what the player converts goals with:
+    ``joint`` (keypose's name: ``left/shoulder_pan`` on a bimanual robot), ``name`` (on its
+    arm's bus), ``key`` (in actions), ``arm``, ``id``, ``model``, ``norm_mode``, ``range_min``,
+    ``range_max``, ``mirrored`` (drive_mode 1 on a bus that applies it) and ``resolution``
+    (ticks a turn)."""
     motors = []
-    for name, motor in bus.motors.items():
-        c = calibration[name]
-        motors.append(
-            {
-                "name": name,
-                "id": int(motor.id),
-                "model": str(motor.model),
-                "norm_mode": str(getattr(motor.norm_mode, "value", motor.norm_mode)),
-                "range_min": c["range_min"],
-                "range_max": c["range_max"],
-                "mirrored": bool(getattr(bus, "apply_drive_mode", False) and c["drive_mode"]),
-                "resolution": int(bus.model_resolution_table[motor.model]),
-            }
-        )
+    for arm, one in _arms(robot):
+        bus = one.bus
+        calibration = calibration_json(one)
+        for name, motor in bus.motors.items():
+            c = calibration[name]
+            motors.append(
+                {
+                    "joint": name if arm is None else f"{arm}/{name}",
+                    "name": name,
+                    "key": f"{name}.pos" if arm is None else f"{arm}_{name}.pos",
+                    "arm": arm,
+                    "id": int(motor.id),
+                    "model": str(motor.model),
+                    "norm_mode": str(getattr(motor.norm_mode, "value", motor.norm_mode)),
+                    "range_min": c["range_min"],
+                    "range_max": c["range_max"],
+                    "mirrored": bool(getattr(bus, "apply_drive_mode", False) and c["drive_mode"]),
+                    "resolution": int(bus.model_resolution_table[motor.model]),
+                }
+            )
     return motors
 
 
 @contextmanager
-def _calibration_file(robot: Any) -> Iterator[Path]:
-    """The robot's calibration in a file of its own, for keypose's calibration loader."""
+def _calibration_files(robot: Any) -> Iterator[List[str]]:
+    """Each arm's calibration in a file of its own, as keypose's calibration loader takes them:
+    ``[FILE]`` for one arm, ``["left=FILE", "right=FILE"]`` for two."""
     with tempfile.TemporaryDirectory(prefix="keypose-lerobot-") as folder:
-        path = Path(folder) / "calibration.json"
-        path.write_text(json.dumps(calibration_json(robot), indent=4))
-        yield path
+        given = []
+        for arm, one in _arms(robot):
+            path = Path(folder) / f"{arm or 'arm'}.json"
+            path.write_text(json.dumps(calibration_json(one), indent=4))
+            given.append(str(path) if arm is None else f"{arm}={path}")
+        yield given
 
 
 def _sequence_on(robot: Any, sequence: _SequenceLike) -> Sequence:
     """The sequence on its own robot (the arm its file names: LeRobot's robot objects do not
-    tell an SO-100 from an SO-101) with the LeRobot arm's calibration applied."""
-    with _calibration_file(robot) as calibration:
+    tell an SO-100 from an SO-101) with the LeRobot arms' calibrations applied."""
+    with _calibration_files(robot) as calibration:
         if isinstance(sequence, Sequence):
             return sequence.with_calibration(calibration)
         return _keypose.load(sequence, calibration=calibration)

@@ -52,11 +52,14 @@ impl StopRequests {
     }
 }
 
-/// One motor of the LeRobot robot: its name (the action's key without `.pos`), its servo id
-/// and how LeRobot's bus normalises it.
+/// One motor of the LeRobot robot: its name on its arm's bus, its key in actions and
+/// observations, the arm it is on (`left`, `right` of a bimanual robot; `None` on one arm), the
+/// servo id keypose's player addresses it by (a cell's ids are the cell's) and how LeRobot's bus
+/// normalises it.
 struct Motor {
     name: String,
     key: String,
+    arm: Option<String>,
     id: u8,
     norm: MotorNorm,
 }
@@ -119,10 +122,17 @@ impl LeRobotBus {
         matches!(error, BusError::Sdk { message, .. } if message == INTERRUPTED)
     }
 
-    fn names(&self, ids: &[u8]) -> Result<Vec<String>, BusError> {
-        ids.iter()
-            .map(|&id| self.motor(id).map(|m| m.name.clone()))
-            .collect()
+    /// The motors of `ids` by arm, as each arm's bus names them: (arm, names).
+    fn names_by_arm(&self, ids: &[u8]) -> Result<Vec<(Option<String>, Vec<String>)>, BusError> {
+        let mut by_arm: Vec<(Option<String>, Vec<String>)> = Vec::new();
+        for &id in ids {
+            let motor = self.motor(id)?;
+            match by_arm.iter_mut().find(|(arm, _)| *arm == motor.arm) {
+                Some((_, names)) => names.push(motor.name.clone()),
+                None => by_arm.push((motor.arm.clone(), vec![motor.name.clone()])),
+            }
+        }
+        Ok(by_arm)
     }
 }
 
@@ -174,17 +184,24 @@ impl ServoBus for LeRobotBus {
     }
 
     fn set_torque(&mut self, ids: &[u8], on: bool) -> Result<(), BusError> {
-        let names = self.names(ids)?;
+        let by_arm = self.names_by_arm(ids)?;
         let method = if on {
             "enable_torque"
         } else {
             "disable_torque"
         };
         self.with_python(|_, robot| {
-            robot
-                .getattr("bus")?
-                .call_method1(method, (names.clone(),))
-                .map(drop)
+            for (arm, names) in &by_arm {
+                // A bimanual robot keeps each arm as `left_arm`, `right_arm`, with its own bus.
+                let owner = match arm {
+                    Some(arm) => robot.getattr(format!("{arm}_arm").as_str())?,
+                    None => robot.clone(),
+                };
+                owner
+                    .getattr("bus")?
+                    .call_method1(method, (names.clone(),))?;
+            }
+            Ok(())
         })
     }
 
@@ -209,8 +226,19 @@ impl ServoBus for LeRobotBus {
 /// One motor of LeRobot's bus as keypose/lerobot.py reads it (`motors_of`): a dict.
 #[derive(FromPyObject, Clone)]
 pub struct MotorSpec {
+    /// keypose's joint name (`shoulder_pan`; `left/shoulder_pan` on a bimanual robot).
+    #[pyo3(item)]
+    joint: String,
+    /// The motor's name on its arm's bus.
     #[pyo3(item)]
     name: String,
+    /// Its key in actions and observations (`left_shoulder_pan.pos`).
+    #[pyo3(item)]
+    key: String,
+    /// The arm of a bimanual robot it is on.
+    #[pyo3(item)]
+    arm: Option<String>,
+    /// Its id on its arm's bus.
     #[pyo3(item)]
     id: u8,
     /// LeRobot's model name (`sts3215`, `xl430-w250`), as keypose's robot files spell them.
@@ -232,51 +260,54 @@ pub struct MotorSpec {
 }
 
 /// The motors of `robot`, matched to its joints by name, id and model: a sequence of another
-/// arm (another id or servo model behind a joint's name) is refused, not played.
+/// arm (another id or servo model behind a joint's name) is refused, not played. On a cell, a
+/// joint's id and model are those of its own arm's robot (the cell numbers its servos anew).
 fn matched_motors(py: Python<'_>, robot: &LibRobot, motors: &[MotorSpec]) -> PyResult<Vec<Motor>> {
     let refuse = |message: String| argument_error(py, format!("robot: {message}"));
     let mut matched = Vec::with_capacity(robot.joints.len());
-    for joint in &robot.joints {
-        let Some(m) = motors.iter().find(|m| m.name == joint.name) else {
-            let names: Vec<&str> = motors.iter().map(|m| m.name.as_str()).collect();
+    for (index, joint) in robot.joints.iter().enumerate() {
+        let Some(m) = motors.iter().find(|m| m.joint == joint.name) else {
+            let names: Vec<&str> = motors.iter().map(|m| m.joint.as_str()).collect();
             return Err(refuse(format!(
-                "the LeRobot robot has no motor {:?} (a joint of {}); its motors are: {}",
+                "the LeRobot robot has no motor for joint {:?} of {}; its motors are: {}",
                 joint.name,
                 robot.name,
                 names.join(", ")
             )));
         };
-        if m.id != joint.servo.id {
+        let own = own_servo(robot, index);
+        if m.id != own.id {
             return Err(refuse(format!(
                 "motor {} has id {} on the LeRobot robot, {} in {}: the sequence is for another arm",
-                m.name, m.id, joint.servo.id, robot.name
+                m.key, m.id, own.id, robot.name
             )));
         }
-        if ServoModel::parse(&m.model) != Some(joint.servo.model) {
+        if ServoModel::parse(&m.model) != Some(own.model) {
             return Err(refuse(format!(
                 "motor {} is an {} on the LeRobot robot, an {} in {}: the sequence is for another arm",
                 m.name,
                 m.model,
-                joint.servo.model.name(),
+                own.model.name(),
                 robot.name
             )));
         }
         let mode = NormMode::from_lerobot(&m.norm_mode).ok_or_else(|| {
             refuse(format!(
                 "motor {}: unknown LeRobot norm mode {:?}; expected degrees, range_m100_100 or range_0_100",
-                m.name, m.norm_mode
+                m.key, m.norm_mode
             ))
         })?;
         if m.range_max <= m.range_min || m.resolution < 2 {
             return Err(refuse(format!(
                 "motor {}: calibration range {} … {} at {} ticks a turn is not a range",
-                m.name, m.range_min, m.range_max, m.resolution
+                m.key, m.range_min, m.range_max, m.resolution
             )));
         }
         matched.push(Motor {
-            key: format!("{}.pos", m.name),
+            key: m.key.clone(),
             name: m.name.clone(),
-            id: m.id,
+            arm: m.arm.clone(),
+            id: joint.servo.id,
             norm: MotorNorm {
                 mode,
                 range_min: m.range_min,
@@ -287,6 +318,14 @@ fn matched_motors(py: Python<'_>, robot: &LibRobot, motors: &[MotorSpec]) -> PyR
         });
     }
     Ok(matched)
+}
+
+/// The servo of joint `index` as its own arm's bus knows it (the robot's own on one arm).
+fn own_servo(robot: &LibRobot, index: usize) -> &keypose::robot::Servo {
+    match robot.arm_of_joint(index) {
+        Some(arm) => &arm.robot.joints[index - arm.joints.start].servo,
+        None => &robot.joints[index].servo,
+    }
 }
 
 // The signature's default is the player's (a literal there, for the stub's checker).

@@ -7,7 +7,7 @@ use crate::cli::commands::{
 };
 use crate::errors::{argument_error, command_error, input_error, LimitError};
 use crate::report::Report;
-use crate::robot::Robot;
+use crate::robot::{OneOrMany, Robot};
 use keypose::curve::Interp;
 use keypose::plan::{self, retime, Trajectory};
 use keypose::sequence::Sequence as LibSequence;
@@ -53,25 +53,23 @@ impl Sequence {
 /// Reads a sequence file (keypose-sequence/1) and its robot, as `keypose check FILE` does:
 /// the robot the file names (a built-in, a LeRobot type, or a robot file relative to the
 /// sequence) or `robot`, with a LeRobot calibration from `calibration` (a file) or `robot_id`
-/// (the id LeRobot calibrated the arm with).
+/// (the id LeRobot calibrated the arm with); on a sequence of several arms a list of them,
+/// `"ARM=FILE"` each.
 #[pyfunction]
 #[pyo3(signature = (path, *, robot = None, calibration = None, robot_id = None, interpolation = None))]
 pub fn load(
     py: Python<'_>,
     path: PathBuf,
     robot: Option<String>,
-    calibration: Option<PathBuf>,
-    robot_id: Option<String>,
+    calibration: Option<OneOrMany>,
+    robot_id: Option<OneOrMany>,
     interpolation: Option<String>,
 ) -> PyResult<Sequence> {
     let options = SequenceOptions {
         robot,
         calibration: CalibrationArgs {
-            calibration: calibration
-                .into_iter()
-                .map(|p| p.to_string_lossy().into_owned())
-                .collect(),
-            robot_id: robot_id.into_iter().collect(),
+            calibration: OneOrMany::strings(calibration),
+            robot_id: OneOrMany::strings(robot_id),
         },
         interpolation: interpolation.map(|m| parse_interp(py, &m)).transpose()?,
     };
@@ -217,10 +215,15 @@ impl Sequence {
         Ok((t, q))
     }
 
-    /// The same keys on the same robot with the LeRobot calibration `calibration` (a file)
-    /// applied instead, checked against its joints as a file's keys are.
-    fn with_calibration(&self, py: Python<'_>, calibration: PathBuf) -> PyResult<Sequence> {
-        let robot = Robot::named(py, &self.robot.spec, Some(calibration), None)?;
+    /// The same keys on the same robot with the LeRobot calibration `calibration` (a file; a
+    /// list of `"ARM=FILE"` on a sequence of several arms) applied instead, checked against
+    /// its joints as a file's keys are.
+    fn with_calibration(&self, py: Python<'_>, calibration: OneOrMany) -> PyResult<Sequence> {
+        let args = CalibrationArgs {
+            calibration: OneOrMany::strings(Some(calibration)),
+            robot_id: Vec::new(),
+        };
+        let robot = Robot::with_calibration(py, &self.robot.spec, &args)?;
         Sequence::on(py, self.sequence.clone(), robot)
     }
 

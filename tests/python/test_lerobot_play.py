@@ -232,3 +232,41 @@ def test_koch_follower_on_dynamixel_servos(tmp_path):
             reaches(robot, {"elbow_flex.pos": (keypose_ticks(40) - MIDDLE) * 360 / 4095}, {"elbow_flex.pos": 0.1})
         finally:
             robot.disconnect()
+
+
+def test_bimanual_so_follower_plays_a_sequence_of_two_arms(tmp_path):
+    from lerobot.robots.bi_so_follower import BiSOFollower, BiSOFollowerConfig
+    from lerobot.robots.so_follower import SOFollowerConfig
+
+    with virtual_bus("so101") as left_port, virtual_bus("so101") as right_port:
+        robot = BiSOFollower(BiSOFollowerConfig(
+            id="pair", calibration_dir=tmp_path / "calibration",
+            left_arm_config=SOFollowerConfig(port=left_port), right_arm_config=SOFollowerConfig(port=right_port)))
+        robot.connect(calibrate=False)
+        try:
+            for arm in (robot.left_arm, robot.right_arm):
+                calibrate(arm, SO101_SPANS)
+            sent = recording(robot)
+            sequence = tmp_path / "pair.json"
+            sequence.write_text(json.dumps({
+                "format": "keypose-sequence/1",
+                "robots": {"left": {"robot": "so101"}, "right": {"robot": "so101"}},
+                "interpolation": "cubic",
+                "keyframes": [
+                    {"time": 0, "joints": {"left/elbow_flex": 0, "right/elbow_flex": 0}},
+                    {"time": 1.5, "joints": {"left/elbow_flex": 30, "right/elbow_flex": -20}},
+                ],
+            }))
+            result = keypose.lerobot.play(robot, sequence)
+            assert result["outcome"] == "finished" and result["limited_goals"] == 0
+            # Every action names both arms' motors as BiSOFollower does.
+            assert set(sent[0]) == {f"{arm}_{j}.pos" for arm in ("left", "right") for j in SO101_JOINTS}
+            degrees = lambda ticks: (ticks - MIDDLE) * 360 / 4095  # noqa: E731
+            tolerance = 1.01 * 360 / 4095
+            reaches(robot, {"left_elbow_flex.pos": degrees(keypose_ticks(30)),
+                            "right_elbow_flex.pos": degrees(keypose_ticks(-20))},
+                    {"left_elbow_flex.pos": tolerance, "right_elbow_flex.pos": tolerance})
+            # Torque stays on on both arms' buses.
+            assert all(arm.bus.read("Torque_Enable", "elbow_flex") == 1 for arm in (robot.left_arm, robot.right_arm))
+        finally:
+            robot.disconnect()

@@ -4,7 +4,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
-from lerobot.teleoperators.config import TeleoperatorConfig
+from lerobot.teleoperators.config import TeleoperatorConfig  # type: ignore[import-untyped]
 
 
 @TeleoperatorConfig.register_subclass("keypose")

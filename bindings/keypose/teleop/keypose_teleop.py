@@ -13,9 +13,10 @@ recording starts (``keypose.lerobot.play`` with the sequence ramps it there from
 is, at the limits). LeRobot hands a teleoperator no measurement of the follower to ease in from.
 """
 
-from typing import Any, Dict, Optional
+from pathlib import Path
+from typing import Any, Dict, Literal, Optional
 
-from lerobot.teleoperators.teleoperator import Teleoperator
+from lerobot.teleoperators.teleoperator import Teleoperator  # type: ignore[import-untyped]
 
 import keypose
 
@@ -34,14 +35,14 @@ class KeyposeTeleop(Teleoperator):
         if config.sequence is None:
             raise keypose.InputError("--teleop.sequence: expected the keypose sequence file to play")
         # The names are known before connecting (lerobot-record reads the features first).
-        self._sequence = self._load()
+        self._sequence = self._load(config.sequence)
         self._names = [f"{joint.replace('/', '_')}.pos" for joint in self._sequence.joints]
         self._frames: Optional[Any] = None
         self._next = 0
 
-    def _load(self) -> keypose.Sequence:
+    def _load(self, sequence: Path) -> keypose.Sequence:
         return keypose.load(
-            self.config.sequence,
+            sequence,
             calibration=self.config.robot_calibration,
             robot_id=self.config.robot_id,
         )
@@ -65,7 +66,7 @@ class KeyposeTeleop(Teleoperator):
                 f"{self._sequence.file}: refusing to play a sequence that breaks the joints' limits "
                 f"(try `keypose retime`):\n{report.text}"
             )
-        units = "degrees" if self.config.use_degrees else "range"
+        units: Literal["degrees", "range"] = "degrees" if self.config.use_degrees else "range"
         names, frames = self._sequence.lerobot_frames(fps=self.config.fps, units=units)
         self._names = names
         self._frames = frames
