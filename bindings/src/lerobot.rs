@@ -64,6 +64,9 @@ struct Motor {
     norm: MotorNorm,
 }
 
+/// An arm's motors by their names on its bus (`None`: the robot's own bus, one arm).
+type ArmMotors = (Option<String>, Vec<String>);
+
 /// A LeRobot robot object as a servo bus: positions through `get_observation()`, goals through
 /// `send_action()`, torque through its motor bus (`robot.bus`).
 struct LeRobotBus {
@@ -123,8 +126,8 @@ impl LeRobotBus {
     }
 
     /// The motors of `ids` by arm, as each arm's bus names them: (arm, names).
-    fn names_by_arm(&self, ids: &[u8]) -> Result<Vec<(Option<String>, Vec<String>)>, BusError> {
-        let mut by_arm: Vec<(Option<String>, Vec<String>)> = Vec::new();
+    fn names_by_arm(&self, ids: &[u8]) -> Result<Vec<ArmMotors>, BusError> {
+        let mut by_arm: Vec<ArmMotors> = Vec::new();
         for &id in ids {
             let motor = self.motor(id)?;
             match by_arm.iter_mut().find(|(arm, _)| *arm == motor.arm) {

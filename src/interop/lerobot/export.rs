@@ -7,7 +7,7 @@
 //! files are written by `sim/dataset_writer.py` (pyarrow, as the import reads them), into a
 //! staging folder beside the output that becomes the output only once complete.
 
-use super::units::{conversion, BodyUnits, Conversion};
+use super::units::{conversion, BodyUnits};
 use super::LeRobotError;
 use crate::plan::Trajectory;
 use crate::python::Harness;
@@ -377,18 +377,6 @@ fn output_error(path: &Path, problem: &str, source: std::io::Error) -> LeRobotEr
     }
 }
 
-impl Conversion {
-    /// The dataset's value of joint value `v`: the inverse of [`Conversion::apply`].
-    pub fn invert(self, v: f64) -> f64 {
-        match self {
-            Conversion::Identity => v,
-            Conversion::Range { low, high, ends } => {
-                low + (v - ends.at_0) / (ends.at_100 - ends.at_0) * (high - low)
-            }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -417,6 +405,24 @@ mod tests {
             );
         }
         assert_eq!(statistics(&rows, true)["max"], json!([4, 8]));
+    }
+
+    /// A gripper of limits −10 … 100 without a calibration: 45 is (45 + 10) / 110 of the way,
+    /// 50 %; a body joint in degrees is as it is.
+    #[test]
+    fn joint_values_become_lerobots_by_hand() {
+        use super::super::units::Conversion;
+        use crate::robot::CalibratedRange;
+        let gripper = Conversion::Range {
+            low: 0.0,
+            high: 100.0,
+            ends: CalibratedRange {
+                at_0: -10.0,
+                at_100: 100.0,
+            },
+        };
+        assert!((gripper.invert(45.0) - 50.0).abs() < 1e-12);
+        assert_eq!(Conversion::Identity.invert(12.5), 12.5);
     }
 
     #[test]
