@@ -9,6 +9,7 @@ does), then a recorded range around the middle, written with `write_calibration(
 
 import json
 import subprocess
+import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -22,21 +23,28 @@ MIDDLE = 2047
 @contextmanager
 def virtual_bus(robot: str):
     """`keypose virtual-bus --robot ROBOT`: yields the pseudo-terminal's path, ends the bus
-    after (it serves until its standard input closes)."""
-    bus = subprocess.Popen(
-        [str(keypose_command()), "virtual-bus", "--robot", robot],
-        stdin=subprocess.PIPE,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    try:
-        port = bus.stdout.readline().strip()
-        assert port.startswith("/dev/"), f"keypose virtual-bus printed {port!r}: {bus.stderr.read()}"
-        yield port
-    finally:
-        bus.stdin.close()
-        bus.wait(timeout=60)
+    after (it serves until its standard input closes). Its standard error goes to a file, never
+    to a pipe nobody reads (a full pipe would stop the bus mid-write)."""
+    with tempfile.TemporaryFile(mode="w+") as errors:
+        bus = subprocess.Popen(
+            [str(keypose_command()), "virtual-bus", "--robot", robot],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=errors,
+            text=True,
+        )
+        try:
+            port = bus.stdout.readline().strip()
+            if not port.startswith("/dev/"):
+                errors.seek(0)
+                raise AssertionError(f"keypose virtual-bus printed {port!r}: {errors.read()}")
+            yield port
+        finally:
+            bus.stdin.close()
+            bus.wait(timeout=60)
+            errors.seek(0)
+            said = errors.read()
+            assert not said.strip(), f"keypose virtual-bus said: {said}"
 
 
 def spans(data_file: Path) -> dict:
