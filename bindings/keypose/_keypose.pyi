@@ -16,6 +16,8 @@ __all__ = [
     "Robot",
     "Limits",
     "ToolPose",
+    "StopRequests",
+    "play_lerobot",
     "Error",
     "InputError",
     "HardwareError",
@@ -61,13 +63,14 @@ def load(
     path: _Path,
     *,
     robot: Optional[str] = None,
-    calibration: Optional[_Path] = None,
-    robot_id: Optional[str] = None,
+    calibration: Union[_Path, Seq[_Path], None] = None,
+    robot_id: Union[str, Seq[str], None] = None,
     interpolation: Optional[Literal["step", "linear", "cubic", "monotone"]] = None,
 ) -> Sequence:
     """Reads a sequence file and its robot as `keypose check FILE` does; `robot` replaces the
     robot the file names; a LeRobot calibration from a file or from the id LeRobot calibrated
-    the arm with is applied to it."""
+    the arm with is applied to it (on a sequence of several arms a list, `"ARM=FILE"` or
+    `"ARM=ID"` each)."""
 
 # Native classes: not to be subclassed.
 @final
@@ -112,6 +115,14 @@ class Sequence:
         (n, len(joints)) in degrees (metres for a prismatic joint), as `keypose sample`."""
     def check(self) -> Report:
         """The exact check against the joints' limits, as `keypose check`."""
+    def lerobot_frames(
+        self, fps: int = 30, units: Literal["degrees", "range"] = "degrees"
+    ) -> Tuple[List[str], npt.NDArray[np.float64]]:
+        """The trajectory as LeRobot's frames at `fps`: feature names and values (frames, joints)
+        in LeRobot's units, as `keypose export lerobot` writes its `action`."""
+    def with_calibration(self, calibration: Union[_Path, Seq[_Path]]) -> Sequence:
+        """The same keys on the same robot with the LeRobot calibration `calibration` applied
+        (a list of `"ARM=FILE"` on a sequence of several arms)."""
     def retime(self, fastest: bool = False) -> Sequence:
         """Key times stretched until the limits hold, as `keypose retime`; LimitError when
         timing cannot mend it. `fastest=True`: as fast as the limits allow along the path,
@@ -247,3 +258,27 @@ class Robot:
     ) -> npt.NDArray[np.float64]:
         """The joints that put the tool at `xyz` (metres), oriented by `rpy` (degrees) or
         pointing as `approach` says, chosen as a sequence's tool key is, near `seed` (home)."""
+
+@final
+class StopRequests:
+    """Stop requests for a playback: the first brakes to rest along the path, the second holds
+    where the arm is."""
+
+    def __new__(cls) -> StopRequests: ...
+    def request(self) -> None:
+        """Asks for a stop (safe from another thread or a signal handler)."""
+    @property
+    def count(self) -> int: ...
+
+def play_lerobot(
+    sequence: Sequence,
+    robot: Any,
+    motors: List[Dict[str, Any]],
+    *,
+    stop: StopRequests,
+    rate: Optional[float] = None,
+    speed: float = 1.0,
+    max_stall: float = 0.25,
+    judge_pace: bool = True,
+) -> Dict[str, Any]:
+    """keypose's player on a LeRobot robot object (keypose.lerobot.play is the way to call it)."""

@@ -76,7 +76,7 @@ pub fn argument_error(py: Python<'_>, message: String) -> PyErr {
 }
 
 /// The exception class of a kind of failure.
-fn kind_error(py: Python<'_>, kind: ErrorKind, message: String) -> PyErr {
+pub fn kind_error(py: Python<'_>, kind: ErrorKind, message: String) -> PyErr {
     match kind {
         ErrorKind::BadInput => argument_error(py, message),
         ErrorKind::Hardware => HardwareError::new_err(message),

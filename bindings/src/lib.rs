@@ -9,6 +9,7 @@
 use pyo3::prelude::*;
 
 mod errors;
+mod lerobot;
 mod report;
 mod robot;
 mod sequence;
@@ -38,6 +39,8 @@ fn _keypose(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<robot::Robot>()?;
     m.add_class::<robot::Limits>()?;
     m.add_class::<robot::ToolPose>()?;
+    m.add_class::<lerobot::StopRequests>()?;
+    m.add_function(wrap_pyfunction!(lerobot::play_lerobot, m)?)?;
     errors::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -45,7 +45,17 @@ impl Robot {
                 .collect(),
             robot_id: robot_id.into_iter().collect(),
         };
-        let robot = load_robot(spec, &calibration).map_err(|e| command_error(py, e))?;
+        Robot::with_calibration(py, spec, &calibration)
+    }
+
+    /// The robot `spec` names with the calibrations `calibration` says (`--calibration` and
+    /// `--robot-id` as the command line takes them, `ARM=…` for an arm of several).
+    pub fn with_calibration(
+        py: Python<'_>,
+        spec: &str,
+        calibration: &CalibrationArgs,
+    ) -> PyResult<Robot> {
+        let robot = load_robot(spec, calibration).map_err(|e| command_error(py, e))?;
         // A sequence built in code names its robot by this; a file's relative path in a saved
         // sequence would be read relative to the sequence's folder, so it is made absolute.
         let spec = match names_a_file(spec) {
@@ -324,5 +334,30 @@ impl ToolPose {
         let (x, y, z) = self.xyz;
         let (r, p, w) = self.rpy;
         format!("ToolPose(xyz=({x:.5}, {y:.5}, {z:.5}), rpy=({r:.3}, {p:.3}, {w:.3}))")
+    }
+}
+
+/// A calibration argument from Python: one file (or id), or a list of them (`"left=FILE"` per
+/// arm of a sequence of several).
+#[derive(FromPyObject)]
+pub enum OneOrMany {
+    /// One file or id.
+    One(PathBuf),
+    /// One per arm.
+    Many(Vec<PathBuf>),
+}
+
+impl OneOrMany {
+    /// The values as the command line's options take them.
+    pub fn strings(given: Option<OneOrMany>) -> Vec<String> {
+        let paths = match given {
+            None => Vec::new(),
+            Some(OneOrMany::One(p)) => vec![p],
+            Some(OneOrMany::Many(ps)) => ps,
+        };
+        paths
+            .into_iter()
+            .map(|p| p.to_string_lossy().into_owned())
+            .collect()
     }
 }

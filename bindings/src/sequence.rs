@@ -7,7 +7,7 @@ use crate::cli::commands::{
 };
 use crate::errors::{argument_error, command_error, input_error, LimitError};
 use crate::report::Report;
-use crate::robot::Robot;
+use crate::robot::{OneOrMany, Robot};
 use keypose::curve::Interp;
 use keypose::plan::{self, retime, Trajectory};
 use keypose::sequence::Sequence as LibSequence;
@@ -38,30 +38,38 @@ impl Sequence {
             trajectory,
         })
     }
+
+    /// The robot it plays on.
+    pub fn robot_ref(&self) -> &Robot {
+        &self.robot
+    }
+
+    /// The trajectory its keys make on that robot.
+    pub fn trajectory(&self) -> &Trajectory {
+        &self.trajectory
+    }
 }
 
 /// Reads a sequence file (keypose-sequence/1) and its robot, as `keypose check FILE` does:
 /// the robot the file names (a built-in, a LeRobot type, or a robot file relative to the
 /// sequence) or `robot`, with a LeRobot calibration from `calibration` (a file) or `robot_id`
-/// (the id LeRobot calibrated the arm with).
+/// (the id LeRobot calibrated the arm with); on a sequence of several arms a list of them,
+/// `"ARM=FILE"` each.
 #[pyfunction]
 #[pyo3(signature = (path, *, robot = None, calibration = None, robot_id = None, interpolation = None))]
 pub fn load(
     py: Python<'_>,
     path: PathBuf,
     robot: Option<String>,
-    calibration: Option<PathBuf>,
-    robot_id: Option<String>,
+    calibration: Option<OneOrMany>,
+    robot_id: Option<OneOrMany>,
     interpolation: Option<String>,
 ) -> PyResult<Sequence> {
     let options = SequenceOptions {
         robot,
         calibration: CalibrationArgs {
-            calibration: calibration
-                .into_iter()
-                .map(|p| p.to_string_lossy().into_owned())
-                .collect(),
-            robot_id: robot_id.into_iter().collect(),
+            calibration: OneOrMany::strings(calibration),
+            robot_id: OneOrMany::strings(robot_id),
         },
         interpolation: interpolation.map(|m| parse_interp(py, &m)).transpose()?,
     };
@@ -205,6 +213,62 @@ impl Sequence {
         let t = array(py, &times, (times.len(), None))?;
         let q = array(py, &values, (rows.len(), Some(columns)))?;
         Ok((t, q))
+    }
+
+    /// The same keys on the same robot with the LeRobot calibration `calibration` (a file; a
+    /// list of `"ARM=FILE"` on a sequence of several arms) applied instead, checked against
+    /// its joints as a file's keys are.
+    fn with_calibration(&self, py: Python<'_>, calibration: OneOrMany) -> PyResult<Sequence> {
+        let args = CalibrationArgs {
+            calibration: OneOrMany::strings(Some(calibration)),
+            robot_id: Vec::new(),
+        };
+        let robot = Robot::with_calibration(py, &self.robot.spec, &args)?;
+        Sequence::on(py, self.sequence.clone(), robot)
+    }
+
+    /// The trajectory as LeRobot's frames at `fps`, as `keypose export lerobot` writes its
+    /// `action`: `(names, values)`, names `shoulder_pan.pos` … in joint order, values of shape
+    /// (frames, joints) in LeRobot's units — body joints in `units` (`degrees`, or `range`:
+    /// −100…100 of the calibrated range, which needs a calibration), the gripper in 0…100 % of
+    /// its calibrated range (of its limits without a calibration, said in a warning).
+    #[pyo3(signature = (fps = 30, units = "degrees"))]
+    fn lerobot_frames<'py>(
+        &self,
+        py: Python<'py>,
+        fps: u32,
+        units: &str,
+    ) -> PyResult<(Vec<String>, Bound<'py, PyAny>)> {
+        use keypose::interop::lerobot::{export, BodyUnits};
+        let units = match units {
+            "degrees" => BodyUnits::Degrees,
+            "range" => BodyUnits::Range,
+            other => {
+                return Err(argument_error(
+                    py,
+                    format!("units: expected degrees or range, found {other:?}"),
+                ))
+            }
+        };
+        if fps == 0 {
+            return Err(argument_error(
+                py,
+                "fps: expected a positive integer, found 0".into(),
+            ));
+        }
+        check_sample_budget(&self.sequence.file, &self.trajectory, f64::from(fps))
+            .map_err(|e| command_error(py, e))?;
+        let frames = export::lerobot_frames(&self.trajectory, &self.robot.robot, fps, units)
+            .map_err(|e| {
+                crate::errors::kind_error(py, e.kind(), keypose::error::Report(&e).to_string())
+            })?;
+        let warnings = py.import("warnings")?;
+        for notice in &frames.notices {
+            warnings.call_method1("warn", (notice.as_str(),))?;
+        }
+        let values: Vec<f64> = frames.rows.iter().flatten().copied().collect();
+        let q = array(py, &values, (frames.rows.len(), Some(frames.names.len())))?;
+        Ok((frames.names, q))
     }
 
     /// The exact check against the joints' limits, as `keypose check` makes it.

@@ -2,6 +2,7 @@
 //! format: a ROS 2 JointTrajectory or a play_motion2 motion.
 
 use super::{parse_rate, write_output, CommandError, SequenceInput, Verdict};
+use keypose::interop::lerobot::{self, BodyUnits};
 use keypose::interop::{c_export, play_motion2, ros2};
 use keypose::plan::{check, Trajectory};
 use keypose::robot::Robot;
@@ -22,6 +23,33 @@ pub enum ExportFormat {
     /// ticks (Q16.16 fixed point; cubics, of a higher degree on a timing profile), servo ids
     /// and tick limits.
     C(CArgs),
+    /// A LeRobotDataset v3.0 of one episode: `action` and `observation.state` sampled at
+    /// --fps in LeRobot's units (docs/interop.md §1.7).
+    Lerobot(LeRobotArgs),
+}
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct LeRobotArgs {
+    #[command(flatten)]
+    pub input: SequenceInput,
+    /// Frames per second (LeRobot's dataset fps; lerobot-record's default is 30).
+    #[arg(long, value_name = "FPS", default_value = "30", value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub fps: u32,
+    /// The episode's task, in words [default: the sequence's description, else its file name].
+    #[arg(long, value_name = "TEXT")]
+    pub task: Option<String>,
+    /// LeRobot's robot type for meta/info.json [default: the arm's follower type, so101_follower,
+    /// koch_follower …; bi_… for two arms].
+    #[arg(long, value_name = "TYPE")]
+    pub robot_type: Option<String>,
+    /// Units of the body joints: degrees (LeRobot's use_degrees=True, its default) or range
+    /// (−100…100 of the calibrated range; needs --calibration or --robot-id). The gripper is
+    /// always 0…100 % of its calibrated range.
+    #[arg(long, value_name = "UNITS", default_value = "degrees", value_parser = super::import::parse_units)]
+    pub units: BodyUnits,
+    /// The dataset folder to create (it must not exist).
+    #[arg(short, long, value_name = "DIR")]
+    pub output: PathBuf,
 }
 
 #[derive(Debug, Clone, clap::Args)]
@@ -71,7 +99,61 @@ pub fn run(format: &ExportFormat) -> Result<Verdict, CommandError> {
         ExportFormat::Ros2(args) => export_ros2(args),
         ExportFormat::PlayMotion2(args) => export_play_motion2(args),
         ExportFormat::C(args) => export_c(args),
+        ExportFormat::Lerobot(args) => export_lerobot(args),
     }
+}
+
+fn export_lerobot(args: &LeRobotArgs) -> Result<Verdict, CommandError> {
+    let Some((sequence, robot, trajectory)) = checked(&args.input)? else {
+        return Ok(Verdict::Fail);
+    };
+    super::check_sample_budget(&sequence.file, &trajectory, f64::from(args.fps))?;
+    let robot_type = match &args.robot_type {
+        Some(name) => name.clone(),
+        None => lerobot::export::follower_type(&robot).ok_or_else(|| {
+            CommandError::Usage(format!(
+                "{}: LeRobot has no robot type for {}; give --robot-type",
+                sequence.file, robot.name
+            ))
+        })?,
+    };
+    let task = args.task.clone().unwrap_or_else(|| {
+        sequence
+            .description
+            .clone()
+            .filter(|d| !d.trim().is_empty())
+            .unwrap_or_else(|| motion_stem(&args.input))
+    });
+    let options = lerobot::export::ExportOptions {
+        fps: args.fps,
+        task,
+        robot_type,
+        units: args.units,
+    };
+    let exported = lerobot::export::export(&trajectory, &robot, &options, &args.output)
+        .map_err(CommandError::LeRobot)?;
+    for notice in &exported.notices {
+        eprintln!("{}", escape_controls(notice));
+    }
+    println!(
+        "wrote {} (LeRobotDataset v3.0, 1 episode of {} frames at {} fps, {} {} units: {})",
+        args.output.display(),
+        exported.frames,
+        args.fps,
+        options.robot_type,
+        args.units.name(),
+        exported.names.join(", ")
+    );
+    Ok(Verdict::Pass)
+}
+
+/// The sequence file's name without its extension.
+fn motion_stem(input: &SequenceInput) -> String {
+    input
+        .sequence
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "motion".into())
 }
 
 fn export_ros2(args: &Ros2Args) -> Result<Verdict, CommandError> {
@@ -171,13 +253,10 @@ fn checked(input: &SequenceInput) -> Result<Option<(Sequence, Robot, Trajectory)
 
 /// A YAML key of letters, digits and underscores.
 fn motion_name(args: &PlayMotion2Args) -> String {
-    let raw = args.name.clone().unwrap_or_else(|| {
-        args.input
-            .sequence
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "motion".into())
-    });
+    let raw = args
+        .name
+        .clone()
+        .unwrap_or_else(|| motion_stem(&args.input));
     let name: String = raw
         .chars()
         .map(|c| {

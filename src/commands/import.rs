@@ -78,7 +78,7 @@ pub struct LeRobotArgs {
     pub output: PathBuf,
 }
 
-fn parse_units(s: &str) -> Result<BodyUnits, String> {
+pub(super) fn parse_units(s: &str) -> Result<BodyUnits, String> {
     match s {
         "degrees" | "deg" => Ok(BodyUnits::Degrees),
         "range" => Ok(BodyUnits::Range),

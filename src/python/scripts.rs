@@ -17,6 +17,10 @@ const SCRIPTS: &[(&str, &str)] = &[
         "dataset_reader.py",
         include_str!("../../sim/dataset_reader.py"),
     ),
+    (
+        "dataset_writer.py",
+        include_str!("../../sim/dataset_writer.py"),
+    ),
 ];
 
 /// Modules the harness scripts import, written beside them (all of them before any script

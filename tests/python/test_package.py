@@ -19,9 +19,13 @@ def test_the_package_is_typed():
 
 def test_the_stub_is_the_native_modules_as_mypys_stubtest_sees_it(tmp_path):
     # Every name, class, method, property and parameter of keypose._keypose against the stub
-    # (mypy's cache goes to the test's own folder).
+    # (mypy's cache goes to the test's own folder). keypose.teleop is left out: its classes
+    # subclass LeRobot's, which ship no types, so mypy cannot see the dataclass fields they
+    # inherit; tests/python/test_lerobot_teleop.py checks them against LeRobot itself.
+    allowlist = tmp_path / "allowlist.txt"
+    allowlist.write_text("keypose\\.teleop\\..*\n")
     done = subprocess.run(
-        [sys.executable, "-m", "mypy.stubtest", "keypose"],
+        [sys.executable, "-m", "mypy.stubtest", "keypose", "--allowlist", str(allowlist)],
         capture_output=True, text=True, timeout=600, cwd=tmp_path,
     )
     assert done.returncode == 0, done.stdout + done.stderr

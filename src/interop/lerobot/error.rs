@@ -117,6 +117,20 @@ pub enum LeRobotError {
     /// The Python reader (pyarrow) failed: the environment's fault, not the dataset's.
     #[error("reading the dataset: {0}")]
     Reader(#[source] HarnessError),
+    /// Writing a dataset's parquet files failed in the writer script (pyarrow).
+    #[error("writing the dataset: {0}")]
+    Writer(#[source] HarnessError),
+    /// The output folder of an export cannot be written.
+    #[error("{dir}: {problem}")]
+    Output {
+        /// The folder (or file in it).
+        dir: String,
+        /// What is wrong with it.
+        problem: String,
+        /// The system's reason, when there is one.
+        #[source]
+        source: Option<std::io::Error>,
+    },
     /// The frames could not be fitted with keyframes.
     #[error(transparent)]
     Record(#[from] RecordError),
@@ -125,7 +139,7 @@ pub enum LeRobotError {
 impl LeRobotError {
     /// Whether the dataset or the options are to blame (exit 2), not the Python environment.
     pub fn is_bad_input(&self) -> bool {
-        !matches!(self, LeRobotError::Reader(_))
+        !matches!(self, LeRobotError::Reader(_) | LeRobotError::Writer(_))
     }
 
     /// What kind of failure this is: the dataset's or the options' (bad input), or the

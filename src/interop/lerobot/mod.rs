@@ -16,10 +16,12 @@
 mod arms;
 mod episode;
 mod error;
+pub mod export;
 mod frames;
 mod info;
 pub mod layout;
 mod limits;
+pub mod motor_norm;
 mod reader;
 mod timing;
 mod units;

@@ -98,6 +98,17 @@ impl Conversion {
             }
         }
     }
+
+    /// The dataset's value of joint value `v`: the inverse of [`Conversion::apply`], for
+    /// writing a dataset (super::export).
+    pub fn invert(self, v: f64) -> f64 {
+        match self {
+            Conversion::Identity => v,
+            Conversion::Range { low, high, ends } => {
+                low + (v - ends.at_0) / (ends.at_100 - ends.at_0) * (high - low)
+            }
+        }
+    }
 }
 
 /// The conversion of `joint`'s column, and a notice when it had to guess.
