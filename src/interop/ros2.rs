@@ -256,6 +256,7 @@ fn describe(shortfall: hermite_fit::Shortfall, joint: &Joint) -> String {
                 ),
                 LimitKind::Velocity => (joint.limits.velocity, "/s"),
                 LimitKind::Acceleration => (joint.limits.acceleration, "/s²"),
+                LimitKind::Jerk => (joint.limits.jerk.unwrap_or(f64::INFINITY), "/s³"),
             };
             format!(
                 "reach {peak:.4} {unit}{per}, past the {} limit of {limit} {unit}{per}",

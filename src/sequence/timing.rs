@@ -82,7 +82,16 @@ impl SegmentTiming {
     /// falls from its highest to the end: an eased segment's `ease_out` and `ease_in`; for any
     /// other profile, the ramps around its fastest stretch.
     pub fn ease_shares(&self) -> (f64, f64) {
-        let TimeProfile::Speeds(speeds) = &self.profile;
+        let speeds = match &self.profile {
+            TimeProfile::Speeds(speeds) => speeds,
+            // Symmetric: the speed rises over 2·tj + ta, whose path is half of that at the top
+            // speed, then cruises tv at it.
+            TimeProfile::SCurve([tj, ta, tv]) => {
+                let ramp = 2.0 * tj + ta;
+                let share = ramp / 2.0 / (ramp + tv);
+                return (share, share);
+            }
+        };
         let top = speeds.iter().copied().fold(0.0, f64::max);
         let at_top = |v: &f64| *v >= top * (1.0 - 1e-9);
         let last = (speeds.len() - 1) as f64;
@@ -202,7 +211,9 @@ mod tests {
     #[test]
     fn an_eased_segment_is_a_trapezoid_whose_ramps_read_back() {
         let timing = SegmentTiming::eased(2.0, 0.2, 0.3).unwrap();
-        let TimeProfile::Speeds(speeds) = &timing.profile;
+        let TimeProfile::Speeds(speeds) = &timing.profile else {
+            panic!("speeds")
+        };
         assert_eq!(speeds.len(), EASE_STEPS + 1);
         // From rest; 2 of the 4 steps up: v² = ½; steady from step 4 to 14; at rest at 20.
         assert_eq!(speeds[0], 0.0);

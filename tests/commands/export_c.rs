@@ -172,7 +172,9 @@ fn the_approach_eases_in_to_the_first_pose_within_the_limits() {
 pub(crate) fn eased_sequence(dir: &Path) -> PathBuf {
     use keypose::sequence::{SegmentTiming, TimeProfile};
     let timing = SegmentTiming::eased(1.5, 0.25, 0.25).unwrap();
-    let TimeProfile::Speeds(speeds) = &timing.profile;
+    let TimeProfile::Speeds(speeds) = &timing.profile else {
+        panic!("an eased segment has speeds")
+    };
     let text = format!(
         r#"{{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "monotone",
             "keyframes": [

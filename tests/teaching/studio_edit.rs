@@ -225,7 +225,9 @@ fn the_page_selects_copies_pastes_drags_and_deletes_several_keys() {
         .timing
         .as_ref()
         .expect("key 0's segment is eased");
-    let keypose::sequence::TimeProfile::Speeds(speeds) = &timing.profile;
+    let keypose::sequence::TimeProfile::Speeds(speeds) = &timing.profile else {
+        panic!("an eased segment has speeds")
+    };
     assert_eq!(
         (speeds[0], speeds[speeds.len() - 1]),
         (0.0, 0.0),
