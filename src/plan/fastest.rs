@@ -400,6 +400,25 @@ impl<'a> Path<'a> {
 
     /// `base` with the profiles of `speeds` and the key times they give (to the microsecond).
     fn timed(&self, base: &Sequence, speeds: &[Option<Vec<f64>>]) -> Sequence {
+        self.with_profiles(base, f64::round, |i, grid| {
+            Some(SegmentTiming {
+                path_time: grid.to - grid.from,
+                profile: TimeProfile::Speeds(
+                    speeds[i].as_ref()?.iter().map(|&v| written(v)).collect(),
+                ),
+            })
+        })
+    }
+
+    /// `base` with the timing `profile` gives segment `i` on its stretch of path (`None`: the
+    /// segment keeps its key times), and the key times that follow, each rounded to the
+    /// microsecond by `round`.
+    fn with_profiles(
+        &self,
+        base: &Sequence,
+        round: fn(f64) -> f64,
+        mut profile: impl FnMut(usize, Grid) -> Option<SegmentTiming>,
+    ) -> Sequence {
         let mut out = base.clone();
         let times = base.key_times();
         let mut time = times[0];
@@ -409,19 +428,15 @@ impl<'a> Path<'a> {
                 break;
             };
             let hold = out.keyframes[i].hold;
-            let moving = match (&speeds[i], self.segments[i]) {
-                (Some(speeds), Some(grid)) => {
-                    let timing = SegmentTiming {
-                        path_time: grid.to - grid.from,
-                        profile: TimeProfile::Speeds(speeds.iter().map(|&v| written(v)).collect()),
-                    };
+            let moving = match self.segments[i].and_then(|grid| profile(i, grid)) {
+                Some(timing) => {
                     let seconds = timing.seconds();
                     out.keyframes[i].timing = Some(timing);
                     seconds
                 }
-                _ => next - times[i] - hold,
+                None => next - times[i] - hold,
             };
-            time = ((time + hold + moving) * 1e6).round() / 1e6;
+            time = round((time + hold + moving) * 1e6) / 1e6;
         }
         out
     }
@@ -456,33 +471,12 @@ impl Path<'_> {
     /// of the limits, and the key times they give (rounded up to the microsecond, so a
     /// profile never runs faster than planned).
     fn s_curves(&self, base: &Sequence, robot: &Robot, shares: &[f64]) -> Sequence {
-        let mut out = base.clone();
-        let times = base.key_times();
-        let mut time = times[0];
-        for i in 0..out.keyframes.len() {
-            out.keyframes[i].time = Some(time);
-            let Some(next) = times.get(i + 1) else {
-                break;
-            };
-            let hold = out.keyframes[i].hold;
-            let keep = next - times[i] - hold;
-            let curve = self.segments[i].and_then(|grid| {
-                let length = grid.to - grid.from;
-                Some((length, self.s_curve(robot, grid, shares[i])?))
-            });
-            let moving = match curve {
-                Some((path_time, curve)) => {
-                    out.keyframes[i].timing = Some(SegmentTiming {
-                        path_time,
-                        profile: TimeProfile::SCurve(curve.shape()),
-                    });
-                    curve.duration()
-                }
-                None => keep,
-            };
-            time = ((time + hold + moving) * 1e6).ceil() / 1e6;
-        }
-        out
+        self.with_profiles(base, f64::ceil, |i, grid| {
+            Some(SegmentTiming {
+                path_time: grid.to - grid.from,
+                profile: TimeProfile::SCurve(self.s_curve(robot, grid, shares[i])?.shape()),
+            })
+        })
     }
 }
 

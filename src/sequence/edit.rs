@@ -113,24 +113,13 @@ impl KeyframeList {
 
     /// Moves to the next key; false (and no move) at the last one.
     pub fn next_key(&mut self) -> bool {
-        self.also.clear();
-        if self.current + 1 < self.len() {
-            self.current += 1;
-            true
-        } else {
-            false
-        }
+        let at = self.current + 1;
+        at < self.len() && self.select(at)
     }
 
     /// Moves to the previous key; false (and no move) at the first one.
     pub fn previous_key(&mut self) -> bool {
-        self.also.clear();
-        if self.current > 0 {
-            self.current -= 1;
-            true
-        } else {
-            false
-        }
+        self.current > 0 && self.select(self.current - 1)
     }
 
     /// Puts an earlier (or later) version of the list in place (undo, redo): its sequence and
@@ -145,8 +134,8 @@ impl KeyframeList {
 
     /// Makes key `index` current; false if there is no such key.
     pub fn select(&mut self, index: usize) -> bool {
-        self.also.clear();
         if index < self.len() {
+            self.also.clear();
             self.current = index;
             true
         } else {

@@ -99,6 +99,7 @@ impl SegmentTiming {
         let last_top = speeds.iter().rposition(at_top).unwrap_or(0) as f64;
         (first_top / last, (last - last_top) / last)
     }
+
     /// Real seconds each stretch of the profile lasts at the speeds as written (before the
     /// scaling that makes the segment last what its key times give).
     /// (An S-curve's is its seven phases.)

@@ -54,8 +54,9 @@ fn parse_points(text: &str) -> Vec<Point> {
     points
 }
 
-/// The cubic Hermite between consecutive points (positions, velocities), at time `t`.
-fn controller_at(points: &[Point], t: f64) -> Vec<f64> {
+/// The controller's cubic Hermite between consecutive points (positions, velocities): each
+/// joint's position, velocity and acceleration at time `t` (per second, per second squared).
+fn controller_at(points: &[Point], t: f64) -> Vec<[f64; 3]> {
     let k = points
         .partition_point(|p| p.time <= t)
         .clamp(1, points.len() - 1)
@@ -63,18 +64,17 @@ fn controller_at(points: &[Point], t: f64) -> Vec<f64> {
     let (a, b) = (&points[k], &points[k + 1]);
     let h = b.time - a.time;
     let s = ((t - a.time) / h).clamp(0.0, 1.0);
-    let (h00, h10, h01, h11) = (
-        2.0 * s.powi(3) - 3.0 * s * s + 1.0,
-        s.powi(3) - 2.0 * s * s + s,
-        -2.0 * s.powi(3) + 3.0 * s * s,
-        s.powi(3) - s * s,
-    );
     (0..a.positions.len())
         .map(|j| {
-            h00 * a.positions[j]
-                + h10 * h * a.velocities[j]
-                + h01 * b.positions[j]
-                + h11 * h * b.velocities[j]
+            // p(s) = p0 + m0·s + c2·s² + c3·s³ with the Hermite's c2, c3 (m = h·v).
+            let delta = b.positions[j] - a.positions[j];
+            let (m0, m1) = (h * a.velocities[j], h * b.velocities[j]);
+            let c2 = 3.0 * delta - 2.0 * m0 - m1;
+            let c3 = -2.0 * delta + m0 + m1;
+            let position = a.positions[j] + s * (m0 + s * (c2 + s * c3));
+            let velocity = (m0 + 2.0 * c2 * s + 3.0 * c3 * s * s) / h;
+            let acceleration = (2.0 * c2 + 6.0 * c3 * s) / (h * h);
+            [position, velocity, acceleration]
         })
         .collect()
 }
@@ -103,7 +103,7 @@ fn assert_follows(sequence: &str, prismatic: &[usize], rate: &str) -> usize {
     let start = rows[0][0];
     for row in &rows {
         let got = controller_at(&points, row[0] - start);
-        for (j, (&want, have)) in row[1..].iter().zip(&got).enumerate() {
+        for (j, (&want, &[have, _, _])) in row[1..].iter().zip(&got).enumerate() {
             let tol = if prismatic.contains(&j) {
                 TOLERANCE_M
             } else {
@@ -362,30 +362,6 @@ fn sampled_csv_columns_named_with_commas_or_quotes_stay_one_column() {
     assert_eq!(lines.last(), Some("1,10,0,0,0,0,0"));
 }
 
-/// The controller's cubic Hermite between consecutive points, its velocity and acceleration
-/// at time `t` (per second, per second squared).
-fn controller_rates_at(points: &[Point], t: f64) -> Vec<(f64, f64)> {
-    let k = points
-        .partition_point(|p| p.time <= t)
-        .clamp(1, points.len() - 1)
-        - 1;
-    let (a, b) = (&points[k], &points[k + 1]);
-    let h = b.time - a.time;
-    let s = ((t - a.time) / h).clamp(0.0, 1.0);
-    (0..a.positions.len())
-        .map(|j| {
-            // p(s) = p0 + h·v0·s + c2·s² + c3·s³ with the Hermite's c2, c3.
-            let delta = b.positions[j] - a.positions[j];
-            let (m0, m1) = (h * a.velocities[j], h * b.velocities[j]);
-            let c2 = 3.0 * delta - 2.0 * m0 - m1;
-            let c3 = -2.0 * delta + m0 + m1;
-            let velocity = (m0 + 2.0 * c2 * s + 3.0 * c3 * s * s) / h;
-            let acceleration = (2.0 * c2 + 6.0 * c3 * s) / (h * h);
-            (velocity, acceleration)
-        })
-        .collect()
-}
-
 #[test]
 fn timing_profiles_are_followed_by_the_controllers_cubics_within_the_limits() {
     // Before, these were refused ("cannot carry a timing profile"). An eased straight segment
@@ -423,7 +399,7 @@ fn timing_profiles_are_followed_by_the_controllers_cubics_within_the_limits() {
             .collect();
         times.extend(points.iter().flat_map(|p| [p.time - 1e-7, p.time + 1e-7]));
         for t in times.into_iter().filter(|t| (0.0..=end).contains(t)) {
-            for (j, (v, a)) in controller_rates_at(&points, t).into_iter().enumerate() {
+            for (j, [_, v, a]) in controller_at(&points, t).into_iter().enumerate() {
                 let limits = robot.joints[j].limits;
                 let (v, a) = (v.to_degrees(), a.to_degrees());
                 assert!(

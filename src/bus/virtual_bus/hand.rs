@@ -25,9 +25,8 @@ pub type HandPath = Box<dyn FnMut(f64, &mut [f64]) + Send>;
 /// A running hand; dropping it stops it.
 pub struct Hand {
     stop: Arc<AtomicBool>,
-    started: Arc<AtomicBool>,
-    /// The wall-clock instant the hand began to move, for a test that times what another
-    /// process (a browser) shows of the motion against it.
+    /// The wall-clock instant the hand began to move (none yet), for a test that times what
+    /// another process (a browser) shows of the motion against it.
     started_at: Arc<Mutex<Option<SystemTime>>>,
     thread: Option<JoinHandle<()>>,
 }
@@ -37,21 +36,19 @@ impl Hand {
     /// limp.
     pub fn start(bus: VirtualBus, ids: Vec<u8>, duration: f64, path: HandPath) -> Hand {
         let stop = Arc::new(AtomicBool::new(false));
-        let started = Arc::new(AtomicBool::new(false));
         let started_at = Arc::new(Mutex::new(None));
         let thread = {
-            let (stop, started) = (stop.clone(), started.clone());
+            let stop = stop.clone();
             let at = started_at.clone();
             std::thread::spawn(move || {
                 // The hand is outside the computer: it moves on time however busy it is (as
                 // far as the system lets this thread run first).
                 let _ = crate::pacing::realtime::serve_promptly();
-                run(&bus, &ids, duration, path, &stop, &started, &at)
+                run(&bus, &ids, duration, path, &stop, &at)
             })
         };
         Hand {
             stop,
-            started,
             started_at,
             thread: Some(thread),
         }
@@ -59,7 +56,7 @@ impl Hand {
 
     /// Whether the hand has begun to move the servos.
     pub fn started(&self) -> bool {
-        self.started.load(Ordering::SeqCst)
+        self.started_at().is_some()
     }
 
     /// When the hand began to move the servos (the wall clock, which other processes on the
@@ -105,7 +102,6 @@ fn run(
     duration: f64,
     mut path: HandPath,
     stop: &AtomicBool,
-    started: &AtomicBool,
     started_at: &Mutex<Option<SystemTime>>,
 ) {
     let mut ticks = vec![0.0; ids.len()];
@@ -120,7 +116,6 @@ fn run(
     }
     let start = Instant::now();
     *started_at.lock().unwrap_or_else(|e| e.into_inner()) = Some(SystemTime::now());
-    started.store(true, Ordering::SeqCst);
     while !stop.load(Ordering::SeqCst) {
         let t = start.elapsed().as_secs_f64().min(duration);
         path(t, &mut ticks);
