@@ -22,6 +22,12 @@ from ._keypose import (
     load,
 )
 
+# keypose.lerobot drives a LeRobot robot object it is handed and imports no LeRobot itself,
+# so it comes with `import keypose` (`keypose.lerobot.play(robot, ...)`, as the README writes
+# it). keypose.teleop, whose classes subclass LeRobot's, is imported by LeRobot's own plugin
+# discovery and stays out.
+from . import lerobot
+
 __all__ = [
     "Error",
     "HardwareError",
@@ -36,4 +42,6 @@ __all__ = [
     "Violation",
     "__version__",
     "load",
+    "lerobot",
 ]
+

@@ -18,7 +18,7 @@
 //! at a point, as the curve does; a quintic join would force one acceleration there): one at
 //! every end of every piece, and between two of them more, by halving, until the controller's
 //! cubic follows the curve and keeps the limits, judged exactly (`hermite_fit`); a stretch that
-//! still does not after [`MAX_HALVINGS`] halvings is refused, naming its segment.
+//! still does not after `MAX_HALVINGS` (12) halvings is refused, naming its segment.
 
 use super::{hermite_fit, yaml, SAME_TIME};
 use crate::plan::check::spans::{JointCurve, Span};

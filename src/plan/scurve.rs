@@ -230,7 +230,7 @@ const UNLIMITED_JERK_SECONDS: f64 = 1e-3;
 ///
 /// for a path speed up to `V`, path acceleration up to `A` and path jerk up to `J`. Each
 /// bound within each joint's limit is sufficient; the split of the acceleration and jerk
-/// budgets between the terms is chosen among [`SPLITS`]² shares of `V` and `A` ([`candidates`])
+/// budgets between the terms is chosen among `SPLITS`² shares of `V` and `A` ([`candidates`])
 /// as the one that takes the least time. On a straight line (`curvature` and `third` 0) the
 /// best is the whole budget, and the result is the time-optimal straight-line move. None when
 /// no joint moves.

@@ -33,10 +33,10 @@ pub enum TraceBytesError {
         /// The payload's size.
         actual: usize,
     },
-    /// Not a trace: it does not start with [`MAGIC`].
+    /// Not a trace: it does not start with `MAGIC`.
     #[error("it starts with {found:?}; expected the magic {expected:?}")]
     Magic {
-        /// [`MAGIC`].
+        /// `MAGIC`.
         expected: [u8; 4],
         /// Its first four bytes.
         found: [u8; 4],
@@ -44,7 +44,7 @@ pub enum TraceBytesError {
     /// A layout this keypose does not know.
     #[error("format version {found}; expected {expected}")]
     Version {
-        /// [`VERSION`].
+        /// `VERSION`.
         expected: u32,
         /// The header's.
         found: u32,

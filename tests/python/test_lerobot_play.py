@@ -88,12 +88,20 @@ def wave(tmp_path: Path) -> Path:
     )
 
 
+def limiter_idle_unless_stalled(result):
+    """The step limiter changes no goal of a plan that keeps the limits, unless the machine held
+    the player back (a stall: the sequence ran late), when bounding the catch-up is its job.
+    (Beside six busy loops two runs had 2 and 3 goals limited.)"""
+    if result["stalls"] == 0 and result["late"] == 0:
+        assert result["limited_goals"] == 0, result
+
+
 @pytest.mark.parametrize("so101", [True, False], indirect=True, ids=["degrees", "range"])
 def test_play_ends_at_the_last_key_in_the_robots_units(so101, tmp_path):
     result = keypose.lerobot.play(so101, wave(tmp_path))
     assert result["outcome"] == "finished"
     assert result["rate"] == robot_file("so101")["control_hz"]
-    assert result["limited_goals"] == 0
+    limiter_idle_unless_stalled(result)
     ends = {"elbow_flex": keypose_ticks(20), "wrist_flex": keypose_ticks(-25), "shoulder_pan": MIDDLE}
     calibration = so101.bus.calibration
     expected, tolerance = {}, {}
@@ -258,7 +266,8 @@ def test_bimanual_so_follower_plays_a_sequence_of_two_arms(tmp_path):
                 ],
             }))
             result = keypose.lerobot.play(robot, sequence)
-            assert result["outcome"] == "finished" and result["limited_goals"] == 0
+            assert result["outcome"] == "finished"
+            limiter_idle_unless_stalled(result)
             # Every action names both arms' motors as BiSOFollower does.
             assert set(sent[0]) == {f"{arm}_{j}.pos" for arm in ("left", "right") for j in SO101_JOINTS}
             degrees = lambda ticks: (ticks - MIDDLE) * 360 / 4095  # noqa: E731

@@ -67,6 +67,19 @@ def test_code_using_the_api_type_checks_and_a_wrong_call_does_not(tmp_path):
     assert refused.stdout.count("error:") == 2, refused.stdout
 
 
+def test_import_keypose_gives_keypose_lerobot_without_importing_lerobot():
+    # A fresh interpreter: `keypose.lerobot.play` as the README writes it, with no
+    # `import keypose.lerobot`, and neither LeRobot nor torch imported by `import keypose`.
+    code = (
+        "import sys, keypose\n"
+        "assert callable(keypose.lerobot.play)\n"
+        "print(sorted(m for m in sys.modules if m.split('.')[0] in ('lerobot', 'torch')))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"
+
+
 def test_the_console_script_is_the_command_line():
     out = cli("--version", check_code=0)
     assert out.stdout == f"keypose {keypose.__version__}\n"

@@ -118,7 +118,7 @@ pub struct LeRobotFrames {
 }
 
 /// `trajectory` at `fps` in LeRobot's units: the body joints in `units`, the gripper in 0…100 %
-/// of its calibrated range ([`conversion`], inverted).
+/// of its calibrated range (`conversion`, inverted).
 pub fn lerobot_frames(
     trajectory: &Trajectory,
     robot: &Robot,

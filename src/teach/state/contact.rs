@@ -22,7 +22,7 @@ impl TeachState {
         model.refusal(&self.goals, &to).map(|t| t.describe())
     }
 
-    /// The parts of the arm (of every arm) within [`NEAR_M`] of the floor, of each other or
+    /// The parts of the arm (of every arm) within `NEAR_M` of the floor, of each other or
     /// of another arm at the present pose, or touching: what the studio colours.
     pub fn near_contacts(&self) -> Vec<Touch> {
         match &self.collision {
