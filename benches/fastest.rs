@@ -46,6 +46,7 @@ fn main() {
     );
     let mut ratios = Vec::new();
     let mut version = String::new();
+    let mut optima = Vec::new();
     for file in &files {
         let sequence = Sequence::load(file).expect("an example loads");
         let robot = builtin_robot_of(&sequence).expect("an example's robot is built in");
@@ -75,6 +76,7 @@ fn main() {
         let (keyed, _) = outcome.moving_time();
         let ratio = ours / theirs;
         ratios.push(ratio);
+        optima.push(theirs);
         println!(
             "{:<28} {:>8.3}s {:>8.3}s {:>8.3}s {:>7.3} {:>6} {:>9.1} {:>9.1}",
             file.file_name().unwrap().to_string_lossy(),
@@ -94,24 +96,26 @@ fn main() {
         ratios.len(),
         session.load()
     );
-    jerk_limited(&python, &files);
+    jerk_limited(&python, &files, &optima);
     session.end();
 }
 
-/// The second table: with jerk limits, `--fastest` and point-to-point moves against Ruckig.
-fn jerk_limited(python: &std::path::Path, files: &[std::path::PathBuf]) {
+/// The second table: with jerk limits, `--fastest` against TOPP-RA's optimum without them
+/// (`optima`, per file, from the first table), and point-to-point moves against Ruckig.
+fn jerk_limited(python: &std::path::Path, files: &[std::path::PathBuf], optima: &[f64]) {
     println!();
     println!(
         "jerk limits: each joint's acceleration limit reached in {} s",
         ruckig::RISE_SECONDS
     );
     println!(
-        "{:<28} {:>9} {:>8} {:>6} {:>10} {:>10} {:>7}",
-        "example", "fastest", "check", "moves", "S-curves", "Ruckig", "ratio"
+        "{:<28} {:>9} {:>8} {:>9} {:>7} {:>6} {:>10} {:>10} {:>7}",
+        "example", "fastest", "check", "TOPP-RA", "ratio", "moves", "S-curves", "Ruckig", "ratio"
     );
     let mut ratios = Vec::new();
+    let mut over_toppra = Vec::new();
     let mut version = String::new();
-    for file in files {
+    for (file, optimum) in files.iter().zip(optima) {
         let sequence = Sequence::load(file).expect("an example loads");
         let robot = ruckig::with_jerk(
             &builtin_robot_of(&sequence).expect("an example's robot is built in"),
@@ -151,17 +155,25 @@ fn jerk_limited(python: &std::path::Path, files: &[std::path::PathBuf]) {
         let theirs: f64 = durations.iter().sum();
         let ratio = ours / theirs;
         ratios.push(ratio);
+        over_toppra.push(seconds / optimum);
         println!(
-            "{:<28} {:>8.3}s {:>8} {:>6} {:>9.3}s {:>9.3}s {:>7.3}",
+            "{:<28} {:>8.3}s {:>8} {:>8.3}s {:>7.3} {:>6} {:>9.3}s {:>9.3}s {:>7.3}",
             file.file_name().unwrap().to_string_lossy(),
             seconds,
             verdict,
+            optimum,
+            seconds / optimum,
             pairs.len(),
             ours,
             theirs,
             ratio
         );
     }
+    println!(
+        "fastest with jerk / TOPP-RA without: median {:.3}, worst {:.3}",
+        common::median(&over_toppra),
+        over_toppra.iter().cloned().fold(f64::NAN, f64::max),
+    );
     println!(
         "point to point / Ruckig (ruckig {version}, time-synchronised): median {:.3}, worst {:.3}, over {} examples",
         common::median(&ratios),
