@@ -7,10 +7,10 @@
 //!
 //! With jerk limits (each joint's acceleration limit reached in `ruckig::RISE_SECONDS`): the
 //! moving time `--fastest` gives with its S-curve profiles, which stop at every key (checked
-//! exactly with jerk; a straight tool line's samples jump in acceleration and are reported as
-//! such), and point-to-point moves between the example's consecutive keys, keypose's S-curve
-//! along the straight line (`plan::scurve::point_to_point`) against Ruckig's time-optimal
-//! jerk-limited move (the `ruckig` package) under the same limits, summed per example.
+//! exactly with jerk), against TOPP-RA's optimum without jerk limits from the first table, and
+//! point-to-point moves between the example's consecutive keys, keypose's S-curve along the
+//! straight line (`plan::scurve::point_to_point`) against Ruckig's time-optimal jerk-limited
+//! move (the `ruckig` package) under the same limits, summed per example.
 //!
 //! `cargo bench --bench fastest` (no criterion: one plan per example, checked exactly before
 //! anything is printed).

@@ -9,9 +9,7 @@ use keypose::robot::Robot;
 use keypose::sequence::Sequence;
 use serde_json::Value;
 
-use crate::oracle;
-#[path = "../../benches/common/ruckig.rs"]
-mod ruckig;
+use crate::ruckig;
 
 /// The SO-101's robot file with `jerk` set on every joint (None: as it is).
 fn so101_text(jerk: Option<&str>) -> String {

@@ -9,8 +9,7 @@ use keypose::sequence::Sequence;
 use std::path::Path;
 
 use crate::oracle;
-#[path = "../../benches/common/ruckig.rs"]
-mod ruckig;
+use crate::ruckig;
 #[path = "../../benches/common/topp.rs"]
 mod topp;
 
