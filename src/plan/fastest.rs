@@ -141,7 +141,7 @@ pub fn fastest(
             path.timed(&base, &speeds)
         };
         let report = check(&Trajectory::build(&candidate, robot)?, robot, rate);
-        let over = over_limits(&report, jerk_limited, |t| path.in_timed_hold(&candidate, t));
+        let over = over_limits(&report, jerk_limited);
         let done = over
             .iter()
             .all(|&(i, _)| path.segments.get(i).is_none_or(|s| s.is_none()));
@@ -199,21 +199,15 @@ pub fn fastest(
     }
 }
 
-/// Each segment's worst ratio of peak to limit, for violations timing can mend. With S-curves
+/// Each segment's worst ratio of peak to limit, for violations timing can mend (one in a hold
+/// is its key's segment's, whose share the hold's S-curve is planned for too). With S-curves
 /// (`stops_at_keys`) the path is at rest at every key, so a corner left is where a joint keeps
-/// moving through a hold that no S-curve times (next to a segment that keeps its time), and a
-/// violation inside a timed hold (`in_timed_hold`) is one its fixed seconds leave: no
-/// segment's profile mends either.
-fn over_limits(
-    report: &CheckReport,
-    stops_at_keys: bool,
-    in_timed_hold: impl Fn(f64) -> bool,
-) -> Vec<(usize, f64)> {
+/// moving through a hold that no S-curve times (next to a segment that keeps its time), whose
+/// pace no segment's profile sets.
+fn over_limits(report: &CheckReport, stops_at_keys: bool) -> Vec<(usize, f64)> {
     let mut out: Vec<(usize, f64)> = Vec::new();
     for v in &report.violations {
-        let unmendable =
-            stops_at_keys && (v.cause == super::Cause::Corner || in_timed_hold(v.peak_time));
-        if !v.mendable_by_timing() || unmendable {
+        if !v.mendable_by_timing() || (stops_at_keys && v.cause == super::Cause::Corner) {
             continue;
         }
         let ratio = (v.peak.abs() / v.limit.abs()).max(1.0 + 1e-6);
@@ -539,20 +533,10 @@ impl Path<'_> {
         let curve = self.s_curve(robot, grid, share)?;
         let needed = (curve.duration() * 1e6).ceil() / 1e6;
         let timing = HoldTiming {
-            path_time: grid.to - grid.from,
+            path_time: self.holds[key],
             scurve: curve.shape(),
         };
         Some((timing, needed.max(seconds)))
-    }
-
-    /// Whether sequence time `t` falls in a hold timed by an S-curve in `timed` (whose key
-    /// times and holds the profiles gave), its ends included.
-    fn in_timed_hold(&self, timed: &Sequence, t: f64) -> bool {
-        let times = timed.key_times();
-        (0..times.len()).any(|i| {
-            let hold = timed.keyframes[i].hold;
-            self.holds_timed[i].is_some() && t >= times[i] && t <= times[i] + hold
-        })
     }
 
     /// `base` with an S-curve profile on every profiled segment, each planned for its share
