@@ -264,6 +264,9 @@ struct Path<'a> {
     /// Per key, its hold's stretch of path when the hold gets an S-curve of its own (a joint
     /// without a key there moves through it, between S-curves that stop at its ends).
     holds_timed: Vec<Option<Grid>>,
+    /// Per key, whether its hold runs on an S-curve already (a file timed for jerk limits),
+    /// which starts and ends at rest.
+    hold_curves: Vec<bool>,
 }
 
 impl<'a> Path<'a> {
@@ -320,6 +323,11 @@ impl<'a> Path<'a> {
             paths,
             stops_at_keys,
             holds_timed,
+            hold_curves: sequence
+                .keyframes
+                .iter()
+                .map(|k| k.hold > 0.0 && k.timing.as_ref().is_some_and(|t| t.hold.is_some()))
+                .collect(),
         }
     }
 
@@ -419,11 +427,11 @@ impl<'a> Path<'a> {
         out
     }
 
-    /// The squared path speed at key `key` from the side of the run: 0 at the window's ends
-    /// and where every joint is at rest, else 1 (the pace of the hold or the segment beside it,
-    /// which keeps its time).
+    /// The squared path speed at key `key` from the side of the run: 0 at the window's ends,
+    /// at a hold on an S-curve and where every joint is at rest, else 1 (the pace of the hold
+    /// or the segment beside it, which keeps its time).
     fn boundary(&self, key: usize, side: Side) -> f64 {
-        if key == self.window.0 || key == self.window.1 {
+        if key == self.window.0 || key == self.window.1 || self.hold_curves[key] {
             return 0.0;
         }
         let u = match side {
