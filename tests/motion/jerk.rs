@@ -644,6 +644,26 @@ fn at_another_speed_jerk_scales_with_its_cube_and_a_jump_with_its_square() {
     }
 }
 
+/// The wrist from −90° to 90° on a linear segment, retimed `--fastest` (an S-curve with a
+/// cruise of more than a second), and the pose it starts from.
+fn wrist_across(robot: &Robot) -> (Trajectory, [f64; 6]) {
+    let (from, to) = (
+        [0.0, 0.0, 0.0, -90.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0, 90.0, 0.0, 0.0],
+    );
+    let sequence = point_to_point_sequence(robot, &from, &to, 5.0);
+    let timed = keypose::plan::fastest(&sequence, robot, 50.0).unwrap();
+    (Trajectory::build(&timed.sequence, robot).unwrap(), from)
+}
+
+/// Playback from the first pose, without the approach ramp.
+fn no_approach() -> keypose::plan::TimelineOptions {
+    keypose::plan::TimelineOptions {
+        approach: false,
+        ..Default::default()
+    }
+}
+
 #[test]
 fn a_stall_while_braking_under_jerk_limits_never_speeds_the_arm_up_again() {
     // Braking from the wrist's cruise as above; 0.2 s into it the process stalls and the path
@@ -651,18 +671,8 @@ fn a_stall_while_braking_under_jerk_limits_never_speeds_the_arm_up_again() {
     // one before, every later step is no longer than the one before it, and the arm still
     // comes to rest.
     let robot = so101_with_jerk(3440.0);
-    let (from, to) = (
-        [0.0, 0.0, 0.0, -90.0, 0.0, 0.0],
-        [0.0, 0.0, 0.0, 90.0, 0.0, 0.0],
-    );
-    let sequence = point_to_point_sequence(&robot, &from, &to, 5.0);
-    let timed = keypose::plan::fastest(&sequence, &robot, 50.0).unwrap();
-    let trajectory = Trajectory::build(&timed.sequence, &robot).unwrap();
-    let options = keypose::plan::TimelineOptions {
-        approach: false,
-        ..Default::default()
-    };
-    let mut timeline = keypose::plan::Timeline::new(&robot, &trajectory, &options, &from);
+    let (trajectory, from) = wrist_across(&robot);
+    let mut timeline = keypose::plan::Timeline::new(&robot, &trajectory, &no_approach(), &from);
     let (dt, mut out, mut p) = (1e-3, vec![0.0; 6], Vec::new());
     let mut k = 0;
     while timeline.sample_into(&mut out).is_some() {
@@ -937,18 +947,8 @@ fn a_straight_tool_line_under_jerk_limits_has_no_acceleration_jump_between_its_k
 #[test]
 fn after_a_stall_under_jerk_limits_the_rate_climbs_back_along_an_s_curve() {
     let robot = so101_with_jerk(3440.0);
-    let (from, to) = (
-        [0.0, 0.0, 0.0, -90.0, 0.0, 0.0],
-        [0.0, 0.0, 0.0, 90.0, 0.0, 0.0],
-    );
-    let sequence = point_to_point_sequence(&robot, &from, &to, 5.0);
-    let timed = keypose::plan::fastest(&sequence, &robot, 50.0).unwrap();
-    let trajectory = Trajectory::build(&timed.sequence, &robot).unwrap();
-    let options = keypose::plan::TimelineOptions {
-        approach: false,
-        ..Default::default()
-    };
-    let mut timeline = keypose::plan::Timeline::new(&robot, &trajectory, &options, &from);
+    let (trajectory, from) = wrist_across(&robot);
+    let mut timeline = keypose::plan::Timeline::new(&robot, &trajectory, &no_approach(), &from);
     let (dt, stall) = (1e-3, 700);
     let mut taus = Vec::new();
     let mut out = vec![0.0; 6];

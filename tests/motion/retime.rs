@@ -318,18 +318,10 @@ fn a_timing_profile_is_played_as_written() {
 /// TOPP-RA's own grid can be off (1 %).
 #[test]
 fn fastest_is_within_five_percent_of_toppra_on_every_example() {
-    let python = keypose::python::PyConfig::with_cache_dir(python_cache())
-        .ensure_python()
-        .unwrap_or_else(|e| panic!("keypose's Python environment (with toppra) is needed: {e}"))
-        .python;
+    let python = toppra_python();
     for example in &examples() {
-        let sequence = Sequence::load(example).unwrap();
-        let robot = builtin_robot_of(&sequence).unwrap();
-        let outcome = fastest(&sequence, &robot, robot.control_hz).unwrap();
+        let (outcome, durations) = fastest_and_toppra(&python, example);
         assert!(outcome.report.passed(), "{example:?}");
-        let request = topp::request(&outcome, &robot);
-        let (durations, _) =
-            topp::toppra_durations(&python, &request).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(durations.len(), outcome.runs.len());
         let ours: f64 = outcome.runs.iter().map(|r| r.seconds).sum();
         let theirs: f64 = durations.iter().sum();
@@ -348,18 +340,12 @@ fn fastest_is_within_five_percent_of_toppra_on_every_example() {
 /// exact check with jerk (on main at 7fb3f6d six of the nine did not).
 #[test]
 fn fastest_with_jerk_limits_is_never_faster_than_toppras_optimum_without() {
-    let python = keypose::python::PyConfig::with_cache_dir(python_cache())
-        .ensure_python()
-        .unwrap_or_else(|e| panic!("keypose's Python environment (with toppra) is needed: {e}"))
-        .python;
+    let python = toppra_python();
     for example in &examples() {
+        let (_, durations) = fastest_and_toppra(&python, example);
+        let optimum: f64 = durations.iter().sum();
         let sequence = Sequence::load(example).unwrap();
         let robot = builtin_robot_of(&sequence).unwrap();
-        let outcome = fastest(&sequence, &robot, robot.control_hz).unwrap();
-        let request = topp::request(&outcome, &robot);
-        let (durations, _) =
-            topp::toppra_durations(&python, &request).unwrap_or_else(|e| panic!("{e}"));
-        let optimum: f64 = durations.iter().sum();
         let jerky = ruckig::with_jerk(&robot, ruckig::RISE_SECONDS);
         let outcome = fastest(&sequence, &jerky, jerky.control_hz).unwrap();
         assert!(
@@ -374,6 +360,24 @@ fn fastest_with_jerk_limits_is_never_faster_than_toppras_optimum_without() {
             "{example:?}: {ours} s with jerk limits against TOPP-RA's {optimum} s without ({ratio})"
         );
     }
+}
+
+/// keypose's Python environment, with toppra.
+fn toppra_python() -> std::path::PathBuf {
+    keypose::python::PyConfig::with_cache_dir(python_cache())
+        .ensure_python()
+        .unwrap_or_else(|e| panic!("keypose's Python environment (with toppra) is needed: {e}"))
+        .python
+}
+
+/// `--fastest` on `example` for its built-in robot, and TOPP-RA's time for each of its runs.
+fn fastest_and_toppra(python: &Path, example: &Path) -> (keypose::plan::FastestOutcome, Vec<f64>) {
+    let sequence = Sequence::load(example).unwrap();
+    let robot = builtin_robot_of(&sequence).unwrap();
+    let outcome = fastest(&sequence, &robot, robot.control_hz).unwrap();
+    let request = topp::request(&outcome, &robot);
+    let (durations, _) = topp::toppra_durations(python, &request).unwrap_or_else(|e| panic!("{e}"));
+    (outcome, durations)
 }
 
 /// `keypose check FILE` passes (exit 0).
