@@ -7,10 +7,10 @@
 //!
 //! With jerk limits (each joint's acceleration limit reached in `ruckig::RISE_SECONDS`): the
 //! moving time `--fastest` gives with its S-curve profiles, which stop at every key (checked
-//! exactly with jerk; a straight tool line's samples jump in acceleration and are reported as
-//! such), and point-to-point moves between the example's consecutive keys, keypose's S-curve
-//! along the straight line (`plan::scurve::point_to_point`) against Ruckig's time-optimal
-//! jerk-limited move (the `ruckig` package) under the same limits, summed per example.
+//! exactly with jerk), against TOPP-RA's optimum without jerk limits from the first table, and
+//! point-to-point moves between the example's consecutive keys, keypose's S-curve along the
+//! straight line (`plan::scurve::point_to_point`) against Ruckig's time-optimal jerk-limited
+//! move (the `ruckig` package) under the same limits, summed per example.
 //!
 //! `cargo bench --bench fastest` (no criterion: one plan per example, checked exactly before
 //! anything is printed).
@@ -46,6 +46,7 @@ fn main() {
     );
     let mut ratios = Vec::new();
     let mut version = String::new();
+    let mut optima = Vec::new();
     for file in &files {
         let sequence = Sequence::load(file).expect("an example loads");
         let robot = builtin_robot_of(&sequence).expect("an example's robot is built in");
@@ -75,6 +76,7 @@ fn main() {
         let (keyed, _) = outcome.moving_time();
         let ratio = ours / theirs;
         ratios.push(ratio);
+        optima.push(theirs);
         println!(
             "{:<28} {:>8.3}s {:>8.3}s {:>8.3}s {:>7.3} {:>6} {:>9.1} {:>9.1}",
             file.file_name().unwrap().to_string_lossy(),
@@ -94,24 +96,35 @@ fn main() {
         ratios.len(),
         session.load()
     );
-    jerk_limited(&python, &files);
+    jerk_limited(&python, &files, &optima);
     session.end();
 }
 
-/// The second table: with jerk limits, `--fastest` and point-to-point moves against Ruckig.
-fn jerk_limited(python: &std::path::Path, files: &[std::path::PathBuf]) {
+/// The second table: with jerk limits, `--fastest` against TOPP-RA's optimum without them
+/// (`optima`, per file, from the first table), and point-to-point moves against Ruckig.
+fn jerk_limited(python: &std::path::Path, files: &[std::path::PathBuf], optima: &[f64]) {
     println!();
     println!(
         "jerk limits: each joint's acceleration limit reached in {} s",
         ruckig::RISE_SECONDS
     );
     println!(
-        "{:<28} {:>9} {:>8} {:>6} {:>10} {:>10} {:>7}",
-        "example", "fastest", "check", "moves", "S-curves", "Ruckig", "ratio"
+        "{:<28} {:>9} {:>8} {:>9} {:>7} {:>7} {:>6} {:>10} {:>10} {:>7}",
+        "example",
+        "fastest",
+        "check",
+        "TOPP-RA",
+        "ratio",
+        "holds+",
+        "moves",
+        "S-curves",
+        "Ruckig",
+        "ratio"
     );
     let mut ratios = Vec::new();
+    let mut over_toppra = Vec::new();
     let mut version = String::new();
-    for file in files {
+    for (file, optimum) in files.iter().zip(optima) {
         let sequence = Sequence::load(file).expect("an example loads");
         let robot = ruckig::with_jerk(
             &builtin_robot_of(&sequence).expect("an example's robot is built in"),
@@ -119,6 +132,8 @@ fn jerk_limited(python: &std::path::Path, files: &[std::path::PathBuf]) {
         );
         let outcome = fastest(&sequence, &robot, robot.control_hz).expect("an example retimes");
         let seconds: f64 = outcome.runs.iter().map(|r| r.seconds).sum();
+        // Holds a joint moves through that had to grow (moving time leaves holds out).
+        let longer = (outcome.holds.iter()).fold(0.0, |sum, (_, a, b)| sum + b - a);
         let verdict = if outcome.report.passed() {
             "ok".to_string()
         } else {
@@ -151,17 +166,26 @@ fn jerk_limited(python: &std::path::Path, files: &[std::path::PathBuf]) {
         let theirs: f64 = durations.iter().sum();
         let ratio = ours / theirs;
         ratios.push(ratio);
+        over_toppra.push(seconds / optimum);
         println!(
-            "{:<28} {:>8.3}s {:>8} {:>6} {:>9.3}s {:>9.3}s {:>7.3}",
+            "{:<28} {:>8.3}s {:>8} {:>8.3}s {:>7.3} {:>6.3}s {:>6} {:>9.3}s {:>9.3}s {:>7.3}",
             file.file_name().unwrap().to_string_lossy(),
             seconds,
             verdict,
+            optimum,
+            seconds / optimum,
+            longer,
             pairs.len(),
             ours,
             theirs,
             ratio
         );
     }
+    println!(
+        "fastest with jerk / TOPP-RA without: median {:.3}, worst {:.3}",
+        common::median(&over_toppra),
+        over_toppra.iter().cloned().fold(f64::NAN, f64::max),
+    );
     println!(
         "point to point / Ruckig (ruckig {version}, time-synchronised): median {:.3}, worst {:.3}, over {} examples",
         common::median(&ratios),

@@ -76,6 +76,11 @@ pub struct TrackKey<V> {
     /// The motion is at rest at this key whatever its neighbours (the ends of a straight tool
     /// line, timed to start and stop there): its rate is zero, as at a hold.
     pub rest: bool,
+    /// The key's rate makes the curve's second derivative continuous through it: with its
+    /// neighbours of the same kind, a cubic spline between the keys on either side of the run,
+    /// whose rates are set the usual way (the samples of a straight tool line under jerk
+    /// limits). Only between two cubic segments without a hold; exact for scalar values.
+    pub spline: bool,
 }
 
 impl<V> TrackKey<V> {
@@ -87,12 +92,20 @@ impl<V> TrackKey<V> {
             hold: 0.0,
             interp,
             rest: false,
+            spline: false,
         }
     }
 
     /// The same key, with the motion at rest there (rate zero) whatever its neighbours.
     pub fn at_rest(mut self) -> Self {
         self.rest = true;
+        self
+    }
+
+    /// The same key, its rate the one that keeps the second derivative continuous through it
+    /// (see [`TrackKey::spline`]).
+    pub fn in_spline(mut self) -> Self {
+        self.spline = true;
         self
     }
 
@@ -422,7 +435,19 @@ impl<V: Interpolant> Track<V> {
         let moving: Vec<f64> = (0..n.saturating_sub(1))
             .map(|i| times[i + 1] - times[i] - holds[i])
             .collect();
-        let rates = key_rates(&times, &values, &holds, &modes, &rest, &moving);
+        let mut rates = key_rates(&times, &values, &holds, &modes, &rest, &moving);
+        let spline: Vec<bool> = (0..n)
+            .map(|i| {
+                keys[i].spline
+                    && i > 0
+                    && i + 1 < n
+                    && holds[i] == 0.0
+                    && !rest[i]
+                    && modes[i - 1] == Interp::Cubic
+                    && modes[i] == Interp::Cubic
+            })
+            .collect();
+        spline_rates(&mut rates, &values, &moving, &spline);
         let segments = (0..n.saturating_sub(1))
             .map(|i| {
                 V::segment(
@@ -751,6 +776,73 @@ fn key_rates<V: Interpolant>(
     rates
 }
 
+/// The rates of every run of keys marked `spline` that make the cubic Hermite segments meet
+/// with equal second derivatives, the rates of the keys on either side of each run fixed: a
+/// clamped cubic spline. With segment durations h and secants d, continuity at key k is
+/// `m[k−1]/h[k−1] + 2·m[k]·(1/h[k−1] + 1/h[k]) + m[k+1]/h[k] = 3·(d[k−1]/h[k−1] + d[k]/h[k])`,
+/// a tridiagonal system with a dominant diagonal, solved by elimination (Thomas).
+fn spline_rates<V: Interpolant>(
+    rates: &mut [V::Rate],
+    values: &[V],
+    moving: &[f64],
+    spline: &[bool],
+) {
+    let mut k = 0;
+    while k < spline.len() {
+        if !spline[k] {
+            k += 1;
+            continue;
+        }
+        let first = k;
+        while k < spline.len() && spline[k] {
+            k += 1;
+        }
+        solve_spline_run(rates, values, moving, first, k);
+    }
+}
+
+/// [`spline_rates`] for the keys `first .. end`, whose neighbours `first − 1` and `end` keep
+/// their rates.
+fn solve_spline_run<V: Interpolant>(
+    rates: &mut [V::Rate],
+    values: &[V],
+    moving: &[f64],
+    first: usize,
+    end: usize,
+) {
+    let secant = |i: usize| V::displacement(&values[i], &values[i + 1]).scale(1.0 / moving[i]);
+    // Forward elimination: each row k as `m[k] + upper[k]·m[k+1] = right[k]`.
+    let mut upper: Vec<f64> = Vec::with_capacity(end - first);
+    let mut right: Vec<V::Rate> = Vec::with_capacity(end - first);
+    for k in first..end {
+        let (before, after) = (1.0 / moving[k - 1], 1.0 / moving[k]);
+        let mut diagonal = 2.0 * (before + after);
+        let mut r = secant(k - 1)
+            .scale(3.0 * before)
+            .add(secant(k).scale(3.0 * after));
+        if k == first {
+            r = r.add(rates[k - 1].scale(-before));
+        } else {
+            let j = k - first - 1;
+            diagonal -= before * upper[j];
+            r = r.add(right[j].scale(-before));
+        }
+        if k + 1 == end {
+            r = r.add(rates[end].scale(-after));
+        }
+        upper.push(if k + 1 == end { 0.0 } else { after / diagonal });
+        right.push(r.scale(1.0 / diagonal));
+    }
+    // Back substitution.
+    let mut next = V::Rate::ZERO;
+    for k in (first..end).rev() {
+        let j = k - first;
+        let m = right[j].add(next.scale(-upper[j]));
+        rates[k] = m;
+        next = m;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -830,5 +922,56 @@ mod tests {
             Track::new(&[k(f64::NAN)]),
             Err(CurveError::NonFiniteTime { index: 0 })
         ));
+    }
+
+    #[test]
+    fn spline_keys_reproduce_a_smoothstep_with_a_continuous_second_derivative() {
+        // f(t) = 10·(3x² − 2x³), x = t/2: a cubic at rest at both ends. A clamped cubic spline
+        // reproduces any cubic whose end slopes it is given (here 0, the first and last keys'),
+        // so through unevenly spaced samples of f it is f itself: value, slope 60x(1 − x)/2
+        // and second derivative 15·(1 − 2x), by hand.
+        let f = |t: f64| {
+            let x = t / 2.0;
+            10.0 * x * x * (3.0 - 2.0 * x)
+        };
+        let times = [0.0, 0.13, 0.4, 0.55, 0.9, 1.3, 1.42, 1.8, 2.0];
+        let keys: Vec<_> = times
+            .iter()
+            .enumerate()
+            .map(|(k, &t)| {
+                let key = TrackKey::new(t, f(t), Interp::Cubic);
+                if k == 0 || k + 1 == times.len() {
+                    key
+                } else {
+                    key.in_spline()
+                }
+            })
+            .collect();
+        let track = Track::new(&keys).unwrap();
+        for k in 0..=200 {
+            let t = 2.0 * k as f64 / 200.0;
+            let x = t / 2.0;
+            assert!((track.sample(t) - f(t)).abs() < 1e-12, "{t}");
+            assert!(
+                (track.rate_at(t) - 30.0 * x * (1.0 - x)).abs() < 1e-10,
+                "{t}"
+            );
+            if t < 2.0 {
+                assert!(
+                    (track.second_rate_at(t) - 15.0 * (1.0 - 2.0 * x)).abs() < 1e-9,
+                    "{t}"
+                );
+            }
+        }
+        // Without the spline the key-time central differences give other slopes: the second
+        // derivative jumps at the samples.
+        let plain: Vec<_> = times
+            .iter()
+            .map(|&t| TrackKey::new(t, f(t), Interp::Cubic))
+            .collect();
+        let plain = Track::new(&plain).unwrap();
+        let jump = (plain.second_rate_at(0.9) - plain.second_rate_before(0.9)).abs();
+        assert!(jump > 0.1, "{jump}");
+        assert!((track.second_rate_at(0.9) - track.second_rate_before(0.9)).abs() < 1e-9);
     }
 }

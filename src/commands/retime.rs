@@ -67,6 +67,14 @@ fn run_fastest(
         );
         eprintln!("{}", escape_controls(&line));
     }
+    for (key, before, after) in &outcome.holds {
+        let line = format!(
+            "hold of key {key} ({}): {before:.3} s → {after:.3} s (a joint moves through it: \
+             too short to stop and start again within the jerk limits)",
+            sequence.keyframes[*key].label(*key),
+        );
+        eprintln!("{}", escape_controls(&line));
+    }
     let (before, after) = outcome.moving_time();
     eprintln!(
         "moving time {before:.3} s → {after:.3} s ({} plan-and-check round(s))",

@@ -28,15 +28,22 @@
 //! along the path give S-curves that keep the limits wherever they are (`scurve::candidates`);
 //! each is then stretched or shrunk in time to the peaks measured along it
 //! (`scurve::time_scale`), the shortest kept, and the exact check confirms it, with the same
-//! rounds as above. A hold through which a joint without a key there keeps moving is left as a
-//! corner: the path runs through a hold at pace 1, so it cannot be at rest on both sides.
+//! rounds as above. A hold through which a joint without a key there keeps moving gets an
+//! S-curve of its own (the timing's `"hold"`): the keyed joints rest in the hold with their
+//! curvature along the path beside it not zero, so their acceleration `q''·u̇²` is continuous
+//! only where the path speed `u̇` is zero, and the path must stop at the hold's ends as at any
+//! key. The hold's path time, from rest to rest, then needs at least the time the fastest
+//! S-curve along it takes; the hold keeps its seconds where they are enough, and is lengthened
+//! to that time where they are not (a joint moving through a short hold cannot stop and start
+//! again within it under its jerk limit: `32·q'/T²` is the least jerk a rest-to-rest move of
+//! T seconds asks of a joint at slope q'), reported in [`FastestOutcome::holds`].
 
 use super::scurve::{along_track, candidates, time_scale, AlongPath, SCurve};
 use super::{check, CheckReport, Trajectory};
 use crate::curve::{Interp, Track};
 use crate::json::InputError;
 use crate::robot::{Limits, Robot};
-use crate::sequence::{Ends, SegmentTiming, Sequence, TimeProfile};
+use crate::sequence::{Ends, HoldTiming, SegmentTiming, Sequence, TimeProfile};
 
 /// The share of each limit a profile is planned for at first; the exact check says whether the
 /// curve between grid points needs less.
@@ -70,6 +77,9 @@ pub struct FastestOutcome {
     pub rounds: usize,
     /// (segment, moving seconds before, after) of every segment given a profile.
     pub segments: Vec<(usize, f64, f64)>,
+    /// (key, hold seconds before, after) of every hold made longer: under jerk limits, a hold
+    /// through which a joint moves that cannot stop and start again within its seconds.
+    pub holds: Vec<(usize, f64, f64)>,
     /// The paths the arm runs from rest to rest (or from and to a segment that keeps its
     /// time): runs of profiled segments without a hold between them.
     pub runs: Vec<FastestRun>,
@@ -141,13 +151,17 @@ pub fn fastest(
             let segments = (0..path.segments.len())
                 .filter(|&i| path.segments[i].is_some())
                 .map(|i| {
-                    let hold = base.keyframes[i].hold;
                     (
                         i,
-                        before[i + 1] - before[i] - hold,
-                        times[i + 1] - times[i] - hold,
+                        before[i + 1] - before[i] - base.keyframes[i].hold,
+                        times[i + 1] - times[i] - candidate.keyframes[i].hold,
                     )
                 })
+                .collect();
+            let holds = (base.keyframes.iter().zip(&candidate.keyframes))
+                .enumerate()
+                .filter(|(_, (a, b))| b.hold > a.hold)
+                .map(|(i, (a, b))| (i, a.hold, b.hold))
                 .collect();
             let runs = path
                 .runs()
@@ -164,7 +178,7 @@ pub fn fastest(
                             jerk_limited || path.boundary(first, Side::After) == 0.0,
                             jerk_limited || path.boundary(end, Side::Before) == 0.0,
                         ],
-                        seconds: times[end] - times[first] - base.keyframes[first].hold,
+                        seconds: times[end] - times[first] - candidate.keyframes[first].hold,
                     }
                 })
                 .collect();
@@ -172,6 +186,7 @@ pub fn fastest(
                 sequence: candidate,
                 rounds,
                 segments,
+                holds,
                 runs,
                 report,
             });
@@ -184,9 +199,11 @@ pub fn fastest(
     }
 }
 
-/// Each segment's worst ratio of peak to limit, for violations timing can mend. With S-curves
+/// Each segment's worst ratio of peak to limit, for violations timing can mend (one in a hold
+/// is its key's segment's, whose share the hold's S-curve is planned for too). With S-curves
 /// (`stops_at_keys`) the path is at rest at every key, so a corner left is where a joint keeps
-/// moving through a hold (a joint without a key there), whose pace no segment's profile sets.
+/// moving through a hold that no S-curve times (next to a segment that keeps its time), whose
+/// pace no segment's profile sets.
 fn over_limits(report: &CheckReport, stops_at_keys: bool) -> Vec<(usize, f64)> {
     let mut out: Vec<(usize, f64)> = Vec::new();
     for v in &report.violations {
@@ -220,6 +237,18 @@ impl Grid {
     }
 }
 
+/// Whether any joint moves somewhere on `grid`'s stretch of path (at its points, from either
+/// side).
+fn moves_along(trajectory: &Trajectory, grid: Grid) -> bool {
+    (0..=grid.intervals).any(|k| {
+        let u = grid.point(k);
+        trajectory
+            .tracks()
+            .iter()
+            .any(|t| t.rate_at(u).abs() > AT_REST || t.rate_before(u).abs() > AT_REST)
+    })
+}
+
 /// Which segments get a profile, and the tracks their curves are on.
 struct Path<'a> {
     trajectory: &'a Trajectory,
@@ -227,11 +256,17 @@ struct Path<'a> {
     segments: Vec<Option<Grid>>,
     /// Keys where the played window starts and ends.
     window: (usize, usize),
-    /// Each key's path time and hold.
+    /// Each key's path time and the path time of its hold.
     paths: Vec<f64>,
     holds: Vec<f64>,
     /// Whether the path stops at every key (S-curve profiles for jerk limits).
     stops_at_keys: bool,
+    /// Per key, its hold's stretch of path when the hold gets an S-curve of its own (a joint
+    /// without a key there moves through it, between S-curves that stop at its ends).
+    holds_timed: Vec<Option<Grid>>,
+    /// Per key, whether its hold runs on an S-curve already (a file timed for jerk limits),
+    /// which starts and ends at rest.
+    hold_curves: Vec<bool>,
 }
 
 impl<'a> Path<'a> {
@@ -242,36 +277,57 @@ impl<'a> Path<'a> {
             Ends::Played => (0, n - 1),
             Ends::Control => (1, n - 2),
         };
+        let holds: Vec<f64> = sequence
+            .keyframes
+            .iter()
+            .map(|k| k.hold_path_time())
+            .collect();
         let segments = (0..n - 1)
             .map(|i| {
                 let key = &sequence.keyframes[i];
                 let mode = key.interp.unwrap_or(sequence.interpolation);
                 let played = i >= window.0 && i < window.1;
                 let grid = Grid {
-                    from: paths[i] + key.hold,
+                    from: paths[i] + holds[i],
                     to: paths[i + 1],
-                    intervals: ((paths[i + 1] - paths[i] - key.hold) * INTERVALS_PER_SECOND)
+                    intervals: ((paths[i + 1] - paths[i] - holds[i]) * INTERVALS_PER_SECOND)
                         .ceil()
                         .clamp(MIN_INTERVALS as f64, MAX_INTERVALS as f64)
                         as usize,
                 };
-                let moves = (0..=grid.intervals).any(|k| {
-                    let u = grid.point(k);
-                    trajectory
-                        .tracks()
-                        .iter()
-                        .any(|t| t.rate_at(u).abs() > AT_REST || t.rate_before(u).abs() > AT_REST)
-                });
+                let moves = moves_along(trajectory, grid);
                 (played && (mode != Interp::Step || key.line) && moves).then_some(grid)
+            })
+            .collect::<Vec<Option<Grid>>>();
+        let holds_timed = (0..n)
+            .map(|i| {
+                let hold = holds[i];
+                let grid = Grid {
+                    from: paths[i],
+                    to: paths[i] + hold,
+                    intervals: MIN_INTERVALS,
+                };
+                // Both sides stop at the hold's ends: the first played key's hold starts from
+                // rest, and S-curves end and start at rest.
+                let ends_at_rest = segments.get(i).is_some_and(Option::is_some)
+                    && (i == window.0 || i.checked_sub(1).is_some_and(|p| segments[p].is_some()));
+                (stops_at_keys && hold > 0.0 && ends_at_rest && moves_along(trajectory, grid))
+                    .then_some(grid)
             })
             .collect();
         Path {
             trajectory,
             segments,
             window,
-            holds: sequence.keyframes.iter().map(|k| k.hold).collect(),
+            holds,
             paths,
             stops_at_keys,
+            holds_timed,
+            hold_curves: sequence
+                .keyframes
+                .iter()
+                .map(|k| k.hold > 0.0 && k.timing.as_ref().is_some_and(|t| t.hold.is_some()))
+                .collect(),
         }
     }
 
@@ -371,11 +427,11 @@ impl<'a> Path<'a> {
         out
     }
 
-    /// The squared path speed at key `key` from the side of the run: 0 at the window's ends
-    /// and where every joint is at rest, else 1 (the pace of the hold or the segment beside it,
-    /// which keeps its time).
+    /// The squared path speed at key `key` from the side of the run: 0 at the window's ends,
+    /// at a hold on an S-curve and where every joint is at rest, else 1 (the pace of the hold
+    /// or the segment beside it, which keeps its time).
     fn boundary(&self, key: usize, side: Side) -> f64 {
-        if key == self.window.0 || key == self.window.1 {
+        if key == self.window.0 || key == self.window.1 || self.hold_curves[key] {
             return 0.0;
         }
         let u = match side {
@@ -401,23 +457,25 @@ impl<'a> Path<'a> {
     /// `base` with the profiles of `speeds` and the key times they give (to the microsecond).
     fn timed(&self, base: &Sequence, speeds: &[Option<Vec<f64>>]) -> Sequence {
         self.with_profiles(base, f64::round, |i, grid| {
-            Some(SegmentTiming {
+            let timing = SegmentTiming {
                 path_time: grid.to - grid.from,
                 profile: TimeProfile::Speeds(
                     speeds[i].as_ref()?.iter().map(|&v| written(v)).collect(),
                 ),
-            })
+                hold: base.keyframes[i].timing.as_ref().and_then(|t| t.hold),
+            };
+            Some((timing, base.keyframes[i].hold))
         })
     }
 
-    /// `base` with the timing `profile` gives segment `i` on its stretch of path (`None`: the
-    /// segment keeps its key times), and the key times that follow, each rounded to the
-    /// microsecond by `round`.
+    /// `base` with the timing `profile` gives segment `i` on its stretch of path, and the
+    /// seconds of the key's hold (`None`: the segment keeps its key times and the key its
+    /// hold), and the key times that follow, each rounded to the microsecond by `round`.
     fn with_profiles(
         &self,
         base: &Sequence,
         round: fn(f64) -> f64,
-        mut profile: impl FnMut(usize, Grid) -> Option<SegmentTiming>,
+        mut profile: impl FnMut(usize, Grid) -> Option<(SegmentTiming, f64)>,
     ) -> Sequence {
         let mut out = base.clone();
         let times = base.key_times();
@@ -427,16 +485,17 @@ impl<'a> Path<'a> {
             let Some(next) = times.get(i + 1) else {
                 break;
             };
-            let hold = out.keyframes[i].hold;
+            let key = &mut out.keyframes[i];
             let moving = match self.segments[i].and_then(|grid| profile(i, grid)) {
-                Some(timing) => {
+                Some((timing, hold)) => {
                     let seconds = timing.seconds();
-                    out.keyframes[i].timing = Some(timing);
+                    key.timing = Some(timing);
+                    key.hold = hold;
                     seconds
                 }
-                None => next - times[i] - hold,
+                None => next - times[i] - key.hold,
             };
-            time = round((time + hold + moving) * 1e6) / 1e6;
+            time = round((time + key.hold + moving) * 1e6) / 1e6;
         }
         out
     }
@@ -467,15 +526,40 @@ impl Path<'_> {
             .min_by(|a, b| a.duration().total_cmp(&b.duration()))
     }
 
+    /// How key `key`'s hold runs, if it gets an S-curve, and its seconds: the fastest S-curve
+    /// along the hold's path time within `share` of the limits ([`Path::s_curve`]), stretched
+    /// to the hold's `seconds` where it is shorter (stretching lowers every peak); where it is
+    /// longer, the hold lasts as long as it takes (to the microsecond, rounded up).
+    fn hold_timing(
+        &self,
+        robot: &Robot,
+        key: usize,
+        seconds: f64,
+        share: f64,
+    ) -> Option<(HoldTiming, f64)> {
+        let grid = self.holds_timed[key]?;
+        let curve = self.s_curve(robot, grid, share)?;
+        let needed = (curve.duration() * 1e6).ceil() / 1e6;
+        let timing = HoldTiming {
+            path_time: self.holds[key],
+            scurve: curve.shape(),
+        };
+        Some((timing, needed.max(seconds)))
+    }
+
     /// `base` with an S-curve profile on every profiled segment, each planned for its share
     /// of the limits, and the key times they give (rounded up to the microsecond, so a
     /// profile never runs faster than planned).
     fn s_curves(&self, base: &Sequence, robot: &Robot, shares: &[f64]) -> Sequence {
         self.with_profiles(base, f64::ceil, |i, grid| {
-            Some(SegmentTiming {
+            let seconds = base.keyframes[i].hold;
+            let hold = self.hold_timing(robot, i, seconds, shares[i]);
+            let timing = SegmentTiming {
                 path_time: grid.to - grid.from,
                 profile: TimeProfile::SCurve(self.s_curve(robot, grid, shares[i])?.shape()),
-            })
+                hold: hold.map(|(timing, _)| timing),
+            };
+            Some((timing, hold.map_or(seconds, |(_, seconds)| seconds)))
         })
     }
 }

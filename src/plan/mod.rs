@@ -143,6 +143,12 @@ impl Trajectory {
             }
         }
 
+        // Under jerk limits a line's samples are joined with a continuous acceleration.
+        let join = if robot.joints.iter().any(|j| j.limits.jerk.is_some()) {
+            LineJoin::Spline
+        } else {
+            LineJoin::KeyTimeCubic
+        };
         let mut tracks = Vec::with_capacity(robot.joints.len());
         for (joint_index, joint) in robot.joints.iter().enumerate() {
             let mut keys = Vec::new();
@@ -174,12 +180,13 @@ impl Trajectory {
                 }
                 previous = Some(v);
                 let interp = key.interp.unwrap_or(sequence.interpolation);
-                let mut track_key = TrackKey::new(path_times[index], v, interp).with_hold(key.hold);
+                let mut track_key =
+                    TrackKey::new(path_times[index], v, interp).with_hold(key.hold_path_time());
                 if line_ends_here {
                     track_key = track_key.at_rest();
                 }
                 keys.push(track_key);
-                line_ends_here = push_line_samples(&mut keys, &tools, index, joint_index);
+                line_ends_here = push_line_samples(&mut keys, &tools, index, joint_index, join);
             }
             if keys.is_empty() {
                 keys.push(TrackKey::new(
@@ -379,20 +386,36 @@ pub(crate) fn key_value_path(key_path: &str, joint: &str, value: &KeyValue) -> S
     }
 }
 
+/// How a straight tool line's samples are joined.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum LineJoin {
+    /// A key-time cubic: continuous in velocity, its acceleration jumping a little at each
+    /// sample.
+    KeyTimeCubic,
+    /// A cubic spline (`TrackKey::in_spline`): continuous in acceleration too, for a robot
+    /// with jerk limits, where every jump of the acceleration is a violation.
+    Spline,
+}
+
 /// The solved samples of a straight tool line starting at key `index`, as keys of joint
-/// `joint`'s track; whether there were any (none when the line could not be followed).
+/// `joint`'s track, joined as `join` says; whether there were any (none when the line could
+/// not be followed).
 ///
 /// The line is timed to start and stop at rest (minimum jerk), so its first key is at rest and
 /// the key it runs into must be too (the caller marks it). Between them the samples are a
 /// key-time cubic: dense samples of a smooth path, whose central-difference slopes follow the
 /// path's own. A monotone cubic would stop at every sample where a joint turns back (its slope
 /// is zero at a local extreme), and how hard it stops depends on where the control-rate
-/// samples fall: a line that passed the check at one duration failed it 40 ms later.
+/// samples fall: a line that passed the check at one duration failed it 40 ms later. The
+/// spline's slopes follow the path's too (through a cubic's samples it is that cubic), and
+/// its second derivative does not jump at the samples; at the line's ends, at rest, the
+/// path's speed is zero under any profile, so its acceleration does not jump there either.
 fn push_line_samples(
     keys: &mut Vec<TrackKey<f64>>,
     tools: &ToolSolve,
     index: usize,
     joint: usize,
+    join: LineJoin,
 ) -> bool {
     let Some(line) = tools
         .lines
@@ -403,11 +426,19 @@ fn push_line_samples(
     };
     if let Some(start) = keys.last_mut() {
         start.rest = true;
+        if join == LineJoin::Spline {
+            // The line's first piece joins the spline too, whatever the key's own mode.
+            start.interp = crate::curve::Interp::Cubic;
+        }
     }
     let before = keys.len();
     for (k, time) in line.times.iter().enumerate() {
         if let Some(value) = line.value(k, joint) {
-            keys.push(TrackKey::new(*time, value, crate::curve::Interp::Cubic));
+            let key = TrackKey::new(*time, value, crate::curve::Interp::Cubic);
+            keys.push(match join {
+                LineJoin::Spline => key.in_spline(),
+                LineJoin::KeyTimeCubic => key,
+            });
         }
     }
     keys.len() > before

@@ -11,9 +11,11 @@
 //!   joint's limits;
 //! - a stall (the process did not run for a while, so the last goal was held) lowers it to the
 //!   rate the arm really followed, `period / gap` of it; it then climbs back to 1 no faster than
-//!   each joint's acceleration limit leaves room for next to the path's own acceleration. The
-//!   sequence resumes along the path from where it was, later by the stall; it never jumps
-//!   ahead to where the clock says it should be.
+//!   each joint's acceleration limit leaves room for next to the path's own acceleration
+//!   (under jerk limits along the first half of an S-curve, as braking falls, its jerk within
+//!   half of each joint's limit, so the climb adds no acceleration jump). The sequence resumes
+//!   along the path from where it was, later by the stall; it never jumps ahead to where the
+//!   clock says it should be.
 
 use super::scurve::{speed_change, SCurve};
 use super::{Approach, Trajectory, MIN_APPROACH_SECONDS};
@@ -120,6 +122,53 @@ struct PathRate {
     factor: f64,
     /// While braking: how the factor falls.
     braking: Option<Braking>,
+    /// While climbing back to 1 after a stall under jerk limits: how the factor rises.
+    climb: Option<RateRamp>,
+}
+
+/// The rate factor changing from `from` by `change` along the first half of an S-curve
+/// (`ramp`: the S-curve's speed is the change so far), `elapsed` seconds in: its rate of
+/// change ramps up and down at a bounded jerk, so the joints' acceleration does not jump.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct RateRamp {
+    from: f64,
+    ramp: SCurve,
+    elapsed: f64,
+}
+
+impl RateRamp {
+    /// The ramp by `change` (either sign) whose rate of change stays within `rate` (per
+    /// second) and its own change within `jerk` (per second squared), lasting at least
+    /// `shortest` seconds.
+    fn new(from: f64, change: f64, rate: f64, jerk: f64, shortest: f64) -> RateRamp {
+        let [tj, ta] = speed_change(change.abs(), rate, jerk);
+        // Without a jerk limit on a joint that moves, any shape within the rate will do: all
+        // jerk phases, whose peak rate of change is twice the mean.
+        let (shape, least) = if tj > 0.0 && (2.0 * tj + ta).is_finite() {
+            ([tj, ta, 0.0], 2.0 * tj + ta)
+        } else {
+            ([1.0, 0.0, 0.0], 2.0 * change.abs() / rate)
+        };
+        // The whole S-curve whose first half reaches the speed `change` in `half` seconds
+        // lasts twice that and covers `change · half` (its mean speed is half its peak).
+        // Stretched to the shortest time, the same shape changes gentler.
+        let half = least.max(shortest);
+        RateRamp {
+            from,
+            ramp: SCurve::shaped(shape, 2.0 * half, change * half),
+            elapsed: 0.0,
+        }
+    }
+
+    /// How far the factor has changed from `from`.
+    fn changed(&self) -> f64 {
+        self.ramp.state_at(self.elapsed).velocity
+    }
+
+    /// Whether the first half of the S-curve is over.
+    fn done(&self) -> bool {
+        self.elapsed >= 2.0 * self.ramp.jerk_time + self.ramp.acceleration_time
+    }
 }
 
 /// How the rate factor falls to 0 after a stop request.
@@ -127,13 +176,8 @@ struct PathRate {
 enum Braking {
     /// By this much per second.
     Linear(f64),
-    /// From `from`, by the speed an S-curve's first half reaches `elapsed` seconds in (jerk
-    /// limits): it reaches `from` at its end. A stall scales what is left.
-    SCurve {
-        from: f64,
-        ramp: SCurve,
-        elapsed: f64,
-    },
+    /// Along a [`RateRamp`] to 0 (jerk limits). A stall scales what is left.
+    SCurve(RateRamp),
 }
 
 impl Braking {
@@ -141,21 +185,16 @@ impl Braking {
     fn advance(&mut self, factor: f64, dt: f64) -> f64 {
         match self {
             Braking::Linear(per_second) => factor - *per_second * dt,
-            Braking::SCurve {
-                from,
-                ramp,
-                elapsed,
-            } => {
-                let before = *from - ramp.state_at(*elapsed).velocity;
-                *elapsed += dt;
-                let end = 2.0 * ramp.jerk_time + ramp.acceleration_time;
-                if *elapsed >= end || before <= 0.0 {
+            Braking::SCurve(ramp) => {
+                let before = ramp.from + ramp.changed();
+                ramp.elapsed += dt;
+                if ramp.done() || before <= 0.0 {
                     return 0.0;
                 }
                 // In proportion, not the ramp's value itself: a stall while braking has
                 // lowered the factor below the ramp's (`after_stall`), and it must not climb
                 // back.
-                factor * (*from - ramp.state_at(*elapsed).velocity) / before
+                factor * (ramp.from + ramp.changed()) / before
             }
         }
     }
@@ -223,6 +262,7 @@ impl<'a> Timeline<'a> {
             rate: PathRate {
                 factor: 1.0,
                 braking: None,
+                climb: None,
             },
             stopped: false,
             approach_seconds,
@@ -296,6 +336,8 @@ impl<'a> Timeline<'a> {
     /// (`period / gap`), and resumes from there.
     pub fn after_stall(&mut self, share: f64) {
         self.rate.factor *= share;
+        // A climb under way starts again from the lower rate.
+        self.rate.climb = None;
     }
 
     /// Moves on by `dt` seconds of wall-clock time.
@@ -312,8 +354,7 @@ impl<'a> Timeline<'a> {
             }
             None => {
                 if self.rate.factor < 1.0 {
-                    let climb = self.resume_rate() * dt;
-                    self.rate.factor = (self.rate.factor + climb).min(1.0);
+                    self.rate.factor = self.climbed(dt);
                     // The path moves dt · factor below: the rest of dt is lost.
                     self.resuming_lost += dt * (1.0 - self.rate.factor);
                 }
@@ -413,34 +454,55 @@ impl<'a> Timeline<'a> {
     /// [`MIN_BRAKE_SECONDS`].
     fn s_curve_braking(&self, velocity: &[f64]) -> Braking {
         let from = self.rate.factor;
-        let least = |limit: &dyn Fn(&crate::robot::Limits) -> f64| {
-            self.robot
-                .joints
-                .iter()
-                .zip(velocity)
-                .map(|(j, v)| BRAKE_LIMIT_SHARE * limit(&j.limits) / v.abs())
-                .fold(f64::INFINITY, f64::min)
-        };
-        let change = least(&|l| l.acceleration);
-        let jerk = least(&|l| l.jerk.unwrap_or(f64::INFINITY));
-        let [tj, ta] = speed_change(from, change, jerk);
-        // Without a jerk limit on a joint that moves, any shape within the acceleration limit
-        // will do: all jerk phases, whose peak rate of change is twice the mean.
-        let (shape, least) = if tj > 0.0 && (2.0 * tj + ta).is_finite() {
-            ([tj, ta, 0.0], 2.0 * tj + ta)
-        } else {
-            ([1.0, 0.0, 0.0], 2.0 * from / change)
-        };
-        // The whole S-curve whose first half reaches the speed `from` in `half` seconds lasts
-        // twice that and covers `from · half` (its mean speed is half its peak). Stretched to
-        // the shortest braking time, the same shape falls gentler.
-        let half = least.max(MIN_BRAKE_SECONDS);
-        let ramp = SCurve::shaped(shape, 2.0 * half, from * half);
-        Braking::SCurve {
-            from,
-            ramp,
-            elapsed: 0.0,
+        let change = self.least_over_velocity(velocity, &|l| BRAKE_LIMIT_SHARE * l.acceleration);
+        let jerk = self.jerk_room(velocity);
+        Braking::SCurve(RateRamp::new(from, -from, change, jerk, MIN_BRAKE_SECONDS))
+    }
+
+    /// The least of `limit` over each joint's velocity `velocity` (at the full rate): what a
+    /// change of the rate factor may be, for each joint to keep `limit` (infinite for a joint
+    /// at rest).
+    fn least_over_velocity(
+        &self,
+        velocity: &[f64],
+        limit: &dyn Fn(&crate::robot::Limits) -> f64,
+    ) -> f64 {
+        self.robot
+            .joints
+            .iter()
+            .zip(velocity)
+            .map(|(j, v)| limit(&j.limits) / v.abs())
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// How fast the rate of change of the factor may itself change (per second squared): the
+    /// jerk it adds, `velocity · change²/dt²`, within half of each joint's jerk limit (infinite
+    /// without jerk limits).
+    fn jerk_room(&self, velocity: &[f64]) -> f64 {
+        self.least_over_velocity(velocity, &|l| {
+            BRAKE_LIMIT_SHARE * l.jerk.unwrap_or(f64::INFINITY)
+        })
+    }
+
+    /// The factor `dt` seconds further into coming back to 1 after a stall: at
+    /// [`Timeline::resume_rate`], or under jerk limits along a [`RateRamp`] from where the
+    /// stall left it, planned at its start with the same rate and half the jerk limits.
+    fn climbed(&mut self, dt: f64) -> f64 {
+        if self.robot.joints.iter().all(|j| j.limits.jerk.is_none()) {
+            return (self.rate.factor + self.resume_rate() * dt).min(1.0);
         }
+        let mut climb = self.rate.climb.unwrap_or_else(|| {
+            let (velocity, _) = self.derivatives();
+            let from = self.rate.factor;
+            let (rate, jerk) = (self.resume_rate(), self.jerk_room(&velocity));
+            RateRamp::new(from, 1.0 - from, rate, jerk, 0.0)
+        });
+        climb.elapsed += dt;
+        self.rate.climb = (!climb.done()).then_some(climb);
+        if climb.done() {
+            return 1.0;
+        }
+        (climb.from + climb.changed()).min(1.0)
     }
 
     /// How fast the rate factor may climb back to 1 (per second): the extra acceleration it

@@ -7,9 +7,11 @@
 //! and in a segment without a profile (there the two differ by a constant), and in a profiled
 //! segment with the path speed changing evenly between the profile's points, so path time is a
 //! quadratic of sequence time on each piece; in a segment with an S-curve profile the path
-//! acceleration changes evenly instead (constant path jerk), and path time is a cubic. Everything that samples a trajectory (the player's
-//! timeline, `sample`, `plot`, `sim`) goes through [`Trajectory::sample`](super::Trajectory),
-//! which goes through here; the exact check composes each curve with these pieces.
+//! acceleration changes evenly instead (constant path jerk), and path time is a cubic; so in a
+//! hold with an S-curve (its timing's `"hold"`), which runs the hold's path time from rest to rest in
+//! the hold's seconds. Everything that samples a trajectory (the player's timeline, `sample`,
+//! `plot`, `sim`) goes through [`Trajectory::sample`](super::Trajectory), which goes through
+//! here; the exact check composes each curve with these pieces.
 
 use super::scurve::{advance, MotionState, SCurve};
 use crate::sequence::{Sequence, TimeProfile};
@@ -110,17 +112,23 @@ impl Timing {
         for i in 0..times.len() - 1 {
             let key = &sequence.keyframes[i];
             let moving_from = times[i] + key.hold;
-            if key.hold > 0.0 {
-                pieces.push(TimingPiece {
+            match key.timing.as_ref().and_then(|t| t.hold) {
+                // Through the hold on an S-curve: its path time in its seconds.
+                Some(hold) if key.hold > 0.0 => {
+                    let curve = SCurve::shaped(hold.scurve, key.hold, hold.path_time);
+                    s_curve_pieces(&mut pieces, &curve, times[i], moving_from, paths[i]);
+                }
+                _ if key.hold > 0.0 => pieces.push(TimingPiece {
                     t0: times[i],
                     t1: moving_from,
                     u0: paths[i],
                     v0: 1.0,
                     a: 0.0,
                     j: 0.0,
-                });
+                }),
+                _ => {}
             }
-            let u_from = paths[i] + key.hold;
+            let u_from = paths[i] + key.hold_path_time();
             match &key.timing {
                 None => pieces.push(TimingPiece {
                     t0: moving_from,

@@ -508,7 +508,7 @@ fn solve_line_into(
         let frame = robot.tcp_frame(to);
         ToolTarget::pose(frame.t, frame.r)
     });
-    let start = times[index - 1] + first.hold;
+    let start = times[index - 1] + first.hold_path_time();
     let span = times[index] - start;
     let count = ((span * robot.control_hz).ceil() as usize).max(2);
     let shares: Vec<f64> = (1..=count).map(|k| k as f64 / count as f64).collect();

@@ -378,7 +378,13 @@ impl KeyframeList {
         if !(hold.is_finite() && hold >= 0.0) || gap.is_some_and(|g| hold > g - super::MIN_GAP) {
             return false;
         }
-        self.edit_current(|k| k.hold = hold)
+        self.edit_current(|k| {
+            k.hold = hold;
+            // A hold's S-curve has nothing to time without a hold.
+            if let Some(timing) = k.timing.as_mut().filter(|_| hold == 0.0) {
+                timing.hold = None;
+            }
+        })
     }
 
     /// Sets the spacing of a uniformly spaced list; refused below 0.1 s or on a timed list.

@@ -311,6 +311,15 @@ pub(super) fn validate_keys(sequence: &Sequence) -> Result<(), InputError> {
                 message,
             ));
         }
+        let hold_profile = key.timing.as_ref().is_some_and(|t| t.hold.is_some());
+        if hold_profile && key.hold == 0.0 {
+            return Err(InputError::at_path(
+                file,
+                &format!("{path}.timing.hold"),
+                "a hold's timing times the key's hold, but this key has none; expected a \
+                 \"hold\" above 0 s on the key, or no \"hold\" in its timing",
+            ));
+        }
         if i + 1 < n {
             let gap = times[i + 1] - times[i];
             if gap < MIN_GAP {

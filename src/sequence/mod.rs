@@ -19,7 +19,7 @@ use std::path::Path;
 
 pub use edit::{KeyframeList, TimeRefusal};
 pub use load::{valid_arm_name, MAX_TIME, MIN_GAP};
-pub use timing::{SegmentTiming, TimeProfile, EASE_STEPS, MAX_SPEEDS};
+pub use timing::{HoldTiming, SegmentTiming, TimeProfile, EASE_STEPS, MAX_SPEEDS};
 
 /// The `"format"` field of a sequence file this version reads and writes.
 pub const SEQUENCE_FORMAT: &str = "keypose-sequence/1";
@@ -166,6 +166,16 @@ impl Keyframe {
         match self.values.iter_mut().find(|(name, _)| name == joint) {
             Some(slot) => slot.1 = value,
             None => self.values.push((joint.to_string(), value)),
+        }
+    }
+
+    /// Seconds of path time the key's hold spans: its seconds, unless its timing runs the hold
+    /// on an S-curve of its own over another path time (`retime --fastest` lengthens a hold
+    /// whose joints cannot go through its path time in its seconds under jerk limits).
+    pub fn hold_path_time(&self) -> f64 {
+        match self.timing.as_ref().and_then(|t| t.hold) {
+            Some(hold) if self.hold > 0.0 => hold.path_time,
+            _ => self.hold,
         }
     }
 
@@ -419,7 +429,7 @@ impl Sequence {
                         Some(timing) => timing.path_time,
                         None => t - times[p] - key.hold,
                     };
-                    out[p] + key.hold + moving
+                    out[p] + key.hold_path_time() + moving
                 }
             };
             out.push(path);

@@ -16,7 +16,9 @@
 //! from rest to rest, the path jerk `+J, 0, −J, 0, −J, 0, +J` over `tj, ta, tj, tv, tj, ta, tj`
 //! seconds, so the path acceleration never jumps. The three times are a shape too: scaled by
 //! one factor so that the segment lasts what its key times give, with the jerk `J` that covers
-//! `path_time`. `retime --fastest` writes one on each segment for a robot with jerk limits.
+//! `path_time`. `retime --fastest` writes one on each segment for a robot with jerk limits,
+//! and one on each hold through which a joint without a key there moves (`"hold"`: the hold's
+//! path time run from rest to rest in the hold's seconds, [`HoldTiming`]).
 
 use crate::json::{InputError, Node};
 use serde_json::{json, Value};
@@ -32,6 +34,20 @@ pub struct SegmentTiming {
     pub path_time: f64,
     /// How the path speed changes along it.
     pub profile: TimeProfile,
+    /// How the path runs during the key's hold, when a joint without a key there moves
+    /// through it. None: at pace 1, its path time the hold's seconds, as without a profile.
+    pub hold: Option<HoldTiming>,
+}
+
+/// A hold run on an S-curve of its own: `path_time` seconds of path time (during which the
+/// joints the key names rest and the others go on along their curves) from rest to rest in the
+/// key's hold seconds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HoldTiming {
+    /// Seconds of path time the hold spans (the hold's seconds when the curve was shaped).
+    pub path_time: f64,
+    /// The S-curve's `[tj, ta, tv]`, a shape scaled to last the hold.
+    pub scurve: [f64; 3],
 }
 
 /// The path speed along a segment.
@@ -75,6 +91,7 @@ impl SegmentTiming {
         Some(SegmentTiming {
             path_time,
             profile: TimeProfile::Speeds((0..=EASE_STEPS).map(speed).collect()),
+            hold: None,
         })
     }
 
@@ -124,16 +141,12 @@ impl SegmentTiming {
 
 pub(super) fn parse(node: &Node) -> Result<SegmentTiming, InputError> {
     node.object()?;
-    node.only_fields(&["path_time", "speeds", "scurve"])?;
-    let path_node = node.require("path_time", "seconds of path time the segment spans")?;
-    let path_time = path_node.number("seconds")?;
-    if !(super::MIN_GAP..=super::MAX_TIME).contains(&path_time) {
-        return Err(path_node.expected(&format!(
-            "a path time of {} … {} s",
-            super::MIN_GAP,
-            super::MAX_TIME
-        )));
-    }
+    node.only_fields(&["path_time", "speeds", "scurve", "hold"])?;
+    let path_time = parse_path_time(node, "seconds of path time the segment spans")?;
+    let hold = match node.get("hold") {
+        Some(hold) => Some(parse_hold(&hold)?),
+        None => None,
+    };
     if let Some(shape) = node.get("scurve") {
         if node.get("speeds").is_some() {
             return Err(node.error(
@@ -144,6 +157,7 @@ pub(super) fn parse(node: &Node) -> Result<SegmentTiming, InputError> {
         return Ok(SegmentTiming {
             path_time,
             profile: TimeProfile::SCurve(parse_shape(&shape)?),
+            hold,
         });
     }
     let speeds_node = node.require("speeds", "the path speeds along the segment")?;
@@ -171,6 +185,33 @@ pub(super) fn parse(node: &Node) -> Result<SegmentTiming, InputError> {
     Ok(SegmentTiming {
         path_time,
         profile: TimeProfile::Speeds(speeds),
+        hold,
+    })
+}
+
+/// `path_time` of a segment's profile or a hold's, in seconds.
+fn parse_path_time(node: &Node, what: &str) -> Result<f64, InputError> {
+    let path_node = node.require("path_time", what)?;
+    let path_time = path_node.number("seconds")?;
+    if !(super::MIN_GAP..=super::MAX_TIME).contains(&path_time) {
+        return Err(path_node.expected(&format!(
+            "a path time of {} … {} s",
+            super::MIN_GAP,
+            super::MAX_TIME
+        )));
+    }
+    Ok(path_time)
+}
+
+/// `{"path_time": s, "scurve": [tj, ta, tv]}`: how a key's hold runs.
+fn parse_hold(node: &Node) -> Result<HoldTiming, InputError> {
+    node.object()?;
+    node.only_fields(&["path_time", "scurve"])?;
+    let path_time = parse_path_time(node, "seconds of path time the hold spans")?;
+    let shape = node.require("scurve", "the S-curve the hold runs on, [tj, ta, tv]")?;
+    Ok(HoldTiming {
+        path_time,
+        scurve: parse_shape(&shape)?,
     })
 }
 
@@ -199,10 +240,14 @@ fn parse_shape(node: &Node) -> Result<[f64; 3], InputError> {
 }
 
 pub(super) fn to_value(timing: &SegmentTiming) -> Value {
-    match &timing.profile {
+    let mut value = match &timing.profile {
         TimeProfile::Speeds(speeds) => json!({ "path_time": timing.path_time, "speeds": speeds }),
         TimeProfile::SCurve(shape) => json!({ "path_time": timing.path_time, "scurve": shape }),
+    };
+    if let Some(hold) = timing.hold {
+        value["hold"] = json!({ "path_time": hold.path_time, "scurve": hold.scurve });
     }
+    value
 }
 
 #[cfg(test)]
@@ -238,6 +283,7 @@ mod tests {
         let timing = SegmentTiming {
             path_time: 2.0,
             profile: TimeProfile::Speeds(vec![0.0, 1.0, 3.0]),
+            hold: None,
         };
         assert_eq!(timing.stretch_seconds(), vec![2.0, 0.5]);
         assert_eq!(timing.seconds(), 2.5);

@@ -80,6 +80,17 @@ pub fn repo(path: &str) -> String {
     format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
 }
 
+/// The example sequences (`sequences/*.json`), sorted by name.
+pub fn examples() -> Vec<std::path::PathBuf> {
+    let mut out: Vec<_> = std::fs::read_dir(repo("sequences"))
+        .expect("sequences/")
+        .map(|e| e.expect("an entry of sequences/").path())
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .collect();
+    out.sort();
+    out
+}
+
 pub fn stdout(out: &Output) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }

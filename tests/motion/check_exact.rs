@@ -370,6 +370,7 @@ fn profiled_sequence(keys: &[ProfiledKey]) -> Sequence {
         key.timing = Some(keypose::sequence::SegmentTiming {
             path_time: *path_time,
             profile: keypose::sequence::TimeProfile::Speeds(speeds),
+            hold: None,
         });
     }
     Sequence::from_json("profiled.json", &sequence.to_json()).unwrap()
@@ -418,8 +419,8 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
 
     /// With S-curve profiles (path time a cubic of time on each phase, each joint's curve a
-    /// polynomial of degree nine) the check's peaks still bound what the player asks for at
-    /// every phase of the control period.
+    /// polynomial of degree nine), on segments and on holds, the check's peaks still bound what
+    /// the player asks for at every phase of the control period.
     #[test]
     fn the_exact_verdict_holds_for_s_curve_profiles(
         keys in prop::collection::vec(
@@ -440,9 +441,16 @@ proptest! {
             if i == last || key.interp == Some(keypose::curve::Interp::Step) {
                 continue;
             }
+            // A held key runs its hold on the same shape, over 1.5 times its seconds of path
+            // time (as `retime --fastest` writes a hold it had to lengthen, the other way).
+            let hold = (key.hold > 0.0).then_some(keypose::sequence::HoldTiming {
+                path_time: (1.5 * key.hold).max(keypose::sequence::MIN_GAP),
+                scurve: *shape,
+            });
             key.timing = Some(keypose::sequence::SegmentTiming {
                 path_time: *path_time,
                 profile: keypose::sequence::TimeProfile::SCurve(*shape),
+                hold,
             });
         }
         let sequence = Sequence::from_json("scurve.json", &sequence.to_json()).unwrap();

@@ -240,6 +240,40 @@ fn edits_drop_the_timing_profiles_of_the_segments_they_change() {
     assert!(again.same_content(list.sequence()));
 }
 
+/// A hold's timing (`"hold"` in the key's timing, which `retime --fastest` writes under jerk
+/// limits) times the key's hold: a key without a hold may not have one (refused, naming the
+/// field), and setting a key's hold to 0 drops it, so the list still loads; another hold keeps
+/// it (its S-curve is scaled to the new seconds).
+#[test]
+fn a_holds_timing_needs_a_hold_and_goes_when_the_hold_does() {
+    let text = |hold: f64| {
+        format!(
+            r#"{{"format": "keypose-sequence/1", "robot": "so101", "keyframes": [
+            {{"time": 0, "hold": {hold}, "timing": {{"path_time": 1, "scurve": [0.1, 0, 0.2],
+              "hold": {{"path_time": 0.3, "scurve": [0.05, 0, 0]}}}}, "joints": {{"elbow_flex": 0}}}},
+            {{"time": 2, "joints": {{"elbow_flex": 40}}}}]}}"#
+        )
+    };
+    let err = Sequence::from_json("t.json", &text(0.0))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("$.keyframes[0].timing.hold") && err.contains("expected a \"hold\""),
+        "{err}"
+    );
+    let sequence = Sequence::from_json("t.json", &text(0.4)).unwrap();
+    assert_eq!(sequence.keyframes[0].hold_path_time(), 0.3);
+    assert_eq!(sequence.path_times(), [0.0, 1.3]);
+    let mut list = KeyframeList::new(sequence);
+    assert!(list.set_hold(0.5));
+    let hold = |list: &KeyframeList| list.sequence().keyframes[0].timing.as_ref().unwrap().hold;
+    assert_eq!(hold(&list).unwrap().path_time, 0.3);
+    assert!(list.set_hold(0.0));
+    assert_eq!(hold(&list), None);
+    let again = Sequence::from_json("again.json", &list.sequence().to_json()).unwrap();
+    assert_eq!(again.path_times(), [0.0, 1.0]);
+}
+
 /// A timed list of keys at `times` (elbow 0, 10, 20, …), `hold` on key 1.
 fn timed(times: &[f64], hold: f64) -> KeyframeList {
     let keys: Vec<serde_json::Value> = times

@@ -9,9 +9,7 @@ use keypose::robot::Robot;
 use keypose::sequence::Sequence;
 use serde_json::Value;
 
-use crate::oracle;
-#[path = "../../benches/common/ruckig.rs"]
-mod ruckig;
+use crate::ruckig;
 
 /// The SO-101's robot file with `jerk` set on every joint (None: as it is).
 fn so101_text(jerk: Option<&str>) -> String {
@@ -646,6 +644,26 @@ fn at_another_speed_jerk_scales_with_its_cube_and_a_jump_with_its_square() {
     }
 }
 
+/// The wrist from −90° to 90° on a linear segment, retimed `--fastest` (an S-curve with a
+/// cruise of more than a second), and the pose it starts from.
+fn wrist_across(robot: &Robot) -> (Trajectory, [f64; 6]) {
+    let (from, to) = (
+        [0.0, 0.0, 0.0, -90.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0, 90.0, 0.0, 0.0],
+    );
+    let sequence = point_to_point_sequence(robot, &from, &to, 5.0);
+    let timed = keypose::plan::fastest(&sequence, robot, 50.0).unwrap();
+    (Trajectory::build(&timed.sequence, robot).unwrap(), from)
+}
+
+/// Playback from the first pose, without the approach ramp.
+fn no_approach() -> keypose::plan::TimelineOptions {
+    keypose::plan::TimelineOptions {
+        approach: false,
+        ..Default::default()
+    }
+}
+
 #[test]
 fn a_stall_while_braking_under_jerk_limits_never_speeds_the_arm_up_again() {
     // Braking from the wrist's cruise as above; 0.2 s into it the process stalls and the path
@@ -653,18 +671,8 @@ fn a_stall_while_braking_under_jerk_limits_never_speeds_the_arm_up_again() {
     // one before, every later step is no longer than the one before it, and the arm still
     // comes to rest.
     let robot = so101_with_jerk(3440.0);
-    let (from, to) = (
-        [0.0, 0.0, 0.0, -90.0, 0.0, 0.0],
-        [0.0, 0.0, 0.0, 90.0, 0.0, 0.0],
-    );
-    let sequence = point_to_point_sequence(&robot, &from, &to, 5.0);
-    let timed = keypose::plan::fastest(&sequence, &robot, 50.0).unwrap();
-    let trajectory = Trajectory::build(&timed.sequence, &robot).unwrap();
-    let options = keypose::plan::TimelineOptions {
-        approach: false,
-        ..Default::default()
-    };
-    let mut timeline = keypose::plan::Timeline::new(&robot, &trajectory, &options, &from);
+    let (trajectory, from) = wrist_across(&robot);
+    let mut timeline = keypose::plan::Timeline::new(&robot, &trajectory, &no_approach(), &from);
     let (dt, mut out, mut p) = (1e-3, vec![0.0; 6], Vec::new());
     let mut k = 0;
     while timeline.sample_into(&mut out).is_some() {
@@ -690,4 +698,309 @@ fn a_stall_while_braking_under_jerk_limits_never_speeds_the_arm_up_again() {
         steps[505..].windows(2).all(|w| w[1] <= w[0] + 1e-12),
         "a step grew while braking"
     );
+}
+
+/// The largest `|Δⁿp| / hⁿ` of `p` sampled every `h` seconds, for n = 1, 2, 3: by the mean
+/// value theorem no more than the curve's peak velocity, acceleration and jerk where the
+/// derivative below is continuous, and an acceleration jump J shows in the third as up to
+/// 0.75·J/h (the quadratic B-spline's peak, over which a third difference averages the jerk).
+fn difference_peaks(p: &[f64], h: f64) -> [f64; 3] {
+    let mut d = p.to_vec();
+    let mut out = [0.0; 3];
+    for peak in &mut out {
+        d = d.windows(2).map(|w| (w[1] - w[0]) / h).collect();
+        *peak = d.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    }
+    out
+}
+
+/// Every example of sequences/, retimed `--fastest` for its robot with the bench's jerk limits
+/// (each joint's acceleration limit reached in 0.1 s, docs/robots.md §5a), passes the exact
+/// check with jerk, as written to a file and read back; keeps its keys (names, poses,
+/// interpolation, tool keys and lines) and its holds (each as long, or longer where the outcome
+/// says it had to be), and reaches the same pose at every key and hold end; and, sampled at
+/// 1 kHz, no finite difference of any order is above its limit. On main at
+/// 7fb3f6d six of the nine kept violations (bimanual_wave 12, koch_wave 8, omx_reach 25,
+/// so100_wave 14, so101-tool-line 745, so101_pick_place 40): holds through which a joint
+/// without a key there moved at pace 1 between S-curves at rest, and the tool line's samples
+/// joined with an acceleration jump at each.
+#[test]
+fn fastest_with_jerk_limits_passes_the_check_with_jerk_on_every_example() {
+    let examples = crate::common::examples();
+    assert!(examples.len() >= 9, "{examples:?}");
+    for example in &examples {
+        let name = example.file_name().unwrap().to_string_lossy();
+        let sequence = Sequence::load(example).unwrap();
+        let robot = ruckig::with_jerk(
+            &keypose::plan::builtin_robot_of(&sequence).unwrap(),
+            ruckig::RISE_SECONDS,
+        );
+        let outcome = keypose::plan::fastest(&sequence, &robot, robot.control_hz).unwrap();
+        let timed = Sequence::from_json("timed.json", &outcome.sequence.to_json()).unwrap();
+        let after = Trajectory::build(&timed, &robot).unwrap();
+        let report = check(&after, &robot, robot.control_hz);
+        assert!(report.passed(), "{name}: {:#?}", report.violations);
+
+        assert_eq!(timed.keyframes.len(), sequence.keyframes.len(), "{name}");
+        for (k, (x, y)) in sequence.keyframes.iter().zip(&timed.keyframes).enumerate() {
+            assert_eq!(
+                (&x.name, &x.values, x.interp, x.line),
+                (&y.name, &y.values, y.interp, y.line),
+                "{name}"
+            );
+            // A hold lasts as long, or longer where the outcome says so.
+            let longer = outcome.holds.iter().find(|h| h.0 == k);
+            match longer {
+                None => assert_eq!(x.hold, y.hold, "{name}: key {k}"),
+                Some(&(_, before, after)) => {
+                    assert!(
+                        before == x.hold && after == y.hold && after > before,
+                        "{name}"
+                    )
+                }
+            }
+            assert_eq!(
+                (format!("{:?}", x.tool), format!("{:?}", x.arm_tools)),
+                (format!("{:?}", y.tool), format!("{:?}", y.arm_tools)),
+                "{name}"
+            );
+        }
+        let before = Trajectory::build(&sequence, &robot).unwrap();
+        let (b, a) = (sequence.key_times(), timed.key_times());
+        for (k, (x, y)) in sequence.keyframes.iter().zip(&timed.keyframes).enumerate() {
+            for (tb, ta) in [(b[k], a[k]), (b[k] + x.hold, a[k] + y.hold)] {
+                let (p, q) = (before.sample(tb), after.sample(ta));
+                for (x, y) in p.iter().zip(&q) {
+                    assert!((x - y).abs() < 1e-6, "{name}: key {k}: {p:?} vs {q:?}");
+                }
+            }
+        }
+        for line in &after.tools.lines {
+            assert!(line.problem.is_none(), "{name}: {line:?}");
+        }
+
+        let h = 1e-3;
+        let samples: Vec<Vec<f64>> = after.grid(1.0 / h).map(|t| after.sample(t)).collect();
+        for (j, joint) in robot.joints.iter().enumerate() {
+            let p: Vec<f64> = samples.iter().map(|s| s[j]).collect();
+            let [v, acc, jerk] = difference_peaks(&p, h);
+            let l = &joint.limits;
+            let within = |peak: f64, limit: f64| peak <= limit * (1.0 + 1e-6) + 1e-6;
+            assert!(within(v, l.velocity), "{name} {}: {v} deg/s", joint.name);
+            assert!(within(acc, l.acceleration), "{name} {}: {acc}", joint.name);
+            assert!(
+                within(jerk, l.jerk.unwrap()),
+                "{name} {}: {jerk}",
+                joint.name
+            );
+        }
+    }
+}
+
+/// A hold through which a joint without a key there keeps moving: wrist_flex rests at 30°
+/// at key 1 while elbow_flex, keyed only at the ends, goes on along its cubic. The elbow's
+/// track is the smoothstep 0 → 60° over the path's 3 s (plus the hold), 60·(3x² − 2x³) with
+/// x = u/T, so where the hold starts (path time 1) and ends (path time 1 + hold) it is at
+/// values worked out by hand. `--fastest` under jerk limits runs the hold on an S-curve of its
+/// own from rest to rest, over the same path time: the wrist stays at 30° throughout, the elbow
+/// is at rest at both ends of the hold and at its hand-worked values there, and everything
+/// passes the exact check with jerk. A hold of 1 s keeps its seconds; one of 0.5 s is too short
+/// for the elbow (at 27 deg/s or more along the path there) to stop and start again within
+/// 3440 deg/s³ — a rest-to-rest move of T seconds needs a path jerk of 32/T² per path second
+/// at least, 128 /s³ at 0.5 s, over 3440/27 — so it is lengthened, and said so. On main at
+/// 7fb3f6d the hold ran at pace 1 between S-curves at rest: the elbow's velocity jumped at
+/// both its ends.
+#[test]
+fn a_hold_through_which_an_unkeyed_joint_moves_runs_on_an_s_curve_of_its_own() {
+    let robot = so101_with_jerk(3440.0);
+    for (hold, kept) in [(1.0, true), (0.5, false)] {
+        let text = format!(
+            r#"{{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "cubic",
+            "keyframes": [
+              {{"time": 0, "joints": {{"elbow_flex": 0, "wrist_flex": 0}}}},
+              {{"time": 1, "hold": {hold}, "joints": {{"wrist_flex": 30}}}},
+              {{"time": {}, "joints": {{"elbow_flex": 60, "wrist_flex": 0}}}}]}}"#,
+            3.0 + hold
+        );
+        let sequence = Sequence::from_json("hold.json", &text).unwrap();
+        let outcome = keypose::plan::fastest(&sequence, &robot, 100.0).unwrap();
+        assert!(outcome.report.passed(), "{:#?}", outcome.report.violations);
+        let timed = Sequence::from_json("timed.json", &outcome.sequence.to_json()).unwrap();
+        let timing = timed.keyframes[1].timing.as_ref().unwrap();
+        assert_eq!(timing.hold.unwrap().path_time, hold, "{timing:?}");
+        let seconds = timed.keyframes[1].hold;
+        if kept {
+            assert_eq!(seconds, hold);
+            assert!(outcome.holds.is_empty(), "{:?}", outcome.holds);
+        } else {
+            assert!(seconds > hold, "{seconds}");
+            assert_eq!(outcome.holds, vec![(1, hold, seconds)]);
+        }
+        let trajectory = Trajectory::build(&timed, &robot).unwrap();
+        let (elbow, wrist) = (2, 3);
+        let start = timed.key_times()[1];
+        let at = |t: f64| trajectory.sample(t);
+        let smoothstep = |u: f64| {
+            let x = u / (3.0 + hold);
+            60.0 * x * x * (3.0 - 2.0 * x)
+        };
+        assert!(
+            (at(start)[elbow] - smoothstep(1.0)).abs() < 1e-9,
+            "{:?}",
+            at(start)
+        );
+        let end = start + seconds;
+        assert!(
+            (at(end)[elbow] - smoothstep(1.0 + hold)).abs() < 1e-9,
+            "{:?}",
+            at(end)
+        );
+        for k in 0..=100 {
+            let t = start + seconds * k as f64 / 100.0;
+            assert!((at(t)[wrist] - 30.0).abs() < 1e-12, "{t}: {:?}", at(t));
+        }
+        // At rest at both ends: a microsecond in, the elbow has moved by no more than the
+        // rounding of its value (at 27 deg/s it would move 27 µdeg).
+        let h = 1e-6;
+        for (from, to) in [(start, start + h), (end - h, end)] {
+            let moved = (at(to)[elbow] - at(from)[elbow]).abs();
+            assert!(moved < 1e-12, "{moved}");
+        }
+        assert!(check(&trajectory, &robot, 100.0).passed());
+        // Timed again for the SO-101 without jerk limits, the hold keeps its S-curve (and its
+        // path time), and the speed profiles beside it stop at its ends: it passes in the
+        // first round (planned for pace 1 there, it took 4 and 5 rounds of backing off).
+        let plain = Robot::builtin("so101").unwrap();
+        let again = keypose::plan::fastest(&timed, &plain, 100.0).unwrap();
+        assert!(again.report.passed(), "{:#?}", again.report.violations);
+        assert_eq!(again.rounds, 1);
+        let kept = again.sequence.keyframes[1].timing.as_ref().unwrap().hold;
+        assert_eq!(kept, timing.hold);
+    }
+}
+
+/// A straight tool line under jerk limits: its samples are joined by a cubic spline, so the
+/// exact check finds no acceleration jump between the line's two keys, where the key-time
+/// cubic of a robot without jerk limits jumps at every sample (the 745 violations of
+/// so101-tool-line on main at 7fb3f6d); the spline passes through every solved sample; and
+/// `--fastest` times the line so that all of it passes.
+#[test]
+fn a_straight_tool_line_under_jerk_limits_has_no_acceleration_jump_between_its_keys() {
+    let sequence = Sequence::load(std::path::Path::new(&crate::common::repo(
+        "sequences/so101-tool-line.json",
+    )))
+    .unwrap();
+    let robot = so101_with_jerk(3440.0);
+    let trajectory = Trajectory::build(&sequence, &robot).unwrap();
+    let line = &trajectory.tools.lines[0];
+    assert!(
+        line.problem.is_none() && line.samples.len() > 100,
+        "{line:?}"
+    );
+    let report = check(&trajectory, &robot, robot.control_hz);
+    let (from, to) = line.span;
+    let inside: Vec<_> = report
+        .violations
+        .iter()
+        .filter(|v| v.acceleration_jump.is_some() && v.from > from + 1e-9 && v.to < to - 1e-9)
+        .collect();
+    assert!(inside.is_empty(), "{inside:#?}");
+    // At each sample the second derivative along the path is the same from both sides; for
+    // the robot without jerk limits (the key-time cubic) it is not.
+    let plain = Robot::builtin("so101").unwrap();
+    let plain = Trajectory::build(&sequence, &plain).unwrap();
+    let mut largest_plain_jump: f64 = 0.0;
+    // The five joints that move the tool (the gripper is keyed on its own, not along the line).
+    for (k, &t) in line.times.iter().enumerate() {
+        let pose = trajectory.sample(t);
+        for j in 0..5 {
+            assert!(
+                (pose[j] - line.value(k, j).unwrap()).abs() < 1e-9,
+                "{t}: {pose:?}"
+            );
+            let track = &trajectory.tracks()[j];
+            let jump = track.second_rate_at(t) - track.second_rate_before(t);
+            assert!(
+                jump.abs() < 1e-6 * (1.0 + track.second_rate_at(t).abs()),
+                "{t}: {jump}"
+            );
+            let track = &plain.tracks()[j];
+            largest_plain_jump = largest_plain_jump
+                .max((track.second_rate_at(t) - track.second_rate_before(t)).abs());
+        }
+    }
+    assert!(largest_plain_jump > 1.0, "{largest_plain_jump} deg/s²");
+    let outcome = keypose::plan::fastest(&sequence, &robot, robot.control_hz).unwrap();
+    assert!(outcome.report.passed(), "{:#?}", outcome.report.violations);
+}
+
+/// Coming back to speed after a stall under jerk limits: the wrist cruises at v ≈ 115 deg/s
+/// (measured before the stall) when the path is followed at half the rate for one cycle
+/// (`after_stall(0.5)`). The factor then climbs from 0.5 to 1 along the first half of an
+/// S-curve: its rate of change within 0.9·344/v per second (the acceleration headroom, the
+/// path's own acceleration being zero in the cruise of a straight line), that rate's change
+/// within half the jerk limit over v, 0.5·3440/v per second squared. By hand (docs/commands.md,
+/// the S-curve's closed form): `tj = min(rate/jerk, √(0.5/jerk))`, `ta = 0.5/(jerk·tj) − tj`,
+/// and it is back at 1 after `2·tj + ta` ≈ 0.366 s. Before (main at 7fb3f6d) the factor
+/// climbed linearly: its rate of change jumped from 0 to 2.7 per second at once, a jump of
+/// the wrist's acceleration of 310 deg/s².
+#[test]
+fn after_a_stall_under_jerk_limits_the_rate_climbs_back_along_an_s_curve() {
+    let robot = so101_with_jerk(3440.0);
+    let (trajectory, from) = wrist_across(&robot);
+    let mut timeline = keypose::plan::Timeline::new(&robot, &trajectory, &no_approach(), &from);
+    let (dt, stall) = (1e-3, 700);
+    let mut taus = Vec::new();
+    let mut out = vec![0.0; 6];
+    let mut wrist = Vec::new();
+    for k in 0..1400 {
+        timeline.sample_into(&mut out).unwrap();
+        taus.push(timeline.sequence_time());
+        wrist.push(out[3]);
+        if k == stall {
+            timeline.after_stall(0.5);
+        }
+        timeline.advance(dt);
+    }
+    let v = (wrist[stall] - wrist[stall - 1]) / dt;
+    assert!(v > 100.0 && v <= 115.0, "{v}: in the cruise");
+    let (rate, jerk) = (0.9 * 344.0 / v, 0.5 * 3440.0 / v);
+    let tj = (rate / jerk).min((0.5 / jerk).sqrt());
+    let ta = 0.5 / (jerk * tj) - tj;
+    let climb = 2.0 * tj + ta;
+    // The factor each cycle followed the path at, from the stall on.
+    let factors: Vec<f64> = taus.windows(2).map(|w| (w[1] - w[0]) / dt).collect();
+    assert!((factors[stall - 1] - 1.0).abs() < 1e-9);
+    let back = factors[stall..]
+        .iter()
+        .position(|&f| f >= 1.0 - 1e-12)
+        .unwrap();
+    let steps = (climb / dt).ceil() as usize;
+    assert!(
+        back == steps || back + 1 == steps,
+        "{back} cycles, by hand {climb} s"
+    );
+    let climbing = &factors[stall..=stall + back];
+    let changes: Vec<f64> = climbing.windows(2).map(|w| (w[1] - w[0]) / dt).collect();
+    let largest = changes.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    assert!(
+        largest <= rate * (1.0 + 1e-6),
+        "{largest} per second, {rate} by hand"
+    );
+    assert!(
+        largest >= rate * 0.98,
+        "{largest} per second: it reaches the rate"
+    );
+    let second = climbing
+        .windows(3)
+        .map(|w| (w[2] - 2.0 * w[1] + w[0]) / (dt * dt))
+        .fold(0.0f64, |m, c| m.max(c.abs()));
+    assert!(
+        second <= jerk * (1.0 + 1e-3) + 1e-6,
+        "{second} per s², {jerk} by hand"
+    );
+    // The wrist's jerk from its samples (third differences): within half its limit, where the
+    // linear climb's acceleration jump shows as 0.75·310/dt.
+    let [_, _, wrist_jerk] = difference_peaks(&wrist[stall + 1..stall + back + 20], dt);
+    assert!(wrist_jerk <= 0.5 * 3440.0 * 1.01, "{wrist_jerk} deg/s³");
 }

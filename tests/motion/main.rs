@@ -7,6 +7,9 @@ mod common;
 /// The oracle scripts' runner, shared by the TOPP-RA (`retime`) and Ruckig (`jerk`) tests.
 #[path = "../../benches/common/oracle.rs"]
 mod oracle;
+/// Ruckig's moves and the bench's jerk limits, shared by the `jerk` and `retime` tests.
+#[path = "../../benches/common/ruckig.rs"]
+mod ruckig;
 
 mod cell_sequences;
 mod check_exact;
