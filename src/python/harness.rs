@@ -88,10 +88,20 @@ impl Harness {
     pub fn start_in(
         config: &PyConfig,
         name: &str,
-        options: HarnessOptions,
+        mut options: HarnessOptions,
     ) -> Result<Harness, HarnessError> {
         let env = config.ensure_python()?;
         let script = config.script_path(name)?;
+        if env.venv.is_some() {
+            // keypose's own environment is installed without bytecode (venv.rs): Python
+            // compiles each module on first import and keeps it. PYTHONDONTWRITEBYTECODE,
+            // which container images often set, would make every start compile numpy and
+            // MuJoCo's Python from source again (0.2–0.3 s of CPU). An empty value is unset
+            // for Python; an interpreter of the user's (KEYPOSE_PYTHON) keeps the user's rule.
+            options
+                .env
+                .push(("PYTHONDONTWRITEBYTECODE".into(), String::new()));
+        }
         Harness::spawn(&env.python, &script, options).map_err(|error| match error {
             HarnessError::NotReady {
                 script,

@@ -265,7 +265,8 @@ fn pip_install(building: &Path) -> Result<(), PyEnvError> {
     let python = venv_python(building);
     let mut pip = Command::new(&python);
     // --no-compile: compiled files would name the temporary directory in their tracebacks;
-    // Python compiles on first import instead, under the final name.
+    // Python compiles on first import instead, under the final name (the harness lets it
+    // keep what it compiled whatever PYTHONDONTWRITEBYTECODE says, harness.rs).
     let options = ["--no-input", "--progress-bar", "off", "--no-compile"];
     pip.args(["-m", "pip", "install"])
         .args(options)
