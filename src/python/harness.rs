@@ -6,7 +6,7 @@
 use super::harness_error::clip;
 use super::pipes::{self, Event, StderrTail};
 use super::streamed::{describe_status, TAIL_LINES};
-use super::{HarnessError, NotReady, PyConfig, PythonEnv};
+use super::{HarnessError, NotReady, PyConfig, PythonEnv, KEEP_BYTECODE};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::fmt;
@@ -93,14 +93,8 @@ impl Harness {
         let env = config.ensure_python()?;
         let script = config.script_path(name)?;
         if env.venv.is_some() {
-            // keypose's own environment is installed without bytecode (venv.rs): Python
-            // compiles each module on first import and keeps it. PYTHONDONTWRITEBYTECODE,
-            // which container images often set, would make every start compile numpy and
-            // MuJoCo's Python from source again (0.2–0.3 s of CPU). An empty value is unset
-            // for Python; an interpreter of the user's (KEYPOSE_PYTHON) keeps the user's rule.
-            options
-                .env
-                .push(("PYTHONDONTWRITEBYTECODE".into(), String::new()));
+            let (name, value) = KEEP_BYTECODE;
+            options.env.push((name.into(), value.into()));
         }
         Harness::spawn(&env.python, &script, options).map_err(|error| match error {
             HarnessError::NotReady {
