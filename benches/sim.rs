@@ -11,7 +11,8 @@
 //!    control period of 2 ms physics steps per row, nothing recorded. Timed from spawn to exit
 //!    (start-up included, as the CLI), and its stepping loop alone as the script times it.
 //! 3. **The library**, to show where the CLI's time goes: harness start-up (Python, MuJoCo
-//!    import, model load), the run in one request, and in the 1 s chunks `play` and `sim` use.
+//!    import, model load), the run in one request (as `sim`), and in the 1 s chunks `play`
+//!    uses without a port.
 //!
 //! Each way runs [`REPS`] times after one untimed run (which also builds the Python environment
 //! if needed); figures are the median and range over the repeats, ratios taken repeat by repeat.
@@ -194,7 +195,8 @@ fn main() {
     write_commands(&robot, &stream, &commands);
     let python = common::python().expect("keypose's Python environment (MuJoCo)");
 
-    // Untimed: builds the environment if needed, warms the file cache.
+    // Untimed: builds the environment if needed and the bytecode Python compiles in it (which
+    // the bare script then reads too), warms the file cache.
     cli(&sequence_path);
     let (_, first) = bare(&python, &commands);
     assert_eq!(first.rows, stream.rows.len(), "the same rows");
@@ -271,7 +273,7 @@ fn main() {
         speed(|r| r.one_request)
     );
     println!(
-        "summary: | library: 1 s chunks (as `play` and `sim`), start-up excluded | {} s | {} |",
+        "summary: | library: 1 s chunks (as `play` without a port), start-up excluded | {} s | {} |",
         seconds(|r| r.chunked),
         speed(|r| r.chunked)
     );

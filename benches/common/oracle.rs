@@ -13,8 +13,12 @@ pub fn run_oracle(python: &Path, script: &str, request: &Value) -> Result<Value,
     let script = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("benches")
         .join(script);
+    // keypose's environment keeps the bytecode of scipy and toppra once compiled, as the
+    // harness does.
+    let (name, value) = keypose::python::KEEP_BYTECODE;
     let mut child = Command::new(python)
         .arg(&script)
+        .env(name, value)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

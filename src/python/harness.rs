@@ -6,7 +6,7 @@
 use super::harness_error::clip;
 use super::pipes::{self, Event, StderrTail};
 use super::streamed::{describe_status, TAIL_LINES};
-use super::{HarnessError, NotReady, PyConfig, PythonEnv};
+use super::{HarnessError, NotReady, PyConfig, PythonEnv, KEEP_BYTECODE};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::fmt;
@@ -88,10 +88,14 @@ impl Harness {
     pub fn start_in(
         config: &PyConfig,
         name: &str,
-        options: HarnessOptions,
+        mut options: HarnessOptions,
     ) -> Result<Harness, HarnessError> {
         let env = config.ensure_python()?;
         let script = config.script_path(name)?;
+        if env.venv.is_some() {
+            let (name, value) = KEEP_BYTECODE;
+            options.env.push((name.into(), value.into()));
+        }
         Harness::spawn(&env.python, &script, options).map_err(|error| match error {
             HarnessError::NotReady {
                 script,

@@ -41,4 +41,4 @@ pub use error::PyEnvError;
 pub use harness::{Harness, HarnessOptions, Reply};
 pub use harness_error::{HarnessError, NotReady};
 pub use requirements::{env_key, pinned_versions, REQUIREMENTS};
-pub use venv::PythonEnv;
+pub use venv::{PythonEnv, KEEP_BYTECODE};

@@ -32,6 +32,14 @@ pub struct PythonEnv {
     pub created: bool,
 }
 
+/// The variable, and its value, under which a Python run in keypose's own environment keeps
+/// the bytecode it compiles. The environment is installed without bytecode (`pip_install`), so
+/// Python compiles each module on first import; PYTHONDONTWRITEBYTECODE, which container images
+/// often set, would make every start compile numpy and MuJoCo's Python from source again
+/// (0.2–0.3 s of CPU). An empty value is unset for Python. An interpreter of the user's
+/// (`KEYPOSE_PYTHON`) keeps the user's rule.
+pub const KEEP_BYTECODE: (&str, &str) = ("PYTHONDONTWRITEBYTECODE", "");
+
 /// Serialises environment builds inside one process; other processes are handled by building
 /// in a private directory and renaming it into place.
 static BUILD_LOCK: Mutex<()> = Mutex::new(());
@@ -265,7 +273,8 @@ fn pip_install(building: &Path) -> Result<(), PyEnvError> {
     let python = venv_python(building);
     let mut pip = Command::new(&python);
     // --no-compile: compiled files would name the temporary directory in their tracebacks;
-    // Python compiles on first import instead, under the final name.
+    // Python compiles on first import instead, under the final name, and keeps it
+    // ([`KEEP_BYTECODE`]).
     let options = ["--no-input", "--progress-bar", "off", "--no-compile"];
     pip.args(["-m", "pip", "install"])
         .args(options)

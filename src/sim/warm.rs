@@ -1,7 +1,7 @@
 //! One MuJoCo harness kept running across the simulations of a session: `keypose sim` over
-//! several files, the studio's Simulate pressed again. Python and MuJoCo start once (about
-//! half a second, as long as a minute of physics takes); each simulation then only loads its
-//! model and runs.
+//! several files, the studio's Simulate pressed again. Python and MuJoCo start once (about a
+//! third of a second, as long as a minute of physics takes); each simulation then only loads
+//! its model and runs.
 //!
 //! A harness that died between or during simulations (killed, crashed) is started again once
 //! and the simulation run again from its start; one that dies again is

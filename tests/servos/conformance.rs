@@ -65,7 +65,6 @@ struct Env {
 }
 
 /// The suites' shared Python environment, built if it is not there.
-/// Unlike that test, this one does not remove it first: it only needs a working one.
 fn env() -> &'static Env {
     static ENV: OnceLock<Result<Env, String>> = OnceLock::new();
     let built = ENV.get_or_init(|| {

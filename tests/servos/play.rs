@@ -24,12 +24,23 @@ fn long_sequence(dir: &std::path::Path, robot: &str, joint: &str) -> String {
 
 #[test]
 fn every_example_plays_end_to_end_on_the_virtual_bus() {
-    for example in ["so101_nod", "koch_wave", "omx_reach"] {
-        let out = play_patiently(&[
-            &repo(&format!("sequences/{example}.json")),
-            "--port",
-            "virtual",
-        ]);
+    let examples = ["so101_nod", "koch_wave", "omx_reach"];
+    // Each plays in real time on servos of its own: side by side, the test waits for the
+    // longest one instead of all three in turn.
+    let outs: Vec<_> = std::thread::scope(|scope| {
+        let players: Vec<_> = examples
+            .iter()
+            .map(|example| {
+                let file = repo(&format!("sequences/{example}.json"));
+                scope.spawn(move || play_patiently(&[&file, "--port", "virtual"]))
+            })
+            .collect();
+        players
+            .into_iter()
+            .map(|p| p.join().expect("a player thread"))
+            .collect()
+    });
+    for (example, out) in examples.iter().zip(outs) {
         let err = stderr(&out);
         assert_eq!(out.status.code(), Some(0), "{example}: {err}");
         // The progress line and the closing report.
@@ -55,7 +66,18 @@ fn a_virtual_bus_process_serves_play_read_torque_and_scan() {
     );
     assert_eq!(pose["joints"]["elbow_flex"], 0.0);
 
-    let out = play_patiently(&[&repo("sequences/koch_wave.json"), "--port", port, "--quiet"]);
+    // What is played is not the subject (every_example_plays_end_to_end_on_the_virtual_bus
+    // plays koch_wave): a second of it is enough to show the process serves a playback.
+    let dir = tempfile::tempdir().unwrap();
+    let short = dir.path().join("koch_short.json");
+    std::fs::write(
+        &short,
+        r#"{"format":"keypose-sequence/1","robot":"koch","keyframes":[
+          {"time":0,"joints":{"elbow_flex":0}},{"time":1,"joints":{"elbow_flex":10}}]}"#,
+    )
+    .unwrap();
+    let short = short.display().to_string();
+    let out = play_patiently(&[&short, "--port", port, "--quiet"]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     let out = run(&[
         "torque", "off", "--robot", "koch", "--port", port, "--joints", "gripper",

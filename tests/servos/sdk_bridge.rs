@@ -2,8 +2,9 @@
 //! packages from PyPI), the vendor-SDK bridge started in it, the bridge's answers to bad input,
 //! and the harness plumbing (timeouts, exits, readiness) with small scripts of our own.
 //!
-//! The environment is built once per run of this test binary, in `target/tmp`, after removing
-//! the previous run's. Without python3 (3.11+, with venv) or without PyPI these tests fail and
+//! The environment is built from scratch once per run of this test binary, in a cache of its
+//! own under `target/tmp` (after removing the previous run's), by one test; the others use the
+//! suites' shared environment. Without python3 (3.11+, with venv) or without PyPI these tests fail and
 //! say so: they never skip.
 
 use keypose::bus::sdk::{SdkBus, SdkError};
@@ -17,47 +18,41 @@ use std::fs;
 use std::io;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
-use std::time::{Duration, Instant, SystemTime};
+use std::time::{Duration, Instant};
 
-struct Shared {
+/// The suites' shared Python environment (tests/README.md), built if it is not there yet.
+/// The bridge and the plumbing tests run in it; only
+/// [`the_environment_is_built_from_scratch_then_reused`] builds one of its own, so that no
+/// test here waits for that build but that one.
+struct Suite {
     config: PyConfig,
-    first: PythonEnv,
-    marker_modified: SystemTime,
+    env: PythonEnv,
 }
 
-/// The environment, built on first use by whichever test gets here first; the others wait.
-fn shared() -> &'static Shared {
-    static SHARED: OnceLock<Result<Shared, String>> = OnceLock::new();
-    let built = SHARED.get_or_init(|| {
+fn suite() -> &'static Suite {
+    static SUITE: OnceLock<Result<Suite, String>> = OnceLock::new();
+    let built = SUITE.get_or_init(|| {
         let cache = crate::common::python_cache();
-        if cache.exists() {
-            fs::remove_dir_all(&cache)
-                .map_err(|e| format!("removing the previous run's {}: {e}", cache.display()))?;
-        }
         let config = PyConfig::with_cache_dir(&cache);
-        let first = config.ensure_python().map_err(|e| {
-            format!(
-                "building keypose's Python environment in {} failed; these tests need \
-                 python3 {}.{}+ with its venv module and access to PyPI: {e}",
-                cache.display(),
-                keypose::python::MIN_PYTHON.0,
-                keypose::python::MIN_PYTHON.1
-            )
-        })?;
-        let marker_modified = marker(&first)
-            .metadata()
-            .and_then(|meta| meta.modified())
-            .map_err(|e| format!("the new environment has no readable marker file: {e}"))?;
-        Ok(Shared {
-            config,
-            first,
-            marker_modified,
-        })
+        let env = config
+            .ensure_python()
+            .map_err(|e| build_failed(&cache, e))?;
+        Ok(Suite { config, env })
     });
     match built {
-        Ok(shared) => shared,
+        Ok(suite) => suite,
         Err(reason) => panic!("{reason}"),
     }
+}
+
+fn build_failed(cache: &Path, error: PyEnvError) -> String {
+    format!(
+        "building keypose's Python environment in {} failed; these tests need python3 {}.{}+ \
+         with its venv module and access to PyPI: {error}",
+        cache.display(),
+        keypose::python::MIN_PYTHON.0,
+        keypose::python::MIN_PYTHON.1
+    )
 }
 
 fn marker(env: &PythonEnv) -> PathBuf {
@@ -68,7 +63,7 @@ fn marker(env: &PythonEnv) -> PathBuf {
 }
 
 fn bridge() -> Harness {
-    Harness::start_in(&shared().config, "sdk_bridge.py", HarnessOptions::default())
+    Harness::start_in(&suite().config, "sdk_bridge.py", HarnessOptions::default())
         .unwrap_or_else(|e| panic!("the SDK bridge did not start: {e}"))
 }
 
@@ -96,12 +91,26 @@ fn pin(name: &str) -> String {
         .unwrap_or_else(|| panic!("sim/requirements.txt does not pin {name}"))
 }
 
+/// The whole build, pip downloading the pinned packages, in a cache of its own (the previous
+/// run's removed first), so that the suites' shared environment is neither removed nor rebuilt.
 #[test]
 fn the_environment_is_built_from_scratch_then_reused() {
-    let shared = shared();
-    assert!(shared.first.created, "the first call must have built it");
-    let venv = shared.first.venv.clone().expect("a venv");
-    assert!(venv.starts_with(&shared.config.cache_dir));
+    let cache = Path::new(env!("CARGO_TARGET_TMPDIR")).join("python_cache_from_scratch");
+    if cache.exists() {
+        fs::remove_dir_all(&cache)
+            .unwrap_or_else(|e| panic!("removing the previous run's {}: {e}", cache.display()));
+    }
+    let config = PyConfig::with_cache_dir(&cache);
+    let first = config
+        .ensure_python()
+        .unwrap_or_else(|e| panic!("{}", build_failed(&cache, e)));
+    assert!(first.created, "the first call must have built it");
+    let marker_modified = marker(&first)
+        .metadata()
+        .and_then(|meta| meta.modified())
+        .expect("the new environment's marker file");
+    let venv = first.venv.clone().expect("a venv");
+    assert!(venv.starts_with(&config.cache_dir));
     let key = keypose::python::env_key(REQUIREMENTS);
     assert_eq!(
         venv.file_name().and_then(|n| n.to_str()),
@@ -112,27 +121,32 @@ fn the_environment_is_built_from_scratch_then_reused() {
         REQUIREMENTS
     );
 
-    let again = shared
-        .config
-        .ensure_python()
-        .expect("the built environment");
+    let again = config.ensure_python().expect("the built environment");
     assert!(!again.created, "the second call must not run pip");
-    assert_eq!(again.python, shared.first.python);
+    assert_eq!(again.python, first.python);
     let modified = marker(&again)
         .metadata()
         .and_then(|m| m.modified())
         .expect("marker");
     assert_eq!(
-        modified, shared.marker_modified,
+        modified, marker_modified,
         "the marker was rewritten, so the environment was rebuilt"
     );
-    let leftovers: Vec<String> = fs::read_dir(&shared.config.cache_dir)
+    let leftovers: Vec<String> = fs::read_dir(&config.cache_dir)
         .expect("cache dir")
         .flatten()
         .map(|entry| entry.file_name().to_string_lossy().into_owned())
         .filter(|name| name.contains(".tmp-") || name.contains(".broken-"))
         .collect();
     assert!(leftovers.is_empty(), "build leftovers: {leftovers:?}");
+
+    // The new environment runs the bridge with the pinned SDKs.
+    let bridge = Harness::start_in(&config, "sdk_bridge.py", HarnessOptions::default())
+        .unwrap_or_else(|e| panic!("the SDK bridge did not start in the new environment: {e}"));
+    for name in ["dynamixel-sdk", "feetech-servo-sdk", "pyserial"] {
+        let ready = bridge.ready();
+        assert_eq!(ready["packages"][name], json!(pin(name)), "{name}: {ready}");
+    }
 }
 
 #[test]
@@ -292,7 +306,7 @@ fn keypose_python_without_the_packages_is_not_ready_and_says_how_to_fix_it() {
     let wrapper = dir.path().join("bare-python");
     let script = format!(
         "#!/bin/sh\nexec '{}' -S \"$@\"\n",
-        shared().first.python.display()
+        suite().env.python.display()
     );
     fs::write(&wrapper, script).expect("wrapper");
     fs::set_permissions(&wrapper, fs::Permissions::from_mode(0o755)).expect("chmod");
@@ -327,7 +341,7 @@ fn own_script(dir: &Path, name: &str, body: &str) -> Harness {
         request_timeout: Duration::from_secs(5),
         ..HarnessOptions::default()
     };
-    Harness::spawn(&shared().first.python, &path, options)
+    Harness::spawn(&suite().env.python, &path, options)
         .unwrap_or_else(|e| panic!("{name} did not start: {e}"))
 }
 
@@ -384,7 +398,7 @@ fn a_script_that_exits_is_reported_with_its_status_and_stderr() {
 #[test]
 fn a_script_that_is_not_ready_says_why() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let python = &shared().first.python;
+    let python = &suite().env.python;
     let cases = [
         (
             "chatty.py",

@@ -218,6 +218,42 @@ fn the_harness_is_ready_with_the_pinned_versions() {
     assert_eq!(harness.python(), shared().env.python.as_path());
 }
 
+/// Where the user's environment forbids bytecode (container images often set
+/// PYTHONDONTWRITEBYTECODE), keypose's own environment still keeps what Python compiles, or
+/// every start would compile numpy and MuJoCo's Python again: the harness's own modules are
+/// compiled beside it once it has started.
+#[test]
+fn the_harness_keeps_its_bytecode_where_the_user_forbids_it() {
+    let scripts = shared().config.cache_dir.join("sim");
+    let compiled = scripts.join("__pycache__");
+    // Other tests' harnesses may be writing here: what they wrote is removed, and this
+    // harness must write its own.
+    let _ = fs::remove_dir_all(&compiled);
+    let options = HarnessOptions {
+        env: vec![
+            ("MUJOCO_GL".to_string(), "disable".to_string()),
+            ("PYTHONDONTWRITEBYTECODE".to_string(), "1".to_string()),
+        ],
+        ..crate::common::patient_harness()
+    };
+    let harness = Harness::start_in(&shared().config, "sim_harness.py", options)
+        .unwrap_or_else(|e| panic!("the MuJoCo harness did not start: {e}"));
+    drop(harness);
+    let names: Vec<String> = fs::read_dir(&compiled)
+        .unwrap_or_else(|e| panic!("no bytecode in {}: {e}", compiled.display()))
+        .flatten()
+        .map(|entry| entry.file_name().to_string_lossy().into_owned())
+        .collect();
+    for module in ["harness_io", "sim_model", "sim_run"] {
+        assert!(
+            names
+                .iter()
+                .any(|n| n.starts_with(&format!("{module}.")) && n.ends_with(".pyc")),
+            "{module}: {names:?}"
+        );
+    }
+}
+
 #[test]
 fn load_describes_the_model() {
     let mut harness = start("egl");
