@@ -1,45 +1,84 @@
-//! What the emulated servos cost the machine: CPU time of a `keypose virtual-bus` process per
-//! bus cycle (one sync write of 6 goals and one sync read of 6 positions, keypose's native
-//! driver) at 100 Hz, with the wire timed at the robot's baud rate and, as the peer measured in
-//! the same run, answering at once (`--no-wire-timing`: no waiting at all, so the floor of what
-//! serving a cycle costs). The difference is what waiting for the wire's instants costs.
+//! What the emulated servos cost the machine, and how close keypose's native driver comes to
+//! the wire limit on them.
 //!
-//! The emulator runs in a process of its own so that its CPU time (utime + stime of
-//! /proc/PID/stat, in clock ticks: 10 ms over a run's 600 cycles, a resolution of about 17 µs
-//! a cycle) is its alone. The two emulators alternate, [`REPS`] times each, and the median and
-//! range are reported with the machine's load. Nothing is asserted.
+//! A `keypose virtual-bus` process serves the robot's servos; keypose's native driver runs bus
+//! cycles on it (one sync write of 6 goals and one sync read of 6 positions) at two paces:
+//! **100 Hz**, a player's default rate, and **flat out**, one cycle after the other. The
+//! emulator's CPU time per cycle is the process's own CPU clock (`clock_getcpuclockid`: user
+//! and system time of all its threads, to the nanosecond), read before and after each run. It
+//! is measured with the wire timed at the robot's baud rate and, as the peer measured in the
+//! same run, answering at once (`--no-wire-timing`: no waiting at all, the floor of what
+//! serving a cycle costs). Flat out on the timed wire, the driver's cycles per second against
+//! the wire limit (benches/bus/wire.rs) is the driver's share of the wire.
 //!
-//! `cargo bench --bench emulator` prints lines starting with `summary:`.
+//! `KEYPOSE_EMULATOR_PEER=PATH` adds another build's `keypose` binary as an emulator measured
+//! in the same runs (an earlier commit's, for a before/after comparison); the driver is this
+//! build's in every run.
+//!
+//! The configurations alternate, [`REPS`] times each, and each figure is reported as the
+//! median and range over the repeats, with the machine's load. Nothing is asserted.
+//!
+//! `cargo bench --bench emulator` prints lines starting with `summary:`; `cargo test --benches`
+//! makes one short run of each, to check that the bench works.
 
 mod common;
+#[path = "bus/wire.rs"]
+#[allow(dead_code)]
+mod wire;
 
 use common::Spread;
-use keypose::bus::{connect, Driver};
+use keypose::bus::{connect, Connection, Driver};
 use keypose::robot::Robot;
 use std::io::BufRead;
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// Interleaved repetitions of each emulator's run.
-const REPS: usize = 3;
-/// Cycles a second, as a player at its default rate asks.
+/// Cycles a second at the paced rate, as a player at its default rate asks.
 const RATE_HZ: f64 = 100.0;
-/// Cycles of one run.
-const CYCLES: u32 = 600;
 const ROBOTS: [&str; 2] = ["so101", "koch"];
+
+/// How much is run.
+#[derive(Clone, Copy)]
+struct Plan {
+    /// Interleaved repetitions of each configuration's run.
+    reps: usize,
+    /// Cycles of one paced run.
+    paced_cycles: u32,
+    /// Length of one flat-out run.
+    flat_out: Duration,
+}
+
+impl Plan {
+    fn new() -> Plan {
+        match common::is_bench_run() {
+            true => Plan {
+                reps: 3,
+                paced_cycles: 600,
+                flat_out: Duration::from_secs(2),
+            },
+            false => Plan {
+                reps: 1,
+                paced_cycles: 20,
+                flat_out: Duration::from_millis(100),
+            },
+        }
+    }
+}
 
 /// A `keypose virtual-bus` process and the device it serves.
 struct Emulator {
     child: Child,
     path: String,
+    /// The process's CPU clock.
+    clock: libc::clockid_t,
     /// Held open: the process serves until its standard input closes.
     _stdin: ChildStdin,
     _stdout: std::io::BufReader<ChildStdout>,
 }
 
 impl Emulator {
-    fn start(robot: &str, timed: bool) -> Emulator {
-        let mut command = Command::new(env!("CARGO_BIN_EXE_keypose"));
+    fn start(binary: &str, robot: &str, timed: bool) -> Emulator {
+        let mut command = Command::new(binary);
         command.args(["virtual-bus", "--robot", robot]);
         if !timed {
             command.arg("--no-wire-timing");
@@ -53,26 +92,29 @@ impl Emulator {
         let mut stdout = std::io::BufReader::new(child.stdout.take().unwrap());
         let mut line = String::new();
         stdout.read_line(&mut line).expect("the device path");
+        let mut clock: libc::clockid_t = 0;
+        // SAFETY: `clock` is a valid place for the clock id; the pid is our child's.
+        let rc = unsafe { libc::clock_getcpuclockid(child.id() as libc::pid_t, &mut clock) };
+        assert_eq!(rc, 0, "the emulator's CPU clock");
         Emulator {
             _stdin: child.stdin.take().unwrap(),
             _stdout: stdout,
             child,
+            clock,
             path: line.trim().to_string(),
         }
     }
 
-    /// CPU seconds the process has used (user + system).
+    /// CPU seconds the process has used (user + system, all threads).
     fn cpu_seconds(&self) -> f64 {
-        let stat = std::fs::read_to_string(format!("/proc/{}/stat", self.child.id()))
-            .expect("/proc/PID/stat");
-        // Fields after the command name's closing parenthesis; utime and stime are fields 14
-        // and 15 of the line, 12 and 13 after it.
-        let rest = &stat[stat.rfind(')').unwrap() + 2..];
-        let fields: Vec<&str> = rest.split(' ').collect();
-        let ticks: u64 = fields[11].parse::<u64>().unwrap() + fields[12].parse::<u64>().unwrap();
-        // SAFETY: sysconf takes a plain integer.
-        let per_second = unsafe { libc::sysconf(libc::_SC_CLK_TCK) } as f64;
-        ticks as f64 / per_second
+        let mut t = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: `t` is a valid, writable timespec.
+        let rc = unsafe { libc::clock_gettime(self.clock, &mut t) };
+        assert_eq!(rc, 0, "the emulator's CPU clock");
+        t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
     }
 }
 
@@ -83,44 +125,132 @@ impl Drop for Emulator {
     }
 }
 
-/// Microseconds of emulator CPU per cycle over one run at [`RATE_HZ`].
-fn run(robot: &Robot, name: &str, timed: bool) -> f64 {
-    let emulator = Emulator::start(name, timed);
+/// Whose emulator, and how it times the wire.
+#[derive(Clone)]
+struct Setup {
+    label: String,
+    binary: String,
+    timed: bool,
+}
+
+/// What one run measured.
+#[derive(Clone, Copy)]
+struct Run {
+    /// Emulator CPU per cycle, µs.
+    cpu_us: f64,
+    /// Cycles per second.
+    rate: f64,
+    /// The median cycle, µs.
+    median_cycle_us: f64,
+}
+
+/// One run of `setup`'s emulator for `robot`: paced at [`RATE_HZ`] or flat out.
+fn run(robot: &Robot, name: &str, setup: &Setup, plan: Plan, paced: bool) -> Run {
+    let emulator = Emulator::start(&setup.binary, name, setup.timed);
     let mut connection = connect(robot, &emulator.path, Driver::Native, None).expect("connect");
     let ids: Vec<u8> = robot.joints.iter().map(|j| j.servo.id).collect();
     let home = connection.bus.read_positions(&ids).expect("read");
     let goals: Vec<(u8, i64)> = ids.iter().copied().zip(home).collect();
     let period = Duration::from_secs_f64(1.0 / RATE_HZ);
-    let before = emulator.cpu_seconds();
-    let start = Instant::now();
-    for k in 1..=CYCLES {
+    let cycle = |connection: &mut Connection| {
+        let before = Instant::now();
         connection.bus.write_goals(&goals).expect("write");
         connection.bus.read_positions(&ids).expect("read");
-        std::thread::sleep((start + period * k).saturating_duration_since(Instant::now()));
+        before.elapsed().as_secs_f64()
+    };
+    // A few cycles first: the emulator's and the driver's first touches of their memory.
+    for _ in 0..20 {
+        cycle(&mut connection);
     }
-    (emulator.cpu_seconds() - before) / f64::from(CYCLES) * 1e6
+    let mut durations = Vec::new();
+    let cpu_before = emulator.cpu_seconds();
+    let start = Instant::now();
+    loop {
+        durations.push(cycle(&mut connection));
+        let k = durations.len() as u32;
+        if paced {
+            if k == plan.paced_cycles {
+                break;
+            }
+            std::thread::sleep((start + period * k).saturating_duration_since(Instant::now()));
+        } else if start.elapsed() >= plan.flat_out {
+            break;
+        }
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    let cpu = emulator.cpu_seconds() - cpu_before;
+    let cycles = durations.len() as f64;
+    Run {
+        cpu_us: cpu / cycles * 1e6,
+        rate: cycles / seconds,
+        median_cycle_us: common::median(&durations) * 1e6,
+    }
+}
+
+/// The emulators measured: this build's, and a peer build's when given.
+fn setups() -> Vec<Setup> {
+    let mut binaries = vec![("", env!("CARGO_BIN_EXE_keypose").to_string())];
+    if let Ok(peer) = std::env::var("KEYPOSE_EMULATOR_PEER") {
+        binaries.push(("peer ", peer));
+    }
+    let mut setups = Vec::new();
+    for (prefix, binary) in binaries {
+        for timed in [true, false] {
+            let how = if timed { "wire-timed" } else { "at once" };
+            setups.push(Setup {
+                label: format!("{prefix}{how}"),
+                binary: binary.clone(),
+                timed,
+            });
+        }
+    }
+    setups
 }
 
 fn main() {
     let session = common::Session::start("emulator");
+    let setups = setups();
+    let plan = Plan::new();
     println!(
-        "emulator CPU per 6-servo cycle at {RATE_HZ} Hz, {CYCLES} cycles a run, {REPS} runs each"
+        "emulator CPU per 6-servo cycle (sync write of 6 goals + sync read of 6 positions, \
+         keypose's native driver): {RATE_HZ} Hz ({} cycles a run) and flat out ({} s a run), \
+         {} interleaved runs each",
+        plan.paced_cycles,
+        plan.flat_out.as_secs_f64(),
+        plan.reps
     );
     for name in ROBOTS {
         let robot = Robot::builtin(name).expect("a built-in robot");
-        let (mut timed, mut untimed) = (Vec::new(), Vec::new());
-        for _ in 0..REPS {
-            timed.push(run(&robot, name, true));
-            untimed.push(run(&robot, name, false));
+        let traffic = wire::Traffic::of(&robot);
+        let limit = traffic.limit_hz(wire::virtual_return_delay(&robot));
+        // runs[setup][pace] over the repeats; pace 0 paced, 1 flat out.
+        let mut runs = vec![[Vec::new(), Vec::new()]; setups.len()];
+        for _ in 0..plan.reps {
+            for (s, setup) in setups.iter().enumerate() {
+                for (p, paced) in [true, false].into_iter().enumerate() {
+                    runs[s][p].push(run(&robot, name, setup, plan, paced));
+                }
+            }
         }
-        let waiting: Vec<f64> = timed.iter().zip(&untimed).map(|(t, u)| t - u).collect();
-        println!(
-            "summary: {name}: wire-timed {} µs, answering at once {} µs, waiting for the wire costs {} µs a cycle ({})",
-            Spread::of(&timed).show(0),
-            Spread::of(&untimed).show(0),
-            Spread::of(&waiting).show(0),
-            session.load()
-        );
+        for (setup, [paced, flat]) in setups.iter().zip(&runs) {
+            let cpu = |runs: &[Run]| Spread::over(runs, |r| r.cpu_us).show(0);
+            let mut line = format!(
+                "summary: {name}: {}: emulator CPU {} µs a cycle at {RATE_HZ} Hz, {} µs flat out; \
+                 flat out {} cycles/s, median cycle {} µs",
+                setup.label,
+                cpu(paced),
+                cpu(flat),
+                Spread::over(flat, |r| r.rate).show(0),
+                Spread::over(flat, |r| r.median_cycle_us).show(0),
+            );
+            if setup.timed {
+                line += &format!(
+                    ", {} % of the wire limit ({limit:.0} Hz)",
+                    Spread::over(flat, |r| r.rate / limit * 100.0).show(1)
+                );
+            }
+            println!("{line} ({})", session.load());
+        }
     }
     session.end();
 }

@@ -217,11 +217,12 @@ fn inject_faults_after(server: &keypose::testing::PtyServer, faults: Vec<FaultSp
     });
 }
 
-/// Blocks until standard input closes (the parent went away) or a signal arrives, checking
-/// every 20 ms so that a signal is acted on promptly.
+/// Blocks until standard input closes (the parent went away) or a signal arrives: both are a
+/// stop request, which wakes this thread (it does not look on a timer, which would cost the
+/// emulator's process a wake-up every few milliseconds).
 fn wait_for_the_end() {
     let stop = keypose::stop::stop_on_signal();
-    let (tx, rx) = std::sync::mpsc::channel();
+    let closed = stop.clone();
     std::thread::spawn(move || {
         let stdin = std::io::stdin();
         for line in stdin.lock().lines() {
@@ -229,15 +230,7 @@ fn wait_for_the_end() {
                 break;
             }
         }
-        let _ = tx.send(());
+        closed.request();
     });
-    loop {
-        if stop.count() > 0
-            || rx
-                .recv_timeout(std::time::Duration::from_millis(20))
-                .is_ok()
-        {
-            break;
-        }
-    }
+    while stop.wait_for(std::time::Duration::from_secs(3600), 0) == 0 {}
 }

@@ -17,10 +17,17 @@ pub enum ByteOrder {
 impl ByteOrder {
     /// The low `size` bytes of `raw` (at most 4).
     pub fn to_bytes(self, raw: u32, size: u8) -> Vec<u8> {
-        let size = usize::from(size.min(4));
+        let mut bytes = vec![0; usize::from(size.min(4))];
+        self.put_bytes(raw, &mut bytes);
+        bytes
+    }
+
+    /// The low `out.len()` bytes of `raw` (at most 4) into `out`, without allocating.
+    pub fn put_bytes(self, raw: u32, out: &mut [u8]) {
+        let size = out.len().min(4);
         match self {
-            ByteOrder::Little => raw.to_le_bytes()[..size].to_vec(),
-            ByteOrder::Big => raw.to_be_bytes()[4 - size..].to_vec(),
+            ByteOrder::Little => out[..size].copy_from_slice(&raw.to_le_bytes()[..size]),
+            ByteOrder::Big => out[..size].copy_from_slice(&raw.to_be_bytes()[4 - size..]),
         }
     }
 

@@ -143,6 +143,28 @@ impl RegisterTable {
         register.encode(value, self.byte_order)
     }
 
+    /// Writes `value` into `register`'s bytes of `memory` (a control table laid out by
+    /// address), in this table's byte order: [`Self::encode`] without allocating. A register
+    /// that lies outside `memory` is refused as a size error.
+    pub fn encode_into(
+        &self,
+        register: &Register,
+        value: i64,
+        memory: &mut [u8],
+    ) -> Result<(), RegisterError> {
+        let start = usize::from(register.address);
+        let size = usize::from(register.size);
+        let bytes = memory
+            .get_mut(start..start + size)
+            .ok_or(RegisterError::Size {
+                register: register.name,
+                expected: register.size,
+                found: 0,
+            })?;
+        self.byte_order.put_bytes(register.to_raw(value)?, bytes);
+        Ok(())
+    }
+
     /// The value of `register` in `bytes`, in this table's byte order.
     pub fn decode(&self, register: &Register, bytes: &[u8]) -> Result<i64, RegisterError> {
         register.decode(bytes, self.byte_order)

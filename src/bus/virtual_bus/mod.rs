@@ -263,17 +263,9 @@ impl VirtualServos {
                 .decode(&mut self.rx, Direction::ToServo)
             {
                 Ok(Decoded::Packet(packet)) => {
-                    let answers = self.answer(&packet);
                     exchanges.push(wire::Exchange {
                         request_bytes: before - self.rx.len() + std::mem::take(&mut pending),
-                        answers: answers
-                            .into_iter()
-                            .map(|(extra_delay, bytes)| wire::Answer {
-                                return_delay: self.answer_return_delay(&bytes),
-                                extra_delay,
-                                bytes,
-                            })
-                            .collect(),
+                        answers: self.answer(&packet),
                     });
                     self.record(packet);
                 }
@@ -284,23 +276,7 @@ impl VirtualServos {
         exchanges
     }
 
-    /// The return delay of the servo that sent `answer` (its id read back from the bytes,
-    /// damaged or not); zero for an answer no single servo sent (Fast Sync Read's).
-    fn answer_return_delay(&self, answer: &[u8]) -> Duration {
-        let id = match self
-            .codec
-            .framing()
-            .decode(&mut answer.to_vec(), Direction::FromServo)
-        {
-            Ok(Decoded::Packet(packet)) => Some(packet.id),
-            Ok(Decoded::NeedMore) => None,
-            Err(e) => e.id(),
-        };
-        id.and_then(|id| self.return_delay(id))
-            .unwrap_or(Duration::ZERO)
-    }
-
-    fn answer(&mut self, packet: &Packet) -> Vec<(Duration, Vec<u8>)> {
+    fn answer(&mut self, packet: &Packet) -> Vec<wire::Answer> {
         let Some(code) = packet.instruction_code() else {
             return Vec::new();
         };
@@ -336,7 +312,7 @@ impl VirtualServos {
     }
 
     /// Every servo answers a broadcast ping.
-    fn answer_ping(&self, id: u8) -> Vec<(Duration, Vec<u8>)> {
+    fn answer_ping(&self, id: u8) -> Vec<wire::Answer> {
         let ids: Vec<u8> = if id == self.broadcast() {
             self.servos.iter().map(|s| s.id).collect()
         } else {
@@ -355,7 +331,7 @@ impl VirtualServos {
         out
     }
 
-    fn answer_read(&mut self, packet: &Packet) -> Vec<(Duration, Vec<u8>)> {
+    fn answer_read(&mut self, packet: &Packet) -> Vec<wire::Answer> {
         let Some((address, length, _)) = self.codec.fields().split_read(&packet.params) else {
             return self.status(packet.id, Some(Refusal::DataLength), &[]);
         };
@@ -370,7 +346,7 @@ impl VirtualServos {
     }
 
     /// A WRITE (`answered`: each addressed servo answers) or a SYNC WRITE (no answers).
-    fn apply_writes(&mut self, packet: &Packet, answered: bool) -> Vec<(Duration, Vec<u8>)> {
+    fn apply_writes(&mut self, packet: &Packet, answered: bool) -> Vec<wire::Answer> {
         let broadcast = self.broadcast();
         let mut out = Vec::new();
         for (id, address, data) in self.writes_in(packet) {
@@ -393,7 +369,7 @@ impl VirtualServos {
     }
 
     /// Each listed servo answers with its own status packet, in list order.
-    fn answer_sync_read(&mut self, params: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+    fn answer_sync_read(&mut self, params: &[u8]) -> Vec<wire::Answer> {
         let Some((address, length, ids)) = self.codec.fields().split_read(params) else {
             return Vec::new();
         };
@@ -410,7 +386,7 @@ impl VirtualServos {
     }
 
     /// Each listed servo answers with its own span, in list order (Protocol 2.0 Bulk Read).
-    fn answer_bulk_read(&mut self, params: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+    fn answer_bulk_read(&mut self, params: &[u8]) -> Vec<wire::Answer> {
         let Some(entries) = dynamixel::parse_bulk_read(params) else {
             return Vec::new();
         };
@@ -428,7 +404,7 @@ impl VirtualServos {
         out
     }
 
-    fn fast_sync_read(&mut self, params: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+    fn fast_sync_read(&mut self, params: &[u8]) -> Vec<wire::Answer> {
         let codec = self.codec;
         let (Some(fast), Some((address, length, ids))) =
             (codec.fast_sync_read(), codec.fields().split_read(params))
@@ -448,15 +424,20 @@ impl VirtualServos {
             };
             entries.push(FastSyncReadEntry { id, error, data });
         }
-        // The combined answer is one whole packet from the broadcast id.
+        // The combined answer is one whole packet from the broadcast id, which no single servo
+        // sends: no return delay of its own.
         match fast.encode(&entries) {
-            Ok(packet) => vec![(Duration::ZERO, packet)],
+            Ok(bytes) => vec![wire::Answer {
+                return_delay: Duration::ZERO,
+                extra_delay: Duration::ZERO,
+                bytes,
+            }],
             Err(_) => Vec::new(),
         }
     }
 
     /// A status packet from servo `id`, shaped by its injected fault.
-    fn status(&self, id: u8, refusal: Option<Refusal>, params: &[u8]) -> Vec<(Duration, Vec<u8>)> {
+    fn status(&self, id: u8, refusal: Option<Refusal>, params: &[u8]) -> Vec<wire::Answer> {
         let Some(servo) = self.servos.iter().find(|s| s.id == id) else {
             return Vec::new();
         };
@@ -466,7 +447,7 @@ impl VirtualServos {
         let Ok(mut bytes) = self.codec.framing().try_encode_status(id, error, params) else {
             return Vec::new();
         };
-        let mut delay = Duration::ZERO;
+        let mut extra_delay = Duration::ZERO;
         match servo.fault {
             Some(ServoFault::NoAnswer) => return Vec::new(),
             Some(ServoFault::CorruptChecksum) => {
@@ -474,10 +455,14 @@ impl VirtualServos {
                     *last ^= 0x5A;
                 }
             }
-            Some(ServoFault::Late(d)) => delay = d,
+            Some(ServoFault::Late(d)) => extra_delay = d,
             _ => {}
         }
-        vec![(delay, bytes)]
+        vec![wire::Answer {
+            return_delay: servo.return_delay(),
+            extra_delay,
+            bytes,
+        }]
     }
 }
 

@@ -145,10 +145,8 @@ impl VirtualServo {
     }
 
     pub(super) fn store(&mut self, register: Register, value: i64) {
-        if let Ok(bytes) = self.table().encode(&register, value) {
-            let start = usize::from(register.address);
-            self.memory[start..start + bytes.len()].copy_from_slice(&bytes);
-        }
+        // A value the register cannot hold leaves it as it was.
+        let _ = self.table().encode_into(&register, value, &mut self.memory);
     }
 
     fn load(&self, register: Register) -> i64 {
@@ -215,10 +213,12 @@ impl VirtualServo {
             return Err(Refusal::DataLimit);
         }
         self.check_access(address, end)?;
-        let before = self.memory[address..end].to_vec();
+        let mut before = [0u8; MEMORY_SIZE];
+        let before = &mut before[..data.len()];
+        before.copy_from_slice(&self.memory[address..end]);
         self.memory[address..end].copy_from_slice(data);
         if let Err(refusal) = self.check_values(address, end) {
-            self.memory[address..end].copy_from_slice(&before);
+            self.memory[address..end].copy_from_slice(before);
             return Err(refusal);
         }
         self.apply(address, end);

@@ -8,6 +8,7 @@
 //! and the adapter has passed it on (its latency timer: FTDI's default 16 ms, 1 ms tuned).
 //! docs/protocols.md §3 describes the model and its sources.
 
+use std::ops::Range;
 use std::time::{Duration, Instant};
 
 /// 8N1 framing: a start bit, 8 data bits, a stop bit.
@@ -88,6 +89,52 @@ impl Wire {
     }
 }
 
+/// The longest an answer is held past the instant the wire delivers it, to reach the host
+/// together with the answers after it: what a USB adapter whose latency timer is tuned to 1 ms
+/// (the udev rule keypose recommends) may hold bytes for. See [`deliveries`].
+pub const HOLD: Duration = Duration::from_millis(1);
+
+/// Answers of one exchange handed to the host together, in one write.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Delivery {
+    /// Which of the exchange's answers, in order.
+    pub answers: Range<usize>,
+    /// When they become readable: the wire's instant for the last of them.
+    pub at: Instant,
+}
+
+/// Groups the answers of an exchange, readable at `readable` (what [`Wire::schedule`] gave),
+/// into as few deliveries as holding none more than `hold` past its instant allows. Each
+/// delivery comes at its last answer's instant, so no answer is readable before the wire
+/// delivers it, the last of a run exactly then, and the order is the wire's. An answer an
+/// injected fault makes late starts a delivery of its own: the answers before it are not
+/// held for it.
+///
+/// Every delivery costs the emulator a wake-up (a sleep, a context switch, a write), which
+/// is what a server answering each status packet at its own instant spends most of its time
+/// on; a sync read's answers follow each other on the line within a few hundred
+/// microseconds, so they mostly go in one.
+pub fn deliveries(answers: &[Answer], readable: &[Instant], hold: Duration) -> Vec<Delivery> {
+    let mut out: Vec<Delivery> = Vec::new();
+    for (k, (answer, &at)) in answers.iter().zip(readable).enumerate() {
+        let joins = out.last().is_some_and(|last| {
+            let first_at = readable[last.answers.start];
+            answer.extra_delay.is_zero() && at.saturating_duration_since(first_at) <= hold
+        });
+        match out.last_mut() {
+            Some(last) if joins => {
+                last.answers.end = k + 1;
+                last.at = at;
+            }
+            _ => out.push(Delivery {
+                answers: k..k + 1,
+                at,
+            }),
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -151,6 +198,59 @@ mod tests {
         // The line was busy until 790 µs: an instruction handed over at 100 µs waits for it.
         let next = wire.schedule(t0 + Duration::from_micros(100), &exchange);
         assert_eq!(next[0] - t0, Duration::from_micros(790 + 1790));
+    }
+
+    #[test]
+    fn a_sync_reads_answers_reach_the_host_together_when_the_last_is_in() {
+        // The six STS answers of the 880 µs cycle above come 80 µs apart, 480…880 µs: one
+        // delivery at 880 µs, the last answer's own instant.
+        let us = Duration::from_micros;
+        let t0 = Instant::now();
+        let readable: Vec<Instant> = (0..6).map(|k| t0 + us(480 + 80 * k)).collect();
+        let answers = answers(6, 8, Duration::ZERO);
+        let one = deliveries(&answers, &readable, HOLD);
+        assert_eq!(
+            one,
+            vec![Delivery {
+                answers: 0..6,
+                at: t0 + us(880)
+            }]
+        );
+        // Holding none: each answer on its own, at its instant.
+        let each = deliveries(&answers, &readable, Duration::ZERO);
+        assert_eq!(each.len(), 6);
+        for (k, delivery) in each.iter().enumerate() {
+            assert_eq!(
+                (delivery.answers.clone(), delivery.at),
+                (k..k + 1, readable[k])
+            );
+        }
+    }
+
+    #[test]
+    fn no_answer_is_held_longer_than_the_hold_nor_for_a_late_one() {
+        let us = Duration::from_micros;
+        let t0 = Instant::now();
+        // Dynamixel answers 650 µs apart (500 µs return delay + 15 bytes): 0, 650, 1300, 1950
+        // µs. Within 1 ms of a delivery's first answer: {0, 650}, {1300, 1950}.
+        let readable: Vec<Instant> = (0..4).map(|k| t0 + us(650 * k)).collect();
+        let mut answers = answers(4, 15, us(500));
+        let groups = |d: Vec<Delivery>| -> Vec<(Range<usize>, Duration)> {
+            d.into_iter().map(|d| (d.answers, d.at - t0)).collect()
+        };
+        assert_eq!(
+            groups(deliveries(&answers, &readable, HOLD)),
+            vec![(0..2, us(650)), (2..4, us(1950))]
+        );
+        // The third answer injected late (its instant moved on by 40 ms): the first two are not
+        // held for it; it and the one after it (which follows it on the line) come together.
+        answers[2].extra_delay = Duration::from_millis(40);
+        let late: Vec<Instant> = [0, 650, 41_300, 41_950].map(|t| t0 + us(t)).to_vec();
+        assert_eq!(
+            groups(deliveries(&answers, &late, HOLD)),
+            vec![(0..2, us(650)), (2..4, us(41_950))]
+        );
+        assert!(deliveries(&[], &[], HOLD).is_empty());
     }
 
     #[test]
