@@ -11,11 +11,12 @@
 //! is a pair of context switches, on a virtual machine a few tens of microseconds of CPU, far
 //! more than decoding a packet or building an answer. So it wakes as little as the wire
 //! allows: the answers of an exchange are handed over in as few writes as
-//! [`super::wire::deliveries`] groups them into (a sync read's six in one, when the last is
-//! in), each write one `write()` call; only the last delivery of an exchange, the one its
-//! client waits for, gets a precise wake-up (a few microseconds of spin at most, as late as
-//! the kernel lately wakes the thread), the others a plain absolute sleep. Between requests
-//! it sleeps in `poll()` on the pseudo-terminal and on a stop request, not on a timer.
+//! [`super::wire::deliveries`] groups them into (none held more than [`super::wire::HOLD`]
+//! past its instant: a sync read's six STS answers in one, when the last is due), each write
+//! one `write()` call. Only the last write of an exchange, the one its client waits for, gets
+//! a precise wake-up ([`Waker`]: it seldom spins, and only for as long as it woke early), the
+//! others a plain absolute sleep. Between requests it sleeps in `poll()` on the
+//! pseudo-terminal and on a stop request, not on a timer.
 
 use super::wire::{self, Answer, Wire, WireTiming};
 use super::{VirtualBus, VirtualServos};
@@ -243,11 +244,14 @@ impl Server<'_> {
         while !rest.is_empty() {
             // SAFETY: `rest` is valid for reads of its length.
             let n = unsafe { libc::write(self.master, rest.as_ptr().cast(), rest.len()) };
-            if n >= 0 {
+            if n > 0 {
                 rest = &rest[n as usize..];
                 continue;
             }
-            let error = io::Error::last_os_error();
+            let error = match n {
+                0 => io::Error::from(io::ErrorKind::WouldBlock),
+                _ => io::Error::last_os_error(),
+            };
             match error.kind() {
                 io::ErrorKind::Interrupted => {}
                 io::ErrorKind::WouldBlock if Instant::now() < give_up => {
