@@ -583,10 +583,12 @@ proptest::proptest! {
                 .fold(0.0, f64::max);
             let (acceleration, jerk) = peak_differences(&p, h);
             let summary = report.joints.iter().find(|s| s.joint == name).unwrap();
-            // A k-th difference of samples rounded to f64 is off by up to 2^k rounding errors
-            // of the largest value, over h^k (at h = 0.1 ms: 0.14 °/s³ on a jerk of 28 000).
+            // A k-th difference of samples is off by up to 2^k times a sample's own error, over
+            // h^k. A sample is a polynomial evaluated in a few steps, not one rounding: up to
+            // a few units in the last place of the largest value (a failing case measured 1.5;
+            // 4 are allowed: 0.24 °/s³ on a jerk of 3575 at h = 0.1 ms).
             let largest = p.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let rounding = |k: i32| 2f64.powi(k) * f64::EPSILON * largest / h.powi(k);
+            let rounding = |k: i32| 2f64.powi(k) * 4.0 * f64::EPSILON * largest / h.powi(k);
             for (what, sampled, reported, below, k) in [
                 ("velocity", velocity, summary.peak_velocity, 1e-3, 1),
                 ("acceleration", acceleration, summary.peak_acceleration, 1e-2, 2),

@@ -290,12 +290,14 @@ fn fault_on_the_right(fault: ServoFault) -> FaultRun {
     let log = dir.path().join("fault.csv");
     let child = play(&left, &right, &logged_quietly(&log));
     std::thread::sleep(Duration::from_millis(2500));
-    let right_before = {
+    // Only the packets' count under the lock: the emulator waits while it is held.
+    let packets_before = {
         let mut servos = right.bus().lock();
         servos.set_fault(4, Some(fault));
-        servos.goals_received().len()
+        servos.received.len()
     };
     let out = child.wait_with_output().unwrap();
+    let right_before = right.bus().lock().goals_in_first(packets_before).len();
     FaultRun {
         out,
         left: goals_by_joint(&left),

@@ -213,14 +213,15 @@ fn fault_after_start_on(
         let virtual_bus = virtual_bus.clone();
         std::thread::spawn(move || {
             std::thread::sleep(Duration::from_millis(800));
+            // Only the packets' count under the lock: the emulator waits while it is held.
             let mut servos = virtual_bus.lock();
-            let writes_before = servos.goals_received().len();
+            let packets_before = servos.received.len();
             if port_gone {
                 servos.connected = false;
             } else {
                 servos.set_fault(3, fault);
             }
-            writes_before
+            packets_before
         })
     };
     // The bus's faults are the subject: a loaded machine's stall must not come first.
@@ -233,8 +234,14 @@ fn fault_after_start_on(
             stats.cycles
         ),
     };
-    let writes_before = injector.join().unwrap();
-    let writes_after = virtual_bus.lock().goals_received().len();
+    let packets_before = injector.join().unwrap();
+    let (writes_before, writes_after) = {
+        let servos = virtual_bus.lock();
+        (
+            servos.goals_in_first(packets_before).len(),
+            servos.goals_received().len(),
+        )
+    };
     (
         error,
         writes_before / robot.joints.len(),

@@ -145,7 +145,17 @@ impl VirtualServos {
 
     /// Every goal position written, in order: (servo id, ticks).
     pub fn goals_received(&self) -> Vec<(u8, i64)> {
-        self.received
+        self.goals_in_first(self.received.len())
+    }
+
+    /// The goal positions written by the first `packets` packets of `received`, in order.
+    ///
+    /// What a test injecting a fault mid-run should use: it notes `received.len()` under the
+    /// lock, which costs nothing, and decodes after the run. Decoding every packet while
+    /// holding the lock keeps the server thread waiting; on a busy machine the holder can be
+    /// preempted meanwhile, and a servo then misses its answer for the test's sake.
+    pub fn goals_in_first(&self, packets: usize) -> Vec<(u8, i64)> {
+        self.received[..packets.min(self.received.len())]
             .iter()
             .flat_map(|packet| self.goals_in(packet))
             .collect()
