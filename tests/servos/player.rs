@@ -63,6 +63,24 @@ impl Clock for StopAt {
 /// machine (CI beside busy loops) the test process is kept off the CPU for over a second now
 /// and then, which the default stall bound rightly calls a fault (stalls have their own tests,
 /// tests/servos/player_stalls.rs).
+/// Plays `traj` to its end on a virtual clock: for tests whose subject is the goals sent, not
+/// the pacing, which then take no wall time and see an idle machine's timing.
+fn on_virtual_clock(
+    bus: &mut NativeBus,
+    robot: &Robot,
+    traj: &Trajectory,
+    options: &PlayOptions,
+) -> Result<(Outcome, keypose::player::Stats), PlayError> {
+    play_with_clock(
+        bus,
+        robot,
+        traj,
+        options,
+        &StopSignal::default(),
+        &VirtualClock::new(),
+    )
+}
+
 fn patient(rate: f64) -> PlayOptions {
     PlayOptions {
         max_stall: 30.0,
@@ -364,15 +382,7 @@ fn loops_and_ping_pong_pass_through_every_key() {
             ping_pong,
             ..PlayOptions::new(100.0)
         };
-        play_with_clock(
-            &mut bus,
-            &robot,
-            &traj,
-            &options,
-            &StopSignal::default(),
-            &VirtualClock::new(),
-        )
-        .unwrap();
+        on_virtual_clock(&mut bus, &robot, &traj, &options).unwrap();
         let elbow: Vec<f64> = goal_history(&robot, &virtual_bus)
             .iter()
             .map(|g| g[2])
@@ -430,14 +440,7 @@ proptest! {
             readback_every: Some(10),
             ..PlayOptions::new(200.0)
         };
-        let result = play_with_clock(
-            &mut bus,
-            &robot,
-            &traj,
-            &options,
-            &StopSignal::default(),
-            &VirtualClock::new(),
-        );
+        let result = on_virtual_clock(&mut bus, &robot, &traj, &options);
         for goals in goal_history(&robot, &virtual_bus) {
             for (value, joint) in goals.iter().zip(&robot.joints) {
                 prop_assert!(joint.limits.contains(*value), "{} received {value}", joint.name);
