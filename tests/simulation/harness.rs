@@ -224,11 +224,20 @@ fn the_harness_is_ready_with_the_pinned_versions() {
 /// compiled beside it once it has started.
 #[test]
 fn the_harness_keeps_its_bytecode_where_the_user_forbids_it() {
-    let scripts = shared().config.cache_dir.join("sim");
-    let compiled = scripts.join("__pycache__");
-    // Other tests' harnesses may be writing here: what they wrote is removed, and this
-    // harness must write its own.
-    let _ = fs::remove_dir_all(&compiled);
+    // A cache of its own for the scripts, so that no other test's harness can write the
+    // bytecode looked for here; its environment is the shared one, linked in (keypose finds
+    // its environment by the requirements' key: `venv-KEY` in the cache).
+    let private = tempfile::tempdir().expect("temp dir");
+    let shared_cache = &shared().config.cache_dir;
+    let venv = fs::read_dir(shared_cache)
+        .expect("the shared cache")
+        .flatten()
+        .map(|entry| entry.file_name().to_string_lossy().into_owned())
+        .find(|name| name.starts_with("venv-") && !name.contains(".tmp"))
+        .expect("the shared environment in the cache");
+    std::os::unix::fs::symlink(shared_cache.join(&venv), private.path().join(&venv)).unwrap();
+    let config = PyConfig::with_cache_dir(private.path());
+    let compiled = private.path().join("sim").join("__pycache__");
     let options = HarnessOptions {
         env: vec![
             ("MUJOCO_GL".to_string(), "disable".to_string()),
@@ -236,7 +245,7 @@ fn the_harness_keeps_its_bytecode_where_the_user_forbids_it() {
         ],
         ..crate::common::patient_harness()
     };
-    let harness = Harness::start_in(&shared().config, "sim_harness.py", options)
+    let harness = Harness::start_in(&config, "sim_harness.py", options)
         .unwrap_or_else(|e| panic!("the MuJoCo harness did not start: {e}"));
     drop(harness);
     let names: Vec<String> = fs::read_dir(&compiled)
