@@ -15,6 +15,12 @@
 //! in the same runs (an earlier commit's, for a before/after comparison); the driver is this
 //! build's in every run.
 //!
+//! Beside them, the floor this machine sets ([`pty_floor`]): the same bytes a cycle sends and
+//! receives passed through a pseudo-terminal to a thread that answers at once with nothing to
+//! do, flat out. No driver can come closer to the wire limit than the wire's time plus that
+//! round trip allows, whatever its own code: the round trip is the kernel's hand-over of a
+//! pseudo-terminal's bytes (a worker thread each way) and two wake-ups.
+//!
 //! The configurations alternate, [`REPS`] times each, and each figure is reported as the
 //! median and range over the repeats, with the machine's load. Nothing is asserted.
 //!
@@ -187,6 +193,56 @@ fn run(robot: &Robot, name: &str, setup: &Setup, plan: Plan, paced: bool) -> Run
     }
 }
 
+/// The round trip of a cycle's bytes through a pseudo-terminal with nothing done on either
+/// side, flat out for `length`: the client writes the sync write and then the sync read (two
+/// writes, as the driver does) and waits for all the answers' bytes, which a thread on the
+/// other side (scheduled as the emulator's server) writes back in one write as soon as the
+/// requests' bytes are all in. Returns the
+/// median round trip in µs.
+fn pty_floor(traffic: &wire::Traffic, length: Duration) -> f64 {
+    use serialport::SerialPort;
+    use std::io::{Read, Write};
+    let (mut client, mut server) = serialport::TTYPort::pair().expect("a pseudo-terminal");
+    for port in [&mut client, &mut server] {
+        port.set_timeout(Duration::from_secs(1)).expect("a timeout");
+    }
+    let request = traffic.sync_write + traffic.sync_read_instruction;
+    let answers = vec![0u8; traffic.status_each * wire::SERVOS];
+    let reply = answers.clone();
+    let echo = std::thread::spawn(move || {
+        // Scheduled as the emulator's server thread is.
+        let _ = keypose::pacing::realtime::serve_promptly();
+        let mut buf = [0u8; 256];
+        loop {
+            let mut got = 0;
+            while got < request {
+                match server.read(&mut buf[..request - got]) {
+                    Ok(0) | Err(_) => return,
+                    Ok(n) => got += n,
+                }
+            }
+            if server.write_all(&reply).is_err() {
+                return;
+            }
+        }
+    });
+    let write = vec![0u8; traffic.sync_write];
+    let read = vec![0u8; traffic.sync_read_instruction];
+    let mut back = vec![0u8; answers.len()];
+    let mut trips = Vec::new();
+    let start = Instant::now();
+    while start.elapsed() < length {
+        let before = Instant::now();
+        client.write_all(&write).expect("write");
+        client.write_all(&read).expect("write");
+        client.read_exact(&mut back).expect("the answers");
+        trips.push(before.elapsed().as_secs_f64() * 1e6);
+    }
+    drop(client);
+    let _ = echo.join();
+    common::median(&trips)
+}
+
 /// The emulators measured: this build's, and a peer build's when given.
 fn setups() -> Vec<Setup> {
     let mut binaries = vec![("", env!("CARGO_BIN_EXE_keypose").to_string())];
@@ -225,7 +281,9 @@ fn main() {
         let limit = traffic.limit_hz(wire::virtual_return_delay(&robot));
         // runs[setup][pace] over the repeats; pace 0 paced, 1 flat out.
         let mut runs = vec![[Vec::new(), Vec::new()]; setups.len()];
+        let mut floors = Vec::new();
         for _ in 0..plan.reps {
+            floors.push(pty_floor(&traffic, plan.flat_out));
             for (s, setup) in setups.iter().enumerate() {
                 for (p, paced) in [true, false].into_iter().enumerate() {
                     runs[s][p].push(run(&robot, name, setup, plan, paced));
@@ -251,6 +309,16 @@ fn main() {
             }
             println!("{line} ({})", session.load());
         }
+        let wire_us = 1e6 / limit;
+        let reachable = |trip: &f64| wire_us / (wire_us + trip) * 100.0;
+        println!(
+            "summary: {name}: the floor: a pseudo-terminal round trip of a cycle's bytes with \
+             nothing done on either side {} µs; with the wire's {wire_us:.0} µs no driver can \
+             pass {} % of the wire limit here ({})",
+            Spread::of(&floors).show(0),
+            Spread::over(&floors, reachable).show(1),
+            session.load()
+        );
     }
     session.end();
 }
