@@ -15,6 +15,11 @@
 //! in the same runs (an earlier commit's, for a before/after comparison); the driver is this
 //! build's in every run.
 //!
+//! A player's own traffic is measured too ([`playback`]): `keypose play` of the robot's wave
+//! example on the emulator, whose cycle is a sync read of the positions and, after the
+//! player's computation, a sync write of the goals (the bench's own cycle sends the two back
+//! to back); the emulator's CPU over the playback per player cycle.
+//!
 //! Beside them, the floor this machine sets ([`pty_floor`]): the same bytes a cycle sends and
 //! receives passed through a pseudo-terminal to a thread that answers at once with nothing to
 //! do, flat out. No driver can come closer to the wire limit than the wire's time plus that
@@ -193,6 +198,30 @@ fn run(robot: &Robot, name: &str, setup: &Setup, plan: Plan, paced: bool) -> Run
     }
 }
 
+/// The emulator's CPU per player cycle over a `keypose play` of `sequence` on it, and the
+/// player's cycles.
+fn playback(name: &str, sequence: &str, timed: bool) -> (f64, u64) {
+    let binary = env!("CARGO_BIN_EXE_keypose");
+    let emulator = Emulator::start(binary, name, timed);
+    let path = format!("{}/sequences/{sequence}", env!("CARGO_MANIFEST_DIR"));
+    let cpu_before = emulator.cpu_seconds();
+    let out = Command::new(binary)
+        .args(["play", &path, "--port", &emulator.path])
+        .output()
+        .expect("run keypose play");
+    let cpu = emulator.cpu_seconds() - cpu_before;
+    let log = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "keypose play failed:\n{log}");
+    // The summary line: "done: 932 cycles, approach …".
+    let cycles: u64 = log
+        .split("done: ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .expect("the player's summary line");
+    (cpu / cycles as f64 * 1e6, cycles)
+}
+
 /// The round trip of a cycle's bytes through a pseudo-terminal with nothing done on either
 /// side, flat out for `length`: the client writes the sync write and then the sync read (two
 /// writes, as the driver does) and waits for all the answers' bytes, which a thread on the
@@ -308,6 +337,22 @@ fn main() {
                 );
             }
             println!("{line} ({})", session.load());
+        }
+        let sequence = format!("{name}_wave.json");
+        let mut plays = [Vec::new(), Vec::new()];
+        for _ in 0..plan.reps {
+            for (t, timed) in [true, false].into_iter().enumerate() {
+                plays[t].push(playback(name, &sequence, timed));
+            }
+        }
+        for (t, how) in ["wire-timed", "at once"].iter().enumerate() {
+            println!(
+                "summary: {name}: {how}: a player's traffic (keypose play {sequence}, {} cycles): \
+                 emulator CPU {} µs a player cycle ({})",
+                plays[t][0].1,
+                Spread::over(&plays[t], |p| p.0).show(0),
+                session.load()
+            );
         }
         let wire_us = 1e6 / limit;
         let reachable = |trip: &f64| wire_us / (wire_us + trip) * 100.0;
