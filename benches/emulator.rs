@@ -226,8 +226,7 @@ fn playback(name: &str, sequence: &str, timed: bool) -> (f64, u64) {
 /// side, flat out for `length`: the client writes the sync write and then the sync read (two
 /// writes, as the driver does) and waits for all the answers' bytes, which a thread on the
 /// other side (scheduled as the emulator's server) writes back in one write as soon as the
-/// requests' bytes are all in. Returns the
-/// median round trip in µs.
+/// requests' bytes are all in. Returns the median round trip in µs.
 fn pty_floor(traffic: &wire::Traffic, length: Duration) -> f64 {
     use serialport::SerialPort;
     use std::io::{Read, Write};
@@ -236,8 +235,8 @@ fn pty_floor(traffic: &wire::Traffic, length: Duration) -> f64 {
         port.set_timeout(Duration::from_secs(1)).expect("a timeout");
     }
     let request = traffic.sync_write + traffic.sync_read_instruction;
-    let answers = vec![0u8; traffic.status_each * wire::SERVOS];
-    let reply = answers.clone();
+    let reply = vec![0u8; traffic.status_each * wire::SERVOS];
+    let mut back = vec![0u8; reply.len()];
     let echo = std::thread::spawn(move || {
         // Scheduled as the emulator's server thread is.
         let _ = keypose::pacing::realtime::serve_promptly();
@@ -257,7 +256,6 @@ fn pty_floor(traffic: &wire::Traffic, length: Duration) -> f64 {
     });
     let write = vec![0u8; traffic.sync_write];
     let read = vec![0u8; traffic.sync_read_instruction];
-    let mut back = vec![0u8; answers.len()];
     let mut trips = Vec::new();
     let start = Instant::now();
     while start.elapsed() < length {
@@ -272,6 +270,14 @@ fn pty_floor(traffic: &wire::Traffic, length: Duration) -> f64 {
     common::median(&trips)
 }
 
+/// How an emulator answers, as the summary lines name it.
+fn answering(timed: bool) -> &'static str {
+    match timed {
+        true => "wire-timed",
+        false => "at once",
+    }
+}
+
 /// The emulators measured: this build's, and a peer build's when given.
 fn setups() -> Vec<Setup> {
     let mut binaries = vec![("", env!("CARGO_BIN_EXE_keypose").to_string())];
@@ -281,9 +287,8 @@ fn setups() -> Vec<Setup> {
     let mut setups = Vec::new();
     for (prefix, binary) in binaries {
         for timed in [true, false] {
-            let how = if timed { "wire-timed" } else { "at once" };
             setups.push(Setup {
-                label: format!("{prefix}{how}"),
+                label: format!("{prefix}{}", answering(timed)),
                 binary: binary.clone(),
                 timed,
             });
@@ -339,18 +344,20 @@ fn main() {
             println!("{line} ({})", session.load());
         }
         let sequence = format!("{name}_wave.json");
+        let timings = [true, false];
         let mut plays = [Vec::new(), Vec::new()];
         for _ in 0..plan.reps {
-            for (t, timed) in [true, false].into_iter().enumerate() {
+            for (t, timed) in timings.into_iter().enumerate() {
                 plays[t].push(playback(name, &sequence, timed));
             }
         }
-        for (t, how) in ["wire-timed", "at once"].iter().enumerate() {
+        for (timed, plays) in timings.into_iter().zip(&plays) {
             println!(
-                "summary: {name}: {how}: a player's traffic (keypose play {sequence}, {} cycles): \
+                "summary: {name}: {}: a player's traffic (keypose play {sequence}, {} cycles): \
                  emulator CPU {} µs a player cycle ({})",
-                plays[t][0].1,
-                Spread::over(&plays[t], |p| p.0).show(0),
+                answering(timed),
+                plays[0].1,
+                Spread::over(plays, |p| p.0).show(0),
                 session.load()
             );
         }

@@ -491,12 +491,21 @@ impl<'a> Timeline<'a> {
         if self.robot.joints.iter().all(|j| j.limits.jerk.is_none()) {
             return (self.rate.factor + self.resume_rate() * dt).min(1.0);
         }
-        let mut climb = self.rate.climb.unwrap_or_else(|| {
-            let (velocity, _) = self.derivatives();
-            let from = self.rate.factor;
-            let (rate, jerk) = (self.resume_rate(), self.jerk_room(&velocity));
-            RateRamp::new(from, 1.0 - from, rate, jerk, 0.0)
-        });
+        let mut climb = match self.rate.climb {
+            Some(climb) => climb,
+            None => {
+                let (velocity, acceleration) = self.derivatives();
+                let rate = self.resume_rate_at(&velocity, &acceleration);
+                // The path's own acceleration leaves a joint no room to climb now: the factor
+                // holds, and the climb is planned again next cycle (a ramp at a rate of 0
+                // would never end).
+                if rate <= 0.0 {
+                    return self.rate.factor;
+                }
+                let from = self.rate.factor;
+                RateRamp::new(from, 1.0 - from, rate, self.jerk_room(&velocity), 0.0)
+            }
+        };
         climb.elapsed += dt;
         self.rate.climb = (!climb.done()).then_some(climb);
         if climb.done() {
@@ -510,11 +519,16 @@ impl<'a> Timeline<'a> {
     /// acceleration at the present factor, `factor² · acceleration`.
     fn resume_rate(&self) -> f64 {
         let (velocity, acceleration) = self.derivatives();
+        self.resume_rate_at(&velocity, &acceleration)
+    }
+
+    /// [`Self::resume_rate`] where the path's joint `velocity` and `acceleration` are known.
+    fn resume_rate_at(&self, velocity: &[f64], acceleration: &[f64]) -> f64 {
         let f2 = self.rate.factor * self.rate.factor;
         self.robot
             .joints
             .iter()
-            .zip(velocity.iter().zip(&acceleration))
+            .zip(velocity.iter().zip(acceleration))
             .map(|(j, (v, a))| {
                 let headroom = (j.limits.acceleration - f2 * a.abs()).max(0.0);
                 RESUME_HEADROOM_SHARE * headroom / v.abs().max(f64::MIN_POSITIVE)

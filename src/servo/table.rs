@@ -144,8 +144,8 @@ impl RegisterTable {
     }
 
     /// Writes `value` into `register`'s bytes of `memory` (a control table laid out by
-    /// address), in this table's byte order: [`Self::encode`] without allocating. A register
-    /// that lies outside `memory` is refused as a size error.
+    /// address, which holds every register of this table), in this table's byte order:
+    /// [`Self::encode`] without allocating. Only a value the register cannot hold is refused.
     pub fn encode_into(
         &self,
         register: &Register,
@@ -153,14 +153,7 @@ impl RegisterTable {
         memory: &mut [u8],
     ) -> Result<(), RegisterError> {
         let start = usize::from(register.address);
-        let size = usize::from(register.size);
-        let bytes = memory
-            .get_mut(start..start + size)
-            .ok_or(RegisterError::Size {
-                register: register.name,
-                expected: register.size,
-                found: 0,
-            })?;
+        let bytes = &mut memory[start..start + usize::from(register.size)];
         self.byte_order.put_bytes(register.to_raw(value)?, bytes);
         Ok(())
     }

@@ -666,6 +666,44 @@ fn no_approach() -> keypose::plan::TimelineOptions {
     }
 }
 
+/// A stall while the path itself accelerates harder than the wrist's (here lowered) limit
+/// leaves room for: no climb fits, so the factor holds at the stall's 0.5 until the path's
+/// acceleration eases, and never jumps. Before, a climb planned at a rate of 0 came out as
+/// NaN and the factor went straight back to 1 in one cycle.
+#[test]
+fn a_stall_with_no_room_to_climb_holds_the_rate_until_there_is_room() {
+    let robot = so101_with_jerk(3440.0);
+    let (trajectory, from) = wrist_across(&robot);
+    // The wrist accelerates at up to 344 deg/s² at the full rate; at half the rate the path
+    // asks a quarter of that, over the 43 deg/s² this robot allows it.
+    let mut tight = robot.clone();
+    tight.joints[3].limits.acceleration = 344.0 / 8.0;
+    let mut timeline = keypose::plan::Timeline::new(&tight, &trajectory, &no_approach(), &from);
+    let (dt, stall) = (1e-3, 150);
+    let mut taus = Vec::new();
+    let mut out = vec![0.0; 6];
+    for k in 0..400 {
+        timeline.sample_into(&mut out).unwrap();
+        taus.push(timeline.sequence_time());
+        if k == stall {
+            timeline.after_stall(0.5);
+        }
+        timeline.advance(dt);
+    }
+    let factors: Vec<f64> = taus.windows(2).map(|w| (w[1] - w[0]) / dt).collect();
+    assert!((factors[stall] - 0.5).abs() < 1e-9, "{}", factors[stall]);
+    assert!(
+        (factors[stall + 1] - 0.5).abs() < 1e-9,
+        "no room: the factor holds, {}",
+        factors[stall + 1]
+    );
+    let largest = factors[stall..]
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(0.0f64, f64::max);
+    assert!(largest < 0.05, "the factor rose by {largest} in one cycle");
+}
+
 #[test]
 fn a_stall_while_braking_under_jerk_limits_never_speeds_the_arm_up_again() {
     // Braking from the wrist's cruise as above; 0.2 s into it the process stalls and the path

@@ -2,6 +2,7 @@
 //! virtual bus decodes them, moves, and answers; nothing is mocked but the wire itself (an
 //! in-memory transport; the pseudo-terminal path is covered in `tests/servos/play.rs`).
 
+use crate::player_stalls::play_on;
 use keypose::bus::NativeBus;
 use keypose::bus::{Alarms, BusError};
 use keypose::pacing::Clock;
@@ -63,24 +64,6 @@ impl Clock for StopAt {
 /// machine (CI beside busy loops) the test process is kept off the CPU for over a second now
 /// and then, which the default stall bound rightly calls a fault (stalls have their own tests,
 /// tests/servos/player_stalls.rs).
-/// Plays `traj` to its end on a virtual clock: for tests whose subject is the goals sent, not
-/// the pacing, which then take no wall time and see an idle machine's timing.
-fn on_virtual_clock(
-    bus: &mut NativeBus,
-    robot: &Robot,
-    traj: &Trajectory,
-    options: &PlayOptions,
-) -> Result<(Outcome, keypose::player::Stats), PlayError> {
-    play_with_clock(
-        bus,
-        robot,
-        traj,
-        options,
-        &StopSignal::default(),
-        &VirtualClock::new(),
-    )
-}
-
 fn patient(rate: f64) -> PlayOptions {
     PlayOptions {
         max_stall: 30.0,
@@ -382,7 +365,7 @@ fn loops_and_ping_pong_pass_through_every_key() {
             ping_pong,
             ..PlayOptions::new(100.0)
         };
-        on_virtual_clock(&mut bus, &robot, &traj, &options).unwrap();
+        play_on(&mut bus, &robot, &traj, &options, &VirtualClock::new()).unwrap();
         let elbow: Vec<f64> = goal_history(&robot, &virtual_bus)
             .iter()
             .map(|g| g[2])
@@ -440,7 +423,7 @@ proptest! {
             readback_every: Some(10),
             ..PlayOptions::new(200.0)
         };
-        let result = on_virtual_clock(&mut bus, &robot, &traj, &options);
+        let result = play_on(&mut bus, &robot, &traj, &options, &VirtualClock::new());
         for goals in goal_history(&robot, &virtual_bus) {
             for (value, joint) in goals.iter().zip(&robot.joints) {
                 prop_assert!(joint.limits.contains(*value), "{} received {value}", joint.name);

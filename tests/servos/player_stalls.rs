@@ -25,8 +25,9 @@ use keypose::testing::VirtualBus;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-/// Plays with no stop request on `clock`.
-fn play_on(
+/// Plays with no stop request on `clock` (also for tests whose subject is the goals sent,
+/// on a virtual clock: they take no wall time and see an idle machine's timing).
+pub(crate) fn play_on(
     bus: &mut dyn ServoBus,
     robot: &Robot,
     trajectory: &Trajectory,

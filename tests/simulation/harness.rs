@@ -225,17 +225,18 @@ fn the_harness_is_ready_with_the_pinned_versions() {
 #[test]
 fn the_harness_keeps_its_bytecode_where_the_user_forbids_it() {
     // A cache of its own for the scripts, so that no other test's harness can write the
-    // bytecode looked for here; its environment is the shared one, linked in (keypose finds
-    // its environment by the requirements' key: `venv-KEY` in the cache).
+    // bytecode looked for here; its environment is the shared one in use (its interpreter's
+    // `venv-KEY/bin/python`), linked in under the same name: keypose finds its environment by
+    // the requirements' key.
     let private = tempfile::tempdir().expect("temp dir");
-    let shared_cache = &shared().config.cache_dir;
-    let venv = fs::read_dir(shared_cache)
-        .expect("the shared cache")
-        .flatten()
-        .map(|entry| entry.file_name().to_string_lossy().into_owned())
-        .find(|name| name.starts_with("venv-") && !name.contains(".tmp"))
-        .expect("the shared environment in the cache");
-    std::os::unix::fs::symlink(shared_cache.join(&venv), private.path().join(&venv)).unwrap();
+    let venv = shared()
+        .env
+        .python
+        .parent()
+        .and_then(Path::parent)
+        .expect("the shared environment's folder");
+    let name = venv.file_name().expect("venv-KEY");
+    std::os::unix::fs::symlink(venv, private.path().join(name)).unwrap();
     let config = PyConfig::with_cache_dir(private.path());
     let compiled = private.path().join("sim").join("__pycache__");
     let options = HarnessOptions {

@@ -352,7 +352,8 @@ mod tests {
 
     /// A sync read (0x82) of Present_Position (56, 2 bytes) from servos 1…6 of an SO-101 served
     /// at `baud`: each status packet with the instant its last byte was read, measured from
-    /// just before the instruction was written.
+    /// just before the instruction was written. The answers must come from servos 1…6 in
+    /// that order, as the wire carries them.
     fn sync_read_at(baud: u32) -> Vec<(u8, Duration)> {
         let robot = Robot::builtin("so101").unwrap();
         let server = PtyServer::start_timed(&robot, Some(WireTiming::at(baud))).unwrap();
@@ -374,6 +375,8 @@ mod tests {
                 packets.push((packet.id, read_at));
             }
         }
+        let ids: Vec<u8> = packets.iter().map(|&(id, _)| id).collect();
+        assert_eq!(ids, [1, 2, 3, 4, 5, 6], "the answers in wire order");
         packets
     }
 
@@ -389,8 +392,6 @@ mod tests {
         // (wire::HOLD): each comes on its own, none before its own instant.
         let baud = 9_600;
         let packets = sync_read_at(baud);
-        let ids: Vec<u8> = packets.iter().map(|&(id, _)| id).collect();
-        assert_eq!(ids, [1, 2, 3, 4, 5, 6]);
         for (k, &(id, read_at)) in packets.iter().enumerate() {
             let due = wire_instant(baud, k);
             assert!(read_at >= due, "servo {id}: read {read_at:?}, due {due:?}");
@@ -404,8 +405,6 @@ mod tests {
         // before 620 µs.
         let baud = 1_000_000;
         let packets = sync_read_at(baud);
-        let ids: Vec<u8> = packets.iter().map(|&(id, _)| id).collect();
-        assert_eq!(ids, [1, 2, 3, 4, 5, 6]);
         let last_due = wire_instant(baud, 5);
         assert_eq!(last_due, Duration::from_micros(620));
         for &(id, read_at) in &packets {

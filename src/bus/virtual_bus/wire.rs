@@ -250,6 +250,16 @@ mod tests {
             groups(deliveries(&answers, &late, HOLD)),
             vec![(0..2, us(650)), (2..4, us(41_950))]
         );
+        // Late by only 200 µs, within the hold of the one before it: still a delivery of its
+        // own, the answer before it not held for it (by the hold alone, 0 and 850 µs would go
+        // together).
+        answers[2].extra_delay = Duration::ZERO;
+        answers[1].extra_delay = us(200);
+        let slightly: Vec<Instant> = [0, 850, 1500, 2150].map(|t| t0 + us(t)).to_vec();
+        assert_eq!(
+            groups(deliveries(&answers, &slightly, HOLD)),
+            vec![(0..1, us(0)), (1..3, us(1500)), (3..4, us(2150))]
+        );
         assert!(deliveries(&[], &[], HOLD).is_empty());
     }
 
