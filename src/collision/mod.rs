@@ -11,6 +11,8 @@
 
 mod gjk;
 mod mjcf;
+mod reach;
+pub(crate) mod sweep;
 
 use crate::pose::RigidTransform;
 use crate::robot::{JointKind, Robot};
@@ -112,6 +114,14 @@ struct Geom {
     shape: mjcf::Shape,
 }
 
+/// Two bodies whose distance is checked (`b` smaller-indexed first), or a body and the floor
+/// (`b` is `None`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Pair {
+    pub a: usize,
+    pub b: Option<usize>,
+}
+
 /// The shapes of a robot's (or a cell's) simulation models, ready to pose.
 #[derive(Debug, Clone)]
 pub struct CollisionModel {
@@ -119,6 +129,13 @@ pub struct CollisionModel {
     geoms: Vec<Geom>,
     /// Body pairs never checked (index order: smaller first).
     skipped: Vec<(usize, usize)>,
+    /// Every pair checked, in the order [`CollisionModel::touches`] finds them; made by
+    /// [`CollisionModel::finish`].
+    pairs: Vec<Pair>,
+    /// Each body's geoms (indices into `geoms`).
+    body_geoms: Vec<Vec<usize>>,
+    /// How far each body's points can move per unit of each joint's change (`reach`).
+    reach: Vec<reach::Reach>,
 }
 
 impl CollisionModel {
@@ -129,6 +146,9 @@ impl CollisionModel {
             bodies: Vec::new(),
             geoms: Vec::new(),
             skipped: Vec::new(),
+            pairs: Vec::new(),
+            body_geoms: Vec::new(),
+            reach: Vec::new(),
         };
         if robot.is_cell() {
             for (a, arm) in robot.arms.iter().enumerate() {
@@ -148,7 +168,33 @@ impl CollisionModel {
             let parsed = mjcf::parse(text).ok()?;
             model.add(&parsed, robot, RigidTransform::IDENTITY, 0, 0, None)?;
         }
+        model.finish(robot);
         Some(model)
+    }
+
+    /// The pairs to check, each body's geoms and how far its points reach, once every arm is
+    /// added.
+    fn finish(&mut self, robot: &Robot) {
+        self.body_geoms = vec![Vec::new(); self.bodies.len()];
+        for (g, geom) in self.geoms.iter().enumerate() {
+            self.body_geoms[geom.body].push(g);
+        }
+        let shaped: Vec<usize> = (0..self.bodies.len())
+            .filter(|&b| !self.body_geoms[b].is_empty())
+            .collect();
+        let mut pairs = Vec::new();
+        for (i, &a) in shaped.iter().enumerate() {
+            if !self.bodies[a].fixed {
+                pairs.push(Pair { a, b: None });
+            }
+            for &b in &shaped[i + 1..] {
+                if self.checked(a, b) {
+                    pairs.push(Pair { a, b: Some(b) });
+                }
+            }
+        }
+        self.pairs = pairs;
+        self.reach = reach::of_bodies(self, robot);
     }
 
     /// Adds one arm's model: its bodies named `ARM/BODY` on a cell, its joints found in
@@ -252,41 +298,62 @@ impl CollisionModel {
     /// `values` (robot order, joint units), the nearest pair of shapes of each; a negative
     /// distance is a penetration.
     pub fn touches(&self, values: &[f64], clearance: f64) -> Vec<Touch> {
-        let frames = self.frames(values);
-        let placed: Vec<(usize, Core, f64)> = self
-            .geoms
-            .iter()
-            .map(|g| {
-                let (core, radius) = g.shape.placed(&frames[g.body]);
-                (g.body, core, radius)
+        let placed = self.placed(values);
+        (0..self.pairs.len())
+            .filter_map(|p| {
+                let d = self.pair_distance(&placed, p);
+                (d < clearance).then(|| self.touch_of(p, d))
             })
-            .collect();
-        let mut found: Vec<(usize, Option<usize>, f64)> = Vec::new();
-        let mut note = |a: usize, b: Option<usize>, d: f64| {
-            if d >= clearance {
-                return;
-            }
-            match found.iter_mut().find(|(x, y, _)| *x == a && *y == b) {
-                Some(entry) => entry.2 = entry.2.min(d),
-                None => found.push((a, b, d)),
-            }
-        };
-        for (i, (a, core_a, radius_a)) in placed.iter().enumerate() {
-            if !self.bodies[*a].fixed {
-                note(*a, None, core_a.lowest() - radius_a);
-            }
-            for (b, core_b, radius_b) in &placed[i + 1..] {
-                if !self.checked(*a, *b) {
-                    continue;
+            .collect()
+    }
+
+    /// Every geom's core in the world and its radius at `values`.
+    pub(crate) fn placed(&self, values: &[f64]) -> Vec<(Core, f64)> {
+        let frames = self.frames(values);
+        self.geoms
+            .iter()
+            .map(|g| g.shape.placed(&frames[g.body]))
+            .collect()
+    }
+
+    /// The pairs checked, as [`CollisionModel::pair_distance`] numbers them.
+    pub(crate) fn pairs(&self) -> &[Pair] {
+        &self.pairs
+    }
+
+    /// The signed distance of pair `p` (metres, negative inside), its geoms `placed`: the
+    /// nearest of its shapes.
+    pub(crate) fn pair_distance(&self, placed: &[(Core, f64)], p: usize) -> f64 {
+        let Pair { a, b } = self.pairs[p];
+        let mut least = f64::INFINITY;
+        for &ga in &self.body_geoms[a] {
+            let (core_a, radius_a) = &placed[ga];
+            match b {
+                None => least = least.min(core_a.lowest() - radius_a),
+                Some(b) => {
+                    for &gb in &self.body_geoms[b] {
+                        let (core_b, radius_b) = &placed[gb];
+                        let d = gjk::signed_distance(core_a, core_b) - radius_a - radius_b;
+                        least = least.min(d);
+                    }
                 }
-                let d = gjk::signed_distance(core_a, core_b) - radius_a - radius_b;
-                note((*a).min(*b), Some((*a).max(*b)), d);
             }
         }
-        found
-            .into_iter()
-            .map(|(a, b, distance)| self.touch(a, b, distance))
-            .collect()
+        least
+    }
+
+    /// How far any point of pair `p`'s bodies can come towards each other when each joint
+    /// changes by at most `deviation` (robot order, joint units), metres: the sum of both
+    /// bodies' reach (the floor does not move).
+    pub(crate) fn pair_reach(&self, p: usize, deviation: &[f64]) -> f64 {
+        let Pair { a, b } = self.pairs[p];
+        self.reach[a].displacement(deviation) + b.map_or(0.0, |b| self.reach[b].displacement(deviation))
+    }
+
+    /// Pair `p` at distance `distance`, as a [`Touch`].
+    pub(crate) fn touch_of(&self, p: usize, distance: f64) -> Touch {
+        let Pair { a, b } = self.pairs[p];
+        self.touch(a, b, distance)
     }
 
     /// The pairs MuJoCo checks: two bodies, not both fixed to the world, neither the other's
