@@ -134,8 +134,9 @@ pub struct CollisionModel {
     pairs: Vec<Pair>,
     /// Each body's geoms (indices into `geoms`).
     body_geoms: Vec<Vec<usize>>,
-    /// How far each body's points can move per unit of each joint's change (`reach`).
-    reach: Vec<reach::Reach>,
+    /// How far each pair's bodies can come towards each other per unit of each joint's
+    /// change (`reach`), in the order of `pairs`.
+    reach: Vec<reach::PairReach>,
 }
 
 impl CollisionModel {
@@ -193,8 +194,12 @@ impl CollisionModel {
                 }
             }
         }
+        let bodies = reach::of_bodies(self, robot);
+        self.reach = pairs
+            .iter()
+            .map(|p| reach::pair_levers(&bodies, p.a, p.b))
+            .collect();
         self.pairs = pairs;
-        self.reach = reach::of_bodies(self, robot);
     }
 
     /// Adds one arm's model: its bodies named `ARM/BODY` on a cell, its joints found in
@@ -343,11 +348,10 @@ impl CollisionModel {
     }
 
     /// How far any point of pair `p`'s bodies can come towards each other when each joint
-    /// changes by at most `deviation` (robot order, joint units), metres: the sum of both
-    /// bodies' reach (the floor does not move).
+    /// changes by at most `deviation` (robot order, joint units), metres: both bodies' reach
+    /// under the joints they do not share (the floor does not move).
     pub(crate) fn pair_reach(&self, p: usize, deviation: &[f64]) -> f64 {
-        let Pair { a, b } = self.pairs[p];
-        self.reach[a].displacement(deviation) + b.map_or(0.0, |b| self.reach[b].displacement(deviation))
+        self.reach[p].displacement(deviation)
     }
 
     /// Pair `p` at distance `distance`, as a [`Touch`].

@@ -8,6 +8,11 @@
 //! point of b's shapes from b's own origin. A prismatic joint moves every point below it by
 //! its own change. Summed over the joints, this bounds how far any point of b moves between
 //! two poses, whatever the order the joints move in: `Σ_K lever_K · |Δq_K|`.
+//!
+//! Two bodies of one chain move together under every joint they share: their distance depends
+//! only on the joints below the last body they share. So a pair's bound sums the two bodies'
+//! levers of those joints alone (`pair_levers`), which is what makes a wrist and its own
+//! gripper, a handful of millimetres apart, certifiable while the shoulder swings.
 
 use super::mjcf::Shape;
 use super::{CollisionModel, Motion};
@@ -17,19 +22,50 @@ use crate::robot::{JointKind, Robot};
 /// robot joint's change.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub(super) struct Reach {
-    /// (robot joint index, metres per joint unit), one entry per joint that moves the body.
-    levers: Vec<(usize, f64)>,
+    /// One entry per moving body from this one up to its root.
+    levers: Vec<Lever>,
 }
 
-impl Reach {
-    /// The farthest any point of the body moves when joint `j` changes by at most
-    /// `deviation[j]`, metres.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Lever {
+    /// The robot joint that moves `body`.
+    joint: usize,
+    /// The body it moves (this body or an ancestor).
+    body: usize,
+    /// Metres per joint unit.
+    metres: f64,
+}
+
+/// A pair's coefficients: (robot joint, metres per joint unit) of every joint that changes the
+/// pair's distance.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(super) struct PairReach(Vec<(usize, f64)>);
+
+impl PairReach {
+    /// How far the pair's bodies can come towards each other when joint `j` changes by at
+    /// most `deviation[j]`, metres.
     pub(super) fn displacement(&self, deviation: &[f64]) -> f64 {
-        self.levers
-            .iter()
-            .map(|&(j, lever)| lever * deviation[j].abs())
-            .sum()
+        self.0.iter().map(|&(j, m)| m * deviation[j].abs()).sum()
     }
+}
+
+/// The coefficients of the pair of `a` and `b` (`None`: the floor), the levers of bodies both
+/// share left out.
+pub(super) fn pair_levers(reach: &[Reach], a: usize, b: Option<usize>) -> PairReach {
+    let shared = |lever: &Lever, other: Option<usize>| {
+        other.is_some_and(|o| reach[o].levers.iter().any(|l| l.body == lever.body))
+    };
+    let mut out: Vec<(usize, f64)> = Vec::new();
+    let mut take = |body: usize, other: Option<usize>| {
+        for lever in reach[body].levers.iter().filter(|l| !shared(l, other)) {
+            add(&mut out, lever.joint, lever.metres);
+        }
+    };
+    take(a, b);
+    if let Some(b) = b {
+        take(b, Some(a));
+    }
+    PairReach(out)
 }
 
 /// The reach of every body of `model`, whose joints are `robot`'s.
@@ -57,12 +93,12 @@ fn farthest_point(shape: &Shape) -> f64 {
 
 /// Body `b`'s reach: every moving body from `b` up to its root contributes its joint.
 fn body_reach(model: &CollisionModel, robot: &Robot, b: usize, radius: f64) -> Reach {
-    let mut levers: Vec<(usize, f64)> = Vec::new();
+    let mut levers: Vec<Lever> = Vec::new();
     // The distance from the current body's frame origin to b's farthest point, bounded: it
     // grows by each body origin's length (and a prismatic joint's travel) on the way up.
     let mut below = radius;
     let mut k = Some(b);
-    while let Some(body) = k.map(|i| &model.bodies[i]) {
+    while let Some((at, body)) = k.map(|i| (i, &model.bodies[i])) {
         let joint = match body.motion {
             Motion::Fixed => None,
             Motion::Joint { index, kind, .. } => Some((index, kind, 1.0, 0.0)),
@@ -80,7 +116,11 @@ fn body_reach(model: &CollisionModel, robot: &Robot, b: usize, radius: f64) -> R
                 JointKind::Revolute => below * scale * 1f64.to_radians(),
                 JointKind::Prismatic => scale,
             };
-            add(&mut levers, index, lever);
+            levers.push(Lever {
+                joint: index,
+                body: at,
+                metres: lever,
+            });
             if kind == JointKind::Prismatic {
                 below += travel(robot, index, scale, offset);
             }
@@ -143,7 +183,10 @@ mod tests {
                     // for poses apart, which is what the check certifies.
                     if model.pair_distance(&pa, p) > 0.0 && model.pair_distance(&pb, p) > 0.0 {
                         let reach = model.pair_reach(p, &change);
-                        assert!(moved <= reach + 1e-12, "{name}: pair {p} moved {moved} > {reach}");
+                        assert!(
+                            moved <= reach + 1e-12,
+                            "{name}: pair {p} moved {moved} > {reach}"
+                        );
                     }
                 }
             }

@@ -161,7 +161,16 @@ mod tests {
         let model = CollisionModel::for_robot(&robot).unwrap();
         let pose = |wrist: f64| vec![0.0, 0.0, 30.0, wrist, 0.0, 0.0];
         let (from, to) = (pose(-85.5), pose(85.5));
-        let through = sweep(&model, &Line { from: &from, to: &to }, 0.0, 1.0, RESOLUTION);
+        let through = sweep(
+            &model,
+            &Line {
+                from: &from,
+                to: &to,
+            },
+            0.0,
+            1.0,
+            RESOLUTION,
+        );
         assert!(!through.is_empty());
         assert!(through.iter().all(|n| model.pairs()[n.pair].b.is_none()));
         // What is found is below the clearance: measured inside the contact, a bound that does
@@ -176,7 +185,16 @@ mod tests {
         assert!(seen.iter().all(|&w| w < 85.0), "{seen:?}");
         let short = pose(20.0);
         assert_eq!(
-            sweep(&model, &Line { from: &from, to: &short }, 0.0, 1.0, RESOLUTION),
+            sweep(
+                &model,
+                &Line {
+                    from: &from,
+                    to: &short
+                },
+                0.0,
+                1.0,
+                RESOLUTION
+            ),
             vec![]
         );
     }

@@ -39,7 +39,7 @@
 //! T seconds asks of a joint at slope q'), reported in [`FastestOutcome::holds`].
 
 use super::scurve::{along_track, candidates, time_scale, AlongPath, SCurve};
-use super::{check, CheckReport, Trajectory};
+use super::{check, check_limits, CheckReport, Trajectory};
 use crate::curve::{Interp, Track};
 use crate::json::InputError;
 use crate::robot::{Limits, Robot};
@@ -140,7 +140,8 @@ pub fn fastest(
             let speeds = path.plan(robot, &shares, 1.0 / rate);
             path.timed(&base, &speeds)
         };
-        let report = check(&Trajectory::build(&candidate, robot)?, robot, rate);
+        let timed = Trajectory::build(&candidate, robot)?;
+        let report = check_limits(&timed, robot, rate);
         let over = over_limits(&report, jerk_limited);
         let done = over
             .iter()
@@ -182,6 +183,9 @@ pub fn fastest(
                     }
                 })
                 .collect();
+            // Timing moves the arm along the same path: its clearance is checked once, on
+            // the result.
+            let report = check(&timed, robot, rate);
             return Ok(FastestOutcome {
                 sequence: candidate,
                 rounds,

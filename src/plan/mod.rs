@@ -12,6 +12,7 @@
 
 mod approach;
 pub(crate) mod check;
+mod clearance;
 mod fastest;
 mod retime;
 mod sampled;
@@ -29,7 +30,9 @@ use std::f64::consts::TAU;
 
 pub(crate) use approach::Approach;
 pub use approach::{APPROACH_LIMIT_SHARE, MIN_APPROACH_SECONDS};
+pub(crate) use check::check_limits;
 pub use check::{check, check_at_speed, Cause, CheckReport, JointSummary, LimitKind, Violation};
+pub use clearance::{ClearanceScope, Contact, ContactCause, ContactWindow};
 pub use fastest::{fastest, FastestOutcome, FastestRun};
 pub use retime::{advice, retime, RetimeOutcome, MAX_STRETCH};
 pub use sampled::Sampled;
@@ -76,6 +79,10 @@ pub struct Trajectory {
     pub key_times: Vec<f64>,
     /// Name (or "#index") of every keyframe.
     pub key_labels: Vec<String>,
+    /// How long each key holds, seconds, in key order.
+    pub key_holds: Vec<f64>,
+    /// The contacts the keys declare (`"contact"`), with the time each is allowed in.
+    pub declared: Vec<ContactWindow>,
     /// The tool keys and straight tool lines solved on the way (empty without them).
     pub tools: ToolSolve,
     /// Sequence time to path time, over which the tracks are built (the identity unless a
@@ -199,6 +206,7 @@ impl Trajectory {
             tracks.push(track);
         }
 
+        let declared = clearance::declared_windows(sequence, robot, &key_times)?;
         let n = key_times.len();
         let (first, last) = match sequence.ends {
             Ends::Played => (0, n - 1),
@@ -216,6 +224,8 @@ impl Trajectory {
                 .map(|(i, k)| k.label(i))
                 .collect(),
             key_times,
+            key_holds: sequence.keyframes.iter().map(|k| k.hold).collect(),
+            declared,
             tools,
             timing: Timing::of(sequence),
         })
@@ -236,6 +246,12 @@ impl Trajectory {
             end: self.end,
             key_times: self.key_times.clone(),
             key_labels: self.key_labels.clone(),
+            key_holds: self.key_holds.clone(),
+            declared: self
+                .declared
+                .iter()
+                .filter_map(|w| arm_window(w, &arm.name))
+                .collect(),
             tools: ToolSolve::default(),
             timing: self.timing.clone(),
         }
@@ -339,6 +355,25 @@ impl Trajectory {
         let count = ((self.end - self.start) * rate + 1e-9).floor() as usize;
         (0..=count).map(move |k| self.start + k as f64 / rate)
     }
+}
+
+/// A cell's declared contact as one arm's trajectory has it (its own link names), if both
+/// links are that arm's.
+fn arm_window(window: &ContactWindow, arm: &str) -> Option<ContactWindow> {
+    let own = |link: &str| {
+        link.strip_prefix(arm)?
+            .strip_prefix('/')
+            .map(str::to_string)
+    };
+    let with = match &window.with {
+        None => None,
+        Some(other) => Some(own(other)?),
+    };
+    Some(ContactWindow {
+        link: own(&window.link)?,
+        with,
+        ..window.clone()
+    })
 }
 
 /// Samples all joints at increasing times through one cursor per track.

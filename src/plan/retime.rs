@@ -16,7 +16,7 @@
 //! that no stretch up to [`MAX_STRETCH`] mends (left as it was), each with advice that fits its
 //! kind ([`advice`]).
 
-use super::{check, Cause, CheckReport, LimitKind, Trajectory, Violation};
+use super::{check, check_limits, Cause, CheckReport, LimitKind, Trajectory, Violation};
 use crate::curve::Interp;
 use crate::json::InputError;
 use crate::robot::Robot;
@@ -58,8 +58,10 @@ pub fn retime(sequence: &Sequence, robot: &Robot, rate: f64) -> Result<RetimeOut
     let original = current.key_times();
     let segments = original.len().saturating_sub(1);
     let mut unfixable = vec![false; segments];
+    // Timing changes the limits' verdict, not the path: the loop judges the limits alone,
+    // and the clearance is checked once, on the result.
     let judge = |s: &Sequence| -> Result<CheckReport, InputError> {
-        Ok(check(&Trajectory::build(s, robot)?, robot, rate))
+        Ok(check_limits(&Trajectory::build(s, robot)?, robot, rate))
     };
     let mut report = judge(&current)?;
     let mut rounds = 0;
@@ -125,6 +127,7 @@ pub fn retime(sequence: &Sequence, robot: &Robot, rate: f64) -> Result<RetimeOut
         stretch(&mut current, &factors, segments);
         report = judge(&current)?;
     }
+    let report = check(&Trajectory::build(&current, robot)?, robot, rate);
     let times = current.key_times();
     let stretched = (0..times.len().saturating_sub(1))
         .filter_map(|i| {

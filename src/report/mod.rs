@@ -1,5 +1,6 @@
 //! Turning trajectories and checks into what people and programs read: text, JSON, SVG.
 
+mod clearance;
 pub mod log;
 pub mod plot;
 pub(crate) mod units;
@@ -24,7 +25,7 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
             report.speed
         );
     }
-    if report.passed() {
+    if report.violations.is_empty() {
         let _ = writeln!(out, "ok: no limit violations");
     } else {
         let _ = writeln!(
@@ -89,6 +90,7 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
             100.0 * j.peak_acceleration / j.acceleration_limit,
         );
     }
+    out += &clearance::text(report, &robot.name);
     out
 }
 
@@ -192,6 +194,7 @@ pub fn check_json(report: &CheckReport, sequence_file: &str, robot: &Robot) -> V
             "acceleration_jump": j.acceleration_jump,
             "jerk_limit": j.jerk_limit,
         })).collect::<Vec<_>>(),
+        "clearance": clearance::json(report),
     })
 }
 

@@ -82,6 +82,8 @@ impl Robot {
             home: Vec::with_capacity(total),
             lerobot: None,
             arms: Vec::with_capacity(arms.len()),
+            // The cell keeps the largest clearance any arm asks for.
+            clearance: arms.iter().map(|(_, r, _)| r.clearance).fold(0.0, f64::max),
         };
         for (name, robot, base) in arms {
             if cell.arms.iter().any(|a| a.name == name) {

@@ -20,6 +20,7 @@ pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
         "joints",
         "tcp",
         "home",
+        "clearance_mm",
     ])?;
     let name = root.require("name", "the robot's name")?.name("a name")?;
     let description = match root.get("description") {
@@ -86,6 +87,17 @@ pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
         }
     }
 
+    let clearance = match root.get("clearance_mm") {
+        None => super::DEFAULT_CLEARANCE_MM,
+        Some(node) => {
+            let mm = node.number("millimetres")?;
+            if !(0.0..=MAX_CLEARANCE_MM).contains(&mm) {
+                return Err(node.expected(&format!("a clearance from 0 to {MAX_CLEARANCE_MM} mm")));
+            }
+            mm
+        }
+    } / 1000.0;
+
     Ok(Robot {
         name: name.to_string(),
         source: super::RobotSource::File(file.into()),
@@ -97,8 +109,13 @@ pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
         home,
         lerobot: None,
         arms: Vec::new(),
+        clearance,
     })
 }
+
+/// The largest clearance a robot file or `--clearance` may ask for, millimetres: more keeps
+/// an arm of this size from reaching the desk at all.
+pub const MAX_CLEARANCE_MM: f64 = 100.0;
 
 fn joint_names(joints: &[Joint]) -> String {
     joints

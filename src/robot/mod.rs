@@ -12,6 +12,7 @@ mod gravity;
 mod lerobot;
 mod lerobot_names;
 mod load;
+pub use load::MAX_CLEARANCE_MM;
 pub(crate) mod mjcf;
 pub(crate) mod profile;
 mod servo;
@@ -313,7 +314,16 @@ pub struct Robot {
     pub lerobot: Option<&'static LeRobotType>,
     /// The arms of a cell ([`Robot::cell`]); empty for a robot of one arm.
     pub arms: Vec<Arm>,
+    /// How close the arm may come to the floor, itself or another arm before the check
+    /// reports it, metres: the robot file's `clearance_mm` (default
+    /// [`DEFAULT_CLEARANCE_MM`]), or `--clearance`.
+    pub clearance: f64,
 }
+
+/// The clearance the check keeps when the robot file gives none, millimetres: room for the
+/// collision model's shapes against the real parts and for a few tenths of a degree of
+/// calibration, not for the arm's lag behind its goals, which the check bounds apart.
+pub const DEFAULT_CLEARANCE_MM: f64 = 3.0;
 
 impl Robot {
     /// Loads a robot description from a file.
@@ -387,6 +397,7 @@ impl Robot {
             home: joints.iter().map(|&j| self.home[j]).collect(),
             lerobot: self.lerobot,
             arms: Vec::new(),
+            clearance: self.clearance,
         }
     }
 

@@ -1,8 +1,9 @@
 //! Reading `keypose-sequence/1` files.
 
 use super::{
-    ArmSpec, Ends, KeyValue, Keyframe, Placement, Sequence, ToolApproach, ToolKey, ToolOrientation,
-    DEFAULT_KEY_INTERVAL, SEQUENCE_FORMAT,
+    ArmSpec, ContactWith, DeclaredContact, Ends, KeyValue, Keyframe, Placement, Sequence,
+    ToolApproach, ToolKey, ToolOrientation, DEFAULT_CONTACT_DEPTH_MM, DEFAULT_KEY_INTERVAL,
+    SEQUENCE_FORMAT,
 };
 use crate::curve::Interp;
 use crate::json::{self, InputError, Node};
@@ -392,6 +393,7 @@ fn parse_keyframe(node: &Node, arms: &[ArmSpec]) -> Result<Keyframe, InputError>
         "transforms",
         "tool",
         "timing",
+        "contact",
     ])?;
     let mut key = Keyframe::new(Vec::new());
     if let Some(n) = node.get("name") {
@@ -416,6 +418,9 @@ fn parse_keyframe(node: &Node, arms: &[ArmSpec]) -> Result<Keyframe, InputError>
     }
     if let Some(n) = node.get("timing") {
         key.timing = Some(super::timing::parse(&n)?);
+    }
+    if let Some(n) = node.get("contact") {
+        key.contact = parse_contacts(&n)?;
     }
     if let Some(n) = node.get("tool") {
         if arms.is_empty() {
@@ -448,6 +453,42 @@ fn parse_keyframe(node: &Node, arms: &[ArmSpec]) -> Result<Keyframe, InputError>
         ));
     }
     Ok(key)
+}
+
+/// A key's `"contact"`: a list of `{"link", "with", "depth_mm"}`. Which links there are is the
+/// robot's to say (`plan`); here, only the shape.
+fn parse_contacts(node: &Node) -> Result<Vec<DeclaredContact>, InputError> {
+    node.items()?
+        .iter()
+        .map(|item| {
+            item.object()?;
+            item.only_fields(&["link", "with", "depth_mm"])?;
+            let link = item
+                .require("link", "the link that touches: a joint's name, or \"base\"")?
+                .name("a link name")?
+                .to_string();
+            let with_node = item.require("with", "\"floor\" or another link's name")?;
+            let with = match with_node.name("\"floor\" or a link name")? {
+                "floor" => ContactWith::Floor,
+                other => ContactWith::Link(other.to_string()),
+            };
+            let depth_mm = match item.get("depth_mm") {
+                None => DEFAULT_CONTACT_DEPTH_MM,
+                Some(d) => {
+                    let depth = d.number("millimetres")?;
+                    if !(0.0..=50.0).contains(&depth) {
+                        return Err(d.expected("a depth from 0 to 50 mm"));
+                    }
+                    depth
+                }
+            };
+            Ok(DeclaredContact {
+                link,
+                with,
+                depth_mm,
+            })
+        })
+        .collect()
 }
 
 /// A joint's value in "joints": a number (degrees, metres for a prismatic joint), or a percent

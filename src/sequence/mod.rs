@@ -108,6 +108,34 @@ pub struct ToolKey {
     pub approach: Option<ToolApproach>,
 }
 
+/// What a key's declared contact may touch.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ContactWith {
+    /// `"floor"`: the desk the arm stands on (z = 0 of its frame).
+    Floor,
+    /// Another link, named as `link` is.
+    Link(String),
+}
+
+/// A contact a key means to make (`"contact": [{"link": "gripper", "with": "floor"}]`): a pen
+/// on paper, a finger pressing a button. The check lets `link` come closer to `with` than the
+/// clearance, down to `depth_mm` into it, on the segments either side of the key and in its
+/// hold; anywhere else, and any deeper, it is a finding like any other.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeclaredContact {
+    /// A link: a joint's name (the part it moves), or `"base"`; in a cell `ARM/JOINT` or
+    /// `ARM/base`.
+    pub link: String,
+    /// What it may touch.
+    pub with: ContactWith,
+    /// How deep it may go into it, millimetres.
+    pub depth_mm: f64,
+}
+
+/// How deep a declared contact may go when the key does not say, millimetres: a pen's or a
+/// fingertip's give, not room for a crash.
+pub const DEFAULT_CONTACT_DEPTH_MM: f64 = 2.0;
+
 /// One key of a sequence: a pose (joint values, a tool target, or both), when it is reached
 /// and how the motion leaves it.
 #[derive(Debug, Clone, PartialEq)]
@@ -132,6 +160,8 @@ pub struct Keyframe {
     /// `"timing"`: how the segment after this key runs along its curve; `None` runs it at the
     /// pace of the key times.
     pub timing: Option<SegmentTiming>,
+    /// `"contact"`: the contacts this key means to make (empty: none).
+    pub contact: Vec<DeclaredContact>,
     /// Index of this key in the file it was loaded from, for error paths after sorting.
     pub source_index: Option<usize>,
 }
@@ -149,6 +179,7 @@ impl Keyframe {
             arm_tools: Vec::new(),
             line: false,
             timing: None,
+            contact: Vec::new(),
             source_index: None,
         }
     }

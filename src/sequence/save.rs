@@ -1,7 +1,8 @@
 //! Writing sequences back to `keypose-sequence/1` JSON.
 
 use super::{
-    ArmSpec, Ends, KeyValue, Placement, Sequence, ToolKey, ToolOrientation, SEQUENCE_FORMAT,
+    ArmSpec, ContactWith, DeclaredContact, Ends, KeyValue, Placement, Sequence, ToolKey,
+    ToolOrientation, SEQUENCE_FORMAT,
 };
 use serde_json::{json, Map, Value};
 
@@ -54,6 +55,9 @@ pub(super) fn to_value(sequence: &Sequence) -> Value {
             }
             if let Some(tool) = &key.tool {
                 k.insert("tool".into(), tool_json(tool));
+            }
+            if !key.contact.is_empty() {
+                k.insert("contact".into(), contacts_json(&key.contact));
             }
             if !key.arm_tools.is_empty() {
                 let tools = key
@@ -128,6 +132,20 @@ fn placement_json(placement: &Placement) -> Value {
         None => {}
     }
     Value::Object(p)
+}
+
+/// A key's declared contacts as written (`depth_mm` always, so the file says it).
+fn contacts_json(contacts: &[DeclaredContact]) -> Value {
+    contacts
+        .iter()
+        .map(|c| {
+            let with = match &c.with {
+                ContactWith::Floor => "floor",
+                ContactWith::Link(name) => name.as_str(),
+            };
+            json!({ "link": c.link, "with": with, "depth_mm": c.depth_mm })
+        })
+        .collect()
 }
 
 /// A tool key as written: `xyz`, and `r`, `rpy` or `approach` if it had one.

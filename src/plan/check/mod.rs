@@ -17,6 +17,9 @@
 //! derivative on each span, exactly like the others, and every jump of its acceleration where
 //! two spans meet, each a violation of its own (an infinite jerk at any control rate). Without
 //! a jerk limit no jerk violation is reported: the verdict is what it was before.
+//!
+//! The check covers clearance too (`plan::clearance`): every contact of the arm with the floor,
+//! itself or another arm along the whole trajectory, certified between any two instants.
 
 mod jerk;
 mod period;
@@ -24,6 +27,7 @@ pub(crate) mod poly;
 pub(crate) mod runs;
 pub(crate) mod spans;
 
+use super::clearance::{self, ClearanceScope, Contact};
 use super::Trajectory;
 use crate::robot::Robot;
 use runs::Attributed;
@@ -171,18 +175,50 @@ pub struct CheckReport {
     pub violations: Vec<Violation>,
     /// One per joint, in robot joint order.
     pub joints: Vec<JointSummary>,
+    /// Every stretch of time where the arm comes closer than its clearance to the floor,
+    /// itself or another arm, in order of time; declared ones included (they pass).
+    pub contacts: Vec<Contact>,
+    /// What the clearance check covered; `None` when it was not run (the limits alone, as
+    /// the retiming loops judge a candidate).
+    pub clearance: Option<ClearanceScope>,
 }
 
 impl CheckReport {
-    /// No violation.
+    /// No violation, and no contact but declared ones.
     pub fn passed(&self) -> bool {
-        self.violations.is_empty()
+        self.violations.is_empty() && self.undeclared_contacts().next().is_none()
+    }
+
+    /// The contacts no key declares: each fails the check.
+    pub fn undeclared_contacts(&self) -> impl Iterator<Item = &Contact> {
+        self.contacts.iter().filter(|c| c.declared.is_none())
+    }
+
+    /// The contacts a key declares: they pass, and `play` asks for `--allow-contact`.
+    pub fn declared_contacts(&self) -> impl Iterator<Item = &Contact> {
+        self.contacts.iter().filter(|c| c.declared.is_some())
     }
 }
 
-/// Checks `trajectory` against `robot`'s limits; steps and corners as the player turns them at
-/// a control rate of `rate` Hz.
+/// Checks `trajectory` against `robot`: each joint's limits (steps and corners as the player
+/// turns them at a control rate of `rate` Hz), and the clearance to the floor, the arm itself
+/// and the other arms along the whole motion.
 pub fn check(trajectory: &Trajectory, robot: &Robot, rate: f64) -> CheckReport {
+    let mut report = check_limits(trajectory, robot, rate);
+    add_clearance(&mut report, trajectory, robot);
+    report
+}
+
+/// The clearance is the path's: the same at any playback speed.
+fn add_clearance(report: &mut CheckReport, trajectory: &Trajectory, robot: &Robot) {
+    let (contacts, scope) = clearance::contacts(trajectory, robot);
+    report.contacts = contacts;
+    report.clearance = Some(scope);
+}
+
+/// The joints' limits alone, without the clearance: what timing changes, for the loops that
+/// judge one candidate timing after another.
+pub(crate) fn check_limits(trajectory: &Trajectory, robot: &Robot, rate: f64) -> CheckReport {
     let period = 1.0 / rate;
     let mut violations = Vec::new();
     let mut joints = Vec::new();
@@ -271,6 +307,8 @@ pub fn check(trajectory: &Trajectory, robot: &Robot, rate: f64) -> CheckReport {
         end: trajectory.end,
         violations,
         joints,
+        contacts: Vec::new(),
+        clearance: None,
     }
 }
 
@@ -414,8 +452,9 @@ pub fn check_at_speed(
         joint.limits.acceleration /= speed * speed;
         joint.limits.jerk = joint.limits.jerk.map(|j| j / speed.powi(3));
     }
-    let mut report = check(trajectory, &scaled, rate / speed);
+    let mut report = check_limits(trajectory, &scaled, rate / speed);
     to_wall_clock(&mut report, robot, rate, speed);
+    add_clearance(&mut report, trajectory, robot);
     report
 }
 
