@@ -72,6 +72,7 @@ pub fn load(
             robot_id: OneOrMany::strings(robot_id),
         },
         interpolation: interpolation.map(|m| parse_interp(py, &m)).transpose()?,
+        clearance: None,
     };
     let (sequence, robot) = options.load(&path).map_err(|e| command_error(py, e))?;
     let spec = sequence.robot.clone();

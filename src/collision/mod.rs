@@ -47,11 +47,6 @@ pub struct Touch {
 }
 
 impl Touch {
-    /// The two bodies, in a fixed order, to match the same pair at two poses.
-    fn pair(&self) -> (&str, Option<&str>) {
-        (self.bodies.0.as_str(), self.bodies.1.as_deref())
-    }
-
     /// In words: `upper_arm touches the floor (2.1 mm deep)`.
     pub fn describe(&self) -> String {
         let what = match &self.bodies.1 {
@@ -393,51 +388,40 @@ impl CollisionModel {
 
     /// Why moving from `from` to `to` (robot order, joint units) is refused: a contact
     /// anywhere along the way that `from` does not have, or one that goes deeper. The way is
-    /// the straight line in joint space a jog takes, looked at every [`PATH_STEP_DEG`] (or
-    /// [`PATH_STEP_M`]) of the joint that moves most, so that a wrist swung through the floor
-    /// is refused although both ends are clear. A pose already in contact can still be left.
+    /// the straight line in joint space a jog and the player's approach ramp take, certified
+    /// along its whole length (`sweep`), so that a wrist swung through the floor is refused
+    /// although both ends are clear. A pose already in contact can still be left.
     pub fn refusal(&self, from: &[f64], to: &[f64]) -> Option<Touch> {
-        let before = self.touches(from, 0.0);
-        let steps = self.path_steps(from, to);
-        (1..=steps).find_map(|k| {
-            let t = k as f64 / steps as f64;
-            let pose: Vec<f64> = from.iter().zip(to).map(|(a, b)| a + (b - a) * t).collect();
-            self.touches(&pose, 0.0).into_iter().find(|after| {
-                before
-                    .iter()
-                    .find(|b| b.pair() == after.pair())
-                    .is_none_or(|b| after.distance < b.distance - DEEPER)
-            })
-        })
-    }
-
-    /// How many poses along the way from `from` to `to` are looked at (the last is `to`).
-    fn path_steps(&self, from: &[f64], to: &[f64]) -> usize {
-        let step = |index: usize| match self.joint_kind(index) {
-            Some(JointKind::Prismatic) => PATH_STEP_M,
-            _ => PATH_STEP_DEG,
+        let before: Vec<f64> = {
+            let placed = self.placed(from);
+            (0..self.pairs.len())
+                .map(|p| self.pair_distance(&placed, p))
+                .collect()
         };
-        let most = (0..from.len().min(to.len()))
-            .map(|i| (to[i] - from[i]).abs() / step(i))
-            .fold(0.0, f64::max);
-        (most.ceil() as usize).max(1)
-    }
-
-    /// The kind of the robot's joint `index`, as its model moves it.
-    fn joint_kind(&self, index: usize) -> Option<JointKind> {
-        self.bodies.iter().find_map(|b| match b.motion {
-            Motion::Joint { index: i, kind, .. } if i == index => Some(kind),
-            _ => None,
-        })
+        let line = sweep::Line { from, to };
+        let resolution = sweep::Resolution {
+            clearance: 0.0,
+            contact: LINE_RESOLUTION,
+            finest: LINE_FINEST,
+        };
+        sweep::sweep(self, &line, 0.0, 1.0, resolution)
+            .into_iter()
+            .find(|near| {
+                let start = before[near.pair];
+                // A pair touching at the start may stay as deep or part; a bound that cannot
+                // be cleared beside it is that contact, not a new one.
+                start >= 0.0 || (near.certain && near.distance < start - DEEPER)
+            })
+            .map(|near| self.touch_of(near.pair, near.distance))
     }
 }
 
-/// The largest step of a revolute joint between two poses [`CollisionModel::refusal`] looks
-/// at, degrees: 7 mm at the end of a 0.4 m arm, less than the thinnest link's thickness.
-pub const PATH_STEP_DEG: f64 = 1.0;
+/// How finely a refused move's contact is located, as a share of the move.
+const LINE_RESOLUTION: f64 = 1e-3;
 
-/// The largest step of a prismatic joint between two poses looked at, metres.
-pub const PATH_STEP_M: f64 = 0.005;
+/// The narrowest share of a move halved to certify it clear: below it what cannot be cleared
+/// is refused.
+const LINE_FINEST: f64 = 1e-7;
 
 /// How much deeper an existing contact may go before a move into it is refused, metres:
 /// rounding, not a tolerance for collisions.

@@ -233,6 +233,20 @@ pub struct SequenceOptions {
     /// keys in another mode.
     #[arg(long, value_name = "MODE", value_parser = parse_interp)]
     pub interpolation: Option<Interp>,
+    /// How close the arm may come to the floor, itself or another arm before the check
+    /// reports it, millimetres [default: the robot file's clearance_mm, 3 mm for the
+    /// built-ins].
+    #[arg(long, value_name = "MM", value_parser = parse_clearance, allow_negative_numbers = true)]
+    pub clearance: Option<f64>,
+}
+
+fn parse_clearance(s: &str) -> Result<f64, String> {
+    let max = keypose::robot::MAX_CLEARANCE_MM;
+    s.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|mm| (0.0..=max).contains(mm))
+        .ok_or_else(|| format!("expected a clearance from 0 to {max} mm, found {s:?}"))
 }
 
 fn parse_interp(s: &str) -> Result<Interp, String> {
@@ -261,14 +275,23 @@ impl SequenceOptions {
                     sequence.file
                 )));
             }
-            let cell = super::load_cell(&sequence, path, &self.calibration)?;
+            let mut cell = super::load_cell(&sequence, path, &self.calibration)?;
+            self.apply_clearance(&mut cell);
             return Ok((sequence, cell));
         }
         let robot = match &self.robot {
             Some(spec) => super::resolve_option_robot(spec)?,
             None => super::resolve_sequence_robot(&sequence, path)?,
         };
-        let robot = super::finish_robot(robot, &self.calibration)?;
+        let mut robot = super::finish_robot(robot, &self.calibration)?;
+        self.apply_clearance(&mut robot);
         Ok((sequence, robot))
+    }
+
+    /// `--clearance`, over what the robot file says.
+    fn apply_clearance(&self, robot: &mut Robot) {
+        if let Some(mm) = self.clearance {
+            robot.clearance = mm / 1000.0;
+        }
     }
 }

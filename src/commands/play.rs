@@ -46,6 +46,11 @@ pub struct PlayArgs {
     /// Play forwards then backwards (each pass counts as one loop) instead of ramping back.
     #[arg(long)]
     pub ping_pong: bool,
+    /// Play a sequence whose keys declare contacts ("contact" on a key: a pen on paper): the
+    /// arm touches what they declare, down to the depth they give. Any other contact is
+    /// refused all the same.
+    #[arg(long)]
+    pub allow_contact: bool,
     /// Start at this key: its index (0-based) or its name.
     #[arg(long, value_name = "KEY", allow_negative_numbers = true)]
     pub from: Option<String>,
@@ -135,12 +140,25 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
             Some(key) => format!(" from key {key:?} (the arm starts there from rest)"),
             None => String::new(),
         };
-        eprintln!(
-            "{}",
-            escape_controls(&format!(
-                "refusing to play: the sequence breaks the limits above at speed {}{from} (try `keypose retime`, or a lower --speed)",
+        let why = if report.violations.is_empty() {
+            "the arm would touch what the clearance above lists (no timing mends that: move the keys)".to_string()
+        } else {
+            format!(
+                "the sequence breaks the limits above at speed {}{from} (try `keypose retime`, or a lower --speed)",
                 args.speed
-            ))
+            )
+        };
+        eprintln!("{}", escape_controls(&format!("refusing to play: {why}")));
+        return Ok(Verdict::Fail);
+    }
+    if report.declared_contacts().next().is_some() && !args.allow_contact {
+        eprint!(
+            "{}",
+            escape_controls(&report::check_text(&report, &sequence.file, &robot))
+        );
+        eprintln!(
+            "refusing to play: the sequence declares the contacts above; --allow-contact plays \
+             it (the arm will touch what its keys declare, and nothing else)"
         );
         return Ok(Verdict::Fail);
     }

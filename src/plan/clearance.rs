@@ -238,6 +238,14 @@ pub(crate) fn contacts(trajectory: &Trajectory, robot: &Robot) -> (Vec<Contact>,
     (declare(trajectory, found), scope)
 }
 
+/// Why the approach ramp from `from` to `to` (robot order, joint units: a straight line in
+/// joint space, as the player and `space` take it) is refused: the contact it would make, in
+/// words. `None` when the way is clear, and for a robot without a collision model.
+pub fn approach_refusal(robot: &Robot, from: &[f64], to: &[f64]) -> Option<String> {
+    let model = CollisionModel::for_robot(robot)?;
+    model.refusal(from, to).map(|touch| touch.describe())
+}
+
 /// Marks each contact a window allows as declared.
 fn declare(trajectory: &Trajectory, mut found: Vec<Contact>) -> Vec<Contact> {
     for contact in &mut found {

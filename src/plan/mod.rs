@@ -32,7 +32,7 @@ pub(crate) use approach::Approach;
 pub use approach::{APPROACH_LIMIT_SHARE, MIN_APPROACH_SECONDS};
 pub(crate) use check::check_limits;
 pub use check::{check, check_at_speed, Cause, CheckReport, JointSummary, LimitKind, Violation};
-pub use clearance::{ClearanceScope, Contact, ContactCause, ContactWindow};
+pub use clearance::{approach_refusal, ClearanceScope, Contact, ContactCause, ContactWindow};
 pub use fastest::{fastest, FastestOutcome, FastestRun};
 pub use retime::{advice, retime, RetimeOutcome, MAX_STRETCH};
 pub use sampled::Sampled;

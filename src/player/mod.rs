@@ -169,6 +169,13 @@ pub enum PlayError {
         /// [`JointKind::position_slack`]: crate::robot::JointKind::position_slack
         slack: f64,
     },
+    /// The approach ramp from where the arm is to where playback starts would make a contact
+    /// (the floor, the arm itself, another arm): nothing moved.
+    #[error("refusing to start: the approach from where the arm is to the first pose would make {contact}: move the arm clear first (by hand with torque off, or with a jog) and start again")]
+    ApproachContact {
+        /// The contact, in words (`gripper touches the floor (4.2 mm deep)`).
+        contact: String,
+    },
     /// A goal held longer than [`PlayOptions::max_stall`] beyond its period.
     #[error("stalled: the goal was held {:.0} ms beyond its {:.0} ms period (the bound is {:.0} ms); braked to rest along the path and holding, torque on (at {at:.3} s)", held * 1e3, period * 1e3, bound * 1e3)]
     Stall {
@@ -218,6 +225,8 @@ impl PlayError {
     pub fn kind(&self) -> crate::error::ErrorKind {
         match self {
             PlayError::Log { .. } => crate::error::ErrorKind::BadInput,
+            // The motion was judged and refused, as a failed check is.
+            PlayError::ApproachContact { .. } => crate::error::ErrorKind::VerdictFailed,
             _ => crate::error::ErrorKind::Hardware,
         }
     }

@@ -75,6 +75,12 @@ impl<'a> Run<'a> {
         let guard = GoalGuard::new(robot);
         let fault = |error| fault(robot, error, 0.0);
         let measured = clamp_start(robot, &measured_pose(bus, robot, &ids).map_err(fault)?)?;
+        if options.approach {
+            let first = trajectory.sample(trajectory.play_from(options.from_key));
+            if let Some(contact) = crate::plan::approach_refusal(robot, &measured, &first) {
+                return Err(PlayError::ApproachContact { contact });
+            }
+        }
         bus.write_goals(&guard.goals(&measured)?).map_err(fault)?;
         bus.set_torque(&ids, true).map_err(fault)?;
         let timeline = Timeline::new(robot, trajectory, &options.timeline(), &measured);

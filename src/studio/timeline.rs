@@ -1,7 +1,7 @@
 //! `GET /api/timeline`: what the page's timeline draws — every joint's position and velocity
 //! curves with its keys and limits, as `keypose plot` computes them ([`report::plot_data`]),
-//! and where `keypose check` finds the limits broken ([`plan::check`], at the control rate
-//! `teach` checks at).
+//! and where `keypose check` finds the limits broken or a contact ([`plan::check`], at the
+//! control rate `teach` checks at).
 
 use crate::plan::{self, Trajectory};
 use crate::report;
@@ -50,6 +50,16 @@ pub(crate) fn timeline(sequence: Option<&Sequence>, robot: &Robot) -> Value {
             "peak_time": v.peak_time,
             "text": format!("{} {} limit broken in {}, {}",
                 v.joint, v.kind.name(), v.segment_label, report::violation_measure(v, check.rate)),
-        })).collect::<Vec<_>>(),
+        })).chain(check.undeclared_contacts().map(|c| json!({
+            // A contact is the whole pose's: marked on every row.
+            "joint": null,
+            "kind": "contact",
+            "from": c.from,
+            "to": c.to,
+            "peak_time": c.deepest_time,
+            "text": format!("{} with {} in {} at {:.3} s ({:.1} mm): {}",
+                c.bodies.0, c.bodies.1.as_deref().unwrap_or("the floor"), c.segment_label,
+                c.deepest_time, c.distance * 1000.0, c.advice),
+        }))).collect::<Vec<_>>(),
     })
 }

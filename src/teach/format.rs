@@ -141,7 +141,19 @@ pub(crate) fn joint_list(robot: &Robot, joints: &[usize]) -> String {
 /// "3 limit violation(s), first elbow_flex velocity in key 1 → key 2", or `None` when the
 /// check passes.
 pub(crate) fn first_violation(report: &CheckReport) -> Option<String> {
-    let v = report.violations.first()?;
+    let Some(v) = report.violations.first() else {
+        let contacts: Vec<_> = report.undeclared_contacts().collect();
+        let c = contacts.first()?;
+        let other = c.bodies.1.as_deref().unwrap_or("the floor");
+        return Some(format!(
+            "{} contact(s), first {} with {other} at {:.2} s in {}: {}",
+            contacts.len(),
+            c.bodies.0,
+            c.deepest_time,
+            c.segment_label,
+            c.advice
+        ));
+    };
     Some(format!(
         "{} limit violation(s), first {} {} in {}",
         report.violations.len(),

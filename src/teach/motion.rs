@@ -50,7 +50,8 @@ pub struct MotionPlan {
 pub(crate) enum PlayRefusal {
     /// The list does not build into a trajectory on this robot.
     Unplayable(InputError),
-    /// At this speed the trajectory breaks the robot's limits, as `keypose play` would refuse.
+    /// At this speed the trajectory breaks the robot's limits, or it makes a contact, as
+    /// `keypose play` would refuse.
     Limits(CheckReport),
 }
 
@@ -128,7 +129,7 @@ pub(crate) fn play(
     let rate = robot.control_hz;
     let played = trajectory.starting_at_key(Some(from));
     let report = plan::check_at_speed(&played, robot, rate, speed);
-    if !report.violations.is_empty() {
+    if !report.passed() {
         return Err(PlayRefusal::Limits(report));
     }
     let end_pose = trajectory.sample(trajectory.end);

@@ -664,7 +664,10 @@ impl TeachState {
         }
         let index = self.list.current_index();
         match motion::to_key(&self.robot, self.list.sequence(), index) {
-            Ok(plan) => bus(BusCommand::Run(Box::new(plan))),
+            Ok(plan) => match self.way_refusal(&plan.end_pose) {
+                Some(touch) => self.fail(format!("refusing to move there: {touch}")),
+                None => bus(BusCommand::Run(Box::new(plan))),
+            },
             Err(e) => self.fail(format!("cannot move: {e}")),
         }
     }
@@ -679,8 +682,20 @@ impl TeachState {
         let speed = self.speed();
         let from = self.list.current_index();
         match motion::play(&self.robot, self.list.sequence(), from, speed) {
-            Ok(plan) => bus(BusCommand::Run(Box::new(plan))),
+            Ok(plan) => {
+                let first = plan.trajectory.sample(plan.trajectory.play_from(Some(from)));
+                match self.way_refusal(&first) {
+                    Some(touch) => self.fail(format!(
+                        "refusing to play: the approach to key {from} would make {touch}"
+                    )),
+                    None => bus(BusCommand::Run(Box::new(plan))),
+                }
+            }
             Err(PlayRefusal::Unplayable(e)) => self.fail(format!("cannot play: {e}")),
+            Err(PlayRefusal::Limits(report)) if report.violations.is_empty() => self.fail(format!(
+                "refusing to play: {}",
+                format::first_violation(&report).unwrap_or_default()
+            )),
             Err(PlayRefusal::Limits(report)) => self.fail(format!(
                 "refusing to play at speed {speed:.1}: {} (space the keys out with +, or keypose retime)",
                 format::first_violation(&report).unwrap_or_default()

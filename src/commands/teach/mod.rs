@@ -236,6 +236,7 @@ fn load(args: &SessionArgs, source: Option<&Path>) -> Result<(KeyframeList, Robo
             robot: args.robot.clone(),
             calibration: args.calibration.clone(),
             interpolation: None,
+            clearance: None,
         };
         let (sequence, robot) = options.load(path)?;
         return Ok((KeyframeList::new(sequence), robot));

@@ -192,7 +192,8 @@ export class Timeline {
     // The band between the limits.
     g.fillStyle = 'rgba(120,160,200,0.10)';
     g.fillRect(LEFT, y(j.max), this.width - LEFT - 10, y(j.min) - y(j.max));
-    for (const f of d.findings.filter(f => f.joint === j.name)) {
+    // A limit finding on its joint's row; a contact (no joint) on every row.
+    for (const f of d.findings.filter(f => !f.joint || f.joint === j.name)) {
       g.fillStyle = 'rgba(255,60,60,0.35)';
       const x0 = this.x(f.from), x1 = Math.max(this.x(f.to), x0 + 2);
       g.fillRect(x0, top, x1 - x0, h);

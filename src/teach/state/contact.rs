@@ -22,6 +22,13 @@ impl TeachState {
         model.refusal(&self.goals, &to).map(|t| t.describe())
     }
 
+    /// Why the way from the held goals to `pose` (every joint, robot order) is refused, as
+    /// `space` and `y` take it: the approach ramp's straight line in joint space, certified.
+    pub(super) fn way_refusal(&self, pose: &[f64]) -> Option<String> {
+        let model = self.collision.as_ref()?;
+        model.refusal(&self.goals, pose).map(|t| t.describe())
+    }
+
     /// The parts of the arm (of every arm) within `NEAR_M` of the floor, of each other or
     /// of another arm at the present pose, or touching: what the studio colours.
     pub fn near_contacts(&self) -> Vec<Touch> {
