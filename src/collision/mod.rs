@@ -46,6 +46,17 @@ pub struct Touch {
     pub distance: f64,
 }
 
+impl TouchKind {
+    /// Lower-case name, as reports print it.
+    pub fn name(self) -> &'static str {
+        match self {
+            TouchKind::Floor => "floor",
+            TouchKind::SelfCollision => "self",
+            TouchKind::BetweenArms => "between_arms",
+        }
+    }
+}
+
 impl Touch {
     /// In words: `upper_arm touches the floor (2.1 mm deep)`.
     pub fn describe(&self) -> String {

@@ -75,11 +75,7 @@ pub(super) fn json(report: &CheckReport) -> Value {
         "margin_mm": scope.margin * 1000.0,
         "modelled": scope.modelled,
         "contacts": report.contacts.iter().map(|c| json!({
-            "kind": match c.kind {
-                crate::collision::TouchKind::Floor => "floor",
-                crate::collision::TouchKind::SelfCollision => "self",
-                crate::collision::TouchKind::BetweenArms => "between_arms",
-            },
+            "kind": c.kind.name(),
             "bodies": [c.bodies.0, c.bodies.1],
             "links": [c.links.0, c.links.1],
             "from": c.from,

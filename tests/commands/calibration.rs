@@ -120,7 +120,7 @@ fn a_key_outside_the_range_the_calibration_recorded_says_so() {
     std::fs::write(
         &seq,
         r#"{"format":"keypose-sequence/1","robot":"so101","keyframes":[
-          {"time":0,"joints":{"elbow_flex":0}},{"time":10,"joints":{"elbow_flex":90}}]}"#,
+          {"time":0,"joints":{"shoulder_lift":-90,"elbow_flex":0}},{"time":10,"joints":{"elbow_flex":90}}]}"#,
     )
     .unwrap();
     let (seq, cal) = (seq.display().to_string(), cal.display().to_string());

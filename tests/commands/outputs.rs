@@ -7,7 +7,7 @@ use std::path::Path;
 
 /// 90° in 0.5 s on so101's elbow: too fast, so `retime` changes it.
 const FAST: &str = r#"{"format":"keypose-sequence/1","robot":"so101","keyframes":[
-  {"time":0,"joints":{"elbow_flex":0}},{"time":0.5,"joints":{"elbow_flex":90}}]}"#;
+  {"time":0,"joints":{"shoulder_lift":-90,"elbow_flex":0}},{"time":0.5,"joints":{"elbow_flex":90}}]}"#;
 
 fn names_in(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = fs::read_dir(dir)

@@ -66,7 +66,9 @@ fn wrong_format_is_refused() {
 #[test]
 fn unknown_joint_names_the_key_and_the_choices() {
     refused(
-        &sequence(r#"{"time":0,"joints":{"elbow_flex":0}},{"time":1,"joints":{"elbw":10}}"#),
+        &sequence(
+            r#"{"time":0,"joints":{"shoulder_lift":-90,"elbow_flex":0}},{"time":1,"joints":{"elbw":10}}"#,
+        ),
         r#"$.keyframes[1].joints.elbw: unknown joint "elbw" for robot so101; expected one of: shoulder_pan, shoulder_lift, elbow_flex"#,
     );
 }
@@ -134,7 +136,9 @@ fn a_hold_that_overruns_the_next_key_is_refused() {
 #[test]
 fn mixing_timed_and_untimed_keys_is_refused() {
     refused(
-        &sequence(r#"{"time":0,"joints":{"elbow_flex":0}},{"joints":{"elbow_flex":5}}"#),
+        &sequence(
+            r#"{"time":0,"joints":{"shoulder_lift":-90,"elbow_flex":0}},{"joints":{"elbow_flex":5}}"#,
+        ),
         "$.keyframes[1]: this key has no \"time\" but 1 of 2 keys do",
     );
 }
@@ -209,7 +213,7 @@ fn check_catches_a_cubic_overshoot_between_keys_inside_the_limit() {
     // elbow_flex limit 96.83°. Keys 0 → 90 → 95 → 0 at t = 0, 2, 3, 5 are all inside it, but
     // the slope at the 90° key, (95 − 0)/(3 − 0) = 95/3 °/s, carries the curve past 96.83°
     // between t = 2 and t = 3.
-    let keys = r#"{"name":"a","time":0,"joints":{"elbow_flex":0}},{"name":"b","time":2,"joints":{"elbow_flex":90}},
+    let keys = r#"{"name":"a","time":0,"joints":{"shoulder_lift":-90,"elbow_flex":0}},{"name":"b","time":2,"joints":{"elbow_flex":90}},
                {"name":"c","time":3,"joints":{"elbow_flex":95}},{"name":"d","time":5,"joints":{"elbow_flex":0}}"#;
     let (dir, path) = temp_sequence("overshoot.json", &sequence(keys));
     let out = keypose(&["check", path.to_str().unwrap(), "--format", "json"]);
@@ -345,7 +349,7 @@ fn retime_fixes_a_too_fast_sequence_and_leaves_a_sequence_that_checks() {
     let (_dir, path) = temp_sequence(
         "fast.json",
         &sequence(
-            r#"{"time":0,"hold":0.2,"joints":{"elbow_flex":0}},{"time":0.7,"joints":{"elbow_flex":90}},{"time":1.5,"joints":{"elbow_flex":80}}"#,
+            r#"{"time":0,"hold":0.2,"joints":{"shoulder_lift":-90,"elbow_flex":0}},{"time":0.7,"joints":{"elbow_flex":90}},{"time":1.5,"joints":{"elbow_flex":80}}"#,
         ),
     );
     assert_eq!(
@@ -414,13 +418,15 @@ fn every_command_has_help() {
 #[test]
 fn absurd_durations_are_refused_before_sampling() {
     refused(
-        &sequence(r#"{"time":0,"joints":{"elbow_flex":0}},{"time":1e9,"joints":{"elbow_flex":5}}"#),
+        &sequence(
+            r#"{"time":0,"joints":{"shoulder_lift":-90,"elbow_flex":0}},{"time":1e9,"joints":{"elbow_flex":5}}"#,
+        ),
         "$.keyframes[1].time: key time 1000000000 s is out of range",
     );
     // Within a day but 8 million samples at 100 Hz: refused, not allocated.
     refused(
         &sequence(
-            r#"{"time":0,"joints":{"elbow_flex":0}},{"time":80000,"joints":{"elbow_flex":5}}"#,
+            r#"{"time":0,"joints":{"shoulder_lift":-90,"elbow_flex":0}},{"time":80000,"joints":{"elbow_flex":5}}"#,
         ),
         "lower --rate",
     );
@@ -612,13 +618,13 @@ const README_FIXTURES: [(&str, &str); 4] = [
     (
         "fast.json",
         r#"{"format":"keypose-sequence/1","robot":"so101","interpolation":"cubic","keyframes":[
-          {"time":0,"joints":{"elbow_flex":0}},{"time":0.5,"joints":{"elbow_flex":90}}]}"#,
+          {"time":0,"joints":{"shoulder_lift":-90,"elbow_flex":0}},{"time":0.5,"joints":{"elbow_flex":90}}]}"#,
     ),
     // Keys a, b, c, d at 0, 90, 95, 0° (t = 0, 2, 3, 5 s), all inside elbow_flex's 96.83°.
     (
         "overshoot.json",
         r#"{"format":"keypose-sequence/1","robot":"so101","interpolation":"cubic","keyframes":[
-          {"name":"a","time":0,"joints":{"elbow_flex":0}},{"name":"b","time":2,"joints":{"elbow_flex":90}},
+          {"name":"a","time":0,"joints":{"shoulder_lift":-90,"elbow_flex":0}},{"name":"b","time":2,"joints":{"elbow_flex":90}},
           {"name":"c","time":3,"joints":{"elbow_flex":95}},{"name":"d","time":5,"joints":{"elbow_flex":0}}]}"#,
     ),
     // wrist_flex 0 → 60 → 0° over 4 ms, cubic.

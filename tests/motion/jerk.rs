@@ -857,7 +857,7 @@ fn a_hold_through_which_an_unkeyed_joint_moves_runs_on_an_s_curve_of_its_own() {
         let text = format!(
             r#"{{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "cubic",
             "keyframes": [
-              {{"time": 0, "joints": {{"elbow_flex": 0, "wrist_flex": 0}}}},
+              {{"time": 0, "joints": {{"shoulder_lift": -90, "elbow_flex": 0, "wrist_flex": 0}}}},
               {{"time": 1, "hold": {hold}, "joints": {{"wrist_flex": 30}}}},
               {{"time": {}, "joints": {{"elbow_flex": 60, "wrist_flex": 0}}}}]}}"#,
             3.0 + hold

@@ -76,10 +76,11 @@ fn joint_value(key: &keypose::sequence::Keyframe, joint: &str) -> Option<f64> {
 fn a_hand_faster_than_the_limits_is_retimed() {
     let robot = Robot::builtin("so101").unwrap();
     let elbow = robot.joint_index("elbow_flex").unwrap();
-    // 90° in 0.4 s: a smoothstep peaks at 1.5 × 90 / 0.4 = 337 °/s, the limit is 115 °/s.
+    // 90° in 0.4 s: a smoothstep peaks at 1.5 × 90 / 0.4 = 337 °/s, the limit is 115 °/s. The
+    // elbow bends back, the forearm up, clear of the desk.
     let rec = recording(&robot, 1.5, &["elbow_flex"], |j, t| {
         if j == elbow {
-            90.0 * smoothstep(t, 0.3, 0.7)
+            -90.0 * smoothstep(t, 0.3, 0.7)
         } else {
             0.0
         }
@@ -101,11 +102,11 @@ fn a_hand_faster_than_the_limits_is_retimed() {
         .all(|(a, b)| b >= a));
     assert_eq!(result.sequence.key_times(), retimed.key_times_after);
     let loaded = check_as_saved(&result, &robot);
-    // The keys keep their recorded values; the move still goes from 0° to 90°.
+    // The keys keep their recorded values; the move still goes from 0° to −90°.
     let first = &loaded.keyframes[0];
     let last = loaded.keyframes.last().unwrap();
     assert_eq!(joint_value(first, "elbow_flex"), Some(0.0));
-    assert!((joint_value(last, "elbow_flex").unwrap() - 90.0).abs() < 1e-9);
+    assert!((joint_value(last, "elbow_flex").unwrap() + 90.0).abs() < 1e-9);
     assert!(result.deviations.iter().all(|d| d.value <= 1.0));
 }
 
@@ -113,12 +114,13 @@ fn a_hand_faster_than_the_limits_is_retimed() {
 fn a_joint_pushed_past_its_limit_is_clamped_to_it() {
     let robot = Robot::builtin("so101").unwrap();
     let lift = robot.joint_index("shoulder_lift").unwrap();
-    let limit = robot.joints[lift].limits.max;
-    assert_eq!(limit, 100.0);
-    // Up to 104° (4° past the limit) and back to 90°, slowly enough for the limits.
+    let limit = robot.joints[lift].limits.min;
+    assert_eq!(limit, -100.0);
+    // Up to −104° (4° past the limit, the arm raised and leaning back, clear of the desk) and
+    // back to −90°, slowly enough for the limits.
     let rec = recording(&robot, 4.0, &["shoulder_lift"], |j, t| {
         if j == lift {
-            80.0 + 24.0 * smoothstep(t, 0.0, 2.0) - 14.0 * smoothstep(t, 2.5, 4.0)
+            -80.0 - 24.0 * smoothstep(t, 0.0, 2.0) + 14.0 * smoothstep(t, 2.5, 4.0)
         } else {
             0.0
         }
@@ -133,7 +135,7 @@ fn a_joint_pushed_past_its_limit_is_clamped_to_it() {
         let loaded = check_as_saved(&result, &robot);
         for key in &loaded.keyframes {
             assert!(
-                joint_value(key, "shoulder_lift").unwrap() <= limit,
+                joint_value(key, "shoulder_lift").unwrap() >= limit,
                 "{mode}"
             );
         }

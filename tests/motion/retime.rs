@@ -32,7 +32,10 @@ fn elbow(mode: &str, keys: &[(f64, f64, f64)]) -> String {
     let keys: Vec<String> = keys
         .iter()
         .map(|(t, h, v)| {
-            format!(r#"{{"time": {t}, "hold": {h}, "joints": {{"elbow_flex": {v}}}}}"#)
+            // The shoulder raised: the elbow swings clear of the desk over its whole range.
+            format!(
+                r#"{{"time": {t}, "hold": {h}, "joints": {{"shoulder_lift": -90, "elbow_flex": {v}}}}}"#
+            )
         })
         .collect();
     format!(
@@ -257,7 +260,7 @@ fn a_timing_profile_is_played_as_written() {
         r#"{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "linear",
             "keyframes": [
               {"time": 0, "timing": {"path_time": 1, "speeds": [0, 1, 1, 0]},
-               "joints": {"elbow_flex": 0}},
+               "joints": {"shoulder_lift": -90, "elbow_flex": 0}},
               {"time": 1.6666666666666667, "joints": {"elbow_flex": 90}}]}"#,
     );
     let out = run(&["check", &profiled]);
@@ -301,7 +304,7 @@ fn a_timing_profile_is_played_as_written() {
         dir.path(),
         "last.json",
         r#"{"format": "keypose-sequence/1", "robot": "so101", "keyframes": [
-              {"time": 0, "joints": {"elbow_flex": 0}},
+              {"time": 0, "joints": {"shoulder_lift":-90,"elbow_flex":0}},
               {"time": 1, "timing": {"path_time": 1, "speeds": [1, 1]}, "joints": {"elbow_flex": 9}}]}"#,
     );
     let out = run(&["check", &last]);

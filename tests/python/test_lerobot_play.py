@@ -81,7 +81,8 @@ def wave(tmp_path: Path) -> Path:
         "so101",
         [
             {"time": 0, "joints": {"elbow_flex": 30, "wrist_flex": 0}},
-            {"time": 1, "joints": {"elbow_flex": 45, "wrist_flex": 30}},
+            # The wrist up at the elbow's 45°: down, the jaw would be in the desk.
+            {"time": 1, "joints": {"elbow_flex": 45, "wrist_flex": -30}},
             {"time": 2, "joints": {"elbow_flex": 20, "wrist_flex": -25}},
         ],
         interpolation="cubic",
@@ -258,7 +259,9 @@ def test_bimanual_so_follower_plays_a_sequence_of_two_arms(tmp_path):
             sequence = tmp_path / "pair.json"
             sequence.write_text(json.dumps({
                 "format": "keypose-sequence/1",
-                "robots": {"left": {"robot": "so101"}, "right": {"robot": "so101"}},
+                # Apart: two arms on one base would be in each other.
+                "robots": {"left": {"robot": "so101", "base": {"xyz": [0, 0.2, 0]}},
+                           "right": {"robot": "so101", "base": {"xyz": [0, -0.2, 0]}}},
                 "interpolation": "cubic",
                 "keyframes": [
                     {"time": 0, "joints": {"left/elbow_flex": 0, "right/elbow_flex": 0}},

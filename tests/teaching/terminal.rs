@@ -195,9 +195,10 @@ fn a_scripted_session_names_holds_interpolates_and_types_values() {
         N w a v e enter
         h 0 . 5 enter
         p p p
-        # elbow to 45 typed (97 is refused: beyond 96.83), and the arm moves there
+        # elbow to -45 typed (97 is refused: beyond 96.83), and the arm moves there (+45
+        # would put the gripper within the clearance of the desk)
         down down v 9 7 enter
-        v 4 5 enter yes
+        v - 4 5 enter yes
         # key 1: the same name is warned of, then it becomes reach
         > N w a v e enter
         N backspace backspace backspace backspace r e a c h enter
@@ -230,7 +231,7 @@ fn a_scripted_session_names_holds_interpolates_and_types_values() {
                 "hold": 0.5,
                 "interp": "cubic",
                 "joints": {
-                    "shoulder_pan": 0.0, "shoulder_lift": 0.0, "elbow_flex": 45.0,
+                    "shoulder_pan": 0.0, "shoulder_lift": 0.0, "elbow_flex": -45.0,
                     "wrist_flex": 0.0, "wrist_roll": 0.0, "gripper": 0.0
                 }
             },
