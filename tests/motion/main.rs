@@ -13,6 +13,7 @@ mod ruckig;
 
 mod cell_sequences;
 mod check_exact;
+mod clearance;
 mod editing;
 mod fuzz_loader;
 mod interpolation;
