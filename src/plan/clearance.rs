@@ -110,12 +110,21 @@ pub struct ContactWindow {
 impl ContactWindow {
     /// Whether this window allows `contact`: its bodies, all of its time, no deeper.
     fn allows(&self, contact: &Contact) -> bool {
-        let (a, b) = (&contact.links.0, &contact.links.1);
+        // A name is a link or a body of it (the gripper's own body hangs on the wrist's
+        // roll link, its jaw on the gripper's).
+        let is = |name: &str, first: bool| {
+            let (link, body) = if first {
+                (Some(&contact.links.0), Some(&contact.bodies.0))
+            } else {
+                (contact.links.1.as_ref(), contact.bodies.1.as_ref())
+            };
+            link.is_some_and(|l| l == name) || body.is_some_and(|b| b == name)
+        };
         let pair = match &self.with {
-            None => b.is_none() && *a == self.link,
+            None => contact.links.1.is_none() && is(&self.link, true),
             Some(other) => {
-                (*a == self.link && b.as_ref() == Some(other))
-                    || (a == other && b.as_ref() == Some(&self.link))
+                (is(&self.link, true) && is(other, false))
+                    || (is(other, true) && is(&self.link, false))
             }
         };
         pair && self.from <= contact.from
@@ -365,7 +374,7 @@ fn key_within(trajectory: &Trajectory, from: f64, to: f64, at: f64) -> Option<us
     (0..trajectory.key_times.len())
         .filter(|&k| {
             let (start, end) = (trajectory.key_times[k], trajectory.key_times[k] + holds[k]);
-            start <= to + CONTACT_RESOLUTION && end >= from - CONTACT_RESOLUTION
+            start <= to && end >= from
         })
         .min_by(|&a, &b| {
             let gap = |k: usize| (trajectory.key_times[k] - at).abs();
