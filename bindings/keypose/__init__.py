@@ -7,6 +7,7 @@ how to use it.
 """
 
 from ._keypose import (
+    Contact,
     Error,
     HardwareError,
     InputError,
@@ -29,6 +30,7 @@ from ._keypose import (
 from . import lerobot
 
 __all__ = [
+    "Contact",
     "Error",
     "HardwareError",
     "InputError",

@@ -11,6 +11,7 @@ __all__ = [
     "load",
     "Sequence",
     "Report",
+    "Contact",
     "Violation",
     "JointSummary",
     "Robot",
@@ -140,6 +141,9 @@ class Report:
     @property
     def violations(self) -> List[Violation]: ...
     @property
+    def contacts(self) -> List[Contact]:
+        """Where the arm comes closer than its clearance to the floor, itself or another arm."""
+    @property
     def joints(self) -> List[JointSummary]: ...
     @property
     def rate(self) -> float:
@@ -147,6 +151,33 @@ class Report:
     @property
     def text(self) -> str:
         """The report as `keypose check` prints it."""
+
+@final
+class Contact:
+    """One stretch of time where the arm comes closer than its clearance to something."""
+
+    @property
+    def kind(self) -> Literal["floor", "self", "between_arms"]: ...
+    @property
+    def bodies(self) -> Tuple[str, Optional[str]]: ...
+    @property
+    def start(self) -> float: ...
+    @property
+    def end(self) -> float: ...
+    @property
+    def deepest_time(self) -> float: ...
+    @property
+    def distance_mm(self) -> float:
+        """Negative: that deep into it."""
+    @property
+    def cause(self) -> Literal["path", "unresolved"]: ...
+    @property
+    def key(self) -> Optional[int]:
+        """The key whose pose is in it: the key to move."""
+    @property
+    def declared_by_key(self) -> Optional[int]: ...
+    @property
+    def advice(self) -> str: ...
 
 @final
 class Violation:

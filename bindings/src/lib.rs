@@ -35,6 +35,7 @@ fn _keypose(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<sequence::Sequence>()?;
     m.add_class::<report::Report>()?;
     m.add_class::<report::Violation>()?;
+    m.add_class::<report::Contact>()?;
     m.add_class::<report::JointSummary>()?;
     m.add_class::<robot::Robot>()?;
     m.add_class::<robot::Limits>()?;

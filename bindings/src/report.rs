@@ -3,6 +3,7 @@
 use crate::cli::commands::check::{tool_text, tools_pass};
 use keypose::plan::Violation as LibViolation;
 use keypose::plan::{check, CheckReport, JointSummary as LibJointSummary, Trajectory};
+use keypose::plan::{Contact as LibContact, ContactCause};
 use keypose::robot::Robot;
 use pyo3::prelude::*;
 
@@ -40,9 +41,15 @@ impl Report {
         self.report.violations.len()
     }
 
-    /// One line per violation.
+    /// One line per violation, then one per contact no key declares.
     pub fn violation_lines(&self) -> Vec<String> {
-        self.report.violations.iter().map(describe).collect()
+        let contacts = self.report.undeclared_contacts().map(describe_contact);
+        self.report
+            .violations
+            .iter()
+            .map(describe)
+            .chain(contacts)
+            .collect()
     }
 }
 
@@ -59,6 +66,13 @@ impl Report {
     fn violations(&self) -> Vec<Violation> {
         let to = |v: &LibViolation| Violation(v.clone());
         self.report.violations.iter().map(to).collect()
+    }
+
+    /// Every stretch of time where the arm comes closer than its clearance to the floor,
+    /// itself or another arm, in order of time; declared ones too (`declared_by_key`).
+    #[getter]
+    fn contacts(&self) -> Vec<Contact> {
+        self.report.contacts.iter().cloned().map(Contact).collect()
     }
 
     /// How close each joint comes to its limits, in joint order.
@@ -91,8 +105,9 @@ impl Report {
     fn __repr__(&self) -> String {
         let verdict = if self.passed { "passed" } else { "failed" };
         format!(
-            "<keypose.Report {verdict}: {} violation(s)>",
-            self.report.violations.len()
+            "<keypose.Report {verdict}: {} violation(s), {} contact(s)>",
+            self.report.violations.len(),
+            self.report.undeclared_contacts().count()
         )
     }
 }
@@ -118,6 +133,87 @@ fn describe(v: &LibViolation) -> String {
         v.peak_time,
         v.cause.name()
     )
+}
+
+/// A contact in one line: the bodies, how close, when, and the fix.
+fn describe_contact(c: &LibContact) -> String {
+    format!(
+        "{} {:.1} mm from {} at t = {:.3} s in segment {} ({}): {}",
+        c.bodies.0,
+        c.distance * 1000.0,
+        c.bodies.1.as_deref().unwrap_or("the floor"),
+        c.deepest_time,
+        c.segment,
+        c.segment_label,
+        c.advice
+    )
+}
+
+/// One stretch of time where the arm comes closer than its clearance to something.
+#[pyclass(module = "keypose", name = "Contact", frozen)]
+pub struct Contact(LibContact);
+
+#[pymethods]
+impl Contact {
+    /// What the first body touches: "floor", "self" or "between_arms".
+    #[getter]
+    fn kind(&self) -> &'static str {
+        self.0.kind.name()
+    }
+    /// The two bodies as the model names them; the second is None for the floor.
+    #[getter]
+    fn bodies(&self) -> (String, Option<String>) {
+        self.0.bodies.clone()
+    }
+    /// Sequence time the contact starts, seconds.
+    #[getter]
+    fn start(&self) -> f64 {
+        self.0.from
+    }
+    /// Sequence time it ends, seconds.
+    #[getter]
+    fn end(&self) -> f64 {
+        self.0.to
+    }
+    /// Sequence time of its deepest point, seconds.
+    #[getter]
+    fn deepest_time(&self) -> f64 {
+        self.0.deepest_time
+    }
+    /// The distance there, millimetres (negative: that deep).
+    #[getter]
+    fn distance_mm(&self) -> f64 {
+        self.0.distance * 1000.0
+    }
+    /// "path" (measured on the goals) or "unresolved" (a step's jump could not be ruled out).
+    #[getter]
+    fn cause(&self) -> &'static str {
+        match self.0.cause {
+            ContactCause::Path => "path",
+            ContactCause::Unresolved => "unresolved",
+        }
+    }
+    /// The key whose pose is in it, if any: the key to move.
+    #[getter]
+    fn key(&self) -> Option<usize> {
+        self.0.key
+    }
+    /// The key whose "contact" declares it (then it passes), or None.
+    #[getter]
+    fn declared_by_key(&self) -> Option<usize> {
+        self.0.declared
+    }
+    /// What to do about it.
+    #[getter]
+    fn advice(&self) -> String {
+        self.0.advice.clone()
+    }
+    fn __repr__(&self) -> String {
+        format!("<keypose.Contact {}>", describe_contact(&self.0))
+    }
+    fn __str__(&self) -> String {
+        describe_contact(&self.0)
+    }
 }
 
 /// One stretch of time where a joint exceeds a limit.

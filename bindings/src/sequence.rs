@@ -302,8 +302,8 @@ impl Sequence {
         let report = retimed.check(py)?;
         if !report.passed() {
             let err = LimitError::new_err(format!(
-                "{}: {} violation(s) cannot be fixed by retiming (positions outside limits, or \
-                 step jumps): {}",
+                "{}: {} finding(s) cannot be fixed by retiming (positions outside limits, step \
+                 jumps, contacts): {}",
                 self.sequence.file,
                 report.violation_count(),
                 report.violation_lines().join("; ")

@@ -150,44 +150,40 @@ fn add(levers: &mut Vec<(usize, f64)>, index: usize, lever: f64) {
 mod tests {
     use crate::collision::CollisionModel;
     use crate::robot::Robot;
+    use proptest::prelude::*;
 
-    /// The bound holds: between random poses, no shape's lowest point (nor any pair's
-    /// distance) changes by more than the reach the joints' changes allow.
-    #[test]
-    fn no_pair_distance_changes_by_more_than_its_reach() {
-        for name in crate::robot::BUILTIN_NAMES {
-            let robot = Robot::builtin(name).unwrap();
+    /// Two poses of `robot` from shares of each joint's range.
+    fn poses(robot: &Robot, shares: &[(f64, f64)]) -> (Vec<f64>, Vec<f64>) {
+        let at = |j: &crate::robot::Joint, u: f64| j.limits.min + (j.limits.max - j.limits.min) * u;
+        robot
+            .joints
+            .iter()
+            .zip(shares)
+            .map(|(j, &(a, b))| (at(j, a), at(j, b)))
+            .unzip()
+    }
+
+    proptest! {
+        /// The bound holds: between any two poses, no pair of parts apart at both comes closer
+        /// or parts by more than the reach the joints' changes allow (the geometry is the
+        /// oracle: the distances are measured at both poses).
+        #[test]
+        fn no_pair_distance_changes_by_more_than_its_reach(
+            robot in 0..crate::robot::BUILTIN_NAMES.len(),
+            shares in proptest::collection::vec((0.0..1.0f64, 0.0..1.0f64), 8),
+        ) {
+            let robot = Robot::builtin(crate::robot::BUILTIN_NAMES[robot]).unwrap();
             let model = CollisionModel::for_robot(&robot).unwrap();
-            let mut seed = 0x9E37_79B9_7F4A_7C15_u64;
-            let mut uniform = || {
-                seed ^= seed << 13;
-                seed ^= seed >> 7;
-                seed ^= seed << 17;
-                (seed >> 11) as f64 / (1u64 << 53) as f64
-            };
-            for _ in 0..300 {
-                let pose = |u: &mut dyn FnMut() -> f64| -> Vec<f64> {
-                    robot
-                        .joints
-                        .iter()
-                        .map(|j| j.limits.min + (j.limits.max - j.limits.min) * u())
-                        .collect()
-                };
-                let from = pose(&mut uniform);
-                let to = pose(&mut uniform);
-                let change: Vec<f64> = from.iter().zip(&to).map(|(a, b)| b - a).collect();
-                let (pa, pb) = (model.placed(&from), model.placed(&to));
-                for p in 0..model.pairs().len() {
-                    let moved = (model.pair_distance(&pb, p) - model.pair_distance(&pa, p)).abs();
-                    // Penetration depths (negative distances) are not distances: the bound is
-                    // for poses apart, which is what the check certifies.
-                    if model.pair_distance(&pa, p) > 0.0 && model.pair_distance(&pb, p) > 0.0 {
-                        let reach = model.pair_reach(p, &change);
-                        assert!(
-                            moved <= reach + 1e-12,
-                            "{name}: pair {p} moved {moved} > {reach}"
-                        );
-                    }
+            let (from, to) = poses(&robot, &shares);
+            let change: Vec<f64> = from.iter().zip(&to).map(|(a, b)| b - a).collect();
+            let (pa, pb) = (model.placed(&from), model.placed(&to));
+            for p in 0..model.pairs().len() {
+                let (da, db) = (model.pair_distance(&pa, p), model.pair_distance(&pb, p));
+                // Penetration depths are not distances: the bound is for poses apart, which is
+                // what the check certifies.
+                if da > 0.0 && db > 0.0 {
+                    let reach = model.pair_reach(p, &change);
+                    prop_assert!((db - da).abs() <= reach + 1e-12, "pair {p}: {da} → {db}, reach {reach}");
                 }
             }
         }

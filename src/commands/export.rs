@@ -243,9 +243,12 @@ fn checked(input: &SequenceInput) -> Result<Option<(Sequence, Robot, Trajectory)
     if !report.passed() {
         let text = keypose::report::check_text(&report, &sequence.file, &robot);
         eprint!("{}", escape_controls(&text));
-        eprintln!(
-            "refusing to export: the sequence breaks the limits above (try `keypose retime`)"
-        );
+        let hint = if report.violations.is_empty() {
+            "move the keys the contacts name"
+        } else {
+            "try `keypose retime`"
+        };
+        eprintln!("refusing to export: the sequence fails the check above ({hint})");
         return Ok(None);
     }
     Ok(Some((sequence, robot, trajectory)))

@@ -118,7 +118,7 @@ fn run_lerobot(args: &LeRobotArgs) -> Result<Verdict, CommandError> {
     if !imported.keyframes.check.passed() {
         let text = keypose::report::check_text(&imported.keyframes.check, &sequence.file, &robot);
         eprint!("{}", escape_controls(&text));
-        eprintln!("the keyframes are saved, but they break the limits above");
+        eprintln!("the keyframes are saved, but they fail the check above");
         return Ok(Verdict::Fail);
     }
     Ok(Verdict::Pass)

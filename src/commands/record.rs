@@ -250,7 +250,7 @@ fn hint_at_linear(args: &RecordArgs, result: &Keyframes) {
         .retimed
         .as_ref()
         .is_some_and(|r| r.after() > LINEAR_HINT_STRETCH * r.before());
-    if args.interpolation == Interp::Linear && (slowed || !result.check.passed()) {
+    if args.interpolation == Interp::Linear && (slowed || !result.check.violations.is_empty()) {
         eprintln!(
             "hint: a linear corner changes velocity within one control period, which the acceleration limits allow only when slow; monotone or cubic keep the recorded timing"
         );
@@ -273,7 +273,7 @@ fn conclude(
     if !result.check.passed() {
         let text = report::check_text(&result.check, &sequence.file, robot);
         eprint!("{}", escape_controls(&text));
-        eprintln!("the keyframes are saved, but they break the limits above");
+        eprintln!("the keyframes are saved, but they fail the check above");
         return Ok(Verdict::Fail);
     }
     Ok(Verdict::Pass)

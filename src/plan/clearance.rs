@@ -64,8 +64,6 @@ pub struct Contact {
     /// The distance there, metres: negative is a penetration that deep. For a contact of
     /// cause [`ContactCause::Unresolved`], the least distance that could not be ruled out.
     pub distance: f64,
-    /// The clearance it is closer than, metres.
-    pub clearance: f64,
     /// Why it is found.
     pub cause: ContactCause,
     /// The keyframe segment of its deepest point.
@@ -218,16 +216,8 @@ pub(crate) fn contacts(trajectory: &Trajectory, robot: &Robot) -> (Vec<Contact>,
     let Some(model) = model else {
         return (Vec::new(), scope);
     };
+    // A window that lasts no time is one instant, which the sweep looks at as any other.
     let motion = Played::new(trajectory);
-    if !(trajectory.end > trajectory.start) {
-        let mut pose = vec![0.0; robot.joints.len()];
-        motion.pose(trajectory.start, &mut pose);
-        let found = model
-            .touches(&pose, robot.clearance)
-            .into_iter()
-            .map(|t| at_rest(trajectory, t, robot.clearance));
-        return (declare(trajectory, found.collect()), scope);
-    }
     let resolution = Resolution {
         clearance: robot.clearance,
         contact: CONTACT_RESOLUTION,
@@ -242,7 +232,7 @@ pub(crate) fn contacts(trajectory: &Trajectory, robot: &Robot) -> (Vec<Contact>,
     );
     let found = merged(&near)
         .into_iter()
-        .map(|run| contact_of(&model, trajectory, &run, robot.clearance))
+        .map(|run| contact_of(&model, &motion, trajectory, &run, robot.clearance))
         .collect();
     (declare(trajectory, found), scope)
 }
@@ -266,29 +256,6 @@ fn declare(trajectory: &Trajectory, mut found: Vec<Contact>) -> Vec<Contact> {
     }
     found.sort_by(|a, b| a.from.total_cmp(&b.from));
     found
-}
-
-/// A trajectory that lasts no time: its one pose's contacts.
-fn at_rest(trajectory: &Trajectory, touch: crate::collision::Touch, clearance: f64) -> Contact {
-    let t = trajectory.start;
-    let mut contact = Contact {
-        kind: touch.kind,
-        bodies: touch.bodies,
-        links: touch.links,
-        from: t,
-        to: t,
-        deepest_time: t,
-        distance: touch.distance,
-        clearance,
-        cause: ContactCause::Path,
-        segment: trajectory.segment_at(t),
-        segment_label: trajectory.segment_label(trajectory.segment_at(t)),
-        key: Some(trajectory.key_reached(t)),
-        declared: None,
-        advice: String::new(),
-    };
-    contact.advice = advice(&contact, trajectory);
-    contact
 }
 
 /// One pair's run of adjacent intervals closer than the clearance.
@@ -338,6 +305,7 @@ fn merged(near: &[Near]) -> Vec<Run> {
 
 fn contact_of(
     model: &CollisionModel,
+    motion: &Played,
     trajectory: &Trajectory,
     run: &Run,
     clearance: f64,
@@ -352,7 +320,6 @@ fn contact_of(
         to: run.to,
         deepest_time: run.at,
         distance: run.distance,
-        clearance,
         cause: if run.measured {
             ContactCause::Path
         } else {
@@ -360,33 +327,47 @@ fn contact_of(
         },
         segment,
         segment_label: trajectory.segment_label(segment),
-        key: key_within(trajectory, run.from, run.to, run.at),
+        key: key_in_contact(model, motion, trajectory, run, clearance),
         declared: None,
         advice: String::new(),
     };
-    contact.advice = advice(&contact, trajectory);
+    contact.advice = advice(&contact, trajectory, clearance);
     contact
 }
 
-/// The key reached (its time or its hold) within [from, to], the one nearest `at`.
-fn key_within(trajectory: &Trajectory, from: f64, to: f64, at: f64) -> Option<usize> {
-    let holds = &trajectory.key_holds;
+/// The key whose own pose has the run's pair closer than the clearance, the one nearest the
+/// deepest point: the key to move. `None` when every key near the run is clear (the path dips
+/// between them).
+fn key_in_contact(
+    model: &CollisionModel,
+    motion: &Played,
+    trajectory: &Trajectory,
+    run: &Run,
+    clearance: f64,
+) -> Option<usize> {
+    let mut pose = vec![0.0; motion.joints()];
     (0..trajectory.key_times.len())
         .filter(|&k| {
-            let (start, end) = (trajectory.key_times[k], trajectory.key_times[k] + holds[k]);
-            start <= to && end >= from
+            let (start, end) = (
+                trajectory.key_times[k],
+                trajectory.key_times[k] + trajectory.key_holds[k],
+            );
+            start <= run.to + CONTACT_RESOLUTION && end >= run.from - CONTACT_RESOLUTION
+        })
+        .filter(|&k| {
+            let t = trajectory.key_times[k].clamp(trajectory.start, trajectory.end);
+            motion.pose(t, &mut pose);
+            model.pair_distance(&model.placed(&pose), run.pair) < clearance
         })
         .min_by(|&a, &b| {
-            let gap = |k: usize| (trajectory.key_times[k] - at).abs();
+            let gap = |k: usize| (trajectory.key_times[k] - run.at).abs();
             gap(a).total_cmp(&gap(b))
         })
 }
 
 /// What to do about a contact, in words a person acts on.
-fn advice(contact: &Contact, trajectory: &Trajectory) -> String {
-    let needed_mm = ((contact.clearance - contact.distance) * 1000.0)
-        .ceil()
-        .max(1.0);
+fn advice(contact: &Contact, trajectory: &Trajectory, clearance: f64) -> String {
+    let needed_mm = ((clearance - contact.distance) * 1000.0).ceil().max(1.0);
     let body = &contact.bodies.0;
     let other = contact.bodies.1.as_deref().unwrap_or("the floor");
     let label = |k: usize| trajectory.key_labels[k].clone();
@@ -397,9 +378,9 @@ fn advice(contact: &Contact, trajectory: &Trajectory) -> String {
     };
     match (contact.cause, contact.key, contact.kind) {
         (ContactCause::Unresolved, _, _) => format!(
-            "the goals jump at {:.3} s (a step), and the arm sweeping from one pose to the other \
-             may come within {:.1} mm of {other}: replace the step with a motion that keeps \
-             {body} clear",
+            "the goals jump at {:.3} s (a step), and while the player turns the jump each joint \
+             moves on its own, so {body} may come within {:.1} mm of {other}: replace the step \
+             with a motion that keeps {body} clear",
             contact.deepest_time,
             contact.distance * 1000.0
         ),

@@ -39,7 +39,7 @@
 //! T seconds asks of a joint at slope q'), reported in [`FastestOutcome::holds`].
 
 use super::scurve::{along_track, candidates, time_scale, AlongPath, SCurve};
-use super::{check, check_limits, CheckReport, Trajectory};
+use super::{add_clearance, check_limits, CheckReport, Trajectory};
 use crate::curve::{Interp, Track};
 use crate::json::InputError;
 use crate::robot::{Limits, Robot};
@@ -141,7 +141,7 @@ pub fn fastest(
             path.timed(&base, &speeds)
         };
         let timed = Trajectory::build(&candidate, robot)?;
-        let report = check_limits(&timed, robot, rate);
+        let mut report = check_limits(&timed, robot, rate);
         let over = over_limits(&report, jerk_limited);
         let done = over
             .iter()
@@ -185,7 +185,7 @@ pub fn fastest(
                 .collect();
             // Timing moves the arm along the same path: its clearance is checked once, on
             // the result.
-            let report = check(&timed, robot, rate);
+            add_clearance(&mut report, &timed, robot);
             return Ok(FastestOutcome {
                 sequence: candidate,
                 rounds,

@@ -16,7 +16,7 @@
 //! that no stretch up to [`MAX_STRETCH`] mends (left as it was), each with advice that fits its
 //! kind ([`advice`]).
 
-use super::{check, check_limits, Cause, CheckReport, LimitKind, Trajectory, Violation};
+use super::{add_clearance, check_limits, Cause, CheckReport, LimitKind, Trajectory, Violation};
 use crate::curve::Interp;
 use crate::json::InputError;
 use crate::robot::Robot;
@@ -127,7 +127,8 @@ pub fn retime(sequence: &Sequence, robot: &Robot, rate: f64) -> Result<RetimeOut
         stretch(&mut current, &factors, segments);
         report = judge(&current)?;
     }
-    let report = check(&Trajectory::build(&current, robot)?, robot, rate);
+    // The loop's last report is of `current`: the path's clearance is added to it once.
+    add_clearance(&mut report, &Trajectory::build(&current, robot)?, robot);
     let times = current.key_times();
     let stretched = (0..times.len().saturating_sub(1))
         .filter_map(|i| {

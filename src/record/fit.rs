@@ -363,7 +363,8 @@ impl Fitting<'_> {
         sequence: Sequence,
         report: CheckReport,
     ) -> Result<(Sequence, CheckReport, Option<Retimed>), RecordError> {
-        if report.passed() {
+        // Timing mends the limits, not a contact: only a limit violation is retimed.
+        if report.violations.is_empty() {
             return Ok((sequence, report, None));
         }
         let rate = self.options.check_rate_hz;
@@ -377,7 +378,7 @@ impl Fitting<'_> {
             let stretched = !outcome.stretched.is_empty();
             candidate = outcome.sequence;
             candidate_report = outcome.report;
-            if candidate_report.passed() || !stretched {
+            if candidate_report.violations.is_empty() || !stretched {
                 break;
             }
         }

@@ -209,8 +209,9 @@ pub fn check(trajectory: &Trajectory, robot: &Robot, rate: f64) -> CheckReport {
     report
 }
 
-/// The clearance is the path's: the same at any playback speed.
-fn add_clearance(report: &mut CheckReport, trajectory: &Trajectory, robot: &Robot) {
+/// Adds the clearance to a report of the limits alone (`check_limits`): the contacts along
+/// the path, the same at any playback speed and timing.
+pub(crate) fn add_clearance(report: &mut CheckReport, trajectory: &Trajectory, robot: &Robot) {
     let (contacts, scope) = clearance::contacts(trajectory, robot);
     report.contacts = contacts;
     report.clearance = Some(scope);

@@ -14,16 +14,15 @@ impl TeachState {
     /// Why moving the held goals of `jogged` (robot order, joint units) there is refused: the
     /// contact it would make, in words.
     pub(super) fn contact_refusal(&self, jogged: &[(usize, f64)]) -> Option<String> {
-        let model = self.collision.as_ref()?;
         let mut to = self.goals.clone();
         for &(j, v) in jogged {
             to[j] = v;
         }
-        model.refusal(&self.goals, &to).map(|t| t.describe())
+        self.way_refusal(&to)
     }
 
-    /// Why the way from the held goals to `pose` (every joint, robot order) is refused, as
-    /// `space` and `y` take it: the approach ramp's straight line in joint space, certified.
+    /// Why the way from the held goals to `pose` (every joint, robot order) is refused, as a
+    /// jog, `space` and `y` take it: a straight line in joint space, certified.
     pub(super) fn way_refusal(&self, pose: &[f64]) -> Option<String> {
         let model = self.collision.as_ref()?;
         model.refusal(&self.goals, pose).map(|t| t.describe())
