@@ -73,6 +73,31 @@ def test_the_check_is_the_command_lines(too_fast):
             assert (v.joint, v.kind, v.peak, v.limit) == (j["joint"], j["kind"], j["peak"], j["limit"])
 
 
+def test_a_key_in_the_desk_is_a_contact_the_command_line_reports_too(tmp_path):
+    # The elbow at 80° with the shoulder level puts the gripper in the desk at key 1; the
+    # limits hold.
+    path = write_sequence(
+        tmp_path / "desk.json",
+        "so101",
+        [
+            {"name": "home", "time": 0, "joints": {"elbow_flex": 0}},
+            {"name": "into-desk", "time": 3, "joints": {"elbow_flex": 80}},
+            {"name": "back", "time": 6, "joints": {"elbow_flex": 0}},
+        ],
+        interpolation="cubic",
+    )
+    report = keypose.load(path).check()
+    assert not report.passed and report.violations == []
+    found = json.loads(cli("check", path, "--format", "json", check_code=1).stdout)
+    contacts = found["clearance"]["contacts"]
+    assert [(c.kind, c.bodies, c.key, c.distance_mm) for c in report.contacts] == [
+        (c["kind"], tuple(c["bodies"]), c["key"], c["distance_mm"]) for c in contacts
+    ]
+    gripper = next(c for c in report.contacts if c.bodies[0] == "gripper")
+    assert gripper.kind == "floor" and gripper.key == 1 and gripper.distance_mm < -70
+    assert "raise key 'into-desk'" in gripper.advice
+
+
 def test_a_segment_too_fast_is_a_velocity_violation_of_the_distance_over_the_time(too_fast):
     report = keypose.load(too_fast).check()
     assert not report.passed
