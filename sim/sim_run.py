@@ -82,6 +82,44 @@ class Simulator:
             del contact["time"]
         return {"contacts": found}
 
+    def pose_distances(self, model, req):
+        """The distance of each asked pair of bodies at one pose, with no dynamics: for
+        [body1, body2] the least mj_geomDistance over their shapes, for [body, null] over the
+        body's shapes and the floor; null where it is `distmax` or more.
+
+        Shapes are the geoms keypose's own collision model reads (boxes, capsules, spheres; not
+        planes or meshes), so that the two measure the same solids: this is the oracle of
+        keypose's distances. Signed: negative is a penetration that deep.
+        """
+        mujoco, m, d = self.mujoco, model.m, model.scratch
+        model.set_request_qpos(d, req)
+        d.qvel[:] = 0
+        mujoco.mj_kinematics(m, d)
+        distmax = number(req, "distmax", positive=True)
+        solid = {int(mujoco.mjtGeom.mjGEOM_BOX), int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_SPHERE)}
+        floor = [g for g in range(m.ngeom) if model.geom_floor[g]]
+
+        def shapes(name):
+            if not isinstance(name, str):
+                raise request_error(f"a pair names bodies by their names, not {json.dumps(name)[:200]}")
+            b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+            if b < 0:
+                raise request_error(f"body {name!r} is not in {model.path}")
+            return [g for g in range(m.ngeom) if int(m.geom_bodyid[g]) == b and int(m.geom_type[g]) in solid]
+
+        pairs = member(req, "pairs")
+        if not isinstance(pairs, list) or not all(isinstance(p, list) and len(p) == 2 for p in pairs):
+            raise request_error("'pairs' must be a list of [body1, body2 or null]")
+        out = []
+        for first, second in pairs:
+            others = floor if second is None else shapes(second)
+            least = distmax
+            for g1 in shapes(first):
+                for g2 in others:
+                    least = min(least, float(mujoco.mj_geomDistance(m, d, g1, g2, distmax, None)))
+            out.append(None if least >= distmax else least)
+        return {"distances": out}
+
     def _run_request(self, model, req):
         """The run request's joints, rate, reset flag, initial values and commands, checked."""
         np, m = self.np, model.m

@@ -498,6 +498,32 @@ impl Simulation {
     }
 }
 
+impl Simulation {
+    /// The signed distance, metres, of each pair of bodies (`None` for the second: the body
+    /// and the floor) with the arm held still at `values` (joint units, joint order), as
+    /// MuJoCo measures it between the same shapes; `None` at `distmax` or farther. The oracle
+    /// of `collision::CollisionModel`'s distances.
+    pub fn pose_distances(
+        &mut self,
+        robot: &Robot,
+        values: &[f64],
+        pairs: &[(&str, Option<&str>)],
+        distmax: f64,
+    ) -> Result<Vec<Option<f64>>, SimError> {
+        let model = to_model(robot, values);
+        let qpos = self.joints.iter().map(String::as_str).zip(model).collect();
+        let pairs = pairs.iter().map(|&(a, b)| [Some(a), b]).collect();
+        let request = Request::Distances {
+            qpos,
+            pairs,
+            distmax,
+        };
+        let reply = self.harness.request(&request)?;
+        let reply: wire::DistancesReply = wire::parse(reply, "distances")?;
+        Ok(reply.distances)
+    }
+}
+
 /// A contact of a `run` or `contacts` reply (a pose's contacts have no time: 0).
 fn contact(c: ContactReply) -> Contact {
     Contact {

@@ -21,6 +21,14 @@ pub(super) enum Request<'a> {
         /// Model joint name → position.
         qpos: BTreeMap<&'a str, f64>,
     },
+    /// The distances of pairs of bodies (a body and the floor for `None`) at one pose, with no
+    /// dynamics, up to `distmax` metres.
+    Distances {
+        /// Model joint name → position.
+        qpos: BTreeMap<&'a str, f64>,
+        pairs: Vec<[Option<&'a str>; 2]>,
+        distmax: f64,
+    },
     /// Commands held one control period each, the trace recorded after each.
     Run {
         joints: &'a [String],
@@ -184,6 +192,12 @@ pub(super) struct Divergence {
 #[derive(Debug, Deserialize)]
 pub(super) struct ContactsReply {
     pub contacts: Vec<ContactReply>,
+}
+
+/// The `distances` reply: one per pair asked, `None` at `distmax` or beyond.
+#[derive(Debug, Deserialize)]
+pub(super) struct DistancesReply {
+    pub distances: Vec<Option<f64>>,
 }
 
 /// A penetrating contact.
