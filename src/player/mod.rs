@@ -171,7 +171,7 @@ pub enum PlayError {
     },
     /// The approach ramp from where the arm is to where playback starts would make a contact
     /// (the floor, the arm itself, another arm): nothing moved.
-    #[error("refusing to start: the approach from where the arm is to the first pose would make {contact}: move the arm clear first (by hand with torque off, or with a jog) and start again")]
+    #[error("refusing to start: on the approach from where the arm is to the first pose, {contact}: move the arm clear first (by hand with torque off, or with a jog) and start again")]
     ApproachContact {
         /// The contact, in words (`gripper touches the floor (4.2 mm deep)`).
         contact: String,

@@ -688,7 +688,7 @@ impl TeachState {
                 let first = plan.trajectory.sample(plan.trajectory.play_from(Some(from)));
                 match self.way_refusal(&first) {
                     Some(touch) => self.fail(format!(
-                        "refusing to play: the approach to key {from} would make {touch}"
+                        "refusing to play: on the approach to key {from}, {touch}"
                     )),
                     None => bus(BusCommand::Run(Box::new(plan))),
                 }

@@ -193,7 +193,7 @@ def test_saving_keeps_the_files_own_layout_and_reads_back_the_same(tmp_path):
 def test_a_sequence_built_from_keys_saves_as_a_file_the_command_line_checks(tmp_path):
     keys = [
         {"name": "rest", "time": 0, "joints": {"elbow_flex": 0}},
-        {"name": "up", "time": 2, "joints": {"elbow_flex": 60}},
+        {"name": "up", "time": 2, "joints": {"elbow_flex": -60}},
     ]
     sequence = keypose.Sequence(keypose.Robot("so101"), keys, interpolation="monotone")
     assert sequence.file == "<keys>" and sequence.interpolation == "monotone"

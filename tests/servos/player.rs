@@ -75,6 +75,50 @@ fn patient(rate: f64) -> PlayOptions {
 const ELBOW_SWING: &str = r#"{"format":"keypose-sequence/1","robot":"so101","keyframes":[
   {"time":0,"joints":{"elbow_flex":-20}},{"time":1.0,"joints":{"elbow_flex":20}}]}"#;
 
+/// The arm rests with the elbow at 30° and the wrist at −85.5°, clear of the desk; the first
+/// key has the wrist at +85.5°, clear too. The approach ramp's straight line swings the gripper
+/// through the desk on the way (from about 38°, src/collision/sweep.rs), so the player refuses
+/// it before torque comes on, and not one goal is written. With the wrist resting at +20° the
+/// same key is reached.
+#[test]
+fn an_approach_through_the_desk_is_refused_before_anything_is_written() {
+    let robot = Robot::builtin("so101").unwrap();
+    let key = r#"{"format":"keypose-sequence/1","robot":"so101","keyframes":[
+      {"time":0,"joints":{"elbow_flex":30,"wrist_flex":85.5}}]}"#;
+    let traj = trajectory(&robot, key);
+    for (wrist, refused) in [(-85.5, true), (20.0, false)] {
+        let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
+        for (id, value) in [(3u8, 30.0), (4, wrist)] {
+            let tick = robot.joints[id as usize - 1].servo.tick_exact(value);
+            virtual_bus
+                .lock()
+                .servo_mut(id)
+                .unwrap()
+                .motion
+                .push_to(tick);
+        }
+        let result = play(
+            &mut bus,
+            &robot,
+            &traj,
+            &patient(100.0),
+            &StopSignal::default(),
+        );
+        if refused {
+            let error = result.expect_err("refused");
+            assert!(
+                matches!(error, PlayError::ApproachContact { .. }),
+                "{error}"
+            );
+            assert!(error.to_string().contains("the floor"), "{error}");
+            assert_eq!(virtual_bus.lock().goals_received(), vec![]);
+            assert!(virtual_bus.lock().servos.iter().all(|s| !s.motion.torque));
+        } else {
+            assert_eq!(result.unwrap().0, Outcome::Finished);
+        }
+    }
+}
+
 #[test]
 fn plays_to_the_last_key_after_a_ramp_from_where_the_arm_was() {
     let robot = Robot::builtin("so101").unwrap();

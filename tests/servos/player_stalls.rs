@@ -170,6 +170,17 @@ impl ServoBus for TimedWrites<'_> {
     }
 }
 
+/// The SO-101 as a robot file of another name would be, with no collision model: the random
+/// poses below go through the desk and the arm itself, which the player's approach guard
+/// refuses (tests/motion/clearance.rs has those refusals); the limiter under stalls is these
+/// tests' subject.
+fn so101_without_collision_model() -> Robot {
+    let mut robot = Robot::builtin("so101").unwrap();
+    robot.name = "so101-limiter-only".into();
+    assert!(keypose::collision::CollisionModel::for_robot(&robot).is_none());
+    robot
+}
+
 /// A random sequence over every joint of the SO-101, made to pass the limit check at `rate` by
 /// retiming when `valid` (as `keypose play` requires); left as drawn otherwise.
 fn random_trajectory(robot: &Robot, rng: &mut Rng, rate: f64, valid: bool) -> Trajectory {
@@ -317,7 +328,7 @@ fn check_goals(robot: &Robot, rate: f64, times: &[f64], goals: &[(u8, i64)]) -> 
 
 #[test]
 fn after_thousands_of_stalls_no_goal_step_exceeds_the_limits_over_one_period() {
-    let robot = Robot::builtin("so101").unwrap();
+    let robot = so101_without_collision_model();
     let rates = [25.0, 50.0, 100.0, 200.0];
     let mut stalls = 0;
     let mut worst_step: f64 = 0.0;
@@ -398,7 +409,7 @@ fn a_delay_after_a_cycle_began_on_time_is_bounded_by_the_time_since_the_last_wri
     // The cycle begins on time, then the thread is preempted before its goal goes out: the gap
     // between cycle starts looks ordinary, but the arm held the last goal for the whole delay.
     // The same oracle as above, with the write times the clock gave, must hold.
-    let robot = Robot::builtin("so101").unwrap();
+    let robot = so101_without_collision_model();
     let mut late_writes = 0;
     for case in 0..12u64 {
         let mut rng = Rng::new(case + 1);

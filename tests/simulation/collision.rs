@@ -145,7 +145,10 @@ fn poses_of(robot: &Robot, seed: u64) -> Vec<Vec<f64>> {
     for entry in examples {
         let path = entry.unwrap().path();
         let sequence = keypose::sequence::Sequence::load(&path).unwrap();
-        if sequence.is_cell() || keypose::plan::builtin_robot_of(&sequence).map(|r| r.name) != Some(robot.name.clone()) {
+        if sequence.is_cell()
+            || keypose::plan::builtin_robot_of(&sequence).map(|r| r.name)
+                != Some(robot.name.clone())
+        {
             continue;
         }
         let trajectory = keypose::plan::Trajectory::build(&sequence, robot).unwrap();
