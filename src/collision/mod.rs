@@ -360,12 +360,6 @@ impl CollisionModel {
         self.reach[p].displacement(deviation)
     }
 
-    /// Pair `p` at distance `distance`, as a [`Touch`].
-    pub(crate) fn touch_of(&self, p: usize, distance: f64) -> Touch {
-        let Pair { a, b } = self.pairs[p];
-        self.touch(a, b, distance)
-    }
-
     /// The pairs MuJoCo checks: two bodies, not both fixed to the world, neither the other's
     /// parent, not excluded.
     fn checked(&self, a: usize, b: usize) -> bool {
@@ -377,7 +371,9 @@ impl CollisionModel {
             && !self.skipped.contains(&(a.min(b), a.max(b)))
     }
 
-    fn touch(&self, a: usize, b: Option<usize>, distance: f64) -> Touch {
+    /// Pair `p` at distance `distance`, as a [`Touch`].
+    pub(crate) fn touch_of(&self, p: usize, distance: f64) -> Touch {
+        let Pair { a, b } = self.pairs[p];
         let kind = match b {
             None => TouchKind::Floor,
             Some(b) if self.bodies[b].arm == self.bodies[a].arm => TouchKind::SelfCollision,
