@@ -486,6 +486,43 @@ fn space_ramps_to_the_key_and_y_plays_from_it() {
     assert!(state.torque().iter().all(|&t| t));
 }
 
+/// home → elbow 80° (the gripper 75 mm into the desk) → home: `space` to the desk key, and
+/// `y` from either end, are refused with the contact, and nothing moves; the list's own check
+/// (the write note) names it too.
+#[test]
+fn space_and_y_into_the_desk_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let sequence = Sequence::from_json(
+        "desk.json",
+        r#"{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "cubic",
+            "keyframes": [{"name": "home", "time": 0, "joints": {"elbow_flex": 0}},
+                          {"name": "into-desk", "time": 3, "joints": {"elbow_flex": 80}},
+                          {"name": "back", "time": 6, "joints": {"elbow_flex": 0}}]}"#,
+    )
+    .unwrap();
+    let mut state = unjournaled(sequence, dir.path().join("desk.json"));
+    let start = state.start();
+    apply(&mut state, start);
+    press(&mut state, Key::Char('>'));
+    assert!(press(&mut state, Key::Char(' ')).is_empty());
+    let text = state.status().text.clone();
+    assert!(
+        text.contains("refusing to move there") && text.contains("the floor"),
+        "{text}"
+    );
+    for key in ['<', '>'] {
+        press(&mut state, Key::Char(key));
+        assert!(press(&mut state, Key::Char('y')).is_empty());
+        let text = state.status().text.clone();
+        assert!(
+            text.contains("refusing to play") && text.contains("contact"),
+            "{text}"
+        );
+        assert!(text.contains("raise key 'into-desk'"), "{text}");
+    }
+    assert!(!state.is_moving());
+}
+
 #[test]
 fn playback_beyond_the_limits_is_refused() {
     let dir = tempfile::tempdir().unwrap();
