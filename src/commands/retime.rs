@@ -45,7 +45,7 @@ pub fn run(args: &RetimeArgs) -> Result<Verdict, CommandError> {
     if outcome.stretched.is_empty() {
         eprintln!("no segment needed stretching");
     }
-    if report_unfixable(&sequence, &outcome.report.violations) {
+    if report_unfixable(&sequence, &outcome.report) {
         return Ok(Verdict::Fail);
     }
     write_output(args.output.as_deref(), &outcome.sequence.to_json())?;
@@ -80,20 +80,39 @@ fn run_fastest(
         "moving time {before:.3} s → {after:.3} s ({} plan-and-check round(s))",
         outcome.rounds
     );
-    if report_unfixable(sequence, &outcome.report.violations) {
+    if report_unfixable(sequence, &outcome.report) {
         return Ok(Verdict::Fail);
     }
     write_output(args.output.as_deref(), &outcome.sequence.to_json())?;
     Ok(Verdict::Pass)
 }
 
-/// Prints the violations timing cannot fix, each with its advice; whether there were any.
+/// Prints what timing cannot fix — violations and contacts — each with its advice; whether
+/// there was any.
 fn report_unfixable(
     sequence: &keypose::sequence::Sequence,
-    remaining: &[keypose::plan::Violation],
+    report: &keypose::plan::CheckReport,
 ) -> bool {
+    let contacts: Vec<_> = report.undeclared_contacts().collect();
+    if !contacts.is_empty() {
+        eprintln!("{} contact(s) cannot be fixed by retiming:", contacts.len());
+        for c in &contacts {
+            let line = format!(
+                "  {} with {} in segment {} ({}) at t = {:.3} s: {:.1} mm — {}",
+                c.bodies.0,
+                c.bodies.1.as_deref().unwrap_or("the floor"),
+                c.segment,
+                c.segment_label,
+                c.deepest_time,
+                c.distance * 1000.0,
+                c.advice
+            );
+            eprintln!("{}", escape_controls(&line));
+        }
+    }
+    let remaining = &report.violations;
     if remaining.is_empty() {
-        return false;
+        return !contacts.is_empty();
     }
     eprintln!(
         "{} violation(s) cannot be fixed by retiming:",

@@ -73,6 +73,35 @@ fn a_key_in_the_desk_fails_the_check_and_is_not_played() {
     let reported = gripper["distance_mm"].as_f64().unwrap() / 1000.0;
     assert!((reported - depth).abs() < 1e-4, "{reported} vs {depth}");
 
+    // No timing mends it: `retime` says so, with the fix, and writes nothing.
+    let retimed = dir.path().join("retimed.json");
+    let out = run(&["retime", &file, "-o", retimed.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1), "{}", show(&out));
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(
+        err.contains("cannot be fixed by retiming") && err.contains("raise key 'into-desk'"),
+        "{err}"
+    );
+    assert!(!retimed.exists());
+
+    // Every export refuses it, and writes nothing.
+    for (format, name) in [
+        ("ros2", "t.yaml"),
+        ("play_motion2", "m.yaml"),
+        ("c", "t.h"),
+        ("lerobot", "ds"),
+    ] {
+        let out_file = dir.path().join(name);
+        let out = run(&["export", format, &file, "-o", out_file.to_str().unwrap()]);
+        assert_eq!(out.status.code(), Some(1), "{format}: {}", show(&out));
+        let err = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(
+            err.contains("refusing to export") && err.contains("raise key 'into-desk'"),
+            "{format}: {err}"
+        );
+        assert!(!out_file.exists(), "{format}: wrote {name}");
+    }
+
     // Nothing is sent: the refusal comes before the port is opened (this one does not exist).
     let play = run(&[
         "play",
