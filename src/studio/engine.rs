@@ -122,8 +122,10 @@ impl Hub {
         let controlled = self.lease().is_held();
         let playhead = lock(&self.playhead).at();
         let mut key_poses = lock(&self.key_poses);
+        let (poses, contacts) = key_poses.of(state.robot(), state.list().sequence());
         let planned = Planned {
-            poses: key_poses.of(state.robot(), state.list().sequence()),
+            poses,
+            contacts,
             playhead: playhead.as_ref(),
         };
         let value = snapshot(state, bus, controlled, &planned);

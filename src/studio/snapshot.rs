@@ -22,6 +22,8 @@ use serde_json::{json, Value};
 pub(crate) struct Planned<'a> {
     /// Every key's pose on the trajectory (`None`: the list does not build into one).
     pub poses: Option<&'a [Vec<f64>]>,
+    /// What each key's pose touches, in words (`None`: clear), as `poses` has them.
+    pub contacts: &'a [Option<String>],
     /// Where the running playback is.
     pub playhead: Option<&'a PlayheadAt>,
 }
@@ -32,16 +34,26 @@ pub(crate) struct Planned<'a> {
 pub(crate) struct KeyPoses {
     of: Option<Sequence>,
     poses: Option<Vec<Vec<f64>>>,
+    contacts: Vec<Option<String>>,
 }
 
 impl KeyPoses {
-    /// The poses of `sequence`'s keys on `robot`; `None` when it builds no trajectory.
-    pub(crate) fn of(&mut self, robot: &Robot, sequence: &Sequence) -> Option<&[Vec<f64>]> {
+    /// The poses of `sequence`'s keys on `robot` (`None` when it builds no trajectory), and
+    /// what each touches.
+    pub(crate) fn of(
+        &mut self,
+        robot: &Robot,
+        sequence: &Sequence,
+    ) -> (Option<&[Vec<f64>]>, &[Option<String>]) {
         if self.of.as_ref() != Some(sequence) {
             self.poses = crate::teach::key_poses(robot, sequence).ok();
+            self.contacts = self
+                .poses
+                .as_deref()
+                .map_or_else(Vec::new, |p| crate::teach::pose_contacts(robot, p));
             self.of = Some(sequence.clone());
         }
-        self.poses.as_deref()
+        (self.poses.as_deref(), &self.contacts)
     }
 }
 
@@ -63,7 +75,7 @@ pub(crate) fn snapshot(
         "dirty": state.is_dirty(),
         "joints": joints(state, planned.poses),
         "selected": state.selected(),
-        "keys": keys(state, planned.poses),
+        "keys": keys(state, planned.poses, planned.contacts),
         "playhead": planned.playhead.map(|at| playhead(state.list().sequence(), at)),
         "current": (!state.list().is_empty()).then(|| state.list().current_index()),
         "interval": state.list().sequence().key_interval,
@@ -232,7 +244,7 @@ fn playhead(sequence: &Sequence, at: &PlayheadAt) -> Value {
     })
 }
 
-fn keys(state: &TeachState, poses: Option<&[Vec<f64>]>) -> Vec<Value> {
+fn keys(state: &TeachState, poses: Option<&[Vec<f64>]>, contacts: &[Option<String>]) -> Vec<Value> {
     let robot = state.robot();
     let sequence = state.list().sequence();
     let n = sequence.keyframes.len();
@@ -264,6 +276,8 @@ fn keys(state: &TeachState, poses: Option<&[Vec<f64>]>) -> Vec<Value> {
                 "tool": key.tool.is_some() || !key.arm_tools.is_empty(),
                 // Where the arm is at this key: the ghost and `space` show the same pose.
                 "pose": poses.and_then(|p| p.get(i)),
+                // What the arm touches there (the ghost is drawn red, `space` is refused).
+                "contact": contacts.get(i).cloned().flatten(),
             })
         })
         .collect()

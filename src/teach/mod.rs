@@ -41,7 +41,7 @@ pub use journal::{Entry, Journal, Pending, JOURNAL_FORMAT};
 pub use keys::{help_text, Binding, Key, BINDINGS};
 pub(crate) use keys::{parse_token, Step, TokenError};
 pub use messages::{BusCommand, Clearing, Command, Event, FileCommand};
-pub(crate) use motion::key_poses;
+pub(crate) use motion::{key_poses, pose_contacts};
 pub use motion::{MotionKind, MotionPlan};
 pub use prompt::{Field, Prompt};
 pub(crate) use session::panic_message;

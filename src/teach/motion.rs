@@ -102,6 +102,22 @@ pub(crate) fn key_poses(robot: &Robot, sequence: &Sequence) -> Result<Vec<Vec<f6
         .collect())
 }
 
+/// What each of `poses` (a robot's, robot order) touches closer than the robot's clearance, in
+/// words — the first contact, `None` where it is clear (and for a robot with no collision
+/// model): what the studio draws a key's ghost red for, as `space` would refuse to go there.
+pub(crate) fn pose_contacts(robot: &Robot, poses: &[Vec<f64>]) -> Vec<Option<String>> {
+    let Some(model) = crate::collision::CollisionModel::for_robot(robot) else {
+        return vec![None; poses.len()];
+    };
+    poses
+        .iter()
+        .map(|pose| {
+            let touches = model.touches(pose, robot.clearance);
+            touches.first().map(|t| t.describe())
+        })
+        .collect()
+}
+
 /// The tracks at sequence time `time`, inside the limits; not clamped to the played window, so
 /// that control keys (outside it) are reached too.
 fn pose_at(trajectory: &Trajectory, robot: &Robot, time: f64) -> Vec<f64> {

@@ -699,3 +699,58 @@ fn a_jog_of_one_arm_into_the_other_is_refused_and_the_near_links_turn_red() {
     )
     .unwrap();
 }
+
+/// The check's clearance on the page (issue 35, part 2): on home → elbow 80° (the gripper in
+/// the desk) → home, the desk key's ghost is drawn red and the key says what it touches (the
+/// home key's is not), `space` to it and `y` through it are refused with the contact and the
+/// arm stays, and the timeline lists the contact with its fix.
+#[test]
+fn a_key_in_the_desk_is_drawn_red_and_space_and_y_are_refused() {
+    require_browser_tools();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("desk.json"),
+        r#"{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "cubic",
+            "keyframes": [{"name": "home", "time": 0, "joints": {"elbow_flex": 0}},
+                          {"name": "into-desk", "time": 3, "joints": {"elbow_flex": 80}},
+                          {"name": "back", "time": 6, "joints": {"elbow_flex": 0}}]}"#,
+    )
+    .unwrap();
+    let (studio, url) = start_studio(dir.path(), &["desk.json"]);
+    let shot = dir.path().join("desk.png");
+    let results = browser_run("desk.mjs", &[Path::new(&url), &shot]);
+    drop(studio);
+
+    assert_eq!(results["errors"], json!([]), "the page ran without errors");
+    let (home, desk) = (&results["home"], &results["desk"]);
+    assert_eq!(home["contact"], Value::Null, "{results}");
+    assert_eq!(home["ghostContact"], false, "{results}");
+    assert!(
+        desk["contact"]
+            .as_str()
+            .is_some_and(|c| c.contains("the floor")),
+        "{results}"
+    );
+    assert_eq!(desk["ghostContact"], true, "{results}");
+    assert_ne!(desk["ghostColour"], home["ghostColour"], "{results}");
+    for (what, expected) in [
+        ("space", "refusing to move there"),
+        ("play", "refusing to play"),
+    ] {
+        let step = &results[what];
+        let text = step["status"]["text"].as_str().unwrap_or_default();
+        assert!(
+            step["status"]["error"] == true && text.contains(expected),
+            "{what}: {results}"
+        );
+        assert_eq!(step["present"], home["present"], "{what}: the arm stayed");
+    }
+    let findings: Vec<String> = serde_json::from_value(results["findings"].clone()).unwrap();
+    assert!(
+        findings
+            .iter()
+            .any(|f| f.contains("the floor") && f.contains("raise key 'into-desk'")),
+        "{findings:?}"
+    );
+    std::fs::copy(&shot, std::env::temp_dir().join("keypose-studio-desk.png")).unwrap();
+}

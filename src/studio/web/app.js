@@ -244,7 +244,7 @@ function render(s) {
   if (studio.view) {
     studio.view.setToolJoint(s.selected);
     studio.view.setPose(s.joints.map(j => j.present));
-    studio.view.setGhost(ghostOverride || keyGhost(s));
+    showGhost(ghostOverride);
     showContacts(studio.view, s.contacts || []);
     if (studio.handle) studio.handle.follow();
   }
@@ -258,10 +258,19 @@ function keyGhost(s) {
   return key && $('ghost').checked ? key.pose || key.values : null;
 }
 
-// What the timeline or a playback shows on the ghost instead (null: the key's again).
+// What the current key's pose touches (its ghost is drawn red), or null.
+function keyContact(s) {
+  const key = s && s.current !== null ? s.keys[s.current] : null;
+  return (key && key.contact) || null;
+}
+
+// What the timeline or a playback shows on the ghost instead (null: the key's again, red
+// where the key's pose touches something).
 function showGhost(values) {
   ghostOverride = values;
-  if (studio.view) studio.view.setGhost(ghostOverride || keyGhost(studio.snapshot));
+  if (!studio.view) return;
+  const s = studio.snapshot;
+  studio.view.setGhost(ghostOverride || keyGhost(s), !ghostOverride && keyContact(s));
 }
 
 // Where the present value and the key's sit between the limits, in percent; placed by

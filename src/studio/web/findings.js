@@ -13,7 +13,7 @@ export class Findings {
 
   // The timeline's check findings: { text, peak_time }.
   setCheck(findings) {
-    this.check = (findings || []).map(f => ({ source: 'limit check', text: f.text, at: f.peak_time }));
+    this.check = (findings || []).map(f => ({ source: 'check', text: f.text, at: f.peak_time }));
     this.render();
   }
 

@@ -9,6 +9,9 @@ import { dress } from '/meshes.js';
 import { frame } from '/framing.js';
 
 const DEG = Math.PI / 180;
+// The ghost's colours: the key's pose, and the key's pose in a contact.
+const GHOST = 0x4fc3f7;
+const GHOST_CONTACT = 0xff3b30;
 
 function quat(q) { return new THREE.Quaternion(q[0], q[1], q[2], q[3]); }
 function vec(t) { return new THREE.Vector3(t[0], t[1], t[2]); }
@@ -166,8 +169,8 @@ export class ArmView {
     this.scene.add(new THREE.AxesHelper(0.1));
     const solid = rgba => new THREE.MeshStandardMaterial({
       color: new THREE.Color(rgba[0], rgba[1], rgba[2]), roughness: 0.6, metalness: 0.1 });
-    const ghostMaterial = new THREE.MeshBasicMaterial({
-      color: 0x4fc3f7, transparent: true, opacity: 0.25, depthWrite: false });
+    const ghostMaterial = this.ghostMaterial = new THREE.MeshBasicMaterial({
+      color: GHOST, transparent: true, opacity: 0.25, depthWrite: false });
     // One part per arm: the arm and its ghost, each under a node at the arm's base.
     const parts = model.arms || [{ name: null, base: null, first: 0, model }];
     this.parts = parts.map(p => {
@@ -227,9 +230,12 @@ export class ArmView {
     this.dirty = true;
   }
 
-  // The ghost at `values` (robot order and units), or hidden with null.
-  setGhost(values) {
+  // The ghost at `values` (robot order and units), or hidden with null; red where `contact`
+  // (the pose touches the desk, the arm itself or another arm: `space` would refuse it).
+  setGhost(values, contact) {
     this.dirty = true;
+    this.ghostMaterial.color.setHex(contact ? GHOST_CONTACT : GHOST);
+    this.ghostContact = !!(values && contact);
     for (const part of this.parts) {
       part.ghostRoot.visible = !!values;
       if (values) part.ghost.pose(ArmView.slice(part, values));
