@@ -1,9 +1,9 @@
 //! `keypose.Report`: what the exact check found, as `keypose check` reports it.
 
 use crate::cli::commands::check::{tool_text, tools_pass};
+use keypose::plan::Contact as LibContact;
 use keypose::plan::Violation as LibViolation;
 use keypose::plan::{check, CheckReport, JointSummary as LibJointSummary, Trajectory};
-use keypose::plan::{Contact as LibContact, ContactCause};
 use keypose::robot::Robot;
 use pyo3::prelude::*;
 
@@ -188,10 +188,7 @@ impl Contact {
     /// "path" (measured on the goals) or "unresolved" (a step's jump could not be ruled out).
     #[getter]
     fn cause(&self) -> &'static str {
-        match self.0.cause {
-            ContactCause::Path => "path",
-            ContactCause::Unresolved => "unresolved",
-        }
+        self.0.cause.name()
     }
     /// The key whose pose is in it, if any: the key to move.
     #[getter]

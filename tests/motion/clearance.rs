@@ -18,6 +18,28 @@ fn write(dir: &Path, name: &str, text: &str) -> String {
     path.to_str().unwrap().to_string()
 }
 
+/// Runs keypose with `args`, asserting its exit code and that its standard error says each of
+/// `words`.
+fn refused(args: &[&str], code: i32, words: &[&str]) {
+    let out = run(args);
+    assert_eq!(out.status.code(), Some(code), "{args:?}: {}", show(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    for w in words {
+        assert!(err.contains(w), "{args:?}: {w:?} missing: {}", show(&out));
+    }
+}
+
+/// `play` of `file` on a port that does not exist: a refusal must come before it is opened.
+fn play_args(file: &str) -> [&str; 5] {
+    [
+        "play",
+        file,
+        "--port",
+        "/dev/keypose-no-such-port",
+        "--quiet",
+    ]
+}
+
 fn json_report(file: &str) -> serde_json::Value {
     let out = run(&["check", file, "--format", "json"]);
     serde_json::from_slice(&out.stdout).unwrap_or_else(|_| panic!("{}", show(&out)))
@@ -75,13 +97,9 @@ fn a_key_in_the_desk_fails_the_check_and_is_not_played() {
 
     // No timing mends it: `retime` says so, with the fix, and writes nothing.
     let retimed = dir.path().join("retimed.json");
-    let out = run(&["retime", &file, "-o", retimed.to_str().unwrap()]);
-    assert_eq!(out.status.code(), Some(1), "{}", show(&out));
-    let err = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(
-        err.contains("cannot be fixed by retiming") && err.contains("raise key 'into-desk'"),
-        "{err}"
-    );
+    let fix = "raise key 'into-desk'";
+    let retime = ["retime", &file, "-o", retimed.to_str().unwrap()];
+    refused(&retime, 1, &["cannot be fixed by retiming", fix]);
     assert!(!retimed.exists());
 
     // Every export refuses it, and writes nothing.
@@ -92,30 +110,13 @@ fn a_key_in_the_desk_fails_the_check_and_is_not_played() {
         ("lerobot", "ds"),
     ] {
         let out_file = dir.path().join(name);
-        let out = run(&["export", format, &file, "-o", out_file.to_str().unwrap()]);
-        assert_eq!(out.status.code(), Some(1), "{format}: {}", show(&out));
-        let err = String::from_utf8_lossy(&out.stderr).to_string();
-        assert!(
-            err.contains("refusing to export") && err.contains("raise key 'into-desk'"),
-            "{format}: {err}"
-        );
+        let export = ["export", format, &file, "-o", out_file.to_str().unwrap()];
+        refused(&export, 1, &["refusing to export", fix]);
         assert!(!out_file.exists(), "{format}: wrote {name}");
     }
 
     // Nothing is sent: the refusal comes before the port is opened (this one does not exist).
-    let play = run(&[
-        "play",
-        &file,
-        "--port",
-        "/dev/keypose-no-such-port",
-        "--quiet",
-    ]);
-    assert_eq!(play.status.code(), Some(1), "{}", show(&play));
-    assert!(
-        String::from_utf8_lossy(&play.stderr).contains("refusing to play"),
-        "{}",
-        show(&play)
-    );
+    refused(&play_args(&file), 1, &["refusing to play"]);
 }
 
 /// Two clear keys (the wrist at −85.5° and +85.5° with the elbow at 30°) whose path points the
@@ -210,19 +211,7 @@ fn a_declared_contact_passes_within_its_depth_and_play_asks_for_it() {
         "{}",
         show(&out)
     );
-    let play = run(&[
-        "play",
-        &deep_enough,
-        "--port",
-        "/dev/keypose-no-such-port",
-        "--quiet",
-    ]);
-    assert_eq!(play.status.code(), Some(1), "{}", show(&play));
-    assert!(
-        String::from_utf8_lossy(&play.stderr).contains("--allow-contact"),
-        "{}",
-        show(&play)
-    );
+    refused(&play_args(&deep_enough), 1, &["--allow-contact"]);
     let too_shallow = write(dir.path(), "shallow.json", &sequence(2.0));
     let out = run(&["check", &too_shallow]);
     assert_eq!(out.status.code(), Some(1), "{}", show(&out));
@@ -232,11 +221,5 @@ fn a_declared_contact_passes_within_its_depth_and_play_asks_for_it() {
         "unknown.json",
         &sequence(8.0).replace(r#""link": "gripper""#, r#""link": "tentacle""#),
     );
-    let out = run(&["check", &unknown]);
-    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
-    assert!(
-        String::from_utf8_lossy(&out.stderr).contains("$.keyframes[1].contact[0].link"),
-        "{}",
-        show(&out)
-    );
+    refused(&["check", &unknown], 2, &["$.keyframes[1].contact[0].link"]);
 }
