@@ -78,15 +78,15 @@ const ELBOW_SWING: &str = r#"{"format":"keypose-sequence/1","robot":"so101","key
 /// The arm rests with the elbow at 30° and the wrist at −85.5°, clear of the desk; the first
 /// key has the wrist at +85.5°, clear too. The approach ramp's straight line swings the gripper
 /// through the desk on the way (from about 38°, src/collision/sweep.rs), so the player refuses
-/// it before torque comes on, and not one goal is written. With the wrist resting at +20° the
-/// same key is reached.
+/// it before torque comes on, and not one goal is written. With the wrist resting at +82°,
+/// past the desk (it points the gripper at it from about 38° to 78°), the same key is reached.
 #[test]
 fn an_approach_through_the_desk_is_refused_before_anything_is_written() {
     let robot = Robot::builtin("so101").unwrap();
     let key = r#"{"format":"keypose-sequence/1","robot":"so101","keyframes":[
       {"time":0,"joints":{"elbow_flex":30,"wrist_flex":85.5}}]}"#;
     let traj = trajectory(&robot, key);
-    for (wrist, refused) in [(-85.5, true), (20.0, false)] {
+    for (wrist, refused) in [(-85.5, true), (82.0, false)] {
         let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
         for (id, value) in [(3u8, 30.0), (4, wrist)] {
             let tick = robot.joints[id as usize - 1].servo.tick_exact(value);
