@@ -3,7 +3,7 @@
 //! Derived from the geometry, not from a list per robot, so that a robot file needs no extra
 //! field and a calibrated or imported arm is judged the same way.
 
-use super::{JointKind, Robot};
+use super::{FixedFrame, JointKind, Robot};
 
 /// A revolute joint whose world axis has a vertical component below this is "horizontal":
 /// gravity can turn it (about 25° or more from vertical).
@@ -26,11 +26,33 @@ impl Robot {
     /// weight when its axis is far from horizontal.
     pub fn weight_bearing(&self, values: &[f64]) -> Vec<bool> {
         let frames = self.joint_frames(values);
-        let tcp = self
-            .tcp
-            .as_ref()
-            .and_then(|tcp| Some((tcp.parent, frames.get(tcp.parent)?.compose(&tcp.origin).t)));
-        let last = frames.last().map(|f| f.t);
+        // What each joint moves ends at its own arm's tool (a cell's arms each have theirs):
+        // (the arm's joints, its TCP as the cell numbers its joints).
+        let chains: Vec<(std::ops::Range<usize>, Option<FixedFrame>)> = if self.is_cell() {
+            self.arms
+                .iter()
+                .map(|arm| {
+                    let tcp = arm.robot.tcp.as_ref().map(|tcp| FixedFrame {
+                        parent: arm.joints.start + tcp.parent,
+                        origin: tcp.origin,
+                    });
+                    (arm.joints.clone(), tcp)
+                })
+                .collect()
+        } else {
+            vec![(0..self.joints.len(), self.tcp.clone())]
+        };
+        let distal: Vec<Option<glam::DVec3>> = (0..self.joints.len())
+            .map(|i| {
+                let (range, tcp) = chains.iter().find(|(r, _)| r.contains(&i))?;
+                match tcp {
+                    Some(tcp) if tcp.parent >= i => {
+                        Some(frames.get(tcp.parent)?.compose(&tcp.origin).t)
+                    }
+                    _ => frames.get(range.end.checked_sub(1)?).map(|f| f.t),
+                }
+            })
+            .collect();
         self.joints
             .iter()
             .zip(self.joint_axes(values))
@@ -41,10 +63,7 @@ impl Robot {
                     JointKind::Prismatic => axis.z.abs() > SLIDING_AXIS,
                     JointKind::Revolute if axis.z.abs() >= VERTICAL_AXIS => false,
                     JointKind::Revolute => {
-                        let distal = match tcp {
-                            Some((parent, point)) if parent >= i => point,
-                            _ => last.unwrap_or(anchor),
-                        };
+                        let distal = distal[i].unwrap_or(anchor);
                         (distal - anchor).reject_from(axis).length() >= MIN_LEVER_M
                     }
                 }
@@ -81,5 +100,33 @@ mod tests {
         pose[3] = -90.0;
         let bearing = robot.weight_bearing(&pose);
         assert!(bearing[LIFT] && bearing[ELBOW] && !bearing[4]);
+    }
+
+    /// Each arm of a cell carries its weight as it does alone, at the same pose: what a joint
+    /// moves ends at its own arm's tool, not at the last arm's. Poses where the distal point
+    /// decides: the arm folded so that the wrist flex's lever is its own gripper's.
+    #[test]
+    fn a_cells_arms_carry_weight_as_each_arm_alone() {
+        let so101 = Robot::builtin("so101").unwrap();
+        let apart = |y: f64| {
+            crate::pose::RigidTransform::new(glam::DVec3::new(0.0, y, 0.0), glam::DQuat::IDENTITY)
+        };
+        let cell = Robot::cell(vec![
+            ("left".into(), so101.clone(), apart(0.25)),
+            ("right".into(), so101.clone(), apart(-0.25)),
+        ])
+        .unwrap();
+        for pose in [
+            vec![0.0; 6],
+            vec![0.0, -90.0, 90.0, 0.0, 0.0, 0.0],
+            vec![30.0, -100.0, 0.0, -90.0, 0.0, 0.0],
+            vec![0.0, 0.0, 0.0, 90.0, 90.0, 0.0],
+        ] {
+            let alone = so101.weight_bearing(&pose);
+            let both: Vec<f64> = pose.iter().chain(&pose).copied().collect();
+            let in_cell = cell.weight_bearing(&both);
+            assert_eq!(in_cell[..6], alone[..], "left at {pose:?}");
+            assert_eq!(in_cell[6..], alone[..], "right at {pose:?}");
+        }
     }
 }
