@@ -68,6 +68,46 @@ fn every_example_sequence_passes_in_physics() {
     assert!(text(&out).contains(&summary), "{}", text(&out));
 }
 
+/// Every example timed as fast as the limits allow (`retime --fastest`) still passes the check
+/// and, in MuJoCo (the oracle: physics, the arm lagging its goals at speed), touches nothing:
+/// the clearance the check keeps is room enough for these arms' lag at their speed limits.
+#[test]
+fn every_example_at_its_fastest_passes_the_check_and_touches_nothing_in_physics() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut fastest = Vec::new();
+    for entry in std::fs::read_dir(repo("sequences")).unwrap() {
+        let path = entry.unwrap().path();
+        let out_file = dir.path().join(path.file_name().unwrap());
+        let out = keypose(&[
+            "retime",
+            "--fastest",
+            path.to_str().unwrap(),
+            "-o",
+            out_file.to_str().unwrap(),
+        ]);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{}: {}",
+            path.display(),
+            text(&out)
+        );
+        let check = keypose(&["check", out_file.to_str().unwrap()]);
+        assert_eq!(check.status.code(), Some(0), "{}", text(&check));
+        fastest.push(out_file.display().to_string());
+    }
+    let mut args = vec!["sim"];
+    args.extend(fastest.iter().map(String::as_str));
+    let out = keypose(&args);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    assert_eq!(
+        text(&out).matches("\nPASSED: no collisions").count(),
+        fastest.len(),
+        "{}",
+        text(&out)
+    );
+}
+
 #[test]
 fn a_pose_through_the_floor_is_caught() {
     let dir = tempfile::tempdir().unwrap();
