@@ -172,6 +172,9 @@ def long_pan(tmp_path: Path) -> Path:
 
 def test_ctrl_c_brakes_to_rest_along_the_path_and_holds_with_torque_on(so101, tmp_path):
     sent = interrupting(so101, at=[120])
+    # What the process had before: Python's own handler, or SIG_IGN in a process started in
+    # the background, which inherits it.
+    before = signal.getsignal(signal.SIGINT)
     result = keypose.lerobot.play(so101, long_pan(tmp_path), rate=50.0)
     assert result["outcome"] == "stopped"
     pan = ticks_sent(so101, sent, "shoulder_pan")
@@ -184,8 +187,8 @@ def test_ctrl_c_brakes_to_rest_along_the_path_and_holds_with_torque_on(so101, tm
     assert after[-1] <= 1 and pan[-1] < keypose_ticks(90)
     # Holding there, torque on (LeRobot's read of the servos' register).
     assert all(so101.bus.read("Torque_Enable", m) == 1 for m in SO101_JOINTS)
-    # Python's own Ctrl-C handler is back.
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    # The Ctrl-C handler the process had is back.
+    assert signal.getsignal(signal.SIGINT) is before
 
 
 def test_a_second_ctrl_c_holds_at_once(so101, tmp_path):
