@@ -120,6 +120,42 @@ class Simulator:
             out.append(None if least >= distmax else least)
         return {"distances": out}
 
+    def pose_inverse(self, model, req):
+        """The generalized force each joint needs for the asked motion: mj_inverse at the asked
+        qpos, qvel and qacc (joint: value; others at qpos0 and at rest), reply per joint.
+
+        Rigid-body dynamics with gravity and the joints' armature, nothing else: joint damping
+        (the servo's back-EMF, which its torque-speed line covers), friction loss, springs and
+        every constraint (limits, contacts, equalities) are switched off for the call and put
+        back after. This is the oracle of keypose's own inverse dynamics; a joint an equality
+        ties to another (the OMX's second finger) gets its own force, for the caller to add
+        through the equality's coefficient.
+        """
+        mujoco, m, d = self.mujoco, model.m, model.scratch
+        model.set_request_qpos(d, req)
+        d.qvel[:] = 0
+        d.qacc[:] = 0
+        for field, target in (("qvel", d.qvel), ("qacc", d.qacc)):
+            values = member(req, field)
+            if not isinstance(values, dict):
+                raise request_error(f"{field!r} must be an object of joint: value, not {json.dumps(values)[:200]}")
+            for joint_name, value in values.items():
+                if not is_number(value):
+                    raise request_error(f"{field} of {joint_name!r} must be a finite number, not {json.dumps(value)}")
+                target[m.jnt_dofadr[model.joint(joint_name)]] = float(value)
+        kept = (m.dof_damping.copy(), m.dof_frictionloss.copy(), m.jnt_stiffness.copy(), int(m.opt.disableflags))
+        try:
+            m.dof_damping[:] = 0
+            m.dof_frictionloss[:] = 0
+            m.jnt_stiffness[:] = 0
+            m.opt.disableflags = kept[3] | int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+            mujoco.mj_inverse(m, d)
+            force = {name: float(d.qfrc_inverse[m.jnt_dofadr[j]]) for name, j in model.joint_ids.items()}
+        finally:
+            m.dof_damping[:], m.dof_frictionloss[:], m.jnt_stiffness[:] = kept[0], kept[1], kept[2]
+            m.opt.disableflags = kept[3]
+        return {"force": force}
+
     def _run_request(self, model, req):
         """The run request's joints, rate, reset flag, initial values and commands, checked."""
         np, m = self.np, model.m

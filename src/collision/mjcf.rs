@@ -1,16 +1,20 @@
-//! What the collision check reads of an MJCF model: the body tree (each body's frame in its
-//! parent's, its joint), the collision shapes (boxes and capsules, as the built-in models
-//! have them; spheres too), the excluded body pairs and the mimic joints.
+//! What keypose reads of an MJCF model's bodies: the body tree (each body's frame in its
+//! parent's, its joint at the body's origin, as keypose's models place them, its mass), the
+//! collision shapes (boxes and capsules, as the built-in models have them; spheres too), the
+//! excluded body pairs and the mimic joints. The collision check and the inverse dynamics
+//! (`robot::dynamics`) read the same tree, so both see the arm alike.
 
 use super::gjk::Core;
 use crate::pose::RigidTransform;
-use crate::robot::mjcf::{child, frame, mimics, numbers, vector, AttributeError, Mimic};
+use crate::robot::mjcf::{
+    child, frame, inertial, mimics, numbers, vector, AttributeError, Inertial, Mimic,
+};
 use crate::robot::JointKind;
 use glam::DVec3;
 
 /// A shape in its body's frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) enum Shape {
+pub(crate) enum Shape {
     /// A segment swept by a radius (a capsule; a sphere when the ends coincide).
     Swept { a: DVec3, b: DVec3, radius: f64 },
     /// A box: its frame and half sizes.
@@ -19,7 +23,7 @@ pub(super) enum Shape {
 
 impl Shape {
     /// Its core in the world and its radius, the body at `frame`.
-    pub(super) fn placed(&self, frame: &RigidTransform) -> (Core, f64) {
+    pub(crate) fn placed(&self, frame: &RigidTransform) -> (Core, f64) {
         match *self {
             Shape::Swept { a, b, radius } => (
                 Core::Segment {
@@ -45,29 +49,31 @@ impl Shape {
 }
 
 #[derive(Debug, Clone, PartialEq)]
-pub(super) struct Joint {
+pub(crate) struct Joint {
     pub name: String,
     pub kind: JointKind,
     pub axis: DVec3,
 }
 
 #[derive(Debug, Clone, PartialEq)]
-pub(super) struct Body {
+pub(crate) struct Body {
     pub name: String,
     /// Index among the model's bodies; `None` under the world body.
     pub parent: Option<usize>,
     pub origin: RigidTransform,
     pub joint: Option<Joint>,
+    /// Its mass properties; `None` where the model gives none.
+    pub inertial: Option<Inertial>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
-pub(super) struct Geom {
+pub(crate) struct Geom {
     pub body: usize,
     pub shape: Shape,
 }
 
 #[derive(Debug, Clone, Default)]
-pub(super) struct Model {
+pub(crate) struct Model {
     /// Parents before children.
     pub bodies: Vec<Body>,
     pub geoms: Vec<Geom>,
@@ -77,7 +83,7 @@ pub(super) struct Model {
 
 /// Why a model cannot be read for the check.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub(super) enum MjcfError {
+pub(crate) enum MjcfError {
     #[error("not XML: {0}")]
     Xml(String),
     #[error(transparent)]
@@ -86,7 +92,7 @@ pub(super) enum MjcfError {
     UnknownBody(String),
 }
 
-pub(super) fn parse(text: &str) -> Result<Model, MjcfError> {
+pub(crate) fn parse(text: &str) -> Result<Model, MjcfError> {
     let doc = roxmltree::Document::parse(text).map_err(|e| MjcfError::Xml(e.to_string()))?;
     let root = doc.root_element();
     let mut model = Model::default();
@@ -135,6 +141,7 @@ fn read_body(
         parent,
         origin: frame(node)?,
         joint,
+        inertial: inertial(node)?,
     });
     for g in node.children().filter(|n| n.has_tag_name("geom")) {
         if let Some(shape) = shape(&g)? {

@@ -10,7 +10,7 @@
 //! A robot without a built-in model has no collision model (nothing is checked).
 
 mod gjk;
-mod mjcf;
+pub(crate) mod mjcf;
 mod reach;
 pub(crate) mod sweep;
 
@@ -82,7 +82,7 @@ impl Touch {
 
 /// How a body moves with the robot's values.
 #[derive(Debug, Clone, PartialEq)]
-enum Motion {
+pub(crate) enum Motion {
     Fixed,
     /// The robot's joint `index`.
     Joint {
@@ -98,6 +98,38 @@ enum Motion {
         offset: f64,
         scale: f64,
     },
+}
+
+impl Motion {
+    /// How a body with `joint` of the model `parsed` moves, the robot's joints numbered from
+    /// `first`; `None` when the joint is neither the robot's nor a mimic of one.
+    pub(crate) fn of(
+        joint: Option<&mjcf::Joint>,
+        parsed: &mjcf::Model,
+        robot: &Robot,
+        first: usize,
+    ) -> Option<Motion> {
+        let Some(joint) = joint else {
+            return Some(Motion::Fixed);
+        };
+        Some(match robot.joint_index(&joint.name) {
+            Some(index) => Motion::Joint {
+                index: first + index,
+                kind: joint.kind,
+                axis: joint.axis,
+            },
+            None => {
+                let mimic = parsed.mimics.iter().find(|m| m.joint == joint.name)?;
+                Motion::Mimic {
+                    index: first + robot.joint_index(&mimic.follows)?,
+                    kind: joint.kind,
+                    axis: joint.axis,
+                    offset: mimic.offset,
+                    scale: mimic.scale,
+                }
+            }
+        })
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -225,26 +257,7 @@ impl CollisionModel {
             None => n.to_string(),
         };
         for body in &parsed.bodies {
-            let motion = match &body.joint {
-                None => Motion::Fixed,
-                Some(joint) => match robot.joint_index(&joint.name) {
-                    Some(index) => Motion::Joint {
-                        index: first + index,
-                        kind: joint.kind,
-                        axis: joint.axis,
-                    },
-                    None => {
-                        let mimic = parsed.mimics.iter().find(|m| m.joint == joint.name)?;
-                        Motion::Mimic {
-                            index: first + robot.joint_index(&mimic.follows)?,
-                            kind: joint.kind,
-                            axis: joint.axis,
-                            offset: mimic.offset,
-                            scale: mimic.scale,
-                        }
-                    }
-                },
-            };
+            let motion = Motion::of(body.joint.as_ref(), parsed, robot, first)?;
             let parent = body.parent.map(|p| offset + p);
             let fixed = motion == Motion::Fixed && parent.is_none_or(|p| self.bodies[p].fixed);
             let link = match (&body.joint, parent) {

@@ -84,6 +84,8 @@ impl Robot {
             arms: Vec::with_capacity(arms.len()),
             // The cell keeps the largest clearance any arm asks for.
             clearance: arms.iter().map(|(_, r, _)| r.clearance).fold(0.0, f64::max),
+            // Each arm carries its own.
+            payload: None,
         };
         for (name, robot, base) in arms {
             if cell.arms.iter().any(|a| a.name == name) {

@@ -21,6 +21,8 @@ pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
         "tcp",
         "home",
         "clearance_mm",
+        "supply_v",
+        "payload",
     ])?;
     let name = root.require("name", "the robot's name")?.name("a name")?;
     let description = match root.get("description") {
@@ -34,6 +36,10 @@ pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
         return Err(hz_node.expected("a control rate above 0 and at most 2000 Hz"));
     }
 
+    let supply_v = match root.get("supply_v") {
+        Some(node) => Some(parse_supply(&node)?),
+        None => None,
+    };
     let joints_node = root.require("joints", "the joint chain")?;
     let items = joints_node.items()?;
     if items.is_empty() {
@@ -41,7 +47,7 @@ pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
     }
     let mut joints: Vec<Joint> = Vec::with_capacity(items.len());
     for item in &items {
-        let joint = parse_joint(item, bus.protocol)?;
+        let joint = parse_joint(item, bus.protocol, supply_v)?;
         if joints.iter().any(|j| j.name == joint.name) {
             return Err(item.error(format!("duplicate joint name {:?}", joint.name)));
         }
@@ -98,6 +104,11 @@ pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
         }
     } / 1000.0;
 
+    let payload = match root.get("payload") {
+        Some(node) => Some(parse_payload(&node)?),
+        None => None,
+    };
+
     Ok(Robot {
         name: name.to_string(),
         source: super::RobotSource::File(file.into()),
@@ -110,7 +121,29 @@ pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
         lerobot: None,
         arms: Vec::new(),
         clearance,
+        payload,
     })
+}
+
+/// `"payload": {"mass": KG, "com": [x, y, z]}`, the centre of mass in the TCP's frame.
+fn parse_payload(node: &Node) -> Result<super::Payload, InputError> {
+    node.only_fields(&["mass", "com"])?;
+    let mass_node = node.require("mass", "the payload's mass in kilograms")?;
+    let mass = mass_node.number("kilograms")?;
+    if !(0.0..=super::MAX_PAYLOAD_KG).contains(&mass) {
+        return Err(mass_node.expected(&format!(
+            "a mass from 0 to {} kg",
+            super::MAX_PAYLOAD_KG
+        )));
+    }
+    let com = match node.get("com") {
+        None => DVec3::ZERO,
+        Some(n) => {
+            let v = n.numbers::<3>("[x, y, z] in metres")?;
+            DVec3::new(v[0], v[1], v[2])
+        }
+    };
+    Ok(super::Payload { mass, com })
 }
 
 /// The largest clearance a robot file or `--clearance` may ask for, millimetres: more keeps
@@ -140,7 +173,11 @@ fn parse_bus(node: &Node) -> Result<BusSettings, InputError> {
     Ok(BusSettings { protocol, baud })
 }
 
-fn parse_joint(node: &Node, protocol: Protocol) -> Result<Joint, InputError> {
+fn parse_joint(
+    node: &Node,
+    protocol: Protocol,
+    supply_v: Option<f64>,
+) -> Result<Joint, InputError> {
     node.only_fields(&["name", "kind", "axis", "origin", "limits", "servo"])?;
     let name = node.require("name", "the joint's name")?.name("a name")?;
     if name.is_empty() {
@@ -162,7 +199,12 @@ fn parse_joint(node: &Node, protocol: Protocol) -> Result<Joint, InputError> {
         &node.require("limits", "position, velocity, acceleration")?,
         kind,
     )?;
-    let servo = parse_servo(&node.require("servo", "the servo mapping")?, kind, protocol)?;
+    let servo = parse_servo(
+        &node.require("servo", "the servo mapping")?,
+        kind,
+        protocol,
+        supply_v,
+    )?;
     Ok(Joint {
         name: name.to_string(),
         kind,
@@ -254,7 +296,12 @@ fn parse_limits(node: &Node, kind: JointKind) -> Result<Limits, InputError> {
     })
 }
 
-fn parse_servo(node: &Node, kind: JointKind, protocol: Protocol) -> Result<Servo, InputError> {
+fn parse_servo(
+    node: &Node,
+    kind: JointKind,
+    protocol: Protocol,
+    robot_supply_v: Option<f64>,
+) -> Result<Servo, InputError> {
     node.only_fields(&[
         "id",
         "model",
@@ -262,6 +309,8 @@ fn parse_servo(node: &Node, kind: JointKind, protocol: Protocol) -> Result<Servo
         "direction",
         "metres_per_tick",
         "homing_offset",
+        "variant",
+        "supply_v",
     ])?;
     let id = node
         .require("id", "the servo id")?
@@ -306,6 +355,39 @@ fn parse_servo(node: &Node, kind: JointKind, protocol: Protocol) -> Result<Servo
         Some(n) => Some(n.integer("homing offset ticks", -1_048_575, 1_048_575)?),
         None => None,
     };
+    let variant = match node.get("variant") {
+        None => model.default_variant(),
+        Some(n) => {
+            let names: Vec<&str> = model.variants().map(|v| v.name).collect();
+            model
+                .variant(n.str("a servo variant")?)
+                .ok_or_else(|| n.expected(&format!("one of {} (variants of {})", names.join(", "), model.name())))?
+        }
+    };
+    let supply_v = match node.get("supply_v") {
+        Some(n) => {
+            let v = parse_supply(&n)?;
+            if variant.at(v).is_none() && !variant.drives.is_empty() {
+                return Err(n.expected(&format!(
+                    "a supply {} is rated for: {}",
+                    variant.name,
+                    variant.supplies()
+                )));
+            }
+            v
+        }
+        None => match robot_supply_v {
+            Some(v) if variant.at(v).is_some() || variant.drives.is_empty() => v,
+            Some(v) => {
+                return Err(node.error(format!(
+                    "the robot's supply_v {v} V is not one {} is rated for ({}); give this servo its own supply_v",
+                    variant.name,
+                    variant.supplies()
+                )))
+            }
+            None => variant.drives.first().map_or(0.0, |d| d.supply_v),
+        },
+    };
     Ok(Servo {
         id,
         model,
@@ -313,7 +395,18 @@ fn parse_servo(node: &Node, kind: JointKind, protocol: Protocol) -> Result<Servo
         direction,
         units_per_tick,
         homing_offset,
+        variant,
+        supply_v,
     })
+}
+
+/// A supply voltage: what hobby and research servos run on.
+fn parse_supply(node: &Node) -> Result<f64, InputError> {
+    let v = node.number("volts")?;
+    if !(v > 0.0 && v <= 48.0) {
+        return Err(node.expected("a supply above 0 and at most 48 V"));
+    }
+    Ok(v)
 }
 
 fn parse_tcp(node: &Node, joints: &[Joint]) -> Result<FixedFrame, InputError> {

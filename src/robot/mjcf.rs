@@ -81,6 +81,45 @@ pub(crate) fn frame(node: &roxmltree::Node) -> Result<RigidTransform, AttributeE
     ))
 }
 
+/// A body's mass properties: `<inertial pos quat mass diaginertia|fullinertia>`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Inertial {
+    /// Kilograms.
+    pub mass: f64,
+    /// The centre of mass in the body's frame, metres.
+    pub com: DVec3,
+    /// The inertia about the centre of mass, in the body's frame's axes, kg·m².
+    pub inertia: glam::DMat3,
+}
+
+/// The body's `<inertial>`, `None` where it has none. `fullinertia` is the matrix in the
+/// body's axes (M11 M22 M33 M12 M13 M23, MuJoCo's order); `diaginertia` the principal moments
+/// along the axes `quat` turns the body's into.
+pub(crate) fn inertial(body: &roxmltree::Node) -> Result<Option<Inertial>, AttributeError> {
+    let Some(node) = child(body, "inertial") else {
+        return Ok(None);
+    };
+    let frame = frame(&node)?;
+    let mass = numbers(&node, "mass", "", 1)?[0];
+    let inertia = if node.has_attribute("fullinertia") {
+        let m = numbers(&node, "fullinertia", "", 6)?;
+        glam::DMat3::from_cols(
+            DVec3::new(m[0], m[3], m[4]),
+            DVec3::new(m[3], m[1], m[5]),
+            DVec3::new(m[4], m[5], m[2]),
+        )
+    } else {
+        let d = vector(&node, "diaginertia", "")?;
+        let r = glam::DMat3::from_quat(frame.r);
+        r * glam::DMat3::from_diagonal(d) * r.transpose()
+    };
+    Ok(Some(Inertial {
+        mass,
+        com: frame.t,
+        inertia,
+    }))
+}
+
 /// `<equality><joint joint1 joint2 polycoef>`: `joint` = offset + scale · `follows`, in the
 /// model's units (the OMX's second gripper finger follows the first).
 #[derive(Debug, Clone, PartialEq)]
@@ -154,6 +193,26 @@ mod tests {
             (m[1].joint.as_str(), m[1].offset, m[1].scale),
             ("c", 0.0, 1.0)
         );
+    }
+
+    #[test]
+    fn an_inertial_turns_its_principal_moments_into_the_bodys_axes() {
+        // Moments 1, 2, 3 along axes turned a quarter about z: the body's x sees the second.
+        let doc = element(
+            r#"<body><inertial pos="0 0 0.1" quat="0.7071068 0 0 0.7071068" mass="2" diaginertia="1 2 3"/></body>"#,
+        );
+        let i = inertial(&doc.root_element()).unwrap().unwrap();
+        assert_eq!((i.mass, i.com), (2.0, DVec3::new(0.0, 0.0, 0.1)));
+        assert!((i.inertia.x_axis.x - 2.0).abs() < 1e-6);
+        assert!((i.inertia.y_axis.y - 1.0).abs() < 1e-6);
+        assert!((i.inertia.z_axis.z - 3.0).abs() < 1e-12);
+        let full = element(
+            r#"<body><inertial mass="1" fullinertia="1 2 3 0.1 0.2 0.3"/></body>"#,
+        );
+        let i = inertial(&full.root_element()).unwrap().unwrap();
+        assert_eq!(i.inertia.col(1), DVec3::new(0.1, 2.0, 0.3));
+        assert_eq!(i.inertia.col(2), DVec3::new(0.2, 0.3, 3.0));
+        assert_eq!(inertial(&element("<body/>").root_element()).unwrap(), None);
     }
 
     #[test]

@@ -8,6 +8,7 @@
 
 pub(crate) mod builtin;
 mod cell;
+pub mod dynamics;
 mod gravity;
 mod lerobot;
 mod lerobot_names;
@@ -318,7 +319,23 @@ pub struct Robot {
     /// reports it, metres: the robot file's `clearance_mm` (default
     /// [`DEFAULT_CLEARANCE_MM`]), or `--clearance`.
     pub clearance: f64,
+    /// What the tool carries: the robot file's `payload`, or `--payload`.
+    pub payload: Option<Payload>,
 }
+
+/// A load the tool carries, as a point mass.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Payload {
+    /// Kilograms.
+    pub mass: f64,
+    /// Its centre of mass in the TCP's frame (the last joint's frame where the robot has no
+    /// TCP), metres.
+    pub com: glam::DVec3,
+}
+
+/// The heaviest payload a robot file or `--payload` may give, kilograms: ten times what any
+/// supported arm lifts, so a typo in grams is caught.
+pub const MAX_PAYLOAD_KG: f64 = 10.0;
 
 /// The clearance the check keeps when the robot file gives none, millimetres: room for the
 /// collision model's shapes against the real parts and for a few tenths of a degree of
@@ -398,6 +415,7 @@ impl Robot {
             lerobot: self.lerobot,
             arms: Vec::new(),
             clearance: self.clearance,
+            payload: self.payload,
         }
     }
 

@@ -6,7 +6,7 @@
 //! tick is then encoded the protocol's way ([`PositionEncoding`]): Dynamixel uses 32-bit two's
 //! complement, Feetech STS a sign bit over a magnitude, Feetech SCS plain unsigned 16 bits.
 
-pub use crate::servo::{PositionEncoding, ServoModel, TickError, Vendor};
+pub use crate::servo::{Drive, PositionEncoding, ServoModel, TickError, Variant, Vendor};
 
 /// A joint's servo: which one on the bus, what model, and how its ticks map to joint values.
 #[derive(Debug, Clone, PartialEq)]
@@ -23,9 +23,30 @@ pub struct Servo {
     pub units_per_tick: f64,
     /// The homing offset the servo is calibrated with, when known; checked against the servo.
     pub homing_offset: Option<i64>,
+    /// Its variant (gear and winding): the robot file's `variant`, else the model's default.
+    pub variant: &'static Variant,
+    /// Its supply, volts: the servo's `supply_v`, else the robot's, else the variant's first.
+    pub supply_v: f64,
 }
 
 impl Servo {
+    /// What it drives at its supply; `None` where its variant has no published data.
+    pub fn drive(&self) -> Option<&'static Drive> {
+        self.variant.at(self.supply_v)
+    }
+
+    /// Joint units, SI (radians of a revolute joint, metres of a prismatic one), per radian
+    /// of the servo's output shaft: 1 for a revolute joint on the shaft, the pinion's radius
+    /// for a rack. A joint's torque (or force) times it is the servo's torque; the servo's
+    /// speed is the joint's over it.
+    pub fn transmission(&self, kind: super::JointKind) -> f64 {
+        let per_revolution = self.units_per_tick * self.model.spec().ticks_per_revolution;
+        match kind {
+            super::JointKind::Revolute => per_revolution / 360.0,
+            super::JointKind::Prismatic => per_revolution / std::f64::consts::TAU,
+        }
+    }
+
     /// Exact (unrounded) tick for a joint value.
     pub fn tick_exact(&self, value: f64) -> f64 {
         self.zero_tick + self.direction * value / self.units_per_tick

@@ -13,6 +13,8 @@
 //!   ([`RegisterTable`], `table`), the full table as the manual lists it (`item`), the alarm
 //!   bits ([`AlarmBits`], `alarms`), the motion-profile registers ([`ProfileRegister`],
 //!   `profile`).
+//! - What it drives ([`Drive`], `drive`): per variant and supply, the torque-speed line, the
+//!   continuous rating, stiffness and rotor inertia, each with how it is known.
 //!
 //! A new model of an existing family is one more description here and its variant in
 //! [`ServoModel`]. What the vendor's firmware does with these numbers (how the homing offset
@@ -20,6 +22,7 @@
 //! vendor's, beside its codec in `bus::protocol`.
 
 mod alarms;
+pub mod drive;
 pub mod dynamixel_x;
 pub mod item;
 mod model;
@@ -30,6 +33,7 @@ pub mod sts3215;
 mod table;
 
 pub use alarms::{AlarmBits, Alarms};
+pub use drive::{Basis, Drive, Rated, Variant, CONTINUOUS_FRACTION};
 pub use model::{model_from_number, ExtendedMode, ModelSpec, Modes, ServoModel};
 pub use profile::{DriveModeBits, Limit, ProfileRegister, Setting};
 pub use protocol::{PositionEncoding, Protocol, TickError, Vendor};

@@ -22,6 +22,7 @@ use crate::plan::Trajectory;
 use crate::plan::{Phase, Timeline, TimelineOptions};
 use crate::python::{Harness, HarnessError, HarnessOptions, PyConfig, PyEnvError};
 use crate::robot::{JointKind, Robot};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 use verdict::{Contact, ContactKind, Trace};
@@ -521,6 +522,36 @@ impl Simulation {
         let reply = self.harness.request(&request)?;
         let reply: wire::DistancesReply = wire::parse(reply, "distances")?;
         Ok(reply.distances)
+    }
+}
+
+impl Simulation {
+    /// MuJoCo's inverse dynamics of one state of motion (joint units and their rates, joint
+    /// order): every model joint's generalized force (N·m for a hinge, N for a slide), from
+    /// gravity, inertia and armature alone. The oracle of `robot::dynamics`; joints the robot
+    /// does not have (a mimic finger) are in the reply too.
+    pub fn pose_inverse(
+        &mut self,
+        robot: &Robot,
+        values: &[f64],
+        velocities: &[f64],
+        accelerations: &[f64],
+    ) -> Result<BTreeMap<String, f64>, SimError> {
+        let named = |v: &[f64]| -> BTreeMap<&str, f64> {
+            self.joints
+                .iter()
+                .map(String::as_str)
+                .zip(to_model(robot, v))
+                .collect()
+        };
+        let request = Request::Inverse {
+            qpos: named(values),
+            qvel: named(velocities),
+            qacc: named(accelerations),
+        };
+        let reply = self.harness.request(&request)?;
+        let reply: wire::InverseReply = wire::parse(reply, "inverse")?;
+        Ok(reply.force)
     }
 }
 

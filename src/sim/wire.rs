@@ -29,6 +29,16 @@ pub(super) enum Request<'a> {
         pairs: Vec<[Option<&'a str>; 2]>,
         distmax: f64,
     },
+    /// Each joint's generalized force for one state of motion (`mj_inverse`), gravity,
+    /// inertia and armature only.
+    Inverse {
+        /// Model joint name → position.
+        qpos: BTreeMap<&'a str, f64>,
+        /// Model joint name → velocity.
+        qvel: BTreeMap<&'a str, f64>,
+        /// Model joint name → acceleration.
+        qacc: BTreeMap<&'a str, f64>,
+    },
     /// Commands held one control period each, the trace recorded after each.
     Run {
         joints: &'a [String],
@@ -198,6 +208,12 @@ pub(super) struct ContactsReply {
 #[derive(Debug, Deserialize)]
 pub(super) struct DistancesReply {
     pub distances: Vec<Option<f64>>,
+}
+
+/// The `inverse` reply: every model joint's generalized force, N·m or N.
+#[derive(Debug, Deserialize)]
+pub(super) struct InverseReply {
+    pub force: BTreeMap<String, f64>,
 }
 
 /// A penetrating contact.
