@@ -12,7 +12,7 @@ from types import SimpleNamespace
 
 from harness_io import member
 from sim_profile import ServoProfile, profile_limits
-from sim_requests import SimError, matrix, number, request_error, string_list, vector
+from sim_requests import SimError, is_number, matrix, number, request_error, string_list, vector
 
 # Decimals kept in a run's trace.
 TRACE_DECIMALS = 9

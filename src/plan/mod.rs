@@ -17,6 +17,7 @@ mod fastest;
 mod retime;
 mod sampled;
 pub mod scurve;
+mod states;
 mod timeline;
 mod timing;
 mod tool_keys;
@@ -36,6 +37,7 @@ pub use clearance::{approach_refusal, ClearanceScope, Contact, ContactCause, Con
 pub use fastest::{fastest, FastestOutcome, FastestRun};
 pub use retime::{advice, retime, RetimeOutcome, MAX_STRETCH};
 pub use sampled::Sampled;
+pub use states::{Side, State, States};
 pub use timeline::{Loops, Phase, Timeline, TimelineOptions};
 pub use timing::{Timing, TimingPiece};
 pub use tool_keys::{KeyMargin, LineExcess, LineReport, LineSpeed, ToolKeyReport, ToolSolve};

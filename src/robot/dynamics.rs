@@ -17,8 +17,8 @@
 use super::{JointKind, Payload, Robot};
 use crate::collision::mjcf;
 use crate::collision::Motion;
-use crate::robot::mjcf::Inertial;
 use crate::pose::RigidTransform;
+use crate::robot::mjcf::Inertial;
 use glam::{DMat3, DQuat, DVec3};
 use std::ops::Range;
 
@@ -122,7 +122,11 @@ impl Dynamics {
             .joints
             .iter()
             .zip(&transmission)
-            .map(|(j, n)| j.servo.drive().map_or(0.0, |d| d.rotor_inertia.value / (n * n)))
+            .map(|(j, n)| {
+                j.servo
+                    .drive()
+                    .map_or(0.0, |d| d.rotor_inertia.value / (n * n))
+            })
             .collect();
         Ok(Dynamics {
             chains,
@@ -135,9 +139,18 @@ impl Dynamics {
     /// Each joint's generalized force, N·m for a revolute joint and N for a prismatic one, to
     /// move at `values` with `velocities` and `accelerations` (joint units: degrees or metres,
     /// per second, per second squared; robot order).
-    pub fn joint_forces(&self, values: &[f64], velocities: &[f64], accelerations: &[f64]) -> Vec<f64> {
+    pub fn joint_forces(
+        &self,
+        values: &[f64],
+        velocities: &[f64],
+        accelerations: &[f64],
+    ) -> Vec<f64> {
         let si = |v: &[f64]| -> Vec<f64> {
-            self.kinds.iter().zip(v).map(|(&k, &x)| to_si(k, x)).collect()
+            self.kinds
+                .iter()
+                .zip(v)
+                .map(|(&k, &x)| to_si(k, x))
+                .collect()
         };
         let (q, qd, qdd) = (si(values), si(velocities), si(accelerations));
         let mut force = vec![0.0; self.kinds.len()];
@@ -152,7 +165,12 @@ impl Dynamics {
 
     /// Each servo's torque at its output shaft, N·m: [`Dynamics::joint_forces`] through the
     /// joint's transmission.
-    pub fn servo_torques(&self, values: &[f64], velocities: &[f64], accelerations: &[f64]) -> Vec<f64> {
+    pub fn servo_torques(
+        &self,
+        values: &[f64],
+        velocities: &[f64],
+        accelerations: &[f64],
+    ) -> Vec<f64> {
         let mut torque = self.joint_forces(values, velocities, accelerations);
         for (t, n) in torque.iter_mut().zip(&self.transmission) {
             *t *= n;
@@ -229,7 +247,11 @@ impl Chain {
                     offset,
                     scale,
                     ..
-                } => (offset + scale * q[*index], scale * qd[*index], scale * qdd[*index]),
+                } => (
+                    offset + scale * q[*index],
+                    scale * qd[*index],
+                    scale * qdd[*index],
+                ),
             };
             let placed = parent.frame.compose(&link.origin);
             let reach = placed.t - parent.frame.t;
@@ -294,12 +316,17 @@ fn chain(robot: &Robot, joints: Range<usize>, gravity: DVec3) -> Result<Chain, D
     })?;
     let mut links = Vec::with_capacity(parsed.bodies.len() + 1);
     for body in &parsed.bodies {
-        let motion = Motion::of(body.joint.as_ref(), &parsed, robot, joints.start).ok_or_else(
-            || DynamicsError::UnknownJoint {
-                robot: robot.name.clone(),
-                joint: body.joint.as_ref().map(|j| j.name.clone()).unwrap_or_default(),
-            },
-        )?;
+        let motion =
+            Motion::of(body.joint.as_ref(), &parsed, robot, joints.start).ok_or_else(|| {
+                DynamicsError::UnknownJoint {
+                    robot: robot.name.clone(),
+                    joint: body
+                        .joint
+                        .as_ref()
+                        .map(|j| j.name.clone())
+                        .unwrap_or_default(),
+                }
+            })?;
         let inertial = match body.inertial {
             Some(i) => i,
             // A fixed body without mass carries nothing that moves.

@@ -131,10 +131,7 @@ fn parse_payload(node: &Node) -> Result<super::Payload, InputError> {
     let mass_node = node.require("mass", "the payload's mass in kilograms")?;
     let mass = mass_node.number("kilograms")?;
     if !(0.0..=super::MAX_PAYLOAD_KG).contains(&mass) {
-        return Err(mass_node.expected(&format!(
-            "a mass from 0 to {} kg",
-            super::MAX_PAYLOAD_KG
-        )));
+        return Err(mass_node.expected(&format!("a mass from 0 to {} kg", super::MAX_PAYLOAD_KG)));
     }
     let com = match node.get("com") {
         None => DVec3::ZERO,
@@ -359,9 +356,13 @@ fn parse_servo(
         None => model.default_variant(),
         Some(n) => {
             let names: Vec<&str> = model.variants().map(|v| v.name).collect();
-            model
-                .variant(n.str("a servo variant")?)
-                .ok_or_else(|| n.expected(&format!("one of {} (variants of {})", names.join(", "), model.name())))?
+            model.variant(n.str("a servo variant")?).ok_or_else(|| {
+                n.expected(&format!(
+                    "one of {} (variants of {})",
+                    names.join(", "),
+                    model.name()
+                ))
+            })?
         }
     };
     let supply_v = match node.get("supply_v") {

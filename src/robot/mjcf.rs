@@ -206,9 +206,7 @@ mod tests {
         assert!((i.inertia.x_axis.x - 2.0).abs() < 1e-6);
         assert!((i.inertia.y_axis.y - 1.0).abs() < 1e-6);
         assert!((i.inertia.z_axis.z - 3.0).abs() < 1e-12);
-        let full = element(
-            r#"<body><inertial mass="1" fullinertia="1 2 3 0.1 0.2 0.3"/></body>"#,
-        );
+        let full = element(r#"<body><inertial mass="1" fullinertia="1 2 3 0.1 0.2 0.3"/></body>"#);
         let i = inertial(&full.root_element()).unwrap().unwrap();
         assert_eq!(i.inertia.col(1), DVec3::new(0.1, 2.0, 0.3));
         assert_eq!(i.inertia.col(2), DVec3::new(0.2, 0.3, 3.0));

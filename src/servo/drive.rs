@@ -149,7 +149,11 @@ impl Variant {
 
     /// The supplies it is rated for, as "5, 6, 7.4 V".
     pub fn supplies(&self) -> String {
-        let volts: Vec<String> = self.drives.iter().map(|d| format!("{}", d.supply_v)).collect();
+        let volts: Vec<String> = self
+            .drives
+            .iter()
+            .map(|d| format!("{}", d.supply_v))
+            .collect();
         format!("{} V", volts.join(", "))
     }
 }
@@ -354,7 +358,11 @@ mod tests {
             assert_eq!(model.default_variant().model, model);
         }
         for (i, a) in VARIANTS.iter().enumerate() {
-            assert!(VARIANTS[i + 1..].iter().all(|b| b.name != a.name), "{}", a.name);
+            assert!(
+                VARIANTS[i + 1..].iter().all(|b| b.name != a.name),
+                "{}",
+                a.name
+            );
         }
         // The standard SO-101's servo on its 5 V supply is the default.
         let c001 = ServoModel::Sts3215.default_variant();
@@ -380,7 +388,14 @@ mod tests {
         // (docs/robots.md §6, "Predicted sag").
         let d = ServoModel::Sts3215.default_variant().at(5.0).unwrap();
         assert!((d.droop(0.86).to_degrees() - 8.21).abs() < 0.01);
-        assert!(ServoModel::Sts3215.variant("c046").unwrap().at(5.0).is_none());
-        assert_eq!(ServoModel::Xl430W250.default_variant().supplies(), "12, 11.1, 9 V");
+        assert!(ServoModel::Sts3215
+            .variant("c046")
+            .unwrap()
+            .at(5.0)
+            .is_none());
+        assert_eq!(
+            ServoModel::Xl430W250.default_variant().supplies(),
+            "12, 11.1, 9 V"
+        );
     }
 }

@@ -145,3 +145,21 @@ impl Drop for VirtualBusProcess {
         let _ = self.child.wait();
     }
 }
+
+/// A small deterministic generator (xorshift), so a failure can be replayed.
+pub struct Seeded(pub u64);
+
+impl Seeded {
+    /// Uniform in [0, 1).
+    pub fn unit(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Uniform in [low, high).
+    pub fn between(&mut self, low: f64, high: f64) -> f64 {
+        low + self.unit() * (high - low)
+    }
+}

@@ -5,6 +5,7 @@
 //! built-in robot and of a cell of two SO-101 arms 0.25 m apart. The check's time per pose
 //! is printed (not asserted).
 
+use crate::common::Seeded;
 use keypose::collision::CollisionModel;
 use keypose::pose::RigidTransform;
 use keypose::robot::Robot;
@@ -15,18 +16,6 @@ use std::collections::BTreeSet;
 /// box-capsule contacts differently at the surface).
 const SURE: f64 = 0.001;
 const POSES: usize = 120;
-
-/// A small deterministic generator (xorshift), so a failure can be replayed.
-struct Seeded(u64);
-
-impl Seeded {
-    fn unit(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
 
 /// A body that MuJoCo's held pose leaves out of place: the OpenMANIPULATOR-X's right finger
 /// follows the left through an equality constraint, which the held pose (`mj_forward` on the

@@ -10,6 +10,7 @@ mod harness_starts;
 mod cell;
 mod cli;
 mod collision;
+mod dynamics;
 mod harness;
 mod joint_map;
 mod models;
