@@ -14,6 +14,7 @@ mod approach;
 pub(crate) mod check;
 mod clearance;
 mod fastest;
+mod load;
 mod retime;
 mod sampled;
 pub mod scurve;
@@ -36,6 +37,10 @@ pub use check::{check, check_at_speed, Cause, CheckReport, JointSummary, LimitKi
 pub use clearance::{approach_refusal, ClearanceScope, Contact, ContactCause, ContactWindow};
 pub use fastest::{fastest, FastestOutcome, FastestRun};
 pub use retime::{advice, retime, RetimeOutcome, MAX_STRETCH};
+pub use load::{
+    build_name, check_loads, torques, Droop, JointLoad, LoadReport, LoadScope, Overload,
+    SETTLED_TOLERANCE_DEG, SETTLED_TOLERANCE_M,
+};
 pub use sampled::Sampled;
 pub use states::{Side, State, States};
 pub use timeline::{Loops, Phase, Timeline, TimelineOptions};

@@ -1,6 +1,7 @@
 //! Turning trajectories and checks into what people and programs read: text, JSON, SVG.
 
 mod clearance;
+mod load;
 pub mod log;
 pub mod plot;
 pub(crate) mod units;
@@ -91,6 +92,7 @@ pub fn check_text(report: &CheckReport, sequence_file: &str, robot: &Robot) -> S
         );
     }
     out += &clearance::text(report, &robot.name);
+    out += &load::text(report);
     out
 }
 
@@ -195,6 +197,7 @@ pub fn check_json(report: &CheckReport, sequence_file: &str, robot: &Robot) -> V
             "jerk_limit": j.jerk_limit,
         })).collect::<Vec<_>>(),
         "clearance": clearance::json(report),
+        "torque": load::json(report),
     })
 }
 

@@ -28,6 +28,7 @@ pub(crate) mod runs;
 pub(crate) mod spans;
 
 use super::clearance::{self, ClearanceScope, Contact};
+use super::load::{check_loads, LoadScope, Overload};
 use super::Trajectory;
 use crate::robot::Robot;
 use runs::Attributed;
@@ -181,12 +182,25 @@ pub struct CheckReport {
     /// What the clearance check covered; `None` when it was not run (the limits alone, as
     /// the retiming loops judge a candidate).
     pub clearance: Option<ClearanceScope>,
+    /// Each servo's load against its drive; `None` when it was not run.
+    pub loads: Option<LoadScope>,
 }
 
 impl CheckReport {
-    /// No violation, and no contact but declared ones.
+    /// No violation, no contact but declared ones, and no servo over its torque-speed line.
     pub fn passed(&self) -> bool {
-        self.violations.is_empty() && self.undeclared_contacts().next().is_none()
+        self.violations.is_empty()
+            && self.undeclared_contacts().next().is_none()
+            && self.overloads().next().is_none()
+    }
+
+    /// Every stretch where a servo is asked for more than its torque-speed line gives.
+    pub fn overloads(&self) -> impl Iterator<Item = &Overload> {
+        let report = match &self.loads {
+            Some(LoadScope::Checked(report)) => Some(report),
+            _ => None,
+        };
+        report.into_iter().flat_map(|r| r.overloads.iter())
     }
 
     /// The contacts no key declares: each fails the check.
@@ -206,6 +220,7 @@ impl CheckReport {
 pub fn check(trajectory: &Trajectory, robot: &Robot, rate: f64) -> CheckReport {
     let mut report = check_limits(trajectory, robot, rate);
     add_clearance(&mut report, trajectory, robot);
+    report.loads = Some(check_loads(trajectory, robot, 1.0));
     report
 }
 
@@ -310,6 +325,7 @@ pub(crate) fn check_limits(trajectory: &Trajectory, robot: &Robot, rate: f64) ->
         joints,
         contacts: Vec::new(),
         clearance: None,
+        loads: None,
     }
 }
 
@@ -456,6 +472,7 @@ pub fn check_at_speed(
     let mut report = check_limits(trajectory, &scaled, rate / speed);
     to_wall_clock(&mut report, robot, rate, speed);
     add_clearance(&mut report, trajectory, robot);
+    report.loads = Some(check_loads(trajectory, robot, speed));
     report
 }
 

@@ -38,12 +38,16 @@
 //! again within it under its jerk limit: `32·q'/T²` is the least jerk a rest-to-rest move of
 //! T seconds asks of a joint at slope q'), reported in [`FastestOutcome::holds`].
 
+mod torque;
+
 use super::scurve::{along_track, candidates, time_scale, AlongPath, SCurve};
+use super::load::{check_loads, LoadScope};
 use super::{add_clearance, check_limits, CheckReport, Trajectory};
 use crate::curve::{Interp, Track};
 use crate::json::InputError;
 use crate::robot::{Limits, Robot};
 use crate::sequence::{Ends, HoldTiming, SegmentTiming, Sequence, TimeProfile};
+use torque::{Loads, TorqueRow};
 
 /// The share of each limit a profile is planned for at first; the exact check says whether the
 /// curve between grid points needs less.
@@ -124,7 +128,7 @@ pub fn fastest(
     base.make_times_absolute();
     let trajectory = Trajectory::build(&base, robot)?;
     let jerk_limited = robot.joints.iter().any(|j| j.limits.jerk.is_some());
-    let path = Path::of(&base, &trajectory, jerk_limited);
+    let path = Path::of(&base, &trajectory, robot, jerk_limited);
     let first_share = if jerk_limited {
         SCURVE_SHARE
     } else {
@@ -142,7 +146,9 @@ pub fn fastest(
         };
         let timed = Trajectory::build(&candidate, robot)?;
         let mut report = check_limits(&timed, robot, rate);
-        let over = over_limits(&report, jerk_limited);
+        let loads = check_loads(&timed, robot, 1.0);
+        let mut over = over_limits(&report, jerk_limited);
+        over_lines(&loads, &mut over);
         let done = over
             .iter()
             .all(|&(i, _)| path.segments.get(i).is_none_or(|s| s.is_none()));
@@ -186,6 +192,7 @@ pub fn fastest(
             // Timing moves the arm along the same path: its clearance is checked once, on
             // the result.
             add_clearance(&mut report, &timed, robot);
+            report.loads = Some(loads);
             return Ok(FastestOutcome {
                 sequence: candidate,
                 rounds,
@@ -221,6 +228,20 @@ fn over_limits(report: &CheckReport, stops_at_keys: bool) -> Vec<(usize, f64)> {
         }
     }
     out
+}
+
+/// Adds each segment's worst ratio of torque asked to what the servo's line gives.
+fn over_lines(loads: &LoadScope, over: &mut Vec<(usize, f64)>) {
+    let LoadScope::Checked(report) = loads else {
+        return;
+    };
+    for o in &report.overloads {
+        let ratio = (o.torque.abs() / o.available.max(1e-9)).max(1.0 + 1e-6);
+        match over.iter_mut().find(|(s, _)| *s == o.segment) {
+            Some(entry) => entry.1 = entry.1.max(ratio),
+            None => over.push((o.segment, ratio)),
+        }
+    }
 }
 
 /// The grid of one segment that gets a profile: its moving part in path time.
@@ -271,10 +292,18 @@ struct Path<'a> {
     /// Per key, whether its hold runs on an S-curve already (a file timed for jerk limits),
     /// which starts and ends at rest.
     hold_curves: Vec<bool>,
+    /// The servos' inverse dynamics and lines, where the robot has masses: `--fastest` keeps
+    /// every servo under its torque-speed line too.
+    loads: Option<Loads>,
 }
 
 impl<'a> Path<'a> {
-    fn of(sequence: &Sequence, trajectory: &'a Trajectory, stops_at_keys: bool) -> Path<'a> {
+    fn of(
+        sequence: &Sequence,
+        trajectory: &'a Trajectory,
+        robot: &Robot,
+        stops_at_keys: bool,
+    ) -> Path<'a> {
         let paths = sequence.path_times();
         let n = paths.len();
         let window = match sequence.ends {
@@ -332,6 +361,7 @@ impl<'a> Path<'a> {
                 .iter()
                 .map(|k| k.hold > 0.0 && k.timing.as_ref().is_some_and(|t| t.hold.is_some()))
                 .collect(),
+            loads: Loads::of(robot),
         }
     }
 
@@ -391,21 +421,25 @@ impl<'a> Path<'a> {
             for k in 0..=grid.intervals {
                 let u = grid.point(k);
                 let mut rows = Vec::new();
+                let mut torques = Vec::new();
                 if k > 0 {
                     rows.extend(rows_at(tracks, robot, share, u, Side::Before));
+                    torques.extend(self.torque_rows(share, u, Side::Before));
                 }
                 if k < grid.intervals {
                     rows.extend(rows_at(tracks, robot, share, u, Side::After));
+                    torques.extend(self.torque_rows(share, u, Side::After));
                 }
                 if k == 0 && offset > 0 {
                     // The key between two segments of the run: both sides' rows, and its
                     // corner if the curve turns one there.
                     let previous = points.pop().expect("the previous segment's last point");
                     rows.extend(previous.rows);
+                    torques.extend(previous.torques);
                     let corner = corner_bound(tracks, robot, share, u, period);
-                    points.push(Point::new(rows, corner));
+                    points.push(Point::new(rows, torques, corner));
                 } else {
-                    points.push(Point::new(rows, f64::INFINITY));
+                    points.push(Point::new(rows, torques, f64::INFINITY));
                 }
                 if k < grid.intervals {
                     steps.push(step);
@@ -429,6 +463,24 @@ impl<'a> Path<'a> {
             at += intervals;
         }
         out
+    }
+
+    /// The servos' torque rows at path time `u` from `side`, for `share` of their stall
+    /// torque; none where the robot has no masses.
+    fn torque_rows(&self, share: f64, u: f64, side: Side) -> Vec<TorqueRow> {
+        let Some(loads) = &self.loads else {
+            return Vec::new();
+        };
+        let tracks = self.trajectory.tracks();
+        let q: Vec<f64> = tracks.iter().map(|t| t.sample(u)).collect();
+        let (p, c): (Vec<f64>, Vec<f64>) = tracks
+            .iter()
+            .map(|t| match side {
+                Side::After => (t.rate_at(u), t.second_rate_at(u)),
+                Side::Before => (t.rate_before(u), t.second_rate_before(u)),
+            })
+            .unzip();
+        loads.rows(&q, &p, &c, share)
     }
 
     /// The squared path speed at key `key` from the side of the run: 0 at the window's ends,
@@ -625,15 +677,17 @@ fn corner_bound(tracks: &[Track<f64>], robot: &Robot, share: f64, u: f64, period
         .fold(f64::INFINITY, f64::min)
 }
 
-/// One grid point: the rows of its joints and the largest squared speed it allows.
+/// One grid point: the rows of its joints (and of its servos' torque-speed lines) and the
+/// largest squared speed it allows.
 #[derive(Debug, Clone)]
 struct Point {
     rows: Vec<Row>,
+    torques: Vec<TorqueRow>,
     max_x: f64,
 }
 
 impl Point {
-    fn new(rows: Vec<Row>, corner: f64) -> Point {
+    fn new(rows: Vec<Row>, torques: Vec<TorqueRow>, corner: f64) -> Point {
         let mut max_x = MAX_SQUARED_SPEED.min(corner);
         for row in &rows {
             if row.p.abs() > AT_REST {
@@ -642,7 +696,11 @@ impl Point {
                 max_x = max_x.min(row.acceleration / row.c.abs());
             }
         }
-        let mut point = Point { rows, max_x };
+        let mut point = Point {
+            rows,
+            torques,
+            max_x,
+        };
         point.max_x = point.largest_feasible(max_x);
         point
     }
@@ -660,7 +718,9 @@ impl Point {
             low = low.max(a.min(b));
             high = high.min(a.max(b));
         }
-        (low, high)
+        self.torques
+            .iter()
+            .fold((low, high), |bounds, row| row.narrow(x, bounds))
     }
 
     /// The largest squared speed up to `limit` at which some path acceleration keeps every
@@ -696,10 +756,15 @@ fn stage(first: &Point, second: &Point, step: f64) -> Point {
         p: r.p + 2.0 * step * r.c,
         ..*r
     }));
+    // The second point's lines are read at the first point's speed: the exact check judges
+    // what the step's speed change leaves.
+    let mut torques = first.torques.clone();
+    torques.extend(second.torques.iter().map(|t| t.ahead(step)));
     // The second point's rows bound the first point's x through ü only; its own velocity
     // limits act on its own x (its `max_x`), so only acceleration matters here.
     let mut point = Point {
         rows,
+        torques,
         max_x: first.max_x,
     };
     point.max_x = point.largest_feasible(first.max_x);
