@@ -59,6 +59,7 @@ pub mod bus;
 pub mod collision;
 pub mod csv;
 pub mod curve;
+pub mod dynamics;
 pub mod error;
 pub mod interop;
 

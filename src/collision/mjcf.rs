@@ -2,7 +2,7 @@
 //! parent's, its joint at the body's origin, as keypose's models place them, its mass), the
 //! collision shapes (boxes and capsules, as the built-in models have them; spheres too), the
 //! excluded body pairs and the mimic joints. The collision check and the inverse dynamics
-//! (`robot::dynamics`) read the same tree, so both see the arm alike.
+//! (`dynamics`) read the same tree, so both see the arm alike.
 
 use super::gjk::Core;
 use crate::pose::RigidTransform;

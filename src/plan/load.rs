@@ -2,7 +2,7 @@
 //! torque part.
 //!
 //! Each joint's torque at its servo's output comes from the inverse dynamics of the arm
-//! (`robot::dynamics`: gravity, inertia, Coriolis, the rotor's reflected inertia, the payload)
+//! (`dynamics`: gravity, inertia, Coriolis, the rotor's reflected inertia, the payload)
 //! at the exact state of motion (`plan::States`), every [`STEP`] seconds of the servos' time and
 //! on both sides of every instant where an acceleration jumps. Three findings come of it:
 //!
@@ -16,7 +16,7 @@
 
 use super::states::{Side, State, States};
 use super::Trajectory;
-use crate::robot::dynamics::{Dynamics, DynamicsError};
+use crate::dynamics::{Dynamics, DynamicsError};
 use crate::robot::{JointKind, Robot};
 
 /// The longest interval between two evaluated instants, seconds of the servos' time: ten
@@ -103,6 +103,8 @@ pub struct JointLoad {
     pub time_above_continuous: f64,
     /// The largest droop at a key, joint units.
     pub max_droop: f64,
+    /// The joint's unit ("deg", "m").
+    pub unit: &'static str,
     /// The duty warning, when the RMS is above the continuous rating.
     pub duty_advice: Option<String>,
 }
@@ -207,9 +209,9 @@ pub fn check_loads(trajectory: &Trajectory, robot: &Robot, speed: f64) -> LoadSc
 
 fn unchecked_reason(e: &DynamicsError) -> String {
     match e {
-        DynamicsError::NoModel(_) => format!(
-            "{e} (the built-in arms have one; a robot file named like one uses its masses)"
-        ),
+        DynamicsError::NoModel(_) => {
+            format!("{e} (the built-in arms have one; a robot file named like one uses its masses)")
+        }
         _ => e.to_string(),
     }
 }
@@ -223,14 +225,21 @@ pub fn build_name(robot: &Robot) -> String {
             builds.push(s);
         }
     }
-    let arms = robot.arms.iter().filter_map(|a| a.robot.payload.map(|p| (a.name.clone(), p)));
+    let arms = robot
+        .arms
+        .iter()
+        .filter_map(|a| a.robot.payload.map(|p| (a.name.clone(), p)));
     let payloads: Vec<String> = robot
         .payload
         .map(|p| (String::new(), p))
         .into_iter()
         .chain(arms)
         .map(|(arm, p)| {
-            let at = if arm.is_empty() { String::new() } else { format!(" on {arm}") };
+            let at = if arm.is_empty() {
+                String::new()
+            } else {
+                format!(" on {arm}")
+            };
             format!("{:.3} kg payload{at}", p.mass)
         })
         .collect();
@@ -271,7 +280,9 @@ fn summarise(
             share = share.max(t.abs() / d.available(speed[j], t).max(f64::MIN_POSITIVE));
         }
         // Trapezoid weights: each instant stands for half the time to its neighbours.
-        let before = k.checked_sub(1).map_or(0.0, |p| state.time - samples[p].0.time);
+        let before = k
+            .checked_sub(1)
+            .map_or(0.0, |p| state.time - samples[p].0.time);
         let after = samples.get(k + 1).map_or(0.0, |n| n.0.time - state.time);
         let dt = 0.5 * (before + after);
         square += t * t * dt;
@@ -280,13 +291,17 @@ fn summarise(
             above += dt;
         }
     }
-    let rms = if total > 0.0 { (square / total).sqrt() } else { peak.abs() };
+    let rms = if total > 0.0 {
+        (square / total).sqrt()
+    } else {
+        peak.abs()
+    };
     let continuous = drive.map(|d| d.continuous_torque());
     let duty_advice = continuous.filter(|&c| rms > c).map(|c| {
         format!(
-            "{} carries {rms:.2} N·m RMS over the motion, above its continuous rating {c:.2} N·m \
-             (a fifth of stall): played in a loop it heats towards its overload protection; \
-             rest between loops, keep the arm lower or closer in, carry less, or use stronger servos",
+            "{} carries {rms:.2} N·m RMS, above its continuous rating {c:.2} N·m (a fifth of \
+             stall): in a loop it heats towards its overload protection; rest between loops, keep \
+             the arm lower or closer in, carry less, or use stronger servos",
             joint.name
         )
     });
@@ -301,6 +316,7 @@ fn summarise(
         continuous,
         time_above_continuous: if total > 0.0 { above / total } else { 0.0 },
         max_droop: 0.0,
+        unit: joint.kind.unit(),
         duty_advice,
     }
 }
@@ -413,13 +429,14 @@ fn droops(
                 droop,
                 tolerance,
                 advice: format!(
-                    "{} holds {:.2} N·m there on a stiffness of {:.1} N·m/rad ({gain} {value}): \
-                     the arm rests {droop:.1} {} off the key; add a key lower, carry less, or use \
-                     stiffer servos (the 12 V build)",
+                    "{} rests {droop:.1} {unit} off the key, past sim's settling tolerance of \
+                     {tolerance} {unit}: {:.2} N·m of weight on a stiffness of {:.1} N·m/rad \
+                     ({gain} {value}); add a key lower, carry less, or use stiffer servos (the \
+                     12 V build)",
                     joint.name,
                     holding[j].abs(),
                     drive.stiffness.value,
-                    joint.kind.unit()
+                    unit = joint.kind.unit()
                 ),
             });
         }
@@ -445,18 +462,27 @@ mod tests {
         // forward kinematics, not the model's tree).
         let mut robot = Robot::builtin("so101").unwrap();
         let values = vec![0.0, 60.0, -60.0, 0.0, 0.0, 0.0];
-        let bare = Dynamics::for_robot(&robot).unwrap().holding_torques(&values);
+        let bare = Dynamics::for_robot(&robot)
+            .unwrap()
+            .holding_torques(&values);
         robot.payload = Some(crate::robot::Payload {
             mass: 0.2,
             com: glam::DVec3::ZERO,
         });
-        let loaded = Dynamics::for_robot(&robot).unwrap().holding_torques(&values);
+        let loaded = Dynamics::for_robot(&robot)
+            .unwrap()
+            .holding_torques(&values);
         let lift = 1;
         let (anchor, axis) = robot.joint_axes(&values)[lift];
         let tcp = robot.tcp_position(&values);
-        let lever = (tcp - anchor).cross(glam::DVec3::new(0.0, 0.0, -0.2 * 9.81)).dot(axis);
+        let lever = (tcp - anchor)
+            .cross(glam::DVec3::new(0.0, 0.0, -0.2 * 9.81))
+            .dot(axis);
         let added = loaded[lift] - bare[lift];
-        assert!((added.abs() - lever.abs()).abs() < 1e-9, "{added} vs {lever}");
+        assert!(
+            (added.abs() - lever.abs()).abs() < 1e-9,
+            "{added} vs {lever}"
+        );
         assert!(lever.abs() > 0.3, "a real lever: {lever}");
     }
 
@@ -504,7 +530,10 @@ mod tests {
         assert_eq!(d.key_label, "out");
         // Weight over 6 N·m/rad, in degrees.
         assert!((d.droop - (d.torque.abs() / 6.0).to_degrees()).abs() < 1e-9);
-        assert!(report.droops.iter().all(|d| d.key != 0 || d.joint != "shoulder_lift"));
+        assert!(report
+            .droops
+            .iter()
+            .all(|d| d.key != 0 || d.joint != "shoulder_lift"));
     }
 
     #[test]

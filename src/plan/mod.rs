@@ -36,11 +36,11 @@ pub(crate) use check::{add_clearance, check_limits};
 pub use check::{check, check_at_speed, Cause, CheckReport, JointSummary, LimitKind, Violation};
 pub use clearance::{approach_refusal, ClearanceScope, Contact, ContactCause, ContactWindow};
 pub use fastest::{fastest, FastestOutcome, FastestRun};
-pub use retime::{advice, retime, RetimeOutcome, MAX_STRETCH};
 pub use load::{
     build_name, check_loads, torques, Droop, JointLoad, LoadReport, LoadScope, Overload,
     SETTLED_TOLERANCE_DEG, SETTLED_TOLERANCE_M,
 };
+pub use retime::{advice, retime, RetimeOutcome, MAX_STRETCH};
 pub use sampled::Sampled;
 pub use states::{Side, State, States};
 pub use timeline::{Loops, Phase, Timeline, TimelineOptions};

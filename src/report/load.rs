@@ -52,13 +52,7 @@ pub(super) fn text(report: &CheckReport) -> String {
             let _ = writeln!(out, "warning: duty: {advice}");
         }
     }
-    for d in &loads.droops {
-        let _ = writeln!(
-            out,
-            "warning: droop at key #{} ({}): {}",
-            d.key, d.key_label, d.advice
-        );
-    }
+    droop_lines(&mut out, loads);
     if !loads.unrated.is_empty() {
         let _ = writeln!(
             out,
@@ -69,15 +63,49 @@ pub(super) fn text(report: &CheckReport) -> String {
     out
 }
 
+/// One warning per joint that droops past the tolerance at some keys: the worst, and where.
+fn droop_lines(out: &mut String, loads: &LoadReport) {
+    for joint in &loads.joints {
+        let at: Vec<_> = loads
+            .droops
+            .iter()
+            .filter(|d| d.joint == joint.joint)
+            .collect();
+        let Some(worst) = at.iter().max_by(|a, b| a.droop.total_cmp(&b.droop)) else {
+            continue;
+        };
+        let mut keys: Vec<String> = Vec::new();
+        for d in &at {
+            if !keys.contains(&d.key_label) {
+                keys.push(d.key_label.clone());
+            }
+        }
+        let _ = writeln!(
+            out,
+            "warning: droop: at key(s) {}: {}",
+            keys.join(", "),
+            worst.advice
+        );
+    }
+}
+
 fn table(out: &mut String, loads: &LoadReport) {
-    let w = loads.joints.iter().map(|j| j.joint.len()).max().unwrap_or(5).max(5);
+    let w = loads
+        .joints
+        .iter()
+        .map(|j| j.joint.len())
+        .max()
+        .unwrap_or(5)
+        .max(5);
     let _ = writeln!(
         out,
-        "  {:<w$} {:>16} {:>12} {:>22} {:>10}",
-        "joint", "peak torque", "of the line", "RMS / continuous", "droop"
+        "  {:<w$} {:>21} {:>11} {:>21} {:>13}",
+        "joint", "peak torque", "of line", "RMS / continuous", "droop at keys"
     );
     for j in &loads.joints {
         let share = match j.line {
+            // Above its no-load speed a servo gives nothing while driving: any torque is over.
+            Some(_) if j.peak_share > 9.99 => "> 999 %".to_string(),
             Some(_) => format!("{:>4.0} %", 100.0 * j.peak_share),
             None => "unrated".to_string(),
         };
@@ -87,13 +115,14 @@ fn table(out: &mut String, loads: &LoadReport) {
         };
         let _ = writeln!(
             out,
-            "  {:<w$} {:>8.2} N·m at {:>6.3} s {:>8} {:>22} {:>10.2}",
+            "  {:<w$} {:>6.2} N·m at {:>7.3} s {:>11} {:>21} {:>9.2} {:<3}",
             j.joint,
             j.peak_torque.abs(),
             j.peak_time,
             share,
             rms,
-            j.max_droop
+            j.max_droop,
+            j.unit
         );
     }
 }

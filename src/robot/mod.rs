@@ -8,7 +8,6 @@
 
 pub(crate) mod builtin;
 mod cell;
-pub mod dynamics;
 mod gravity;
 mod lerobot;
 mod lerobot_names;

@@ -528,7 +528,7 @@ impl Simulation {
 impl Simulation {
     /// MuJoCo's inverse dynamics of one state of motion (joint units and their rates, joint
     /// order): every model joint's generalized force (N·m for a hinge, N for a slide), from
-    /// gravity, inertia and armature alone. The oracle of `robot::dynamics`; joints the robot
+    /// gravity, inertia and armature alone. The oracle of `dynamics`; joints the robot
     /// does not have (a mimic finger) are in the reply too.
     pub fn pose_inverse(
         &mut self,

@@ -1,12 +1,12 @@
-//! keypose's inverse dynamics (`keypose::robot::dynamics`) against MuJoCo's `mj_inverse` on
+//! keypose's inverse dynamics (`keypose::dynamics`) against MuJoCo's `mj_inverse` on
 //! the same built-in models (the oracle; the harness's `inverse` op leaves out damping,
 //! friction and constraints, as keypose does): every joint's force within 1 % of its peak,
 //! over every example's motion and seeded random states of every built-in robot. The worst
 //! difference is printed.
 
 use crate::common::Seeded;
+use keypose::dynamics::Dynamics;
 use keypose::plan::{Side, States, Trajectory};
-use keypose::robot::dynamics::Dynamics;
 use keypose::robot::Robot;
 use keypose::sim::Simulation;
 

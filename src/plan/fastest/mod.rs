@@ -40,8 +40,8 @@
 
 mod torque;
 
-use super::scurve::{along_track, candidates, time_scale, AlongPath, SCurve};
 use super::load::{check_loads, LoadScope};
+use super::scurve::{along_track, candidates, time_scale, AlongPath, SCurve};
 use super::{add_clearance, check_limits, CheckReport, Trajectory};
 use crate::curve::{Interp, Track};
 use crate::json::InputError;

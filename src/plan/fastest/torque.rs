@@ -8,7 +8,7 @@
 //! `stall · (1 − |q'|·√x / (n·ω₀))` driving the motion: for each x that is an interval of ü,
 //! which is all the passes ask of a constraint.
 
-use crate::robot::dynamics::Dynamics;
+use crate::dynamics::Dynamics;
 use crate::robot::Robot;
 use crate::servo::Drive;
 

@@ -35,8 +35,9 @@ impl Default for Thresholds {
         Thresholds {
             max_error_deg: 15.0,
             max_error_m: 0.005,
-            settled_error_deg: 3.0,
-            settled_error_m: 0.002,
+            // The check's droop warning measures against the same tolerance.
+            settled_error_deg: crate::plan::SETTLED_TOLERANCE_DEG,
+            settled_error_m: crate::plan::SETTLED_TOLERANCE_M,
             settle_time: 0.5,
             rest_deg: 0.05,
             rest_m: 0.00005,

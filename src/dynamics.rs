@@ -14,11 +14,11 @@
 //! no-load speed were measured through. MuJoCo's `mj_inverse` with damping, friction loss and
 //! constraints switched off is the oracle (tests/simulation/dynamics.rs).
 
-use super::{JointKind, Payload, Robot};
 use crate::collision::mjcf;
 use crate::collision::Motion;
 use crate::pose::RigidTransform;
 use crate::robot::mjcf::Inertial;
+use crate::robot::{JointKind, Payload, Robot};
 use glam::{DMat3, DQuat, DVec3};
 use std::ops::Range;
 
@@ -308,7 +308,7 @@ fn joint_of(motion: &Motion) -> Option<(usize, JointKind, DVec3, f64)> {
 /// One arm's chain from its built-in model, its joints at `joints` of the robot, its payload
 /// hung from the TCP's body.
 fn chain(robot: &Robot, joints: Range<usize>, gravity: DVec3) -> Result<Chain, DynamicsError> {
-    let text = super::builtin_mjcf(&robot.name)
+    let text = crate::robot::builtin_mjcf(&robot.name)
         .ok_or_else(|| DynamicsError::NoModel(robot.name.clone()))?;
     let parsed = mjcf::parse(text).map_err(|e| DynamicsError::Unreadable {
         robot: robot.name.clone(),
