@@ -238,6 +238,23 @@ pub struct SequenceOptions {
     /// built-ins].
     #[arg(long, value_name = "MM", value_parser = parse_clearance, allow_negative_numbers = true)]
     pub clearance: Option<f64>,
+    /// A load the tool carries, kilograms, at the TCP: its weight and inertia in the torque
+    /// check, the fastest timing and the simulation [default: the robot file's payload].
+    #[arg(long, value_name = "KG", value_parser = parse_payload, allow_negative_numbers = true)]
+    pub payload: Option<f64>,
+    /// The servos' build: 5v (7.4 V STS3215 on 5 V, the standard SO-101 and SO-100), 7.4v,
+    /// 12v (12 V STS3215 on 12 V) [default: what the robot file says, 5v for the built-ins].
+    #[arg(long, value_name = "NAME")]
+    pub robot_variant: Option<String>,
+}
+
+fn parse_payload(s: &str) -> Result<f64, String> {
+    let max = keypose::robot::MAX_PAYLOAD_KG;
+    s.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|kg| (0.0..=max).contains(kg))
+        .ok_or_else(|| format!("expected a payload from 0 to {max} kg, found {s:?}"))
 }
 
 fn parse_clearance(s: &str) -> Result<f64, String> {
@@ -276,7 +293,7 @@ impl SequenceOptions {
                 )));
             }
             let mut cell = super::load_cell(&sequence, path, &self.calibration)?;
-            self.apply_clearance(&mut cell);
+            self.apply_to(&mut cell)?;
             return Ok((sequence, cell));
         }
         let robot = match &self.robot {
@@ -284,14 +301,36 @@ impl SequenceOptions {
             None => super::resolve_sequence_robot(&sequence, path)?,
         };
         let mut robot = super::finish_robot(robot, &self.calibration)?;
-        self.apply_clearance(&mut robot);
+        self.apply_to(&mut robot)?;
         Ok((sequence, robot))
     }
 
-    /// `--clearance`, over what the robot file says.
-    fn apply_clearance(&self, robot: &mut Robot) {
+    /// `--clearance`, `--payload` and `--robot-variant`, over what the robot file says (on
+    /// every arm of a cell).
+    pub fn apply_to(&self, robot: &mut Robot) -> Result<(), CommandError> {
         if let Some(mm) = self.clearance {
             robot.clearance = mm / 1000.0;
         }
+        if let Some(mass) = self.payload {
+            let payload = keypose::robot::Payload {
+                mass,
+                com: glam::DVec3::ZERO,
+            };
+            if robot.is_cell() {
+                for arm in &mut robot.arms {
+                    arm.robot.payload = Some(payload);
+                }
+            } else {
+                robot.payload = Some(payload);
+            }
+        }
+        if let Some(name) = &self.robot_variant {
+            let usage = |e: keypose::robot::BuildError| {
+                CommandError::Usage(format!("--robot-variant: {e}"))
+            };
+            let build = keypose::robot::Build::named(name).map_err(usage)?;
+            robot.with_build(build).map_err(usage)?;
+        }
+        Ok(())
     }
 }

@@ -6,6 +6,7 @@
 //! moves its servo mapping and limits onto one physical arm ([`import_lerobot_calibration`]);
 //! several arms make one cell ([`Robot::cell`]), its joints named `ARM/JOINT`.
 
+mod build;
 pub(crate) mod builtin;
 mod cell;
 mod gravity;
@@ -24,6 +25,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 pub use crate::servo::Protocol;
+pub use build::{Build, BuildError, BUILDS};
 pub use builtin::{builtin_mjcf, BuiltinRobot, BUILTINS, BUILTIN_NAMES};
 pub use cell::{cell_joint_name, split_joint_name, Arm, CellError, MAX_CELL_JOINTS};
 pub use lerobot::{

@@ -235,8 +235,7 @@ fn load(args: &SessionArgs, source: Option<&Path>) -> Result<(KeyframeList, Robo
         let options = SequenceOptions {
             robot: args.robot.clone(),
             calibration: args.calibration.clone(),
-            interpolation: None,
-            clearance: None,
+            ..SequenceOptions::default()
         };
         let (sequence, robot) = options.load(path)?;
         return Ok((KeyframeList::new(sequence), robot));
