@@ -27,6 +27,11 @@ pub struct SampleArgs {
     /// tcp in its base frame at each sample (metres).
     #[arg(long)]
     pub tool: bool,
+    /// Also output each servo's torque: a JOINT.torque column per joint, N·m at the servo's
+    /// output, from the arm's inverse dynamics (gravity, inertia, the rotors, the payload), as
+    /// the check computes it.
+    #[arg(long)]
+    pub torque: bool,
 }
 
 /// The tool path's columns, after the joints'.
@@ -57,6 +62,10 @@ pub fn run(args: &SampleArgs) -> Result<Verdict, CommandError> {
         for prefix in robot.tool_prefixes() {
             columns.extend(TOOL_COLUMNS.map(|c| format!("{prefix}{c}")));
         }
+    }
+    if args.torque {
+        append_torques(&trajectory, &robot, &mut rows)?;
+        columns.extend(robot.joints.iter().map(|j| format!("{}.torque", j.name)));
     }
     let text = match args.format {
         SampleFormat::Csv => to_csv(&columns, &rows),
@@ -121,6 +130,23 @@ fn append_tool_path(trajectory: &Trajectory, robot: &Robot, rows: &mut [Vec<f64>
             row.extend(tool.to_array());
         }
     }
+}
+
+/// Appends each servo's torque at each row's time (from after an instant where an
+/// acceleration jumps), N·m.
+fn append_torques(
+    trajectory: &Trajectory,
+    robot: &Robot,
+    rows: &mut [Vec<f64>],
+) -> Result<(), CommandError> {
+    let dynamics = keypose::dynamics::Dynamics::for_robot(robot)
+        .map_err(|e| CommandError::Usage(format!("--torque: {e}")))?;
+    let states = keypose::plan::States::of(trajectory);
+    for row in rows {
+        let s = states.at(row[0], keypose::plan::Side::After);
+        row.extend(dynamics.servo_torques(&s.values, &s.velocities, &s.accelerations));
+    }
+    Ok(())
 }
 
 fn to_csv(joint_names: &[String], rows: &[Vec<f64>]) -> String {

@@ -24,3 +24,4 @@ mod record_keyframes;
 mod retime;
 mod robots;
 mod tool_keys;
+mod torque;
