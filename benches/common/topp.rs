@@ -65,6 +65,58 @@ pub fn request(outcome: &FastestOutcome, robot: &Robot) -> Value {
     json!({ "stretches": stretches })
 }
 
+/// [`request`] with each servo's torque-speed line on every stretch, and the arms' MuJoCo
+/// models for the oracle to weigh them by its own inverse dynamics (`mj_inverse`).
+pub fn request_with_torque(outcome: &FastestOutcome, robot: &Robot) -> Value {
+    let mut request = request(outcome, robot);
+    let model = |name: &str| {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("sim/models")
+            .join(format!("{name}.xml"))
+            .display()
+            .to_string()
+    };
+    let arms: Vec<Value> = if robot.is_cell() {
+        robot
+            .arms
+            .iter()
+            .map(|arm| {
+                let gravity = arm.base.r.inverse() * glam::DVec3::new(0.0, 0.0, -9.81);
+                json!({
+                    "mjcf": model(&arm.robot.name),
+                    "joints": arm.robot.joints.iter().map(|j| j.name.clone()).collect::<Vec<_>>(),
+                    "columns": arm.joints.clone().collect::<Vec<_>>(),
+                    "gravity": gravity.to_array(),
+                })
+            })
+            .collect()
+    } else {
+        vec![json!({
+            "mjcf": model(&robot.name),
+            "joints": robot.joints.iter().map(|j| j.name.clone()).collect::<Vec<_>>(),
+            "columns": (0..robot.joints.len()).collect::<Vec<_>>(),
+            "gravity": [0.0, 0.0, -9.81],
+        })]
+    };
+    // A servo without drive data is not limited: a line no path reaches.
+    let drive = |j: &keypose::robot::Joint| {
+        j.servo.drive().map_or((1e9, 1e9), |d| {
+            (d.stall_torque.value, d.no_load_speed.value)
+        })
+    };
+    let torque = json!({
+        "arms": arms,
+        "transmission": robot.joints.iter().map(|j| j.servo.transmission(j.kind)).collect::<Vec<_>>(),
+        "stall": robot.joints.iter().map(|j| drive(j).0).collect::<Vec<_>>(),
+        "no_load": robot.joints.iter().map(|j| drive(j).1).collect::<Vec<_>>(),
+        "revolute": robot.joints.iter().map(|j| j.kind == keypose::robot::JointKind::Revolute).collect::<Vec<_>>(),
+    });
+    for stretch in request["stretches"].as_array_mut().expect("stretches") {
+        stretch["torque"] = torque.clone();
+    }
+    request
+}
+
 /// TOPP-RA's time for each stretch of `request`, seconds, and toppra's version.
 pub fn toppra_durations(python: &Path, request: &Value) -> Result<(Vec<f64>, String), String> {
     let reply = super::oracle::run_oracle(python, "toppra_oracle.py", request)?;

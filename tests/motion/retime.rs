@@ -336,6 +336,35 @@ fn fastest_is_within_five_percent_of_toppra_on_every_example() {
     }
 }
 
+/// `--fastest` keeps every servo under its torque-speed line too: on every example's own path,
+/// its moving time within 2 % of TOPP-RA's under the same kinematic limits and the same lines
+/// (the torques by MuJoCo's own inverse dynamics, benches/toppra_oracle.py), and not below it
+/// by more than TOPP-RA's grid can be off (1 %).
+#[test]
+fn fastest_is_within_two_percent_of_toppra_with_the_servos_torque_speed_lines() {
+    let python = toppra_python();
+    let mut outside = Vec::new();
+    for example in &examples() {
+        let sequence = Sequence::load(example).unwrap();
+        let robot = builtin_robot_of(&sequence).unwrap();
+        let outcome = fastest(&sequence, &robot, robot.control_hz).unwrap();
+        assert!(outcome.report.passed(), "{example:?}");
+        let request = topp::request_with_torque(&outcome, &robot);
+        let (durations, _) =
+            topp::toppra_durations(&python, &request).unwrap_or_else(|e| panic!("{e}"));
+        let ours: f64 = outcome.runs.iter().map(|r| r.seconds).sum();
+        let theirs: f64 = durations.iter().sum();
+        let ratio = ours / theirs;
+        eprintln!("{example:?}: {ours:.3} s, TOPP-RA with the lines {theirs:.3} s ({ratio:.4})");
+        if !(0.99..=1.02).contains(&ratio) {
+            outside.push(format!(
+                "{example:?}: {ours} s against TOPP-RA's {theirs} s ({ratio})"
+            ));
+        }
+    }
+    assert!(outside.is_empty(), "{outside:#?}");
+}
+
 /// With the bench's jerk limits (docs/robots.md §5a), `--fastest`'s S-curves stop at every
 /// key, so they take longer than TOPP-RA's optimum without jerk limits on the same path (which
 /// runs through keys); never less than that optimum (jerk limits only add constraints; 1 %

@@ -59,9 +59,12 @@ const SCURVE_SHARE: f64 = 0.999;
 const SHARE_BACKOFF: f64 = 0.98;
 const MAX_ROUNDS: usize = 40;
 /// Grid intervals per second of path time, and the fewest and most in one segment.
-const INTERVALS_PER_SECOND: f64 = 50.0;
+const INTERVALS_PER_SECOND: f64 = 200.0;
 const MIN_INTERVALS: usize = 32;
-const MAX_INTERVALS: usize = 400;
+const MAX_INTERVALS: usize = 1600;
+/// Grid intervals between two knots of a joint's track inside a segment (a tool line's
+/// samples).
+const KNOT_INTERVALS: usize = 6;
 /// Largest squared path speed: a thousand times the speed the keys gave, where almost nothing
 /// moves.
 const MAX_SQUARED_SPEED: f64 = 1e6;
@@ -320,13 +323,23 @@ impl<'a> Path<'a> {
                 let key = &sequence.keyframes[i];
                 let mode = key.interp.unwrap_or(sequence.interpolation);
                 let played = i >= window.0 && i < window.1;
+                let (from, to) = (paths[i] + holds[i], paths[i + 1]);
+                // A straight tool line's joints are splines through many samples: each
+                // sample's stretch gets grid points of its own.
+                let knots = trajectory
+                    .tracks()
+                    .iter()
+                    .map(|t| t.times().iter().filter(|&&k| k > from && k < to).count())
+                    .max()
+                    .unwrap_or(0);
+                let intervals = ((to - from) * INTERVALS_PER_SECOND)
+                    .ceil()
+                    .max((KNOT_INTERVALS * (knots + 1)) as f64)
+                    .clamp(MIN_INTERVALS as f64, MAX_INTERVALS as f64);
                 let grid = Grid {
-                    from: paths[i] + holds[i],
-                    to: paths[i + 1],
-                    intervals: ((paths[i + 1] - paths[i] - holds[i]) * INTERVALS_PER_SECOND)
-                        .ceil()
-                        .clamp(MIN_INTERVALS as f64, MAX_INTERVALS as f64)
-                        as usize,
+                    from,
+                    to,
+                    intervals: intervals as usize,
                 };
                 let moves = moves_along(trajectory, grid);
                 (played && (mode != Interp::Step || key.line) && moves).then_some(grid)
