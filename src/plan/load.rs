@@ -30,6 +30,13 @@ pub const SETTLED_TOLERANCE_DEG: f64 = 3.0;
 /// The same for a prismatic joint, metres.
 pub const SETTLED_TOLERANCE_M: f64 = 0.002;
 
+/// How far over its line a servo may be asked, as a share of its stall torque, before it is a
+/// finding: far below what any datasheet knows its line to, and enough that a motion riding the
+/// line (the fastest timing does, where it is the binding limit) is not failed by rounding, as
+/// where gravity speeds a joint past its no-load speed and the servo must ask for no torque
+/// at all.
+pub const LINE_TOLERANCE: f64 = 0.005;
+
 /// Over-line instants closer than this (seconds of sequence time) make one finding.
 const JOIN: f64 = 0.05;
 
@@ -334,7 +341,7 @@ fn over_line(
     for (state, torque, speed) in samples {
         let (t, w) = (torque[j], speed[j]);
         let available = drive.available(w, t);
-        if t.abs() <= available {
+        if t.abs() <= available + LINE_TOLERANCE * drive.stall_torque.value {
             continue;
         }
         let excess = t.abs() - available;

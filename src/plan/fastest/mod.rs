@@ -233,13 +233,23 @@ fn over_limits(report: &CheckReport, stops_at_keys: bool) -> Vec<(usize, f64)> {
     out
 }
 
-/// Adds each segment's worst ratio of torque asked to what the servo's line gives.
+/// Adds each segment's worst overload, as one plus its excess over the servo's stall torque:
+/// the share of the limits (and of the stall torque) it is planned for again falls by about
+/// that much. Not the torque over what the line gives, which near the no-load speed is next to
+/// nothing: that share would leave the servo too weak to hold the arm at all.
 fn over_lines(loads: &LoadScope, over: &mut Vec<(usize, f64)>) {
     let LoadScope::Checked(report) = loads else {
         return;
     };
     for o in &report.overloads {
-        let ratio = (o.torque.abs() / o.available.max(1e-9)).max(1.0 + 1e-6);
+        let stall = report
+            .joints
+            .iter()
+            .find(|j| j.joint == o.joint)
+            .and_then(|j| j.line)
+            .map_or(o.available, |(stall, _)| stall);
+        let excess = o.torque.abs() - o.available;
+        let ratio = (1.0 + excess / stall.max(1e-9)).max(1.0 + 1e-6);
         match over.iter_mut().find(|(s, _)| *s == o.segment) {
             Some(entry) => entry.1 = entry.1.max(ratio),
             None => over.push((o.segment, ratio)),
