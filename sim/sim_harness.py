@@ -92,7 +92,7 @@ class Harness:
             return {}
         if op == "load":
             return self.load(req)
-        if op in ("kinematics", "contacts", "distances", "inverse", "run", "render"):
+        if op in ("kinematics", "contacts", "distances", "inverse", "drive", "run", "render"):
             if self.model is None:
                 raise SimError("state", f"{op}: no model loaded (send 'load' first)")
             if op == "kinematics":
@@ -103,10 +103,12 @@ class Harness:
                 return self.sim.pose_distances(self.model, req)
             if op == "inverse":
                 return self.sim.pose_inverse(self.model, req)
+            if op == "drive":
+                return self.model.set_drives(req)
             if op == "run":
                 return self.sim.run(self.model, req)
             return self.renderer.render(self.model, req)
-        raise request_error(f"unknown op {json.dumps(op)} (known: ping, load, kinematics, contacts, distances, inverse, run, render)")
+        raise request_error(f"unknown op {json.dumps(op)} (known: ping, load, kinematics, contacts, distances, inverse, drive, run, render)")
 
     def load(self, req):
         warnings = self.sim.warnings

@@ -76,7 +76,12 @@ class Model:
             }
             self.actuators.append(info)
             self.joint_actuators.setdefault(j, []).append(info)
-        self.actuator_reply = [
+        self.actuator_reply = self.describe_actuators()
+
+    def describe_actuators(self):
+        """The position servos as the load reply lists them."""
+        m, mujoco = self.m, self.mujoco
+        return [
             {
                 "name": self._name(mujoco.mjtObj.mjOBJ_ACTUATOR, info["id"], "actuator"),
                 "joint": mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, info["joint"]),
@@ -142,6 +147,40 @@ class Model:
         data.qpos[:] = m.qpos0
         for j, value in zip(joint_ids, values):
             data.qpos[m.jnt_qposadr[j]] = value
+
+    def set_drives(self, req):
+        """Makes named joints' position actuators and joint parameters the servos keypose's
+        catalogue says they are ("joints": {joint: {kp, force, damping, armature,
+        frictionloss}}, in the joint's units): the actuator a pure position loop of stiffness kp
+        bounded by +-force, the joint's damping the slope of the torque-speed line. A joint
+        without a position actuator is refused."""
+        m = self.m
+        joints = member(req, "joints")
+        if not isinstance(joints, dict):
+            raise request_error(f"'joints' must be an object of joint: drive, not {json.dumps(joints)[:200]}")
+        for joint_name, drive in joints.items():
+            j = self.joint(joint_name)
+            if j not in self.joint_actuators:
+                raise request_error(f"joint {joint_name!r} has no position actuator in {self.path}")
+            values = {}
+            for key in ("kp", "force", "damping", "armature", "frictionloss"):
+                value = drive.get(key) if isinstance(drive, dict) else None
+                if not is_number(value) or value < 0:
+                    raise request_error(f"drive of {joint_name!r}: {key} must be a number of at least 0, not {json.dumps(value)}")
+                values[key] = float(value)
+            for info in self.joint_actuators[j]:
+                a = info["id"]
+                m.actuator_gainprm[a, 0] = values["kp"]
+                m.actuator_biasprm[a, 1] = -values["kp"]
+                m.actuator_biasprm[a, 2] = 0.0
+                m.actuator_forcelimited[a] = 1
+                m.actuator_forcerange[a] = [-values["force"], values["force"]]
+            dof = m.jnt_dofadr[j]
+            m.dof_damping[dof] = values["damping"]
+            m.dof_armature[dof] = values["armature"]
+            m.dof_frictionloss[dof] = values["frictionloss"]
+        self.actuator_reply = self.describe_actuators()
+        return {"actuators": self.actuator_reply}
 
     def set_request_qpos(self, data, req):
         """Sets `data`'s qpos from a request's "qpos" object (joint: value); others at qpos0."""

@@ -91,9 +91,6 @@ pub struct Drive {
     pub gain: (&'static str, f64),
     /// The rotor's inertia reflected through the gear train, kg·m².
     pub rotor_inertia: Rated,
-    /// Back-EMF plus viscous friction, N·m·s/rad: the slope of the torque-speed line for the
-    /// simulation's joint damping.
-    pub damping: Rated,
     /// Coulomb friction, N·m.
     pub friction: Rated,
     /// Where the numbers come from, as docs/robots.md cites them.
@@ -178,7 +175,6 @@ pub const VARIANTS: &[Variant] = &[
                 stiffness: derived(6.0),
                 gain: ("P_Coefficient", 16.0),
                 rotor_inertia: measured(0.0284),
-                damping: derived(0.608),
                 friction: measured(0.0524),
                 source: STS3215_BAM,
             },
@@ -189,7 +185,6 @@ pub const VARIANTS: &[Variant] = &[
                 stiffness: derived(7.2),
                 gain: ("P_Coefficient", 16.0),
                 rotor_inertia: measured(0.0284),
-                damping: derived(0.608),
                 friction: measured(0.0524),
                 source: STS3215_BAM,
             },
@@ -200,7 +195,6 @@ pub const VARIANTS: &[Variant] = &[
                 stiffness: derived(8.9),
                 gain: ("P_Coefficient", 16.0),
                 rotor_inertia: measured(0.0284),
-                damping: derived(0.608),
                 friction: measured(0.0524),
                 source: STS3215_BAM,
             },
@@ -273,7 +267,7 @@ pub const VARIANTS: &[Variant] = &[
 ];
 
 /// The 12 V STS3215 (C018, C047): stiffness from BAM's 12 V fit at LeRobot's P=16, rotor
-/// inertia BAM's; damping the datasheet line's slope.
+/// inertia BAM's.
 const STS3215_12V: Drive = Drive {
     supply_v: 12.0,
     stall_torque: published(2.94),
@@ -281,7 +275,6 @@ const STS3215_12V: Drive = Drive {
     stiffness: derived(22.0),
     gain: ("P_Coefficient", 16.0),
     rotor_inertia: measured(0.032),
-    damping: derived(0.62),
     friction: measured(0.20),
     source: STS3215_BAM,
 };
@@ -303,7 +296,6 @@ const fn dynamixel(
         stiffness: unverified(stall / 0.09),
         gain: ("Position_P_Gain", 0.0),
         rotor_inertia: unverified(rotor_inertia),
-        damping: derived(stall / no_load),
         friction: unverified(friction),
         source: "docs/robots.md §4, §6 (ROBOTIS e-Manual)",
     }

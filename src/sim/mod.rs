@@ -296,6 +296,8 @@ pub struct Simulation {
     pub timestep: f64,
     /// The servos' own profile to model (`--servo-profile`): the "profile" of every run.
     servo_profile: Option<ProfileLimits>,
+    /// The build the model's servos were made ([`Simulation::build`]).
+    build: Option<String>,
 }
 
 impl Simulation {
@@ -328,6 +330,7 @@ impl Simulation {
             force_limits: Vec::new(),
             timestep: 0.0,
             servo_profile: None,
+            build: None,
         };
         sim.load_model(robot, mjcf, load, model)?;
         Ok(sim)
@@ -381,12 +384,24 @@ impl Simulation {
                 ),
             });
         }
+        let mut actuators = reply.actuators;
+        self.build = None;
+        // keypose's own models are the arm as the robot says it is built; a model the user
+        // gives keeps its own actuators.
+        if mjcf.is_none() {
+            let names = self.joints.clone();
+            let joints = drives(robot, &names);
+            if !joints.is_empty() {
+                let reply = self.harness.request(&Request::Drive { joints })?;
+                actuators = wire::parse::<wire::DriveReply>(reply, "drive")?.actuators;
+                self.build = Some(crate::plan::build_name(robot));
+            }
+        }
         self.force_limits = self
             .joints
             .iter()
             .map(|joint| {
-                let a = reply
-                    .actuators
+                let a = actuators
                     .iter()
                     .find(|a| a.joint.as_deref() == Some(joint.as_str()))?;
                 let [low, high] = a.forcerange;
@@ -394,6 +409,12 @@ impl Simulation {
             })
             .collect();
         Ok(())
+    }
+
+    /// The build the model was made, as the check names it ("sts3215 c001 @ 5 V"); `None`
+    /// for a model given with `--mjcf`, which keeps its own actuators.
+    pub fn build(&self) -> Option<&str> {
+        self.build.as_deref()
     }
 
     /// The model's name in reports: its path, or for a cell `ARM=PATH, …`.
@@ -553,6 +574,33 @@ impl Simulation {
         let reply: wire::InverseReply = wire::parse(reply, "inverse")?;
         Ok(reply.force)
     }
+}
+
+/// Each rated servo's drive in its model joint's (`names`) units: the position loop's
+/// stiffness at the firmware gain, its stall torque as the force bound and the line's slope as
+/// the joint's damping (a saturated servo then runs along its torque-speed line, to the
+/// no-load speed), its rotor as armature, its friction.
+fn drives<'a>(robot: &Robot, names: &'a [String]) -> BTreeMap<&'a str, wire::JointDrive> {
+    robot
+        .joints
+        .iter()
+        .zip(names)
+        .filter_map(|(joint, name)| {
+            let d = joint.servo.drive()?;
+            let n = joint.servo.transmission(joint.kind);
+            let stall = d.stall_torque.value;
+            Some((
+                name.as_str(),
+                wire::JointDrive {
+                    kp: d.stiffness.value / (n * n),
+                    force: stall / n,
+                    damping: stall / d.no_load_speed.value / (n * n),
+                    armature: d.rotor_inertia.value / (n * n),
+                    frictionloss: d.friction.value / n,
+                },
+            ))
+        })
+        .collect()
 }
 
 /// A contact of a `run` or `contacts` reply (a pose's contacts have no time: 0).

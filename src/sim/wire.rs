@@ -29,6 +29,11 @@ pub(super) enum Request<'a> {
         pairs: Vec<[Option<&'a str>; 2]>,
         distmax: f64,
     },
+    /// The loaded model's joints and their position actuators made the robot's servos as
+    /// built: model joint name → what drives it.
+    Drive {
+        joints: BTreeMap<&'a str, JointDrive>,
+    },
     /// Each joint's generalized force for one state of motion (`mj_inverse`), gravity,
     /// inertia and armature only.
     Inverse {
@@ -116,6 +121,12 @@ pub(super) struct LoadReply {
     /// The model's named hinge and slide joints.
     pub joints: Vec<ModelJoint>,
     /// The position actuators on those joints.
+    pub actuators: Vec<Actuator>,
+}
+
+/// The `drive` reply: the position servos as they are now.
+#[derive(Debug, Deserialize)]
+pub(super) struct DriveReply {
     pub actuators: Vec<Actuator>,
 }
 
@@ -208,6 +219,18 @@ pub(super) struct ContactsReply {
 #[derive(Debug, Deserialize)]
 pub(super) struct DistancesReply {
     pub distances: Vec<Option<f64>>,
+}
+
+/// One joint's servo in the model's units (N·m and rad, or N and m for a slide): its position
+/// loop's stiffness, the force it is bounded by, the joint's damping (the slope of the
+/// torque-speed line: a saturated actuator then runs along it), armature and friction.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub(super) struct JointDrive {
+    pub kp: f64,
+    pub force: f64,
+    pub damping: f64,
+    pub armature: f64,
+    pub frictionloss: f64,
 }
 
 /// The `inverse` reply: every model joint's generalized force, N·m or N.
