@@ -362,6 +362,25 @@ fn sampled_csv_columns_named_with_commas_or_quotes_stay_one_column() {
     assert_eq!(lines.last(), Some("1,10,0,0,0,0,0"));
 }
 
+/// Where some joint's velocity jumps along `sequence` on `robot` (its curve's corners).
+fn corners_of(sequence: &str, robot: &keypose::robot::Robot) -> Vec<f64> {
+    use keypose::plan::{Side, States, Trajectory};
+    let sequence = keypose::sequence::Sequence::load(std::path::Path::new(sequence)).unwrap();
+    let states = States::of(&Trajectory::build(&sequence, robot).unwrap());
+    states
+        .breaks()
+        .into_iter()
+        .filter(|&t| {
+            let (before, after) = (states.at(t, Side::Before), states.at(t, Side::After));
+            before
+                .velocities
+                .iter()
+                .zip(&after.velocities)
+                .any(|(a, b)| (a - b).abs() > 1e-6)
+        })
+        .collect()
+}
+
 #[test]
 fn timing_profiles_are_followed_by_the_controllers_cubics_within_the_limits() {
     // Before, these were refused ("cannot carry a timing profile"). An eased straight segment
@@ -383,22 +402,30 @@ fn timing_profiles_are_followed_by_the_controllers_cubics_within_the_limits() {
     let fastest = fastest.to_str().unwrap();
     assert_follows(fastest, &[], "1000");
     // The cubics the controller plays keep the SO-101's limits (115 °/s, 344 °/s² on every
-    // joint), sampled at 1 kHz and at every point from either side: all of them, but for the
-    // curved sequence's corner at 2 s, turned over the 10 ms before it (judged by the limit
-    // check at the control rate, as for any corner), and its unprofiled cubic after it.
+    // joint), sampled at 1 kHz and at every point from either side: all of them, but for each
+    // corner (a velocity that jumps: the curved sequence's at 2 s, the fastest one's where a
+    // linear gripper segment meets the next), turned over the control period before it (judged
+    // by the limit check at the control rate, as for any corner), and the curved sequence's
+    // unprofiled cubic after its corner.
     let robot = keypose::robot::Robot::builtin("so101").unwrap();
+    let period = 1.0 / robot.control_hz;
     for (sequence, until) in [
         (eased, f64::INFINITY),
         (fastest, f64::INFINITY),
         (curved, 1.99),
     ] {
+        let corners = corners_of(sequence, &robot);
         let points = export_ros2(sequence, &dir.path().join("t.yaml"));
         let end = points.last().unwrap().time.min(until);
         let mut times: Vec<f64> = (0..=(end * 1000.0) as usize)
             .map(|k| k as f64 / 1000.0)
             .collect();
         times.extend(points.iter().flat_map(|p| [p.time - 1e-7, p.time + 1e-7]));
-        for t in times.into_iter().filter(|t| (0.0..=end).contains(t)) {
+        let turning = |t: f64| corners.iter().any(|&c| t > c - period - 1e-6 && t <= c);
+        for t in times
+            .into_iter()
+            .filter(|t| (0.0..=end).contains(t) && !turning(*t))
+        {
             for (j, [_, v, a]) in controller_at(&points, t).into_iter().enumerate() {
                 let limits = robot.joints[j].limits;
                 let (v, a) = (v.to_degrees(), a.to_degrees());
