@@ -121,7 +121,12 @@ pub fn simulate(
             simulation.model_servo_profile(robot)?;
         }
         let trace = run_stream(simulation, robot, &stream, trajectory, options.progress)?;
-        Ok((trace, simulation.model().to_string()))
+        // The verdict names the build it judged: keypose's own model made the robot's servos.
+        let model = match simulation.build() {
+            Some(build) => format!("{}, built {build}", simulation.model()),
+            None => format!("{}, its own actuators", simulation.model()),
+        };
+        Ok((trace, model))
     })?;
     if let Some(log) = &mut log {
         write_log(log, &stream, &trace).map_err(log_error)?;
