@@ -67,11 +67,14 @@ def load(
     calibration: Union[_Path, Seq[_Path], None] = None,
     robot_id: Union[str, Seq[str], None] = None,
     interpolation: Optional[Literal["step", "linear", "cubic", "monotone"]] = None,
+    payload: Optional[float] = None,
+    robot_variant: Optional[Literal["5v", "7.4v", "12v"]] = None,
 ) -> Sequence:
     """Reads a sequence file and its robot as `keypose check FILE` does; `robot` replaces the
     robot the file names; a LeRobot calibration from a file or from the id LeRobot calibrated
     the arm with is applied to it (on a sequence of several arms a list, `"ARM=FILE"` or
-    `"ARM=ID"` each)."""
+    `"ARM=ID"` each); `payload` (kg at the TCP) and `robot_variant` (the servos' build) as
+    `--payload` and `--robot-variant` give them."""
 
 # Native classes: not to be subclassed.
 @final
@@ -143,6 +146,9 @@ class Report:
     @property
     def contacts(self) -> List[Contact]:
         """Where the arm comes closer than its clearance to the floor, itself or another arm."""
+    @property
+    def torque(self) -> Optional[Dict[str, Any]]:
+        """Each servo's load against its drive, as `keypose check --format json` gives it."""
     @property
     def joints(self) -> List[JointSummary]: ...
     @property

@@ -41,14 +41,29 @@ impl Report {
         self.report.violations.len()
     }
 
-    /// One line per violation, then one per contact no key declares.
+    /// One line per violation, then one per contact no key declares, then one per servo
+    /// overload.
     pub fn violation_lines(&self) -> Vec<String> {
         let contacts = self.report.undeclared_contacts().map(describe_contact);
+        let overloads = self.report.overloads().map(|o| {
+            format!(
+                "{} asks {:.2} N·m at {:.2} rad/s where its line gives {:.2} N·m, at t = {:.3} s in segment {} ({}): {}",
+                o.joint,
+                o.torque.abs(),
+                o.speed.abs(),
+                o.available,
+                o.peak_time,
+                o.segment,
+                o.segment_label,
+                o.advice
+            )
+        });
         self.report
             .violations
             .iter()
             .map(describe)
             .chain(contacts)
+            .chain(overloads)
             .collect()
     }
 }
@@ -73,6 +88,16 @@ impl Report {
     #[getter]
     fn contacts(&self) -> Vec<Contact> {
         self.report.contacts.iter().cloned().map(Contact).collect()
+    }
+
+    /// Each servo's load against its drive, as `keypose check --format json` gives it under
+    /// "torque": the build, per joint the peak torque and its share of the torque-speed line,
+    /// RMS against the continuous rating and droop, the overloads and droops; `None` when it
+    /// was not checked.
+    #[getter]
+    fn torque<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let text = keypose::report::torque_json(&self.report).to_string();
+        py.import("json")?.call_method1("loads", (text,))
     }
 
     /// How close each joint comes to its limits, in joint order.

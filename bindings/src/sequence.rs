@@ -56,7 +56,8 @@ impl Sequence {
 /// (the id LeRobot calibrated the arm with); on a sequence of several arms a list of them,
 /// `"ARM=FILE"` each.
 #[pyfunction]
-#[pyo3(signature = (path, *, robot = None, calibration = None, robot_id = None, interpolation = None))]
+#[pyo3(signature = (path, *, robot = None, calibration = None, robot_id = None, interpolation = None, payload = None, robot_variant = None))]
+#[allow(clippy::too_many_arguments)]
 pub fn load(
     py: Python<'_>,
     path: PathBuf,
@@ -64,6 +65,8 @@ pub fn load(
     calibration: Option<OneOrMany>,
     robot_id: Option<OneOrMany>,
     interpolation: Option<String>,
+    payload: Option<f64>,
+    robot_variant: Option<String>,
 ) -> PyResult<Sequence> {
     let options = SequenceOptions {
         robot,
@@ -73,6 +76,19 @@ pub fn load(
         },
         interpolation: interpolation.map(|m| parse_interp(py, &m)).transpose()?,
         clearance: None,
+        payload: match payload {
+            Some(kg) if !(0.0..=keypose::robot::MAX_PAYLOAD_KG).contains(&kg) => {
+                return Err(argument_error(
+                    py,
+                    format!(
+                        "payload: expected a mass from 0 to {} kg, found {kg}",
+                        keypose::robot::MAX_PAYLOAD_KG
+                    ),
+                ))
+            }
+            other => other,
+        },
+        robot_variant,
     };
     let (sequence, robot) = options.load(&path).map_err(|e| command_error(py, e))?;
     let spec = sequence.robot.clone();

@@ -152,6 +152,11 @@ fn per_unit(unit: &str, kind: LimitKind) -> String {
     }
 }
 
+/// The torque part of the JSON report alone (`null` when the loads were not checked).
+pub fn torque_json(report: &CheckReport) -> Value {
+    load::json(report)
+}
+
 /// The check report as JSON, for scripts and CI.
 pub fn check_json(report: &CheckReport, sequence_file: &str, robot: &Robot) -> Value {
     json!({

@@ -386,16 +386,15 @@ impl Simulation {
         }
         let mut actuators = reply.actuators;
         self.build = None;
-        // keypose's own models are the arm as the robot says it is built; a model the user
-        // gives keeps its own actuators.
-        if mjcf.is_none() {
-            let names = self.joints.clone();
-            let joints = drives(robot, &names);
-            if !joints.is_empty() {
-                let reply = self.harness.request(&Request::Drive { joints })?;
-                actuators = wire::parse::<wire::DriveReply>(reply, "drive")?.actuators;
-                self.build = Some(crate::plan::build_name(robot));
-            }
+        // The model's servos are the robot's as it says it is built, whoever wrote the model:
+        // an official model's actuators are a modeller's choice (the SO-101's kp of 998 turns
+        // each control step into a force spike), the robot file's servos are what the arm has.
+        let names = self.joints.clone();
+        let joints = drives(robot, &names);
+        if !joints.is_empty() {
+            let reply = self.harness.request(&Request::Drive { joints })?;
+            actuators = wire::parse::<wire::DriveReply>(reply, "drive")?.actuators;
+            self.build = Some(crate::plan::build_name(robot));
         }
         self.force_limits = self
             .joints
@@ -412,7 +411,7 @@ impl Simulation {
     }
 
     /// The build the model was made, as the check names it ("sts3215 c001 @ 5 V"); `None`
-    /// for a model given with `--mjcf`, which keeps its own actuators.
+    /// where no servo of the robot has drive data, and the model keeps its own actuators.
     pub fn build(&self) -> Option<&str> {
         self.build.as_deref()
     }

@@ -143,7 +143,20 @@ pub(crate) fn joint_list(robot: &Robot, joints: &[usize]) -> String {
 pub(crate) fn first_violation(report: &CheckReport) -> Option<String> {
     let Some(v) = report.violations.first() else {
         let contacts: Vec<_> = report.undeclared_contacts().collect();
-        let c = contacts.first()?;
+        let Some(c) = contacts.first() else {
+            let overloads: Vec<_> = report.overloads().collect();
+            let o = overloads.first()?;
+            return Some(format!(
+                "{} servo overload(s), first {} asks {:.2} N·m at {:.2} s in {} where its line gives {:.2}: {}",
+                overloads.len(),
+                o.joint,
+                o.torque.abs(),
+                o.peak_time,
+                o.segment_label,
+                o.available,
+                o.advice
+            ));
+        };
         let other = c.bodies.1.as_deref().unwrap_or("the floor");
         return Some(format!(
             "{} contact(s), first {} with {other} at {:.2} s in {}: {}",

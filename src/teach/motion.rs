@@ -52,7 +52,7 @@ pub(crate) enum PlayRefusal {
     Unplayable(InputError),
     /// At this speed the trajectory breaks the robot's limits, or it makes a contact, as
     /// `keypose play` would refuse.
-    Limits(CheckReport),
+    Limits(Box<CheckReport>),
 }
 
 /// `space`: to key `index` of `sequence` by the player's approach ramp alone.
@@ -146,7 +146,7 @@ pub(crate) fn play(
     let played = trajectory.starting_at_key(Some(from));
     let report = plan::check_at_speed(&played, robot, rate, speed);
     if !report.passed() {
-        return Err(PlayRefusal::Limits(report));
+        return Err(PlayRefusal::Limits(Box::new(report)));
     }
     let end_pose = trajectory.sample(trajectory.end);
     Ok(MotionPlan {

@@ -173,12 +173,15 @@ fn the_fastest_timing_keeps_every_servo_within_its_line() {
     );
 }
 
+/// A change to a robot file.
+type Edit = Box<dyn Fn(&mut serde_json::Value)>;
+
 #[test]
 fn bad_drive_fields_name_the_file_the_field_and_what_was_expected() {
     let dir = tempfile::tempdir().unwrap();
     let robot: serde_json::Value =
         serde_json::from_str(keypose::robot::BUILTINS[0].description).unwrap();
-    let cases: [(&str, Box<dyn Fn(&mut serde_json::Value)>, &str); 4] = [
+    let cases: [(&str, Edit, &str); 4] = [
         (
             "variant",
             Box::new(|r| r["joints"][1]["servo"]["variant"] = "c999".into()),

@@ -150,7 +150,11 @@ fn every_example_at_its_fastest_passes_the_check_and_touches_nothing_in_physics(
         args.extend(crate::common::passing_build(file));
         let out = keypose(&args);
         assert_eq!(out.status.code(), Some(0), "{file}: {}", text(&out));
-        assert!(text(&out).contains("\nPASSED: no collisions"), "{}", text(&out));
+        assert!(
+            text(&out).contains("\nPASSED: no collisions"),
+            "{}",
+            text(&out)
+        );
     }
 }
 

@@ -400,7 +400,16 @@ fn wave_studio_in_control(dir: &Path, env: &[(&str, PathBuf)]) -> (Studio, Strin
     let sequence = Path::new(env!("CARGO_MANIFEST_DIR")).join("sequences/so101_wave.json");
     std::fs::copy(&sequence, dir.join("wave.json")).unwrap();
     let mut child = Command::new(env!("CARGO_BIN_EXE_keypose"))
-        .args(["studio", "--port", "virtual", "wave.json"])
+        // The 12 V build: on the standard 5 V one the SO-101 sags past Simulate's settling
+        // tolerance at home (tests/simulation/cli.rs).
+        .args([
+            "studio",
+            "--port",
+            "virtual",
+            "wave.json",
+            "--robot-variant",
+            "12v",
+        ])
         .current_dir(dir)
         .envs(env.iter().cloned())
         .stdout(Stdio::piped())

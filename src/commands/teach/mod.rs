@@ -50,6 +50,11 @@ pub struct SessionArgs {
     /// `keypose play --max-stall` does [default: 250; a jog plays on through 2000].
     #[arg(long, value_name = "MS", value_parser = super::play::parse_max_stall, allow_negative_numbers = true)]
     pub max_stall: Option<f64>,
+    /// The servos' build the check, the timeline and Simulate judge: 5v, 7.4v, 12v (as
+    /// `keypose check --robot-variant`) [default: what the robot file says, 5v for the
+    /// built-ins].
+    #[arg(long, value_name = "NAME")]
+    pub robot_variant: Option<String>,
 }
 
 /// A session ready to teach: the arm held where it is, the list loaded, the journal offered.
@@ -231,19 +236,21 @@ fn direction_record(
 
 /// The list to edit and the robot to teach.
 fn load(args: &SessionArgs, source: Option<&Path>) -> Result<(KeyframeList, Robot), CommandError> {
+    let options = SequenceOptions {
+        robot: args.robot.clone(),
+        calibration: args.calibration.clone(),
+        robot_variant: args.robot_variant.clone(),
+        ..SequenceOptions::default()
+    };
     if let Some(path) = source {
-        let options = SequenceOptions {
-            robot: args.robot.clone(),
-            calibration: args.calibration.clone(),
-            ..SequenceOptions::default()
-        };
         let (sequence, robot) = options.load(path)?;
         return Ok((KeyframeList::new(sequence), robot));
     }
-    let robot = super::load_robot(
+    let mut robot = super::load_robot(
         args.robot.as_deref().unwrap_or(super::DEFAULT_ROBOT),
         &args.calibration,
     )?;
+    options.apply_to(&mut robot)?;
     // The file names the robot by its name, which `keypose check` and `play` resolve as a
     // built-in.
     Ok((KeyframeList::new(Sequence::new(&robot.name)), robot))
