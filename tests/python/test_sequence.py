@@ -273,3 +273,29 @@ def test_a_sequence_built_on_a_robot_file_finds_it_again_once_saved_elsewhere(tm
     again = keypose.load(tmp_path / "saved" / "seq.json")
     assert again.robot.joints == robot.joints
     assert np.array_equal(again.sample()[1], sequence.sample()[1])
+
+
+def test_a_payload_the_5_v_shoulder_cannot_brake_fails_on_5_v_and_passes_on_12_v(tmp_path):
+    # The shoulder swings out to reach forward in 1.3 s carrying 50 g: braking at the end asks
+    # the 5 V servo for more than its 1.35 N·m stall torque, the 12 V one (2.94 N·m) has room.
+    path = write_sequence(
+        tmp_path / "swing.json",
+        "so101",
+        [
+            {"name": "low", "time": 0, "joints": {"shoulder_lift": 0, "elbow_flex": -90}},
+            {"name": "high", "time": 1.3, "joints": {"shoulder_lift": 90, "elbow_flex": -90}},
+        ],
+        interpolation="cubic",
+    )
+    five = keypose.load(path, payload=0.05).check()
+    assert not five.passed and five.violations == []
+    torque = five.torque
+    assert torque["build"] == "sts3215 c001 @ 5 V; 0.050 kg payload"
+    found = json.loads(cli("check", path, "--payload", "0.05", "--format", "json", check_code=1).stdout)
+    assert torque == found["torque"]
+    (overload,) = [o for o in torque["overloads"] if o["joint"] == "shoulder_lift"]
+    assert abs(overload["torque"]) > overload["available"]
+    twelve = keypose.load(path, payload=0.05, robot_variant="12v").check()
+    assert twelve.passed and twelve.torque["build"].startswith("sts3215 c047 @ 12 V")
+    with pytest.raises(ValueError, match="payload"):
+        keypose.load(path, payload=-1)
