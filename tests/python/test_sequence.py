@@ -297,5 +297,5 @@ def test_a_payload_the_5_v_shoulder_cannot_brake_fails_on_5_v_and_passes_on_12_v
     assert abs(overload["torque"]) > overload["available"]
     twelve = keypose.load(path, payload=0.05, robot_variant="12v").check()
     assert twelve.passed and twelve.torque["build"].startswith("sts3215 c047 @ 12 V")
-    with pytest.raises(ValueError, match="payload"):
+    with pytest.raises(keypose.InputError, match="payload"):
         keypose.load(path, payload=-1)
