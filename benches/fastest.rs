@@ -1,9 +1,11 @@
 //! `retime --fastest` against TOPP-RA: on every example of `sequences/`, the moving time keypose's
 //! timing profiles give and the time-optimal one TOPP-RA (the `toppra` package, in keypose's
 //! Python environment, run in the same process tree beside it) finds on the same path under the
-//! same velocity and acceleration limits, and their ratio. Moving time is that of the paths the
-//! profiles time (holds, steps and pauses keep their time in both). The machine's load is
-//! printed, and how long each side took to compute (a ratio of times on a shared machine).
+//! same velocity and acceleration limits, and their ratio; then TOPP-RA with each servo's
+//! torque-speed line too (the torques by MuJoCo's `mj_inverse`), which `--fastest` plans for.
+//! Moving time is that of the paths the profiles time (holds, steps and pauses keep their time
+//! in both). The machine's load is printed, and how long each side took to compute (a ratio of
+//! times on a shared machine).
 //!
 //! With jerk limits (each joint's acceleration limit reached in `ruckig::RISE_SECONDS`): the
 //! moving time `--fastest` gives with its S-curve profiles, which stop at every key (checked
@@ -41,9 +43,19 @@ fn main() {
         .collect();
     files.sort();
     println!(
-        "{:<28} {:>9} {:>9} {:>9} {:>7} {:>6} {:>9} {:>9}",
-        "example", "as keyed", "fastest", "TOPP-RA", "ratio", "rounds", "plan ms", "toppra ms"
+        "{:<28} {:>9} {:>9} {:>9} {:>7} {:>10} {:>7} {:>6} {:>9} {:>9}",
+        "example",
+        "as keyed",
+        "fastest",
+        "TOPP-RA",
+        "ratio",
+        "+ lines",
+        "ratio",
+        "rounds",
+        "plan ms",
+        "toppra ms"
     );
+    let mut line_ratios = Vec::new();
     let mut ratios = Vec::new();
     let mut version = String::new();
     let mut optima = Vec::new();
@@ -77,13 +89,22 @@ fn main() {
         let ratio = ours / theirs;
         ratios.push(ratio);
         optima.push(theirs);
+        // TOPP-RA with each servo's torque-speed line too, the torques by MuJoCo's inverse
+        // dynamics: what --fastest plans for.
+        let (with_lines, _) =
+            topp::toppra_durations(&python, &topp::request_with_torque(&outcome, &robot))
+                .unwrap_or_else(|e| panic!("{e}"));
+        let lines: f64 = with_lines.iter().sum();
+        line_ratios.push(ours / lines);
         println!(
-            "{:<28} {:>8.3}s {:>8.3}s {:>8.3}s {:>7.3} {:>6} {:>9.1} {:>9.1}",
+            "{:<28} {:>8.3}s {:>8.3}s {:>8.3}s {:>7.3} {:>9.3}s {:>7.3} {:>6} {:>9.1} {:>9.1}",
             file.file_name().unwrap().to_string_lossy(),
             keyed,
             ours,
             theirs,
             ratio,
+            lines,
+            ours / lines,
             outcome.rounds,
             plan_ms,
             toppra_ms
@@ -95,6 +116,11 @@ fn main() {
         ratios.iter().cloned().fold(f64::NAN, f64::max),
         ratios.len(),
         session.load()
+    );
+    println!(
+        "fastest / TOPP-RA with the servos' torque-speed lines: median {:.3}, worst {:.3}",
+        common::median(&line_ratios),
+        line_ratios.iter().cloned().fold(f64::NAN, f64::max),
     );
     jerk_limited(&python, &files, &optima);
     session.end();

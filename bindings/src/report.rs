@@ -45,19 +45,10 @@ impl Report {
     /// overload.
     pub fn violation_lines(&self) -> Vec<String> {
         let contacts = self.report.undeclared_contacts().map(describe_contact);
-        let overloads = self.report.overloads().map(|o| {
-            format!(
-                "{} asks {:.2} N·m at {:.2} rad/s where its line gives {:.2} N·m, at t = {:.3} s in segment {} ({}): {}",
-                o.joint,
-                o.torque.abs(),
-                o.speed.abs(),
-                o.available,
-                o.peak_time,
-                o.segment,
-                o.segment_label,
-                o.advice
-            )
-        });
+        let overloads = self
+            .report
+            .overloads()
+            .map(|o| format!("{}: {}", o.describe(), o.advice));
         self.report
             .violations
             .iter()

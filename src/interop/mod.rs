@@ -21,20 +21,7 @@ const SAME_TIME: f64 = 1e-9;
 /// and piece of a timing profile (`played`), at rest before and after (`extended`, for
 /// `discontinuities`).
 pub(crate) fn joint_curves(trajectory: &Trajectory) -> Vec<JointCurve> {
-    trajectory
-        .tracks()
-        .iter()
-        .map(|track| {
-            JointCurve::new(
-                track,
-                trajectory.timing(),
-                trajectory.start,
-                trajectory.end,
-                &trajectory.key_times,
-                0.0,
-            )
-        })
-        .collect()
+    JointCurve::of_trajectory(trajectory)
 }
 
 /// Every joint's played spans ([`joint_curves`]).

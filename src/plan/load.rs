@@ -68,6 +68,26 @@ pub struct Overload {
     pub advice: String,
 }
 
+impl Overload {
+    /// In one line: "elbow_flex asks 0.64 N·m at 1.95 rad/s where the line gives 0.60 N·m, at
+    /// 0.350 s (from 0.326 to 0.358 s), segment 0 (home → raise)".
+    pub fn describe(&self) -> String {
+        format!(
+            "{} asks {:.2} N·m at {:.2} rad/s where the line gives {:.2} N·m, at {:.3} s (from \
+             {:.3} to {:.3} s), segment {} ({})",
+            self.joint,
+            self.torque.abs(),
+            self.speed.abs(),
+            self.available,
+            self.peak_time,
+            self.from,
+            self.to,
+            self.segment,
+            self.segment_label
+        )
+    }
+}
+
 /// A key where a servo gives under its load by more than the settling tolerance.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Droop {

@@ -47,18 +47,9 @@ pub struct States {
 impl States {
     /// The states of `trajectory` over its played window.
     pub fn of(trajectory: &Trajectory) -> States {
-        let joints = trajectory
-            .tracks()
-            .iter()
-            .map(|track| {
-                let curve = JointCurve::new(
-                    track,
-                    trajectory.timing(),
-                    trajectory.start,
-                    trajectory.end,
-                    &trajectory.key_times,
-                    0.0,
-                );
+        let joints = JointCurve::of_trajectory(trajectory)
+            .into_iter()
+            .map(|curve| {
                 let rest = curve.rest_values()[0];
                 let spans = curve
                     .played

@@ -30,20 +30,7 @@ pub(super) fn text(report: &CheckReport) -> String {
     } else {
         let _ = writeln!(out, "FAILED: {} overload(s)", loads.overloads.len());
         for o in &loads.overloads {
-            let _ = writeln!(
-                out,
-                "  {} asks {:.2} N·m at {:.2} rad/s where the line gives {:.2} N·m, at {:.3} s \
-                 (from {:.3} to {:.3} s), segment {} ({})",
-                o.joint,
-                o.torque.abs(),
-                o.speed.abs(),
-                o.available,
-                o.peak_time,
-                o.from,
-                o.to,
-                o.segment,
-                o.segment_label
-            );
+            let _ = writeln!(out, "  {}", o.describe());
             let _ = writeln!(out, "      fix: {}", o.advice);
         }
     }

@@ -147,13 +147,9 @@ pub(crate) fn first_violation(report: &CheckReport) -> Option<String> {
             let overloads: Vec<_> = report.overloads().collect();
             let o = overloads.first()?;
             return Some(format!(
-                "{} servo overload(s), first {} asks {:.2} N·m at {:.2} s in {} where its line gives {:.2}: {}",
+                "{} servo overload(s), first {}: {}",
                 overloads.len(),
-                o.joint,
-                o.torque.abs(),
-                o.peak_time,
-                o.segment_label,
-                o.available,
+                o.describe(),
                 o.advice
             ));
         };

@@ -71,6 +71,25 @@ pub struct JointCurve {
 }
 
 impl JointCurve {
+    /// Every joint's curve over `trajectory`'s played window, split at its key times, with no
+    /// rest around it: what the check, the exports and the states of motion read.
+    pub fn of_trajectory(trajectory: &crate::plan::Trajectory) -> Vec<JointCurve> {
+        trajectory
+            .tracks()
+            .iter()
+            .map(|track| {
+                JointCurve::new(
+                    track,
+                    trajectory.timing(),
+                    trajectory.start,
+                    trajectory.end,
+                    &trajectory.key_times,
+                    0.0,
+                )
+            })
+            .collect()
+    }
+
     /// `track` played from `start` to `end` (sequence time, mapped to the track's path time
     /// by `timing`), split at `splits` (the sequence's key times).
     pub fn new(
