@@ -249,21 +249,20 @@ pub struct SequenceOptions {
 }
 
 fn parse_payload(s: &str) -> Result<f64, String> {
-    let max = keypose::robot::MAX_PAYLOAD_KG;
-    s.trim()
-        .parse::<f64>()
-        .ok()
-        .filter(|kg| (0.0..=max).contains(kg))
-        .ok_or_else(|| format!("expected a payload from 0 to {max} kg, found {s:?}"))
+    from_zero_to(s, keypose::robot::MAX_PAYLOAD_KG, "a payload", "kg")
 }
 
 fn parse_clearance(s: &str) -> Result<f64, String> {
-    let max = keypose::robot::MAX_CLEARANCE_MM;
+    from_zero_to(s, keypose::robot::MAX_CLEARANCE_MM, "a clearance", "mm")
+}
+
+/// A number from 0 to `max` (`what`, in `unit`).
+fn from_zero_to(s: &str, max: f64, what: &str, unit: &str) -> Result<f64, String> {
     s.trim()
         .parse::<f64>()
         .ok()
-        .filter(|mm| (0.0..=max).contains(mm))
-        .ok_or_else(|| format!("expected a clearance from 0 to {max} mm, found {s:?}"))
+        .filter(|x| (0.0..=max).contains(x))
+        .ok_or_else(|| format!("expected {what} from 0 to {max} {unit}, found {s:?}"))
 }
 
 fn parse_interp(s: &str) -> Result<Interp, String> {
