@@ -51,8 +51,10 @@ export async function run(name, seconds, body) {
 // change; the wave's wrist_flex is set by every key, so its row has a mark per key). The same
 // span the timeline uses: the curves' and the keys' times.
 export async function keyMark(page, index) {
-  await page.waitForFunction(() =>
-    window.studio.timeline.joints[3].keys.length === window.studio.snapshot.keys.length, null, { timeout: 30000 });
+  // The timeline drawn for the snapshot shown now: a fetch for an older list (as many keys,
+  // or fewer) may still be on its way under load.
+  await page.waitForFunction(() => window.studio.timelineKeys ===
+    JSON.stringify([window.studio.snapshot.keys, window.studio.snapshot.current]), null, { timeout: 30000 });
   return page.evaluate(i => {
     const c = document.getElementById('timeline');
     const t = window.studio.snapshot.keys[i].time;
