@@ -19,10 +19,10 @@ use super::Trajectory;
 use crate::dynamics::{Dynamics, DynamicsError};
 use crate::robot::{JointKind, Robot};
 
-/// The longest interval between two evaluated instants, seconds of the servos' time: ten
-/// control periods of the fastest arm, MuJoCo's two-millisecond step times two and a half;
-/// torque is smooth between the instants where an acceleration jumps, which are all read.
-pub const STEP: f64 = 0.005;
+/// The longest interval between two evaluated instants, seconds of the servos' time: the
+/// built-in arms' control period, at which the player asks for each goal. Torque is smooth
+/// between the instants where an acceleration jumps, which are all read, both sides.
+pub const STEP: f64 = 0.01;
 
 /// How far from its key an arm may rest before `sim` judges it unsettled, degrees (prismatic:
 /// [`SETTLED_TOLERANCE_M`]): what droop is measured against.
