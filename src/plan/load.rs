@@ -160,28 +160,83 @@ pub struct LoadReport {
     pub unrated: Vec<String>,
 }
 
+/// Each joint's servo torque along a trajectory, at the instants the check reads: one flat
+/// buffer of `[time, values…, torques…, speeds…]` rows (a long sequence has millions of
+/// instants; one row each, not a vector each).
+#[derive(Debug, Clone)]
+pub struct Samples {
+    joints: usize,
+    rows: Vec<f64>,
+}
+
+/// One instant of [`Samples`].
+#[derive(Debug, Clone, Copy)]
+pub struct Sample<'a> {
+    /// Sequence time, seconds.
+    pub time: f64,
+    /// Joint values (degrees, metres).
+    pub values: &'a [f64],
+    /// Each servo's torque at its output, N·m.
+    pub torques: &'a [f64],
+    /// Each servo's output speed, rad/s.
+    pub speeds: &'a [f64],
+}
+
+impl Samples {
+    fn width(&self) -> usize {
+        1 + 3 * self.joints
+    }
+
+    /// How many instants.
+    pub fn len(&self) -> usize {
+        self.rows.len() / self.width()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.rows.is_empty()
+    }
+
+    /// Instant `k`.
+    pub fn get(&self, k: usize) -> Sample<'_> {
+        let n = self.joints;
+        let row = &self.rows[k * self.width()..(k + 1) * self.width()];
+        Sample {
+            time: row[0],
+            values: &row[1..1 + n],
+            torques: &row[1 + n..1 + 2 * n],
+            speeds: &row[1 + 2 * n..],
+        }
+    }
+
+    /// Every instant in order.
+    pub fn iter(&self) -> impl Iterator<Item = Sample<'_>> {
+        (0..self.len()).map(|k| self.get(k))
+    }
+}
+
 /// Each joint's servo torque along `trajectory` at playback `speed`, at the instants the
-/// check reads: (state, servo torques, servo speeds).
-pub fn torques(
-    trajectory: &Trajectory,
-    dynamics: &Dynamics,
-    speed: f64,
-) -> Vec<(State, Vec<f64>, Vec<f64>)> {
+/// check reads.
+pub fn torques(trajectory: &Trajectory, dynamics: &Dynamics, speed: f64) -> Samples {
     let states = States::of(trajectory);
-    let mut out = Vec::new();
-    for (t, side) in instants(&states, STEP * speed) {
-        let mut s = states.at(t, side);
+    let joints = trajectory.tracks().len();
+    let instants = instants(&states, STEP * speed);
+    let mut rows = Vec::with_capacity(instants.len() * (1 + 3 * joints));
+    let mut s = State::default();
+    for (t, side) in instants {
+        states.fill(t, side, &mut s);
         for v in &mut s.velocities {
             *v *= speed;
         }
         for a in &mut s.accelerations {
             *a *= speed * speed;
         }
-        let torque = dynamics.servo_torques(&s.values, &s.velocities, &s.accelerations);
-        let servo_speed = dynamics.servo_speeds(&s.velocities);
-        out.push((s, torque, servo_speed));
+        rows.push(t);
+        rows.extend_from_slice(&s.values);
+        rows.extend(dynamics.servo_torques(&s.values, &s.velocities, &s.accelerations));
+        rows.extend(dynamics.servo_speeds(&s.velocities));
     }
-    out
+    Samples { joints, rows }
 }
 
 /// The instants read: both sides of every break, and every `step` (sequence time) between.
@@ -289,28 +344,30 @@ fn drive_name(servo: &crate::robot::Servo) -> String {
 }
 
 /// Joint `j`'s peak, share of the line, RMS and time above its continuous rating.
-fn summarise(
-    j: usize,
-    joint: &crate::robot::Joint,
-    samples: &[(State, Vec<f64>, Vec<f64>)],
-) -> JointLoad {
+fn summarise(j: usize, joint: &crate::robot::Joint, samples: &Samples) -> JointLoad {
     let drive = joint.servo.drive();
     let (mut peak, mut peak_time, mut share) = (0.0f64, 0.0, 0.0f64);
     let (mut square, mut above, mut total) = (0.0, 0.0, 0.0);
-    for (k, (state, torque, speed)) in samples.iter().enumerate() {
-        let t = torque[j];
+    for k in 0..samples.len() {
+        let sample = samples.get(k);
+        let t = sample.torques[j];
         if t.abs() > peak.abs() {
             peak = t;
-            peak_time = state.time;
+            peak_time = sample.time;
         }
         if let Some(d) = drive {
-            share = share.max(t.abs() / d.available(speed[j], t).max(f64::MIN_POSITIVE));
+            let available = d.available(sample.speeds[j], t);
+            share = share.max(t.abs() / available.max(f64::MIN_POSITIVE));
         }
         // Trapezoid weights: each instant stands for half the time to its neighbours.
         let before = k
             .checked_sub(1)
-            .map_or(0.0, |p| state.time - samples[p].0.time);
-        let after = samples.get(k + 1).map_or(0.0, |n| n.0.time - state.time);
+            .map_or(0.0, |p| sample.time - samples.get(p).time);
+        let after = if k + 1 < samples.len() {
+            samples.get(k + 1).time - sample.time
+        } else {
+            0.0
+        };
         let dt = 0.5 * (before + after);
         square += t * t * dt;
         total += dt;
@@ -355,38 +412,38 @@ fn over_line(
     dynamics: &Dynamics,
     j: usize,
     drive: &crate::servo::Drive,
-    samples: &[(State, Vec<f64>, Vec<f64>)],
+    samples: &Samples,
 ) -> Vec<Overload> {
     let mut out: Vec<Overload> = Vec::new();
-    for (state, torque, speed) in samples {
-        let (t, w) = (torque[j], speed[j]);
+    for sample in samples.iter() {
+        let (t, w) = (sample.torques[j], sample.speeds[j]);
         let available = drive.available(w, t);
         if t.abs() <= available + LINE_TOLERANCE * drive.stall_torque.value {
             continue;
         }
         let excess = t.abs() - available;
         match out.last_mut() {
-            Some(last) if state.time - last.to <= JOIN => {
-                last.to = state.time;
+            Some(last) if sample.time - last.to <= JOIN => {
+                last.to = sample.time;
                 if excess > last.torque.abs() - last.available {
-                    last.peak_time = state.time;
+                    last.peak_time = sample.time;
                     last.torque = t;
                     last.available = available;
                     last.speed = w;
-                    last.holding = dynamics.holding_torques(&state.values)[j];
+                    last.holding = dynamics.holding_torques(sample.values)[j];
                 }
             }
             _ => out.push(Overload {
                 joint: robot.joints[j].name.clone(),
                 segment: 0,
                 segment_label: String::new(),
-                from: state.time,
-                to: state.time,
-                peak_time: state.time,
+                from: sample.time,
+                to: sample.time,
+                peak_time: sample.time,
                 torque: t,
                 available,
                 speed: w,
-                holding: dynamics.holding_torques(&state.values)[j],
+                holding: dynamics.holding_torques(sample.values)[j],
                 advice: String::new(),
             }),
         }

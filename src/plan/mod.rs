@@ -37,8 +37,8 @@ pub use check::{check, check_at_speed, Cause, CheckReport, JointSummary, LimitKi
 pub use clearance::{approach_refusal, ClearanceScope, Contact, ContactCause, ContactWindow};
 pub use fastest::{fastest, FastestOutcome, FastestRun};
 pub use load::{
-    build_name, check_loads, torques, Droop, JointLoad, LoadReport, LoadScope, Overload,
-    SETTLED_TOLERANCE_DEG, SETTLED_TOLERANCE_M,
+    build_name, check_loads, torques, Droop, JointLoad, LoadReport, LoadScope, Overload, Sample,
+    Samples, SETTLED_TOLERANCE_DEG, SETTLED_TOLERANCE_M,
 };
 pub use retime::{advice, retime, RetimeOutcome, MAX_STRETCH};
 pub use sampled::Sampled;
