@@ -110,9 +110,19 @@ fn report_unfixable(
             eprintln!("{}", escape_controls(&line));
         }
     }
+    let overloads: Vec<_> = report.overloads().collect();
+    if !overloads.is_empty() {
+        eprintln!(
+            "{} servo overload(s) are left (stretching to the limits does not judge torque):",
+            overloads.len()
+        );
+        for o in &overloads {
+            eprintln!("  {} — {}", escape_controls(&o.describe()), o.advice);
+        }
+    }
     let remaining = &report.violations;
     if remaining.is_empty() {
-        return !contacts.is_empty();
+        return !contacts.is_empty() || !overloads.is_empty();
     }
     eprintln!(
         "{} violation(s) cannot be fixed by retiming:",

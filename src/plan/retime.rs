@@ -127,8 +127,11 @@ pub fn retime(sequence: &Sequence, robot: &Robot, rate: f64) -> Result<RetimeOut
         stretch(&mut current, &factors, segments);
         report = judge(&current)?;
     }
-    // The loop's last report is of `current`: the path's clearance is added to it once.
-    add_clearance(&mut report, &Trajectory::build(&current, robot)?, robot);
+    // The loop's last report is of `current`: the path's clearance and the servos' loads are
+    // added to it once, so that it is what `check` says of the result.
+    let final_trajectory = Trajectory::build(&current, robot)?;
+    add_clearance(&mut report, &final_trajectory, robot);
+    report.loads = Some(super::check_loads(&final_trajectory, robot, 1.0));
     let times = current.key_times();
     let stretched = (0..times.len().saturating_sub(1))
         .filter_map(|i| {
