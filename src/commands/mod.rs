@@ -308,6 +308,20 @@ pub fn check_sample_budget(
 
 /// Robot joint indices for `--joints` names, in the order given, each once; all joints when
 /// none are given.
+/// `--compensate-droop`: the goals' lead for `robot`'s servos, or why it has none (bad
+/// input: the robot's masses are not known, so no lead could be trusted).
+pub fn droop_compensation(
+    asked: bool,
+    robot: &Robot,
+) -> Result<Option<std::sync::Arc<keypose::dynamics::Compensation>>, CommandError> {
+    if !asked {
+        return Ok(None);
+    }
+    keypose::dynamics::Compensation::for_robot(robot)
+        .map(|c| Some(std::sync::Arc::new(c)))
+        .map_err(|e| CommandError::Usage(format!("--compensate-droop: {e}")))
+}
+
 pub fn joint_indices(robot: &Robot, names: &[String]) -> Result<Vec<usize>, CommandError> {
     if names.is_empty() {
         return Ok((0..robot.joints.len()).collect());

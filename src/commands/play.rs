@@ -84,6 +84,12 @@ pub struct PlayArgs {
     /// the previous values are restored afterwards, however playback ends.
     #[arg(long)]
     pub servo_profile: bool,
+    /// Send goals that lead the path by each servo's droop under its load (gravity, the
+    /// motion's inertia and the motor's back-EMF over the position loop's stiffness, from the
+    /// robot's masses and its servos' build), so that the arm rather than the goal follows
+    /// the path; clamped to the joints' limits and faded in along the approach ramp.
+    #[arg(long)]
+    pub compensate_droop: bool,
 }
 
 /// `--max-stall` in milliseconds, returned in seconds.
@@ -175,6 +181,7 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
         progress: !args.quiet,
         max_stall: args.max_stall,
         servo_profile: args.servo_profile,
+        compensation: super::droop_compensation(args.compensate_droop, &robot)?,
         ..PlayOptions::new(rate)
     };
     if args.bus.given() {

@@ -55,6 +55,12 @@ pub struct SimArgs {
     /// follows its goal within the joint's acceleration limit, in the register's units).
     #[arg(long)]
     pub servo_profile: bool,
+    /// Send goals that lead the path by each servo's droop under its load (gravity, the
+    /// motion's inertia and the motor's back-EMF over the position loop's stiffness, from the
+    /// robot's masses and its servos' build), so that the arm rather than the goal follows
+    /// the path; clamped to the joints' limits and faded in along the approach ramp.
+    #[arg(long)]
+    pub compensate_droop: bool,
 }
 
 /// Simulated seconds per request when a progress line follows the run (`play` without a
@@ -324,6 +330,7 @@ fn prepare(args: &SimArgs, path: &Path) -> Result<Prepared, CommandError> {
         speed: args.speed,
         servo_profile: args.servo_profile,
         log: args.log.clone(),
+        compensation: super::droop_compensation(args.compensate_droop, &robot)?,
         ..PlayOptions::new(rate)
     };
     Ok(Prepared {

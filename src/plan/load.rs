@@ -496,9 +496,10 @@ fn droops(
             };
             let shaft = drive.droop(holding[j].abs());
             let n = joint.servo.transmission(joint.kind);
-            let (droop, tolerance) = match joint.kind {
-                JointKind::Revolute => ((shaft * n).to_degrees(), SETTLED_TOLERANCE_DEG),
-                JointKind::Prismatic => (shaft * n, SETTLED_TOLERANCE_M),
+            let droop = crate::dynamics::from_si(joint.kind, shaft * n);
+            let tolerance = match joint.kind {
+                JointKind::Revolute => SETTLED_TOLERANCE_DEG,
+                JointKind::Prismatic => SETTLED_TOLERANCE_M,
             };
             joints[j].max_droop = joints[j].max_droop.max(droop);
             if droop <= tolerance {

@@ -14,6 +14,8 @@ mod approach;
 pub(crate) mod check;
 mod clearance;
 mod fastest;
+mod lead;
+mod limiter;
 mod load;
 mod retime;
 mod sampled;
@@ -36,6 +38,7 @@ pub(crate) use check::{add_clearance, check_limits};
 pub use check::{check, check_at_speed, Cause, CheckReport, JointSummary, LimitKind, Violation};
 pub use clearance::{approach_refusal, ClearanceScope, Contact, ContactCause, ContactWindow};
 pub use fastest::{fastest, FastestOutcome, FastestRun};
+pub(crate) use limiter::StepLimiter;
 pub use load::{
     build_name, check_loads, torques, Droop, JointLoad, LoadReport, LoadScope, Overload, Sample,
     Samples, SETTLED_TOLERANCE_DEG, SETTLED_TOLERANCE_M,

@@ -17,9 +17,12 @@
 //!   along the path from where it was, later by the stall; it never jumps ahead to where the
 //!   clock says it should be.
 
+use super::lead::LeadFollower;
 use super::scurve::{speed_change, SCurve};
 use super::{Approach, Trajectory, MIN_APPROACH_SECONDS};
+use crate::dynamics::Compensation;
 use crate::robot::Robot;
+use std::sync::Arc;
 
 /// How many times the sequence is played.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -31,7 +34,7 @@ pub enum Loops {
 }
 
 /// How a trajectory is played: what the timeline needs to know, and nothing of buses or clocks.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct TimelineOptions {
     /// Time scale: 0.5 plays at half speed.
     pub speed: f64,
@@ -46,6 +49,9 @@ pub struct TimelineOptions {
     /// The approach's shortest duration, seconds: [`MIN_APPROACH_SECONDS`] for playback, whose
     /// start is an unknown pose; 0 for a teach jog of held joints, timed by the limits alone.
     pub shortest_approach: f64,
+    /// Goals that lead the path by each servo's droop under its load (`--compensate-droop`),
+    /// so that the arm rather than the goal follows it; `None`: the path itself is sent.
+    pub compensation: Option<Arc<Compensation>>,
 }
 
 impl Default for TimelineOptions {
@@ -57,6 +63,7 @@ impl Default for TimelineOptions {
             from_key: None,
             approach: true,
             shortest_approach: MIN_APPROACH_SECONDS,
+            compensation: None,
         }
     }
 }
@@ -221,6 +228,9 @@ pub struct Timeline<'a> {
     /// Wall-clock seconds lost coming back up to speed after stalls (the path followed at a
     /// share of the rate): the stalls themselves are counted by the pacer.
     resuming_lost: f64,
+    compensation: Option<Arc<Compensation>>,
+    /// The lead that went out, once the first goals have.
+    lead: Option<LeadFollower>,
 }
 
 impl<'a> Timeline<'a> {
@@ -268,6 +278,8 @@ impl<'a> Timeline<'a> {
             approach_seconds,
             joints: robot.joints.len(),
             resuming_lost: 0.0,
+            compensation: options.compensation.clone(),
+            lead: None,
         }
     }
 
@@ -330,6 +342,43 @@ impl<'a> Timeline<'a> {
             State::Done => return None,
         }
         self.phase()
+    }
+
+    /// Turns the pose [`Timeline::sample_into`] gave (after the player's step limiter) into
+    /// the goals to send, `period` seconds after the last ones: the same pose, or with droop
+    /// compensation each servo's lead over it for the weight it holds there (`lead`), faded
+    /// in along the first approach ramp, which starts from where the arm rests under its
+    /// weight.
+    pub fn goals_into(&mut self, pose: &mut [f64], period: f64) {
+        let Some(compensation) = &self.compensation else {
+            return;
+        };
+        let weight = self.lead_weight();
+        let target: Vec<f64> = compensation
+            .leads(pose)
+            .iter()
+            .map(|lead| lead * weight)
+            .collect();
+        let robot = self.robot;
+        self.lead
+            .get_or_insert_with(|| LeadFollower::new(robot, period))
+            .goals_into(pose, &target);
+    }
+
+    /// How much of the compensation's lead goes out now: rising smoothly from 0 to 1 along
+    /// the first approach ramp, 1 after it.
+    fn lead_weight(&self) -> f64 {
+        match &self.state {
+            State::Ramp {
+                ramp,
+                t,
+                then_loop: 1,
+            } if ramp.duration > 0.0 => {
+                let x = (t / ramp.duration).clamp(0.0, 1.0);
+                x * x * (3.0 - 2.0 * x)
+            }
+            _ => 1.0,
+        }
     }
 
     /// The last goal was held through a stall: the path was followed at `share` of the rate

@@ -15,7 +15,6 @@
 //!   between them (the machine cannot keep up with the rate: said at once, not at the end).
 
 mod guard;
-mod limiter;
 mod log;
 mod playhead;
 mod progress;
@@ -24,10 +23,10 @@ mod servo_profile;
 mod warnings;
 
 pub use crate::pacing::{Clock, LatenessSummary, Overrun, WallClock, MAX_STALLS_PER_SECOND};
+pub(crate) use crate::plan::StepLimiter;
 pub use crate::stop::StopSignal;
 pub(crate) use guard::GoalGuard;
 pub use guard::LimitBreach;
-pub(crate) use limiter::StepLimiter;
 pub use log::{PlaybackLog, Row as LogRow};
 pub use playhead::{Playhead, PlayheadAt};
 pub use progress::print_progress_line;
@@ -85,6 +84,8 @@ pub struct PlayOptions {
     /// Set every cycle to where the playback is, for a page that draws it (`None`: not
     /// followed).
     pub playhead: Option<Playhead>,
+    /// Goals lead the path by each servo's droop under its load (`--compensate-droop`).
+    pub compensation: Option<std::sync::Arc<crate::dynamics::Compensation>>,
 }
 
 impl PlayOptions {
@@ -97,6 +98,7 @@ impl PlayOptions {
             from_key: self.from_key,
             approach: self.approach,
             shortest_approach: self.shortest_approach,
+            compensation: self.compensation.clone(),
         }
     }
 
@@ -120,6 +122,7 @@ impl PlayOptions {
             servo_profile: false,
             max_stalls_per_second: Some(MAX_STALLS_PER_SECOND),
             playhead: None,
+            compensation: None,
         }
     }
 }

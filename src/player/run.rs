@@ -38,6 +38,9 @@ pub(super) struct Run<'a> {
     period: f64,
     /// Clock time playback began, seconds.
     t0: f64,
+    /// Where the arm should be this cycle: the timeline's pose, through the step limiter.
+    path: Vec<f64>,
+    /// This cycle's goals: the path, or with droop compensation the path and its lead.
     pose: Vec<f64>,
     /// This cycle's goals, (id, tick): allocated once.
     goals: Vec<(u8, i64)>,
@@ -102,6 +105,7 @@ impl<'a> Run<'a> {
                 .map(|bound| KeepUp::new(options.rate_hz, bound)),
             t0: clock.now().as_secs_f64(),
             limiter: StepLimiter::new(robot, period, &measured),
+            path: vec![0.0; robot.joints.len()],
             pose: vec![0.0; robot.joints.len()],
             goals: Vec::with_capacity(robot.joints.len()),
             first_write: None,
@@ -165,7 +169,7 @@ impl<'a> Run<'a> {
         if self.cycle > 0 {
             self.timeline.advance(self.period);
         }
-        let Some(phase) = self.timeline.sample_into(&mut self.pose) else {
+        let Some(phase) = self.timeline.sample_into(&mut self.path) else {
             return Ok(Some(if self.timeline.stopped() {
                 Outcome::Stopped
             } else {
@@ -240,9 +244,12 @@ impl<'a> Run<'a> {
         Ok(None)
     }
 
-    /// The pose of this cycle, through the step limiter and the position guard, to the servos.
+    /// The pose of this cycle, through the step limiter, the droop compensation's lead and
+    /// the position guard, to the servos.
     fn command(&mut self, followed: f64, elapsed: f64) -> Result<(), PlayError> {
-        self.limiter.limit(&mut self.pose, followed);
+        self.limiter.limit(&mut self.path, followed);
+        self.pose.copy_from_slice(&self.path);
+        self.timeline.goals_into(&mut self.pose, self.period);
         self.guard.goals_into(&self.pose, &mut self.goals)?;
         self.served_only();
         let written = self.bus.write_goals(&self.goals);
@@ -349,7 +356,7 @@ impl<'a> Run<'a> {
             Ok(ticks) => {
                 self.reads.succeeded();
                 let values = self.served_values(&ticks);
-                self.stats.track(self.robot, &values, &self.pose);
+                self.stats.track(self.robot, &values, &self.path);
                 Ok(Some(values))
             }
             Err(e) => self.read_failed(e, elapsed).map(|()| None),
@@ -399,7 +406,7 @@ impl<'a> Run<'a> {
         }
         if let Some(playhead) = &self.options.playhead {
             let time = self.timeline.sequence_time();
-            playhead.set(self.timeline.phase_name(), time, &self.pose);
+            playhead.set(self.timeline.phase_name(), time, &self.path);
         }
         if self.options.progress
             && self

@@ -172,8 +172,11 @@ pub struct CommandStream {
     pub rate: f64,
     /// The pose the arm rests in before the first cycle.
     pub initial: Vec<f64>,
-    /// The pose commanded in each cycle, in joint order.
+    /// The goals sent in each cycle, in joint order.
     pub rows: Vec<Vec<f64>>,
+    /// Where the arm should be in each cycle: the timeline's pose, which the goals lead with
+    /// droop compensation and equal without it.
+    pub intended: Vec<Vec<f64>>,
     /// Sequence time of each row; `None` during ramps.
     pub sequence_time: Vec<Option<f64>>,
     /// The timeline's own sequence time of each row (during a ramp, where the ramp leads), as
@@ -200,6 +203,7 @@ pub fn command_stream(
         rate,
         initial: initial.clone(),
         rows: Vec::new(),
+        intended: Vec::new(),
         sequence_time: Vec::new(),
         timeline_time: Vec::new(),
         phase: Vec::new(),
@@ -210,7 +214,9 @@ pub fn command_stream(
     let dt = 1.0 / rate;
     while let Some(phase) = timeline.sample_into(&mut pose) {
         let tau = timeline.sequence_time();
-        stream.push(pose.clone(), phase, tau, timeline.loop_label());
+        let mut goals = pose.clone();
+        timeline.goals_into(&mut goals, dt);
+        stream.push(goals, pose.clone(), phase, tau, timeline.loop_label());
         timeline.advance(dt);
     }
     stream.played = stream.rows.len();
@@ -218,8 +224,16 @@ pub fn command_stream(
 }
 
 impl CommandStream {
-    fn push(&mut self, pose: Vec<f64>, phase: Phase, tau: f64, loop_label: String) {
-        self.rows.push(pose);
+    fn push(
+        &mut self,
+        goals: Vec<f64>,
+        pose: Vec<f64>,
+        phase: Phase,
+        tau: f64,
+        loop_label: String,
+    ) {
+        self.rows.push(goals);
+        self.intended.push(pose);
         self.sequence_time.push(match phase {
             Phase::Approach | Phase::Return => None,
             Phase::Play | Phase::Stopping | Phase::Resuming => Some(tau),
@@ -233,8 +247,9 @@ impl CommandStream {
     /// servos hold it after the player's last cycle, so that the last key is judged settled
     /// too.
     pub fn hold_at_end(&mut self, seconds: f64, speed: f64) {
-        let (Some(pose), Some(&tau), Some(label)) = (
+        let (Some(goals), Some(pose), Some(&tau), Some(label)) = (
             self.rows.last().cloned(),
+            self.intended.last().cloned(),
             self.timeline_time.last(),
             self.loop_label.last().cloned(),
         ) else {
@@ -251,7 +266,7 @@ impl CommandStream {
         let cycles = (seconds * self.rate).ceil() as usize;
         for k in 1..=cycles {
             let t = tau + (at_end - 1 + k) as f64 * speed / self.rate;
-            self.push(pose.clone(), Phase::Play, t, label.clone());
+            self.push(goals.clone(), pose.clone(), Phase::Play, t, label.clone());
         }
     }
 }
@@ -480,7 +495,8 @@ impl Simulation {
         Ok(Trace {
             time: trace.time,
             sequence_time: stream.sequence_time[rows.clone()][..n].to_vec(),
-            commanded: stream.rows[rows][..n].to_vec(),
+            commanded: stream.rows[rows.clone()][..n].to_vec(),
+            intended: stream.intended[rows][..n].to_vec(),
             position: trace.qpos.iter().map(|r| from_model(robot, r)).collect(),
             velocity: trace.qvel.iter().map(|r| from_model(robot, r)).collect(),
             force: trace.force,
@@ -626,6 +642,7 @@ impl Trace {
         self.time.extend(more.time);
         self.sequence_time.extend(more.sequence_time);
         self.commanded.extend(more.commanded);
+        self.intended.extend(more.intended);
         self.position.extend(more.position);
         self.velocity.extend(more.velocity);
         self.force.extend(more.force);

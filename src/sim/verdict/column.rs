@@ -29,9 +29,9 @@ impl Column<'_> {
         super::shown(self.joint.kind, value)
     }
 
-    /// |position - commanded| at `row`.
+    /// |position - intended| at `row`.
     pub fn error(&self, row: usize) -> f64 {
-        (self.trace.position[row][self.index] - self.trace.commanded[row][self.index]).abs()
+        (self.trace.position[row][self.index] - self.trace.intended[row][self.index]).abs()
     }
 
     /// A finding about this joint at `row`'s time.

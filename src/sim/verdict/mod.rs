@@ -30,8 +30,11 @@ pub struct Trace {
     pub time: Vec<f64>,
     /// The sequence time each row belongs to, or `None` during the approach ramp.
     pub sequence_time: Vec<Option<f64>>,
-    /// `commanded[row][joint]`
+    /// The goal sent, `commanded[row][joint]`.
     pub commanded: Vec<Vec<f64>>,
+    /// Where the arm should be, `intended[row][joint]`: the goal itself, or the path the goal
+    /// leads with droop compensation. Tracking is judged against it.
+    pub intended: Vec<Vec<f64>>,
     /// `position[row][joint]`, measured at the end of the row.
     pub position: Vec<Vec<f64>>,
     /// Joint units per second.
@@ -258,6 +261,7 @@ mod tests {
             time: (0..rows).map(|r| r as f64 / 100.0).collect(),
             sequence_time: (0..rows).map(|r| Some(r as f64 / 100.0)).collect(),
             commanded: vec![vec![0.0; n]; rows],
+            intended: vec![vec![0.0; n]; rows],
             position: vec![vec![0.0; n]; rows],
             velocity: vec![vec![0.0; n]; rows],
             force: vec![vec![0.0; n]; rows],
@@ -335,6 +339,7 @@ mod tests {
         for row in 0..trace.time.len() {
             let moved = rate * (row.clamp(from, to) - from) as f64 / 100.0;
             trace.commanded[row][2] = -moved;
+            trace.intended[row][2] = -moved;
             trace.position[row][2] = -moved + lag;
         }
         trace
@@ -430,6 +435,7 @@ mod tests {
         // 2.5° in one 10 ms cycle is 250 °/s, beyond the STS3215's 200 °/s on 5 V.
         for row in 100..200 {
             trace.commanded[row][4] = 2.5;
+            trace.intended[row][4] = 2.5;
             trace.position[row][4] = 2.5;
         }
         let v = judge(&robot, &trace, &[], &Thresholds::default());

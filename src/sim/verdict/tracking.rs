@@ -97,10 +97,10 @@ fn judged_row(column: &Column, key: &KeyMark, t: &Thresholds) -> Option<(usize, 
     command_rests(column, row, t).then_some((reached, row))
 }
 
-/// Whether the command stayed within the rest tolerance of its value at `row` for the
-/// `settle_time` up to it.
+/// Whether the command (where the arm should be) stayed within the rest tolerance of its value
+/// at `row` for the `settle_time` up to it.
 fn command_rests(column: &Column, row: usize, t: &Thresholds) -> bool {
-    let (time, commanded) = (&column.trace.time, &column.trace.commanded);
+    let (time, commanded) = (&column.trace.time, &column.trace.intended);
     let at = commanded[row][column.index];
     let tolerance = t.rest_allowed(column.is_revolute());
     (0..=row)

@@ -1,5 +1,7 @@
-//! The last motion check before the position guard: no goal step beyond what the joint's
-//! velocity and acceleration limits allow over one control period, whatever the scheduler did.
+//! The player's last motion check before the position guard: no goal step beyond what the
+//! joint's velocity and acceleration limits allow over one control period, whatever the
+//! scheduler did. (Droop compensation's lead keeps its goals inside the same band, so the
+//! player's limiter stays idle with it too: `lead`.)
 //!
 //! The timeline already keeps its path within the limits, and after a stall resumes from the
 //! rate the arm really followed (see [`crate::pacing`]). This limiter makes that a guarantee
@@ -97,24 +99,24 @@ impl JointLimit {
         let mut high = (reference + self.acceleration_step).min(self.velocity_step) + slack;
         // Slow enough to stop inside the limits; never tighter than the acceleration band
         // allows (braking harder than the limit would break it the other way).
-        high = high.min(self.stoppable_step(self.max - from)).max(low);
-        low = low.max(-self.stoppable_step(from - self.min)).min(high);
+        let a = self.acceleration_step;
+        high = high.min(stoppable_step(self.max - from, a)).max(low);
+        low = low.max(-stoppable_step(from - self.min, a)).min(high);
         wanted.clamp(low, high)
     }
+}
 
-    /// The largest step towards a limit `room` away after which the joint can still stop before
-    /// it, slowing by one acceleration step `A` per period. After a step `s` with
-    /// `n·A ≤ s < (n+1)·A` come the steps `s − A, …, s − n·A`, so the whole distance is
-    /// `(n+1)·s − A·n(n+1)/2`; the largest `s` within `room` lies in the piece where
-    /// `A·n(n+1)/2 ≤ room` first fails for `n + 1`.
-    fn stoppable_step(&self, room: f64) -> f64 {
-        let a = self.acceleration_step;
-        if room <= 0.0 {
-            return 0.0;
-        }
-        let n = ((-1.0 + (1.0 + 8.0 * room / a).sqrt()) / 2.0).floor();
-        ((room + a * n * (n + 1.0) / 2.0) / (n + 1.0)).min((n + 1.0) * a)
+/// The largest step towards a limit `room` away after which a joint can still stop before it,
+/// slowing by one acceleration step `a` per period. After a step `s` with `n·a ≤ s < (n+1)·a`
+/// come the steps `s − a, …, s − n·a`, so the whole distance is `(n+1)·s − a·n(n+1)/2`; the
+/// largest `s` within `room` lies in the piece where `a·n(n+1)/2 ≤ room` first fails for
+/// `n + 1`.
+pub(crate) fn stoppable_step(room: f64, a: f64) -> f64 {
+    if room <= 0.0 {
+        return 0.0;
     }
+    let n = ((-1.0 + (1.0 + 8.0 * room / a).sqrt()) / 2.0).floor();
+    ((room + a * n * (n + 1.0) / 2.0) / (n + 1.0)).min((n + 1.0) * a)
 }
 
 #[cfg(test)]

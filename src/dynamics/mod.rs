@@ -22,6 +22,9 @@ use crate::robot::{JointKind, Payload, Robot};
 use glam::{DMat3, DQuat, DVec3};
 use std::ops::Range;
 
+mod compensation;
+pub use compensation::Compensation;
+
 /// Standard gravity, as MuJoCo's default `<option gravity>`, m/s².
 pub const GRAVITY: f64 = 9.81;
 
@@ -384,6 +387,14 @@ fn payload_link(robot: &Robot, parsed: &mjcf::Model, payload: Payload) -> Link {
 fn to_si(kind: JointKind, value: f64) -> f64 {
     match kind {
         JointKind::Revolute => value.to_radians(),
+        JointKind::Prismatic => value,
+    }
+}
+
+/// A joint's SI value (radians or metres) in its unit (degrees or metres).
+pub fn from_si(kind: JointKind, value: f64) -> f64 {
+    match kind {
+        JointKind::Revolute => value.to_degrees(),
         JointKind::Prismatic => value,
     }
 }
