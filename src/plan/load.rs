@@ -516,8 +516,8 @@ fn droops(
                 advice: format!(
                     "{} rests {droop:.1} {unit} off the key, past sim's settling tolerance of \
                      {tolerance} {unit}: {:.2} N·m of weight on a stiffness of {:.1} N·m/rad \
-                     ({gain} {value}); add a key lower, carry less, or use stiffer servos (the \
-                     12 V build)",
+                     ({gain} {value}); play it with --compensate-droop, add a key lower, carry \
+                     less, or use stiffer servos (the 12 V build)",
                     joint.name,
                     holding[j].abs(),
                     drive.stiffness.value,

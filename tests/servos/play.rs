@@ -664,3 +664,56 @@ fn control_rates_outside_10_hz_to_1_khz_are_refused_before_anything_opens() {
         }
     }
 }
+
+/// `--compensate-droop` on the virtual bus (its servos carry no weight, so they stand where
+/// they are sent): the goals at rest lead the path by the weight each servo holds over its
+/// stiffness, by hand from the check's torque at the key and the 5 V STS3215's 6 N·m/rad at
+/// P = 16; the playback starts from the measured pose with no lead (it fades in along the
+/// approach) and the step limiter never has to cut a goal.
+#[test]
+fn droop_compensation_leads_the_goals_by_the_weight_over_the_stiffness() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("wave.csv");
+    let wave = repo("sequences/so101_wave.json");
+    let out = keypose()
+        .args(["play", &wave, "--port", "virtual", "--quiet"])
+        .args(["--compensate-droop", "--log", log.to_str().unwrap()])
+        .args(TOLERATED_STALL)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert!(!stderr(&out).contains("step limiter"), "{}", stderr(&out));
+    let check = keypose()
+        .args(["check", &wave, "--format", "json"])
+        .output()
+        .unwrap();
+    let report: serde_json::Value = serde_json::from_slice(&check.stdout).unwrap();
+    let text = std::fs::read_to_string(&log).unwrap();
+    let mut rows = text.lines();
+    let header: Vec<&str> = rows.next().unwrap().split(',').collect();
+    let rows: Vec<Vec<&str>> = rows.map(|r| r.split(',').collect()).collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (first, last) = (&rows[0], rows.last().unwrap());
+    for joint in ["shoulder_lift", "elbow_flex"] {
+        let home = report["torque"]["droops"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .rfind(|d| d["joint"] == joint && d["key_label"] == "home")
+            .unwrap();
+        let lead = (home["torque"].as_f64().unwrap() / 6.0).to_degrees();
+        let goal: f64 = last[column(&format!("{joint}_cmd"))].parse().unwrap();
+        // The wave ends at home, 0° on every joint.
+        assert!(
+            (goal - lead).abs() < 1e-3,
+            "{joint}: goal {goal}, lead by hand {lead}"
+        );
+        assert!(lead.abs() > 3.0, "{joint}: {lead}");
+        let start: f64 = first[column(&format!("{joint}_cmd"))].parse().unwrap();
+        let measured: f64 = first[column(&format!("{joint}_meas"))].parse().unwrap();
+        assert!(
+            (start - measured).abs() < 0.1,
+            "{joint}: {start} vs {measured}"
+        );
+    }
+}

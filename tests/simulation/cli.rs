@@ -115,6 +115,80 @@ fn the_5_v_build_sags_at_home_as_the_check_predicts() {
     assert!(all.contains("sts3215 c001 @ 5 V"), "{all}");
 }
 
+/// With `--compensate-droop` the 5 V build rests on its keys: MuJoCo (the oracle: the servo's
+/// position loop under the arm's weight) leaves shoulder_lift and elbow_flex within the
+/// friction's dead band of home (friction 0.0524 N·m on 6 N·m/rad: 0.50°), where without it
+/// they rest 3–6° off, as the check predicts.
+#[test]
+fn droop_compensation_puts_the_5_v_build_on_its_keys() {
+    let wave = repo("sequences/so101_wave.json");
+    let dir = tempfile::tempdir().unwrap();
+    let (code, json, all) = report(dir.path(), &wave, &["--compensate-droop"]);
+    assert_eq!(code, Some(0), "{all}");
+    assert!(all.contains("sts3215 c001 @ 5 V"), "{all}");
+    let dead_band = (0.0524f64 / 6.0).to_degrees();
+    for joint in ["shoulder_lift", "elbow_flex"] {
+        for settled in tracking(&json, joint)["settled"].as_array().unwrap() {
+            let error = settled["error"].as_f64().unwrap();
+            assert!(error < dead_band + 0.05, "{joint} at {settled}: {all}");
+        }
+    }
+}
+
+/// Every SO example and its `--fastest` version passes `sim` on the 5 V build with droop
+/// compensation (without it each fails on settling: the 5 V test above).
+#[test]
+fn every_so_example_and_its_fastest_pass_on_the_5_v_build_with_droop_compensation() {
+    let dir = tempfile::tempdir().unwrap();
+    for entry in std::fs::read_dir(repo("sequences")).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_str().unwrap().to_string();
+        if !(name.starts_with("so10") || name.starts_with("bimanual")) {
+            continue;
+        }
+        let fastest = dir.path().join(&name);
+        let out = keypose(&[
+            "retime",
+            "--fastest",
+            path.to_str().unwrap(),
+            "-o",
+            fastest.to_str().unwrap(),
+        ]);
+        assert_eq!(out.status.code(), Some(0), "{name}: {}", text(&out));
+        for file in [path.to_str().unwrap(), fastest.to_str().unwrap()] {
+            let out = keypose(&["sim", file, "--compensate-droop"]);
+            assert_eq!(out.status.code(), Some(0), "{file}: {}", text(&out));
+            assert!(text(&out).contains("@ 5 V"), "{}", text(&out));
+        }
+    }
+}
+
+/// A robot without a model has no masses: `--compensate-droop` is refused as bad input.
+#[test]
+fn droop_compensation_without_the_robots_masses_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = dir.path().join("arm.json");
+    let mut description: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(repo("robots/so101.json")).unwrap()).unwrap();
+    description["name"] = "my_arm".into();
+    std::fs::write(&robot, description.to_string()).unwrap();
+    let wave = repo("sequences/so101_wave.json");
+    let out = keypose(&[
+        "sim",
+        &wave,
+        "--robot",
+        robot.to_str().unwrap(),
+        "--compensate-droop",
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    assert!(
+        text(&out).contains("--compensate-droop")
+            && text(&out).contains("no built-in MuJoCo model"),
+        "{}",
+        text(&out)
+    );
+}
+
 /// Every example timed as fast as the limits allow (`retime --fastest`) still passes the check
 /// and, in MuJoCo (the oracle: physics, the arm lagging its goals at speed), touches nothing:
 /// the clearance the check keeps is room enough for these arms' lag at their speed limits.
