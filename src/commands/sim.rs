@@ -127,11 +127,17 @@ pub fn simulate(
             simulation.model_servo_profile(robot)?;
         }
         let trace = run_stream(simulation, robot, &stream, trajectory, options.progress)?;
-        // The verdict names the build it judged: keypose's own model made the robot's servos.
-        let model = match simulation.build() {
-            Some(build) => format!("{}, built {build}", simulation.model()),
-            None => format!("{}, its own actuators", simulation.model()),
+        // The verdict names the build it judged (keypose's own model made the robot's servos)
+        // and how the goals reach the servos between control ticks.
+        let actuators = match simulation.build() {
+            Some(build) => format!("built {build}"),
+            None => "its own actuators".to_string(),
         };
+        let model = format!(
+            "{}, {actuators}, {}",
+            simulation.model(),
+            goal_shaping(options)
+        );
         Ok((trace, model))
     })?;
     if let Some(log) = &mut log {
@@ -156,6 +162,21 @@ pub fn simulate(
         model,
         wall_seconds: started.elapsed().as_secs_f64(),
     })
+}
+
+/// How the simulated servos take their goals between control ticks, as the verdict names it:
+/// held as the goal register holds them (a servo with no motion profile steps to each new goal)
+/// or through the profile `--servo-profile` writes; leading the path with
+/// `--compensate-droop`.
+fn goal_shaping(options: &PlayOptions) -> String {
+    let held = match options.servo_profile {
+        true => "goals through the servos' profile",
+        false => "goals held between ticks",
+    };
+    match options.compensation {
+        Some(_) => format!("{held}, leading for droop"),
+        None => held.to_string(),
+    }
 }
 
 /// The rows of `stream` run from a reset: in one request, or with a progress line in requests
