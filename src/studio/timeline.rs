@@ -1,8 +1,10 @@
 //! `GET /api/timeline`: what the page's timeline draws — every joint's position and velocity
 //! curves with its keys and limits, as `keypose plot` computes them ([`report::plot_data`]),
-//! and where `keypose check` finds the limits broken, a contact or a servo over its
-//! torque-speed line ([`plan::check`], at the control rate `teach` checks at).
+//! each servo's torque as a share of what its torque-speed line gives at that speed (the
+//! check's own samples, [`plan::torques`]), and where `keypose check` finds the limits broken,
+//! a contact or a servo over its line ([`plan::check`], at the control rate `teach` checks at).
 
+use crate::dynamics::Dynamics;
 use crate::plan::{self, Trajectory};
 use crate::report;
 use crate::robot::Robot;
@@ -42,6 +44,7 @@ pub(crate) fn timeline(sequence: Option<&Sequence>, robot: &Robot) -> Value {
             "keys": j.keys,
         })).collect::<Vec<_>>(),
         "key_marks": data.key_marks,
+        "torque": torque_curves(&trajectory, robot),
         "findings": check.violations.iter().map(|v| json!({
             "joint": v.joint,
             "kind": v.kind.name(),
@@ -72,6 +75,45 @@ pub(crate) fn timeline(sequence: Option<&Sequence>, robot: &Robot) -> Value {
     })
 }
 
+/// Each rated servo's torque over the line along `trajectory`: `{"times", "joints": [share or
+/// null per joint]}`, the share signed as the torque (1: on the line; past 1: the overload the
+/// check fails), at most [`MAX_SAMPLES`] points, each the largest share of its stretch so that
+/// no peak is lost. `null` for a robot without masses.
+fn torque_curves(trajectory: &Trajectory, robot: &Robot) -> Value {
+    let Ok(dynamics) = Dynamics::for_robot(robot) else {
+        return Value::Null;
+    };
+    let samples = plan::torques(trajectory, &dynamics, 1.0);
+    let per_point = (samples.len() as f64 / MAX_SAMPLES).ceil().max(1.0) as usize;
+    let starts: Vec<usize> = (0..samples.len()).step_by(per_point).collect();
+    let times: Vec<f64> = starts.iter().map(|&k| samples.get(k).time).collect();
+    let joints: Vec<Value> = robot
+        .joints
+        .iter()
+        .enumerate()
+        .map(|(j, joint)| {
+            let Some(drive) = joint.servo.drive() else {
+                return Value::Null;
+            };
+            let share = |k: usize| {
+                let s = samples.get(k);
+                let (t, w) = (s.torques[j], s.speeds[j]);
+                t / drive.available(w, t).max(1e-9)
+            };
+            let shares: Vec<f64> = starts
+                .iter()
+                .map(|&k| {
+                    (k..(k + per_point).min(samples.len()))
+                        .map(share)
+                        .fold(0.0, |a: f64, b| if b.abs() > a.abs() { b } else { a })
+                })
+                .collect();
+            json!(shares)
+        })
+        .collect();
+    json!({"times": times, "joints": joints})
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -97,10 +139,24 @@ mod tests {
             .find(|f| f["kind"] == "torque")
             .unwrap_or_else(|| panic!("an overload among {findings:?}"));
         assert_eq!(torque["joint"], "shoulder_lift");
-        assert!(torque["text"]
-            .as_str()
-            .unwrap()
-            .contains("where the line gives"));
+        // The curve shows it: its peak is past the line, inside the finding's stretch.
+        let curves = &answer["torque"];
+        let times = curves["times"].as_array().unwrap();
+        let shoulder = curves["joints"][1].as_array().unwrap();
+        let (from, to) = (
+            torque["from"].as_f64().unwrap(),
+            torque["to"].as_f64().unwrap(),
+        );
+        let (peak_time, peak) = times
+            .iter()
+            .zip(shoulder)
+            .map(|(t, s)| (t.as_f64().unwrap(), s.as_f64().unwrap().abs()))
+            .fold((0.0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+        assert!(peak > 1.0, "{shoulder:?}");
+        assert!(
+            (from..=to).contains(&peak_time),
+            "{peak_time} vs {from}..{to}"
+        );
         robot.payload = None;
         let answer = timeline(Some(&sequence), &robot);
         assert!(answer["findings"]
@@ -108,5 +164,27 @@ mod tests {
             .unwrap()
             .iter()
             .all(|f| f["kind"] != "torque"));
+    }
+
+    #[test]
+    fn held_still_the_share_is_the_weight_over_the_stall_torque() {
+        // The arm stretched out and held: the shoulder's share is its holding torque over the
+        // 5 V STS3215's 1.35 N·m stall torque (docs/robots.md §14), at every instant.
+        let robot = Robot::builtin("so101").unwrap();
+        let text = r#"{"format": "keypose-sequence/1", "robot": "so101",
+            "keyframes": [{"time": 0, "joints": {"shoulder_lift": 90, "elbow_flex": -90}},
+                          {"time": 1, "joints": {"shoulder_lift": 90, "elbow_flex": -90}}]}"#;
+        let sequence = Sequence::from_json("hold.json", text).unwrap();
+        let answer = timeline(Some(&sequence), &robot);
+        let holding = Dynamics::for_robot(&robot)
+            .unwrap()
+            .holding_torques(&[0.0, 90.0, -90.0, 0.0, 0.0, 0.0])[1];
+        for share in answer["torque"]["joints"][1].as_array().unwrap() {
+            assert!(
+                (share.as_f64().unwrap() - holding / 1.35).abs() < 1e-9,
+                "{share}"
+            );
+        }
+        assert!((holding / 1.35).abs() > 0.1, "{holding}");
     }
 }

@@ -149,6 +149,11 @@ try {
   // ----- the timeline: the keys' curves and a drag of key 1 from 2 s to 3 s -----
   await waitFor(() => window.studio.timeline && !window.studio.timeline.empty);
   results.timelineJoints = await a.evaluate(() => window.studio.timeline.joints.length);
+  // Each servo's torque against its line, a curve per row.
+  results.torqueRows = await a.evaluate(() => {
+    const t = window.studio.timeline.torque;
+    return t && t.joints.map(j => Array.isArray(j) && j.length === t.times.length && j.length > 0);
+  });
   await a.evaluate(() => window.studio.send({ key: 'select-key:1' }));
   await a.evaluate(() => window.studio.send({ key: 'key-time:3000' }));
   await waitFor(() => window.studio.snapshot.keys[1].time === 3);

@@ -164,6 +164,11 @@ fn a_sequence_taught_in_the_browser_is_written_and_the_page_is_guarded() {
     let times: Vec<f64> = serde_json::from_value(results["keyTimes"].clone()).unwrap();
     assert_eq!(times, [0.0, 3.0]);
     assert_eq!(results["timelineJoints"], json!(6));
+    // Every SO-101 servo is rated: each row has its torque curve.
+    assert_eq!(
+        results["torqueRows"],
+        json!([true, true, true, true, true, true])
+    );
     tool_handle_followed_the_drag(&results);
     // The token left the address bar once the page had loaded, and no request carried the
     // page's URL as its Referer.

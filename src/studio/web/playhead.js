@@ -71,7 +71,8 @@ export class Playback {
       '<button id="captureat" hidden title="a new key from the present pose at the parked time">capture key here</button>' +
       '<button id="unpark" hidden title="the ghost shows the current key again">× unpark</button>' +
       '<span class="legend"><i class="commanded"></i>commanded (ghost) <i class="simulated"></i>simulated ' +
-      '<i class="measured"></i>measured (the arm)</span>';
+      '<i class="measured"></i>measured (the arm) <i class="velocity"></i>velocity / limit ' +
+      '<i class="torque"></i>torque / line</span>';
     $('timeline').before(bar);
     $('replaypause').onclick = () => this.pause(!this.replaying.paused);
     $('replayend').onclick = () => this.endReplay();

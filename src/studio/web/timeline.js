@@ -1,5 +1,7 @@
-// The timeline: per joint, the position curve between its limits (the band) and the velocity
-// curve against its limit (dashed), the keys as vertical marks, check findings in red, a time
+// The timeline: per joint, the position curve between its limits (the band), the velocity
+// curve against its limit (dashed) and the servo's torque against its torque-speed line
+// (dotted green, red where it is past the line: the band's edges are the line), the keys as
+// vertical marks, check findings in red, a time
 // axis in seconds. Dragging a key mark moves the key in time (the engine validates it);
 // with several keys selected, dragging one of them moves them all (onKeysShift); a click
 // selects (with Ctrl or Shift, adds to the selection: onKeyClick gets the event);
@@ -204,6 +206,7 @@ export class Timeline {
       g.beginPath(); g.moveTo(x - 5, top); g.lineTo(x + 5, top); g.lineTo(x, top + 8); g.fill();
     }
     this.curve(d.times, j.velocities.map(v => (v / (j.velocity_limit || 1)) * (hi - lo) / 2 + (hi + lo) / 2), y, '#c0a060', [3, 3]);
+    this.torqueCurve(r, lo, hi, y);
     this.curve(d.times, j.positions, y, '#4fc3f7', []);
     g.fillStyle = '#ffffff';
     for (const [t, v] of j.keys) g.fillRect(this.x(t) - 2, y(v) - 2, 4, 4);
@@ -251,6 +254,30 @@ export class Timeline {
       g.fillText(t.toFixed(digits), x - 6, y + 14);
     }
     g.fillText('time s', 4, y + 14);
+  }
+
+  // Row r's servo torque as a share of its line, ±1 at the band's edges, in green where the
+  // servo can give it and red where it cannot (the check's torque finding).
+  torqueCurve(r, lo, hi, y) {
+    const t = this.data.torque, shares = t && t.joints[r];
+    if (!shares) return;
+    const g = this.ctx, mid = (hi + lo) / 2, half = (hi - lo) / 2;
+    const at = i => y(mid + Math.max(-1.5, Math.min(1.5, shares[i])) * half);
+    g.setLineDash([2, 2]);
+    g.lineWidth = 1.5;
+    // Two paths, one per colour: one stroke each however long the sequence.
+    for (const [colour, over] of [['#81c784', false], ['#ff5252', true]]) {
+      g.strokeStyle = colour;
+      g.beginPath();
+      for (let i = 1; i < shares.length; i++) {
+        if ((Math.abs(shares[i]) > 1) !== over) continue;
+        g.moveTo(this.x(t.times[i - 1]), at(i - 1));
+        g.lineTo(this.x(t.times[i]), at(i));
+      }
+      g.stroke();
+    }
+    g.setLineDash([]);
+    g.lineWidth = 1;
   }
 
   curve(times, values, y, colour, dash) {
