@@ -317,5 +317,6 @@ def play_lerobot(
     speed: float = 1.0,
     max_stall: float = 0.25,
     judge_pace: bool = True,
+    compensate_droop: bool = False,
 ) -> Dict[str, Any]:
     """keypose's player on a LeRobot robot object (keypose.lerobot.play is the way to call it)."""

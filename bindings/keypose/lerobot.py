@@ -140,6 +140,7 @@ def play(
     max_stall: float = 0.25,
     judge_pace: bool = True,
     stop: Union[StopRequests, None] = None,
+    compensate_droop: bool = False,
 ) -> Dict[str, Any]:
     """Plays ``sequence`` (a file or a ``keypose.Sequence``) on the connected LeRobot ``robot``
     with keypose's player, at ``rate`` Hz (the robot's control rate by default).
@@ -149,7 +150,9 @@ def play(
     Ctrl-C brakes to rest along the path and holds (a second Ctrl-C holds at once); so does
     ``stop.request()`` from another thread. A goal held ``max_stall`` s beyond its period brakes
     and raises ``HardwareError``; so do stalls too frequent to keep up with the rate (unless
-    ``judge_pace`` is False), and any exception of the robot.
+    ``judge_pace`` is False), and any exception of the robot. ``compensate_droop`` sends goals
+    that lead the path by each servo's droop under the arm's weight (``keypose play
+    --compensate-droop``: the standard 5 V SO-101 otherwise rests 3–6° below its keys).
 
     Returns what the playback did: ``outcome`` (``finished``, ``stopped`` or ``held``), ``rate``,
     ``cycles``, ``approach_seconds``, ``max_tracking_error`` (and its joint), ``limited_goals``
@@ -167,4 +170,5 @@ def play(
             speed=speed,
             max_stall=max_stall,
             judge_pace=judge_pace,
+            compensate_droop=compensate_droop,
         )

@@ -11,6 +11,7 @@
 use crate::errors::{argument_error, kind_error};
 use crate::sequence::Sequence;
 use keypose::bus::{BusError, Health, PingInfo, ServoBus};
+use keypose::dynamics::Compensation;
 use keypose::error::Report;
 use keypose::interop::lerobot::motor_norm::{MotorNorm, NormMode};
 use keypose::player::{play, Outcome, PlayOptions, StopSignal, DEFAULT_MAX_STALL};
@@ -338,7 +339,7 @@ const _: () = assert!(DEFAULT_MAX_STALL == 0.25);
 /// keypose's player; `motors` describes its motor bus (keypose/lerobot.py reads it). Returns
 /// what the playback did.
 #[pyfunction]
-#[pyo3(signature = (sequence, robot, motors, *, stop, rate = None, speed = 1.0, max_stall = 0.25, judge_pace = true))]
+#[pyo3(signature = (sequence, robot, motors, *, stop, rate = None, speed = 1.0, max_stall = 0.25, judge_pace = true, compensate_droop = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn play_lerobot<'py>(
     py: Python<'py>,
@@ -350,6 +351,7 @@ pub fn play_lerobot<'py>(
     speed: f64,
     max_stall: f64,
     judge_pace: bool,
+    compensate_droop: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let lib_robot = &sequence.robot_ref().robot;
     let rate = rate.unwrap_or(lib_robot.control_hz);
@@ -384,6 +386,11 @@ pub fn play_lerobot<'py>(
     options.health_every = u32::MAX;
     if !judge_pace {
         options.max_stalls_per_second = None;
+    }
+    if compensate_droop {
+        let compensation = Compensation::for_robot(lib_robot)
+            .map_err(|e| argument_error(py, format!("compensate_droop: {e}")))?;
+        options.compensation = Some(std::sync::Arc::new(compensation));
     }
     let trajectory = sequence.trajectory();
     let signal = stop.signal.clone();

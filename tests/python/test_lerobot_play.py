@@ -8,6 +8,7 @@ tick arithmetic for where each key puts the servo.
 """
 
 import json
+import math
 import os
 import signal
 from pathlib import Path
@@ -285,3 +286,28 @@ def test_bimanual_so_follower_plays_a_sequence_of_two_arms(tmp_path):
             assert all(arm.bus.read("Torque_Enable", "elbow_flex") == 1 for arm in (robot.left_arm, robot.right_arm))
         finally:
             robot.disconnect()
+
+
+def test_droop_compensation_leads_the_last_goal_by_the_weight_over_the_stiffness(so101, tmp_path):
+    """The wave ends at home (0° everywhere), where the check finds the 5 V shoulder and elbow
+    holding the arm's weight: the last goal leads by that torque over the servo's 6 N·m/rad
+    (docs/robots.md §14), by hand, and the step limiter stays idle."""
+    sent = recording(so101)
+    wave = repo("sequences/so101_wave.json")
+    result = keypose.lerobot.play(so101, wave, compensate_droop=True)
+    assert result["outcome"] == "finished"
+    limiter_idle_unless_stalled(result)
+    droops = keypose.load(wave).check().torque["droops"]
+    for joint in ("shoulder_lift", "elbow_flex"):
+        home = [d for d in droops if d["joint"] == joint and d["key_label"] == "home"][-1]
+        lead = math.degrees(home["torque"] / 6.0)
+        assert abs(lead) > 3.0, (joint, lead)
+        assert ticks_sent(so101, sent[-1:], joint)[0] == keypose_ticks(lead), (joint, lead)
+
+
+def test_droop_compensation_off_sends_the_keys_themselves(so101):
+    sent = recording(so101)
+    result = keypose.lerobot.play(so101, repo("sequences/so101_wave.json"))
+    assert result["outcome"] == "finished"
+    for joint in ("shoulder_lift", "elbow_flex"):
+        assert ticks_sent(so101, sent[-1:], joint)[0] == keypose_ticks(0.0), joint
