@@ -101,6 +101,14 @@ pub(crate) fn parse(file: &str, text: &str) -> Result<Value, InputError> {
             Some(cut) => message[..cut].to_string(),
             None => message,
         };
+        let message = match looks_like_yaml(file, text) {
+            true => format!(
+                "{message}: this looks like YAML, and keypose's files are JSON (a sequence is \
+                 an object {{\"format\": \"keypose-sequence/1\", \"robot\": …, \"keyframes\": \
+                 […]}}, docs/formats.md)"
+            ),
+            false => message,
+        };
         InputError::new(
             file,
             Location::Syntax {
@@ -110,6 +118,28 @@ pub(crate) fn parse(file: &str, text: &str) -> Result<Value, InputError> {
             format!("invalid JSON: {message}"),
         )
     })
+}
+
+/// Whether text that failed to parse as JSON is YAML: a `.yaml`/`.yml` name, or a first line
+/// that is a YAML document start or a `key: value` mapping rather than JSON's `{` or `[`.
+fn looks_like_yaml(file: &str, text: &str) -> bool {
+    let lower = file.to_ascii_lowercase();
+    if lower.ends_with(".yaml") || lower.ends_with(".yml") {
+        return true;
+    }
+    let first = text
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+        .unwrap_or("");
+    if first.starts_with('{') || first.starts_with('[') {
+        return false;
+    }
+    first.starts_with("---")
+        || first.split_once(':').is_some_and(|(key, _)| {
+            let key = key.trim().trim_matches('"').trim_matches('\'');
+            !key.is_empty() && key.chars().all(|c| c.is_alphanumeric() || c == '_' || c == '-')
+        })
 }
 
 fn parse_unique(text: &str) -> Result<Value, serde_json::Error> {
@@ -482,5 +512,16 @@ mod tests {
             err.to_string().starts_with("f.json:3:3: invalid JSON"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn yaml_is_named_as_yaml_and_json_typos_are_not() {
+        let yaml = "format: keypose-sequence/1\nrobot: so101\nkeyframes:\n  - time: 0\n";
+        let err = parse("wave.txt", yaml).unwrap_err().to_string();
+        assert!(err.contains("looks like YAML") && err.contains("keypose-sequence/1"), "{err}");
+        let err = parse("wave.yaml", "{").unwrap_err().to_string();
+        assert!(err.contains("looks like YAML"), "{err}");
+        let err = parse("wave.json", "{\"robot\": so101}").unwrap_err().to_string();
+        assert!(!err.contains("YAML"), "{err}");
     }
 }

@@ -38,6 +38,16 @@ fn a_duplicate_key_names_the_key_and_its_line_and_column() {
     );
 }
 
+#[test]
+fn a_sequence_in_yaml_is_refused_saying_keyposes_files_are_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = "format: keypose-sequence/1\nrobot: so101\nkeyframes:\n  - time: 0\n    joints: {elbow_flex: 0}\n";
+    let path = write(dir.path(), "wave.yaml", text);
+    let out = keypose(&["check", path.to_str().unwrap()]);
+    let err = bad_input(&out, "looks like YAML, and keypose's files are JSON");
+    assert!(err.contains("keypose-sequence/1") && err.contains("wave.yaml:1:"), "{err}");
+}
+
 #[cfg(unix)]
 #[test]
 fn a_device_a_fifo_or_a_directory_is_refused_at_once() {
