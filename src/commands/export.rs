@@ -244,9 +244,9 @@ fn checked(input: &SequenceInput) -> Result<Option<(Sequence, Robot, Trajectory)
         let text = keypose::report::check_text(&report, &sequence.file, &robot);
         eprint!("{}", escape_controls(&text));
         let hint = if report.violations.is_empty() {
-            "move the keys the contacts name"
+            "move the keys the contacts name".to_string()
         } else {
-            "try `keypose retime`"
+            super::limits_hint(&sequence, &report, "try `keypose retime`")
         };
         eprintln!("refusing to export: the sequence fails the check above ({hint})");
         return Ok(None);

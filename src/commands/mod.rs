@@ -308,6 +308,30 @@ pub fn check_sample_budget(
 
 /// Robot joint indices for `--joints` names, in the order given, each once; all joints when
 /// none are given.
+/// What to try when `report` fails on its limits: `fix` (a stretch of time: `keypose retime`,
+/// a lower speed) where stretching mends every violation, else how to mend the first that no
+/// stretch mends.
+pub fn limits_hint(
+    sequence: &keypose::sequence::Sequence,
+    report: &keypose::plan::CheckReport,
+    fix: &str,
+) -> String {
+    let unmendable = report
+        .violations
+        .iter()
+        .find(|v| !keypose::plan::stretch_mends(sequence, v));
+    match unmendable {
+        None => fix.to_string(),
+        Some(v) => format!(
+            "{} {} in {}: {}",
+            v.joint,
+            v.kind.name(),
+            v.segment_label,
+            keypose::plan::advice(sequence, v)
+        ),
+    }
+}
+
 /// `--compensate-droop`: the goals' lead for `robot`'s servos, or why it has none (bad
 /// input: the robot's masses are not known, so no lead could be trusted).
 pub fn droop_compensation(

@@ -149,8 +149,13 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
         let why = if report.violations.is_empty() {
             "the arm would touch what the clearance above lists (no timing mends that: move the keys)".to_string()
         } else {
+            let hint = super::limits_hint(
+                &sequence,
+                &report,
+                "try `keypose retime`, or a lower --speed",
+            );
             format!(
-                "the sequence breaks the limits above at speed {}{from} (try `keypose retime`, or a lower --speed)",
+                "the sequence breaks the limits above at speed {}{from} ({hint})",
                 args.speed
             )
         };

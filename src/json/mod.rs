@@ -138,7 +138,10 @@ fn looks_like_yaml(file: &str, text: &str) -> bool {
     first.starts_with("---")
         || first.split_once(':').is_some_and(|(key, _)| {
             let key = key.trim().trim_matches('"').trim_matches('\'');
-            !key.is_empty() && key.chars().all(|c| c.is_alphanumeric() || c == '_' || c == '-')
+            !key.is_empty()
+                && key
+                    .chars()
+                    .all(|c| c.is_alphanumeric() || c == '_' || c == '-')
         })
 }
 
@@ -518,10 +521,15 @@ mod tests {
     fn yaml_is_named_as_yaml_and_json_typos_are_not() {
         let yaml = "format: keypose-sequence/1\nrobot: so101\nkeyframes:\n  - time: 0\n";
         let err = parse("wave.txt", yaml).unwrap_err().to_string();
-        assert!(err.contains("looks like YAML") && err.contains("keypose-sequence/1"), "{err}");
+        assert!(
+            err.contains("looks like YAML") && err.contains("keypose-sequence/1"),
+            "{err}"
+        );
         let err = parse("wave.yaml", "{").unwrap_err().to_string();
         assert!(err.contains("looks like YAML"), "{err}");
-        let err = parse("wave.json", "{\"robot\": so101}").unwrap_err().to_string();
+        let err = parse("wave.json", "{\"robot\": so101}")
+            .unwrap_err()
+            .to_string();
         assert!(!err.contains("YAML"), "{err}");
     }
 }

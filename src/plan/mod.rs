@@ -43,7 +43,7 @@ pub use load::{
     build_name, check_loads, torques, Droop, JointLoad, LoadReport, LoadScope, Overload, Sample,
     Samples, SETTLED_TOLERANCE_DEG, SETTLED_TOLERANCE_M,
 };
-pub use retime::{advice, retime, RetimeOutcome, MAX_STRETCH};
+pub use retime::{advice, retime, stretch_mends, RetimeOutcome, MAX_STRETCH};
 pub use sampled::Sampled;
 pub use states::{Side, State, States};
 pub use timeline::{Loops, Phase, Timeline, TimelineOptions};

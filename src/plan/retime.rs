@@ -216,6 +216,17 @@ fn stretch(sequence: &mut Sequence, factors: &[(usize, f64)], segments: usize) {
 }
 
 /// What to do about a violation `retime` leaves, for the kind of segment it is in.
+/// Whether stretching time (`keypose retime`, a lower `--speed`) can mend `v`: not a position
+/// limit, a step, a corner, an acceleration jump or a straight tool line's need, which
+/// [`advice`] says how to mend instead.
+pub fn stretch_mends(sequence: &Sequence, v: &Violation) -> bool {
+    let line = sequence.keyframes.get(v.segment).is_some_and(|k| k.line);
+    v.kind != LimitKind::Position
+        && !line
+        && matches!(v.cause, Cause::Curve)
+        && v.acceleration_jump.is_none()
+}
+
 pub fn advice(sequence: &Sequence, v: &Violation) -> &'static str {
     let key = sequence.keyframes.get(v.segment);
     let line = key.is_some_and(|k| k.line);

@@ -45,7 +45,10 @@ fn a_sequence_in_yaml_is_refused_saying_keyposes_files_are_json() {
     let path = write(dir.path(), "wave.yaml", text);
     let out = keypose(&["check", path.to_str().unwrap()]);
     let err = bad_input(&out, "looks like YAML, and keypose's files are JSON");
-    assert!(err.contains("keypose-sequence/1") && err.contains("wave.yaml:1:"), "{err}");
+    assert!(
+        err.contains("keypose-sequence/1") && err.contains("wave.yaml:1:"),
+        "{err}"
+    );
 }
 
 #[cfg(unix)]

@@ -482,6 +482,19 @@ fn fastest_with_jerk_limits_writes_s_curves_that_pass_the_check_with_jerk() {
         "{}",
         show(&out)
     );
+    // play and export refuse it with the same advice, not a plain retime that cannot mend it
+    // (nothing is sent: the refusal comes before the port is opened).
+    let yaml = dir.path().join("wave.yaml");
+    for args in [
+        vec!["play", input, "--port", "/dev/null/no-such-port"],
+        vec!["export", "ros2", input, "-o", yaml.to_str().unwrap()],
+    ] {
+        let out = run(&args);
+        let err = crate::common::stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{}", show(&out));
+        assert!(err.contains("use retime --fastest"), "{}", show(&out));
+        assert!(!err.contains("try `keypose retime`"), "{}", show(&out));
+    }
 }
 
 #[test]
