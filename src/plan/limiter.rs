@@ -40,6 +40,8 @@ pub struct StepLimiter {
     pub engaged: u64,
     /// The largest change made to a goal.
     pub largest_correction: f64,
+    /// The joint it was made to (robot order).
+    pub largest_joint: Option<usize>,
 }
 
 impl StepLimiter {
@@ -61,6 +63,7 @@ impl StepLimiter {
             last_step: vec![0.0; held.len()],
             engaged: 0,
             largest_correction: 0.0,
+            largest_joint: None,
         }
     }
 
@@ -80,7 +83,10 @@ impl StepLimiter {
                 .clamp(limit.min - self.last[j], limit.max - self.last[j]);
             if (step - wanted).abs() > NOISE * (1.0 + wanted.abs()) {
                 changed = true;
-                self.largest_correction = self.largest_correction.max((step - wanted).abs());
+                if (step - wanted).abs() > self.largest_correction {
+                    self.largest_correction = (step - wanted).abs();
+                    self.largest_joint = Some(j);
+                }
             }
             goal[j] = self.last[j] + step;
             self.last_step[j] = step;
@@ -148,6 +154,8 @@ mod tests {
         // From rest: a·T² = 344 · 0.01² = 0.0344°.
         assert!((goal[0] - 0.0344).abs() < 1e-8, "{}", goal[0]);
         assert_eq!(limiter.engaged, 1);
+        assert!((limiter.largest_correction - (10.0 - 0.0344)).abs() < 1e-8);
+        assert_eq!(limiter.largest_joint, Some(0));
     }
 
     #[test]

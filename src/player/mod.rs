@@ -270,6 +270,8 @@ pub struct Stats {
     pub limited_goals: u64,
     /// The largest change the step limiter made to a goal, in joint units.
     pub largest_limiter_correction: f64,
+    /// The joint of that change and its kind (which says the unit); None when it made none.
+    pub limiter_joint: Option<(String, crate::robot::JointKind)>,
     /// A cell: how far apart the arms' buses started each cycle's goal write.
     pub write_offsets: Option<WriteOffsets>,
     /// How much later than planned the sequence ran, seconds, as the clock saw it: what stalls

@@ -439,6 +439,10 @@ impl<'a> Run<'a> {
         self.stats.late = self.late();
         self.stats.limited_goals = self.limiter.engaged;
         self.stats.largest_limiter_correction = self.limiter.largest_correction;
+        self.stats.limiter_joint = self.limiter.largest_joint.map(|j| {
+            let joint = &self.robot.joints[j];
+            (joint.name.clone(), joint.kind)
+        });
         if self.options.progress {
             print_progress(&self.timeline, self.trajectory);
             eprintln!();

@@ -4,6 +4,7 @@
 //! status line instead of a plain "played to the end".
 
 use super::Stats;
+use crate::robot::JointKind;
 
 impl Stats {
     /// The warnings of this playback, one sentence each; none for a playback on time.
@@ -21,9 +22,18 @@ impl Stats {
             ));
         }
         if self.limited_goals > 0 {
+            let by = match &self.limiter_joint {
+                Some((joint, JointKind::Revolute)) => {
+                    format!("{:.3}° ({joint})", self.largest_limiter_correction)
+                }
+                Some((joint, JointKind::Prismatic)) => {
+                    format!("{:.3} mm ({joint})", self.largest_limiter_correction * 1e3)
+                }
+                None => format!("{:.3}", self.largest_limiter_correction),
+            };
             warnings.push(format!(
-                "the step limiter held back {} goal(s), by up to {:.3}, to stay within the velocity and acceleration limits",
-                self.limited_goals, self.largest_limiter_correction
+                "the step limiter held back {} goal(s), by up to {by}, to stay within the velocity and acceleration limits",
+                self.limited_goals
             ));
         }
         warnings
@@ -45,14 +55,18 @@ mod tests {
         stats.pacing.max_lateness = 0.1204;
         stats.limited_goals = 2;
         stats.largest_limiter_correction = 0.25;
+        stats.limiter_joint = Some(("elbow_flex".to_string(), JointKind::Revolute));
         assert_eq!(
             stats.warnings(),
             [
                 "3 stall(s): the longest held a goal 120 ms beyond its period; 30 deadline(s) \
                  skipped, the sequence ran 3.200 s late; largest lateness 120.4 ms",
-                "the step limiter held back 2 goal(s), by up to 0.250, to stay within the \
-                 velocity and acceleration limits"
+                "the step limiter held back 2 goal(s), by up to 0.250° (elbow_flex), to stay \
+                 within the velocity and acceleration limits"
             ]
         );
+        stats.limiter_joint = Some(("gripper".to_string(), JointKind::Prismatic));
+        stats.largest_limiter_correction = 0.0004;
+        assert!(stats.warnings()[1].contains("by up to 0.400 mm (gripper)"));
     }
 }
