@@ -215,7 +215,6 @@ fn stretch(sequence: &mut Sequence, factors: &[(usize, f64)], segments: usize) {
     }
 }
 
-/// What to do about a violation `retime` leaves, for the kind of segment it is in.
 /// Whether stretching time (`keypose retime`, a lower `--speed`) can mend `v`: not a position
 /// limit, a step, a corner, an acceleration jump or a straight tool line's need, which
 /// [`advice`] says how to mend instead.
@@ -227,6 +226,7 @@ pub fn stretch_mends(sequence: &Sequence, v: &Violation) -> bool {
         && v.acceleration_jump.is_none()
 }
 
+/// What to do about a violation `retime` leaves, for the kind of segment it is in.
 pub fn advice(sequence: &Sequence, v: &Violation) -> &'static str {
     let key = sequence.keyframes.get(v.segment);
     let line = key.is_some_and(|k| k.line);
