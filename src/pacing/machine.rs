@@ -1,4 +1,4 @@
-//! What the machine does to a control loop's timing: CPU frequency scaling.
+//! What the machine does to a control loop's timing: CPU frequency scaling, and how busy it is.
 //!
 //! A CPU that lowers its clock while idle (the `powersave`, `ondemand` or `schedutil`
 //! governors) takes time to speed up again when the control thread wakes, which shows as
@@ -36,6 +36,40 @@ fn read_cpu_governors(dir: &Path) -> Vec<(String, String)> {
         .collect()
 }
 
+/// How busy the machine is: Linux's one-minute load average (`/proc/loadavg`, the runnable
+/// threads averaged) and the CPUs there are to run them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Load {
+    /// Runnable threads, averaged over the last minute.
+    pub average: f64,
+    /// CPUs available to this process.
+    pub cpus: usize,
+}
+
+impl Load {
+    /// The machine's load now; `None` where the kernel does not say (not Linux).
+    pub fn now() -> Option<Load> {
+        let text = std::fs::read_to_string("/proc/loadavg").ok()?;
+        let average = parse_load_average(&text)?;
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+        Some(Load { average, cpus })
+    }
+
+    /// Whether more threads want to run than there are CPUs to run them.
+    pub fn overloaded(&self) -> bool {
+        self.average > self.cpus as f64
+    }
+}
+
+/// The one-minute average, the first field of `/proc/loadavg` ("0.52 0.58 0.59 1/467 1234").
+fn parse_load_average(text: &str) -> Option<f64> {
+    text.split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+        .filter(|x: &f64| x.is_finite())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -65,5 +99,20 @@ mod tests {
                 ("cpu10".to_string(), "schedutil".to_string()),
             ]
         );
+    }
+
+    #[test]
+    fn the_load_average_is_the_first_field_of_proc_loadavg() {
+        assert_eq!(
+            parse_load_average("7.25 3.10 1.02 9/467 1234\n"),
+            Some(7.25)
+        );
+        assert_eq!(parse_load_average(""), None);
+        assert_eq!(parse_load_average("nan 1 1 1/1 1"), None);
+        let load = Load {
+            average: 7.25,
+            cpus: 2,
+        };
+        assert!(load.overloaded());
     }
 }

@@ -13,6 +13,7 @@
 pub(crate) mod clock;
 mod keep_up;
 pub mod machine;
+pub use machine::Load;
 pub(crate) mod precise;
 pub mod realtime;
 

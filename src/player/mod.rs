@@ -180,7 +180,7 @@ pub enum PlayError {
         contact: String,
     },
     /// A goal held longer than [`PlayOptions::max_stall`] beyond its period.
-    #[error("stalled: the goal was held {:.0} ms beyond its {:.0} ms period (the bound is {:.0} ms); braked to rest along the path and holding, torque on (at {at:.3} s)", held * 1e3, period * 1e3, bound * 1e3)]
+    #[error("stalled: the goal was held {:.0} ms beyond its {:.0} ms period (the bound is {:.0} ms); braked to rest along the path and holding, torque on (at {at:.3} s); {}", held * 1e3, period * 1e3, bound * 1e3, stall_advice(*load))]
     Stall {
         /// Seconds the goal was held beyond its period.
         held: f64,
@@ -190,6 +190,8 @@ pub enum PlayError {
         bound: f64,
         /// Playback time, seconds.
         at: f64,
+        /// How busy the machine was when it happened (None where the kernel does not say).
+        load: Option<crate::pacing::Load>,
     },
     /// Stalls came too often for the path to come back up to speed between them.
     #[error("cannot keep up with {:.0} Hz: {} stalls within {:.2} s (goals held over 1.5 periods, the longest {:.1} ms beyond its {:.1} ms period), so the sequence would crawl; braked to rest along the path and holding, torque on (at {at:.3} s); {}", overrun.rate_hz, overrun.stalls, overrun.within, overrun.longest_hold * 1e3, 1e3 / overrun.rate_hz, keep_up_advice(overrun))]
@@ -236,6 +238,23 @@ impl PlayError {
 }
 
 /// What the figures of an overrun point at: the cycle's own work, or the scheduler.
+/// What to do about a stall: the process did not run, so say how busy the machine was and
+/// what lets the control loop run (or tolerates it).
+fn stall_advice(load: Option<crate::pacing::Load>) -> String {
+    let busy = match load {
+        Some(l) if l.overloaded() => format!(
+            "the machine is busy (load average {:.1} on {} CPUs): ",
+            l.average, l.cpus
+        ),
+        Some(l) => format!("load average {:.1} on {} CPUs: ", l.average, l.cpus),
+        None => String::new(),
+    };
+    format!(
+        "{busy}run with --realtime (keypose doctor says what the system allows), stop what \
+         competes for the CPUs, or allow longer holds with --max-stall MS"
+    )
+}
+
 fn keep_up_advice(overrun: &Overrun) -> String {
     let work = format!(
         "a cycle's own work (goal write, read-back, log) took {:.2} ms at the median",
@@ -457,4 +476,31 @@ fn print_progress(timeline: &Timeline, trajectory: &Trajectory) {
         &timeline.loop_label(),
         trajectory,
     );
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_stall_says_how_busy_the_machine_was_and_what_to_do() {
+        let error = super::PlayError::Stall {
+            held: 0.603,
+            period: 0.01,
+            bound: 0.25,
+            at: 1.5,
+            load: Some(crate::pacing::Load {
+                average: 7.25,
+                cpus: 2,
+            }),
+        };
+        let text = error.to_string();
+        assert!(text.contains("held 603 ms beyond its 10 ms period (the bound is 250 ms)"));
+        assert!(
+            text.contains("the machine is busy (load average 7.2 on 2 CPUs)"),
+            "{text}"
+        );
+        assert!(
+            text.contains("--realtime") && text.contains("--max-stall MS"),
+            "{text}"
+        );
+    }
 }

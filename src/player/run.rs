@@ -211,6 +211,7 @@ impl<'a> Run<'a> {
                 period: self.period,
                 bound: self.options.max_stall,
                 at: elapsed,
+                load: crate::pacing::Load::now(),
             }
         } else if let Some(overrun) = overrun.filter(|_| self.stops_seen == 0) {
             // Already braking on request, the arm is coming to rest anyway.

@@ -615,6 +615,11 @@ fn a_process_stopped_for_600_ms_brakes_and_exits_3_naming_the_stall() {
     assert_eq!(out.status.code(), Some(3), "{err}");
     assert!(err.contains("stalled: the goal was held"), "{err}");
     assert!(err.contains("the bound is 250 ms"), "{err}");
+    // What to do about it, with how busy the machine was (/proc/loadavg).
+    assert!(
+        err.contains("load average") && err.contains("--max-stall MS"),
+        "{err}"
+    );
     assert!(commanded_steps_within_velocity(&rows, &header) >= 1);
     // It braked along the path after the stall instead of playing on.
     let phase = header.iter().position(|h| h == "phase").unwrap();
