@@ -30,10 +30,12 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Check the sampled curve against the robot's position, velocity and acceleration limits.
+    /// Check the exact curve against the robot's limits, its clearance and its servos' torque.
     ///
-    /// Every violation is reported with its joint, keyframe segment, time and amount; exit code 1
-    /// when there is any.
+    /// Position, velocity, acceleration (and jerk) limits on the exact polynomials, contacts
+    /// with the floor, the arm itself or another arm along the whole path, and each servo's
+    /// torque against its torque-speed line. Every violation is reported with its joint,
+    /// keyframe segment, time and amount; exit code 1 when there is any.
     Check(commands::check::CheckArgs),
     /// Write the trajectory at a fixed rate as CSV (time,<joint>,…) or JSON.
     ///
@@ -79,7 +81,8 @@ enum Command {
     /// Turn motion from elsewhere into a sequence: `import lerobot DIR --episode N -o SEQ.json`.
     #[command(subcommand)]
     Import(commands::import::ImportFormat),
-    /// Write a sequence for elsewhere: a ROS 2 JointTrajectory, a play_motion2 motion.
+    /// Write a sequence for elsewhere: a ROS 2 JointTrajectory, a play_motion2 motion, a C
+    /// header for the stand-alone player, a LeRobot dataset.
     #[command(subcommand)]
     Export(commands::export::ExportFormat),
     /// Where the tool is at a pose (joints not given at home), each joint against its limits,

@@ -415,6 +415,29 @@ fn every_command_has_help() {
     }
 }
 
+/// The top-level help says what each command does as it does it: the check is exact, not
+/// sampled, and covers clearance and torque; export names every format it writes.
+#[test]
+fn the_command_list_says_what_check_and_export_do() {
+    let out = keypose(&["--help"]);
+    let help = String::from_utf8_lossy(&out.stdout);
+    let line = |name: &str| {
+        help.lines()
+            .find(|l| l.trim_start().starts_with(name))
+            .unwrap_or_else(|| panic!("no {name} in {help}"))
+            .to_string()
+    };
+    let check = line("check ");
+    assert!(
+        check.contains("exact") && !check.contains("sampled"),
+        "{check}"
+    );
+    let export = line("export ");
+    for format in ["ROS 2", "play_motion2", "C header", "LeRobot"] {
+        assert!(export.contains(format), "{format}: {export}");
+    }
+}
+
 #[test]
 fn absurd_durations_are_refused_before_sampling() {
     refused(
