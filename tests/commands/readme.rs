@@ -818,3 +818,55 @@ fn the_check_report_shows_a_prismatic_gripper_in_millimetres() {
     assert!(row.contains("0.00 …   15.00 mm"), "{row}");
     assert!(row.contains(" mm/s ") && row.contains(" mm/s²"), "{row}");
 }
+
+/// A "see "X" below" (or above) in a document points at a heading of that document, in the
+/// direction it says.
+#[test]
+fn every_see_below_and_above_points_at_a_heading_there() {
+    for doc in [
+        "README.md",
+        "docs/formats.md",
+        "docs/commands.md",
+        "docs/python.md",
+    ] {
+        let text = std::fs::read_to_string(repo(doc)).unwrap();
+        let headings: Vec<(usize, String)> = text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| l.starts_with('#'))
+            .map(|(i, l)| (i, l.trim_start_matches('#').trim().to_string()))
+            .collect();
+        for (at, line) in text.lines().enumerate() {
+            for (start, _) in line.match_indices("see \"") {
+                let rest = &line[start + 5..];
+                let Some(end) = rest.find('"') else { continue };
+                let (name, after) = (&rest[..end], rest[end + 1..].trim_start());
+                let below = after.starts_with("below");
+                if !below && !after.starts_with("above") {
+                    continue;
+                }
+                let found = headings
+                    .iter()
+                    .any(|(i, h)| h.contains(name) && if below { *i > at } else { *i < at });
+                assert!(
+                    found,
+                    "{doc}:{}: see {name:?} {after:.5}: no such heading",
+                    at + 1
+                );
+            }
+        }
+    }
+}
+
+/// The README's first sequence says how `keypose` gets on the PATH before it calls it.
+#[test]
+fn the_first_sequence_says_where_keypose_comes_from() {
+    let readme = std::fs::read_to_string(repo("README.md")).unwrap();
+    let section = &readme[readme.find("## A first sequence").unwrap()..];
+    let before_first_call = &section[..section.find("$ keypose").unwrap()];
+    assert!(
+        before_first_call.contains("cargo install --path .")
+            && before_first_call.contains("cargo run --release --"),
+        "{before_first_call}"
+    );
+}
