@@ -31,7 +31,7 @@ impl SerialTransport {
         let port = serialport::new(path, baud)
             .timeout(Duration::from_millis(10))
             .open()
-            .map_err(|e| not_a_serial_port(path).unwrap_or_else(|| io::Error::from(e)))?;
+            .map_err(|e| not_a_serial_port(path).unwrap_or_else(|| with_advice(e)))?;
         Ok(Self {
             name: path.to_string(),
             baud,
@@ -43,6 +43,35 @@ impl SerialTransport {
     pub fn name(&self) -> &str {
         &self.name
     }
+}
+
+/// The `serialport` crate's error, with what to do where the cause is the user's to mend: a
+/// port that is not there (the ones that are), a port another program holds.
+fn with_advice(error: serialport::Error) -> io::Error {
+    let held = error.description.contains("exclusive lock");
+    let error = io::Error::from(error);
+    let advice = if held {
+        "another program holds the port (a LeRobot script, a serial monitor, ModemManager, \
+         another keypose): close it first"
+            .to_string()
+    } else if error.kind() == io::ErrorKind::NotFound {
+        let ports: Vec<String> = super::ports::list_ports()
+            .into_iter()
+            .map(|p| p.path)
+            .collect();
+        match ports.is_empty() {
+            true => "no serial port is there: is the arm's USB adapter plugged in? \
+                     (`keypose ports` lists them)"
+                .to_string(),
+            false => format!(
+                "the serial ports there are {} (`keypose ports` says which adapter each is)",
+                ports.join(", ")
+            ),
+        }
+    } else {
+        return error;
+    };
+    io::Error::new(error.kind(), format!("{error}: {advice}"))
 }
 
 /// Why a path that failed to open as a serial port is no serial port at all, if it is not: the

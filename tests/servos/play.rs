@@ -722,3 +722,42 @@ fn droop_compensation_leads_the_goals_by_the_weight_over_the_stiffness() {
         );
     }
 }
+
+/// A port that is not there is named with the ports that are (`keypose ports` lists them), a
+/// hardware error (exit 3) before anything is sent.
+#[test]
+fn a_missing_port_names_the_ports_there_are() {
+    let out = keypose()
+        .args([
+            "read",
+            "--robot",
+            "so101",
+            "--port",
+            "/dev/ttyUSB-keypose-none",
+        ])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("/dev/ttyUSB-keypose-none: No such file or directory"),
+        "{err}"
+    );
+    assert!(err.contains("`keypose ports`"), "{err}");
+}
+
+/// A port another program holds (here the test itself, with the exclusive lock `serialport`
+/// takes, as a LeRobot script or a serial monitor would) says so instead of the OS's "Unable
+/// to acquire exclusive lock".
+#[test]
+fn a_port_another_program_holds_says_so() {
+    let bus = VirtualBusProcess::start(&["--robot", "so101"]);
+    let _held = serialport::new(&bus.path, 1_000_000).open().unwrap();
+    let out = keypose()
+        .args(["read", "--robot", "so101", "--port", &bus.path])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(err.contains("another program holds the port"), "{err}");
+}
