@@ -32,8 +32,13 @@ pub const GRAVITY: f64 = 9.81;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DynamicsError {
     /// Only the built-in robots come with a model whose masses keypose trusts.
-    #[error("robot {0:?} has no built-in MuJoCo model, so its masses are unknown")]
-    NoModel(String),
+    #[error("robot {robot:?} has no built-in MuJoCo model, so its masses are unknown{hint}")]
+    NoModel {
+        /// The robot.
+        robot: String,
+        /// The built-in it is built like, in words ([`crate::robot::named_like_hint`]).
+        hint: String,
+    },
     /// A built-in model that does not read is a build defect.
     #[error("the built-in model of {robot:?} cannot be read: {reason}")]
     Unreadable {
@@ -311,8 +316,10 @@ fn joint_of(motion: &Motion) -> Option<(usize, JointKind, DVec3, f64)> {
 /// One arm's chain from its built-in model, its joints at `joints` of the robot, its payload
 /// hung from the TCP's body.
 fn chain(robot: &Robot, joints: Range<usize>, gravity: DVec3) -> Result<Chain, DynamicsError> {
-    let text = crate::robot::builtin_mjcf(&robot.name)
-        .ok_or_else(|| DynamicsError::NoModel(robot.name.clone()))?;
+    let text = crate::robot::builtin_mjcf(&robot.name).ok_or_else(|| DynamicsError::NoModel {
+        robot: robot.name.clone(),
+        hint: crate::robot::named_like_hint(robot),
+    })?;
     let parsed = mjcf::parse(text).map_err(|e| DynamicsError::Unreadable {
         robot: robot.name.clone(),
         reason: e.to_string(),

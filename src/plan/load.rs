@@ -291,7 +291,7 @@ pub fn check_loads(trajectory: &Trajectory, robot: &Robot, speed: f64) -> LoadSc
 
 fn unchecked_reason(e: &DynamicsError) -> String {
     match e {
-        DynamicsError::NoModel(_) => {
+        DynamicsError::NoModel { hint, .. } if hint.is_empty() => {
             format!("{e} (the built-in arms have one; a robot file named like one uses its masses)")
         }
         _ => e.to_string(),

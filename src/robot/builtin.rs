@@ -106,6 +106,32 @@ pub fn builtin_mjcf(name: &str) -> Option<&'static str> {
     find(name).map(|b| b.mjcf)
 }
 
+/// The built-in robot `robot` is built like, when its own name is none of theirs: the one
+/// whose joints have the same names, kinds and servo models, in order (a copy of a built-in's
+/// robot file, renamed). What keypose can offer its model and masses for.
+pub fn builtin_like(robot: &Robot) -> Option<&'static str> {
+    BUILTIN_NAMES.into_iter().find(|name| {
+        get(name).is_some_and(|b| {
+            b.joints.len() == robot.joints.len()
+                && b.joints.iter().zip(&robot.joints).all(|(a, j)| {
+                    a.name == j.name && a.kind == j.kind && a.servo.model == j.servo.model
+                })
+        })
+    })
+}
+
+/// How a robot without a built-in model could have one: a word about the built-in it is built
+/// like (name it so in its file), or nothing.
+pub fn named_like_hint(robot: &Robot) -> String {
+    match builtin_like(robot) {
+        Some(like) => format!(
+            "; its joints and servos are the built-in {like}'s: give it \"name\": \"{like}\" in its \
+             file to use that model and its masses"
+        ),
+        None => String::new(),
+    }
+}
+
 /// The built-in robot called `name`, loaded.
 pub fn get(name: &str) -> Option<Robot> {
     let builtin = find(name)?;

@@ -26,7 +26,9 @@ use std::path::{Path, PathBuf};
 
 pub use crate::servo::Protocol;
 pub use build::{Build, BuildError, BUILDS};
-pub use builtin::{builtin_mjcf, BuiltinRobot, BUILTINS, BUILTIN_NAMES};
+pub use builtin::{
+    builtin_like, builtin_mjcf, named_like_hint, BuiltinRobot, BUILTINS, BUILTIN_NAMES,
+};
 pub use cell::{cell_joint_name, split_joint_name, Arm, CellError, MAX_CELL_JOINTS};
 pub use lerobot::{
     import_lerobot_calibration, CalibrationMismatch, CalibrationReport, IdMismatch, OutsideTheTurn,

@@ -115,7 +115,7 @@ fn load_request(
     if !robot.is_cell() {
         let path: PathBuf = match mjcf {
             Some(m) => m.path.clone(),
-            None => model_path(config, &robot.name)?,
+            None => model_path(config, robot)?,
         };
         let model = path.display().to_string();
         return Ok((
@@ -142,7 +142,7 @@ fn cell_load_request(config: &PyConfig, robot: &Robot) -> Result<(Load, String),
     let mut arms = Vec::with_capacity(robot.arms.len());
     let mut names = Vec::with_capacity(robot.arms.len());
     for arm in &robot.arms {
-        let path = model_path(config, &arm.robot.name).map_err(|e| match e {
+        let path = model_path(config, &arm.robot).map_err(|e| match e {
             SimError::Model { model, .. } => SimError::Model {
                 model,
                 message: format!(

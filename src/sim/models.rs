@@ -7,12 +7,19 @@ use crate::json::{InputError, Location};
 use crate::python::PyConfig;
 use std::path::{Path, PathBuf};
 
-/// The path of the built-in model of `robot`, written out when missing or different.
-pub fn model_path(config: &PyConfig, robot: &str) -> Result<PathBuf, SimError> {
-    let text = crate::robot::builtin_mjcf(robot).ok_or_else(|| SimError::Model {
-        model: robot.to_string(),
-        message: "keypose has no built-in model of this robot; give one with --mjcf".into(),
+/// The path of the built-in model of `robot` (found by its name), written out when missing or
+/// different.
+pub fn model_path(config: &PyConfig, robot: &crate::robot::Robot) -> Result<PathBuf, SimError> {
+    let text = crate::robot::builtin_mjcf(&robot.name).ok_or_else(|| SimError::Model {
+        model: robot.name.clone(),
+        message: format!(
+            "keypose has no built-in model of a robot named {:?} (the built-in models go by \
+             the robot's name){}; or give one with --mjcf",
+            robot.name,
+            crate::robot::named_like_hint(robot)
+        ),
     })?;
+    let robot = robot.name.as_str();
     let dir = config.sim_dir().join("models");
     let path = dir.join(format!("{robot}.xml"));
     if std::fs::read(&path).is_ok_and(|on_disk| on_disk == text.as_bytes()) {

@@ -189,6 +189,33 @@ fn droop_compensation_without_the_robots_masses_is_refused() {
     );
 }
 
+/// A copy of a built-in's robot file under another name has no model (the models go by the
+/// robot's name): `sim` says so and names the built-in whose joints and servos it has.
+#[test]
+fn a_renamed_built_in_is_told_which_model_its_name_would_give() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = dir.path().join("arm.json");
+    let mut description: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(repo("robots/so101.json")).unwrap()).unwrap();
+    description["name"] = "my_arm".into();
+    std::fs::write(&robot, description.to_string()).unwrap();
+    let wave = repo("sequences/so101_wave.json");
+    let out = keypose(&["sim", &wave, "--robot", robot.to_str().unwrap()]);
+    let all = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{all}");
+    assert!(
+        all.contains("no built-in model of a robot named \"my_arm\""),
+        "{all}"
+    );
+    assert!(all.contains("give it \"name\": \"so101\""), "{all}");
+    let out = keypose(&["check", &wave, "--robot", robot.to_str().unwrap()]);
+    assert!(
+        text(&out).contains("the built-in so101's"),
+        "{}",
+        text(&out)
+    );
+}
+
 /// Every example timed as fast as the limits allow (`retime --fastest`) still passes the check
 /// and, in MuJoCo (the oracle: physics, the arm lagging its goals at speed), touches nothing:
 /// the clearance the check keeps is room enough for these arms' lag at their speed limits.
