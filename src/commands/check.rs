@@ -1,7 +1,7 @@
 //! `keypose check`: the curve against the robot's limits, exactly (`plan::check`).
 
 use super::{parse_check_rate, write_output, CommandError, SequenceInput, Verdict};
-use keypose::plan::{check, CheckReport, LimitKind, Trajectory};
+use keypose::plan::{check, radians_warning, CheckReport, LimitKind, Trajectory};
 use keypose::plan::{ToolKeyReport, ToolSolve};
 use keypose::report;
 use keypose::robot::Robot;
@@ -41,11 +41,19 @@ pub fn run(args: &CheckArgs) -> Result<Verdict, CommandError> {
     let tolerance = args.orientation_tolerance;
     let text = match args.format {
         ReportFormat::Text => {
+            let units = match radians_warning(&sequence, &robot) {
+                Some(w) => format!("warning: {w}\n"),
+                None => String::new(),
+            };
             report::check_text(&result, &sequence.file, &robot)
                 + &tool_text(tools, tolerance, &robot, &result)
+                + &units
         }
         ReportFormat::Json => {
             let mut json = report::check_json(&result, &sequence.file, &robot);
+            if let Some(w) = radians_warning(&sequence, &robot) {
+                json["units_warning"] = w.into();
+            }
             if !(tools.keys.is_empty() && tools.lines.is_empty()) {
                 json["tool"] = tool_json(tools, tolerance, &robot, &result);
             }

@@ -35,7 +35,9 @@ use std::f64::consts::TAU;
 pub(crate) use approach::Approach;
 pub use approach::{APPROACH_LIMIT_SHARE, MIN_APPROACH_SECONDS};
 pub(crate) use check::{add_clearance, check_limits};
-pub use check::{check, check_at_speed, Cause, CheckReport, JointSummary, LimitKind, Violation};
+pub use check::{
+    check, check_at_speed, radians_warning, Cause, CheckReport, JointSummary, LimitKind, Violation,
+};
 pub use clearance::{approach_refusal, ClearanceScope, Contact, ContactCause, ContactWindow};
 pub use fastest::{fastest, FastestOutcome, FastestRun};
 pub(crate) use limiter::StepLimiter;

@@ -456,3 +456,31 @@ fn plot_refuses_a_png_name_and_writes_nothing() {
     bad_input(&out, "wave.png: expected a .svg file");
     assert!(fs::read_dir(dir.path()).unwrap().next().is_none());
 }
+
+/// Joint values typed in radians pass the limit check as degrees (the elbow moving 1.57°):
+/// the check says they look like radians.
+#[test]
+fn joint_values_in_radians_are_named_as_such() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"{"format": "keypose-sequence/1", "robot": "so101", "keyframes": [
+        {"time": 0, "joints": {"shoulder_lift": -1.2, "elbow_flex": 0}},
+        {"time": 2, "joints": {"shoulder_lift": -0.3, "elbow_flex": 1.57}}]}"#;
+    let path = write(dir.path(), "radians.json", text);
+    let out = keypose(&["check", path.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("these look like radians"), "{}", show(&out));
+    let degrees = write(dir.path(), "degrees.json", &text_in_degrees());
+    let out = keypose(&["check", degrees.to_str().unwrap()]);
+    assert!(
+        !String::from_utf8_lossy(&out.stdout).contains("radians"),
+        "{}",
+        show(&out)
+    );
+}
+
+fn text_in_degrees() -> String {
+    r#"{"format": "keypose-sequence/1", "robot": "so101", "keyframes": [
+        {"time": 0, "joints": {"shoulder_lift": -68.8, "elbow_flex": 0}},
+        {"time": 2, "joints": {"shoulder_lift": -17.2, "elbow_flex": 90}}]}"#
+        .to_string()
+}

@@ -23,6 +23,9 @@
 
 mod jerk;
 mod period;
+mod units;
+
+pub use units::radians_warning;
 pub(crate) mod poly;
 pub(crate) mod runs;
 pub(crate) mod spans;
