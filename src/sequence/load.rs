@@ -113,9 +113,30 @@ fn parse_arms(node: &Node) -> Result<Vec<ArmSpec>, InputError> {
                 "arm name {name:?}; expected letters, digits, '_' or '-' (it prefixes the arm's joints as {name}/JOINT)"
             )));
         }
-        arms.push(parse_arm(name, &value)?);
+        let arm = parse_arm(name, &value)?;
+        if let Some(other) = arms.iter().find(|a: &&ArmSpec| same_base(a, &arm)) {
+            let at = arm.base.as_ref().map_or(DVec3::ZERO, |b| b.xyz);
+            return Err(value.error(format!(
+                "arms {:?} and {name:?} stand on one base (both at [{}, {}, {}] m, an arm without \
+                 \"base\" at the cell's origin); expected each arm at its own place: give one a \
+                 \"base\": {{\"xyz\": [0, 0.4, 0]}}",
+                other.name, at.x, at.y, at.z
+            )));
+        }
+        arms.push(arm);
     }
     Ok(arms)
+}
+
+/// Two arms closer than this at their bases (metres) stand on one.
+const ONE_BASE: f64 = 1e-3;
+/// The farthest an arm's base may be from the cell's origin, metres: a bench, not a factory
+/// (a base in millimetres, 250 for 0.25 m, is caught by it).
+pub const MAX_BASE_DISTANCE: f64 = 10.0;
+
+fn same_base(a: &ArmSpec, b: &ArmSpec) -> bool {
+    let at = |arm: &ArmSpec| arm.base.as_ref().map_or(DVec3::ZERO, |p| p.xyz);
+    at(a).distance(at(b)) < ONE_BASE
 }
 
 /// An arm name: it prefixes joint names (`left/elbow_flex`), so it holds no '/'.
@@ -155,7 +176,29 @@ fn parse_placement(node: &Node) -> Result<Placement, InputError> {
     node.object()?;
     node.only_fields(&["xyz", "rpy", "quat"])?;
     let xyz = match node.get("xyz") {
-        Some(n) => DVec3::from_array(n.numbers::<3>("metres")?),
+        Some(n) => {
+            let xyz = DVec3::from_array(n.numbers::<3>("metres")?);
+            let far = xyz.abs().max_element();
+            if far > MAX_BASE_DISTANCE {
+                // Within 10 m once read as millimetres: say so.
+                let in_mm = match far <= MAX_BASE_DISTANCE * 1000.0 {
+                    true => {
+                        let m = xyz / 1000.0;
+                        format!(" (millimetres? that is [{}, {}, {}] m)", m.x, m.y, m.z)
+                    }
+                    false => String::new(),
+                };
+                let far = match far < 1e6 {
+                    true => format!("{far}"),
+                    false => format!("{far:e}"),
+                };
+                return Err(n.error(format!(
+                    "a base {far} m from the cell's origin along an axis; expected metres, \
+                     within {MAX_BASE_DISTANCE} m{in_mm}"
+                )));
+            }
+            xyz
+        }
         None => DVec3::ZERO,
     };
     let rotation = match (node.get("rpy"), node.get("quat")) {

@@ -484,3 +484,32 @@ fn text_in_degrees() -> String {
         {"time": 2, "joints": {"shoulder_lift": -17.2, "elbow_flex": 90}}]}"#
         .to_string()
 }
+
+/// A two-arm base in millimetres (250 for 0.25 m) puts the arms 500 m apart, where check and
+/// sim would pass them: refused, with the reading in metres; so is an absurd one.
+#[test]
+fn a_cell_base_in_millimetres_or_absurd_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let cell = |y: &str| {
+        format!(
+            r#"{{"format": "keypose-sequence/1",
+                "robots": {{"left": {{"robot": "so101", "base": {{"xyz": [0, {y}, 0]}}}}, "right": "so101"}},
+                "keyframes": [{{"time": 0, "joints": {{"left/elbow_flex": 0}}}},
+                              {{"time": 2, "joints": {{"left/elbow_flex": 30}}}}]}}"#
+        )
+    };
+    let path = write(dir.path(), "mm.json", &cell("250"));
+    let err = bad_input(
+        &keypose(&["check", path.to_str().unwrap()]),
+        "$.robots.left.base.xyz",
+    );
+    assert!(err.contains("millimetres? that is [0, 0.25, 0] m"), "{err}");
+    let path = write(dir.path(), "far.json", &cell("1e308"));
+    bad_input(
+        &keypose(&["check", path.to_str().unwrap()]),
+        "expected metres, within 10 m",
+    );
+    let path = write(dir.path(), "metres.json", &cell("0.4"));
+    let out = keypose(&["check", path.to_str().unwrap()]);
+    assert_ne!(out.status.code(), Some(2), "{}", show(&out));
+}

@@ -152,7 +152,8 @@ fn a_dip_between_two_clear_keys_fails_however_short() {
     }
 }
 
-/// Two arms on one base are in each other everywhere; 0.4 m apart the same motion is clear.
+/// Two arms 2 cm apart are in each other; 0.4 m apart the same motion is clear; on one base
+/// (both without "base": at the cell's origin) the file is refused before anything is checked.
 #[test]
 fn two_arms_on_one_base_fail_and_apart_they_pass() {
     let dir = tempfile::tempdir().unwrap();
@@ -163,10 +164,25 @@ fn two_arms_on_one_base_fail_and_apart_they_pass() {
                               {{"time": 2, "joints": {{"left/elbow_flex": -30, "right/elbow_flex": -30}}}}]}}"#
         )
     };
+    let one_base = write(
+        dir.path(),
+        "one_base.json",
+        &cell(r#"{"left": "so101", "right": "so101"}"#),
+    );
+    let out = run(&["check", &one_base]);
+    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+    assert!(
+        crate::common::stderr(&out).contains("arms \"left\" and \"right\" stand on one base"),
+        "{}",
+        show(&out)
+    );
     let together = write(
         dir.path(),
         "together.json",
-        &cell(r#"{"left": "so101", "right": "so101"}"#),
+        &cell(
+            r#"{"left": {"robot": "so101", "base": {"xyz": [0, 0.01, 0]}},
+                "right": {"robot": "so101", "base": {"xyz": [0, -0.01, 0]}}}"#,
+        ),
     );
     let report = json_report(&together);
     assert!(
