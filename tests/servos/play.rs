@@ -687,7 +687,13 @@ fn droop_compensation_leads_the_goals_by_the_weight_over_the_stiffness() {
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
-    assert!(!stderr(&out).contains("step limiter"), "{}", stderr(&out));
+    // The limiter stays idle unless the machine stalled the player (bounding the catch-up
+    // after a stall is its job).
+    let err = stderr(&out);
+    assert!(
+        !err.contains("step limiter") || err.contains("stall(s)"),
+        "{err}"
+    );
     let check = keypose()
         .args(["check", &wave, "--format", "json"])
         .output()

@@ -282,9 +282,28 @@ struct FaultRun {
     followed: Vec<f64>,
 }
 
+/// [`fault_on_the_right_once`], run again (twice at most) when the fault the player stopped on
+/// was not the one injected but a servo of the emulator that did not answer in time: the
+/// emulated servos are threads of this test process, and on a machine busy enough a thread
+/// does not run for longer than the player tolerates silence, which on a real bus is a fault
+/// and here is only the test bench starved. Every other outcome is judged as it came.
+fn fault_on_the_right(fault: ServoFault) -> FaultRun {
+    let mut run = fault_on_the_right_once(fault);
+    for _ in 0..2 {
+        let err = stderr(&run.out);
+        let starved_bench = err.contains("no answer") && !err.contains("servo 4: ");
+        if !starved_bench {
+            break;
+        }
+        eprintln!("{fault:?}: the emulator was starved, again: {err}");
+        run = fault_on_the_right_once(fault);
+    }
+    run
+}
+
 /// Plays on two buses, injects `fault` into the right arm's wrist_flex (servo 4) 2.5 s in,
 /// waits for the end.
-fn fault_on_the_right(fault: ServoFault) -> FaultRun {
+fn fault_on_the_right_once(fault: ServoFault) -> FaultRun {
     let (left, right) = (arm_bus(), arm_bus());
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("fault.csv");
