@@ -9,6 +9,7 @@
 use pyo3::prelude::*;
 
 mod errors;
+mod keys;
 mod lerobot;
 mod report;
 mod robot;

@@ -109,8 +109,9 @@ fn parse_interp(py: Python<'_>, name: &str) -> PyResult<Interp> {
 impl Sequence {
     /// A sequence built from keys in code: each key a dict as a sequence file writes a
     /// keyframe (`{"time": 1.0, "joints": {"elbow_flex": 30}}`, with `"name"`, `"hold"`,
-    /// `"interp"`, `"tool"` …), checked as a file's keys are; errors name `<keys>` and the
-    /// key's path (`$.keyframes[1].joints.elbow_flex`).
+    /// `"interp"`, `"tool"` …; `"joints"` may be a list in the robot's joint order, and numbers
+    /// may be numpy's), checked as a file's keys are; errors name `<keys>` and the key's path
+    /// (`$.keyframes[1].joints.elbow_flex`).
     #[new]
     #[pyo3(signature = (robot, keys, *, interpolation = "cubic", description = None))]
     fn new(
@@ -124,12 +125,9 @@ impl Sequence {
             Ok(given) => given.get().clone(),
             Err(_) => Robot::named(py, &robot.extract::<String>()?, None, None)?,
         };
-        let keys_text: String = py
-            .import("json")?
-            .call_method1("dumps", (keys,))?
-            .extract()?;
-        let keys: serde_json::Value = serde_json::from_str(&keys_text)
-            .map_err(|e| argument_error(py, format!("keys: {e}")))?;
+        let joints: Vec<String> = robot.robot.joints.iter().map(|j| j.name.clone()).collect();
+        let keys =
+            crate::keys::keys_json(keys, &joints, KEYS_FILE).map_err(|e| input_error(py, &e))?;
         let mut file = serde_json::json!({
             "format": "keypose-sequence/1",
             "robot": robot.spec,

@@ -299,3 +299,35 @@ def test_a_payload_the_5_v_shoulder_cannot_brake_fails_on_5_v_and_passes_on_12_v
     assert twelve.passed and twelve.torque["build"].startswith("sts3215 c047 @ 12 V")
     with pytest.raises(keypose.InputError, match="payload"):
         keypose.load(path, payload=-1)
+
+
+def test_keys_take_numpy_numbers_and_arrays_as_lerobot_data_is():
+    # LeRobot's frames are float32 arrays; an int64 time is what numpy's arange gives.
+    keys = [
+        {"time": np.int64(0), "joints": {"elbow_flex": np.float32(0.0)}},
+        {"time": np.float64(1.5), "joints": {"elbow_flex": np.float32(30.0), "wrist_flex": np.float32(-12.5)}},
+    ]
+    sequence = keypose.Sequence("so101", keys)
+    _, q = sequence.sample(rate=2.0)
+    elbow = sequence.joints.index("elbow_flex")
+    assert q[-1][elbow] == pytest.approx(30.0)
+
+
+def test_a_keys_joints_may_be_a_list_in_the_robots_joint_order():
+    values = np.array([0.0, -20.0, 30.0, 10.0, 0.0, 5.0], dtype=np.float32)
+    sequence = keypose.Sequence(
+        "so101", [{"time": 0, "joints": [0.0] * 6}, {"time": 2, "joints": values}]
+    )
+    _, q = sequence.sample(rate=1.0)
+    assert list(q[-1]) == pytest.approx(values.tolist())
+    with pytest.raises(keypose.InputError) as error:
+        keypose.Sequence("so101", [{"time": 0, "joints": [0.0, 1.0]}])
+    assert error.value.path == "$.keyframes[0].joints"
+    assert "a list of 6 values in the robot's joint order (shoulder_pan, " in str(error.value)
+
+
+def test_a_nan_in_a_key_names_the_key_and_the_joint():
+    with pytest.raises(keypose.InputError) as error:
+        keypose.Sequence("so101", [{"time": 0, "joints": {"elbow_flex": 0}}, {"time": 1, "joints": {"elbow_flex": float("nan")}}])
+    assert error.value.path == "$.keyframes[1].joints.elbow_flex"
+    assert "expected a finite number, found NaN" in str(error.value)
