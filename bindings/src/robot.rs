@@ -276,7 +276,11 @@ impl Robot {
         let chosen = chosen.map_err(|e| {
             argument_error(
                 py,
-                format!("solve {position:?}: {}", keypose::error::Report(&e)),
+                format!(
+                    "solve {position:?}: {}{}",
+                    keypose::error::Report(&e),
+                    radians_hint(rpy)
+                ),
             )
         })?;
         let values = chosen.solution.values;
@@ -291,6 +295,24 @@ impl Robot {
             self.robot.joint_names().join(", ")
         )
     }
+}
+
+/// For an `rpy` that failed: the Python API's angles are degrees (as its joint values), while a
+/// file's `rpy` is radians; values all within ±π, not all zero, look like radians.
+fn radians_hint(rpy: Option<[f64; 3]>) -> String {
+    let Some(r) = rpy else {
+        return String::new();
+    };
+    let small = r.iter().all(|x| x.abs() <= std::f64::consts::PI + 1e-9);
+    if !small || r.iter().all(|x| x.abs() < 0.01) {
+        return String::new();
+    }
+    let d = r.map(f64::to_degrees);
+    format!(
+        " (rpy here is in degrees, as the API's joint values are; {r:?} look like radians: \
+         that is [{:.1}, {:.1}, {:.1}] degrees)",
+        d[0], d[1], d[2]
+    )
 }
 
 /// A joint's limits, in its unit ("deg" or "m") and per second.

@@ -163,3 +163,13 @@ def test_an_unknown_robot_is_an_input_error_with_the_command_lines_message(tmp_p
     path.write_text(repo("sequences/so101_wave.json").read_text())
     out = cli("check", path, "--robot", "nonesuch", check_code=2)
     assert out.stderr == f"error: {raised.value}\n"
+
+
+def test_an_rpy_in_radians_given_to_solve_is_named_as_such():
+    # The API's angles are degrees (as its joint values); a file's rpy is radians. [3.14, 0, 0]
+    # in degrees is a tool nearly level, which the SO-101 cannot hold there.
+    robot = keypose.Robot("so101")
+    with pytest.raises(keypose.InputError) as error:
+        robot.solve([0.25, 0.0, 0.05], rpy=[3.14, 0.0, 0.0])
+    assert "rpy here is in degrees" in str(error.value)
+    assert "that is [179.9, 0.0, 0.0] degrees" in str(error.value)
