@@ -138,7 +138,7 @@ pub fn import_episode(
     let info = DatasetInfo::read(dir).map_err(CommandError::LeRobot)?;
     let names = info.names(&args.field).map_err(CommandError::LeRobot)?;
     let arms = lerobot::dataset_arms(&info, &args.field, &names).map_err(CommandError::LeRobot)?;
-    let spec = robot_spec(&info, choice.robot, !arms.is_empty())?;
+    let (spec, spec_notice) = robot_spec(&info, choice.robot, !arms.is_empty())?;
     // A name from the dataset is the dataset's to blame, one from --robot the option's; a
     // bimanual robot_type is named as the dataset gives it, not only its arms' type.
     let resolve = |name: &str| {
@@ -176,6 +176,7 @@ pub fn import_episode(
         lerobot::import(dir, &info, &robot, &options).map_err(CommandError::LeRobot)?;
     let clipped = imported.clipped.iter().map(|c| c.notice());
     imported.notices.extend(clipped.collect::<Vec<_>>());
+    imported.notices.extend(spec_notice);
     let sequence = &mut imported.keyframes.sequence;
     if arm_specs.is_empty() {
         sequence.robot = robot_reference(&spec);
@@ -188,20 +189,45 @@ pub fn import_episode(
 }
 
 /// `--robot`, else the dataset's robot_type; for a bimanual dataset the type of its arms
-/// (`bi_so100_follower` → `so100_follower`), `--robot` naming both arms' robot.
+/// (`bi_so100_follower` → `so100_follower`), `--robot` naming both arms' robot. With it, what
+/// was assumed to get there, for the user to hear.
 fn robot_spec(
     info: &DatasetInfo,
     option: Option<&str>,
     bimanual: bool,
-) -> Result<String, CommandError> {
-    match (option, &info.robot_type) {
-        (Some(spec), _) => Ok(spec.to_string()),
-        (None, Some(robot_type)) if bimanual => Ok(lerobot::arm_robot_type(robot_type).to_string()),
-        (None, Some(robot_type)) => Ok(robot_type.clone()),
-        (None, None) => Err(CommandError::Usage(format!(
-            "{}: no robot_type: give --robot",
-            info.file
-        ))),
+) -> Result<(String, Option<String>), CommandError> {
+    let robot_type = match (option, &info.robot_type) {
+        (Some(spec), _) => return Ok((spec.to_string(), None)),
+        (None, Some(robot_type)) if bimanual => lerobot::arm_robot_type(robot_type),
+        (None, Some(robot_type)) => robot_type.as_str(),
+        (None, None) => {
+            return Err(CommandError::Usage(format!(
+                "{}: no robot_type: give --robot",
+                info.file
+            )))
+        }
+    };
+    Ok(match so_class_as_so101(robot_type) {
+        Some(so101) => (
+            so101.to_string(),
+            Some(format!(
+                "robot_type {robot_type:?} is LeRobot's class of both the SO-100 and the SO-101 \
+                 (lerobot-record writes it for either): taken as the SO-101 ({so101}); give \
+                 --robot so100 for an SO-100, whose kinematics differ"
+            )),
+        ),
+        None => (robot_type.to_string(), None),
+    })
+}
+
+/// LeRobot's merged SO class names (since 2026-01), which `lerobot-record` writes as a
+/// dataset's robot_type for an SO-100 and an SO-101 alike, as the SO-101's type: the arm
+/// LeRobot builds and documents today.
+fn so_class_as_so101(robot_type: &str) -> Option<&'static str> {
+    match robot_type {
+        "so_follower" => Some("so101_follower"),
+        "so_leader" => Some("so101_leader"),
+        _ => None,
     }
 }
 
