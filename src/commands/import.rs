@@ -94,6 +94,7 @@ pub fn run(format: &ImportFormat) -> Result<Verdict, CommandError> {
 
 fn run_lerobot(args: &LeRobotArgs) -> Result<Verdict, CommandError> {
     check_output_dir(&args.output)?;
+    refuse_output_inside(&args.output, &args.dir)?;
     let choice = RobotChoice {
         robot: args.robot.as_deref(),
         calibration: &args.calibration,
@@ -186,6 +187,28 @@ pub fn import_episode(
         sequence.arms = arm_specs;
     }
     Ok((imported, robot, spec))
+}
+
+/// An output inside the dataset being read would overwrite its own files (`-o ds/meta/info.json`)
+/// or leave a stray file in it: refused, whatever the path's spelling (compared resolved).
+fn refuse_output_inside(output: &Path, dataset: &Path) -> Result<(), CommandError> {
+    let resolved = |p: &Path| std::fs::canonicalize(p).ok();
+    let parent = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let (Some(dir), Some(dataset)) = (resolved(parent), resolved(dataset)) else {
+        return Ok(());
+    };
+    if dir.starts_with(&dataset) {
+        return Err(CommandError::Usage(format!(
+            "-o {}: inside the dataset {} being read; expected a path outside it (the sequence \
+             is a file of its own, and the dataset's files stay as LeRobot wrote them)",
+            output.display(),
+            dataset.display()
+        )));
+    }
+    Ok(())
 }
 
 /// `--robot`, else the dataset's robot_type; for a bimanual dataset the type of its arms

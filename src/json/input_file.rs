@@ -30,6 +30,16 @@ pub fn open_regular(path: &Path) -> Result<File, InputError> {
     Ok(file)
 }
 
+/// Refuses `path` unless it is a regular file (symbolic links followed), without opening it:
+/// for a file another program reads (a dataset's parquet file, which the reader process would
+/// wait on forever were it a FIFO).
+pub fn require_regular(path: &Path) -> Result<(), InputError> {
+    let label = path.display().to_string();
+    let meta = std::fs::metadata(path)
+        .map_err(|e| InputError::new(&label, Location::File, format!("cannot read: {e}")))?;
+    refuse_non_regular(&label, &meta)
+}
+
 /// Reads a regular file of at most `max_bytes` as UTF-8 text.
 pub fn read_text(path: &Path, max_bytes: u64) -> Result<String, InputError> {
     let label = path.display().to_string();

@@ -1050,3 +1050,61 @@ fn feature_names_in_lerobots_older_motors_form_are_read() {
     }
     assert!(passed);
 }
+
+/// `-o` inside the dataset being read (its own metadata here) is refused, and the dataset's
+/// file is left as it was.
+#[test]
+fn an_output_inside_the_dataset_is_refused_and_the_dataset_kept() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("ds");
+    write_dataset(
+        &dir,
+        "v3.0",
+        &pos_names(&SO101_JOINTS),
+        "list",
+        &[(0, motion(2.0, 30.0))],
+    );
+    let info = dir.join("meta").join("info.json");
+    let before = std::fs::read(&info).unwrap();
+    let out = import(&dir, &info, &["--episode", "0"]);
+    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+    assert!(
+        stderr(&out).contains("inside the dataset"),
+        "{}",
+        show(&out)
+    );
+    assert_eq!(std::fs::read(&info).unwrap(), before);
+    // Spelled another way round, the same.
+    let sideways = dir.join("..").join("ds").join("wave.json");
+    let out = import(&dir, &sideways, &["--episode", "0"]);
+    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+    assert!(!dir.join("wave.json").exists());
+}
+
+/// A FIFO where the episode's parquet file should be is bad input at once (exit 2), not a
+/// reader waiting on it until its timeout.
+#[cfg(unix)]
+#[test]
+fn a_fifo_as_the_parquet_file_is_refused_at_once() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("ds");
+    write_dataset(
+        &dir,
+        "v3.0",
+        &pos_names(&SO101_JOINTS),
+        "list",
+        &[(0, motion(2.0, 30.0))],
+    );
+    let data = dir.join("data").join("chunk-000").join("file-000.parquet");
+    std::fs::remove_file(&data).unwrap();
+    let made = Command::new("mkfifo").arg(&data).status().unwrap();
+    assert!(made.success());
+    let out = import(&dir, &tmp.path().join("wave.json"), &["--episode", "0"]);
+    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+    // Exit 2 naming the FIFO, where the reader waiting on it timed out with exit 3.
+    assert!(
+        stderr(&out).contains("is a FIFO (named pipe); expected a regular file"),
+        "{}",
+        show(&out)
+    );
+}

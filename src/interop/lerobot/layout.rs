@@ -168,6 +168,8 @@ pub fn data_file(
 ) -> Result<String, LeRobotError> {
     let relative = data_path(info, span)?;
     inside(dir, &relative).map_err(|problem| data_path_error(info, span, problem))?;
+    // Bad input at once, not a reader waiting on a FIFO until its timeout.
+    crate::json::input_file::require_regular(&dir.join(&relative))?;
     Ok(relative)
 }
 
@@ -209,6 +211,7 @@ pub fn episode_files(dir: &Path) -> Result<Vec<String>, LeRobotError> {
             dataset: dataset.clone(),
             problem: Box::new(problem),
         })?;
+        crate::json::input_file::require_regular(&dir.join(file))?;
     }
     Ok(files)
 }
