@@ -115,6 +115,9 @@ def test_the_layout_is_lerobots_own(pan, tmp_path):
             # Same columns, same types (the metadata's fingerprint differs: it hashes the run).
             assert pq.read_schema(ours / name).remove_metadata() == pq.read_schema(theirs / name).remove_metadata(), name
     info = [json.loads((d / "meta/info.json").read_text()) for d in (ours, theirs)]
+    # keypose's own word on the units, which LeRobot ignores (it read the dataset above), is
+    # the one difference.
+    assert info[0].pop("keypose") == {"units": "degrees"}
     assert info[0] == info[1]
     ours_rows = pq.read_table(ours / "data/chunk-000/file-000.parquet").to_pylist()
     theirs_rows = pq.read_table(theirs / "data/chunk-000/file-000.parquet").to_pylist()
@@ -128,6 +131,36 @@ def test_the_layout_is_lerobots_own(pan, tmp_path):
         # LeRobot's std comes from float32 sums of squares: a constant 30 % gripper gets 0.036
         # instead of 0 (ours is numpy's, checked above).
         assert np.allclose(stats[0][feature]["std"], stats[1][feature]["std"], atol=0.05), feature
+
+
+def test_range_units_come_back_as_they_went_out(tmp_path):
+    """Exported in LeRobot's −100…100 of the calibrated range, imported back with the same
+    calibration and no --units: the values alone cannot tell range from degrees, the dataset's
+    meta/info.json says what keypose wrote, and the keys come back within the import's
+    tolerance (where read as degrees they were off by up to 40°)."""
+    wave = repo("sequences/so101_wave.json")
+    export(wave, "-o", tmp_path / "r", "--units", "range", "--calibration", repo(CALIBRATION))
+    env = {**os.environ, "KEYPOSE_PYTHON": sys.executable}
+    back = tmp_path / "back.json"
+    done = subprocess.run(
+        [str(keypose_command()), "import", "lerobot", str(tmp_path / "r"), "--episode", "0",
+         "--calibration", str(repo(CALIBRATION)), "-o", str(back)],
+        capture_output=True, text=True, timeout=600, env=env,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "range units, as" in done.stderr and "$.keypose.units" in done.stderr, done.stderr
+    # Sampled at 30 fps, both: the import's keys against the exported sequence.
+    rows = []
+    for path in (wave, back):
+        out = subprocess.run(
+            [str(keypose_command()), "sample", str(path), "--rate", "30",
+             "--calibration", str(repo(CALIBRATION))],
+            capture_output=True, text=True, timeout=600, check=True,
+        )
+        rows.append([list(map(float, line.split(",")[1:])) for line in out.stdout.splitlines()[1:]])
+    n = min(len(rows[0]), len(rows[1]))
+    worst = max(abs(a - b) for r0, r1 in zip(rows[0][:n], rows[1][:n]) for a, b in zip(r0, r1))
+    assert worst < 1.0, worst
 
 
 def test_range_units_and_refusals(pan, tmp_path):

@@ -256,6 +256,10 @@ fn info(options: &ExportOptions, features: &Value, frames: usize) -> Value {
         "data_path": DATA_PATH,
         "video_path": null,
         "features": features,
+        // keypose's own word on the body joints' units, which the values alone cannot always
+        // tell (−100…100 may be either): its import reads it back. LeRobot keeps info.json as
+        // a dict and ignores what it does not know.
+        "keypose": {"units": options.units.name()},
     })
 }
 

@@ -1,6 +1,7 @@
 //! `meta/info.json` of a LeRobotDataset: the codebase version, the frame rate, the robot type,
 //! where the data files are and the names of a feature's values (docs/interop.md §1).
 
+use super::units::BodyUnits;
 use super::LeRobotError;
 use crate::json::{self, Node};
 use std::path::Path;
@@ -23,6 +24,9 @@ pub struct DatasetInfo {
     pub data_path: String,
     /// Episodes in the dataset; `None` when not given.
     pub total_episodes: Option<u64>,
+    /// The units of the body joints as keypose wrote them when it exported the dataset
+    /// (`"keypose": {"units": "range"}`); `None` for a dataset LeRobot recorded.
+    pub keypose_units: Option<BodyUnits>,
     features: serde_json::Value,
 }
 
@@ -70,6 +74,17 @@ impl DatasetInfo {
         let features = root.require("features", "the dataset's features")?;
         features.object()?;
         let features = features.value.clone();
+        let keypose_units = match root.get("keypose") {
+            Some(node) => {
+                let units = node.require("units", "the body joints' units")?;
+                let name = units.str("\"degrees\" or \"range\"")?;
+                Some(
+                    BodyUnits::parse(name)
+                        .ok_or_else(|| units.expected("\"degrees\" or \"range\""))?,
+                )
+            }
+            None => None,
+        };
         Ok(DatasetInfo {
             features,
             file: file.clone(),
@@ -77,6 +92,7 @@ impl DatasetInfo {
             robot_type,
             data_path,
             total_episodes,
+            keypose_units,
         })
     }
 
@@ -89,6 +105,7 @@ impl DatasetInfo {
             robot_type: None,
             data_path: DEFAULT_DATA_PATH.to_string(),
             total_episodes: None,
+            keypose_units: None,
             features: serde_json::json!({}),
         }
     }

@@ -236,7 +236,31 @@ pub fn fit(
         episode.frames.timestamps.as_deref(),
         rows.len(),
     )?;
-    let (recording, units, clipped, notices) = recording(episode, robot, times, options)?;
+    // The dataset's own word on its units, where keypose exported it, before any guess.
+    let recorded = match (options.units, episode.info.keypose_units) {
+        (None, Some(units)) => Some(units),
+        _ => None,
+    };
+    let with_recorded;
+    let options = match recorded {
+        Some(units) => {
+            with_recorded = ImportOptions {
+                units: Some(units),
+                ..options.clone()
+            };
+            &with_recorded
+        }
+        None => options,
+    };
+    let (recording, units, clipped, mut notices) = recording(episode, robot, times, options)?;
+    if let Some(units) = recorded {
+        notices.push(format!(
+            "note: {} units, as {} says keypose wrote them when it exported the dataset \
+             ($.keypose.units)",
+            units.name(),
+            episode.info.file
+        ));
+    }
     let mut keyframes = record::keyframes(&recording, robot, &options.keyframes)?;
     keyframes.sequence.description = Some(format!(
         "LeRobot dataset {}, episode {}, {}: {} frames → {} keys within {}°",

@@ -28,6 +28,13 @@ impl BodyUnits {
             BodyUnits::Range => "range",
         }
     }
+
+    /// The units named `name` ([`BodyUnits::name`]).
+    pub fn parse(name: &str) -> Option<BodyUnits> {
+        [BodyUnits::Degrees, BodyUnits::Range]
+            .into_iter()
+            .find(|u| u.name() == name)
+    }
 }
 
 /// The units of each arm's body joints, by arm name (empty for a robot of one arm): LeRobot
