@@ -150,3 +150,16 @@ def test_lerobot_record_records_a_scripted_demonstration_with_a_camera(tmp_path)
     # The follower measured its own pose: it rested at 0 when the recording began.
     state = dataset[0]["observation.state"].numpy()
     assert np.allclose(state[:5], 0, atol=0.1)
+
+
+def test_bad_config_values_are_input_errors_naming_the_field(tmp_path):
+    register_third_party_plugins()
+    sequence = raise_and_lower(tmp_path)
+    for fps in (-30, 0, 1.5, True, 10**30):
+        with pytest.raises(keypose.InputError, match="fps: expected a whole number"):
+            teleop_config(tmp_path, sequence, fps=fps)
+    # A command line's spellings of a boolean are read as meant, not as truthy text.
+    assert teleop_config(tmp_path, sequence, use_degrees="no").use_degrees is False
+    assert teleop_config(tmp_path, sequence, use_degrees="True").use_degrees is True
+    with pytest.raises(keypose.InputError, match="use_degrees: expected true or false"):
+        teleop_config(tmp_path, sequence, use_degrees="maybe")

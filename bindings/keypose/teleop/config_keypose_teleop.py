@@ -6,6 +6,14 @@ from typing import Optional
 
 from lerobot.teleoperators.config import TeleoperatorConfig  # type: ignore[import-untyped]
 
+from keypose import InputError
+
+# The frame rates a dataset may be recorded at (LeRobot's fps is a whole number).
+_FPS = range(1, 1001)
+# How a command line or a config file spells a boolean (draccus may hand over the text).
+_TRUE = {"true", "yes", "1", "on"}
+_FALSE = {"false", "no", "0", "off"}
+
 
 @TeleoperatorConfig.register_subclass("keypose")
 @dataclass
@@ -21,3 +29,19 @@ class KeyposeTeleopConfig(TeleoperatorConfig):
     robot_calibration: Optional[Path] = None
     robot_id: Optional[str] = None
     use_degrees: bool = True
+
+    def __post_init__(self) -> None:
+        """Bad values are ``keypose.InputError`` naming the field, before anything connects."""
+        fps = self.fps
+        if isinstance(fps, bool) or not isinstance(fps, int) or fps not in _FPS:
+            raise InputError(f"fps: expected a whole number of frames per second from 1 to 1000, found {fps!r}")
+        self.use_degrees = _boolean("use_degrees", self.use_degrees)
+
+
+def _boolean(field: str, value: object) -> bool:
+    """`value` as a boolean: a bool, or one of the spellings a command line uses."""
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, str) and value.strip().lower() in _TRUE | _FALSE:
+        return value.strip().lower() in _TRUE
+    raise InputError(f"{field}: expected true or false, found {value!r}")
