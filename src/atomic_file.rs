@@ -167,6 +167,19 @@ impl AtomicFile {
         sync_dir(&parent_dir(&staged.target))
     }
 
+    /// Cuts what is written back to its first `len` bytes and goes on writing there: a write
+    /// that failed part-way (a full disk) leaves no part of what it was writing.
+    pub fn truncate(&mut self, len: u64) -> io::Result<()> {
+        use std::io::{Seek, SeekFrom};
+        self.file.set_len(len)?;
+        self.file.seek(SeekFrom::Start(len)).map(|_| ())
+    }
+
+    /// Whether the temporary is in place of the target already ([`AtomicFile::publish`]).
+    pub fn published(&self) -> bool {
+        self.staged.as_ref().is_none_or(|s| s.published)
+    }
+
     /// The temporary being written (`None` when written straight through or published).
     #[cfg(test)]
     fn temp_path(&self) -> Option<&Path> {

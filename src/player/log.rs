@@ -7,12 +7,15 @@
 //! `keypose plot
 //! --log` overlays the measured columns on the sequence, against `sequence_time`.
 //!
-//! The header is written to a temporary that is then put in place of the target at once
-//! ([`AtomicFile::publish`]), so an earlier log of the same name is replaced whole, never torn;
-//! the rows then grow the file in place, written whole rows at a time at least every
-//! [`PUBLISH_EVERY`], so a process killed outright (SIGKILL, a crash) leaves its log under its
-//! own name, complete up to the last second before the kill. However playback ends otherwise
-//! (finished, stopped, a fault: [`PlaybackLog`] finishes when dropped), every row is there.
+//! The header and the first rows are written to a temporary that is then put in place of the
+//! target at once ([`AtomicFile::publish`]), so an earlier log of the same name is replaced
+//! whole, never torn, and only by a log that could be written (a disk too full for the first
+//! second of rows leaves the earlier log as it was); the rows then grow the file in place,
+//! written whole rows at a time at least every [`PUBLISH_EVERY`], so a process killed outright
+//! (SIGKILL, a crash) leaves its log under its own name, complete up to the last second before
+//! the kill. A write that fails part-way (the disk full later) is cut back to the rows before
+//! it: the log always ends with a whole row. However playback ends otherwise (finished,
+//! stopped, a fault: [`PlaybackLog`] finishes when dropped), every row is there.
 //!
 //! The rows are formatted and written on a thread of their own, so the control thread only
 //! copies a few numbers into a preallocated record and passes it on: a slow disk or a write
@@ -120,9 +123,9 @@ impl PlaybackLog {
             source,
         };
         let mut out = AtomicFile::create(path, Privacy::Shared).map_err(log_error)?;
-        out.write_all(header(robot).as_bytes())
-            .and_then(|()| out.publish())
-            .map_err(log_error)?;
+        let header = header(robot);
+        out.write_all(header.as_bytes()).map_err(log_error)?;
+        let whole = header.len() as u64;
         let joints = robot.joints.len();
         let (records, inbox) = mpsc::sync_channel(IN_FLIGHT);
         let (give_back, spare) = mpsc::sync_channel(IN_FLIGHT);
@@ -131,7 +134,7 @@ impl PlaybackLog {
         }
         let writer = std::thread::Builder::new()
             .name("playback log".into())
-            .spawn(move || write_records(out, &inbox, &give_back))
+            .spawn(move || write_records(out, whole, &inbox, &give_back))
             .map_err(log_error)?;
         Ok(Self {
             path: label,
@@ -195,6 +198,7 @@ fn header(robot: &Robot) -> String {
 /// [`GATHER_BYTES`] are waiting; stops at the first write error.
 fn write_records(
     mut out: AtomicFile,
+    mut whole: u64,
     inbox: &Receiver<Record>,
     give_back: &SyncSender<Record>,
 ) -> io::Result<AtomicFile> {
@@ -212,13 +216,31 @@ fn write_records(
             Err(RecvTimeoutError::Disconnected) => break,
         }
         if rows.len() >= GATHER_BYTES || written_at.elapsed() >= PUBLISH_EVERY {
-            out.write_all(rows.as_bytes())?;
+            append_rows(&mut out, &mut whole, &rows)?;
+            if !out.published() {
+                out.publish()?;
+            }
             rows.clear();
             written_at = Instant::now();
         }
     }
-    out.write_all(rows.as_bytes())?;
+    append_rows(&mut out, &mut whole, &rows)?;
     Ok(out)
+}
+
+/// Writes `rows` (whole lines) after the `whole` bytes written so far; a write that fails
+/// part-way is cut back to them.
+fn append_rows(out: &mut AtomicFile, whole: &mut u64, rows: &str) -> io::Result<()> {
+    match out.write_all(rows.as_bytes()) {
+        Ok(()) => {
+            *whole += rows.len() as u64;
+            Ok(())
+        }
+        Err(e) => {
+            let _ = out.truncate(*whole);
+            Err(e)
+        }
+    }
 }
 
 /// Appends `row` as one line.

@@ -767,3 +767,58 @@ fn a_port_another_program_holds_says_so() {
     assert_eq!(out.status.code(), Some(3), "{err}");
     assert!(err.contains("another program holds the port"), "{err}");
 }
+
+/// `play --log` where the disk has no room (the file-size limit, `ulimit -f`, stands in for a
+/// full disk: the writes fail with EFBIG as they would with ENOSPC): exit 2, an earlier log of
+/// that name kept whole when the new one could not even hold its first rows, and a log that
+/// ran out of room later ends with a whole row.
+#[test]
+fn a_log_the_disk_cannot_hold_keeps_the_earlier_log_and_ends_with_a_whole_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("nod.csv");
+    let nod = repo("sequences/so101_nod.json");
+    let limited = |kib: u32, log: &std::path::Path| {
+        // SIGXFSZ ignored (inherited across exec), so that the write fails instead.
+        let script = format!(
+            "trap '' XFSZ; ulimit -f {kib}; exec \"$0\" play \"$1\" --port virtual --quiet \
+             --max-stall 10000 --log \"$2\""
+        );
+        Command::new("bash")
+            .args(["-c", &script, env!("CARGO_BIN_EXE_keypose"), &nod])
+            .arg(log)
+            .output()
+            .unwrap()
+    };
+    let out = keypose()
+        .args(["play", &nod, "--port", "virtual", "--quiet", "--log"])
+        .arg(&log)
+        .args(TOLERATED_STALL)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let before = std::fs::read(&log).unwrap();
+    assert!(before.len() > 16 * 1024, "{} bytes", before.len());
+    // 8 KiB: not even the first second of rows.
+    let out = limited(8, &log);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("cannot write log"),
+        "{}",
+        stderr(&out)
+    );
+    assert_eq!(
+        std::fs::read(&log).unwrap(),
+        before,
+        "the earlier log was touched"
+    );
+    // 40 KiB: the log is in place and runs out of room part-way.
+    let cut = dir.path().join("cut.csv");
+    let out = limited(40, &cut);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    let text = std::fs::read_to_string(&cut).unwrap();
+    let columns = text.lines().next().unwrap().split(',').count();
+    assert!(text.lines().count() > 10 && text.ends_with('\n'), "{text}");
+    for line in text.lines() {
+        assert_eq!(line.split(',').count(), columns, "a cut row: {line:?}");
+    }
+}
