@@ -1051,10 +1051,8 @@ fn feature_names_in_lerobots_older_motors_form_are_read() {
     assert!(passed);
 }
 
-/// `-o` inside the dataset being read (its own metadata here) is refused, and the dataset's
-/// file is left as it was.
-#[test]
-fn an_output_inside_the_dataset_is_refused_and_the_dataset_kept() {
+/// A dataset `ds` of one SO-101 episode of 2 s in a temporary folder (kept while it lives).
+fn one_episode_dataset() -> (tempfile::TempDir, PathBuf) {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("ds");
     write_dataset(
@@ -1064,6 +1062,14 @@ fn an_output_inside_the_dataset_is_refused_and_the_dataset_kept() {
         "list",
         &[(0, motion(2.0, 30.0))],
     );
+    (tmp, dir)
+}
+
+/// `-o` inside the dataset being read (its own metadata here) is refused, and the dataset's
+/// file is left as it was.
+#[test]
+fn an_output_inside_the_dataset_is_refused_and_the_dataset_kept() {
+    let (tmp, dir) = one_episode_dataset();
     let info = dir.join("meta").join("info.json");
     let before = std::fs::read(&info).unwrap();
     let out = import(&dir, &info, &["--episode", "0"]);
@@ -1086,15 +1092,7 @@ fn an_output_inside_the_dataset_is_refused_and_the_dataset_kept() {
 #[cfg(unix)]
 #[test]
 fn a_fifo_as_the_parquet_file_is_refused_at_once() {
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("ds");
-    write_dataset(
-        &dir,
-        "v3.0",
-        &pos_names(&SO101_JOINTS),
-        "list",
-        &[(0, motion(2.0, 30.0))],
-    );
+    let (tmp, dir) = one_episode_dataset();
     let data = dir.join("data").join("chunk-000").join("file-000.parquet");
     std::fs::remove_file(&data).unwrap();
     let made = Command::new("mkfifo").arg(&data).status().unwrap();

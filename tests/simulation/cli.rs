@@ -163,15 +163,21 @@ fn every_so_example_and_its_fastest_pass_on_the_5_v_build_with_droop_compensatio
     }
 }
 
-/// A robot without a model has no masses: `--compensate-droop` is refused as bad input.
-#[test]
-fn droop_compensation_without_the_robots_masses_is_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    let robot = dir.path().join("arm.json");
+/// The SO-101's robot file under another name ("my_arm"), in `dir`.
+fn renamed_so101(dir: &Path) -> std::path::PathBuf {
+    let robot = dir.join("arm.json");
     let mut description: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(repo("robots/so101.json")).unwrap()).unwrap();
     description["name"] = "my_arm".into();
     std::fs::write(&robot, description.to_string()).unwrap();
+    robot
+}
+
+/// A robot without a model has no masses: `--compensate-droop` is refused as bad input.
+#[test]
+fn droop_compensation_without_the_robots_masses_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = renamed_so101(dir.path());
     let wave = repo("sequences/so101_wave.json");
     let out = keypose(&[
         "sim",
@@ -194,11 +200,7 @@ fn droop_compensation_without_the_robots_masses_is_refused() {
 #[test]
 fn a_renamed_built_in_is_told_which_model_its_name_would_give() {
     let dir = tempfile::tempdir().unwrap();
-    let robot = dir.path().join("arm.json");
-    let mut description: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(repo("robots/so101.json")).unwrap()).unwrap();
-    description["name"] = "my_arm".into();
-    std::fs::write(&robot, description.to_string()).unwrap();
+    let robot = renamed_so101(dir.path());
     let wave = repo("sequences/so101_wave.json");
     let out = keypose(&["sim", &wave, "--robot", robot.to_str().unwrap()]);
     let all = text(&out);
