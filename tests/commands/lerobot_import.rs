@@ -1069,7 +1069,7 @@ fn one_episode_dataset() -> (tempfile::TempDir, PathBuf) {
 /// file is left as it was.
 #[test]
 fn an_output_inside_the_dataset_is_refused_and_the_dataset_kept() {
-    let (tmp, dir) = one_episode_dataset();
+    let (_tmp, dir) = one_episode_dataset();
     let info = dir.join("meta").join("info.json");
     let before = std::fs::read(&info).unwrap();
     let out = import(&dir, &info, &["--episode", "0"]);
