@@ -47,6 +47,20 @@ def virtual_bus(robot: str):
             assert not said.strip(), f"keypose virtual-bus said: {said}"
 
 
+def disconnect(robot, tries: int = 3) -> None:
+    """`robot.disconnect()`, tried again when a servo's answer to LeRobot's torque-off write
+    did not come in time. The emulated servos are another process: on a machine busy enough
+    it is not scheduled within LeRobot's packet timeout (a few milliseconds), which LeRobot
+    reports as "There is no status packet!" with the robot still connected."""
+    for attempt in range(tries):
+        try:
+            robot.disconnect()
+            return
+        except ConnectionError:
+            if attempt == tries - 1:
+                raise
+
+
 def spans(data_file: Path) -> dict:
     """Each motor's recorded span (range_max − range_min) in a LeRobot calibration file."""
     return {name: m["range_max"] - m["range_min"] for name, m in json.loads(data_file.read_text()).items()}

@@ -18,7 +18,7 @@ import pytest
 import keypose
 import keypose.lerobot
 from conftest import SO101_JOINTS, repo, robot_file, write_sequence
-from lerobot_arms import MIDDLE, calibrate, reaches, spans, virtual_bus
+from lerobot_arms import MIDDLE, calibrate, disconnect, reaches, spans, virtual_bus
 
 from lerobot.robots.koch_follower import KochFollower, KochFollowerConfig
 from lerobot.robots.so_follower import SO101Follower, SO101FollowerConfig
@@ -42,7 +42,7 @@ def so101(tmp_path, request):
         try:
             yield robot
         finally:
-            robot.disconnect()
+            disconnect(robot)
 
 
 def recording(robot) -> list:
@@ -226,7 +226,7 @@ def test_an_uncalibrated_robot_is_refused(tmp_path):
             with pytest.raises(keypose.InputError, match="no calibration"):
                 keypose.lerobot.play(robot, wave(tmp_path))
         finally:
-            robot.disconnect()
+            disconnect(robot)
 
 
 def test_koch_follower_on_dynamixel_servos(tmp_path):
@@ -244,7 +244,7 @@ def test_koch_follower_on_dynamixel_servos(tmp_path):
             assert result["outcome"] == "finished"
             reaches(robot, {"elbow_flex.pos": (keypose_ticks(40) - MIDDLE) * 360 / 4095}, {"elbow_flex.pos": 0.1})
         finally:
-            robot.disconnect()
+            disconnect(robot)
 
 
 def test_bimanual_so_follower_plays_a_sequence_of_two_arms(tmp_path):
@@ -285,7 +285,7 @@ def test_bimanual_so_follower_plays_a_sequence_of_two_arms(tmp_path):
             # Torque stays on on both arms' buses.
             assert all(arm.bus.read("Torque_Enable", "elbow_flex") == 1 for arm in (robot.left_arm, robot.right_arm))
         finally:
-            robot.disconnect()
+            disconnect(robot)
 
 
 def test_droop_compensation_leads_the_last_goal_by_the_weight_over_the_stiffness(so101, tmp_path):
