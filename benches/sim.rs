@@ -59,8 +59,8 @@ fn sixty_seconds() -> String {
 /// The rows `keypose sim` sends for `trajectory` (src/commands/sim.rs `simulate`).
 fn cli_stream(robot: &Robot, trajectory: &Trajectory) -> CommandStream {
     let options = PlayOptions::new(robot.control_hz);
-    let mut stream = command_stream(robot, trajectory, &options.timeline(), options.rate_hz);
-    stream.hold_at_end(Thresholds::default().settle_time, options.speed);
+    let mut stream = command_stream(robot, trajectory, &options.timeline, options.rate_hz);
+    stream.hold_at_end(Thresholds::default().settle_time, options.timeline.speed);
     stream
 }
 

@@ -13,6 +13,8 @@ is sim/PROTOCOL.md; in short:
     kinematics   {"op": "kinematics", "qpos": {JOINT: VALUE}, "sites": [SITE, ...]}
     contacts     {"op": "contacts", "qpos": {JOINT: VALUE}}  (one pose, no dynamics)
     run          {"op": "run", "joints": [...], "control_hz": HZ, "initial": [...], "commands": [[...]]}
+    servos_start {"op": "servos_start", "joints": [...], "qpos": [...]}  (emulated servos' arm)
+    servos_step  {"op": "servos_step", "until": T, "drives": [{on, goal, kp, force, damping, ...}]}
     render       {"op": "render", "frames": [[...]], "joints": [...], "labels": [...], "path": P,
                   "width": W, "height": H, "fps": F, "columns": C}
 
@@ -59,6 +61,7 @@ from sim_model import load_model
 from sim_render import PHYSICS_ONLY, Renderer, choose_gl
 from sim_requests import SimError, reject_constant, request_error
 from sim_run import Simulator
+from sim_servos import BusPhysics
 
 
 class Harness:
@@ -68,6 +71,8 @@ class Harness:
         self.mujoco = mujoco
         self.np = np
         self.model = None
+        # The arm behind emulated servos (sim_servos), once servos_start made it.
+        self.bus = None
         self.sim = Simulator(mujoco, np)
         self.renderer = Renderer(mujoco, np, gl, gl_problem)
 
@@ -92,7 +97,7 @@ class Harness:
             return {}
         if op == "load":
             return self.load(req)
-        if op in ("kinematics", "contacts", "distances", "inverse", "drive", "run", "render"):
+        if op in ("kinematics", "contacts", "distances", "inverse", "drive", "run", "render", "servos_start", "servos_step"):
             if self.model is None:
                 raise SimError("state", f"{op}: no model loaded (send 'load' first)")
             if op == "kinematics":
@@ -107,13 +112,22 @@ class Harness:
                 return self.model.set_drives(req)
             if op == "run":
                 return self.sim.run(self.model, req)
+            if op == "servos_start":
+                self.bus = BusPhysics(self.mujoco, self.np, self.model, req)
+                self.sim.can_continue = False
+                return {"time": 0.0}
+            if op == "servos_step":
+                if self.bus is None:
+                    raise SimError("state", "servos_step: no emulated servos (send 'servos_start' after 'load')")
+                return self.bus.step(req)
             return self.renderer.render(self.model, req)
-        raise request_error(f"unknown op {json.dumps(op)} (known: ping, load, kinematics, contacts, distances, inverse, drive, run, render)")
+        raise request_error(f"unknown op {json.dumps(op)} (known: ping, load, kinematics, contacts, distances, inverse, drive, run, render, servos_start, servos_step)")
 
     def load(self, req):
         warnings = self.sim.warnings
         del warnings[:]
         self.model = load_model(self.mujoco, self.np, req)
+        self.bus = None
         self.sim.can_continue = False
         reply = self.model.describe()
         if warnings:

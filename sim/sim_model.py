@@ -9,7 +9,7 @@ import math
 
 from harness_io import member
 from sim_requests import SimError, is_number, request_error, string_list
-from sim_scene import arm_requests, compose
+from sim_scene import arm_requests, compose, with_objects
 
 
 class Model:
@@ -250,13 +250,18 @@ class Model:
 def load_model(mujoco, np, req):
     """The model of a load request's "mjcf" file, or the scene of its "arms" (a cell,
     sim_scene); a "model" error when MuJoCo refuses it."""
+    objects = req.get("scene")
+    if objects is not None and (not isinstance(objects, str) or not objects):
+        raise request_error(f"'scene' must be the path of an MJCF file of objects, not {json.dumps(objects)}")
     if "arms" in req:
         arms = arm_requests(req)
-        model, roots = compose(mujoco, arms)
+        model, roots = compose(mujoco, arms, objects)
         return Model(mujoco, np, ", ".join(f"{a['name']}={a['mjcf']}" for a in arms), model, roots)
     path = member(req, "mjcf")
     if not isinstance(path, str) or not path:
         raise request_error(f"'mjcf' must be a path, not {json.dumps(path)}")
+    if objects is not None:
+        return Model(mujoco, np, path, with_objects(mujoco, path, objects))
     try:
         model = mujoco.MjModel.from_xml_path(path)
     except Exception as e:  # MuJoCo raises ValueError for XML and compile errors

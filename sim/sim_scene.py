@@ -45,9 +45,10 @@ def arm_requests(req):
     return arms
 
 
-def compose(mujoco, arms):
-    """The compiled scene of `arms` (as arm_requests checks them) and each arm's root bodies'
-    names in it: {arm name: [body name, ...]}."""
+def compose(mujoco, arms, objects=None):
+    """The compiled scene of `arms` (as arm_requests checks them), with the bodies of the
+    `objects` file when given (add_objects), and each arm's root bodies' names in it: {arm
+    name: [body name, ...]}."""
     scene = mujoco.MjSpec()
     roots = {}
     for index, arm in enumerate(arms):
@@ -64,11 +65,53 @@ def compose(mujoco, arms):
         except Exception as e:  # MuJoCo raises ValueError when the arm cannot be attached
             raise SimError("model", f"cannot attach {arm['mjcf']} as arm {arm['name']}: {e}".rstrip())
     _add_floor(mujoco, scene)
+    if objects is not None:
+        add_objects(mujoco, scene, objects)
     try:
         model = scene.compile()
     except Exception as e:  # MuJoCo raises ValueError for compile errors
         raise SimError("model", f"cannot compose the arms {', '.join(a['name'] for a in arms)}: {e}".rstrip())
     return model, roots
+
+
+def with_objects(mujoco, path, objects):
+    """One model (`path`) with the bodies of the `objects` file, compiled."""
+    try:
+        spec = mujoco.MjSpec.from_file(path)
+    except Exception as e:
+        raise SimError("model", f"cannot load {path}: {e}".rstrip())
+    add_objects(mujoco, spec, objects)
+    try:
+        return spec.compile()
+    except Exception as e:  # MuJoCo raises ValueError for compile errors
+        raise SimError("model", f"cannot add the objects of {objects} to {path}: {e}".rstrip())
+
+
+def add_objects(mujoco, spec, objects):
+    """Attaches the world body of the MJCF file `objects` (a block to pick, a fixture, a wall)
+    to `spec`'s world under the prefix "scene/": its bodies are environment to the contact
+    classes, as anything not of the arm is. Its own floors and lights are left out: the model
+    has its floor."""
+    try:
+        child = mujoco.MjSpec.from_file(objects)
+    except Exception as e:
+        raise SimError("model", f"cannot load the scene {objects}: {e}".rstrip())
+    _without_floor_and_lights(mujoco, child)
+    frame = spec.worldbody.add_frame()
+    try:
+        spec.attach(child, prefix="scene/", frame=frame)
+    except Exception as e:  # MuJoCo raises ValueError when the scene cannot be attached
+        raise SimError("model", f"cannot attach the scene {objects}: {e}".rstrip())
+
+
+def _without_floor_and_lights(mujoco, spec):
+    """Deletes `spec`'s floors (planes, or geoms named floor) and lights: the scene has its own."""
+    plane = mujoco.mjtGeom.mjGEOM_PLANE
+    for geom in list(spec.worldbody.geoms):
+        if geom.type == plane or geom.name == "floor":
+            spec.delete(geom)
+    for light in list(spec.worldbody.lights):
+        spec.delete(light)
 
 
 def _arm_spec(mujoco, arm):
@@ -79,12 +122,7 @@ def _arm_spec(mujoco, arm):
         spec = mujoco.MjSpec.from_file(path)
     except Exception as e:
         raise SimError("model", f"cannot load {path} (arm {arm['name']}): {e}".rstrip())
-    plane = mujoco.mjtGeom.mjGEOM_PLANE
-    for geom in list(spec.worldbody.geoms):
-        if geom.type == plane or geom.name == "floor":
-            spec.delete(geom)
-    for light in list(spec.worldbody.lights):
-        spec.delete(light)
+    _without_floor_and_lights(mujoco, spec)
     for key in list(spec.keys):
         spec.delete(key)
     return spec

@@ -11,6 +11,7 @@
 
 pub use crate::bus::transport::{MemoryTransport, Responder};
 pub use crate::bus::virtual_bus::{
-    Hand, PtyServer, ServoFault, VirtualBus, VirtualServo, VirtualServos, WireTiming,
+    Hand, MotorCommand, PhysicalArmError, Physics, PhysicsError, PtyServer, ServoFault, Shaft,
+    VirtualBus, VirtualServo, VirtualServos, WireTiming,
 };
 pub use crate::pacing::clock::VirtualClock;

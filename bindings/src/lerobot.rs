@@ -381,7 +381,7 @@ pub fn play_lerobot<'py>(
         name,
     };
     let mut options = PlayOptions::new(rate);
-    options.speed = speed;
+    options.timeline.speed = speed;
     options.max_stall = max_stall;
     options.health_every = u32::MAX;
     if !judge_pace {
@@ -390,7 +390,7 @@ pub fn play_lerobot<'py>(
     if compensate_droop {
         let compensation = Compensation::for_robot(lib_robot)
             .map_err(|e| argument_error(py, format!("compensate_droop: {e}")))?;
-        options.compensation = Some(std::sync::Arc::new(compensation));
+        options.timeline.compensation = Some(std::sync::Arc::new(compensation));
     }
     let trajectory = sequence.trajectory();
     let signal = stop.signal.clone();

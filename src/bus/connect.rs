@@ -2,9 +2,10 @@
 
 use super::driver::NativeBus;
 use super::transport::SerialTransport;
-use super::virtual_bus::{PtyServer, WireTiming};
+use super::virtual_bus::{Physics, PhysicsError, PtyServer, VirtualBus, VirtualServos, WireTiming};
 use super::{BusError, PingInfo, ServoBus};
 use crate::robot::{Protocol, Robot};
+use std::sync::Arc;
 use std::time::Duration;
 
 /// Which code speaks the protocol.
@@ -28,7 +29,7 @@ pub struct Connection {
 pub const VIRTUAL_PORT: &str = "virtual";
 
 /// How to open a bus, beyond the port.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone)]
 pub struct BusOptions {
     /// Whose code speaks the protocol.
     pub driver: Driver,
@@ -41,6 +42,36 @@ pub struct BusOptions {
     pub wire_timing: bool,
     /// Port "virtual", with wire timing: the USB adapter latency to emulate.
     pub usb_latency: Duration,
+    /// Port "virtual": the arm's physics the emulated servos carry (`--physics`); `None`: they
+    /// move in empty space, as the kinematic emulation says.
+    pub physics: Option<PhysicsSource>,
+}
+
+/// Makes the physics of a robot's arm for its emulated servos (`sim::MujocoArm` behind
+/// `--physics`): the bus cannot make it itself, MuJoCo being the simulation's.
+#[derive(Clone)]
+pub struct PhysicsSource(pub Arc<PhysicsMaker>);
+
+/// What a [`PhysicsSource`] calls.
+pub type PhysicsMaker = dyn Fn(&Robot) -> Result<Box<dyn Physics>, PhysicsError> + Send + Sync;
+
+impl std::fmt::Debug for PhysicsSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("PhysicsSource")
+    }
+}
+
+impl PhysicsSource {
+    /// Emulated servos of `robot` carrying the arm's physics, served on a pseudo-terminal
+    /// with the wire timed as `wire` says.
+    pub fn serve(&self, robot: &Robot, wire: Option<WireTiming>) -> Result<PtyServer, BusError> {
+        // A robot whose servos cannot carry the arm is refused before MuJoCo starts.
+        super::virtual_bus::ratings(robot)?;
+        let servos = VirtualServos::with_physics(robot, (self.0)(robot)?)?;
+        let bus = VirtualBus::new(servos);
+        bus.keep_physics_running();
+        PtyServer::serve(bus, wire)
+    }
 }
 
 impl Default for BusOptions {
@@ -53,6 +84,7 @@ impl Default for BusOptions {
             fast_sync_read: false,
             wire_timing: true,
             usb_latency: Duration::ZERO,
+            physics: None,
         }
     }
 }
@@ -96,7 +128,11 @@ pub fn connect_with(
 ) -> Result<Connection, BusError> {
     let (driver, baud) = (options.driver, options.baud.unwrap_or(robot.bus.baud));
     let (path, virtual_bus) = if port == VIRTUAL_PORT {
-        let server = PtyServer::start_timed(robot, options.virtual_wire(baud))?;
+        let wire = options.virtual_wire(baud);
+        let server = match &options.physics {
+            Some(physics) => physics.serve(robot, wire)?,
+            None => PtyServer::start_timed(robot, wire)?,
+        };
         (server.path().to_string(), Some(server))
     } else {
         (port.to_string(), None)

@@ -36,7 +36,10 @@ pub(crate) mod virtual_bus;
 /// bus reports them.
 pub use crate::servo::{AlarmBits, Alarms};
 pub use cell::{connect_cell, CellBus, WriteOffsets};
-pub use connect::{connect, connect_with, scan, BusOptions, Connection, Driver, VIRTUAL_PORT};
+pub use connect::{
+    connect, connect_with, scan, BusOptions, Connection, Driver, PhysicsMaker, PhysicsSource,
+    VIRTUAL_PORT,
+};
 pub use cutoff::ReadCutoff;
 pub use driver::NativeBus;
 pub use faults::{
@@ -63,6 +66,28 @@ pub struct PingInfo {
     pub alarms: Alarms,
 }
 
+/// One servo's position and load, read together: what the player's push guard watches.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PositionLoad {
+    /// Present position, ticks.
+    pub position: i64,
+    /// Load as in [`Health::load_percent`]; `None` where the bus reads no load.
+    pub load_percent: Option<f64>,
+}
+
+impl PositionLoad {
+    /// Each of `positions` with the same `load_percent`.
+    pub fn each(positions: Vec<i64>, load_percent: Option<f64>) -> Vec<PositionLoad> {
+        positions
+            .into_iter()
+            .map(|position| PositionLoad {
+                position,
+                load_percent,
+            })
+            .collect()
+    }
+}
+
 /// One servo's condition.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Health {
@@ -74,6 +99,8 @@ pub struct Health {
     pub voltage_v: f64,
     /// Load as a signed percentage of the maximum (Feetech, XL430) or derived from current.
     pub load_percent: f64,
+    /// The current it draws, amperes; `None` where the model measures none (the XL430).
+    pub current_a: Option<f64>,
     /// The alarms its alarm register holds.
     pub alarms: Alarms,
 }
@@ -82,6 +109,12 @@ pub struct Health {
 /// cell, [`BusError::Arm`] wraps them with the cell's id).
 #[derive(Debug, thiserror::Error)]
 pub enum BusError {
+    /// The arm's physics behind emulated servos (`--physics`) could not be made or failed.
+    #[error("--physics: {0}")]
+    Physics(#[from] virtual_bus::PhysicsError),
+    /// The robot's servos cannot carry an arm's physics.
+    #[error("--physics: {0}")]
+    PhysicalArm(#[from] virtual_bus::PhysicalArmError),
     /// No answer from servo `id` within `timeout_ms` milliseconds.
     #[error("servo {id}: no answer within {timeout_ms} ms")]
     Timeout {
@@ -357,6 +390,8 @@ impl BusError {
             | BusError::Bridge { .. }
             | BusError::Sdk { .. }
             | BusError::Hung { .. }
+            | BusError::Physics(_)
+            | BusError::PhysicalArm(_)
             | BusError::Isolated { .. } => None,
         }
     }
@@ -366,7 +401,10 @@ impl BusError {
     /// the hardware's.
     pub fn kind(&self) -> ErrorKind {
         match self.root() {
-            BusError::HomingOffset(_) | BusError::NoHomingRegister(_) => ErrorKind::BadInput,
+            BusError::HomingOffset(_)
+            | BusError::NoHomingRegister(_)
+            | BusError::PhysicalArm(_) => ErrorKind::BadInput,
+            BusError::Physics(e) if e.bad_input => ErrorKind::BadInput,
             _ => ErrorKind::Hardware,
         }
     }
@@ -434,6 +472,12 @@ pub trait ServoBus: Send {
     fn ping(&mut self, id: u8) -> Result<PingInfo, BusError>;
     /// Present positions in ticks, in the order of `ids`.
     fn read_positions(&mut self, ids: &[u8]) -> Result<Vec<i64>, BusError>;
+    /// Present positions and loads, in the order of `ids`, in one read where the bus can (the
+    /// two registers are a few bytes apart on every model). A bus that reads no load gives
+    /// positions only.
+    fn read_positions_loads(&mut self, ids: &[u8]) -> Result<Vec<PositionLoad>, BusError> {
+        Ok(PositionLoad::each(self.read_positions(ids)?, None))
+    }
     /// Goal positions in ticks, all in one sync write.
     fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError>;
     /// Switches the torque of the servos `ids` on (holding) or off (limp), each servo

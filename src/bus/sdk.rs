@@ -424,11 +424,16 @@ impl SdkBus {
         let load = self.read_value(id, table.present_load)?;
         let voltage = self.read_value(id, table.present_voltage)?;
         let temperature = self.read_value(id, table.present_temperature)?;
+        let current = match table.present_current {
+            Some((register, _)) => Some(self.read_value(id, register)?),
+            None => None,
+        };
         Ok(Health {
             id,
             temperature_c: table.temperature_c(temperature),
             voltage_v: table.voltage_v(voltage),
             load_percent: table.load_percent(load),
+            current_a: table.current_a(load, current),
             alarms: table.alarms(bits as u8),
         })
     }

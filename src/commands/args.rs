@@ -28,6 +28,60 @@ pub struct BusArgs {
     pub fast_sync_read: bool,
     #[command(flatten)]
     pub wire: WireArgs,
+    #[command(flatten)]
+    pub physics: PhysicsArgs,
+}
+
+/// Emulated servos that carry the arm's weight (port "virtual", `keypose virtual-bus`).
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct PhysicsArgs {
+    /// Virtual bus: the servos carry the arm in MuJoCo (gravity, the table, load, each
+    /// servo's torque-speed line, its firmware's gains, limits and protection) instead of
+    /// moving in empty space.
+    #[arg(long)]
+    pub physics: bool,
+    /// With --physics: what stands beside the arm: "table" (the table top the arm stands on,
+    /// always there) or an MJCF file of objects added to it (a block to pick, a fixture).
+    #[arg(long, value_name = "table|FILE.xml", requires = "physics")]
+    pub scene: Option<String>,
+}
+
+/// The `--scene` that is only the table the arm stands on.
+const TABLE_SCENE: &str = "table";
+
+impl PhysicsArgs {
+    /// What makes the arm's physics, when `--physics` asks for it; a scene file that is not
+    /// there is refused before anything starts.
+    pub fn source(&self) -> Result<Option<bus::PhysicsSource>, CommandError> {
+        if !self.physics {
+            return Ok(None);
+        }
+        let scene = match self.scene.as_deref() {
+            None | Some(TABLE_SCENE) => None,
+            Some(path) => {
+                let path = PathBuf::from(path);
+                if !path.is_file() {
+                    return Err(CommandError::Usage(format!(
+                        "--scene {}: no such file; expected \"{TABLE_SCENE}\" or an MJCF file of objects",
+                        path.display()
+                    )));
+                }
+                Some(path)
+            }
+        };
+        let make = move |robot: &Robot| -> Result<
+            Box<dyn keypose::testing::Physics>,
+            keypose::testing::PhysicsError,
+        > {
+            keypose::sim::MujocoArm::start_at_rest(robot, scene.as_deref())
+                .map(|arm| Box::new(arm) as Box<dyn keypose::testing::Physics>)
+                .map_err(|e| keypose::testing::PhysicsError {
+                    bad_input: e.kind() == keypose::error::ErrorKind::BadInput,
+                    message: e.to_string(),
+                })
+        };
+        Ok(Some(bus::PhysicsSource(std::sync::Arc::new(make))))
+    }
 }
 
 /// `--realtime` for the commands that run a control loop.
@@ -84,6 +138,7 @@ impl BusArgs {
             fast_sync_read: self.fast_sync_read,
             wire_timing: !self.wire.no_wire_timing,
             usb_latency: self.wire.usb_latency,
+            physics: self.physics.source()?,
         };
         if robot.is_cell() {
             let ports = self.arm_ports(robot)?;

@@ -239,6 +239,7 @@ fn one_bus(
 fn checked(input: &SequenceInput) -> Result<Option<(Sequence, Robot, Trajectory)>, CommandError> {
     let (sequence, robot) = input.load()?;
     let trajectory = Trajectory::build(&sequence, &robot)?;
+    refuse_efforts(&sequence, &trajectory)?;
     let report = check(&trajectory, &robot, robot.control_hz);
     if !report.passed() {
         let text = keypose::report::check_text(&report, &sequence.file, &robot);
@@ -252,6 +253,20 @@ fn checked(input: &SequenceInput) -> Result<Option<(Sequence, Robot, Trajectory)
         return Ok(None);
     }
     Ok(Some((sequence, robot, trajectory)))
+}
+
+/// No export format carries a key's effort limit: the exported motion would squeeze what a
+/// grasp holds at full output, so it is refused until the keys say so themselves.
+fn refuse_efforts(sequence: &Sequence, trajectory: &Trajectory) -> Result<(), CommandError> {
+    let Some(first) = trajectory.efforts.first() else {
+        return Ok(());
+    };
+    Err(CommandError::Usage(format!(
+        "{}: key {} limits {}'s effort, which no export format carries (the servos would push at full output, squeezing what a grasp holds); play it with `keypose play`, or remove the keys' \"effort\" to export the motion at full effort",
+        sequence.file,
+        trajectory.key_labels[first.key],
+        trajectory.joint_names[first.joint]
+    )))
 }
 
 /// A YAML key of letters, digits and underscores.

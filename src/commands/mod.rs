@@ -24,7 +24,9 @@ pub mod teach;
 pub mod torque;
 pub mod virtual_bus;
 
-pub use args::{BusArgs, RealtimeArgs, RobotArgs, SequenceInput, SequenceOptions, WireArgs};
+pub use args::{
+    BusArgs, PhysicsArgs, RealtimeArgs, RobotArgs, SequenceInput, SequenceOptions, WireArgs,
+};
 pub use calibration::CalibrationArgs;
 
 use keypose::error::ErrorKind;

@@ -4,7 +4,7 @@ use super::BusArgs;
 use super::{option_values, parse_control_rate, CommandError, SequenceOptions, Verdict};
 use keypose::error::Report;
 use keypose::plan::Loops;
-use keypose::plan::{check_at_speed, Trajectory};
+use keypose::plan::{check_at_speed, TimelineOptions, Trajectory};
 use keypose::player::{self, Outcome, PlayError, PlayOptions};
 use keypose::report;
 use keypose::robot::Robot;
@@ -64,7 +64,12 @@ pub struct PlayArgs {
     /// Release torque at the end, once the final pose is reached.
     #[arg(long)]
     pub release_at_end: bool,
-    /// Read present positions every N cycles (0: never).
+    /// Do not watch the servos' loads: a joint pushing on something (the table, an object)
+    /// is then not stopped by keypose, only by the servo's own overload protection, which
+    /// lets go of the joint after seconds (the STS3215) or until a reboot (the X series).
+    #[arg(long)]
+    pub no_push_guard: bool,
+    /// Read present positions every N cycles (0: never; the push guard then sees nothing).
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = option_values::parse_readback, allow_negative_numbers = true)]
     pub readback: u32,
     /// Write commanded and measured positions and cycle lateness to a CSV file.
@@ -175,20 +180,27 @@ pub fn run(args: &PlayArgs) -> Result<Verdict, CommandError> {
     }
 
     let options = PlayOptions {
-        speed: args.speed,
-        loops: args.loops,
-        ping_pong: args.ping_pong,
-        from_key,
-        approach: !args.no_approach,
+        timeline: TimelineOptions {
+            speed: args.speed,
+            loops: args.loops,
+            ping_pong: args.ping_pong,
+            from_key,
+            approach: !args.no_approach,
+            compensation: super::droop_compensation(args.compensate_droop, &robot)?,
+            ..TimelineOptions::default()
+        },
         release_at_end: args.release_at_end,
         readback_every: (args.readback > 0).then_some(args.readback),
         log: args.log.clone(),
         progress: !args.quiet,
         max_stall: args.max_stall,
         servo_profile: args.servo_profile,
-        compensation: super::droop_compensation(args.compensate_droop, &robot)?,
+        push_guard: !args.no_push_guard,
         ..PlayOptions::new(rate)
     };
+    if options.push_guard && options.readback_every.is_none() {
+        eprintln!("note: --readback 0 reads nothing back: the push guard is off");
+    }
     if args.bus.given() {
         play_on_servos(args, &sequence, &robot, &trajectory, &options)
     } else {

@@ -48,9 +48,14 @@ pub fn run(args: &PlotArgs) -> Result<Verdict, CommandError> {
         None => Vec::new(),
     };
     let mut data = report::plot_data(&title, &trajectory, &robot, rate, measured);
+    if let Some(path) = &args.log {
+        let telemetry = report::log::telemetry(path, &trajectory.joint_names)?;
+        data.telemetry = report::telemetry_rows(&robot, telemetry);
+    }
     if !args.joints.is_empty() {
         super::joint_indices(&robot, &args.joints)?;
         data.joints.retain(|j| args.joints.contains(&j.name));
+        data.telemetry.retain(|t| args.joints.contains(&t.name));
     }
     if args.tool {
         data.joints

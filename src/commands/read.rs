@@ -12,7 +12,9 @@ pub struct ReadArgs {
 }
 
 /// `keypose read`: the present pose as JSON, in degrees (metres for prismatic joints), and in
-/// percent of the calibrated range for joints a LeRobot calibration recorded one for.
+/// percent of the calibrated range for joints a LeRobot calibration recorded one for; then each
+/// servo's health: its load (signed percent of its maximum, or of its stall current), its
+/// temperature, its supply and the alarms it raises.
 pub fn run(args: &ReadArgs) -> Result<Verdict, CommandError> {
     let robot = args.robot.load()?;
     super::announce_robot(&robot);
@@ -33,6 +35,25 @@ pub fn run(args: &ReadArgs) -> Result<Verdict, CommandError> {
     if !percent.is_empty() {
         out["percent"] = serde_json::Value::Object(percent);
     }
+    out["health"] = health(&robot, connection.bus.read_health(&ids)?);
     write_output(None, &format!("{out}\n"))?;
     Ok(Verdict::Pass)
+}
+
+/// Per joint: load in percent, current in amperes (null where not measured), temperature in °C, supply in volts, the alarms raised (named).
+fn health(robot: &keypose::robot::Robot, health: Vec<keypose::bus::Health>) -> serde_json::Value {
+    let mut out = serde_json::Map::new();
+    for (joint, h) in robot.joints.iter().zip(health) {
+        out.insert(
+            joint.name.clone(),
+            json!({
+                "load_percent": (h.load_percent * 10.0).round() / 10.0,
+                "current_a": h.current_a.map(|a| (a * 1000.0).round() / 1000.0),
+                "temperature_c": h.temperature_c,
+                "voltage_v": h.voltage_v,
+                "alarms": h.alarms.names(),
+            }),
+        );
+    }
+    serde_json::Value::Object(out)
 }

@@ -1,7 +1,7 @@
 //! `keypose sim`: play a sequence in MuJoCo and judge it. Also `keypose play` without `--port`.
 
 use super::{option_values, parse_rate, write_output, CommandError, SequenceOptions, Verdict};
-use keypose::plan::Trajectory;
+use keypose::plan::{TimelineOptions, Trajectory};
 use keypose::player::{print_progress_line, LogRow, PlayError, PlayOptions, PlaybackLog};
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
@@ -98,6 +98,11 @@ fn write_log(
             measured: Some(&trace.position[row]),
             lateness: 0.0,
             stall: None,
+            // The simulation plays through MuJoCo's own actuators, not the servos' firmware:
+            // no servo telemetry (`--port virtual --physics` gives it).
+            loads: &[],
+            health: &[],
+            needed: &[],
         })?;
     }
     log.finish()
@@ -115,8 +120,8 @@ pub fn simulate(
 ) -> Result<Simulated, CommandError> {
     let started = Instant::now();
     let thresholds = Thresholds::default();
-    let mut stream = sim::command_stream(robot, trajectory, &options.timeline(), options.rate_hz);
-    stream.hold_at_end(thresholds.settle_time, options.speed);
+    let mut stream = sim::command_stream(robot, trajectory, &options.timeline, options.rate_hz);
+    stream.hold_at_end(thresholds.settle_time, options.timeline.speed);
     // Created before MuJoCo starts: a log that cannot be written is refused first.
     let mut log = match &options.log {
         Some(path) => Some(PlaybackLog::create(path, robot).map_err(log_error)?),
@@ -173,7 +178,7 @@ fn goal_shaping(options: &PlayOptions) -> String {
         true => "goals through the servos' profile",
         false => "goals held between ticks",
     };
-    match options.compensation {
+    match options.timeline.compensation {
         Some(_) => format!("{held}, leading for droop"),
         None => held.to_string(),
     }
@@ -348,10 +353,13 @@ fn prepare(args: &SimArgs, path: &Path) -> Result<Prepared, CommandError> {
     };
     super::check_sample_budget(&sequence.file, &trajectory, rate / args.speed)?;
     let options = PlayOptions {
-        speed: args.speed,
+        timeline: TimelineOptions {
+            speed: args.speed,
+            compensation: super::droop_compensation(args.compensate_droop, &robot)?,
+            ..TimelineOptions::default()
+        },
         servo_profile: args.servo_profile,
         log: args.log.clone(),
-        compensation: super::droop_compensation(args.compensate_droop, &robot)?,
         ..PlayOptions::new(rate)
     };
     Ok(Prepared {

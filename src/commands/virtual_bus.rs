@@ -25,6 +25,8 @@ pub struct VirtualBusArgs {
     pub fault_after: f64,
     /// A hand that moves the arm along this sequence (for the emulated robot) once a servo is
     /// told to go limp, as a user would for `keypose record`; servos with torque on resist it.
+    /// With --physics the hand pulls the arm's links towards the path, a firm grip of bounded
+    /// force, instead of setting the shafts.
     #[arg(long, value_name = "SEQ")]
     pub hand: Option<PathBuf>,
     /// The baud rate whose wire time to take [default: the robot's].
@@ -32,6 +34,8 @@ pub struct VirtualBusArgs {
     pub baud: Option<u32>,
     #[command(flatten)]
     pub wire: super::WireArgs,
+    #[command(flatten)]
+    pub physics: super::PhysicsArgs,
 }
 
 /// A fault for the virtual bus, from the command line.
@@ -113,6 +117,7 @@ fn start_hand(
 pub fn run(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
     let robot = super::load_robot(&args.robot, &super::CalibrationArgs::default())?;
     check_fault_ids(&robot, &args.fault)?;
+    let wire = args.wire.timing(args.baud.unwrap_or(robot.bus.baud));
     let hand_trajectory = match &args.hand {
         Some(path) => {
             let sequence = keypose::sequence::Sequence::load(path)?;
@@ -120,10 +125,10 @@ pub fn run(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
         }
         None => None,
     };
-    let server = keypose::testing::PtyServer::start_timed(
-        &robot,
-        args.wire.timing(args.baud.unwrap_or(robot.bus.baud)),
-    )?;
+    let server = match args.physics.source()? {
+        Some(physics) => physics.serve(&robot, wire)?,
+        None => keypose::testing::PtyServer::start_timed(&robot, wire)?,
+    };
     set_homing_offsets(&server, &robot, &args.homing_offset)?;
     let hand = hand_trajectory.map(|trajectory| start_hand(server.bus(), &robot, trajectory));
     println!("{}", server.path());
@@ -141,6 +146,12 @@ pub fn run(args: &VirtualBusArgs) -> Result<Verdict, CommandError> {
         ended.store(true, std::sync::atomic::Ordering::SeqCst);
     });
     drop(hand);
+    if let Some(cost) = server.bus().lock().physics_cost() {
+        eprintln!(
+            "virtual-bus: the physics took {:.1} ms of processor time per simulated second",
+            cost * 1000.0
+        );
+    }
     drop(server);
     Ok(Verdict::Pass)
 }

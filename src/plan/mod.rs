@@ -13,6 +13,7 @@
 mod approach;
 pub(crate) mod check;
 mod clearance;
+mod effort;
 mod fastest;
 mod lead;
 mod limiter;
@@ -39,6 +40,7 @@ pub use check::{
     check, check_at_speed, radians_warning, Cause, CheckReport, JointSummary, LimitKind, Violation,
 };
 pub use clearance::{approach_refusal, ClearanceScope, Contact, ContactCause, ContactWindow};
+pub use effort::{efforts_at, EffortLimit, FULL_EFFORT};
 pub use fastest::{fastest, FastestOutcome, FastestRun};
 pub(crate) use limiter::StepLimiter;
 pub use load::{
@@ -95,6 +97,8 @@ pub struct Trajectory {
     pub key_holds: Vec<f64>,
     /// The contacts the keys declare (`"contact"`), with the time each is allowed in.
     pub declared: Vec<ContactWindow>,
+    /// The effort limits the keys set (`"effort"`), in time order.
+    pub efforts: Vec<EffortLimit>,
     /// The tool keys and straight tool lines solved on the way (empty without them).
     pub tools: ToolSolve,
     /// Sequence time to path time, over which the tracks are built (the identity unless a
@@ -143,82 +147,21 @@ impl Trajectory {
         sequence.validate()?;
         let (solved, tools) = tool_keys::solve(sequence, robot)?;
         let sequence = solved.as_ref();
-        let file = sequence.file.as_str();
         let key_times = sequence.key_times();
         let path_times = sequence.path_times();
-        for (index, key) in sequence.keyframes.iter().enumerate() {
-            for (name, value) in &key.values {
-                if robot.joint_index(name).is_none() {
-                    return Err(InputError::at_path(
-                        file,
-                        &value_path(sequence, index, name, value),
-                        format!(
-                            "unknown joint {name:?} for robot {}; expected one of: {}",
-                            robot.name,
-                            robot.joint_names().join(", ")
-                        ),
-                    ));
-                }
-            }
-        }
-
+        refuse_unknown_joints(sequence, robot)?;
         // Under jerk limits a line's samples are joined with a continuous acceleration.
         let join = if robot.joints.iter().any(|j| j.limits.jerk.is_some()) {
             LineJoin::Spline
         } else {
             LineJoin::KeyTimeCubic
         };
-        let mut tracks = Vec::with_capacity(robot.joints.len());
-        for (joint_index, joint) in robot.joints.iter().enumerate() {
-            let mut keys = Vec::new();
-            let mut previous: Option<f64> = None;
-            // The key a straight tool line runs into: the line stops there.
-            let mut line_ends_here = false;
-            for (index, key) in sequence.keyframes.iter().enumerate() {
-                let Some(value) = key.value(&joint.name) else {
-                    continue;
-                };
-                let path = value_path(sequence, index, &joint.name, value);
-                let reference = previous.unwrap_or(robot.home[joint_index]);
-                let v = joint_value(joint, value, reference)
-                    .map_err(|error| InputError::at_path(file, &path, error.to_string()))?;
-                if !joint.limits.contains(v) {
-                    return Err(InputError::at_path(
-                        file,
-                        &path,
-                        format!(
-                            "{} is outside the limits of {}: expected {} … {} {}{}",
-                            format_value(v, joint.kind),
-                            joint.name,
-                            joint.limits.min,
-                            joint.limits.max,
-                            joint.kind.unit(),
-                            joint.limits_origin.note()
-                        ),
-                    ));
-                }
-                previous = Some(v);
-                let interp = key.interp.unwrap_or(sequence.interpolation);
-                let mut track_key =
-                    TrackKey::new(path_times[index], v, interp).with_hold(key.hold_path_time());
-                if line_ends_here {
-                    track_key = track_key.at_rest();
-                }
-                keys.push(track_key);
-                line_ends_here = push_line_samples(&mut keys, &tools, index, joint_index, join);
-            }
-            if keys.is_empty() {
-                keys.push(TrackKey::new(
-                    path_times[0],
-                    robot.home[joint_index],
-                    sequence.interpolation,
-                ));
-            }
-            let track = Track::new(&keys).map_err(|e| curve_error(sequence, e))?;
-            tracks.push(track);
-        }
+        let tracks = (0..robot.joints.len())
+            .map(|j| joint_track(sequence, robot, j, &path_times, &tools, join))
+            .collect::<Result<Vec<_>, _>>()?;
 
         let declared = clearance::declared_windows(sequence, robot, &key_times)?;
+        let efforts = effort::effort_limits(sequence, robot, &key_times)?;
         let n = key_times.len();
         let (first, last) = match sequence.ends {
             Ends::Played => (0, n - 1),
@@ -238,6 +181,7 @@ impl Trajectory {
             key_times,
             key_holds: sequence.keyframes.iter().map(|k| k.hold).collect(),
             declared,
+            efforts,
             tools,
             timing: Timing::of(sequence),
         })
@@ -263,6 +207,15 @@ impl Trajectory {
                 .declared
                 .iter()
                 .filter_map(|w| arm_window(w, &arm.name))
+                .collect(),
+            efforts: self
+                .efforts
+                .iter()
+                .filter(|e| arm.joints.contains(&e.joint))
+                .map(|e| EffortLimit {
+                    joint: e.joint - arm.joints.start,
+                    ..e.clone()
+                })
                 .collect(),
             tools: ToolSolve::default(),
             timing: self.timing.clone(),
@@ -628,4 +581,83 @@ fn prismatic_offset(joint: &Joint, tf: &RigidTransform) -> Result<f64, KeyValueE
         });
     }
     Ok(along)
+}
+
+/// Refuses a key value of a joint `robot` does not have, naming it and the joints it has.
+fn refuse_unknown_joints(sequence: &Sequence, robot: &Robot) -> Result<(), InputError> {
+    for (index, key) in sequence.keyframes.iter().enumerate() {
+        for (name, value) in &key.values {
+            if robot.joint_index(name).is_none() {
+                return Err(InputError::at_path(
+                    &sequence.file,
+                    &value_path(sequence, index, name, value),
+                    format!(
+                        "unknown joint {name:?} for robot {}; expected one of: {}",
+                        robot.name,
+                        robot.joint_names().join(", ")
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Joint `joint_index`'s track through the keys that give it a value (its home where none
+/// does), each value within its limits, with a straight tool line's samples between its keys.
+fn joint_track(
+    sequence: &Sequence,
+    robot: &Robot,
+    joint_index: usize,
+    path_times: &[f64],
+    tools: &ToolSolve,
+    join: LineJoin,
+) -> Result<Track<f64>, InputError> {
+    let joint = &robot.joints[joint_index];
+    let file = sequence.file.as_str();
+    let mut keys = Vec::new();
+    let mut previous: Option<f64> = None;
+    // The key a straight tool line runs into: the line stops there.
+    let mut line_ends_here = false;
+    for (index, key) in sequence.keyframes.iter().enumerate() {
+        let Some(value) = key.value(&joint.name) else {
+            continue;
+        };
+        let path = value_path(sequence, index, &joint.name, value);
+        let reference = previous.unwrap_or(robot.home[joint_index]);
+        let v = joint_value(joint, value, reference)
+            .map_err(|error| InputError::at_path(file, &path, error.to_string()))?;
+        if !joint.limits.contains(v) {
+            return Err(InputError::at_path(
+                file,
+                &path,
+                format!(
+                    "{} is outside the limits of {}: expected {} … {} {}{}",
+                    format_value(v, joint.kind),
+                    joint.name,
+                    joint.limits.min,
+                    joint.limits.max,
+                    joint.kind.unit(),
+                    joint.limits_origin.note()
+                ),
+            ));
+        }
+        previous = Some(v);
+        let interp = key.interp.unwrap_or(sequence.interpolation);
+        let mut track_key =
+            TrackKey::new(path_times[index], v, interp).with_hold(key.hold_path_time());
+        if line_ends_here {
+            track_key = track_key.at_rest();
+        }
+        keys.push(track_key);
+        line_ends_here = push_line_samples(&mut keys, tools, index, joint_index, join);
+    }
+    if keys.is_empty() {
+        keys.push(TrackKey::new(
+            path_times[0],
+            robot.home[joint_index],
+            sequence.interpolation,
+        ));
+    }
+    Track::new(&keys).map_err(|e| curve_error(sequence, e))
 }

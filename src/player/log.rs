@@ -2,8 +2,11 @@
 //!
 //! Columns: `time` (seconds since playback began), `phase`, `sequence_time`, then
 //! `<joint>_cmd` for every joint, `<joint>_meas` for every joint (empty when not read that
-//! cycle, or when the joint's arm in a cell was isolated after a fault), `lateness_ms` (how late the cycle started against its deadline) and `stall_ms` (after
-//! a stall: how much longer than one period the previous goal was held; empty otherwise).
+//! cycle, or when the joint's arm in a cell was isolated after a fault), `lateness_ms` (how
+//! late the cycle started against its deadline) and `stall_ms` (after a stall: how much longer
+//! than one period the previous goal was held; empty otherwise), then the servos' telemetry
+//! (see [`TELEMETRY`]): `<joint>_load_pct` with each read-back, `<joint>_current_a`,
+//! `<joint>_temp_c` and `<joint>_alarms` with each health reading (empty between them).
 //! `keypose plot
 //! --log` overlays the measured columns on the sequence, against `sequence_time`.
 //!
@@ -23,6 +26,7 @@
 
 use super::PlayError;
 use crate::atomic_file::{AtomicFile, Privacy};
+use crate::bus::Health;
 use crate::plan::Phase;
 use crate::robot::Robot;
 use std::fmt::Write as _;
@@ -58,6 +62,13 @@ pub struct Row<'a> {
     pub lateness: f64,
     /// Seconds the previous goal was held beyond its period, after a stall.
     pub stall: Option<f64>,
+    /// By joint, the load read with the positions this cycle, percent (empty: none read).
+    pub loads: &'a [Option<f64>],
+    /// By joint, the health read this cycle (empty: none read).
+    pub health: &'a [Option<Health>],
+    /// By joint, the load the motion needed this cycle as the push guard judged it, percent,
+    /// in the joint's direction (empty: not judged).
+    pub needed: &'a [f64],
 }
 
 /// A [`Row`] copied for the writer thread.
@@ -71,6 +82,9 @@ struct Record {
     measured_now: bool,
     lateness: f64,
     stall: Option<f64>,
+    loads: Vec<Option<f64>>,
+    health: Vec<Option<Health>>,
+    needed: Vec<f64>,
 }
 
 impl Record {
@@ -84,6 +98,9 @@ impl Record {
             measured_now: false,
             lateness: 0.0,
             stall: None,
+            loads: Vec::with_capacity(joints),
+            health: Vec::with_capacity(joints),
+            needed: Vec::with_capacity(joints),
         }
     }
 
@@ -100,6 +117,12 @@ impl Record {
         self.measured
             .extend_from_slice(row.measured.unwrap_or_default());
         self.measured_now = row.measured.is_some();
+        self.loads.clear();
+        self.loads.extend_from_slice(row.loads);
+        self.health.clear();
+        self.health.extend_from_slice(row.health);
+        self.needed.clear();
+        self.needed.extend_from_slice(row.needed);
     }
 }
 
@@ -188,9 +211,22 @@ fn header(robot: &Robot) -> String {
             let _ = write!(header, ",{}", crate::csv::field(&column));
         }
     }
-    header.push_str(",lateness_ms,stall_ms\n");
+    header.push_str(",lateness_ms,stall_ms");
+    for suffix in TELEMETRY {
+        for joint in &robot.joints {
+            let column = format!("{}_{suffix}", joint.name);
+            let _ = write!(header, ",{}", crate::csv::field(&column));
+        }
+    }
+    header.push('\n');
     header
 }
+
+/// The telemetry columns' suffixes, after `stall_ms`: load with every read-back (percent of
+/// full output, signed as the servo reports it), what the motion needed as the push guard
+/// judged it (percent, in the joint's direction), then from each health reading current (A),
+/// temperature (°C) and the alarms raised (their names joined by `|`, empty for none).
+const TELEMETRY: [&str; 5] = ["load_pct", "need_pct", "current_a", "temp_c", "alarms"];
 
 /// The writer thread: formats each record until the sender is gone, returning each record for
 /// reuse, and writes the rows gathered whenever [`PUBLISH_EVERY`] has passed (rows or not: a
@@ -272,6 +308,32 @@ fn format_row(line: &mut String, row: &Record) {
     if let Some(stall) = row.stall {
         let _ = write!(line, "{:.3}", stall * 1000.0);
     }
+    let joints = row.commanded.len();
+    let cell = |line: &mut String, value: Option<f64>, digits: usize| match value {
+        Some(v) if v.is_finite() => {
+            let _ = write!(line, ",{v:.digits$}");
+        }
+        _ => line.push(','),
+    };
+    for j in 0..joints {
+        cell(line, row.loads.get(j).copied().flatten(), 1);
+    }
+    for j in 0..joints {
+        cell(line, row.needed.get(j).copied(), 1);
+    }
+    let health = |j: usize| row.health.get(j).copied().flatten();
+    for j in 0..joints {
+        cell(line, health(j).and_then(|h| h.current_a), 3);
+    }
+    for j in 0..joints {
+        cell(line, health(j).map(|h| h.temperature_c), 1);
+    }
+    for j in 0..joints {
+        line.push(',');
+        if let Some(h) = health(j) {
+            line.push_str(&h.alarms.names().join("|"));
+        }
+    }
     line.push('\n');
 }
 
@@ -312,6 +374,9 @@ mod tests {
                 measured: Some(measured),
                 lateness: 0.0,
                 stall: None,
+                loads: &[],
+                health: &[],
+                needed: &[],
             })
             .unwrap();
         }

@@ -14,10 +14,12 @@
 //!   brakes to rest first, and so do stalls too frequent for the path to come back up to speed
 //!   between them (the machine cannot keep up with the rate: said at once, not at the end).
 
+mod effort;
 mod guard;
 mod log;
 mod playhead;
 mod progress;
+pub mod push;
 mod run;
 mod servo_profile;
 mod warnings;
@@ -25,16 +27,18 @@ mod warnings;
 pub use crate::pacing::{Clock, LatenessSummary, Overrun, WallClock, MAX_STALLS_PER_SECOND};
 pub(crate) use crate::plan::StepLimiter;
 pub use crate::stop::StopSignal;
+pub use effort::EffortError;
 pub(crate) use guard::GoalGuard;
 pub use guard::LimitBreach;
 pub use log::{PlaybackLog, Row as LogRow};
 pub use playhead::{Playhead, PlayheadAt};
 pub use progress::print_progress_line;
+pub use push::{Push, PushGuard};
 pub(crate) use servo_profile::ProfileGuard;
 pub use servo_profile::ServoProfileError;
 
 use crate::bus::{joint_prefix, BusError, ServoBus, WriteOffsets};
-use crate::plan::{Loops, Timeline, TimelineOptions, Trajectory};
+use crate::plan::{Timeline, TimelineOptions, Trajectory};
 use crate::robot::Robot;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -49,18 +53,9 @@ pub const DEFAULT_MAX_STALL: f64 = 0.25;
 pub struct PlayOptions {
     /// Control rate: goals written per second.
     pub rate_hz: f64,
-    /// Time scale: 0.5 plays at half speed.
-    pub speed: f64,
-    /// How many times to play.
-    pub loops: Loops,
-    /// Forwards then backwards, each pass a loop, instead of ramping back to the start.
-    pub ping_pong: bool,
-    /// Keyframe index to start from.
-    pub from_key: Option<usize>,
-    /// Ramp from the measured pose to the first pose (only `--no-approach` turns it off).
-    pub approach: bool,
-    /// The approach ramp's shortest duration, seconds ([`TimelineOptions::shortest_approach`]).
-    pub shortest_approach: f64,
+    /// What is played when: speed, loops, ping-pong, the key to start from, the approach ramp
+    /// and droop compensation's lead, as the timeline builds it from the trajectory.
+    pub timeline: TimelineOptions,
     /// Torque off at the end, once the arm has reached the final pose (within
     /// [`RELEASE_WAIT`]).
     pub release_at_end: bool,
@@ -84,35 +79,18 @@ pub struct PlayOptions {
     /// Set every cycle to where the playback is, for a page that draws it (`None`: not
     /// followed).
     pub playhead: Option<Playhead>,
-    /// Goals lead the path by each servo's droop under its load (`--compensate-droop`).
-    pub compensation: Option<std::sync::Arc<crate::dynamics::Compensation>>,
+    /// Watch each servo's load with its position ([`push`]): a joint pushing on something
+    /// stops and the arm brakes (only `--no-push-guard` turns it off).
+    pub push_guard: bool,
 }
 
 impl PlayOptions {
-    /// What the timeline needs of these options.
-    pub fn timeline(&self) -> TimelineOptions {
-        TimelineOptions {
-            speed: self.speed,
-            loops: self.loops,
-            ping_pong: self.ping_pong,
-            from_key: self.from_key,
-            approach: self.approach,
-            shortest_approach: self.shortest_approach,
-            compensation: self.compensation.clone(),
-        }
-    }
-
     /// The defaults at `rate_hz`: once at full speed, with the approach ramp, a read-back
     /// every cycle and health four times a second, no log.
     pub fn new(rate_hz: f64) -> Self {
         Self {
             rate_hz,
-            speed: 1.0,
-            loops: Loops::Count(1),
-            ping_pong: false,
-            from_key: None,
-            approach: true,
-            shortest_approach: crate::plan::MIN_APPROACH_SECONDS,
+            timeline: TimelineOptions::default(),
             release_at_end: false,
             readback_every: Some(1),
             health_every: (rate_hz / 4.0).ceil().max(1.0) as u32,
@@ -122,7 +100,7 @@ impl PlayOptions {
             servo_profile: false,
             max_stalls_per_second: Some(MAX_STALLS_PER_SECOND),
             playhead: None,
-            compensation: None,
+            push_guard: true,
         }
     }
 }
@@ -154,6 +132,24 @@ pub enum PlayError {
     /// A goal outside its joint's limits was about to be sent (a bug; it was not).
     #[error(transparent)]
     Limit(#[from] LimitBreach),
+    /// The keys' effort limits cannot be played.
+    #[error(transparent)]
+    Effort(EffortError),
+    /// A joint pushed harder than its motion needs without reaching its goal (the push
+    /// guard, [`push`]): it stopped pushing and the arm braked to rest.
+    #[error("{joint} pushing at {load:.0} % of its servo's output{} for {} ms without reaching its goal, at {at:.2} s: something is in the way. It stopped pushing where it was, the other joints braked to rest along the path, and the arm holds there, torque on; clear the way (or, if nothing is there, the arm carries more than its model says) and play again", needed.map_or(String::new(), |n| format!(" where the motion needs {n:.0} %")), (lasted * 1e3).round())]
+    Pushing {
+        /// The joint.
+        joint: String,
+        /// The hardest load seen, percent of full output, in the joint's direction.
+        load: f64,
+        /// What the motion needed then, percent (`None`: no model of the arm).
+        needed: Option<f64>,
+        /// How long it pushed before it was caught, seconds.
+        lasted: f64,
+        /// Playback time it was caught at, seconds.
+        at: f64,
+    },
     /// A joint measured too far outside its limits to start from.
     #[error("joint {joint} is at {value:.3} {unit}, outside its limits {min} … {max} by more than {slack}: move it inside by hand (torque off) and start again")]
     StartOutsideLimits {
@@ -230,6 +226,9 @@ impl PlayError {
     pub fn kind(&self) -> crate::error::ErrorKind {
         match self {
             PlayError::Log { .. } => crate::error::ErrorKind::BadInput,
+            PlayError::Effort(EffortError::AboveOverload { .. }) => {
+                crate::error::ErrorKind::BadInput
+            }
             // The motion was judged and refused, as a failed check is.
             PlayError::ApproachContact { .. } => crate::error::ErrorKind::VerdictFailed,
             _ => crate::error::ErrorKind::Hardware,
@@ -297,7 +296,16 @@ pub struct Stats {
     /// held beyond their periods and what coming back up to speed after them lost
     /// ([`crate::plan::Timeline::resuming_lost`]).
     pub late: f64,
+    /// Servos that came within [`HOT_MARGIN_C`] of their heat protection: (joint, the hottest
+    /// reading, its protection's temperature), °C, each joint once.
+    pub hot: Vec<(String, f64, f64)>,
+    /// The keys' effort limits still in force at the end, in words (`None`: none).
+    pub efforts_kept: Option<String>,
 }
+
+/// A servo this close to the temperature at which its heat protection trips (°C) is warned
+/// about: the protection unloads an STS3215 and shuts an X series servo down until a reboot.
+pub const HOT_MARGIN_C: f64 = 10.0;
 
 impl Stats {
     /// Takes in one read-back. Degrees and metres do not compare, so joints are compared by

@@ -2,12 +2,14 @@
 //! period (pace, stalls, stop requests, the commanded pose through the limiter and the guard,
 //! read-back, health, log), then finish (summary, release).
 
+use super::effort::Efforts;
 use super::log::{PlaybackLog, Row};
+use super::push::{Push, PushGuard, Reading};
 use super::{
     clamp_start, measured_pose, print_progress, release_when_reached, GoalGuard, Outcome,
-    PlayError, PlayOptions, Stats, StepLimiter,
+    PlayError, PlayOptions, Stats, StepLimiter, HOT_MARGIN_C,
 };
-use crate::bus::{alarm_error, faulty_joint, BusError, ReadStreak, ServoBus};
+use crate::bus::{alarm_error, faulty_joint, BusError, Health, PositionLoad, ReadStreak, ServoBus};
 use crate::pacing::{followed_share, is_stall, Clock, CycleStart, KeepUp, Pacer};
 use crate::plan::{Phase, Timeline, Trajectory};
 use crate::robot::Robot;
@@ -56,6 +58,17 @@ pub(super) struct Run<'a> {
     pending_fault: Option<PlayError>,
     last_progress: Option<Instant>,
     cycle: u64,
+    /// Watches loads against position errors (`None`: `--no-push-guard`, or a bus that
+    /// reads no load).
+    push: Option<PushGuard>,
+    /// By joint: where a joint caught pushing is held instead of following the path.
+    pinned: Vec<Option<f64>>,
+    /// By joint: the load read with this cycle's positions, percent.
+    loads: Vec<Option<f64>>,
+    /// By joint: the health read this cycle.
+    health: Vec<Option<Health>>,
+    /// The keys' effort limits, as written.
+    efforts: Efforts,
 }
 
 /// What one cycle did to the arm.
@@ -78,15 +91,25 @@ impl<'a> Run<'a> {
         let guard = GoalGuard::new(robot);
         let fault = |error| fault(robot, error, 0.0);
         let measured = clamp_start(robot, &measured_pose(bus, robot, &ids).map_err(fault)?)?;
-        if options.approach {
-            let first = trajectory.sample(trajectory.play_from(options.from_key));
+        if options.timeline.approach {
+            let first = trajectory.sample(trajectory.play_from(options.timeline.from_key));
             if let Some(contact) = crate::plan::approach_refusal(robot, &measured, &first) {
                 return Err(PlayError::ApproachContact { contact });
             }
         }
+        let push = match options.push_guard {
+            true => Some(PushGuard::new(bus, robot, 1.0 / options.rate_hz).map_err(fault)?),
+            false => None,
+        };
+        let thresholds = match (&push, trajectory.efforts.is_empty()) {
+            (_, true) => Vec::new(),
+            (Some(guard), false) => guard.thresholds(),
+            (None, false) => super::push::overload_thresholds(bus, robot).map_err(fault)?,
+        };
+        let efforts = Efforts::start(bus, robot, trajectory, &thresholds)?;
         bus.write_goals(&guard.goals(&measured)?).map_err(fault)?;
         bus.set_torque(&ids, true).map_err(fault)?;
-        let timeline = Timeline::new(robot, trajectory, &options.timeline(), &measured);
+        let timeline = Timeline::new(robot, trajectory, &options.timeline, &measured);
         let log = match &options.log {
             Some(path) => Some(PlaybackLog::create(path, robot)?),
             None => None,
@@ -126,6 +149,11 @@ impl<'a> Run<'a> {
             pending_fault: None,
             last_progress: None,
             cycle: 0,
+            push,
+            pinned: vec![None; robot.joints.len()],
+            loads: vec![None; robot.joints.len()],
+            health: vec![None; robot.joints.len()],
+            efforts,
         })
     }
 
@@ -180,8 +208,9 @@ impl<'a> Run<'a> {
         self.last_write = Some(write_at);
         self.pacer.served_until(write_at);
         self.command(followed_share(gap, self.period), elapsed)?;
-        let measured = self.read_back(elapsed)?;
+        let measured = self.read_back(elapsed, phase)?;
         self.check_health(elapsed)?;
+        self.apply_efforts(elapsed)?;
         self.record(
             start,
             elapsed,
@@ -198,6 +227,12 @@ impl<'a> Run<'a> {
     /// stalls come too often for the machine to keep up with the rate.
     fn after_stall(&mut self, gap: f64, held: f64, elapsed: f64) {
         self.timeline.after_stall(followed_share(gap, self.period));
+        // A goal held two periods or more beyond its own stops the arm, which then starts
+        // again as the path resumes; a shorter hold only delays the goals a little.
+        match &mut self.push {
+            Some(guard) if held >= 2.0 * self.period => guard.stalled(elapsed),
+            _ => {}
+        }
         let overrun = self
             .keep_up
             .as_mut()
@@ -248,9 +283,26 @@ impl<'a> Run<'a> {
     /// The pose of this cycle, through the step limiter, the droop compensation's lead and
     /// the position guard, to the servos.
     fn command(&mut self, followed: f64, elapsed: f64) -> Result<(), PlayError> {
+        // A joint caught pushing eases back (through the limiter) to where it stopped, with
+        // no lead: it no longer pushes.
+        let pin = |values: &mut [f64], pinned: &[Option<f64>]| {
+            for (value, pin) in values.iter_mut().zip(pinned) {
+                if let Some(at) = pin {
+                    *value = *at;
+                }
+            }
+        };
+        pin(&mut self.path, &self.pinned);
         self.limiter.limit(&mut self.path, followed);
         self.pose.copy_from_slice(&self.path);
         self.timeline.goals_into(&mut self.pose, self.period);
+        if self.pinned.iter().any(Option::is_some) {
+            for ((pose, path), pin) in self.pose.iter_mut().zip(&self.path).zip(&self.pinned) {
+                if pin.is_some() {
+                    *pose = *path;
+                }
+            }
+        }
         self.guard.goals_into(&self.pose, &mut self.goals)?;
         self.served_only();
         let written = self.bus.write_goals(&self.goals);
@@ -345,7 +397,7 @@ impl<'a> Run<'a> {
 
     /// Present positions every `readback_every` cycles; a lost answer is skipped, a streak of
     /// them is a fault.
-    fn read_back(&mut self, elapsed: f64) -> Result<Option<Vec<f64>>, PlayError> {
+    fn read_back(&mut self, elapsed: f64, phase: Phase) -> Result<Option<Vec<f64>>, PlayError> {
         let due = self
             .options
             .readback_every
@@ -353,29 +405,145 @@ impl<'a> Run<'a> {
         if !due {
             return Ok(None);
         }
-        match self.bus.read_positions(&self.ids) {
-            Ok(ticks) => {
+        // Loads come with the positions whether the push guard judges them or not: the log
+        // shows them either way.
+        let read = self.bus.read_positions_loads(&self.ids);
+        match read {
+            Ok(read) => {
                 self.reads.succeeded();
+                let ticks: Vec<i64> = read.iter().map(|r| r.position).collect();
                 let values = self.served_values(&ticks);
+                self.served_loads(&read);
                 self.stats.track(self.robot, &values, &self.path);
+                self.watch_pushes(&values, elapsed, phase);
                 Ok(Some(values))
             }
             Err(e) => self.read_failed(e, elapsed).map(|()| None),
         }
     }
 
+    /// Loads read from the servos still served, by joint.
+    fn served_loads(&mut self, read: &[PositionLoad]) {
+        let mut read = read.iter();
+        for (load, &lost) in self.loads.iter_mut().zip(&self.lost) {
+            *load = match lost {
+                false => read.next().and_then(|r| r.load_percent),
+                true => None,
+            };
+        }
+    }
+
+    /// The push guard's look at this reading; a bus that reads no load turns it off.
+    fn watch_pushes(&mut self, measured: &[f64], elapsed: f64, phase: Phase) {
+        let Some(guard) = &mut self.push else {
+            return;
+        };
+        if self.loads.iter().all(Option::is_none) && !self.lost.iter().any(|&l| l) {
+            eprintln!(
+                "note: {} reads no load: the push guard is off",
+                self.bus.describe()
+            );
+            self.push = None;
+            return;
+        }
+        let reading = Reading {
+            time: elapsed,
+            path: &self.path,
+            cycles: self.options.readback_every.unwrap_or(1),
+            goals: &self.last_goal,
+            measured,
+            loads: &self.loads,
+            free: phase != Phase::Approach,
+        };
+        if let Some(push) = guard.observe(&reading) {
+            self.on_push(push, elapsed);
+        }
+    }
+
+    /// A joint pushing: it is held where it stopped, and the arm brakes to rest.
+    fn on_push(&mut self, push: Push, elapsed: f64) {
+        let joint = &self.robot.joints[push.joint];
+        self.pinned[push.joint] = Some(push.hold_at.clamp(joint.limits.min, joint.limits.max));
+        let error = PlayError::Pushing {
+            joint: joint.name.clone(),
+            load: push.load_percent,
+            needed: push.needed_percent,
+            lasted: push.lasted,
+            at: elapsed,
+        };
+        match &self.pending_fault {
+            Some(first) => eprintln!("warning: while braking after \"{first}\": {error}"),
+            None => self.pending_fault = Some(error),
+        }
+        self.timeline.request_stop();
+    }
+
     /// Temperatures, voltages and alarms every `health_every` cycles; an alarm is a fault.
     fn check_health(&mut self, elapsed: f64) -> Result<(), PlayError> {
+        self.health.fill(None);
         if self.cycle == 0 || self.cycle % u64::from(self.options.health_every) != 0 {
             return Ok(());
         }
         match self.bus.read_health(&self.ids) {
-            Ok(health) => match health.iter().find(|h| h.alarms.any()) {
-                Some(h) => self.on_fault(alarm_error(self.robot, h), elapsed),
-                None => Ok(()),
-            },
+            Ok(health) => {
+                for (slot, joint) in self.health.iter_mut().zip(&self.robot.joints) {
+                    *slot = health.iter().find(|h| h.id == joint.servo.id).copied();
+                }
+                self.watch_heat();
+                match health.iter().find(|h| h.alarms.any()) {
+                    Some(h) => self.on_fault(alarm_error(self.robot, h), elapsed),
+                    None => Ok(()),
+                }
+            }
             // A health read is a read like the others: it counts in the same streak.
             Err(e) => self.read_failed(e, elapsed),
+        }
+    }
+
+    /// The effort limits of the segment the playback is in, written where they change.
+    fn apply_efforts(&mut self, elapsed: f64) -> Result<(), PlayError> {
+        let t = self.timeline.sequence_time().max(self.trajectory.start);
+        let push = &mut self.push;
+        let mut limited = |j: usize, on: bool| {
+            if let Some(guard) = push.as_mut() {
+                guard.set_limited(j, on, elapsed);
+            }
+        };
+        let written = self
+            .efforts
+            .apply(self.bus, self.robot, self.trajectory, t, &mut limited);
+        written.or_else(|e| self.on_fault(e, elapsed))
+    }
+
+    /// A servo within [`HOT_MARGIN_C`] of its heat protection is said at once, and in the
+    /// closing lines with the hottest it got.
+    fn watch_heat(&mut self) {
+        for (joint, health) in self.robot.joints.iter().zip(&self.health) {
+            let (Some(h), Some(limit)) = (
+                health,
+                joint.servo.model.spec().factory_temperature_limit_c(),
+            ) else {
+                continue;
+            };
+            if h.temperature_c < limit - HOT_MARGIN_C {
+                continue;
+            }
+            match self
+                .stats
+                .hot
+                .iter_mut()
+                .find(|(name, ..)| *name == joint.name)
+            {
+                Some((_, hottest, _)) => *hottest = hottest.max(h.temperature_c),
+                None => {
+                    eprintln!(
+                        "warning: {}",
+                        super::warnings::hot_warning(&joint.name, h.temperature_c, limit)
+                    );
+                    let entry = (joint.name.clone(), h.temperature_c, limit);
+                    self.stats.hot.push(entry);
+                }
+            }
         }
     }
 
@@ -403,6 +571,15 @@ impl<'a> Run<'a> {
                 measured,
                 lateness: start.lateness,
                 stall: commanded.stall,
+                loads: match measured {
+                    Some(_) => &self.loads,
+                    None => &[],
+                },
+                health: &self.health,
+                needed: match (measured, &self.push) {
+                    (Some(_), Some(guard)) => guard.needed_now(),
+                    _ => &[],
+                },
             })?;
         }
         if let Some(playhead) = &self.options.playhead {
@@ -451,8 +628,13 @@ impl<'a> Run<'a> {
         if let Some(log) = &mut self.log {
             log.finish()?;
         }
+        self.stats.efforts_kept = self.efforts.still_limited(self.robot);
         self.stats.write_offsets = self.bus.write_offsets();
         if let Some(pending) = self.pending_fault.take() {
+            // The stats are not returned with a fault: a grasp still limited is said here.
+            if let Some(kept) = &self.stats.efforts_kept {
+                eprintln!("note: {kept}");
+            }
             return Err(pending);
         }
         if outcome == Outcome::Finished && self.options.release_at_end {

@@ -36,8 +36,20 @@ impl Stats {
                 self.limited_goals
             ));
         }
+        for (joint, hottest, limit) in &self.hot {
+            warnings.push(hot_warning(joint, *hottest, *limit));
+        }
+        warnings.extend(self.efforts_kept.clone());
         warnings
     }
+}
+
+/// A servo near its heat protection, in words.
+pub(super) fn hot_warning(joint: &str, celsius: f64, limit: f64) -> String {
+    format!(
+        "{joint} reached {celsius:.0} °C, {:.0} °C under its servo's {limit:.0} °C heat protection, which releases the joint: let it cool before playing again, or carry less",
+        limit - celsius
+    )
 }
 
 #[cfg(test)]
@@ -64,6 +76,12 @@ mod tests {
                 "the step limiter held back 2 goal(s), by up to 0.250° (elbow_flex), to stay \
                  within the velocity and acceleration limits"
             ]
+        );
+        stats.hot = vec![("elbow_flex".into(), 63.0, 70.0)];
+        assert_eq!(
+            stats.warnings()[2],
+            "elbow_flex reached 63 °C, 7 °C under its servo's 70 °C heat protection, which \
+             releases the joint: let it cool before playing again, or carry less"
         );
         stats.limiter_joint = Some(("gripper".to_string(), JointKind::Prismatic));
         stats.largest_limiter_correction = 0.0004;

@@ -35,6 +35,7 @@ const SUPPORT: &[(&str, &str)] = &[
     ("sim_render.py", include_str!("../../sim/sim_render.py")),
     ("sim_images.py", include_str!("../../sim/sim_images.py")),
     ("sim_scene.py", include_str!("../../sim/sim_scene.py")),
+    ("sim_servos.py", include_str!("../../sim/sim_servos.py")),
 ];
 
 /// The file names of the embedded harness scripts.

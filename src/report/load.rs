@@ -61,18 +61,31 @@ fn droop_lines(out: &mut String, loads: &LoadReport) {
         let Some(worst) = at.iter().max_by(|a, b| a.droop.total_cmp(&b.droop)) else {
             continue;
         };
-        let mut keys: Vec<String> = Vec::new();
-        for d in &at {
-            if !keys.contains(&d.key_label) {
-                keys.push(d.key_label.clone());
-            }
-        }
+        let mut seen = std::collections::HashSet::new();
+        let keys: Vec<&str> = at
+            .iter()
+            .map(|d| d.key_label.as_str())
+            .filter(|label| seen.insert(*label))
+            .collect();
         let _ = writeln!(
             out,
             "warning: droop: at key(s) {}: {}",
-            keys.join(", "),
+            listed_keys(&keys),
             worst.advice
         );
+    }
+}
+
+/// The most keys a warning names: a long recording's every key would bury the advice.
+const LISTED_KEYS: usize = 12;
+
+/// `keys` joined, the first [`LISTED_KEYS`] of them and how many more.
+fn listed_keys(keys: &[&str]) -> String {
+    match keys.len().checked_sub(LISTED_KEYS) {
+        Some(more) if more > 0 => {
+            format!("{} and {more} more", keys[..LISTED_KEYS].join(", "))
+        }
+        _ => keys.join(", "),
     }
 }
 
@@ -165,4 +178,21 @@ pub(super) fn json(report: &CheckReport) -> Value {
         })).collect::<Vec<_>>(),
         "unrated": loads.unrated,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::listed_keys;
+
+    #[test]
+    fn a_warning_names_twelve_keys_and_counts_the_rest() {
+        let labels: Vec<String> = (0..15).map(|i| format!("#{i}")).collect();
+        let keys: Vec<&str> = labels.iter().map(String::as_str).collect();
+        assert_eq!(
+            listed_keys(&keys),
+            "#0, #1, #2, #3, #4, #5, #6, #7, #8, #9, #10, #11 and 3 more"
+        );
+        assert_eq!(listed_keys(&keys[..12]), labels[..12].join(", "));
+        assert_eq!(listed_keys(&keys[..1]), "#0");
+    }
 }

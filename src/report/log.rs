@@ -15,11 +15,56 @@ pub fn measured_traces(path: &Path, joints: &[String]) -> Result<Vec<Option<Trac
     parse_traces(&file, &text, joints)
 }
 
+/// One joint's servo telemetry in a log: its load and what the motion needed (percent), and
+/// its temperature (°C), each against sequence time.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Telemetry {
+    /// Load with each read-back, percent of full output.
+    pub load: Trace,
+    /// What the push guard judged the motion needed, percent.
+    pub need: Trace,
+    /// Temperature with each health reading, °C.
+    pub temperature: Trace,
+}
+
+/// Per joint (in `joints` order), the servo telemetry of the log's play phase; `None` for a
+/// joint whose load the log has no column of (a log from before telemetry, or a simulation's).
+pub fn telemetry(path: &Path, joints: &[String]) -> Result<Vec<Option<Telemetry>>, InputError> {
+    let file = path.display().to_string();
+    let text = crate::json::input_file::read_text(path, crate::json::input_file::MAX_LOG_BYTES)?;
+    let column = |suffix| parse_columns(&file, &text, joints, suffix);
+    let (load, need, temperature) = (column("load_pct")?, column("need_pct")?, column("temp_c")?);
+    Ok(load
+        .into_iter()
+        .zip(need)
+        .zip(temperature)
+        .map(|((load, need), temperature)| {
+            let load = load.filter(|l| !l.is_empty())?;
+            Some(Telemetry {
+                load,
+                need: need.unwrap_or_default(),
+                temperature: temperature.unwrap_or_default(),
+            })
+        })
+        .collect())
+}
+
 /// [`measured_traces`] of a log's text; `file` names it in errors.
 pub fn parse_traces(
     file: &str,
     text: &str,
     joints: &[String],
+) -> Result<Vec<Option<Trace>>, InputError> {
+    parse_columns(file, text, joints, "meas")
+}
+
+/// Per joint, the points of its `<joint>_<suffix>` column in the log's play phase, against
+/// sequence time; `None` for a joint without the column.
+fn parse_columns(
+    file: &str,
+    text: &str,
+    joints: &[String],
+    suffix: &str,
 ) -> Result<Vec<Option<Trace>>, InputError> {
     let mut lines = text.lines();
     let first = lines
@@ -48,7 +93,7 @@ pub fn parse_traces(
     let time = column("sequence_time").ok_or_else(|| missing("sequence_time"))?;
     let measured: Vec<Option<usize>> = joints
         .iter()
-        .map(|j| column(&format!("{j}_meas")))
+        .map(|j| column(&format!("{j}_{suffix}")))
         .collect();
     let mut traces: Vec<Trace> = vec![Vec::new(); joints.len()];
     for (index, line) in lines.enumerate() {

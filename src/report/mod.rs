@@ -206,6 +206,35 @@ pub fn check_json(report: &CheckReport, sequence_file: &str, robot: &Robot) -> V
     })
 }
 
+/// The telemetry rows of `robot`'s joints whose log has it ([`log::telemetry`]), loads in the
+/// joints' directions, with each servo's factory heat protection.
+pub fn telemetry_rows(
+    robot: &Robot,
+    telemetry: Vec<Option<log::Telemetry>>,
+) -> Vec<plot::TelemetryRow> {
+    robot
+        .joints
+        .iter()
+        .zip(telemetry)
+        .filter_map(|(joint, t)| {
+            let t = t?;
+            // The log has the load as the servo reports it, in its shaft's direction.
+            let direction = joint.servo.direction;
+            Some(plot::TelemetryRow {
+                name: joint.name.clone(),
+                load: t.load.iter().map(|&(s, l)| (s, l * direction)).collect(),
+                need: t.need,
+                temperature: t.temperature,
+                temperature_limit: joint.servo.model.spec().factory_temperature_limit_c(),
+                push_line: joint
+                    .servo
+                    .drive()
+                    .map(|d| 100.0 * d.continuous_torque() / d.stall_torque.value),
+            })
+        })
+        .collect()
+}
+
 /// Everything the SVG plot needs, sampled at `rate` Hz. `measured` holds, per joint, an optional
 /// measured trace to overlay.
 pub fn plot_data(
@@ -255,6 +284,7 @@ pub fn plot_data(
         })
         .collect();
     plot::PlotData {
+        telemetry: Vec::new(),
         title: title.to_string(),
         times: sampled.times,
         joints,

@@ -39,6 +39,15 @@ const OLD_FORMAT_FIELDS: [&str; 6] = [
 /// `calibrate()`, every motor of the OMX follower's).
 const WHOLE_TURN: (i64, i64) = (0, 4095);
 
+/// LeRobot's gripper motor, in 0 … 100 % of its calibrated range on every SO and Koch arm.
+pub const LEROBOT_GRIPPER: &str = "gripper";
+
+/// Whether `joint` is an arm's gripper as LeRobot names it (`gripper`, or `ARM/gripper` on a
+/// cell).
+pub fn is_lerobot_gripper(joint: &Joint) -> bool {
+    super::split_joint_name(&joint.name).map_or(joint.name.as_str(), |(_, j)| j) == LEROBOT_GRIPPER
+}
+
 /// The sign of LeRobot's degrees against Present Position, whatever `drive_mode` says.
 /// LeRobot's `MotorNormMode.DEGREES` is `(raw − mid) · 360 / 4095` and reads no `drive_mode`
 /// on any vendor (S6 `motors_bus.py::_normalize` and `_unnormalize`, unchanged since the
@@ -128,6 +137,84 @@ pub enum CalibrationMismatch {
     },
 }
 
+/// A motor's entry that cannot have been made on this arm's joint: the calibration belongs to
+/// another servo model or another arm (an SO-101's file names the same motors with the same ids
+/// as a Koch's).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum NotThisJoint {
+    /// The homing offset is beyond what the servo's Homing_Offset register holds.
+    #[error(
+        "homing_offset {offset} of {joint} is outside what the {model}'s Homing_Offset holds \
+         ({low} … {high}): a calibration made on another servo model"
+    )]
+    HomingOffset {
+        /// The joint's name.
+        joint: String,
+        /// The servo model's name.
+        model: &'static str,
+        /// The offset the calibration gives.
+        offset: i64,
+        /// The register's lowest value.
+        low: i64,
+        /// The register's highest value.
+        high: i64,
+    },
+    /// The recorded range spans more than the servo's one turn.
+    #[error(
+        "{joint}'s range_min … range_max ({min} … {max}) spans {span} ticks, more than the \
+         {model}'s turn of {turn} ticks: no joint of this arm turns that far by hand"
+    )]
+    MoreThanATurn {
+        /// The joint's name.
+        joint: String,
+        /// The servo model's name.
+        model: &'static str,
+        /// range_min.
+        min: i64,
+        /// range_max.
+        max: i64,
+        /// range_max − range_min.
+        span: i64,
+        /// Ticks per revolution.
+        turn: i64,
+    },
+    /// The recorded range is far wider than the joint can move.
+    #[error(
+        "{joint}'s recorded range ({min} … {max}) is {recorded:.1} {unit} of travel, but \
+         {robot}'s {joint} moves through {travel:.1} {unit} (its limits): a range recorded by \
+         hand on this arm is at most {factor}× that; this calibration was made on another arm \
+         (an SO arm and a Koch name the same motors with the same ids): use this arm's own"
+    )]
+    WiderThanTheJoint {
+        /// The joint's name.
+        joint: String,
+        /// The robot's name.
+        robot: String,
+        /// range_min.
+        min: i64,
+        /// range_max.
+        max: i64,
+        /// The recorded travel, in the joint's unit.
+        recorded: f64,
+        /// The robot's travel (max − min of its limits).
+        travel: f64,
+        /// The joint's unit.
+        unit: &'static str,
+        /// [`WIDEST_RECORDED_RANGE`].
+        factor: f64,
+    },
+    /// A whole-turn joint whose limits leave no room within the turn.
+    #[error(transparent)]
+    OutsideTheTurn(#[from] OutsideTheTurn),
+}
+
+/// How much wider than the robot's own limits a range recorded by hand may be. LeRobot
+/// records the range the arm was moved through to its mechanical stops, which the robot's
+/// limits approximate: 1.05× at the SO-101's shoulder_lift in a real follower's file
+/// (tests/data/lerobot_so101_follower.json), where that SO-101 file read as a Koch's is 1.67×
+/// at shoulder_lift.
+pub const WIDEST_RECORDED_RANGE: f64 = 1.5;
+
 /// A whole-turn joint whose robot limits, moved to the calibrated zero, leave no room within
 /// the turn: the robot file's zero is not where the calibrated servo's ticks are.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -193,7 +280,8 @@ pub fn import_lerobot_calibration(
                 robot_id: joint.servo.id,
             });
         }
-        apply_motor(joint, &motor, file).map_err(|outside| node.error(outside.to_string()))?;
+        apply_motor(joint, &robot.name, &motor, file)
+            .map_err(|mismatch| node.error(mismatch.to_string()))?;
         report.calibrated.push(joint.name.clone());
     }
     if !mismatches.is_empty() {
@@ -269,9 +357,11 @@ fn read_motor(node: &Node) -> Result<MotorCalibration, InputError> {
 /// range for percentages, and sets the limits in that frame ([`calibrated_limits`]).
 fn apply_motor(
     joint: &mut Joint,
+    robot: &str,
     motor: &MotorCalibration,
     file: &str,
-) -> Result<(), OutsideTheTurn> {
+) -> Result<(), NotThisJoint> {
+    fits_the_servo(joint, motor)?;
     let uncalibrated = joint.servo.clone();
     joint.servo.zero_tick = (motor.range_min + motor.range_max) as f64 / 2.0;
     joint.servo.direction = LEROBOT_DEGREES_DIRECTION;
@@ -283,11 +373,72 @@ fn apply_motor(
         motor.drive_mode == 1,
     );
     joint.calibrated_range = Some(range);
+    fits_the_joint(joint, robot, motor)?;
     let (min, max, origin) = calibrated_limits(joint, &uncalibrated, motor, file)?;
     joint.limits.min = min;
     joint.limits.max = max;
     joint.limits_origin = origin;
     Ok(())
+}
+
+/// Whether `motor`'s entry is one the joint's servo model can hold: its homing offset within
+/// the Homing_Offset register (the STS3215's is ±2047), its range within one turn.
+fn fits_the_servo(joint: &Joint, motor: &MotorCalibration) -> Result<(), NotThisJoint> {
+    let spec = joint.servo.model.spec();
+    if let Some(register) = spec.table.homing_offset {
+        let (low, high) = register.range();
+        if !(low..=high).contains(&motor.homing_offset) {
+            return Err(NotThisJoint::HomingOffset {
+                joint: joint.name.clone(),
+                model: spec.name,
+                offset: motor.homing_offset,
+                low,
+                high,
+            });
+        }
+    }
+    let turn = spec.ticks_per_revolution as i64;
+    let span = motor.range_max - motor.range_min;
+    if span >= turn {
+        return Err(NotThisJoint::MoreThanATurn {
+            joint: joint.name.clone(),
+            model: spec.name,
+            min: motor.range_min,
+            max: motor.range_max,
+            span,
+            turn,
+        });
+    }
+    Ok(())
+}
+
+/// Whether a range recorded by hand (not LeRobot's whole turn) fits the joint's travel: at
+/// most [`WIDEST_RECORDED_RANGE`] times the robot's limits (`joint`'s, not yet calibrated).
+/// The gripper is left out: its jaws are squeezed past their model's limits by hand, and its
+/// range is only its 0 … 100 %.
+fn fits_the_joint(
+    joint: &Joint,
+    robot: &str,
+    motor: &MotorCalibration,
+) -> Result<(), NotThisJoint> {
+    if (motor.range_min, motor.range_max) == WHOLE_TURN || is_lerobot_gripper(joint) {
+        return Ok(());
+    }
+    let recorded = (joint.servo.value(motor.range_max) - joint.servo.value(motor.range_min)).abs();
+    let travel = joint.limits.max - joint.limits.min;
+    if recorded <= WIDEST_RECORDED_RANGE * travel {
+        return Ok(());
+    }
+    Err(NotThisJoint::WiderThanTheJoint {
+        joint: joint.name.clone(),
+        robot: robot.to_string(),
+        min: motor.range_min,
+        max: motor.range_max,
+        recorded,
+        travel,
+        unit: joint.kind.unit(),
+        factor: WIDEST_RECORDED_RANGE,
+    })
 }
 
 /// The position limits of `joint` (its servo mapping already calibrated) in the calibrated

@@ -1,6 +1,6 @@
 //! The `keypose-robot/1` file format.
 
-use super::servo::{Servo, ServoModel};
+use super::servo::{Servo, ServoModel, Variant};
 use super::{BusSettings, FixedFrame, Joint, JointKind, Limits, Protocol, Robot, ROBOT_FORMAT};
 use crate::json::{self, InputError, Node};
 use crate::pose::{quat_from_rpy, RigidTransform};
@@ -40,58 +40,16 @@ pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
         Some(node) => Some(parse_supply(&node)?),
         None => None,
     };
-    let joints_node = root.require("joints", "the joint chain")?;
-    let items = joints_node.items()?;
-    if items.is_empty() {
-        return Err(joints_node.expected("at least one joint"));
-    }
-    let mut joints: Vec<Joint> = Vec::with_capacity(items.len());
-    for item in &items {
-        let joint = parse_joint(item, bus.protocol, supply_v)?;
-        if joints.iter().any(|j| j.name == joint.name) {
-            return Err(item.error(format!("duplicate joint name {:?}", joint.name)));
-        }
-        if let Some(other) = joints.iter().find(|j| j.servo.id == joint.servo.id) {
-            return Err(item.error(format!(
-                "servo id {} is already used by joint {:?}",
-                joint.servo.id, other.name
-            )));
-        }
-        joints.push(joint);
-    }
-
+    let joints = parse_joints(
+        &root.require("joints", "the joint chain")?,
+        bus.protocol,
+        supply_v,
+    )?;
     let tcp = match root.get("tcp") {
         Some(node) => Some(parse_tcp(&node, &joints)?),
         None => None,
     };
-
-    let mut home: Vec<f64> = vec![0.0; joints.len()];
-    if let Some(home_node) = root.get("home") {
-        for (joint_name, value_node) in home_node.named_entries("joint names")? {
-            let Some(index) = joints.iter().position(|j| j.name == joint_name) else {
-                return Err(value_node.error(format!(
-                    "unknown joint {joint_name:?}; expected one of: {}",
-                    joint_names(&joints)
-                )));
-            };
-            let value = value_node.number(joints[index].kind.unit())?;
-            home[index] = value;
-        }
-    }
-    for (joint, &value) in joints.iter().zip(&home) {
-        if !joint.limits.contains(value) {
-            return Err(json::InputError::at_path(
-                file,
-                &format!("$.home.{}", joint.name),
-                format!(
-                    "home value {value} {} is outside the joint's limits {} … {}",
-                    joint.kind.unit(),
-                    joint.limits.min,
-                    joint.limits.max
-                ),
-            ));
-        }
-    }
+    let home = parse_home(file, root.get("home"), &joints)?;
 
     let clearance = match root.get("clearance_mm") {
         None => super::DEFAULT_CLEARANCE_MM,
@@ -123,6 +81,68 @@ pub(super) fn parse_robot(file: &str, text: &str) -> Result<Robot, InputError> {
         clearance,
         payload,
     })
+}
+
+/// `"joints"`: at least one, each name and servo id used once.
+fn parse_joints(
+    joints_node: &Node,
+    protocol: Protocol,
+    supply_v: Option<f64>,
+) -> Result<Vec<Joint>, InputError> {
+    let items = joints_node.items()?;
+    if items.is_empty() {
+        return Err(joints_node.expected("at least one joint"));
+    }
+    let mut joints: Vec<Joint> = Vec::with_capacity(items.len());
+    for item in &items {
+        let joint = parse_joint(item, protocol, supply_v)?;
+        if joints.iter().any(|j| j.name == joint.name) {
+            return Err(item.error(format!("duplicate joint name {:?}", joint.name)));
+        }
+        if let Some(other) = joints.iter().find(|j| j.servo.id == joint.servo.id) {
+            return Err(item.error(format!(
+                "servo id {} is already used by joint {:?}",
+                joint.servo.id, other.name
+            )));
+        }
+        joints.push(joint);
+    }
+    Ok(joints)
+}
+
+/// `"home"`: a value per joint named (0 for the others), each within its joint's limits.
+fn parse_home(
+    file: &str,
+    home_node: Option<Node>,
+    joints: &[Joint],
+) -> Result<Vec<f64>, InputError> {
+    let mut home: Vec<f64> = vec![0.0; joints.len()];
+    if let Some(home_node) = home_node {
+        for (joint_name, value_node) in home_node.named_entries("joint names")? {
+            let Some(index) = joints.iter().position(|j| j.name == joint_name) else {
+                return Err(value_node.error(format!(
+                    "unknown joint {joint_name:?}; expected one of: {}",
+                    joint_names(joints)
+                )));
+            };
+            home[index] = value_node.number(joints[index].kind.unit())?;
+        }
+    }
+    for (joint, &value) in joints.iter().zip(&home) {
+        if !joint.limits.contains(value) {
+            return Err(json::InputError::at_path(
+                file,
+                &format!("$.home.{}", joint.name),
+                format!(
+                    "home value {value} {} is outside the joint's limits {} … {}",
+                    joint.kind.unit(),
+                    joint.limits.min,
+                    joint.limits.max
+                ),
+            ));
+        }
+    }
+    Ok(home)
 }
 
 /// `"payload": {"mass": KG, "com": [x, y, z]}`, the centre of mass in the TCP's frame.
@@ -332,63 +352,13 @@ fn parse_servo(
         Some(-1) => -1.0,
         _ => return Err(direction_node.expected("1 or -1")),
     };
-    let units_per_tick = match (kind, node.get("metres_per_tick")) {
-        (JointKind::Revolute, None) => model.spec().degrees_per_tick(),
-        (JointKind::Revolute, Some(n)) => {
-            return Err(n.error("metres_per_tick is only for prismatic joints"))
-        }
-        (JointKind::Prismatic, None) => {
-            return Err(node.error("missing field \"metres_per_tick\" (a prismatic joint needs it)"))
-        }
-        (JointKind::Prismatic, Some(n)) => {
-            let x = n.number("metres per tick")?;
-            if x <= 0.0 {
-                return Err(n.expected("a positive number of metres per tick"));
-            }
-            x
-        }
-    };
+    let units_per_tick = parse_units_per_tick(node, kind, model)?;
     let homing_offset = match node.get("homing_offset") {
         Some(n) => Some(n.integer("homing offset ticks", -1_048_575, 1_048_575)?),
         None => None,
     };
-    let variant = match node.get("variant") {
-        None => model.default_variant(),
-        Some(n) => {
-            let names: Vec<&str> = model.variants().map(|v| v.name).collect();
-            model.variant(n.str("a servo variant")?).ok_or_else(|| {
-                n.expected(&format!(
-                    "one of {} (variants of {})",
-                    names.join(", "),
-                    model.name()
-                ))
-            })?
-        }
-    };
-    let supply_v = match node.get("supply_v") {
-        Some(n) => {
-            let v = parse_supply(&n)?;
-            if variant.at(v).is_none() && !variant.drives.is_empty() {
-                return Err(n.expected(&format!(
-                    "a supply {} is rated for: {}",
-                    variant.name,
-                    variant.supplies()
-                )));
-            }
-            v
-        }
-        None => match robot_supply_v {
-            Some(v) if variant.at(v).is_some() || variant.drives.is_empty() => v,
-            Some(v) => {
-                return Err(node.error(format!(
-                    "the robot's supply_v {v} V is not one {} is rated for ({}); give this servo its own supply_v",
-                    variant.name,
-                    variant.supplies()
-                )))
-            }
-            None => variant.drives.first().map_or(0.0, |d| d.supply_v),
-        },
-    };
+    let variant = parse_variant(node, model)?;
+    let supply_v = servo_supply(node, variant, robot_supply_v)?;
     Ok(Servo {
         id,
         model,
@@ -399,6 +369,75 @@ fn parse_servo(
         variant,
         supply_v,
     })
+}
+
+/// Joint units per tick: the model's degrees for a revolute joint, the file's
+/// `metres_per_tick` (required) for a prismatic one.
+fn parse_units_per_tick(
+    node: &Node,
+    kind: JointKind,
+    model: ServoModel,
+) -> Result<f64, InputError> {
+    match (kind, node.get("metres_per_tick")) {
+        (JointKind::Revolute, None) => Ok(model.spec().degrees_per_tick()),
+        (JointKind::Revolute, Some(n)) => {
+            Err(n.error("metres_per_tick is only for prismatic joints"))
+        }
+        (JointKind::Prismatic, None) => {
+            Err(node.error("missing field \"metres_per_tick\" (a prismatic joint needs it)"))
+        }
+        (JointKind::Prismatic, Some(n)) => {
+            let x = n.number("metres per tick")?;
+            if x <= 0.0 {
+                return Err(n.expected("a positive number of metres per tick"));
+            }
+            Ok(x)
+        }
+    }
+}
+
+/// `"variant"`: one of the model's, else its default.
+fn parse_variant(node: &Node, model: ServoModel) -> Result<&'static Variant, InputError> {
+    let Some(n) = node.get("variant") else {
+        return Ok(model.default_variant());
+    };
+    let names: Vec<&str> = model.variants().map(|v| v.name).collect();
+    model.variant(n.str("a servo variant")?).ok_or_else(|| {
+        n.expected(&format!(
+            "one of {} (variants of {})",
+            names.join(", "),
+            model.name()
+        ))
+    })
+}
+
+/// The servo's supply: its own `supply_v`, else the robot's, else the variant's first rated
+/// one; a supply the variant has drive data for, where it has any.
+fn servo_supply(
+    node: &Node,
+    variant: &'static Variant,
+    robot_supply_v: Option<f64>,
+) -> Result<f64, InputError> {
+    if let Some(n) = node.get("supply_v") {
+        let v = parse_supply(&n)?;
+        if variant.at(v).is_none() && !variant.drives.is_empty() {
+            return Err(n.expected(&format!(
+                "a supply {} is rated for: {}",
+                variant.name,
+                variant.supplies()
+            )));
+        }
+        return Ok(v);
+    }
+    match robot_supply_v {
+        Some(v) if variant.at(v).is_some() || variant.drives.is_empty() => Ok(v),
+        Some(v) => Err(node.error(format!(
+            "the robot's supply_v {v} V is not one {} is rated for ({}); give this servo its own supply_v",
+            variant.name,
+            variant.supplies()
+        ))),
+        None => Ok(variant.drives.first().map_or(0.0, |d| d.supply_v)),
+    }
 }
 
 /// A supply voltage: what hobby and research servos run on.
@@ -431,4 +470,69 @@ fn parse_tcp(node: &Node, joints: &[Joint]) -> Result<FixedFrame, InputError> {
         e
     })?;
     Ok(FixedFrame { parent, origin })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_robot;
+    use serde_json::{json, Value};
+
+    /// A change to a robot file.
+    type Edit = Box<dyn FnOnce(&mut Value)>;
+
+    /// The built-in SO-101's file with `edit` applied: what parsing it refuses, if anything.
+    fn refusal(edit: impl FnOnce(&mut Value)) -> Option<String> {
+        let mut file: Value =
+            serde_json::from_str(include_str!("../../robots/so101.json")).unwrap();
+        edit(&mut file);
+        parse_robot("r.json", &file.to_string())
+            .err()
+            .map(|e| e.to_string())
+    }
+
+    #[test]
+    fn the_built_in_file_parses_and_each_rule_names_its_field() {
+        assert_eq!(refusal(|_| {}), None);
+        let cases: Vec<(Edit, &str)> = vec![
+            (
+                Box::new(|f| f["joints"][1]["name"] = json!("shoulder_pan")),
+                "r.json: $.joints[1]: duplicate joint name \"shoulder_pan\"",
+            ),
+            (
+                Box::new(|f| f["joints"][1]["servo"]["id"] = json!(1)),
+                "r.json: $.joints[1]: servo id 1 is already used by joint \"shoulder_pan\"",
+            ),
+            (
+                Box::new(|f| f["home"] = json!({"elbow_flex": 120})),
+                "r.json: $.home.elbow_flex: home value 120 deg is outside the joint's limits",
+            ),
+            (
+                Box::new(|f| f["home"] = json!({"elbow": 0})),
+                "unknown joint \"elbow\"; expected one of: shoulder_pan",
+            ),
+            (
+                Box::new(|f| f["joints"][0]["servo"]["metres_per_tick"] = json!(0.001)),
+                "metres_per_tick is only for prismatic joints",
+            ),
+            (
+                Box::new(|f| f["joints"][0]["servo"]["variant"] = json!("c999")),
+                "(variants of sts3215)",
+            ),
+            (
+                Box::new(|f| f["joints"][0]["servo"]["supply_v"] = json!(24)),
+                "$.joints[0].servo.supply_v",
+            ),
+            (
+                Box::new(|f| f["supply_v"] = json!(24)),
+                "the robot's supply_v 24 V is not one",
+            ),
+        ];
+        for (edit, expected) in cases {
+            let message = refusal(edit).expect(expected);
+            assert!(
+                message.contains(expected),
+                "{message}\nexpected: {expected}"
+            );
+        }
+    }
 }

@@ -31,7 +31,8 @@ pub use builtin::{
 };
 pub use cell::{cell_joint_name, split_joint_name, Arm, CellError, MAX_CELL_JOINTS};
 pub use lerobot::{
-    import_lerobot_calibration, CalibrationMismatch, CalibrationReport, IdMismatch, OutsideTheTurn,
+    import_lerobot_calibration, is_lerobot_gripper, CalibrationMismatch, CalibrationReport,
+    IdMismatch, NotThisJoint, OutsideTheTurn, LEROBOT_GRIPPER, WIDEST_RECORDED_RANGE,
 };
 pub use lerobot_names::{
     calibration_candidates, calibration_root, BadRobotId, CalibrationRoot, LeRobotRole,

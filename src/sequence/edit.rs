@@ -387,6 +387,20 @@ impl KeyframeList {
         })
     }
 
+    /// Sets the current key's effort for `joint`, percent of its servo's stall torque (`None`
+    /// clears it); refused outside (0, 100].
+    pub fn set_effort(&mut self, joint: &str, percent: Option<f64>) -> bool {
+        if percent.is_some_and(|p| !(p > 0.0 && p <= 100.0)) {
+            return false;
+        }
+        self.edit_current(|k| {
+            k.effort.retain(|(name, _)| name != joint);
+            if let Some(p) = percent {
+                k.effort.push((joint.to_string(), p));
+            }
+        })
+    }
+
     /// Sets the spacing of a uniformly spaced list; refused below 0.1 s or on a timed list.
     pub fn set_key_interval(&mut self, interval: f64) -> bool {
         if self.sequence.key_interval.is_none() || !(interval >= 0.1 && interval.is_finite()) {

@@ -324,79 +324,95 @@ pub(super) fn validate_keys(sequence: &Sequence) -> Result<(), InputError> {
     }
     let times = sequence.key_times();
     for i in 0..n {
-        let key = &sequence.keyframes[i];
-        let path = sequence.key_path(i);
-        if times[i].is_nan() || times[i].abs() > MAX_TIME {
-            let field = if sequence.key_interval.is_some() {
-                "$.key_interval".to_string()
-            } else {
-                format!("{path}.time")
-            };
+        validate_key(sequence, &times, i)?;
+        if i + 1 < n {
+            validate_gap(sequence, &times, i)?;
+        }
+    }
+    Ok(())
+}
+
+/// Key `i`'s own time, hold and timing profile.
+fn validate_key(sequence: &Sequence, times: &[f64], i: usize) -> Result<(), InputError> {
+    let file = sequence.file.as_str();
+    let key = &sequence.keyframes[i];
+    let path = sequence.key_path(i);
+    if times[i].is_nan() || times[i].abs() > MAX_TIME {
+        let field = if sequence.key_interval.is_some() {
+            "$.key_interval".to_string()
+        } else {
+            format!("{path}.time")
+        };
+        return Err(InputError::at_path(
+            file,
+            &field,
+            format!(
+                "key time {} s is out of range; expected -{MAX_TIME} … {MAX_TIME} s (a day)",
+                times[i]
+            ),
+        ));
+    }
+    if !(key.hold.is_finite() && key.hold >= 0.0) {
+        return Err(InputError::at_path(
+            file,
+            &format!("{path}.hold"),
+            format!("expected a hold of 0 s or more, found {}", key.hold),
+        ));
+    }
+    if let Some(message) = timing_refusal(sequence, i) {
+        return Err(InputError::at_path(
+            file,
+            &format!("{path}.timing"),
+            message,
+        ));
+    }
+    let hold_profile = key.timing.as_ref().is_some_and(|t| t.hold.is_some());
+    if hold_profile && key.hold == 0.0 {
+        return Err(InputError::at_path(
+            file,
+            &format!("{path}.timing.hold"),
+            "a hold's timing times the key's hold, but this key has none; expected a \
+             \"hold\" above 0 s on the key, or no \"hold\" in its timing",
+        ));
+    }
+    Ok(())
+}
+
+/// The time from key `i` to the next: at least [`MIN_GAP`], and room for key `i`'s hold.
+fn validate_gap(sequence: &Sequence, times: &[f64], i: usize) -> Result<(), InputError> {
+    let file = sequence.file.as_str();
+    let key = &sequence.keyframes[i];
+    let path = sequence.key_path(i);
+    let gap = times[i + 1] - times[i];
+    if gap < MIN_GAP {
+        if gap > 0.0 {
             return Err(InputError::at_path(
                 file,
-                &field,
+                &format!("{}.time", sequence.key_path(i + 1)),
                 format!(
-                    "key time {} s is out of range; expected -{MAX_TIME} … {MAX_TIME} s (a day)",
-                    times[i]
+                    "key {gap} s after the previous key ({path}); expected at least {MIN_GAP} s between keys"
                 ),
             ));
         }
-        if !(key.hold.is_finite() && key.hold >= 0.0) {
-            return Err(InputError::at_path(
-                file,
-                &format!("{path}.hold"),
-                format!("expected a hold of 0 s or more, found {}", key.hold),
-            ));
-        }
-        if let Some(message) = timing_refusal(sequence, i) {
-            return Err(InputError::at_path(
-                file,
-                &format!("{path}.timing"),
-                message,
-            ));
-        }
-        let hold_profile = key.timing.as_ref().is_some_and(|t| t.hold.is_some());
-        if hold_profile && key.hold == 0.0 {
-            return Err(InputError::at_path(
-                file,
-                &format!("{path}.timing.hold"),
-                "a hold's timing times the key's hold, but this key has none; expected a \
-                 \"hold\" above 0 s on the key, or no \"hold\" in its timing",
-            ));
-        }
-        if i + 1 < n {
-            let gap = times[i + 1] - times[i];
-            if gap < MIN_GAP {
-                if gap > 0.0 {
-                    return Err(InputError::at_path(
-                        file,
-                        &format!("{}.time", sequence.key_path(i + 1)),
-                        format!(
-                            "key {gap} s after the previous key ({path}); expected at least {MIN_GAP} s between keys"
-                        ),
-                    ));
-                }
-                return Err(InputError::at_path(
-                    file,
-                    &format!("{}.time", sequence.key_path(i + 1)),
-                    format!(
-                        "duplicate key time {} s (also at {path}); expected each key at its own time",
-                        times[i + 1]
-                    ),
-                ));
-            }
-            if key.hold > gap - MIN_GAP {
-                return Err(InputError::at_path(
-                    file,
-                    &format!("{path}.hold"),
-                    format!(
-                        "hold of {} s overruns the next key, {gap} s later; expected at most {} s",
-                        key.hold,
-                        gap - MIN_GAP
-                    ),
-                ));
-            }
-        }
+        return Err(InputError::at_path(
+            file,
+            &format!("{}.time", sequence.key_path(i + 1)),
+            format!(
+                "duplicate key time {} s (also at {path}); expected each key at its own time",
+                times[i + 1]
+            ),
+        ));
+    }
+    if key.hold > gap - MIN_GAP {
+        return Err(InputError::at_path(
+            file,
+            &format!("{path}.hold"),
+            format!(
+                "hold of {} s overruns the next key, {gap} s later; expected at most {} s",
+                key.hold,
+                gap - MIN_GAP
+            ),
+        ));
     }
     Ok(())
 }
@@ -437,6 +453,7 @@ fn parse_keyframe(node: &Node, arms: &[ArmSpec]) -> Result<Keyframe, InputError>
         "tool",
         "timing",
         "contact",
+        "effort",
     ])?;
     let mut key = Keyframe::new(Vec::new());
     if let Some(n) = node.get("name") {
@@ -464,6 +481,16 @@ fn parse_keyframe(node: &Node, arms: &[ArmSpec]) -> Result<Keyframe, InputError>
     }
     if let Some(n) = node.get("contact") {
         key.contact = parse_contacts(&n)?;
+    }
+    if let Some(n) = node.get("effort") {
+        for (name, value) in n.named_entries("joint names")? {
+            let percent = value.number("a percent of the servo's stall torque")?;
+            if !(percent > 0.0 && percent <= 100.0) {
+                return Err(value
+                    .expected("a percent of the servo's stall torque, above 0 and at most 100"));
+            }
+            key.effort.push((name.to_string(), percent));
+        }
     }
     if let Some(n) = node.get("tool") {
         if arms.is_empty() {

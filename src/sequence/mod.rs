@@ -162,6 +162,9 @@ pub struct Keyframe {
     pub timing: Option<SegmentTiming>,
     /// `"contact"`: the contacts this key means to make (empty: none).
     pub contact: Vec<DeclaredContact>,
+    /// `"effort"`: (joint name, percent of its servo's stall torque) from the segment that
+    /// arrives at this key on, until a later key sets another (`plan::EffortLimit`).
+    pub effort: Vec<(String, f64)>,
     /// Index of this key in the file it was loaded from, for error paths after sorting.
     pub source_index: Option<usize>,
 }
@@ -180,6 +183,7 @@ impl Keyframe {
             line: false,
             timing: None,
             contact: Vec::new(),
+            effort: Vec::new(),
             source_index: None,
         }
     }

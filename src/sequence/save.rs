@@ -1,7 +1,7 @@
 //! Writing sequences back to `keypose-sequence/1` JSON.
 
 use super::{
-    ArmSpec, ContactWith, DeclaredContact, Ends, KeyValue, Placement, Sequence, ToolKey,
+    ArmSpec, ContactWith, DeclaredContact, Ends, KeyValue, Keyframe, Placement, Sequence, ToolKey,
     ToolOrientation, SEQUENCE_FORMAT,
 };
 use serde_json::{json, Map, Value};
@@ -34,73 +34,91 @@ pub(super) fn to_value(sequence: &Sequence) -> Value {
     let keys: Vec<Value> = sequence
         .keyframes
         .iter()
-        .map(|key| {
-            let mut k = Map::new();
-            if let Some(name) = &key.name {
-                k.insert("name".into(), json!(name));
-            }
-            if sequence.key_interval.is_none() {
-                k.insert("time".into(), json!(key.time.unwrap_or(0.0)));
-            }
-            if key.hold > 0.0 {
-                k.insert("hold".into(), json!(key.hold));
-            }
-            if key.line {
-                k.insert("interp".into(), json!("line"));
-            } else if let Some(interp) = key.interp {
-                k.insert("interp".into(), json!(interp.name()));
-            }
-            if let Some(timing) = &key.timing {
-                k.insert("timing".into(), super::timing::to_value(timing));
-            }
-            if let Some(tool) = &key.tool {
-                k.insert("tool".into(), tool_json(tool));
-            }
-            if !key.contact.is_empty() {
-                k.insert("contact".into(), contacts_json(&key.contact));
-            }
-            if !key.arm_tools.is_empty() {
-                let tools = key
-                    .arm_tools
-                    .iter()
-                    .map(|(arm, tool)| (arm.clone(), tool_json(tool)))
-                    .collect();
-                k.insert("tool".into(), Value::Object(tools));
-            }
-            let mut joints = Map::new();
-            let mut transforms = Map::new();
-            for (name, value) in &key.values {
-                match value {
-                    KeyValue::Joint(v) => {
-                        joints.insert(name.clone(), json!(v));
-                    }
-                    KeyValue::Percent(p) => {
-                        joints.insert(name.clone(), json!(format!("{p}%")));
-                    }
-                    KeyValue::Transform(tf) => {
-                        let mut t = Map::new();
-                        if tf.t != glam::DVec3::ZERO {
-                            t.insert("t".into(), json!([tf.t.x, tf.t.y, tf.t.z]));
-                        }
-                        t.insert(
-                            "r".into(),
-                            json!({ "w": tf.r.w, "x": tf.r.x, "y": tf.r.y, "z": tf.r.z }),
-                        );
-                        transforms.insert(name.clone(), Value::Object(t));
-                    }
-                }
-            }
-            if !joints.is_empty() {
-                k.insert("joints".into(), Value::Object(joints));
-            }
-            if !transforms.is_empty() {
-                k.insert("transforms".into(), Value::Object(transforms));
-            }
-            Value::Object(k)
-        })
+        .map(|key| key_value(key, sequence.key_interval.is_none()))
         .collect();
     root.insert("keyframes".into(), Value::Array(keys));
     Value::Object(root)
+}
+
+/// One keyframe as its canonical JSON object (`timed`: the sequence gives each key its own
+/// time, not a key interval).
+fn key_value(key: &Keyframe, timed: bool) -> Value {
+    let mut k = Map::new();
+    if let Some(name) = &key.name {
+        k.insert("name".into(), json!(name));
+    }
+    if timed {
+        k.insert("time".into(), json!(key.time.unwrap_or(0.0)));
+    }
+    if key.hold > 0.0 {
+        k.insert("hold".into(), json!(key.hold));
+    }
+    if key.line {
+        k.insert("interp".into(), json!("line"));
+    } else if let Some(interp) = key.interp {
+        k.insert("interp".into(), json!(interp.name()));
+    }
+    if let Some(timing) = &key.timing {
+        k.insert("timing".into(), super::timing::to_value(timing));
+    }
+    if let Some(tool) = &key.tool {
+        k.insert("tool".into(), tool_json(tool));
+    }
+    if !key.contact.is_empty() {
+        k.insert("contact".into(), contacts_json(&key.contact));
+    }
+    if !key.effort.is_empty() {
+        let efforts = key
+            .effort
+            .iter()
+            .map(|(joint, percent)| (joint.clone(), json!(percent)))
+            .collect();
+        k.insert("effort".into(), Value::Object(efforts));
+    }
+    if !key.arm_tools.is_empty() {
+        let tools = key
+            .arm_tools
+            .iter()
+            .map(|(arm, tool)| (arm.clone(), tool_json(tool)))
+            .collect();
+        k.insert("tool".into(), Value::Object(tools));
+    }
+    let (joints, transforms) = values_json(&key.values);
+    if !joints.is_empty() {
+        k.insert("joints".into(), Value::Object(joints));
+    }
+    if !transforms.is_empty() {
+        k.insert("transforms".into(), Value::Object(transforms));
+    }
+    Value::Object(k)
+}
+
+/// A key's values as its `"joints"` (degrees, metres, percent) and `"transforms"` objects.
+fn values_json(values: &[(String, KeyValue)]) -> (Map<String, Value>, Map<String, Value>) {
+    let mut joints = Map::new();
+    let mut transforms = Map::new();
+    for (name, value) in values {
+        match value {
+            KeyValue::Joint(v) => {
+                joints.insert(name.clone(), json!(v));
+            }
+            KeyValue::Percent(p) => {
+                joints.insert(name.clone(), json!(format!("{p}%")));
+            }
+            KeyValue::Transform(tf) => {
+                let mut t = Map::new();
+                if tf.t != glam::DVec3::ZERO {
+                    t.insert("t".into(), json!([tf.t.x, tf.t.y, tf.t.z]));
+                }
+                t.insert(
+                    "r".into(),
+                    json!({ "w": tf.r.w, "x": tf.r.x, "y": tf.r.y, "z": tf.r.z }),
+                );
+                transforms.insert(name.clone(), Value::Object(t));
+            }
+        }
+    }
+    (joints, transforms)
 }
 
 /// `"robots"`: an arm without a base as its robot's name alone, one with a base as an object,

@@ -23,6 +23,17 @@ impl Alarms {
     pub fn any(&self) -> bool {
         self.input_voltage || self.overheating || self.encoder || self.electrical || self.overload
     }
+
+    /// The alarms raised in either.
+    pub fn or(&self, other: &Alarms) -> Alarms {
+        Alarms {
+            input_voltage: self.input_voltage || other.input_voltage,
+            overheating: self.overheating || other.overheating,
+            encoder: self.encoder || other.encoder,
+            electrical: self.electrical || other.electrical,
+            overload: self.overload || other.overload,
+        }
+    }
 }
 
 /// Which bit of a vendor's alarm byte stands for each alarm.

@@ -89,6 +89,9 @@ pub struct Drive {
     /// The firmware's position gain the stiffness is for: its register and value, as the arms'
     /// software writes it.
     pub gain: (&'static str, f64),
+    /// The current the motor draws at stall, A: with the stall torque it gives the torque per
+    /// ampere, and with the supply the winding's resistance (what heats it).
+    pub stall_current: Rated,
     /// The rotor's inertia reflected through the gear train, kg·m².
     pub rotor_inertia: Rated,
     /// Coulomb friction, N·m.
@@ -167,9 +170,11 @@ pub const VARIANTS: &[Variant] = &[
         description: "STS3215 7.4 V 1/345 (C001): the SO-101 follower's standard servo",
         drives: &[
             // The standard SO-101 follower runs these on 5 V: the 6 V stall torque scaled by
-            // 5/6, the speed from BAM's motor model; stiffness kt·V·P·0.166/R at LeRobot's P=16.
+            // 5/6, the speed from BAM's motor model; stiffness kt·V·P·0.166/R at LeRobot's P=16;
+            // stall current V/R with BAM's winding resistance, 2.676 Ω.
             Drive {
                 supply_v: 5.0,
+                stall_current: derived(1.87),
                 stall_torque: unverified(1.35),
                 no_load_speed: derived(3.5),
                 stiffness: derived(6.0),
@@ -180,6 +185,7 @@ pub const VARIANTS: &[Variant] = &[
             },
             Drive {
                 supply_v: 6.0,
+                stall_current: derived(2.24),
                 stall_torque: published(1.62),
                 no_load_speed: published(4.40),
                 stiffness: derived(7.2),
@@ -190,6 +196,7 @@ pub const VARIANTS: &[Variant] = &[
             },
             Drive {
                 supply_v: 7.4,
+                stall_current: derived(2.77),
                 stall_torque: published(1.91),
                 no_load_speed: published(5.45),
                 stiffness: derived(8.9),
@@ -270,6 +277,7 @@ pub const VARIANTS: &[Variant] = &[
 /// inertia BAM's.
 const STS3215_12V: Drive = Drive {
     supply_v: 12.0,
+    stall_current: published(2.7),
     stall_torque: published(2.94),
     no_load_speed: published(4.71),
     stiffness: derived(22.0),
@@ -284,6 +292,7 @@ const STS3215_12V: Drive = Drive {
 /// rotor inertia is the STS3215's scaled by the square of the gear ratio.
 const fn dynamixel(
     supply_v: f64,
+    stall_current: Rated,
     stall: f64,
     no_load: f64,
     rotor_inertia: f64,
@@ -291,6 +300,7 @@ const fn dynamixel(
 ) -> Drive {
     Drive {
         supply_v,
+        stall_current,
         stall_torque: published(stall),
         no_load_speed: published(no_load),
         stiffness: unverified(stall / 0.09),
@@ -301,24 +311,42 @@ const fn dynamixel(
     }
 }
 
-/// 288.4:1; rotor inertia and friction from BAM's "xl330" fit.
+/// The stall current at `supply_v` of a winding that draws `amps` at `rated_v` (the e-Manual's
+/// rating): published there, through the same resistance (Ohm's law) at another supply.
+const fn winding(supply_v: f64, rated_v: f64, amps: f64) -> Rated {
+    if supply_v == rated_v {
+        published(amps)
+    } else {
+        derived(amps * supply_v / rated_v)
+    }
+}
+
+/// 288.4:1; rotor inertia and friction from BAM's "xl330" fit; 1.47 A stall at 5 V.
 const fn xl330_m288(supply_v: f64, stall: f64, no_load: f64) -> Drive {
-    dynamixel(supply_v, stall, no_load, 0.0017, 0.02)
+    let current = winding(supply_v, 5.0, 1.47);
+    dynamixel(supply_v, current, stall, no_load, 0.0017, 0.02)
 }
 
-/// 77.5:1; the M288's rotor through (77.5 / 288.4)².
+/// 77.5:1; the M288's rotor through (77.5 / 288.4)²; the same 1.47 A stall at 5 V.
 const fn xl330_m077(supply_v: f64, stall: f64, no_load: f64) -> Drive {
-    dynamixel(supply_v, stall, no_load, 0.000123, 0.02)
+    let current = winding(supply_v, 5.0, 1.47);
+    dynamixel(supply_v, current, stall, no_load, 0.000123, 0.02)
 }
 
-/// 258.5:1; the STS3215's rotor through (258.5 / 345)².
+/// 258.5:1; the STS3215's rotor through (258.5 / 345)²; 1.4 A stall at 12 V (e-Manual
+/// XL430-W250 specifications; not in docs/robots.md §6, so unverified here).
 const fn xl430_w250(supply_v: f64, stall: f64, no_load: f64) -> Drive {
-    dynamixel(supply_v, stall, no_load, 0.0157, 0.05)
+    let current = Rated {
+        basis: Basis::Unverified,
+        ..winding(supply_v, 12.0, 1.4)
+    };
+    dynamixel(supply_v, current, stall, no_load, 0.0157, 0.05)
 }
 
-/// 353.5:1; the STS3215's rotor through (353.5 / 345)².
+/// 353.5:1; the STS3215's rotor through (353.5 / 345)²; 2.3 A stall at 12 V.
 const fn xm430_w350(supply_v: f64, stall: f64, no_load: f64) -> Drive {
-    dynamixel(supply_v, stall, no_load, 0.0294, 0.1)
+    let current = winding(supply_v, 12.0, 2.3);
+    dynamixel(supply_v, current, stall, no_load, 0.0294, 0.1)
 }
 
 impl ServoModel {

@@ -7,6 +7,7 @@
 use super::alarms::AlarmBits;
 use super::item::{eeprom, live, ram, read_only, writable, Area, Default, Item};
 use super::model::{ExtendedMode, ModelSpec, Modes, ServoModel};
+use super::overload::OverloadRule;
 use super::profile::{DriveModeBits, Limit, ProfileRegister, Setting};
 use super::protocol::Protocol;
 use super::register::{signed, unsigned, ByteOrder, Register};
@@ -85,7 +86,6 @@ const X_SERIES_DRIVE_MODE: DriveModeBits = DriveModeBits {
 /// address 126 measures.
 const DXL_X: RegisterTable = RegisterTable {
     byte_order: ByteOrder::Little,
-    homing_offset_sign: 1,
     model_number_register: unsigned("Model_Number", 0, 2),
     id: unsigned("ID", 7, 1),
     baud_rate: unsigned("Baud_Rate", 8, 1),
@@ -102,9 +102,11 @@ const DXL_X: RegisterTable = RegisterTable {
     present_position: signed("Present_Position", 132, 4),
     present_velocity: signed("Present_Velocity", 128, 4),
     present_load: signed("Present_Current", 126, 2),
+    present_current: None,
     load_unit: XL330_CURRENT,
     present_voltage: unsigned("Present_Input_Voltage", 144, 2),
     present_temperature: unsigned("Present_Temperature", 146, 1),
+    temperature_limit: unsigned("Temperature_Limit", 31, 1),
     moving: unsigned("Moving", 122, 1),
     profile_velocity: Some(unsigned("Profile_Velocity", 112, 4)),
     profile_acceleration: Some(unsigned("Profile_Acceleration", 108, 4)),
@@ -114,6 +116,14 @@ const DXL_X: RegisterTable = RegisterTable {
     alarm_bits: HARDWARE_ERROR_BITS,
     torque_locked_below: 64,
     shuts_down_on_alarm: true,
+    // ROBOTIS publishes neither threshold nor time ("when a high current flows for a few
+    // seconds"): an XM430-W350 holding 41 % of its stall current tripped after about 5 s
+    // (DynamixelSDK #285), the one measurement found. UNVERIFIED.
+    overload: OverloadRule::Fixed {
+        percent: 40.0,
+        seconds: 5.0,
+    },
+    effort_limit: (signed("Goal_PWM", 100, 2), PWM_LIMIT),
     factory_status_return_level: 2,
 };
 
@@ -243,7 +253,10 @@ pub const FIRMWARE_VERSION: i64 = 52;
 /// Goal positions in the extended and current-based position modes, ±256 turns.
 const EXTENDED_RANGE: (i64, i64) = (-1_048_575, 1_048_575);
 const GAIN: (i64, i64) = (0, 16_383);
-const PWM_LIMIT: i64 = 885;
+/// PWM_Limit's factory value and its most: 885 is the full supply (e-Manual, PWM Limit).
+pub const PWM_LIMIT: i64 = 885;
+/// Operating_Mode of current-based position control (e-Manual, Operating Mode).
+pub const CURRENT_BASED_POSITION_MODE: i64 = 5;
 
 /// The items the four models share, at the same addresses; [`XL330_EXTRA_ITEMS`] and its
 /// siblings hold the rest.

@@ -12,7 +12,7 @@
 //! - The control table: [`Register`] and its encodings (`register`), the registers with a role
 //!   ([`RegisterTable`], `table`), the full table as the manual lists it (`item`), the alarm
 //!   bits ([`AlarmBits`], `alarms`), the motion-profile registers ([`ProfileRegister`],
-//!   `profile`).
+//!   `profile`), where its firmware counts an overload ([`OverloadRule`], `overload`).
 //! - What it drives ([`Drive`], `drive`): per variant and supply, the torque-speed line, the
 //!   continuous rating, stiffness and rotor inertia, each with how it is known.
 //!
@@ -26,6 +26,7 @@ pub mod drive;
 pub mod dynamixel_x;
 pub mod item;
 mod model;
+mod overload;
 mod profile;
 mod protocol;
 mod register;
@@ -35,6 +36,7 @@ mod table;
 pub use alarms::{AlarmBits, Alarms};
 pub use drive::{Basis, Drive, Rated, Variant, CONTINUOUS_FRACTION};
 pub use model::{model_from_number, ExtendedMode, ModelSpec, Modes, ServoModel};
+pub use overload::OverloadRule;
 pub use profile::{DriveModeBits, Limit, ProfileRegister, Setting};
 pub use protocol::{PositionEncoding, Protocol, TickError, Vendor};
 pub use register::{span, ByteOrder, Encoding, Register, RegisterError};

@@ -162,6 +162,14 @@ impl ModelSpec {
         self.items.iter().chain(self.extra_items)
     }
 
+    /// The temperature at which its heat protection trips from the factory, °C.
+    pub fn factory_temperature_limit_c(&self) -> Option<f64> {
+        match self.item(self.table.temperature_limit.name)?.default {
+            super::item::Default::Value(v) => Some(v as f64),
+            super::item::Default::Live => None,
+        }
+    }
+
     /// The control-table item called `name`.
     pub fn item(&self, name: &str) -> Option<&'static Item> {
         item::find(self.items, name).or_else(|| item::find(self.extra_items, name))

@@ -18,6 +18,14 @@ pub enum Setting {
     /// Dynamixel Drive_Mode: only read, to tell which profile the servo runs (see
     /// [`DriveModeBits::time_based`]); never written.
     DriveMode,
+    /// Feetech Overload_Torque: only read, for the push guard's threshold (see
+    /// [`super::OverloadRule`]); never written.
+    OverloadTorque,
+    /// Feetech Protection_Time: only read, for how long the push guard lets an overload last;
+    /// never written.
+    ProtectionTime,
+    /// The output cap a grasp's effort is written to ([`RegisterTable::effort_limit`]).
+    EffortLimit,
 }
 
 impl Setting {
@@ -28,6 +36,9 @@ impl Setting {
             Setting::ProfileAcceleration => table.profile_acceleration,
             Setting::ProfileVelocity => table.profile_velocity,
             Setting::DriveMode => table.drive_mode,
+            Setting::OverloadTorque => table.overload.threshold_register(),
+            Setting::ProtectionTime => table.overload.time_register(),
+            Setting::EffortLimit => Some(table.effort_limit.0),
         }
     }
 
@@ -38,6 +49,9 @@ impl Setting {
             Setting::ProfileAcceleration => "Profile_Acceleration",
             Setting::ProfileVelocity => "Profile_Velocity",
             Setting::DriveMode => "Drive_Mode",
+            Setting::OverloadTorque => "Overload_Torque",
+            Setting::ProtectionTime => "Protection_Time",
+            Setting::EffortLimit => "Torque_Limit or Goal_PWM",
         }
     }
 }

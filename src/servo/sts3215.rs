@@ -4,6 +4,7 @@
 use super::alarms::AlarmBits;
 use super::item::{eeprom, live, ram, read_only, writable, Area, Default, Item};
 use super::model::{ModelSpec, Modes, ServoModel};
+use super::overload::OverloadRule;
 use super::profile::{Limit, ProfileRegister, Setting};
 use super::protocol::Protocol;
 use super::register::{sign_magnitude, unsigned, ByteOrder};
@@ -44,7 +45,6 @@ static STS3215_PROFILE: [ProfileRegister; 1] = [ProfileRegister {
 /// the sign at the bit given per register (`scservo_sdk` `SCS_TOSCS`).
 static STS3215_TABLE: RegisterTable = RegisterTable {
     byte_order: ByteOrder::Little,
-    homing_offset_sign: -1,
     model_number_register: unsigned("Model_Number", 3, 2),
     id: unsigned("ID", 5, 1),
     baud_rate: unsigned("Baud_Rate", 6, 1),
@@ -61,9 +61,12 @@ static STS3215_TABLE: RegisterTable = RegisterTable {
     present_position: sign_magnitude("Present_Position", 56, 15),
     present_velocity: sign_magnitude("Present_Velocity", 58, 15),
     present_load: sign_magnitude("Present_Load", 60, 10),
+    // 6.5 mA per unit (STS3215 memory table, Present current).
+    present_current: Some((unsigned("Present_Current", 69, 2), 6.5)),
     load_unit: LoadUnit::TenthPercent,
     present_voltage: unsigned("Present_Voltage", 62, 1),
     present_temperature: unsigned("Present_Temperature", 63, 1),
+    temperature_limit: unsigned("Max_Temperature_Limit", 13, 1),
     moving: unsigned("Moving", 66, 1),
     profile_velocity: None,
     profile_acceleration: None,
@@ -73,6 +76,15 @@ static STS3215_TABLE: RegisterTable = RegisterTable {
     alarm_bits: STATUS_BITS,
     torque_locked_below: 0,
     shuts_down_on_alarm: false,
+    // Overload_Torque 80 % for Protection_Time 200 × 10 ms, from the factory (memory table).
+    overload: OverloadRule::Registers {
+        threshold: unsigned("Overload_Torque", 36, 1),
+        factory_percent: 80.0,
+        time: unsigned("Protection_Time", 35, 1),
+        time_unit_s: 0.01,
+        factory_seconds: 2.0,
+    },
+    effort_limit: (unsigned("Torque_Limit", 48, 2), 1000),
     factory_status_return_level: 1,
 };
 

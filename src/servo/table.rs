@@ -3,7 +3,7 @@
 //! lists it, is [`super::item`].
 
 use super::register::{ByteOrder, Register, RegisterError};
-use super::{AlarmBits, Alarms};
+use super::{AlarmBits, Alarms, OverloadRule};
 
 /// What the present load/current register measures and how to express it as a percentage.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -26,9 +26,6 @@ pub enum LoadUnit {
 pub struct RegisterTable {
     /// The order of multi-byte values' bytes.
     pub byte_order: ByteOrder,
-    /// Sign of the homing offset: Present = Actual + sign · Homing_Offset (+1 Dynamixel,
-    /// −1 Feetech).
-    pub homing_offset_sign: i64,
     /// The model number (read-only).
     pub model_number_register: Register,
     /// The servo's id on the bus.
@@ -66,12 +63,18 @@ pub struct RegisterTable {
     pub present_velocity: Register,
     /// Present Load (XL430, STS) or Present Current (XL330, XM430); see [`Self::load_unit`].
     pub present_load: Register,
+    /// A present-current register beside [`Self::present_load`] and its unit, mA (the
+    /// STS3215's; where the load register measures current, none).
+    pub present_current: Option<(Register, f64)>,
     /// What [`Self::present_load`] measures.
     pub load_unit: LoadUnit,
     /// 0.1 V per unit on every model.
     pub present_voltage: Register,
     /// °C.
     pub present_temperature: Register,
+    /// °C: the temperature at which the servo's heat protection trips (STS Max_Temperature_Limit,
+    /// X series Temperature_Limit).
+    pub temperature_limit: Register,
     /// 1 while the servo moves toward its goal.
     pub moving: Register,
     /// Dynamixel only.
@@ -92,6 +95,13 @@ pub struct RegisterTable {
     /// Whether an alarm switches the torque off until a reboot (X series Shutdown register,
     /// factory default).
     pub shuts_down_on_alarm: bool,
+    /// Where the firmware counts an overload.
+    pub overload: OverloadRule,
+    /// The RAM register that caps the motor's output while it runs, and the value that is
+    /// its full output: Feetech Torque_Limit (1000), the X series' Goal_PWM (885), which caps
+    /// the PWM in every position mode (the XL430 has no current control). A grasp's effort is
+    /// written here.
+    pub effort_limit: (Register, i64),
     /// What the status return level register holds from the factory: 2 (answer every
     /// instruction) on the X series, 1 on the STS3215.
     pub factory_status_return_level: i64,
@@ -119,12 +129,14 @@ impl RegisterTable {
             Some(self.present_load),
             Some(self.present_voltage),
             Some(self.present_temperature),
+            Some(self.temperature_limit),
             Some(self.moving),
             self.profile_velocity,
             self.profile_acceleration,
             self.acceleration,
             self.goal_speed,
             self.lock,
+            Some(self.effort_limit.0),
         ]
         .into_iter()
         .flatten()
@@ -199,14 +211,28 @@ impl RegisterTable {
         value as f64
     }
 
-    /// The registers a health reading needs, for [`super::span`]: load, voltage, temperature and the
-    /// alarm register.
-    pub fn health_registers(&self) -> [Register; 4] {
-        [
+    /// The registers a health reading needs, for [`super::span`]: load, voltage, temperature,
+    /// the alarm register, and the current register where the model has one beside the load.
+    pub fn health_registers(&self) -> Vec<Register> {
+        let mut registers = vec![
             self.present_load,
             self.present_voltage,
             self.present_temperature,
             self.hardware_error,
-        ]
+        ];
+        registers.extend(self.present_current.map(|(register, _)| register));
+        registers
+    }
+
+    /// Amperes, from a decoded [`Self::present_load`] value and, where the model has one, a
+    /// decoded [`Self::present_current`] value; `None` for a model that measures no current
+    /// (the XL430).
+    pub fn current_a(&self, load: i64, current: Option<i64>) -> Option<f64> {
+        match (self.present_current, current) {
+            (Some((_, milliamps_per_unit)), Some(value)) => {
+                Some(value as f64 * milliamps_per_unit / 1000.0)
+            }
+            _ => self.current_milliamps(load).map(|ma| ma.abs() / 1000.0),
+        }
     }
 }

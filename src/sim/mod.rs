@@ -8,6 +8,7 @@
 
 mod joint_map;
 mod models;
+mod servo_arm;
 mod trace_bytes;
 pub mod verdict;
 mod warm;
@@ -15,6 +16,7 @@ mod wire;
 
 pub use joint_map::{JointMap, MjcfModel};
 pub use models::{check_mjcf_file, model_path};
+pub use servo_arm::{MujocoArm, SETTLE_S};
 pub use trace_bytes::TraceBytesError;
 pub use warm::WarmSimulation;
 
@@ -121,6 +123,7 @@ fn load_request(
         return Ok((
             Load::Model {
                 mjcf: model.clone(),
+                scene: None,
             },
             model,
         ));
@@ -162,7 +165,7 @@ fn cell_load_request(config: &PyConfig, robot: &Robot) -> Result<(Load, String),
         });
         names.push(format!("{}={}", arm.name, path.display()));
     }
-    Ok((Load::Cell { arms }, names.join(", ")))
+    Ok((Load::Cell { arms, scene: None }, names.join(", ")))
 }
 
 /// What the player would send, cycle by cycle, in joint units.
@@ -325,6 +328,17 @@ impl Simulation {
         mjcf: Option<&MjcfModel>,
         gl: Option<&str>,
     ) -> Result<Simulation, SimError> {
+        Simulation::start_in_scene(robot, mjcf, gl, None)
+    }
+
+    /// Like [`Simulation::start`], with the objects of the MJCF file `scene` (a block to
+    /// pick, a fixture) in the scene beside the arm.
+    pub fn start_in_scene(
+        robot: &Robot,
+        mjcf: Option<&MjcfModel>,
+        gl: Option<&str>,
+        scene: Option<&Path>,
+    ) -> Result<Simulation, SimError> {
         let config = PyConfig::from_env()?;
         let mut options = HarnessOptions {
             // A long run is one request: allow minutes.
@@ -337,6 +351,7 @@ impl Simulation {
         // The model's request first: a robot keypose has no model of is refused before Python
         // starts.
         let (load, model) = load_request(&config, robot, mjcf)?;
+        let load = load.with_scene(scene.map(|p| p.display().to_string()));
         let harness = Harness::start_in(&config, HARNESS_SCRIPT, options)?;
         let mut sim = Simulation {
             harness,

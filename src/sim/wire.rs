@@ -57,6 +57,15 @@ pub(super) enum Request<'a> {
         /// How the trace comes back.
         trace: TraceForm,
     },
+    /// The listed joints made the shafts of emulated servos, at rest at `qpos`.
+    ServosStart {
+        joints: &'a [String],
+        qpos: Vec<f64>,
+        /// Seconds the limp arm first falls to rest (0: it starts at `qpos`).
+        settle: f64,
+    },
+    /// The emulated servos' arm stepped to `until` seconds with each joint's motor as given.
+    ServosStep { until: f64, drives: Vec<ServoDrive> },
     /// Frames drawn to an image or an animation.
     Render {
         joints: &'a [String],
@@ -88,9 +97,60 @@ pub(super) enum TraceForm {
 #[serde(untagged)]
 pub(super) enum Load {
     /// One model file.
-    Model { mjcf: String },
+    Model {
+        mjcf: String,
+        /// An MJCF file of objects added to the scene (`--scene`).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        scene: Option<String>,
+    },
     /// A cell's scene.
-    Cell { arms: Vec<SceneArm> },
+    Cell {
+        arms: Vec<SceneArm>,
+        /// An MJCF file of objects added to the scene (`--scene`).
+        #[serde(skip_serializing_if = "Option::is_none")]
+        scene: Option<String>,
+    },
+}
+
+impl Load {
+    /// The same load with the objects of `scene` added.
+    pub fn with_scene(self, scene: Option<String>) -> Load {
+        match self {
+            Load::Model { mjcf, .. } => Load::Model { mjcf, scene },
+            Load::Cell { arms, .. } => Load::Cell { arms, scene },
+        }
+    }
+}
+
+/// One emulated servo's motor for a step of `servos_step`, in the model's units.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub(super) struct ServoDrive {
+    pub on: bool,
+    pub goal: f64,
+    pub kp: f64,
+    pub force: f64,
+    pub damping: f64,
+    /// The firmware's profile: `None` none.
+    pub acceleration: Option<f64>,
+    pub velocity: Option<f64>,
+    /// Where a hand pulls the joint: `None` no hand.
+    pub hand: Option<f64>,
+}
+
+/// The reply to `servos_step`: each joint's state in the request's order.
+#[derive(Debug, Deserialize)]
+pub(super) struct ServosStepReply {
+    pub q: Vec<f64>,
+    pub v: Vec<f64>,
+    /// The position loop's output, N·m or N.
+    #[serde(rename = "loop")]
+    pub output: Vec<f64>,
+    /// The motor's torque after its torque-speed line, N·m or N.
+    pub torque: Vec<f64>,
+    /// Seconds of wall time stepping took so far.
+    pub wall: f64,
+    /// Seconds simulated so far.
+    pub simulated: f64,
 }
 
 /// One arm of a cell's scene: its model placed at its base.
@@ -339,6 +399,7 @@ mod tests {
         );
         let load = Request::Load(Load::Model {
             mjcf: "arm.xml".into(),
+            scene: None,
         });
         assert_eq!(
             serde_json::to_value(&load).unwrap(),
@@ -351,11 +412,13 @@ mod tests {
                 pos: [0.0, 0.2, 0.0],
                 quat: [1.0, 0.0, 0.0, 0.0],
             }],
+            scene: Some("block.xml".into()),
         });
         assert_eq!(
             serde_json::to_value(&cell).unwrap(),
             json!({"op": "load", "arms": [{"name": "left", "mjcf": "so101.xml",
-                   "pos": [0.0, 0.2, 0.0], "quat": [1.0, 0.0, 0.0, 0.0]}]})
+                   "pos": [0.0, 0.2, 0.0], "quat": [1.0, 0.0, 0.0, 0.0]}],
+                   "scene": "block.xml"})
         );
         let contacts = Request::Contacts {
             qpos: BTreeMap::from([("elbow", 0.25)]),

@@ -9,9 +9,9 @@
 //! The arm starts at the robot's home pose. A joint released (`t`) stays where it was drawn:
 //! there is no hand to move it.
 
-use crate::bus::{BusError, Health, PingInfo, ServoBus};
+use crate::bus::{BusError, Health, PingInfo, PositionLoad, ServoBus};
 use crate::robot::{Robot, ServoModel};
-use crate::servo::Alarms;
+use crate::servo::{Alarms, Setting};
 
 /// Ideal servos, one per joint, that are wherever they were last told to be.
 #[derive(Debug, Clone)]
@@ -76,6 +76,11 @@ impl ServoBus for DrawnArm {
             .map(|&id| self.joint(id).map(|j| self.ticks[j]))
             .collect()
     }
+    /// A drawn arm carries no weight: its servos' load is 0, and the push guard watches it
+    /// as it would a real arm's.
+    fn read_positions_loads(&mut self, ids: &[u8]) -> Result<Vec<PositionLoad>, BusError> {
+        Ok(PositionLoad::each(self.read_positions(ids)?, Some(0.0)))
+    }
     fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError> {
         for &(id, tick) in goals {
             let j = self.joint(id)?;
@@ -101,6 +106,7 @@ impl ServoBus for DrawnArm {
                     temperature_c: 25.0,
                     voltage_v: 12.0,
                     load_percent: 0.0,
+                    current_a: None,
                     alarms: Alarms::default(),
                 })
             })
@@ -110,6 +116,25 @@ impl ServoBus for DrawnArm {
         servos
             .iter()
             .map(|&(id, _)| self.joint(id).map(|_| 0))
+            .collect()
+    }
+    /// Ideal servos as they leave the factory: each register its factory value (the push
+    /// guard reads the overload protection's settings from every servo).
+    fn read_setting(&mut self, ids: &[u8], setting: Setting) -> Result<Vec<i64>, BusError> {
+        ids.iter()
+            .map(|&id| {
+                let (_, model) = self.servos[self.joint(id)?];
+                let spec = model.spec();
+                let register = setting.register(spec.table);
+                let item = register.and_then(|r| spec.item(r.name));
+                match item.map(|i| i.default) {
+                    Some(crate::servo::item::Default::Value(value)) => Ok(value),
+                    _ => Err(BusError::MissingRegister {
+                        id,
+                        register: setting.name(),
+                    }),
+                }
+            })
             .collect()
     }
 }

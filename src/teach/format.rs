@@ -221,6 +221,19 @@ fn field_question(state: &TeachState, field: Field) -> (String, &'static str) {
             let now = key.map_or(0.0, |k| k.hold);
             (format!("hold of {label} in s, now {now} (0: none)"), "set")
         }
+        Field::Effort(j) => {
+            let joint = &state.robot().joints[j];
+            let now = key
+                .and_then(|k| k.effort.iter().find(|(n, _)| *n == joint.name))
+                .map_or("not set".to_string(), |(_, p)| format!("{p} %"));
+            (
+                format!(
+                    "{} effort of {label} in % of its torque, now {now} (empty: none)",
+                    joint.name
+                ),
+                "set",
+            )
+        }
         Field::Value(j) => {
             let joint = &state.robot().joints[j];
             let now = match key.and_then(|k| k.value(&joint.name)) {

@@ -165,6 +165,11 @@ pub const BINDINGS: &[Binding] = &[
         "hold the current key for some seconds (typed; 0 clears it)",
     ),
     bind(
+        "e",
+        "effort",
+        "the selected joint's effort in the current key, % of its torque (a grasp; empty clears)",
+    ),
+    bind(
         "p",
         "interp",
         "interpolation from the current key: step → linear → cubic → monotone",

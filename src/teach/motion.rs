@@ -7,7 +7,7 @@
 
 use super::format;
 use crate::json::InputError;
-use crate::plan::{self, CheckReport, Trajectory};
+use crate::plan::{self, CheckReport, TimelineOptions, Trajectory};
 use crate::player::PlayOptions;
 use crate::robot::Robot;
 use crate::sequence::{KeyValue, Keyframe, Sequence};
@@ -155,8 +155,11 @@ pub(crate) fn play(
         joints: (0..robot.joints.len()).collect(),
         trajectory,
         options: PlayOptions {
-            speed,
-            from_key: Some(from),
+            timeline: TimelineOptions {
+                speed,
+                from_key: Some(from),
+                ..TimelineOptions::default()
+            },
             progress: false,
             ..PlayOptions::new(rate)
         },
@@ -195,7 +198,10 @@ pub(crate) fn jog(
         joints,
         options: PlayOptions {
             progress: false,
-            shortest_approach: 0.0,
+            timeline: TimelineOptions {
+                shortest_approach: 0.0,
+                ..TimelineOptions::default()
+            },
             // A jog has no timing to keep: after a long stall it resumes along its ramp (the
             // limiter bounding every step) rather than stopping with a fault, which on a busy
             // machine would leave the arm short of where the key asked. Stalls too frequent to
@@ -231,7 +237,7 @@ mod tests {
         let robot = Robot::builtin("so101").unwrap();
         let plan = to_key(&robot, &pans(&[0.0, 20.0, 40.0]), 1).unwrap();
         assert_eq!(plan.kind, MotionKind::ToKey(1));
-        assert!(plan.options.approach && !plan.options.progress);
+        assert!(plan.options.timeline.approach && !plan.options.progress);
         assert_eq!(plan.trajectory.key_times.len(), 1);
         assert!(
             (plan.end_pose[0] - 20.0).abs() < 1e-9,
@@ -260,8 +266,8 @@ mod tests {
         let robot = Robot::builtin("so101").unwrap();
         let plan = play(&robot, &pans(&[0.0, 20.0]), 1, 1.5).unwrap();
         assert_eq!(plan.kind, MotionKind::Play { from: 1 });
-        assert_eq!(plan.options.from_key, Some(1));
-        assert_eq!(plan.options.speed, 1.5);
+        assert_eq!(plan.options.timeline.from_key, Some(1));
+        assert_eq!(plan.options.timeline.speed, 1.5);
         assert_eq!(plan.options.rate_hz, robot.control_hz);
         assert!((plan.end_pose[0] - 20.0).abs() < 1e-9);
     }
@@ -276,7 +282,7 @@ mod tests {
         let names: Vec<&str> = plan.robot.joints.iter().map(|j| j.name.as_str()).collect();
         assert_eq!(names, ["wrist_flex"]);
         assert_eq!(plan.end_pose, [0.0, 5.0, 0.0, 10.0, 0.0, 0.0]);
-        assert!(plan.options.approach && plan.options.shortest_approach == 0.0);
+        assert!(plan.options.timeline.approach && plan.options.timeline.shortest_approach == 0.0);
         // From 0 to 10°, the minimum-jerk ramp at half the wrist's limits: its time is the
         // larger of 15/8 · 10 / (v/2) and √(10/√3 · 10 / (a/2)).
         let wrist = &robot.joints[3].limits;
@@ -285,7 +291,7 @@ mod tests {
         let timeline = crate::plan::Timeline::new(
             &plan.robot,
             &plan.trajectory,
-            &plan.options.timeline(),
+            &plan.options.timeline,
             &[0.0],
         );
         assert!(

@@ -54,6 +54,8 @@ pub enum Field {
     Hold,
     /// The current key's value of joint `index`, in the unit the screen shows it in.
     Value(usize),
+    /// The current key's effort for joint `index`, percent of its stall torque (empty clears).
+    Effort(usize),
 }
 
 impl Prompt {

@@ -52,6 +52,16 @@ struct ObservedBus {
 
 impl ObservedBus {
     /// The session's joint index of each servo in `ids`.
+    /// Keeps the positions just read, for the session's screen.
+    fn observe(&self, ids: &[u8], ticks: impl Iterator<Item = i64>) {
+        let mut observed = lock(&self.shared);
+        for (joint, tick) in self.joints(ids).zip(ticks) {
+            if let Some(slot) = joint.and_then(|j| observed.ticks.get_mut(j)) {
+                *slot = tick;
+            }
+        }
+    }
+
     fn joints<'a>(&'a self, ids: &'a [u8]) -> impl Iterator<Item = Option<usize>> + 'a {
         ids.iter()
             .map(|id| self.ids.iter().position(|own| own == id))
@@ -67,13 +77,16 @@ impl ServoBus for ObservedBus {
     }
     fn read_positions(&mut self, ids: &[u8]) -> Result<Vec<i64>, BusError> {
         let ticks = self.inner.read_positions(ids)?;
-        let mut observed = lock(&self.shared);
-        for (joint, &tick) in self.joints(ids).zip(&ticks) {
-            if let Some(slot) = joint.and_then(|j| observed.ticks.get_mut(j)) {
-                *slot = tick;
-            }
-        }
+        self.observe(ids, ticks.iter().copied());
         Ok(ticks)
+    }
+    fn read_positions_loads(
+        &mut self,
+        ids: &[u8],
+    ) -> Result<Vec<crate::bus::PositionLoad>, BusError> {
+        let read = self.inner.read_positions_loads(ids)?;
+        self.observe(ids, read.iter().map(|r| r.position));
+        Ok(read)
     }
     fn write_goals(&mut self, goals: &[(u8, i64)]) -> Result<(), BusError> {
         self.inner.write_goals(goals)?;

@@ -311,6 +311,7 @@ impl TeachState {
             Key::Char('N') => self.ask_about_key(Field::Name),
             Key::Char('h') => self.ask_about_key(Field::Hold),
             Key::Char('v') => self.ask_about_key(Field::Value(self.selected)),
+            Key::Char('e') => self.ask_about_key(Field::Effort(self.selected)),
             Key::Char('p') => self.cycle_interp(),
             Key::Char('y') => self.play_or_stop(),
             // `=` is `+` without shift on most layouts.
@@ -411,6 +412,7 @@ impl TeachState {
             Field::Name => self.name_key(text),
             Field::Hold => self.hold_key(text),
             Field::Value(joint) => self.type_value(joint, text),
+            Field::Effort(joint) => self.effort_key(joint, text),
         }
     }
 
@@ -880,6 +882,7 @@ fn cancelled(field: Field) -> &'static str {
         Field::Name => "name unchanged",
         Field::Hold => "hold unchanged",
         Field::Value(_) => "value unchanged",
+        Field::Effort(_) => "effort unchanged",
     }
 }
 

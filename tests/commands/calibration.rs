@@ -652,3 +652,63 @@ fn read_gives_each_calibrated_joint_in_percent_of_its_recorded_range() {
     let pose: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(pose.get("percent").is_none(), "{pose}");
 }
+
+#[test]
+fn an_so101_calibration_given_to_a_koch_is_bad_input_naming_the_joint_and_nothing_moves() {
+    // The same motor names and ids 1–6: only the ranges tell the arms apart. The SO-101
+    // follower's file records shoulder_lift over ticks 835 … 3198, 207.7° (2363 × 360/4096);
+    // the Koch's shoulder_lift moves through −89.95 … 34.38°, 124.3°: 1.67× it.
+    let cal = repo("tests/data/lerobot_so101_follower.json");
+    let out = run(&[
+        "play",
+        &repo("sequences/koch_wave.json"),
+        "--port",
+        "virtual",
+        "--calibration",
+        &cal,
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+    let message = stderr(&out);
+    assert!(message.contains("$.shoulder_lift"), "{message}");
+    assert!(
+        message.contains("207.7 deg of travel, but koch's shoulder_lift moves through 124.3 deg"),
+        "{message}"
+    );
+    assert!(message.contains("made on another arm"), "{message}");
+    assert!(!message.contains("panicked"), "{message}");
+    assert!(out.stdout.is_empty(), "{}", show(&out));
+    // The same file on the SO-101 it was made on is accepted.
+    let mut so101 = Robot::builtin("so101").unwrap();
+    let text = std::fs::read_to_string(&cal).unwrap();
+    import_lerobot_calibration(&mut so101, &cal, &text).unwrap();
+}
+
+#[test]
+fn entries_no_servo_of_the_model_can_hold_are_refused() {
+    // The STS3215's Homing_Offset is 11 bits of magnitude and a sign: ±2047.
+    let offset = calibration(&SO101_JOINTS, &|_, id| id, &|_| WHOLE_TURN).replacen(
+        "\"homing_offset\": 0",
+        "\"homing_offset\": -3000",
+        1,
+    );
+    let message = import(&offset).unwrap_err();
+    assert!(
+        message.contains(
+            "homing_offset -3000 of shoulder_pan is outside what the sts3215's Homing_Offset holds (-2047 … 2047)"
+        ),
+        "{message}"
+    );
+    // A range over more than the 4096 ticks of one turn.
+    let wide = calibration(&SO101_JOINTS, &|_, id| id, &|name| {
+        if name == "elbow_flex" {
+            (-100, 4200)
+        } else {
+            WHOLE_TURN
+        }
+    });
+    let message = import(&wide).unwrap_err();
+    assert!(
+        message.contains("elbow_flex's range_min … range_max (-100 … 4200) spans 4300 ticks"),
+        "{message}"
+    );
+}

@@ -513,3 +513,96 @@ fn a_cell_base_in_millimetres_or_absurd_is_refused() {
     let out = keypose(&["check", path.to_str().unwrap()]);
     assert_ne!(out.status.code(), Some(2), "{}", show(&out));
 }
+
+#[test]
+fn physics_refuses_what_it_cannot_emulate_before_anything_starts() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("no-such-scene.xml");
+    let m = missing.to_str().unwrap();
+    bad_input(
+        &keypose(&["virtual-bus", "--robot", "so101", "--physics", "--scene", m]),
+        &format!("--scene {m}: no such file; expected \"table\" or an MJCF file of objects"),
+    );
+    bad_input(
+        &keypose(&["read", "--port", "virtual", "--physics", "--scene", m]),
+        "no such file",
+    );
+    bad_input(
+        &keypose(&["virtual-bus", "--robot", "so101", "--scene", "table"]),
+        "--physics",
+    );
+    // The SO-101 leader's 1/191 servo has no published drive data: no motor to emulate.
+    let mut robot: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(repo("robots/so101.json")).unwrap()).unwrap();
+    robot["joints"][1]["servo"]["variant"] = "c044".into();
+    let file = write(dir.path(), "leader.json", &robot.to_string());
+    let out = keypose(&[
+        "read",
+        "--port",
+        "virtual",
+        "--physics",
+        "--robot",
+        file.to_str().unwrap(),
+    ]);
+    bad_input(
+        &out,
+        "joint shoulder_lift: its servo (sts3215) has no drive data at its supply",
+    );
+}
+
+#[test]
+fn a_bad_effort_names_its_key_and_field_and_an_effort_past_the_overload_threshold_sends_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let sequence = |effort: &str| {
+        format!(
+            r#"{{"format":"keypose-sequence/1","robot":"so101","keyframes":[
+            {{"time":0,"joints":{{"gripper":40}}}},
+            {{"time":2,"joints":{{"gripper":0}},"effort":{effort}}}]}}"#
+        )
+    };
+    for (effort, expected) in [
+        (
+            r#"{"gripper":150}"#,
+            "$.keyframes[1].effort.gripper: expected a percent of the servo's stall torque, above 0 and at most 100",
+        ),
+        (r#"{"gripper":0}"#, "above 0 and at most 100"),
+        (r#"{"gripper":"30%"}"#, "$.keyframes[1].effort.gripper"),
+        (r#"[30]"#, "$.keyframes[1].effort"),
+        (
+            r#"{"grip":30}"#,
+            "$.keyframes[1].effort.grip: unknown joint \"grip\"; expected one of: shoulder_pan",
+        ),
+    ] {
+        let file = write(dir.path(), "effort.json", &sequence(effort));
+        bad_input(&keypose(&["check", file.to_str().unwrap()]), expected);
+    }
+    // The STS3215 counts 80 % as an overload from the factory: a grasp held at 85 % would
+    // trip it. Refused before anything is sent (the virtual servos' torque stays off).
+    let file = write(dir.path(), "hard.json", &sequence(r#"{"gripper":85}"#));
+    let out = keypose(&[
+        "play",
+        file.to_str().unwrap(),
+        "--port",
+        "virtual",
+        "--quiet",
+    ]);
+    bad_input(
+        &out,
+        "key #1: gripper effort 85 % is at or above its servo's overload threshold (80 %)",
+    );
+    // No export format carries an effort: refused, not written at full effort.
+    let file = write(dir.path(), "grasp.json", &sequence(r#"{"gripper":30}"#));
+    let out_file = dir.path().join("grasp.yaml");
+    let out = keypose(&[
+        "export",
+        "ros2",
+        file.to_str().unwrap(),
+        "-o",
+        out_file.to_str().unwrap(),
+    ]);
+    bad_input(
+        &out,
+        "key #1 limits gripper's effort, which no export format carries",
+    );
+    assert!(!out_file.exists());
+}

@@ -8,30 +8,49 @@ does), then a recorded range around the middle, written with `write_calibration(
 """
 
 import json
+import os
 import subprocess
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
-from conftest import keypose_command
+from conftest import REPO, keypose_command
 
 # The ranges of motion recorded by hand on a real SO-101 (tests/data/lerobot_so101_follower.json),
 # in ticks, each put around the middle the half-turn homing makes (2047).
 MIDDLE = 2047
 
 
+# What `virtual-bus --physics` says on its way out: the physics' processor time.
+PHYSICS_COST = "virtual-bus: the physics took "
+
+
+def simulation_cache() -> Path:
+    """keypose's Python environment with MuJoCo, the one the Rust suites build (scripts/test
+    runs them first; alone, keypose builds it on first use, which takes minutes)."""
+    target = Path(os.environ.get("CARGO_TARGET_DIR", REPO / "target"))
+    return target / "tmp" / "python_cache"
+
+
 @contextmanager
-def virtual_bus(robot: str):
-    """`keypose virtual-bus --robot ROBOT`: yields the pseudo-terminal's path, ends the bus
-    after (it serves until its standard input closes). Its standard error goes to a file, never
-    to a pipe nobody reads (a full pipe would stop the bus mid-write)."""
+def virtual_bus(robot: str, physics: bool = False):
+    """`keypose virtual-bus --robot ROBOT` (with `--physics`: the arm in MuJoCo behind the
+    servos): yields the pseudo-terminal's path, ends the bus after (it serves until its
+    standard input closes). Its standard error goes to a file, never to a pipe nobody reads (a
+    full pipe would stop the bus mid-write)."""
+    command = [str(keypose_command()), "virtual-bus", "--robot", robot]
+    env = dict(os.environ)
+    if physics:
+        command.append("--physics")
+        env["KEYPOSE_CACHE"] = str(simulation_cache())
     with tempfile.TemporaryFile(mode="w+") as errors:
         bus = subprocess.Popen(
-            [str(keypose_command()), "virtual-bus", "--robot", robot],
+            command,
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=errors,
             text=True,
+            env=env,
         )
         try:
             port = bus.stdout.readline().strip()
@@ -43,8 +62,11 @@ def virtual_bus(robot: str):
             bus.stdin.close()
             bus.wait(timeout=60)
             errors.seek(0)
-            said = errors.read()
-            assert not said.strip(), f"keypose virtual-bus said: {said}"
+            said = [line for line in errors.read().splitlines() if line.strip()]
+            if physics:
+                assert said and said[-1].startswith(PHYSICS_COST), f"keypose virtual-bus said: {said}"
+                said = said[:-1]
+            assert not said, f"keypose virtual-bus said: {said}"
 
 
 def disconnect(robot, tries: int = 3) -> None:

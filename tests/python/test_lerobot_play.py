@@ -210,10 +210,11 @@ def test_a_sequence_object_plays_too(so101):
 
 
 def test_a_sequence_of_another_arm_is_refused_naming_the_motor(so101, tmp_path):
-    # The Koch's joints have the SO-101's names and ids, but other servos behind them.
+    # The Koch's joints have the SO-101's names and ids, but other servos behind them; the
+    # SO-101's calibration is refused first, its shoulder_lift range 1.67× the Koch's travel.
     koch = write_sequence(tmp_path / "koch.json", "koch", [{"time": 0, "joints": {"elbow_flex": 10}}])
     sent = recording(so101)
-    with pytest.raises(keypose.InputError, match="motor shoulder_pan is an sts3215 on the LeRobot robot, an xl430-w250 in koch"):
+    with pytest.raises(keypose.InputError, match=r"shoulder_lift's recorded range .* but koch's shoulder_lift moves through 124.3 deg .* made on another arm"):
         keypose.lerobot.play(so101, koch)
     assert sent == []
 

@@ -163,3 +163,23 @@ def test_bad_config_values_are_input_errors_naming_the_field(tmp_path):
     assert teleop_config(tmp_path, sequence, use_degrees="True").use_degrees is True
     with pytest.raises(keypose.InputError, match="use_degrees: expected true or false"):
         teleop_config(tmp_path, sequence, use_degrees="maybe")
+
+
+def test_a_sequence_for_another_arm_than_the_follower_is_refused(tmp_path, monkeypatch):
+    register_third_party_plugins()
+    from keypose.teleop import KeyposeTeleop
+
+    koch = repo("sequences/koch_wave.json")
+    # The SO-101's and the Koch's motors share names: only the follower's type tells them apart.
+    with pytest.raises(keypose.InputError, match="a sequence for koch, but the follower is so101_follower"):
+        KeyposeTeleop(teleop_config(tmp_path, koch, robot_type="so101_follower"))
+    # lerobot-record's own --robot.type, when the teleoperator's config does not say; LeRobot's
+    # factory hands the refusal on inside its ValueError, which lerobot-record prints.
+    monkeypatch.setattr(sys, "argv", ["lerobot-record", "--robot.type=so101_follower", f"--teleop.sequence={koch}"])
+    with pytest.raises(ValueError, match="the follower is so101_follower"):
+        make_teleoperator_from_config(teleop_config(tmp_path, koch))
+    monkeypatch.setattr(sys, "argv", ["lerobot-record", "--robot.type", "koch_follower"])
+    assert make_teleoperator_from_config(teleop_config(tmp_path, koch)).action_features
+    # An unknown follower type is named with what keypose knows.
+    with pytest.raises(keypose.InputError, match="unknown robot"):
+        KeyposeTeleop(teleop_config(tmp_path, koch, robot_type="bi_koch_follower"))

@@ -430,7 +430,11 @@ fn a_playback_log_overlays_on_its_sequence_and_a_broken_log_is_refused() {
     let text = std::fs::read_to_string(&log).unwrap();
     let header = text.lines().next().unwrap();
     assert!(header.starts_with("time,phase,sequence_time,shoulder_pan_cmd"));
-    assert!(header.ends_with("gripper_meas,lateness_ms,stall_ms"));
+    assert!(header.contains("gripper_meas,lateness_ms,stall_ms,shoulder_pan_load_pct,"));
+    assert!(
+        header.ends_with(",wrist_roll_alarms,gripper_alarms"),
+        "{header}"
+    );
     // 0.5 s ramp + 6 s at 100 Hz, plus the final pose: at least 650 cycles.
     assert!(text.lines().count() > 650);
 
@@ -446,13 +450,14 @@ fn a_playback_log_overlays_on_its_sequence_and_a_broken_log_is_refused() {
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
-    // Position, velocity and the measured trace for each of the 6 joints.
+    // Position, velocity and the measured trace for each of the 6 joints; then each joint's
+    // telemetry row: load, need and temperature.
     assert_eq!(
         std::fs::read_to_string(&svg)
             .unwrap()
             .matches("<polyline")
             .count(),
-        18
+        18 + 18
     );
 
     let broken = dir.path().join("broken.csv");

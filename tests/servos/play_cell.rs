@@ -664,3 +664,67 @@ fn each_arm_is_checked_against_its_own_calibration() {
     assert!(left.bus().lock().goals_received().is_empty());
     assert!(right.bus().lock().goals_received().is_empty());
 }
+
+/// The cycles' instants of a playback log, seconds.
+fn cycle_times(log: &std::path::Path) -> Vec<f64> {
+    std::fs::read_to_string(log)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|line| line.split(',').next().unwrap().parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn a_stopped_server_on_one_bus_does_not_freeze_the_other_arms_goal_writes() {
+    // Two `keypose virtual-bus` servers, as a user runs them; 2.5 s in, mid-motion, the right
+    // one is stopped (SIGSTOP): it reads nothing more, so its pseudo-terminal fills and the
+    // right bus's writes stick as a deaf adapter's would. The left arm's goals must keep going
+    // out every period while it brakes: the log's cycles are its writes.
+    let left = crate::common::VirtualBusProcess::start(&["--robot", "so101"]);
+    let right = crate::common::VirtualBusProcess::start(&["--robot", "so101"]);
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("stopped.csv");
+    let child = keypose()
+        .args(["play", &repo(WAVE)])
+        .args(["--port", &format!("left={}", left.path)])
+        .args(["--port", &format!("right={}", right.path)])
+        .args(logged_quietly(&log))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(2500));
+    let signal = |name: &str| {
+        let pid = right.child.id().to_string();
+        let status = Command::new("kill").args([name, &pid]).status().unwrap();
+        assert!(status.success());
+    };
+    signal("-STOP");
+    let stopped_at = Instant::now();
+    let out = child.wait_with_output().unwrap();
+    signal("-CONT");
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(err.contains("right bus"), "{err}");
+    assert!(
+        err.contains("nothing more was sent to the right bus, and the other arms braked to rest"),
+        "{err}"
+    );
+    let times = cycle_times(&log);
+    let gaps: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
+    let largest = gaps.iter().copied().fold(0.0, f64::max);
+    println!(
+        "the left arm's largest write gap: {:.1} ms ({} cycles; the playback ended {:.2} s after the stop)",
+        largest * 1e3,
+        times.len(),
+        stopped_at.elapsed().as_secs_f64()
+    );
+    // The player's own default bound on a goal held (--max-stall is raised here so that a
+    // busy machine's stalls do not end the test): the stuck bus must not come near it.
+    assert!(
+        largest < keypose::player::DEFAULT_MAX_STALL,
+        "the left arm's goals stopped for {:.0} ms",
+        largest * 1e3
+    );
+}

@@ -404,11 +404,9 @@ fn loops_and_ping_pong_pass_through_every_key() {
         let (mut bus, virtual_bus) = VirtualBus::in_process(&robot);
         // The goals are the subject, not the pacing: on a virtual clock the six passes take
         // no wall time.
-        let options = PlayOptions {
-            loops: Loops::Count(3),
-            ping_pong,
-            ..PlayOptions::new(100.0)
-        };
+        let mut options = PlayOptions::new(100.0);
+        options.timeline.loops = Loops::Count(3);
+        options.timeline.ping_pong = ping_pong;
         play_on(&mut bus, &robot, &traj, &options, &VirtualClock::new()).unwrap();
         let elbow: Vec<f64> = goal_history(&robot, &virtual_bus)
             .iter()
@@ -491,11 +489,11 @@ fn from_a_key_ramps_to_that_key_and_release_at_end_lets_go_only_at_the_end() {
           {"name":"b","time":1,"joints":{"elbow_flex":10}},
           {"name":"c","time":2,"joints":{"elbow_flex":30}}]}"#,
     );
-    let options = PlayOptions {
-        from_key: Some(1),
+    let mut options = PlayOptions {
         release_at_end: true,
         ..patient(100.0)
     };
+    options.timeline.from_key = Some(1);
     play(&mut bus, &robot, &traj, &options, &StopSignal::default()).unwrap();
     let elbow: Vec<f64> = goal_history(&robot, &virtual_bus)
         .iter()

@@ -747,3 +747,31 @@ fn a_harness_that_dies_twice_is_not_started_a_third_time() {
         "{stderr}"
     );
 }
+
+#[test]
+fn read_reports_each_servos_health_from_the_simulated_arm() {
+    // The supplies as each build has them: the standard SO-101's 7.4 V servos on 5 V; the
+    // Koch's XL430 shoulder on 12 V, its XL330s from the elbow on at 5 V.
+    for (robot, volts) in [
+        ("so101", vec![5.0; 6]),
+        ("koch", vec![12.0, 12.0, 5.0, 5.0, 5.0, 5.0]),
+    ] {
+        let out = keypose(&["read", "--port", "virtual", "--physics", "--robot", robot]);
+        assert!(out.status.success(), "{}", text(&out));
+        let read: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let health = read["health"].as_object().expect("a health object");
+        let supplies: Vec<f64> = health
+            .values()
+            .map(|h| h["voltage_v"].as_f64().unwrap())
+            .collect();
+        assert_eq!(supplies, volts, "{robot}: {health:?}");
+        for (joint, h) in health {
+            assert_eq!(h["alarms"], serde_json::json!([]), "{robot} {joint}");
+            let t = h["temperature_c"].as_f64().unwrap();
+            assert!(
+                (25.0..=30.0).contains(&t),
+                "{robot} {joint}: {t} °C at rest"
+            );
+        }
+    }
+}

@@ -71,14 +71,15 @@ try {
   await wave.evaluate(() => {
     window.playTrace = [];
     window.studio.playback.seen = [];
-    const timer = setInterval(() => {
+    // Sampled until the page says the playback is over (below), not at the first idle
+    // snapshot: beside a busy CI one came at 0.22 s of a played sequence and ended the trace.
+    window.playTimer = setInterval(() => {
       const s = window.studio.snapshot, t = window.studio.timeline;
       const row = document.querySelector('#keys tr.playing');
       if (s.playhead) {
         window.playTrace.push({ time: s.playhead.time, key: s.playhead.key, phase: s.playhead.phase,
           drawn: window.studio.timelineView.playhead, marked: row ? Number(row.dataset.index) : null });
       }
-      if (s.activity.kind === 'idle' && window.playTrace.length) clearInterval(timer);
     }, 25);
   });
   await wave.evaluate(() => window.studio.press('y'));
@@ -86,7 +87,7 @@ try {
   await (await wave.$('#timeline')).scrollIntoViewIfNeeded();
   if (shots) await wave.screenshot({ path: `${shots}/studio-playhead.png` });
   await wave.waitFor(() => window.studio.snapshot.activity.kind === 'idle' && !window.studio.playback.playing);
-  results.playTrace = await wave.evaluate(() => window.playTrace);
+  results.playTrace = await wave.evaluate(() => { clearInterval(window.playTimer); return window.playTrace; });
   results.measuredError = await wave.evaluate(() => window.studio.playback.errors.measured &&
     { largest: window.studio.playback.errors.measured.largest, samples: window.studio.playback.errors.measured.times.length });
   results.playheadAfter = await wave.evaluate(() => window.studio.timelineView.playhead);

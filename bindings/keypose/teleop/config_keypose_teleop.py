@@ -22,13 +22,18 @@ class KeyposeTeleopConfig(TeleoperatorConfig):
     called at, the dataset's (``--dataset.fps``, 30 by default): each call is the next frame.
     ``robot_calibration`` (a file) or ``robot_id`` (the id LeRobot calibrated the follower
     with): the follower's calibration, for the gripper's 0…100 % and the −100…100 range.
-    ``use_degrees``: the follower's own setting (SO arms: True by default, Koch: False)."""
+    ``use_degrees``: the follower's own setting (SO arms: True by default, Koch: False).
+    ``robot_type``: the follower's type (``so101_follower``, ``koch_follower``, …): a sequence for
+    another arm is refused, as ``keypose.lerobot.play`` refuses it. When not given, the
+    ``--robot.type`` of the command line that runs the teleoperator (``lerobot-record``) is
+    taken, so that recording a Koch sequence on an SO-101 fails before anything moves."""
 
     sequence: Optional[Path] = None
     fps: int = 30
     robot_calibration: Optional[Path] = None
     robot_id: Optional[str] = None
     use_degrees: bool = True
+    robot_type: Optional[str] = None
 
     def __post_init__(self) -> None:
         """Bad values are ``keypose.InputError`` naming the field, before anything connects."""

@@ -13,8 +13,9 @@ recording starts (``keypose.lerobot.play`` with the sequence ramps it there from
 is, at the limits). LeRobot hands a teleoperator no measurement of the follower to ease in from.
 """
 
+import sys
 from pathlib import Path
-from typing import Any, Dict, Literal, Optional
+from typing import Any, Dict, List, Literal, Optional
 
 from lerobot.teleoperators.teleoperator import Teleoperator  # type: ignore[import-untyped]
 
@@ -36,6 +37,7 @@ class KeyposeTeleop(Teleoperator):
             raise keypose.InputError("--teleop.sequence: expected the keypose sequence file to play")
         # The names are known before connecting (lerobot-record reads the features first).
         self._sequence = self._load(config.sequence)
+        self._check_follower(config.robot_type or follower_type_in(sys.argv))
         self._names = [f"{joint.replace('/', '_')}.pos" for joint in self._sequence.joints]
         self._frames: Optional[Any] = None
         self._next = 0
@@ -46,6 +48,20 @@ class KeyposeTeleop(Teleoperator):
             calibration=self.config.robot_calibration,
             robot_id=self.config.robot_id,
         )
+
+    def _check_follower(self, robot_type: Optional[str]) -> None:
+        """Refuses a sequence for another arm than the follower of type `robot_type` (the SO-100
+        and SO-101, or an SO arm and a Koch, share motor names: the actions would fit)."""
+        if robot_type is None:
+            return
+        follower = keypose.Robot(robot_type).name
+        arm = self._sequence.robot.name
+        if arm != follower:
+            raise keypose.InputError(
+                f"{self._sequence.file}: a sequence for {arm}, but the follower is {robot_type} "
+                f"({follower}): its keys are another arm's joint values; teach or import one for "
+                f"{follower}"
+            )
 
     @property
     def action_features(self) -> Dict[str, type]:
@@ -101,3 +117,14 @@ class KeyposeTeleop(Teleoperator):
 
     def disconnect(self) -> None:
         self._frames = None
+
+
+def follower_type_in(argv: List[str]) -> Optional[str]:
+    """The ``--robot.type`` a LeRobot command line gives (``--robot.type=T`` or ``--robot.type
+    T``), if any."""
+    for i, arg in enumerate(argv):
+        if arg.startswith("--robot.type="):
+            return arg.split("=", 1)[1]
+        if arg == "--robot.type" and i + 1 < len(argv):
+            return argv[i + 1]
+    return None

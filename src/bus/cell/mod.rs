@@ -30,7 +30,9 @@ pub use offsets::WriteOffsets;
 use super::cutoff::ReadCutoff;
 use super::driver::DEFAULT_TIMEOUT;
 use super::virtual_bus::PtyServer;
-use super::{connect_with, BusError, BusOptions, Connection, Health, PingInfo, ServoBus};
+use super::{
+    connect_with, BusError, BusOptions, Connection, Health, PingInfo, PositionLoad, ServoBus,
+};
 use crate::robot::{Arm, Robot, ServoModel};
 use crate::servo::Setting;
 use gate::Gate;
@@ -392,6 +394,15 @@ impl ServoBus for CellBus {
         let values = self.each(&parts, true, |part| {
             let ids = part.ids.clone();
             move |bus: &mut dyn ServoBus| bus.read_positions(&ids)
+        })?;
+        Ok(Self::merge(&parts, values, ids.len()))
+    }
+
+    fn read_positions_loads(&mut self, ids: &[u8]) -> Result<Vec<PositionLoad>, BusError> {
+        let parts = self.split(ids.iter().copied())?;
+        let values = self.each(&parts, true, |part| {
+            let ids = part.ids.clone();
+            move |bus: &mut dyn ServoBus| bus.read_positions_loads(&ids)
         })?;
         Ok(Self::merge(&parts, values, ids.len()))
     }

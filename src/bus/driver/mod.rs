@@ -19,7 +19,7 @@ use super::protocol::packet::{Decoded, Direction, Packet, PacketError};
 use super::protocol::{codec, Codec, Instructions, Status};
 use super::transport::Transport;
 use super::DecodeAnswer;
-use super::{homing, Alarms, BusError, CorruptAnswer, Health, PingInfo, ServoBus};
+use super::{homing, Alarms, BusError, CorruptAnswer, Health, PingInfo, PositionLoad, ServoBus};
 use crate::robot::{Protocol, ServoModel};
 use crate::servo::{span, Register, RegisterTable, Setting};
 use std::collections::HashMap;
@@ -229,66 +229,11 @@ impl NativeBus {
         let mut asked: Option<Instant> = None;
         let mut deadline: Option<Instant> = None;
         let mut starved: Option<Duration> = None;
-        let mut corrupt: Option<PacketError> = None;
-        let mut stale: Option<usize> = None;
-        let mut late: Option<Duration> = None;
-        let mut own_copy: Option<Packet> = None;
+        let mut seen = Seen::default();
         let mut chunk = [0u8; 512];
         loop {
-            loop {
-                match self.echoes.strip(&mut self.rx) {
-                    Front::Undecided => break,
-                    Front::Echo(mut bytes) => {
-                        if copy_may_answer {
-                            if let Ok(Decoded::Packet(p)) = self
-                                .codec
-                                .framing()
-                                .decode(&mut bytes, Direction::FromServo)
-                            {
-                                own_copy = Some(p).filter(|p| p.id == id);
-                            }
-                        }
-                        continue;
-                    }
-                    Front::NotEcho => {}
-                }
-                match self
-                    .codec
-                    .framing()
-                    .decode(&mut self.rx, Direction::FromServo)
-                {
-                    Ok(Decoded::Packet(packet)) if packet.id == id => {
-                        let length = packet.params.len();
-                        let errorless = packet.error().unwrap_or(0) == 0;
-                        match self.in_flight.answered(id, length, self.received) {
-                            Answer::Earlier { late: by } => {
-                                late = late.max(Some(by));
-                                continue;
-                            }
-                            Answer::Unknown
-                                if errorless && data_bytes.is_some_and(|n| length != n) =>
-                            {
-                                stale = Some(length);
-                                continue;
-                            }
-                            Answer::Current | Answer::Unknown => {
-                                self.echoes.answered();
-                                return Ok(packet);
-                            }
-                        }
-                    }
-                    // Another servo's late answer: not ours, but it settles that servo's
-                    // requests up to the one it answers.
-                    Ok(Decoded::Packet(packet)) => {
-                        let length = packet.params.len();
-                        self.in_flight.answered(packet.id, length, self.received);
-                        continue;
-                    }
-                    Ok(Decoded::NeedMore) => break,
-                    // The echo of our own instruction on a looped-back line.
-                    Err(PacketError::Direction { .. }) => continue,
-                    Err(e) => corrupt = Some(e),
-                }
+            if let Some(packet) = self.decode_buffered(id, data_bytes, copy_may_answer, &mut seen) {
+                return Ok(packet);
             }
             let asked = *asked.get_or_insert_with(Instant::now);
             let until = *deadline.get_or_insert(asked + self.answer_timeout());
@@ -307,7 +252,7 @@ impl NativeBus {
                 continue;
             }
             // Anything else after the copy, even corrupt, shows the copy was an echo.
-            if let Some(packet) = own_copy.filter(|_| corrupt.is_none() && stale.is_none()) {
+            if let Some(packet) = seen.own_copy.take().filter(|_| seen.clean()) {
                 self.echoes.answered();
                 return Ok(packet);
             }
@@ -316,30 +261,74 @@ impl NativeBus {
                 true => asked.elapsed().min(self.answer_timeout()),
                 false => self.answer_timeout(),
             };
-            let timeout_ms = waited.as_millis() as u64;
-            return Err(match (corrupt, late, stale, data_bytes) {
-                (Some(e), _, _, _) => BusError::corrupt(id, e),
-                (None, Some(late), _, _) => BusError::Stale {
-                    id,
-                    timeout_ms,
-                    late_ms: late.as_millis() as u64,
-                },
-                (None, None, Some(found), Some(expected)) => {
-                    BusError::corrupt(id, CorruptAnswer::DataLength { expected, found })
+            let silence = Silence {
+                timeout_ms: waited.as_millis() as u64,
+                starved,
+                cut,
+            };
+            return Err(seen.into_error(id, data_bytes, silence));
+        }
+    }
+
+    /// Decodes what the port has delivered until the answer of servo `id` is found (returned),
+    /// or nothing complete is left; what is not the answer is noted in `seen` (echoes, other
+    /// servos' late answers, stale or corrupt packets).
+    fn decode_buffered(
+        &mut self,
+        id: u8,
+        data_bytes: Option<usize>,
+        copy_may_answer: bool,
+        seen: &mut Seen,
+    ) -> Option<Packet> {
+        loop {
+            match self.echoes.strip(&mut self.rx) {
+                Front::Undecided => return None,
+                Front::Echo(mut bytes) => {
+                    if copy_may_answer {
+                        if let Ok(Decoded::Packet(p)) = self
+                            .codec
+                            .framing()
+                            .decode(&mut bytes, Direction::FromServo)
+                        {
+                            seen.own_copy = Some(p).filter(|p| p.id == id);
+                        }
+                    }
+                    continue;
                 }
-                _ => match starved {
-                    Some(asleep) => BusError::Starved {
-                        id,
-                        timeout_ms,
-                        starved_ms: asleep.as_millis() as u64,
-                    },
-                    None if cut => BusError::CutShort {
-                        id,
-                        waited_ms: timeout_ms,
-                    },
-                    None => BusError::Timeout { id, timeout_ms },
-                },
-            });
+                Front::NotEcho => {}
+            }
+            match self
+                .codec
+                .framing()
+                .decode(&mut self.rx, Direction::FromServo)
+            {
+                Ok(Decoded::Packet(packet)) if packet.id == id => {
+                    let length = packet.params.len();
+                    let errorless = packet.error().unwrap_or(0) == 0;
+                    match self.in_flight.answered(id, length, self.received) {
+                        Answer::Earlier { late: by } => {
+                            seen.late = seen.late.max(Some(by));
+                        }
+                        Answer::Unknown if errorless && data_bytes.is_some_and(|n| length != n) => {
+                            seen.stale = Some(length);
+                        }
+                        Answer::Current | Answer::Unknown => {
+                            self.echoes.answered();
+                            return Some(packet);
+                        }
+                    }
+                }
+                // Another servo's late answer: not ours, but it settles that servo's
+                // requests up to the one it answers.
+                Ok(Decoded::Packet(packet)) => {
+                    let length = packet.params.len();
+                    self.in_flight.answered(packet.id, length, self.received);
+                }
+                Ok(Decoded::NeedMore) => return None,
+                // The echo of our own instruction on a looped-back line.
+                Err(PacketError::Direction { .. }) => {}
+                Err(e) => seen.corrupt = Some(e),
+            }
         }
     }
 
@@ -782,6 +771,35 @@ impl ServoBus for NativeBus {
         self.read_values(ids, |t| Ok(t.present_position))
     }
 
+    /// One block from the first of the two registers to the end of the other: 6 bytes a servo
+    /// on the STS3215 (56…61), 10 on the X series (126…135).
+    fn read_positions_loads(&mut self, ids: &[u8]) -> Result<Vec<PositionLoad>, BusError> {
+        let (position, _) = self
+            .servos
+            .common_register(ids, |t| Ok(t.present_position))?;
+        let (load, _) = self.servos.common_register(ids, |t| Ok(t.present_load))?;
+        let Some((start, length)) = span(&[position, load]) else {
+            return Err(BusError::NoServos);
+        };
+        let blocks = self.read_block(ids, start, length)?;
+        ids.iter()
+            .zip(&blocks)
+            .map(|(&id, block)| {
+                // Each model its own load unit: a Koch's XL430 reads load, its XL330s current.
+                let table = self.table(id)?;
+                let decode = |register: Register| {
+                    register
+                        .decode_in_block(block, start, table.byte_order)
+                        .map_err(|e| BusError::corrupt(id, e))
+                };
+                Ok(PositionLoad {
+                    position: decode(position)?,
+                    load_percent: Some(table.load_percent(decode(load)?)),
+                })
+            })
+            .collect()
+    }
+
     fn set_read_cutoff(&mut self, cutoff: Arc<ReadCutoff>) {
         self.read_cutoff = Some(cutoff);
     }
@@ -859,7 +877,7 @@ impl ServoBus for NativeBus {
                     .partition(|r| r.address == table.hardware_error.address);
                 vec![rest, alarm]
             }
-            _ => vec![registers.to_vec()],
+            _ => vec![registers.clone()],
         };
         let mut values: Vec<HashMap<&'static str, i64>> = vec![HashMap::new(); ids.len()];
         for group in &groups {
@@ -876,20 +894,90 @@ impl ServoBus for NativeBus {
                 }
             }
         }
-        Ok(ids
-            .iter()
+        ids.iter()
             .zip(values)
             .map(|(&id, v)| {
+                // Same addresses, but each model its own units (a Koch's XL430 reads load,
+                // its XL330s current).
+                let table = self.table(id)?;
                 let get = |r: Register| v.get(r.name).copied().unwrap_or(0);
-                Health {
+                Ok(Health {
                     id,
                     temperature_c: table.temperature_c(get(table.present_temperature)),
                     voltage_v: table.voltage_v(get(table.present_voltage)),
                     load_percent: table.load_percent(get(table.present_load)),
+                    current_a: table.current_a(
+                        get(table.present_load),
+                        table.present_current.map(|(register, _)| get(register)),
+                    ),
                     alarms: table.alarms(get(table.hardware_error) as u8),
-                }
+                })
             })
-            .collect())
+            .collect()
+    }
+}
+
+/// What a wait for one servo's answer met that was not the answer.
+#[derive(Default)]
+struct Seen {
+    /// A packet that did not decode.
+    corrupt: Option<PacketError>,
+    /// The data length of an errorless answer of the wrong length (an earlier request's).
+    stale: Option<usize>,
+    /// How late the latest answer to an earlier request came.
+    late: Option<Duration>,
+    /// The servo's answer as the echo of our own line (a looped-back adapter), taken as the
+    /// answer only if nothing else came.
+    own_copy: Option<Packet>,
+}
+
+/// How a wait ended without the answer.
+struct Silence {
+    /// How long it waited, ms.
+    timeout_ms: u64,
+    /// How long the thread overslept its first deadline, when it did.
+    starved: Option<Duration>,
+    /// Whether the read cutoff ended it.
+    cut: bool,
+}
+
+impl Seen {
+    /// Nothing corrupt or stale came.
+    fn clean(&self) -> bool {
+        self.corrupt.is_none() && self.stale.is_none()
+    }
+
+    /// The error of a wait for servo `id` that ended in `silence`: what came instead, else
+    /// the silence itself.
+    fn into_error(self, id: u8, data_bytes: Option<usize>, silence: Silence) -> BusError {
+        let Silence {
+            timeout_ms,
+            starved,
+            cut,
+        } = silence;
+        match (self.corrupt, self.late, self.stale, data_bytes) {
+            (Some(e), _, _, _) => BusError::corrupt(id, e),
+            (None, Some(late), _, _) => BusError::Stale {
+                id,
+                timeout_ms,
+                late_ms: late.as_millis() as u64,
+            },
+            (None, None, Some(found), Some(expected)) => {
+                BusError::corrupt(id, CorruptAnswer::DataLength { expected, found })
+            }
+            _ => match starved {
+                Some(asleep) => BusError::Starved {
+                    id,
+                    timeout_ms,
+                    starved_ms: asleep.as_millis() as u64,
+                },
+                None if cut => BusError::CutShort {
+                    id,
+                    waited_ms: timeout_ms,
+                },
+                None => BusError::Timeout { id, timeout_ms },
+            },
+        }
     }
 }
 

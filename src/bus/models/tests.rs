@@ -106,13 +106,12 @@ fn control_table_addresses() {
         assert_eq!(at(t.present_position), (132, 4));
         assert_eq!(at(t.present_voltage), (144, 2));
         assert_eq!(at(t.present_temperature), (146, 1));
-        assert_eq!(t.homing_offset_sign, 1);
     }
     let sts = table(ServoModel::Sts3215);
     assert_eq!(sts.goal_position.address, 42);
     assert_eq!(sts.present_position.address, 56);
-    assert_eq!(sts.homing_offset_sign, -1);
-    assert_eq!(span(&sts.health_registers()), Some((60, 6)));
+    // Load at 60 to Present_Current at 69…70 (STS3215 memory table).
+    assert_eq!(span(&sts.health_registers()), Some((60, 11)));
     assert_eq!(
         span(&table(ServoModel::Xm430W350).health_registers()),
         Some((70, 77))
@@ -205,8 +204,9 @@ fn alarms_dispatch_by_vendor() {
 #[test]
 fn block_decoding() {
     let t = table(ServoModel::Sts3215);
-    // Load −50 %, 7.4 V, 35 °C, 0, status overheat: read from 60.
-    let block = [0xF4, 0x05, 74, 35, 0, 0b100];
+    // Load −50 %, 7.4 V, 35 °C, 0, status overheat, 3 more, current 100 × 6.5 mA: read
+    // from 60.
+    let block = [0xF4, 0x05, 74, 35, 0, 0b100, 0, 0, 0, 100, 0];
     let (start, len) = span(&t.health_registers()).unwrap();
     assert_eq!(usize::from(len), block.len());
     let get = |r: Register| r.decode_in_block(&block, start, t.byte_order).unwrap();
@@ -214,6 +214,8 @@ fn block_decoding() {
     assert_eq!(get(t.present_voltage), 74);
     assert_eq!(get(t.present_temperature), 35);
     assert!(t.alarms(get(t.hardware_error) as u8).overheating);
+    let current = t.present_current.map(|(r, _)| get(r));
+    assert_eq!(t.current_a(get(t.present_load), current), Some(0.65));
     assert!(matches!(
         t.present_position
             .decode_in_block(&block, start, t.byte_order),

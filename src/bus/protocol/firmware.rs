@@ -7,7 +7,8 @@
 //! servo catalogue. The emulated servo (`virtual_bus::servo`) asks only this trait, never
 //! which vendor it is.
 
-use crate::servo::{ModelSpec, Register};
+use super::motor::{LoadSample, MotorLimits, ProtectionWatch, Trip};
+use crate::servo::{Drive, ModelSpec, Register};
 use std::fmt;
 
 /// One servo's control table as its firmware sees it: the model's description and the values
@@ -96,6 +97,48 @@ pub trait Firmware: Sync + fmt::Debug {
     fn profile(&self, servo: &dyn ControlTable, distance: f64) -> Profile;
     /// What a write of the operating mode does besides setting it.
     fn mode_changed(&self, servo: &mut dyn ControlTable);
+    /// What the registers let the motor do now; `drive` is the servo's rating at its supply,
+    /// `watch` the protection's state.
+    fn motor(
+        &self,
+        servo: &dyn ControlTable,
+        drive: &Drive,
+        watch: &ProtectionWatch,
+    ) -> MotorLimits;
+    /// The protection's verdict after `dt` seconds of carrying `load`, its clocks in `watch`.
+    fn protect(
+        &self,
+        servo: &dyn ControlTable,
+        watch: &mut ProtectionWatch,
+        load: &LoadSample,
+        dt: f64,
+    ) -> Trip;
+}
+
+/// Whether any of `alarms` has its bit set in the register `name` (Feetech's
+/// Unloading_Condition, Dynamixel's Shutdown: the same layout as the alarm byte).
+pub fn masked_by(servo: &dyn ControlTable, alarms: &crate::bus::Alarms, name: &str) -> bool {
+    let bits = servo.spec().table.alarm_bits.encode(alarms);
+    i64::from(bits) & servo.value(name) != 0
+}
+
+/// The position loop's stiffness as a share of the rating's: the gain register's value over
+/// the gain the rating is for, or over the register's factory value where the rating names no
+/// gain (ROBOTIS publishes no stiffness: keypose's is for the factory gain).
+pub fn gain_share(servo: &dyn ControlTable, drive: &Drive) -> f64 {
+    let (name, rated) = drive.gain;
+    let Some(item) = servo.spec().item(name) else {
+        return 1.0;
+    };
+    let reference = if rated > 0.0 {
+        rated
+    } else {
+        match item.default {
+            crate::servo::item::Default::Value(v) if v > 0 => v as f64,
+            _ => return 1.0,
+        }
+    };
+    servo.load(item.register) as f64 / reference
 }
 
 /// Bounds on a move, ticks per second and per second²; `None` is no bound beyond the motor's.

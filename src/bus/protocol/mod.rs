@@ -16,6 +16,7 @@ pub mod feetech;
 pub mod ff_framing;
 mod fields;
 pub mod firmware;
+pub mod motor;
 pub mod packet;
 
 pub use fields::Fields;

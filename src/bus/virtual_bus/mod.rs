@@ -12,6 +12,7 @@
 
 mod hand;
 pub mod motion;
+mod physics;
 mod pty;
 mod servo;
 #[cfg(test)]
@@ -19,6 +20,7 @@ mod servo_tests;
 pub mod wire;
 
 pub use hand::Hand;
+pub use physics::{ratings, MotorCommand, PhysicalArmError, Physics, PhysicsError, Shaft};
 pub use pty::PtyServer;
 pub use servo::VirtualServo;
 pub use wire::WireTiming;
@@ -76,6 +78,8 @@ pub struct VirtualServos {
     /// False once the port "disappears".
     pub connected: bool,
     rx: Vec<u8>,
+    /// The arm's physics, for servos that carry it (`with_physics`).
+    physics: Option<physics::PhysicsLink>,
 }
 
 impl VirtualServos {
@@ -90,6 +94,60 @@ impl VirtualServos {
             .map(|(joint, &home)| servo_for_joint(joint, home))
             .collect();
         VirtualServos::new(robot.bus.protocol, servos)
+    }
+
+    /// The servos of `robot` as [`VirtualServos::for_robot`] makes them, their shafts the
+    /// arm's in `physics` from now on: its joints at the robot's home pose, at rest.
+    pub fn with_physics(
+        robot: &Robot,
+        physics: Box<dyn Physics>,
+    ) -> Result<VirtualServos, PhysicalArmError> {
+        let mut servos = VirtualServos::for_robot(robot);
+        let link = physics::PhysicsLink::new(robot, &servos.servos, physics)?;
+        for servo in &mut servos.servos {
+            servo.motion.external = true;
+        }
+        servos.physics = Some(link);
+        // The shafts as the physics has them (an arm that settled first lies elsewhere than
+        // at home), before any instruction can act on them.
+        servos.advance_physics_to(0.0);
+        Ok(servos)
+    }
+
+    /// Brings the arm's physics up to now (nothing for servos without). Physics that fails
+    /// takes the bus with it: the port "disappears", as a real one whose arm lost power.
+    pub fn advance_physics(&mut self) {
+        self.advance_physics_to(f64::INFINITY);
+    }
+
+    /// Brings the arm's physics up to `until` seconds after it started (at most to now): what
+    /// a test that samples the arm at chosen moments calls, so that when its thread runs late
+    /// the sample is still of that moment.
+    pub fn advance_physics_to(&mut self, until: f64) {
+        let Some(link) = &mut self.physics else {
+            return;
+        };
+        if let Err(e) = link.advance_to(&mut self.servos, until) {
+            eprintln!("virtual bus: {e}; the bus is gone");
+            self.physics = None;
+            self.connected = false;
+        }
+    }
+
+    /// Whether the servos carry an arm's physics.
+    pub fn has_physics(&self) -> bool {
+        self.physics.is_some()
+    }
+
+    /// Seconds since the physics started that it has reached, for servos that carry it.
+    pub fn physics_time(&self) -> Option<f64> {
+        self.physics.as_ref().map(physics::PhysicsLink::time)
+    }
+
+    /// Seconds of processor time the physics took per simulated second, for servos that
+    /// carry it.
+    pub fn physics_cost(&self) -> Option<f64> {
+        self.physics.as_ref().map(physics::PhysicsLink::cost)
     }
 
     /// How long servo `id` waits before it answers (its Return_Delay_Time register; nothing on
@@ -113,6 +171,7 @@ impl VirtualServos {
             corrupt_packets: 0,
             connected: true,
             rx: Vec::new(),
+            physics: None,
         }
     }
 
@@ -137,6 +196,7 @@ impl VirtualServos {
     /// Present positions (ticks, after the homing offsets), as the servos would report them
     /// now.
     pub fn positions(&mut self) -> HashMap<u8, f64> {
+        self.advance_physics();
         self.servos
             .iter_mut()
             .map(|s| (s.id, s.present_position()))
@@ -261,6 +321,7 @@ impl VirtualServos {
     /// Like [`VirtualServos::handle`], instruction by instruction, with the bytes each took on
     /// the line and each answering servo's return delay: what `wire::Wire` times.
     pub fn exchanges(&mut self, bytes: &[u8]) -> Vec<wire::Exchange> {
+        self.advance_physics();
         self.rx.extend_from_slice(bytes);
         let mut exchanges = Vec::new();
         // Bytes still buffered from before belong to the packet they complete.
@@ -305,8 +366,7 @@ impl VirtualServos {
             c if Some(c) == fast_sync_read => self.fast_sync_read(&packet.params),
             c if Some(c) == instructions.reboot => {
                 if let Some(servo) = self.servo_mut(packet.id) {
-                    servo.fault = None;
-                    servo.motion.set_torque(false);
+                    servo.reboot();
                 }
                 self.status(packet.id, None, &[])
             }
@@ -523,6 +583,9 @@ impl Responder for VirtualServos {
     }
 }
 
+/// How often the physics of servos nobody talks to is brought up to now.
+pub const PHYSICS_CLOCK: Duration = Duration::from_millis(10);
+
 /// Shared access to a running virtual bus (from a test, or the server thread).
 #[derive(Clone)]
 pub struct VirtualBus(Arc<Mutex<VirtualServos>>);
@@ -538,6 +601,26 @@ impl VirtualBus {
         // A panic while holding the lock leaves consistent data here (plain values), so a
         // poisoned lock is still usable.
         self.0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Keeps the servos' physics up to now between instructions, every 10 ms, for
+    /// as long as anyone else holds the bus: a limp arm falls while nobody reads it, and an
+    /// instruction after a quiet minute does not wait for a minute of physics.
+    pub fn keep_physics_running(&self) {
+        let weak = Arc::downgrade(&self.0);
+        std::thread::spawn(move || {
+            while let Some(shared) = weak.upgrade() {
+                {
+                    let mut servos = shared.lock().unwrap_or_else(|e| e.into_inner());
+                    if !servos.has_physics() {
+                        return;
+                    }
+                    servos.advance_physics();
+                }
+                drop(shared);
+                std::thread::sleep(PHYSICS_CLOCK);
+            }
+        });
     }
 
     /// Emulated servos for `robot` and the native driver talking to them through an in-memory

@@ -27,6 +27,9 @@ pub struct Motion {
     /// Ticks per second.
     max_speed: f64,
     last_update: Instant,
+    /// The shaft is moved from outside (an arm's physics, `super::physics`): the goal, the
+    /// profile and the torque are the firmware's, the position and velocity the physics'.
+    pub external: bool,
 }
 
 impl Motion {
@@ -39,6 +42,7 @@ impl Motion {
             profile: Profile::default(),
             max_speed: model.spec().no_load_speed_ticks_s(),
             last_update: Instant::now(),
+            external: false,
         }
     }
 
@@ -52,6 +56,9 @@ impl Motion {
 
     /// Advances the motion by `dt` seconds, in steps of at most [`MAX_STEP`].
     pub fn step(&mut self, dt: f64) {
+        if self.external {
+            return;
+        }
         if !self.torque {
             self.velocity = 0.0;
             return;
@@ -94,7 +101,7 @@ impl Motion {
     /// Moves the output shaft by hand: it stays there while torque is off.
     pub fn push_to(&mut self, position: f64) {
         self.update();
-        if !self.torque {
+        if !self.torque && !self.external {
             self.position = position;
         }
     }

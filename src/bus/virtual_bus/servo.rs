@@ -14,6 +14,7 @@
 use super::motion::Motion;
 use super::{ServoFault, MEMORY_SIZE, ROOM_TEMPERATURE_C, SUPPLY_DECIVOLTS};
 use crate::bus::protocol::firmware::ControlTable;
+use crate::bus::protocol::motor::{LoadSample, ProtectionWatch, Trip};
 use crate::bus::protocol::{codec, Firmware, Refusal};
 use crate::bus::Alarms;
 use crate::servo::item::{Access, Default, Item};
@@ -34,6 +35,13 @@ pub struct VirtualServo {
     pub fault: Option<ServoFault>,
     /// Writes of 0 to the torque-enable register so far: someone asked the servo to go limp.
     pub releases: u32,
+    /// The protection's clocks (a servo that carries an arm's physics).
+    pub(super) watch: ProtectionWatch,
+    /// The alarms its own protection raised: until a reboot where the model shuts down on an
+    /// alarm, until the torque is enabled again elsewhere.
+    pub tripped: Alarms,
+    /// Where a hand pulls the shaft (actual ticks), for servos that carry an arm's physics.
+    pub(super) hand: Option<f64>,
 }
 
 impl VirtualServo {
@@ -46,6 +54,9 @@ impl VirtualServo {
             memory: vec![0; MEMORY_SIZE],
             fault: None,
             releases: 0,
+            watch: ProtectionWatch::default(),
+            tripped: Alarms::default(),
+            hand: None,
         };
         for item in model.spec().all_items() {
             if let Default::Value(value) = item.default {
@@ -69,7 +80,7 @@ impl VirtualServo {
     }
 
     /// The rules of the firmware the model runs: its protocol's.
-    fn firmware(&self) -> &'static dyn Firmware {
+    pub(super) fn firmware(&self) -> &'static dyn Firmware {
         codec(self.spec().protocol).firmware()
     }
 
@@ -102,7 +113,12 @@ impl VirtualServo {
     /// while torque is off).
     pub fn push_to(&mut self, present: f64) {
         let actual = self.actual_of(present);
-        self.motion.push_to(actual);
+        if self.motion.external {
+            // The arm's physics: the hand pulls the shaft there instead of setting it.
+            self.hand = Some(actual);
+        } else {
+            self.motion.push_to(actual);
+        }
     }
 
     /// Present Position now, continuous.
@@ -159,10 +175,45 @@ impl VirtualServo {
             .unwrap_or(0)
     }
 
+    /// The alarms raised: injected, and its own protection's.
     pub(super) fn alarms(&self) -> Alarms {
-        match self.fault {
+        let injected = match self.fault {
             Some(ServoFault::Alarm(alarms)) => alarms,
             _ => Alarms::default(),
+        };
+        injected.or(&self.tripped)
+    }
+
+    /// Runs the firmware's protection on what the motor carried over `dt` seconds.
+    pub(super) fn protect(&mut self, load: &LoadSample, dt: f64) {
+        let mut watch = self.watch;
+        let trip: Trip = self.firmware().protect(self, &mut watch, load, dt);
+        self.watch = watch;
+        if trip.any() {
+            self.tripped = self.tripped.or(&trip.alarms);
+            if trip.torque_off {
+                self.motion.set_torque(false);
+            }
+        }
+    }
+
+    /// A reboot: the protection's alarms cleared, the torque off.
+    pub(super) fn reboot(&mut self) {
+        self.fault = None;
+        self.tripped = Alarms::default();
+        self.watch = ProtectionWatch::default();
+        self.motion.set_torque(false);
+        self.refresh();
+    }
+
+    /// Sets the present-current register of a model that has one beside its load register
+    /// (the STS3215's), from `amps`.
+    pub(super) fn report_current(&mut self, amps: f64) {
+        if let Some((register, milliamps_per_unit)) = self.table().present_current {
+            self.store(
+                register,
+                (amps * 1000.0 / milliamps_per_unit).round() as i64,
+            );
         }
     }
 
@@ -175,7 +226,7 @@ impl VirtualServo {
     }
 
     /// Brings the present-value registers up to date with the motion.
-    fn refresh(&mut self) {
+    pub(super) fn refresh(&mut self) {
         self.motion.update();
         let table = self.table();
         let present = self.present_of(self.motion.position).round() as i64;
@@ -287,9 +338,16 @@ impl VirtualServo {
         if !on {
             self.releases += 1;
         }
-        // A servo in shutdown keeps torque off until rebooted.
+        // A servo in shutdown keeps torque off until rebooted; elsewhere torque back on
+        // re-arms the protection.
         let shut_down = table.shuts_down_on_alarm && self.alarms().any();
+        if on && !shut_down {
+            self.tripped = Alarms::default();
+            self.watch = ProtectionWatch::default();
+        }
         self.motion.set_torque(on && !shut_down);
+        // The register reads back what the servo did: 0 in shutdown.
+        self.store(table.torque_enable, i64::from(self.motion.torque));
     }
 
     /// The model's recalibrate value (Feetech Torque_Enable 128): the present position becomes

@@ -41,15 +41,10 @@ impl BodyUnits {
 /// configures `use_degrees` per arm.
 pub type UnitsPerArm = Vec<(String, BodyUnits)>;
 
-/// LeRobot's gripper motor, in 0 … 100 % of its calibrated range on every SO and Koch arm.
-pub const GRIPPER: &str = "gripper";
 /// Largest |value| of `RANGE_M100_100`: beyond it a body joint's values must be degrees.
 const RANGE_BOUND: f64 = 100.0;
 
-/// Whether `joint` is an arm's gripper (`gripper`, or `ARM/gripper` on a cell).
-pub fn is_gripper(joint: &Joint) -> bool {
-    split_joint_name(&joint.name).map_or(joint.name.as_str(), |(_, j)| j) == GRIPPER
-}
+pub use crate::robot::is_lerobot_gripper as is_gripper;
 
 /// The units of the body joints of one arm (`arm`, empty for a robot of one arm): those asked
 /// for, or what the values show. Returns the units and, when they could not be told apart, a

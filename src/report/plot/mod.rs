@@ -37,6 +37,24 @@ pub struct PlotJoint {
     pub measured: Option<Vec<(f64, f64)>>,
 }
 
+/// One joint's servo telemetry from a playback log, against sequence time: a row of its own
+/// under the joints' rows.
+#[derive(Debug, Clone, Default)]
+pub struct TelemetryRow {
+    /// The joint's name.
+    pub name: String,
+    /// Its load, percent of full output, in the joint's direction.
+    pub load: Vec<(f64, f64)>,
+    /// What the push guard judged the motion needed, percent.
+    pub need: Vec<(f64, f64)>,
+    /// Its temperature, °C.
+    pub temperature: Vec<(f64, f64)>,
+    /// The temperature at which its heat protection trips, °C.
+    pub temperature_limit: Option<f64>,
+    /// The push guard's line, percent: the servo's continuous rating (`None`: not rated).
+    pub push_line: Option<f64>,
+}
+
 /// Everything one SVG plot shows: commanded curves of every joint, keys, and measured traces.
 #[derive(Debug, Clone, Default)]
 pub struct PlotData {
@@ -49,6 +67,8 @@ pub struct PlotData {
     /// Keyframe times with their labels (key name or "#index"), drawn as thin vertical guide lines
     /// across every panel, labelled once at the top.
     pub key_marks: Vec<(f64, String)>,
+    /// Servo telemetry rows (from a playback log), drawn after the joints' rows.
+    pub telemetry: Vec<TelemetryRow>,
 }
 
 /// Writing into a `String` cannot fail, so the `fmt::Result` is deliberately dropped.
@@ -65,6 +85,7 @@ mod layout;
 mod panel;
 mod style;
 mod svg;
+mod telemetry_row;
 mod text;
 
 use axis::Extent;
@@ -74,20 +95,21 @@ use svg::{Esc, Px};
 
 /// Render the trajectory as a standalone SVG document.
 pub fn render_svg(data: &PlotData) -> String {
-    let n = data.joints.len();
+    let joints = data.joints.len();
+    let n = joints + data.telemetry.len();
     let height = if n == 0 {
         HEADER_H + 40.0
     } else {
         HEADER_H + n as f64 * ROW_H + BOTTOM_PAD
     };
     let time_axis = time_range(data);
-    let mut out = String::with_capacity(16 * 1024 + n * 32 * data.times.len().max(1));
+    let mut out = String::with_capacity(16 * 1024 + joints * 32 * data.times.len().max(1));
     open_document(&mut out, data, height);
     draw_clip_paths(&mut out, n, time_axis);
     draw_background_and_title(&mut out, data, height);
     let any_measured = data.joints.iter().any(|j| j.measured.is_some());
     header::draw_legend(&mut out, any_measured);
-    if n == 0 {
+    if joints == 0 {
         w!(
             out,
             r#"<text x="{}" y="{}" fill="{SUBTLE_TEXT}">no joints to plot</text>"#,
@@ -101,6 +123,11 @@ pub fn render_svg(data: &PlotData) -> String {
     header::draw_key_mark_labels(&mut out, data, time_axis);
     for (row, joint) in data.joints.iter().enumerate() {
         joint_row::draw_joint_row(&mut out, data, joint, row, time_axis, row + 1 == n);
+    }
+    for (i, telemetry) in data.telemetry.iter().enumerate() {
+        let row = joints + i;
+        let last = row + 1 == n;
+        telemetry_row::draw_telemetry_row(&mut out, data, telemetry, row, time_axis, last);
     }
     out.push_str("</svg>\n");
     out

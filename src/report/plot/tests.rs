@@ -136,6 +136,7 @@ fn sample() -> PlotData {
             (1.0, "#1".into()),
             (2.5, "end".into()),
         ],
+        telemetry: Vec::new(),
     }
 }
 
@@ -224,6 +225,7 @@ fn value_above_max_lands_in_shaded_zone() {
             measured: None,
         }],
         key_marks: vec![],
+        telemetry: Vec::new(),
     };
     let svg = render_svg(&data);
     assert_clean(&svg);
@@ -277,6 +279,7 @@ fn velocity_band_is_symmetric() {
             ..Default::default()
         }],
         key_marks: vec![],
+        telemetry: Vec::new(),
     };
     let svg = render_svg(&data);
     assert_clean(&svg);
@@ -371,6 +374,7 @@ fn edge_cases_do_not_panic_and_stay_well_formed() {
             times: vec![0.0, 1.0, nan, inf, 2.0],
             joints: vec![wild],
             key_marks: vec![(nan, "x".into()), (-inf, "y".into()), (1.0, "ok".into())],
+            telemetry: Vec::new(),
         },
         // Only non-finite times.
         PlotData {
@@ -465,4 +469,41 @@ fn pixel_numbers_are_short() {
     assert_eq!(short(-45.0), "-45");
     assert_eq!(short(0.12345), "0.123");
     assert_eq!(short(2.5e6), "2.5e6");
+}
+
+#[test]
+fn a_log_with_telemetry_gets_a_load_and_a_temperature_panel_per_joint() {
+    let mut data = sample();
+    data.joints.truncate(1);
+    data.telemetry = vec![TelemetryRow {
+        name: "shoulder".into(),
+        load: vec![(0.0, 10.0), (1.0, 40.0), (2.5, -20.0)],
+        need: vec![(0.0, 10.0), (2.5, 10.0)],
+        temperature: vec![(0.0, 25.0), (2.5, 31.0)],
+        temperature_limit: Some(70.0),
+        push_line: Some(20.0),
+    }];
+    let svg = render_svg(&data);
+    assert_clean(&svg);
+    // The joint's two curves and its measured none; then load, need and temperature.
+    assert_eq!(count(&svg, "<polyline"), 2 + 3);
+    assert_eq!(count(&svg, "<clipPath"), 2 * 2);
+    assert_eq!(count(&svg, " · load<"), 1);
+    assert_eq!(count(&svg, " · temperature<"), 1);
+    assert!(svg.contains("peak 40 %, need dashed"));
+    assert!(svg.contains("hottest 31 °C, protection 70 °C"));
+    // By hand: the load panel spans -20 … 40 (the ±20 % lines and the data), padded by 5 % of
+    // 60 → -23 … 43, span 66. Row 1: top = HEADER_H + ROW_H + ROW_TITLE_H = 92 + 170 + 20 =
+    // 282; the +20 % line at 282 + (43 − 20)/66 · 112 = 321.03; the time axis 0 … 2.5 over
+    // 72 … 536, so the point (1.0, 40) is at x = 72 + 464 · 0.4 = 257.6, y = 282 + 3/66 · 112
+    // = 287.09.
+    assert!(svg.contains(&format!(
+        "<line x1=\"72\" y1=\"321.03\" x2=\"536\" y2=\"321.03\" stroke=\"{LIMIT_LINE}\""
+    )));
+    assert!(svg.contains("257.6,287.09"), "{svg}");
+    // Two rows in all.
+    assert!(svg.contains(&format!(
+        "height=\"{}\"",
+        Px(HEADER_H + 2.0 * ROW_H + BOTTOM_PAD)
+    )));
 }

@@ -110,6 +110,51 @@ impl TeachState {
         self.edited()
     }
 
+    /// `e`: the selected joint's effort in the current key, percent of its servo's stall torque
+    /// (empty clears it), refused at or above the servo's factory overload threshold (the
+    /// player refuses it too, against the threshold it reads from the servo).
+    pub(super) fn effort_key(&mut self, joint: usize, text: &str) -> Vec<Command> {
+        let name = self.robot.joints[joint].name.clone();
+        let percent = match text.trim().trim_end_matches('%').trim() {
+            "" => None,
+            t => match number(t) {
+                Some(p) if p > 0.0 && p <= 100.0 => Some(p),
+                _ => {
+                    return self.fail(format!(
+                        "{text:?} is not an effort from above 0 to 100 %: effort unchanged"
+                    ))
+                }
+            },
+        };
+        let threshold = self.robot.joints[joint]
+            .servo
+            .model
+            .spec()
+            .table
+            .overload
+            .threshold_percent(None);
+        if let Some(p) = percent.filter(|&p| p < 100.0 && p >= threshold) {
+            return self.fail(format!(
+                "{name} at {p} % would hold at or above its servo's overload threshold \
+                 ({threshold:.0} %) and trip it: effort unchanged"
+            ));
+        }
+        let index = self.list.current_index();
+        if !self.list.set_effort(&name, percent) {
+            return self.fail("no key to set an effort on: effort unchanged");
+        }
+        let label = self.key_label(index);
+        match percent {
+            Some(p) => self.info(format!(
+                "{label}: {name} pushes with at most {p} % of its torque"
+            )),
+            None => self.info(format!(
+                "{label}: {name}'s effort as the keys before it set it"
+            )),
+        }
+        self.edited()
+    }
+
     /// `p`: the next mode, in the order step → linear → cubic → monotone, for the segment from
     /// the current key. The sequence's own mode is stored as no override, so the file names it
     /// once and a later change of the default reaches the segment.

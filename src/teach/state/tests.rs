@@ -445,7 +445,10 @@ fn space_ramps_to_the_key_and_y_plays_from_it() {
     };
     assert_eq!(plan.kind, MotionKind::ToKey(0));
     assert_eq!(plan.end_pose, vec![0.0; 6]);
-    assert!(plan.options.approach, "the safe ramp, as in keypose play");
+    assert!(
+        plan.options.timeline.approach,
+        "the safe ramp, as in keypose play"
+    );
     assert_eq!(plan.trajectory.key_times.len(), 1);
 
     // While moving: no jogs, no torque changes, no quitting; y stops, twice holds.
@@ -475,7 +478,7 @@ fn space_ramps_to_the_key_and_y_plays_from_it() {
         panic!("expected playback, got {commands:?}");
     };
     assert_eq!(plan.kind, MotionKind::Play { from: 0 });
-    assert_eq!(plan.options.from_key, Some(0));
+    assert_eq!(plan.options.timeline.from_key, Some(0));
     assert_eq!(plan.end_pose[PAN], 20.0);
     state.on_event(Event::MotionEnded {
         outcome: Ok(Outcome::Finished),
@@ -601,7 +604,7 @@ pub(super) fn key_name(state: &TeachState, index: usize) -> Option<&str> {
 fn the_edits_of_a_key_are_refused_without_one() {
     let dir = tempfile::tempdir().unwrap();
     let mut state = session(dir.path());
-    for key in ['N', 'h', 'p', 'v'] {
+    for key in ['N', 'h', 'p', 'v', 'e'] {
         assert!(press(&mut state, Key::Char(key)).is_empty());
         assert!(state.prompt().is_none(), "{key} opened a prompt");
         assert_eq!(
@@ -691,6 +694,35 @@ fn a_key_name_with_a_control_character_is_refused_and_the_journal_still_loads() 
     // characters in names).
     let journal = journaled(&state).unwrap();
     assert_eq!(journal.keyframes[0].name.as_deref(), Some("wave"));
+}
+
+#[test]
+fn an_effort_is_set_on_the_selected_joint_cleared_and_refused_past_the_overload_threshold() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = two_keys_at_the_first(dir.path());
+    // The SO-101's gripper is its sixth joint.
+    press_all(&mut state, &[const { Key::Down }; 5]);
+    edit(&mut state, 'e', "30");
+    let effort = |state: &TeachState| state.list().sequence().keyframes[0].effort.clone();
+    assert_eq!(effort(&state), [("gripper".to_string(), 30.0)]);
+    assert_eq!(
+        state.status().text,
+        "key 0: gripper pushes with at most 30 % of its torque"
+    );
+    assert_eq!(
+        journaled(&state).unwrap().keyframes[0].effort,
+        effort(&state)
+    );
+    // The STS3215 counts 80 % as an overload from the factory.
+    for refused in ["85", "0", "150", "much"] {
+        edit(&mut state, 'e', refused);
+        assert!(state.status().error, "{refused:?} is refused");
+        assert_eq!(effort(&state), [("gripper".to_string(), 30.0)]);
+    }
+    edit(&mut state, 'e', "100 %");
+    assert_eq!(effort(&state), [("gripper".to_string(), 100.0)]);
+    edit(&mut state, 'e', "");
+    assert!(effort(&state).is_empty());
 }
 
 #[test]
@@ -809,7 +841,7 @@ fn a_typed_value_is_kept_within_the_limits_and_the_arm_moves_there_by_the_ramp()
         panic!("expected the ramp to the key, got {commands:?}");
     };
     assert_eq!(plan.kind, MotionKind::ToKey(0));
-    assert!(plan.options.approach, "the safe ramp, not a jump");
+    assert!(plan.options.timeline.approach, "the safe ramp, not a jump");
     assert_eq!(plan.end_pose, [0.0, 0.0, -45.5, 0.0, 0.0, 0.0]);
     state.on_event(Event::MotionEnded {
         outcome: Ok(Outcome::Finished),
