@@ -27,6 +27,7 @@ mod topp;
 
 use keypose::plan::{builtin_robot_of, check, fastest, scurve, Trajectory};
 use keypose::python::PyConfig;
+use keypose::robot::Robot;
 use keypose::sequence::Sequence;
 use std::time::Instant;
 
@@ -150,6 +151,8 @@ fn jerk_limited(python: &std::path::Path, files: &[std::path::PathBuf], optima: 
     let mut ratios = Vec::new();
     let mut over_toppra = Vec::new();
     let mut version = String::new();
+    // Every example's point-to-point moves, for the solve times after the table.
+    let mut all_moves: Vec<(Robot, Vec<f64>, Vec<f64>)> = Vec::new();
     for (file, optimum) in files.iter().zip(optima) {
         let sequence = Sequence::load(file).expect("an example loads");
         let robot = ruckig::with_jerk(
@@ -191,6 +194,11 @@ fn jerk_limited(python: &std::path::Path, files: &[std::path::PathBuf], optima: 
         version = ruckig_version;
         let theirs: f64 = durations.iter().sum();
         let ratio = ours / theirs;
+        all_moves.extend(
+            pairs
+                .iter()
+                .map(|(a, b)| (robot.clone(), a.to_vec(), b.to_vec())),
+        );
         ratios.push(ratio);
         over_toppra.push(seconds / optimum);
         println!(
@@ -217,5 +225,32 @@ fn jerk_limited(python: &std::path::Path, files: &[std::path::PathBuf], optima: 
         common::median(&ratios),
         ratios.iter().cloned().fold(f64::NAN, f64::max),
         ratios.len(),
+    );
+    solve_times(python, &all_moves);
+}
+
+/// Solves of each point-to-point move timed: keypose's closed form against Ruckig's
+/// `calculate` (C++, timed inside its Python binding), the same moves in the same run.
+fn solve_times(python: &std::path::Path, moves: &[(Robot, Vec<f64>, Vec<f64>)]) {
+    const REPEAT: u32 = 200;
+    let start = Instant::now();
+    for (robot, a, b) in moves {
+        for _ in 0..REPEAT {
+            std::hint::black_box(scurve::point_to_point(robot, a, b, 1.0));
+        }
+    }
+    let ours = start.elapsed().as_secs_f64() / (moves.len() as f64 * f64::from(REPEAT));
+    let requests: Vec<serde_json::Value> = moves
+        .iter()
+        .map(|(robot, a, b)| ruckig::move_request(robot, a, b, ruckig::Sync::Time))
+        .collect();
+    let theirs = ruckig::ruckig_seconds_per_solve(python, &requests, REPEAT)
+        .unwrap_or_else(|e| panic!("{e}"));
+    println!(
+        "point-to-point solve: keypose {:.2} µs, Ruckig {:.2} µs per move ({} moves × {REPEAT}); ratio {:.3}",
+        ours * 1e6,
+        theirs * 1e6,
+        moves.len(),
+        ours / theirs
     );
 }

@@ -49,3 +49,20 @@ pub fn ruckig_durations(python: &Path, moves: &[Value]) -> Result<(Vec<f64>, Str
     let reply = super::oracle::run_oracle(python, "ruckig_oracle.py", &json!({ "moves": moves }))?;
     super::oracle::durations(&reply, "ruckig")
 }
+
+/// Ruckig's mean time per solve of `moves`, seconds, each solved `repeat` times (its C++
+/// `calculate` behind the Python call).
+pub fn ruckig_seconds_per_solve(
+    python: &Path,
+    moves: &[Value],
+    repeat: u32,
+) -> Result<f64, String> {
+    let reply = super::oracle::run_oracle(
+        python,
+        "ruckig_oracle.py",
+        &json!({ "moves": moves, "repeat": repeat }),
+    )?;
+    reply["seconds_per_solve"]
+        .as_f64()
+        .ok_or_else(|| "no seconds_per_solve in ruckig's reply".to_string())
+}

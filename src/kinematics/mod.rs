@@ -323,8 +323,19 @@ fn better_of(closed: Option<Solution>, general: Option<Solution>) -> Option<Solu
 
 /// Which joints move the tool frame: those on the chain up to the tcp's parent.
 pub fn tool_joints(robot: &Robot) -> Vec<bool> {
-    let last = last_tool_joint(robot);
-    (0..robot.joints.len()).map(|i| i <= last).collect()
+    let chain = tool_chain(robot);
+    (0..robot.joints.len())
+        .map(|i| chain.contains(&i))
+        .collect()
+}
+
+/// The joints that move the tool frame, as a range: the chain is the first joints, up to the
+/// tcp's parent (a gripper after it does not move the tcp).
+pub fn tool_chain(robot: &Robot) -> std::ops::Range<usize> {
+    if robot.joints.is_empty() {
+        return 0..0;
+    }
+    0..last_tool_joint(robot) + 1
 }
 
 /// The last joint on the chain to the tcp (the tcp's parent).

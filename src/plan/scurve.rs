@@ -235,9 +235,41 @@ const UNLIMITED_JERK_SECONDS: f64 = 1e-3;
 /// best is the whole budget, and the result is the time-optimal straight-line move. None when
 /// no joint moves.
 pub fn along_path(length: f64, joints: &[AlongPath]) -> Option<SCurve> {
+    if let Some(straight) = straight_line(length, joints) {
+        return Some(straight);
+    }
     candidates(length, joints)
         .into_iter()
         .min_by(|a, b| a.duration().total_cmp(&b.duration()))
+}
+
+/// On a straight line (no moving joint curves: `curvature` and `third` 0) the bounds of
+/// [`along_path`] do not couple, and a time-optimal S-curve is never slower for higher limits:
+/// the best split is the whole budget, the last of the [`candidates`], found in one solve
+/// (a point-to-point move is this). None off a straight line, or when nothing moves.
+fn straight_line(length: f64, joints: &[AlongPath]) -> Option<SCurve> {
+    let mut moving = joints.iter().filter(|j| j.slope > 0.0).peekable();
+    moving.peek()?;
+    let mut limits = JerkLimits {
+        velocity: f64::INFINITY,
+        acceleration: f64::INFINITY,
+        jerk: f64::INFINITY,
+    };
+    for j in moving {
+        if j.curvature != 0.0 || j.third != 0.0 {
+            return None;
+        }
+        limits.velocity = limits.velocity.min(j.limits.velocity / j.slope);
+        limits.acceleration = limits.acceleration.min(j.limits.acceleration / j.slope);
+        limits.jerk = limits.jerk.min(j.limits.jerk / j.slope);
+    }
+    if !(limits.acceleration > 0.0 && limits.acceleration.is_finite()) || limits.jerk <= 0.0 {
+        return None;
+    }
+    limits.jerk = limits
+        .jerk
+        .min(limits.acceleration / UNLIMITED_JERK_SECONDS);
+    Some(SCurve::fastest(length, limits))
 }
 
 /// The S-curves over `length` for every split of the budgets [`along_path`] tries, each within
@@ -478,5 +510,57 @@ mod tests {
         assert!(close(slower.duration(), 2.0 * s.duration()));
         assert!(close(slower.jerk, s.jerk / 8.0), "{slower:?}");
         assert!(close(slower.state_at(slower.duration()).position, 50.0));
+    }
+
+    #[test]
+    fn a_straight_line_takes_the_best_of_every_split_in_one_solve() {
+        // The oracle is the search over every split of the budgets, which a straight line
+        // skips: its one solve must be as fast as the best split, and within the limits.
+        let joint = |slope: f64, l: JerkLimits| AlongPath {
+            slope,
+            curvature: 0.0,
+            third: 0.0,
+            limits: l,
+        };
+        let cases = [
+            vec![joint(90.0, limits(200.0, 800.0, 8000.0))],
+            vec![
+                joint(30.0, limits(200.0, 800.0, 8000.0)),
+                joint(120.0, limits(150.0, 300.0, 1e4)),
+                joint(0.0, limits(1.0, 1.0, 1.0)),
+            ],
+            // One joint without a jerk limit, one whose jerk binds.
+            vec![
+                joint(5.0, limits(100.0, 400.0, f64::INFINITY)),
+                joint(60.0, limits(300.0, 2000.0, 900.0)),
+            ],
+        ];
+        for joints in cases {
+            for length in [1e-3, 0.3, 1.0, 40.0] {
+                let straight = along_path(length, &joints).unwrap();
+                let best = candidates(length, &joints)
+                    .into_iter()
+                    .map(|c| c.duration())
+                    .fold(f64::INFINITY, f64::min);
+                assert!(
+                    straight.duration() <= best * (1.0 + 1e-12),
+                    "{joints:?} {length}"
+                );
+                assert!(
+                    straight.duration() >= best * (1.0 - 1e-9),
+                    "{joints:?} {length}"
+                );
+                assert!(close(
+                    straight.state_at(straight.duration()).position,
+                    length
+                ));
+            }
+        }
+        // Off a straight line it is not taken.
+        let curved = [AlongPath {
+            curvature: 10.0,
+            ..joint(90.0, limits(200.0, 800.0, 8000.0))
+        }];
+        assert!(straight_line(1.0, &curved).is_none());
     }
 }

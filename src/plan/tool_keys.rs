@@ -69,8 +69,9 @@ pub struct LineReport {
     pub samples: Vec<Vec<f64>>,
     /// Sequence time of each sample, seconds.
     pub times: Vec<f64>,
-    /// The robot's joints the samples give, in order: all of them on one arm, one arm's in a
-    /// cell.
+    /// The robot's joints the line moves, in order: those on the chain to the tool (of one
+    /// arm's in a cell). A joint past the tool, a gripper, is not part of the line: it follows
+    /// its own keys through it, and the line's samples do not key it.
     pub joints: Range<usize>,
     /// The arm whose tool it is, in a cell.
     pub arm: Option<String>,
@@ -283,7 +284,7 @@ fn solve_cell<'a>(
             .lines
             .extend(arm_report.lines.into_iter().map(|l| LineReport {
                 label: format!("{}: {}", arm.name, l.label),
-                joints: arm.joints.clone(),
+                joints: arm.joints.start + l.joints.start..arm.joints.start + l.joints.end,
                 arm: Some(arm.name.clone()),
                 ..l
             }));
@@ -514,6 +515,7 @@ fn solve_line_into(
     let shares: Vec<f64> = (1..=count).map(|k| k as f64 / count as f64).collect();
     let params: Vec<f64> = shares.iter().map(|&u| minimum_jerk(u)).collect();
     let label = first.label(index - 1);
+    let joints = kinematics::tool_chain(robot);
     match line::solve_line(robot, from, &end, to, &params) {
         Ok(solved) => LineReport {
             key: index - 1,
@@ -522,7 +524,7 @@ fn solve_line_into(
             problem: None,
             samples: solved.samples,
             times: shares.iter().map(|u| start + u * span).collect(),
-            joints: 0..robot.joints.len(),
+            joints: joints.clone(),
             arm: None,
             span: (start, times[index]),
         },
@@ -533,7 +535,7 @@ fn solve_line_into(
             problem: Some(e.to_string()),
             samples: Vec::new(),
             times: Vec::new(),
-            joints: 0..robot.joints.len(),
+            joints,
             arm: None,
             span: (start, times[index]),
         },

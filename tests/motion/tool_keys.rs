@@ -378,6 +378,51 @@ fn a_line_too_fast_for_the_joints_is_reported_on_the_line_and_retime_slows_it() 
     );
 }
 
+/// The gripper is not part of a straight tool line: a line from a key that names it (60°) to
+/// a tool-only key, then a key that closes it. The gripper must move exactly as it does when
+/// the same keys are joined in joint space (its own keys alone decide it), and `check` passes.
+/// (It held 60° along the line's samples, then bumped 0.06° in their last 10 ms towards the
+/// closing key: 15 789 deg/s², blamed on the line.)
+#[test]
+fn a_gripper_keyed_on_a_line_follows_its_own_keys_and_the_line_checks() {
+    let keys = |interp: &str| {
+        format!(
+            r#"{START},
+            {{"name": "a", "time": 2.5, {interp} "tool": {{"xyz": [0.20, 0.10, 0.08], "approach": "down"}}, "joints": {{"gripper": 60}}}},
+            {{"name": "b", "time": 5.0, "tool": {{"xyz": [0.15, -0.12, 0.08], "approach": "down"}}}},
+            {{"name": "c", "time": 6.5, "joints": {{"gripper": 0}}}}"#
+        )
+    };
+    let robot = Robot::builtin("so101").unwrap();
+    let line = Trajectory::build(&sequence(&keys(r#""interp": "line","#)), &robot).unwrap();
+    let joint_space = Trajectory::build(&sequence(&keys("")), &robot).unwrap();
+    let gripper = robot.joint_index("gripper").unwrap();
+    for k in 0..=650 {
+        let t = f64::from(k) * 0.01;
+        let (on_line, off_line) = (line.sample(t)[gripper], joint_space.sample(t)[gripper]);
+        assert!(
+            (on_line - off_line).abs() < 1e-9,
+            "t = {t}: {on_line} vs {off_line}"
+        );
+    }
+
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("grasp-line.json");
+    let text = format!(
+        r#"{{"format": "keypose-sequence/1", "robot": "so101", "interpolation": "monotone",
+            "keyframes": [{}]}}"#,
+        keys(r#""interp": "line","#)
+    );
+    std::fs::write(&file, text).unwrap();
+    let out = crate::common::run(&["check", file.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{}", crate::common::show(&out));
+    assert!(
+        crate::common::stdout(&out).contains("tool line from key a: straight"),
+        "{}",
+        crate::common::show(&out)
+    );
+}
+
 /// A slower straight line never fails where a faster one passes: the exact check's verdict on
 /// a line is monotone in its duration. Three lines, each tried every 5 ms from too fast to
 /// comfortably slow, flip from failing to passing exactly once. (With the samples joined by a
