@@ -76,7 +76,7 @@ impl Dls {
         }
     }
 
-    /// A solution from `seed` (then from the other [`starts`]) inside the limits, clear of the
+    /// A solution from `seed` (then from the solver's other starts) inside the limits, clear of the
     /// floor; for a pose target the first that meets the orientation too, else the one that
     /// comes closest to it.
     pub fn solve(
