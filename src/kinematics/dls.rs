@@ -35,6 +35,8 @@ const POSITION_NEAR_M: f64 = 1e-4;
 /// (on a limit, in a local minimum, or at a singular pose) and gives way to the next start.
 /// Converging steps halve it in one or two.
 const STALL_WINDOW: usize = 10;
+/// The seed, home and the middle and quarter points of the ranges: the first [`starts`].
+const FIXED_STARTS: usize = 5;
 /// Starts tried beyond the seed, home and the middle and quarter points of the ranges, when
 /// none of those gets there: points spread over the ranges (Halton), which find the pose
 /// targets the first five are stuck short of.
@@ -124,11 +126,14 @@ impl Dls {
                     .map(|wanted| orientation_residual_deg(robot.tcp_frame(&values).r, wanted)),
                 values,
             };
-            let residual = residual_deg(&solution);
+            let residual = solution.orientation_error_deg();
             if residual < ORIENTATION_MET_DEG {
                 return Some(solution);
             }
-            if best.as_ref().is_none_or(|b| residual < residual_deg(b)) {
+            if best
+                .as_ref()
+                .is_none_or(|b| residual < b.orientation_error_deg())
+            {
                 best = Some(solution);
             }
         }
@@ -147,7 +152,6 @@ impl Dls {
     ) -> Vec<Vec<f64>> {
         let free = self.free_joints(held);
         starts(robot, seed, &free)
-            .into_iter()
             .map(|start| iterate(robot, target, start, &free, Patience::WhileProgressing))
             .filter(|values| {
                 robot.tcp_position(values).distance(target.position) < POSITION_TOLERANCE_M * 10.0
@@ -167,42 +171,40 @@ impl Dls {
 /// points of every free joint's range (a stretched arm, the zero pose of some, is singular:
 /// steps from it go nowhere), then [`SPREAD_STARTS`] points spread over the ranges (each joint
 /// its own Halton base, within the middle 80 %). Joints not free keep the seed's values.
-fn starts(robot: &Robot, seed: &[f64], free: &[usize]) -> Vec<Vec<f64>> {
-    let at = |share: Option<f64>| -> Vec<f64> {
+fn starts<'a>(
+    robot: &'a Robot,
+    seed: &'a [f64],
+    free: &'a [usize],
+) -> impl Iterator<Item = Vec<f64>> + 'a {
+    const PRIMES: [u32; 8] = [2, 3, 5, 7, 11, 13, 17, 19];
+    // Made one by one as they are tried: most solves need only the first.
+    let start = move |free_value: &dyn Fn(usize) -> f64| -> Vec<f64> {
         (0..robot.joints.len())
             .map(|i| {
-                let limits = robot.joints[i].limits;
-                match share {
-                    _ if !free.contains(&i) => seed[i],
-                    Some(s) => limits.min + s * (limits.max - limits.min),
-                    None => robot.home[i],
+                if free.contains(&i) {
+                    free_value(i)
+                } else {
+                    seed[i]
                 }
             })
             .collect()
     };
-    let mut out = vec![
-        seed.to_vec(),
-        at(None),
-        at(Some(0.5)),
-        at(Some(0.25)),
-        at(Some(0.75)),
-    ];
-    const PRIMES: [u32; 8] = [2, 3, 5, 7, 11, 13, 17, 19];
-    for k in 1..=SPREAD_STARTS {
-        out.push(
-            (0..robot.joints.len())
-                .map(|i| {
-                    let limits = robot.joints[i].limits;
-                    if !free.contains(&i) {
-                        return seed[i];
-                    }
-                    let share = 0.1 + 0.8 * halton(k, PRIMES[i % PRIMES.len()]);
-                    limits.min + share * (limits.max - limits.min)
-                })
-                .collect(),
-        );
-    }
-    out
+    let in_range = move |i: usize, share: f64| {
+        let limits = robot.joints[i].limits;
+        limits.min + share * (limits.max - limits.min)
+    };
+    let fixed = [None, Some(0.5), Some(0.25), Some(0.75)];
+    std::iter::once(seed.to_vec())
+        .chain(
+            fixed
+                .into_iter()
+                .map(move |share| start(&|i| share.map_or(robot.home[i], |s| in_range(i, s)))),
+        )
+        .chain(
+            (1..=SPREAD_STARTS).map(move |k| {
+                start(&|i| in_range(i, 0.1 + 0.8 * halton(k, PRIMES[i % PRIMES.len()])))
+            }),
+        )
 }
 
 /// The `index`th number of van der Corput's sequence in `base`, in [0, 1).
@@ -217,7 +219,7 @@ fn halton(mut index: u32, base: u32) -> f64 {
 }
 
 /// The reachable tool position nearest to `position` that the solver finds (the limits
-/// clamping it) from each of its [`starts`].
+/// clamping it) from each of its [`FIXED_STARTS`] fixed [`starts`].
 pub(crate) fn nearest_reachable(
     robot: &Robot,
     position: DVec3,
@@ -226,8 +228,10 @@ pub(crate) fn nearest_reachable(
 ) -> DVec3 {
     let free = Dls::new(robot).free_joints(held);
     let target = ToolTarget::position(position);
+    // Each start runs its full thousand iterations, and this only measures the miss of a target
+    // out of reach: the fixed starts, not the spread ones.
     starts(robot, seed, &free)
-        .into_iter()
+        .take(FIXED_STARTS)
         .map(|start| {
             robot.tcp_position(&iterate(robot, &target, start, &free, Patience::Full(1000)))
         })
@@ -403,10 +407,4 @@ fn normal_matrix(columns: &[DVec3], lambda: f64) -> DMat3 {
         .iter()
         .map(outer)
         .fold(DMat3::IDENTITY * lambda * lambda, |a, b| a + b)
-}
-
-fn residual_deg(solution: &Solution) -> f64 {
-    solution
-        .orientation_residual_deg
-        .map_or(0.0, |r| r.length())
 }
