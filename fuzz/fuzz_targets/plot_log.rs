@@ -2,6 +2,7 @@
 //! of a built-in robot's joints; or rows the player's own log writer wrote (any phase, times
 //! and measured values, joints renamed with any name a robot file may hold: commas and quotes
 //! included, control characters not) read back.
+//! The servo columns (loads read, load needed) are written beside the measured ones.
 //! Property: no panic; bad text is an error naming the file and a line of it; every point
 //! read is finite; what the writer wrote reads back: each joint's measured values in the
 //! phases on the sequence's time axis (play, stopping, resuming), at their sequence times, to
@@ -89,6 +90,20 @@ fn written_and_read(robot: &Robot, choices: &mut Choices) {
             .byte()
             .is_multiple_of(2)
             .then(|| (0..joints).map(|_| value(choices)).collect());
+        // The servo columns beside them: a load read (or not) and the load the guard judged,
+        // written on the same rows; they must not shift the measured columns.
+        let loads: Vec<Option<f64>> = if choices.byte().is_multiple_of(2) {
+            (0..joints)
+                .map(|_| choices.byte().is_multiple_of(2).then(|| value(choices)))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let needed: Vec<f64> = if choices.byte().is_multiple_of(2) {
+            (0..joints).map(|_| value(choices)).collect()
+        } else {
+            Vec::new()
+        };
         log.row(&LogRow {
             time: k as f64 * 0.01,
             phase,
@@ -97,6 +112,9 @@ fn written_and_read(robot: &Robot, choices: &mut Choices) {
             measured: measured.as_deref(),
             lateness: 0.0,
             stall: None,
+            loads: &loads,
+            health: &[],
+            needed: &needed,
         })
         .unwrap();
         if let (Some(measured), Phase::Play | Phase::Stopping | Phase::Resuming) =
