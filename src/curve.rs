@@ -21,6 +21,11 @@ pub enum Interp {
     Step,
     /// Lerp for translations and scalars, slerp for rotations.
     Linear,
+    /// Acceleration continuous through every key, and zero where the motion starts or stops:
+    /// between keys at rest, the clamped cubic spline through the keys, whose first and last
+    /// pieces are quintics that leave and reach rest with zero acceleration. Its jerk is finite
+    /// everywhere (for a rotation, its rotation vector from the first key is the quintic).
+    Smooth,
     /// Key-time Catmull-Rom Hermite; zero slope at the first and last key.
     Cubic,
     /// Hermite with Fritsch–Carlson limited slopes: never overshoots between two keys.
@@ -29,9 +34,10 @@ pub enum Interp {
 
 impl Interp {
     /// Every mode, in the order the help text lists them.
-    pub const ALL: [Interp; 4] = [
+    pub const ALL: [Interp; 5] = [
         Interp::Step,
         Interp::Linear,
+        Interp::Smooth,
         Interp::Cubic,
         Interp::Monotone,
     ];
@@ -41,9 +47,15 @@ impl Interp {
         match self {
             Interp::Step => "step",
             Interp::Linear => "linear",
+            Interp::Smooth => "smooth",
             Interp::Cubic => "cubic",
             Interp::Monotone => "monotone",
         }
+    }
+
+    /// Every mode's name, as a list to put in an error: "step, linear, …".
+    pub fn names() -> String {
+        Interp::ALL.map(Interp::name).join(", ")
     }
 
     /// The mode named `s` ([`Interp::name`]); `None` for any other text.
@@ -51,8 +63,10 @@ impl Interp {
         Interp::ALL.into_iter().find(|m| m.name() == s)
     }
 
-    fn is_smooth(self) -> bool {
-        matches!(self, Interp::Cubic | Interp::Monotone)
+    /// Whether the mode's velocity is shaped by the keys around a segment (not a step's or a
+    /// straight line's).
+    fn is_curved(self) -> bool {
+        matches!(self, Interp::Smooth | Interp::Cubic | Interp::Monotone)
     }
 }
 
@@ -164,6 +178,16 @@ pub enum CurveError {
 /// for subnormal durations overflows to infinity); no servo resolves such a segment anyway.
 pub const MIN_MOVING_TIME: f64 = 1e-6;
 
+/// What a segment is built to meet at its two keys.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ends<R> {
+    /// The rate at the first key and at the second, per second.
+    pub rates: [R; 2],
+    /// The second derivative at the first key and at the second, per second²: met by
+    /// [`Interp::Smooth`] segments only (a cubic's follows from its values and rates).
+    pub second_rates: [R; 2],
+}
+
 /// A value that a track can interpolate.
 pub trait Interpolant: Copy + fmt::Debug {
     /// Rate of change per second (a slope, or an angular velocity vector).
@@ -173,15 +197,8 @@ pub trait Interpolant: Copy + fmt::Debug {
 
     /// The change from `a` to `b` (a difference, or the rotation vector of `b·a⁻¹`).
     fn displacement(a: &Self, b: &Self) -> Self::Rate;
-    /// Builds the segment from `a` to `b` of duration `h` seconds with end rates `ra`, `rb`.
-    fn segment(
-        a: &Self,
-        b: &Self,
-        ra: Self::Rate,
-        rb: Self::Rate,
-        h: f64,
-        mode: Interp,
-    ) -> Self::Segment;
+    /// Builds the segment from `a` to `b` of duration `h` seconds meeting `ends`.
+    fn segment(a: &Self, b: &Self, ends: Ends<Self::Rate>, h: f64, mode: Interp) -> Self::Segment;
     /// The value at fraction `f` ∈ [0, 1] of the segment.
     fn eval(segment: &Self::Segment, f: f64) -> Self;
 }
@@ -224,61 +241,105 @@ impl Rate for DVec3 {
     }
 }
 
-/// Cubic polynomial coefficients `c0 + c1·f + c2·f² + c3·f³` of a Hermite segment whose end
-/// values are `a`, `b` and whose end derivatives with respect to f are `da`, `db`.
-fn hermite_coefficients<T>(a: T, b: T, da: T, db: T) -> [T; 4]
-where
+/// Coefficients `c0 + c1·f + … + c5·f⁵` of a segment's polynomial in its fraction f.
+type Coefficients<T> = [T; 6];
+
+/// The arithmetic a polynomial segment's values need (scalars, translations).
+trait Polynomial:
+    Copy
+    + std::ops::Sub<Output = Self>
+    + std::ops::Add<Output = Self>
+    + std::ops::Mul<f64, Output = Self>
+{
+}
+impl<T> Polynomial for T where
     T: Copy
         + std::ops::Sub<Output = T>
         + std::ops::Add<Output = T>
-        + std::ops::Mul<f64, Output = T>,
+        + std::ops::Mul<f64, Output = T>
 {
-    let delta = b - a;
-    [a, da, delta * 3.0 - da * 2.0 - db, delta * -2.0 + da + db]
 }
 
-fn polynomial_segment<T>(a: T, b: T, ra: T, rb: T, h: f64, mode: Interp) -> [T; 4]
-where
-    T: Copy
-        + std::ops::Sub<Output = T>
-        + std::ops::Add<Output = T>
-        + std::ops::Mul<f64, Output = T>,
-{
+/// The cubic Hermite whose end values are `a`, `b` and whose end derivatives with respect to
+/// f are `da`, `db`.
+fn hermite_coefficients<T: Polynomial>(a: T, b: T, da: T, db: T) -> Coefficients<T> {
+    let delta = b - a;
     let zero = a * 0.0;
+    [
+        a,
+        da,
+        delta * 3.0 - da * 2.0 - db,
+        delta * -2.0 + da + db,
+        zero,
+        zero,
+    ]
+}
+
+/// The quintic Hermite that also meets second derivatives (with respect to f) `sa`, `sb`:
+/// the six conditions at f = 0 and f = 1 solved by hand. With every derivative zero it is
+/// the minimum-jerk profile 10f³ − 15f⁴ + 6f⁵; through a cubic's values and derivatives it is
+/// that cubic.
+fn quintic_coefficients<T: Polynomial>(a: T, b: T, da: T, db: T, sa: T, sb: T) -> Coefficients<T> {
+    let delta = b - a;
+    [
+        a,
+        da,
+        sa * 0.5,
+        delta * 10.0 - da * 6.0 - db * 4.0 - sa * 1.5 + sb * 0.5,
+        delta * -15.0 + da * 8.0 + db * 7.0 + sa * 1.5 - sb,
+        delta * 6.0 - da * 3.0 - db * 3.0 - sa * 0.5 + sb * 0.5,
+    ]
+}
+
+fn polynomial_segment<T: Polynomial>(
+    a: T,
+    b: T,
+    ends: Ends<T>,
+    h: f64,
+    mode: Interp,
+) -> Coefficients<T> {
+    let zero = a * 0.0;
+    let [ra, rb] = ends.rates;
+    let [sa, sb] = ends.second_rates;
     match mode {
-        Interp::Step => [a, zero, zero, zero],
-        Interp::Linear => [a, b - a, zero, zero],
+        Interp::Step => [a, zero, zero, zero, zero, zero],
+        Interp::Linear => [a, b - a, zero, zero, zero, zero],
         Interp::Cubic | Interp::Monotone => hermite_coefficients(a, b, ra * h, rb * h),
+        Interp::Smooth => quintic_coefficients(a, b, ra * h, rb * h, sa * (h * h), sb * (h * h)),
     }
+}
+
+fn eval_coefficients<T: Polynomial>(c: &Coefficients<T>, f: f64) -> T {
+    c[..5].iter().rev().fold(c[5], |sum, &k| sum * f + k)
 }
 
 impl Interpolant for f64 {
     type Rate = f64;
-    type Segment = [f64; 4];
+    type Segment = Coefficients<f64>;
 
     fn displacement(a: &Self, b: &Self) -> f64 {
         b - a
     }
-    fn segment(a: &Self, b: &Self, ra: f64, rb: f64, h: f64, mode: Interp) -> [f64; 4] {
-        polynomial_segment(*a, *b, ra, rb, h, mode)
+    fn segment(a: &Self, b: &Self, ends: Ends<f64>, h: f64, mode: Interp) -> Self::Segment {
+        polynomial_segment(*a, *b, ends, h, mode)
     }
-    fn eval(c: &[f64; 4], f: f64) -> f64 {
-        c[0] + f * (c[1] + f * (c[2] + f * c[3]))
+    fn eval(c: &Self::Segment, f: f64) -> f64 {
+        eval_coefficients(c, f)
     }
 }
 
 impl Interpolant for DVec3 {
     type Rate = DVec3;
-    type Segment = [DVec3; 4];
+    type Segment = Coefficients<DVec3>;
 
     fn displacement(a: &Self, b: &Self) -> DVec3 {
         *b - *a
     }
-    fn segment(a: &Self, b: &Self, ra: DVec3, rb: DVec3, h: f64, mode: Interp) -> [DVec3; 4] {
-        polynomial_segment(*a, *b, ra, rb, h, mode)
+    fn segment(a: &Self, b: &Self, ends: Ends<DVec3>, h: f64, mode: Interp) -> Self::Segment {
+        polynomial_segment(*a, *b, ends, h, mode)
     }
-    fn eval(c: &[DVec3; 4], f: f64) -> DVec3 {
-        c[0] + (c[1] + (c[2] + c[3] * f) * f) * f
+    fn eval(c: &Self::Segment, f: f64) -> DVec3 {
+        eval_coefficients(c, f)
     }
 }
 
@@ -292,6 +353,10 @@ pub enum RotationSegment {
     Slerp(DQuat, DQuat),
     /// Cubic or monotone: the four control rotations of a spherical Bézier.
     Bezier([DQuat; 4]),
+    /// Smooth: `exp(r(f))·a`, the rotation vector `r` a quintic from 0 to the displacement
+    /// whose end derivatives are the keys' angular velocities and accelerations as rates of
+    /// `r` (exact for the velocities; for a rotation about a fixed axis, the scalar curve).
+    Quintic(DQuat, Coefficients<DVec3>),
 }
 
 impl Interpolant for DQuat {
@@ -301,11 +366,24 @@ impl Interpolant for DQuat {
     fn displacement(a: &Self, b: &Self) -> DVec3 {
         pose::rotation_vector(pose::same_hemisphere(DQuat::IDENTITY, *b * a.conjugate()))
     }
-    fn segment(a: &Self, b: &Self, ra: DVec3, rb: DVec3, h: f64, mode: Interp) -> RotationSegment {
+    fn segment(a: &Self, b: &Self, ends: Ends<DVec3>, h: f64, mode: Interp) -> RotationSegment {
         match mode {
             Interp::Step => RotationSegment::Hold(*a),
             Interp::Linear => RotationSegment::Slerp(*a, *b),
+            Interp::Smooth => {
+                let delta = DQuat::displacement(a, b);
+                // At the far end, the rates of r that give the key's angular velocity and (up
+                // to the Jacobian's own change) its acceleration.
+                let far = |w: DVec3| pose::rotation_vector_rate(delta, w);
+                let [ra, rb] = ends.rates;
+                let [sa, sb] = ends.second_rates;
+                let (hh, zero) = (h * h, DVec3::ZERO);
+                let c =
+                    quintic_coefficients(zero, delta, ra * h, far(rb) * h, sa * hh, far(sb) * hh);
+                RotationSegment::Quintic(*a, c)
+            }
             Interp::Cubic | Interp::Monotone => {
+                let [ra, rb] = ends.rates;
                 let c1 = pose::from_rotation_vector(ra * (h / 3.0)) * *a;
                 let c2 = pose::from_rotation_vector(rb * (-h / 3.0)) * *b;
                 RotationSegment::Bezier([*a, c1, c2, *b])
@@ -316,6 +394,9 @@ impl Interpolant for DQuat {
         match *segment {
             RotationSegment::Hold(q) => q,
             RotationSegment::Slerp(a, b) => pose::slerp(a, b, f),
+            RotationSegment::Quintic(a, ref c) => {
+                pose::from_rotation_vector(eval_coefficients(c, f)) * a
+            }
             RotationSegment::Bezier([p0, p1, p2, p3]) => {
                 // De Casteljau with slerps in place of lerps.
                 let q01 = pose::slerp(p0, p1, f);
@@ -349,7 +430,7 @@ impl Rate for (DVec3, DVec3) {
 /// with the same mode: linear is lerp + slerp.
 impl Interpolant for RigidTransform {
     type Rate = (DVec3, DVec3);
-    type Segment = ([DVec3; 4], RotationSegment);
+    type Segment = (Coefficients<DVec3>, RotationSegment);
 
     fn displacement(a: &Self, b: &Self) -> Self::Rate {
         (
@@ -357,17 +438,14 @@ impl Interpolant for RigidTransform {
             DQuat::displacement(&a.r, &b.r),
         )
     }
-    fn segment(
-        a: &Self,
-        b: &Self,
-        ra: Self::Rate,
-        rb: Self::Rate,
-        h: f64,
-        mode: Interp,
-    ) -> Self::Segment {
+    fn segment(a: &Self, b: &Self, ends: Ends<Self::Rate>, h: f64, mode: Interp) -> Self::Segment {
+        let part = |pick: fn(Self::Rate) -> DVec3| Ends {
+            rates: ends.rates.map(pick),
+            second_rates: ends.second_rates.map(pick),
+        };
         (
-            DVec3::segment(&a.t, &b.t, ra.0, rb.0, h, mode),
-            DQuat::segment(&a.r, &b.r, ra.1, rb.1, h, mode),
+            DVec3::segment(&a.t, &b.t, part(|r| r.0), h, mode),
+            DQuat::segment(&a.r, &b.r, part(|r| r.1), h, mode),
         )
     }
     fn eval(segment: &Self::Segment, f: f64) -> Self {
@@ -406,6 +484,7 @@ pub struct Track<V: Interpolant> {
     holds: Vec<f64>,
     modes: Vec<Interp>,
     rates: Vec<V::Rate>,
+    second_rates: Vec<V::Rate>,
     segments: Vec<V::Segment>,
 }
 
@@ -438,26 +517,32 @@ impl<V: Interpolant> Track<V> {
         let mut rates = key_rates(&times, &values, &holds, &modes, &rest, &moving);
         let spline: Vec<bool> = (0..n)
             .map(|i| {
-                keys[i].spline
-                    && i > 0
-                    && i + 1 < n
-                    && holds[i] == 0.0
-                    && !rest[i]
-                    && modes[i - 1] == Interp::Cubic
-                    && modes[i] == Interp::Cubic
+                let inner = i > 0 && i + 1 < n && holds[i] == 0.0 && !rest[i];
+                let both = |mode| modes[i - 1] == mode && modes[i] == mode;
+                inner && (both(Interp::Smooth) || (keys[i].spline && both(Interp::Cubic)))
             })
             .collect();
         spline_rates(&mut rates, &values, &moving, &spline);
+        // Where the motion starts or stops whatever the modes: there its acceleration is zero.
+        let resting: Vec<bool> = (0..n)
+            .map(|i| {
+                let step = |j: Option<usize>| j.is_some_and(|j| modes[j] == Interp::Step);
+                i == 0
+                    || i + 1 == n
+                    || holds[i] > 0.0
+                    || rest[i]
+                    || step(i.checked_sub(1))
+                    || step(Some(i))
+            })
+            .collect();
+        let second_rates = key_second_rates(&values, &modes, &rates, &moving, &spline, &resting);
         let segments = (0..n.saturating_sub(1))
             .map(|i| {
-                V::segment(
-                    &values[i],
-                    &values[i + 1],
-                    rates[i],
-                    rates[i + 1],
-                    moving[i],
-                    modes[i],
-                )
+                let ends = Ends {
+                    rates: [rates[i], rates[i + 1]],
+                    second_rates: [second_rates[i], second_rates[i + 1]],
+                };
+                V::segment(&values[i], &values[i + 1], ends, moving[i], modes[i])
             })
             .collect();
         Ok(Self {
@@ -471,6 +556,7 @@ impl<V: Interpolant> Track<V> {
             holds,
             modes,
             rates,
+            second_rates,
             segments,
         })
     }
@@ -508,6 +594,12 @@ impl<V: Interpolant> Track<V> {
     /// The rate (slope) each key was given.
     pub fn rates(&self) -> &[V::Rate] {
         &self.rates
+    }
+
+    /// The second derivative each key was given: what [`Interp::Smooth`] segments meet there
+    /// (zero where the motion starts or stops, and at a key no smooth segment touches).
+    pub fn second_rates(&self) -> &[V::Rate] {
+        &self.second_rates
     }
 
     /// Time of the first key, seconds.
@@ -603,10 +695,21 @@ impl Track<f64> {
         ))
     }
 
-    /// d/dt of segment `i` at fraction `f`: d/df of c0 + c1 f + c2 f² + c3 f³, over its duration.
+    /// d/dt of segment `i` at fraction `f`: d/df of its polynomial in f, over its duration.
     fn segment_rate(&self, i: usize, f: f64) -> f64 {
+        self.segment_derivative(i, 1, f)
+    }
+
+    /// The `order`-th derivative in time of segment `i` at fraction `f`.
+    fn segment_derivative(&self, i: usize, order: usize, f: f64) -> f64 {
         let c = &self.segments[i];
-        (c[1] + f * (2.0 * c[2] + f * 3.0 * c[3])) * self.inv_duration[i]
+        // d^order/df^order of Σ c[k]·f^k, by Horner on the falling factorials.
+        let mut sum = 0.0;
+        for k in (order..c.len()).rev() {
+            let factor: f64 = (k + 1 - order..=k).map(|m| m as f64).product();
+            sum = sum * f + factor * c[k];
+        }
+        sum * self.inv_duration[i].powi(order as i32)
     }
 
     /// The second derivative (per second²) at `t`, from the right at a key, 0 at rest: with
@@ -626,9 +729,7 @@ impl Track<f64> {
 
     /// d²/dt² of segment `i` at fraction `f`.
     fn segment_second_rate(&self, i: usize, f: f64) -> f64 {
-        let c = &self.segments[i];
-        let k = self.inv_duration[i];
-        (2.0 * c[2] + 6.0 * c[3] * f) * k * k
+        self.segment_derivative(i, 2, f)
     }
 
     /// When segment `i` starts moving (its key's time plus hold).
@@ -637,12 +738,17 @@ impl Track<f64> {
     }
 
     /// Segment `i`'s motion as a polynomial in the seconds `s` since it starts moving
-    /// ([`Track::move_start`]), `c0 + c1·s + c2·s² + c3·s³`, valid until the next key's time; a
-    /// step's is its first value, held until the next key, where the value jumps.
-    pub fn segment_polynomial(&self, i: usize) -> [f64; 4] {
-        let c = &self.segments[i];
+    /// ([`Track::move_start`]), `c0 + c1·s + … + c5·s⁵` (a quintic for a smooth segment, else
+    /// a cubic: c4 = c5 = 0), valid until the next key's time; a step's is its first value,
+    /// held until the next key, where the value jumps.
+    pub fn segment_polynomial(&self, i: usize) -> [f64; 6] {
         let k = self.inv_duration[i];
-        [c[0], c[1] * k, c[2] * k * k, c[3] * k * k * k]
+        let mut scale = 1.0;
+        self.segments[i].map(|c| {
+            let out = c * scale;
+            scale *= k;
+            out
+        })
     }
 }
 
@@ -735,7 +841,7 @@ fn key_rates<V: Interpolant>(
         if holds[i] > 0.0 || rest[i] || before == Interp::Step || after == Interp::Step {
             continue;
         }
-        rates[i] = match (before.is_smooth(), after.is_smooth()) {
+        rates[i] = match (before.is_curved(), after.is_curved()) {
             (false, false) => continue,
             (false, true) => secant(i - 1),
             (true, false) => secant(i),
@@ -774,6 +880,60 @@ fn key_rates<V: Interpolant>(
         }
     }
     rates
+}
+
+/// The second derivative each key gives the [`Interp::Smooth`] segments beside it.
+///
+/// - inside a run of smooth keys (a spline key): the spline's own, which the cubic pieces on
+///   either side share;
+/// - where a smooth segment meets a cubic or monotone one: the cubic's at that key, so the
+///   acceleration is continuous across the join;
+/// - everywhere else zero: at rest (first and last key, a hold, a rest, next to a step) and
+///   beside a straight segment, whose acceleration is zero. So a smooth curve leaves and reaches
+///   rest with zero acceleration.
+fn key_second_rates<V: Interpolant>(
+    values: &[V],
+    modes: &[Interp],
+    rates: &[V::Rate],
+    moving: &[f64],
+    spline: &[bool],
+    resting: &[bool],
+) -> Vec<V::Rate> {
+    let n = values.len();
+    let secant = |i: usize| V::displacement(&values[i], &values[i + 1]).scale(1.0 / moving[i]);
+    // A cubic Hermite's second derivative at the start and at the end of segment i:
+    // (6·d − 4·m0 − 2·m1)/h and (−6·d + 2·m0 + 4·m1)/h.
+    let at_start = |i: usize| {
+        let h = moving[i];
+        secant(i)
+            .scale(6.0 / h)
+            .add(rates[i].scale(-4.0 / h))
+            .add(rates[i + 1].scale(-2.0 / h))
+    };
+    let at_end = |i: usize| {
+        let h = moving[i];
+        secant(i)
+            .scale(-6.0 / h)
+            .add(rates[i].scale(2.0 / h))
+            .add(rates[i + 1].scale(4.0 / h))
+    };
+    let cubic = |mode: Interp| matches!(mode, Interp::Cubic | Interp::Monotone);
+    (0..n)
+        .map(|i| {
+            if spline[i] && modes[i] == Interp::Smooth {
+                return at_start(i);
+            }
+            let (before, after) = (
+                i.checked_sub(1).map(|j| modes[j]),
+                (i + 1 < n).then(|| modes[i]),
+            );
+            match (before, after) {
+                (Some(Interp::Smooth), Some(other)) if cubic(other) && !resting[i] => at_start(i),
+                (Some(other), Some(Interp::Smooth)) if cubic(other) && !resting[i] => at_end(i - 1),
+                _ => V::Rate::ZERO,
+            }
+        })
+        .collect()
 }
 
 /// The rates of every run of keys marked `spline` that make the cubic Hermite segments meet
@@ -973,5 +1133,120 @@ mod tests {
         let jump = (plain.second_rate_at(0.9) - plain.second_rate_before(0.9)).abs();
         assert!(jump > 0.1, "{jump}");
         assert!((track.second_rate_at(0.9) - track.second_rate_before(0.9)).abs() < 1e-9);
+    }
+
+    /// Left and right limits of the second derivative at `t`.
+    fn second_rates_around(track: &Track<f64>, t: f64) -> (f64, f64) {
+        (track.second_rate_before(t), track.second_rate_at(t))
+    }
+
+    #[test]
+    fn smooth_between_two_rests_is_the_minimum_jerk_profile() {
+        // 0 → 30 in 2 s: 30·(10f³ − 15f⁴ + 6f⁵), f = t/2. Its velocity 30·30f²(1 − f)²/2 peaks
+        // at f = ½ at 1.875·30/2 = 28.125; its acceleration 30·60f(1 − 2f)(1 − f)/4 is zero at
+        // both ends; at f = ¼ the value is 30·(10/64 − 15/256 + 6/1024) = 3.105 46875.
+        let track = scalar(&[(0.0, 0.0), (2.0, 30.0)], Interp::Smooth);
+        assert!((track.sample(0.5) - 3.10546875).abs() < 1e-12);
+        assert!((track.rate_at(1.0) - 28.125).abs() < 1e-12);
+        assert!(track.second_rate_at(0.0).abs() < 1e-12);
+        assert!(track.second_rate_before(2.0).abs() < 1e-12);
+        let f: f64 = 0.3;
+        let by_hand = 30.0 * 60.0 * f * (1.0 - 2.0 * f) * (1.0 - f) / 4.0;
+        assert!((track.second_rate_at(2.0 * f) - by_hand).abs() < 1e-9);
+        assert_eq!(track.segment_polynomial(0).len(), 6);
+    }
+
+    #[test]
+    fn smooth_keys_are_the_clamped_spline_inside_and_quintics_to_rest() {
+        // Keys 0, 1, 1, 0 at t = 0, 1, 2, 3, at rest at both ends. The spline's rates solve
+        // m0 + 4m1 + m2 = 3(d0 + d1) = 3 and m1 + 4m2 + m3 = 3(d1 + d2) = −3 with m0 = m3 = 0:
+        // m1 = 1, m2 = −1. The middle piece is the cubic 1 + f − f² (peak 1.25 at t = 1.5), its
+        // second derivative −2 at both inner keys; the first piece the quintic with value 1,
+        // slope 1, second derivative −2 at f = 1 and all zero at f = 0: 5f³ − 6f⁴ + 2f⁵
+        // (0.3125 at f = ½); the last its mirror.
+        let track = scalar(
+            &[(0.0, 0.0), (1.0, 1.0), (2.0, 1.0), (3.0, 0.0)],
+            Interp::Smooth,
+        );
+        assert!((track.rates()[1] - 1.0).abs() < 1e-12);
+        assert!((track.rates()[2] + 1.0).abs() < 1e-12);
+        assert!((track.sample(1.5) - 1.25).abs() < 1e-12);
+        assert!((track.sample(0.5) - 0.3125).abs() < 1e-12);
+        assert!((track.sample(2.5) - 0.3125).abs() < 1e-12);
+        for t in [1.0, 2.0] {
+            let (before, after) = second_rates_around(&track, t);
+            assert!(
+                (before + 2.0).abs() < 1e-12 && (after + 2.0).abs() < 1e-12,
+                "{t}"
+            );
+        }
+        for t in [0.0, 3.0] {
+            let (before, after) = second_rates_around(&track, t);
+            assert!(before.abs() < 1e-12 && after.abs() < 1e-12, "{t}");
+        }
+    }
+
+    #[test]
+    fn smooth_joins_rests_lines_and_cubics_without_an_acceleration_jump() {
+        // A hold, a straight segment after the smooth ones, and a cubic one: at each key the
+        // acceleration is the same from both sides (zero at the hold and beside the line).
+        let keys = [
+            TrackKey::new(0.0, 0.0, Interp::Smooth),
+            TrackKey::new(1.0, 20.0, Interp::Smooth).with_hold(0.5),
+            TrackKey::new(2.5, -10.0, Interp::Smooth),
+            TrackKey::new(3.2, 5.0, Interp::Smooth),
+            TrackKey::new(4.0, 30.0, Interp::Linear),
+            TrackKey::new(5.0, 40.0, Interp::Smooth),
+            TrackKey::new(6.0, 10.0, Interp::Cubic),
+            TrackKey::new(7.5, 15.0, Interp::Cubic),
+        ];
+        let track = Track::new(&keys).unwrap();
+        for key in &keys[..7] {
+            let t = key.time;
+            let (before, after) = second_rates_around(&track, t);
+            assert!(
+                (after - before).abs() < 1e-9,
+                "t = {t}: {before} then {after}"
+            );
+            assert!(
+                (track.rate_at(t) - track.rate_before(t)).abs() < 1e-9,
+                "t = {t}: the velocity jumps"
+            );
+        }
+        let (_, after_hold) = second_rates_around(&track, 1.5);
+        assert!(after_hold.abs() < 1e-12, "{after_hold}");
+        // Beside the line (4 → 5 s) the slope is the line's, 10 per second, and the
+        // acceleration zero.
+        assert!((track.rate_before(4.0) - 10.0).abs() < 1e-9);
+        assert!((track.rate_at(5.0) - 10.0).abs() < 1e-9);
+        assert!(track.second_rate_before(4.0).abs() < 1e-9);
+        assert!(track.second_rate_at(5.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_smooth_rotation_turns_through_its_keys_without_a_jump_in_angular_velocity() {
+        // Three rotations about different axes: the angular velocity (parent frame) just
+        // before and just after the middle key, by central differences of the samples, is the
+        // key's rate from both sides; zero at the first key.
+        let q = |x: f64, y: f64, z: f64| DQuat::from_scaled_axis(DVec3::new(x, y, z));
+        let keys = [
+            TrackKey::new(0.0, q(0.0, 0.0, 0.0), Interp::Smooth),
+            TrackKey::new(1.0, q(0.9, 0.2, -0.4), Interp::Smooth),
+            TrackKey::new(2.2, q(-0.3, 1.1, 0.5), Interp::Smooth),
+        ];
+        let track = Track::new(&keys).unwrap();
+        let omega = |t: f64, dt: f64| {
+            let (a, b) = (track.sample(t - dt), track.sample(t + dt));
+            pose::rotation_vector(pose::same_hemisphere(DQuat::IDENTITY, b * a.conjugate()))
+                / (2.0 * dt)
+        };
+        let (before, after) = (omega(1.0 - 1e-4, 1e-5), omega(1.0 + 1e-4, 1e-5));
+        let rate = track.rates()[1];
+        assert!(rate.length() > 0.5, "{rate}");
+        assert!((before - rate).length() < 1e-3, "{before} vs {rate}");
+        assert!((after - rate).length() < 1e-3, "{after} vs {rate}");
+        assert!(omega(1e-4, 1e-5).length() < 1e-3);
+        let at_key = track.sample(1.0) - keys[1].value;
+        assert!(at_key.length() < 1e-12, "{at_key}");
     }
 }

@@ -97,6 +97,22 @@ pub(crate) fn rotation_vector(q: DQuat) -> DVec3 {
 }
 
 /// Unit quaternion from a rotation vector (axis · angle, radians).
+/// `ṙ` from an angular velocity `w` (parent frame) of `exp(r)·a` at rotation vector `r`: the
+/// inverse of SO(3)'s left Jacobian applied to `w`,
+/// `w − ½ r×w + (1/θ² − (1 + cos θ)/(2θ sin θ)) r×(r×w)`, θ = |r|. Along `r` (a rotation about
+/// a fixed axis) it is `w` itself.
+pub(crate) fn rotation_vector_rate(r: DVec3, w: DVec3) -> DVec3 {
+    let theta = r.length();
+    let cross = r.cross(w);
+    // Near θ = 0 the factor's series: 1/12 + θ²/720.
+    let k = if theta < 1e-4 {
+        1.0 / 12.0 + theta * theta / 720.0
+    } else {
+        1.0 / (theta * theta) - (1.0 + theta.cos()) / (2.0 * theta * theta.sin())
+    };
+    w - 0.5 * cross + k * r.cross(cross)
+}
+
 pub(crate) fn from_rotation_vector(v: DVec3) -> DQuat {
     quat_exp(v * 0.5)
 }

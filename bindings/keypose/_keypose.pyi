@@ -66,7 +66,7 @@ def load(
     robot: Optional[str] = None,
     calibration: Union[_Path, Seq[_Path], None] = None,
     robot_id: Union[str, Seq[str], None] = None,
-    interpolation: Optional[Literal["step", "linear", "cubic", "monotone"]] = None,
+    interpolation: Optional[Literal["step", "linear", "smooth", "cubic", "monotone"]] = None,
     payload: Optional[float] = None,
     robot_variant: Optional[Literal["5v", "7.4v", "12v"]] = None,
 ) -> Sequence:
@@ -86,7 +86,7 @@ class Sequence:
         robot: Union[str, Robot],
         keys: Seq[Mapping[str, Any]],
         *,
-        interpolation: Literal["step", "linear", "cubic", "monotone"] = "cubic",
+        interpolation: Literal["step", "linear", "smooth", "cubic", "monotone"] = "cubic",
         description: Optional[str] = None,
     ) -> Sequence:
         """A sequence built from keys in code, each a dict as a sequence file writes a keyframe

@@ -100,7 +100,10 @@ fn parse_interp(py: Python<'_>, name: &str) -> PyResult<Interp> {
     Interp::parse(name).ok_or_else(|| {
         argument_error(
             py,
-            format!("interpolation: expected one of step, linear, cubic, monotone, found {name:?}"),
+            format!(
+                "interpolation: expected one of {}, found {name:?}",
+                Interp::names()
+            ),
         )
     })
 }

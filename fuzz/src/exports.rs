@@ -8,12 +8,13 @@ use keypose::plan::Trajectory;
 use keypose::robot::Robot;
 use keypose::sequence::{KeyValue, Keyframe, Sequence};
 
-const MODES: [Option<Interp>; 5] = [
+const MODES: [Option<Interp>; 6] = [
     None,
     Some(Interp::Step),
     Some(Interp::Linear),
     Some(Interp::Cubic),
     Some(Interp::Monotone),
+    Some(Interp::Smooth),
 ];
 
 /// A fraction 0 … 1 from the next byte.

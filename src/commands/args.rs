@@ -321,8 +321,7 @@ fn from_zero_to(s: &str, max: f64, what: &str, unit: &str) -> Result<f64, String
 }
 
 fn parse_interp(s: &str) -> Result<Interp, String> {
-    Interp::parse(s)
-        .ok_or_else(|| format!("expected one of step, linear, cubic, monotone, found {s:?}"))
+    Interp::parse(s).ok_or_else(|| format!("expected one of {}, found {s:?}", Interp::names()))
 }
 
 impl SequenceInput {

@@ -75,14 +75,11 @@ pub(super) fn parse_tolerance_m(s: &str) -> Result<f64, String> {
 
 pub(super) fn parse_mode(s: &str) -> Result<Interp, String> {
     match Interp::parse(s) {
-        Some(Interp::Step) => Err(
-            "step jumps between keys, which no limit check passes; expected linear, cubic or monotone"
-                .into(),
-        ),
-        Some(mode) => Ok(mode),
-        None => Err(format!(
-            "expected linear, cubic or monotone, found {s:?}"
-        )),
+        Some(mode) => match record::unfittable(mode) {
+            Some(why) => Err(format!("{mode} {why}; expected linear, cubic or monotone")),
+            None => Ok(mode),
+        },
+        None => Err(format!("expected linear, cubic or monotone, found {s:?}")),
     }
 }
 

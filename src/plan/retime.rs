@@ -304,20 +304,21 @@ pub fn advice(sequence: &Sequence, v: &Violation) -> &'static str {
     let line = key.is_some_and(|k| k.line);
     let mode = key.and_then(|k| k.interp).unwrap_or(sequence.interpolation);
     match (v.kind, v.cause) {
-        (LimitKind::Position, _) if mode == Interp::Cubic && !line => {
-            "the cubic overshoots its keys here: use monotone for this segment (it never leaves \
+        (LimitKind::Position, _) if matches!(mode, Interp::Cubic | Interp::Smooth) && !line => {
+            "the curve overshoots its keys here: use monotone for this segment (it never leaves \
              the range of its keys), or move the keys away from the limit"
         }
         (LimitKind::Position, _) => "move the keys inside the limits",
         (LimitKind::Jerk, _) if v.acceleration_jump.is_some() => {
             "the acceleration jumps here (at a key of a key-time curve, where it starts or ends \
-             moving, or at a step or corner), an infinite jerk no stretch mends: use retime \
-             --fastest, which runs each segment from rest to rest along an S-curve when the \
-             robot has jerk limits"
+             moving, or at a step or corner), an infinite jerk no stretch mends: use smooth \
+             interpolation (its acceleration is continuous through every key and zero at rest), \
+             or retime --fastest, which runs each segment from rest to rest along an S-curve \
+             when the robot has jerk limits"
         }
         (_, Cause::Step) => {
             "a step jumps within one control period, whatever its time: give this segment \
-             linear, cubic or monotone interpolation"
+             linear, smooth, cubic or monotone interpolation"
         }
         _ if line => {
             "the straight tool line needs joint speed no timing gives (it passes near a \
@@ -326,7 +327,7 @@ pub fn advice(sequence: &Sequence, v: &Violation) -> &'static str {
         }
         (_, Cause::Corner) if mode == Interp::Linear => {
             "the linear segments meet at a corner the servos turn within one control period: \
-             use cubic or monotone for this segment so the velocity changes smoothly"
+             use smooth, cubic or monotone for this segment so the velocity changes smoothly"
         }
         _ => "no stretch up to 64× mends it: check the keys of this segment",
     }

@@ -19,6 +19,7 @@
 //! `benches/scurve.rs` and the tests compare the two.
 
 use crate::curve::Track;
+use crate::plan::check::poly::Poly;
 use crate::robot::{Limits, Robot};
 
 /// A path slope below this (degrees or metres per path second) is at rest.
@@ -306,7 +307,8 @@ pub fn candidates(length: f64, joints: &[AlongPath]) -> Vec<SCurve> {
 }
 
 /// How `track` moves between path times `from` and `to`: the largest magnitudes of its first
-/// three derivatives there (exact: each piece is a cubic), with `limits` times `share`.
+/// three derivatives there (exact: each piece is a cubic, or a smooth segment's quintic), with
+/// `limits` times `share`.
 pub fn along_track(
     track: &Track<f64>,
     from: f64,
@@ -327,20 +329,16 @@ pub fn along_track(
         if hi <= lo {
             continue;
         }
-        let [_, c1, c2, c3] = track.segment_polynomial(k);
-        let slope = |s: f64| (c1 + s * (2.0 * c2 + 3.0 * s * c3)).abs();
+        // Exact peaks of each derivative: a cubic's or a smooth segment's quintic.
         let (a, b) = (lo - start, hi - start);
-        let mut steepest = slope(a).max(slope(b));
-        if c3 != 0.0 {
-            let vertex = -c2 / (3.0 * c3);
-            if vertex > a && vertex < b {
-                steepest = steepest.max(slope(vertex));
-            }
-        }
-        let curvature = |s: f64| (2.0 * c2 + 6.0 * c3 * s).abs();
-        out.slope = out.slope.max(steepest);
-        out.curvature = out.curvature.max(curvature(a).max(curvature(b)));
-        out.third = out.third.max((6.0 * c3).abs());
+        let velocity = Poly::new(&track.segment_polynomial(k))
+            .shifted(a)
+            .derivative();
+        let acceleration = velocity.derivative();
+        let jerk = acceleration.derivative();
+        out.slope = out.slope.max(velocity.peak_magnitude(b - a));
+        out.curvature = out.curvature.max(acceleration.peak_magnitude(b - a));
+        out.third = out.third.max(jerk.peak_magnitude(b - a));
     }
     // Rounding of a joint that does not move is no slope.
     if out.slope <= AT_REST {
@@ -396,7 +394,7 @@ pub fn time_scale(
     factor
 }
 
-/// The first three derivatives of `track` at path time `u`, from the cubic it moves on there
+/// The first three derivatives of `track` at path time `u`, from the polynomial it moves on there
 /// (0 in a hold and outside its keys).
 fn derivatives(track: &Track<f64>, u: f64) -> [f64; 3] {
     let times = track.times();
@@ -411,11 +409,12 @@ fn derivatives(track: &Track<f64>, u: f64) -> [f64; 3] {
     if s < 0.0 {
         return [0.0; 3];
     }
-    let [_, c1, c2, c3] = track.segment_polynomial(k);
+    let velocity = Poly::new(&track.segment_polynomial(k)).derivative();
+    let acceleration = velocity.derivative();
     [
-        c1 + s * (2.0 * c2 + 3.0 * s * c3),
-        2.0 * c2 + 6.0 * c3 * s,
-        6.0 * c3,
+        velocity.eval(s),
+        acceleration.eval(s),
+        acceleration.derivative().eval(s),
     ]
 }
 

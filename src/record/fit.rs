@@ -203,16 +203,31 @@ pub fn keyframes(
     })
 }
 
+/// Why keys in `mode` cannot be fitted to a recording, if they cannot.
+pub fn unfittable(mode: Interp) -> Option<&'static str> {
+    match mode {
+        Interp::Step => Some("jumps between keys, which no limit check passes"),
+        // The fit judges each segment from its own keys and their neighbours' slopes; a
+        // spline's every key moves every segment of its run.
+        Interp::Smooth => Some(
+            "shapes each segment from every key of its run, and keys are fitted to a \
+             recording a few segments at a time",
+        ),
+        Interp::Linear | Interp::Cubic | Interp::Monotone => None,
+    }
+}
+
 /// Refuses options and recordings no keyframes can come from; returns the recorded joints.
 fn validate(
     recording: &Recording,
     robot: &Robot,
     options: &KeyframeOptions,
 ) -> Result<Vec<usize>, RecordError> {
-    if options.interpolation == Interp::Step {
-        return Err(RecordError::Invalid(
-            "step interpolation jumps between keys, which no limit check passes; use linear, cubic or monotone".into(),
-        ));
+    if let Some(why) = unfittable(options.interpolation) {
+        return Err(RecordError::Invalid(format!(
+            "{} interpolation {why}; use linear, cubic or monotone",
+            options.interpolation
+        )));
     }
     for (name, tolerance) in [
         ("degrees", options.tolerance_deg),

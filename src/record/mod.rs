@@ -21,7 +21,9 @@ use crate::json::InputError;
 
 pub use capture::{record, HoldError, RecordOptions, MAX_RATE_HZ, MAX_SECONDS};
 pub use extract::{deviations, extract, ExtractError, Fit, JointDeviation};
-pub use fit::{keyframes, Clamp, Deviation, Drift, KeyframeOptions, Keyframes, Retimed};
+pub use fit::{
+    keyframes, unfittable, Clamp, Deviation, Drift, KeyframeOptions, Keyframes, Retimed,
+};
 
 /// Why a recording ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -438,7 +438,7 @@ fn parse_interp(node: &Node) -> Result<Interp, InputError> {
     node.value
         .as_str()
         .and_then(Interp::parse)
-        .ok_or_else(|| node.expected("one of step, linear, cubic, monotone (or line on a key)"))
+        .ok_or_else(|| node.expected(&format!("one of {} (or line on a key)", Interp::names())))
 }
 
 fn parse_keyframe(node: &Node, arms: &[ArmSpec]) -> Result<Keyframe, InputError> {

@@ -262,7 +262,7 @@ fn the_fuzz_targets_seeds_hold_the_property() {
 /// share of it held, mode, wrist, elbow)`, with control ends when asked (and there are 4 keys
 /// or more).
 fn random_sequence(keys: &[(f64, f64, usize, f64, f64)], control: bool) -> Sequence {
-    const MODES: [&str; 4] = ["step", "linear", "cubic", "monotone"];
+    const MODES: [&str; 5] = ["step", "linear", "smooth", "cubic", "monotone"];
     let mut time = 0.0;
     let mut text = Vec::new();
     for &(gap, hold, mode, wrist, elbow) in keys {
@@ -290,7 +290,7 @@ fn key() -> impl Strategy<Value = (f64, f64, usize, f64, f64)> {
     (
         prop_oneof![0.002f64..0.02, 0.02f64..0.6],
         prop_oneof![Just(0.0), 0.0f64..0.9],
-        0usize..4,
+        0usize..5,
         -90.0f64..90.0,
         -90.0f64..90.0,
     )

@@ -478,7 +478,8 @@ fn fastest_with_jerk_limits_writes_s_curves_that_pass_the_check_with_jerk() {
     let out = run(&["retime", input, "-o", output]);
     assert_eq!(out.status.code(), Some(1), "{}", show(&out));
     assert!(
-        crate::common::stderr(&out).contains("use retime --fastest"),
+        crate::common::stderr(&out).contains("use smooth interpolation")
+            && crate::common::stderr(&out).contains("or retime --fastest"),
         "{}",
         show(&out)
     );
@@ -492,7 +493,11 @@ fn fastest_with_jerk_limits_writes_s_curves_that_pass_the_check_with_jerk() {
         let out = run(&args);
         let err = crate::common::stderr(&out);
         assert_eq!(out.status.code(), Some(1), "{}", show(&out));
-        assert!(err.contains("use retime --fastest"), "{}", show(&out));
+        assert!(
+            err.contains("use smooth interpolation") && err.contains("or retime --fastest"),
+            "{}",
+            show(&out)
+        );
         assert!(!err.contains("try `keypose retime`"), "{}", show(&out));
     }
 }

@@ -150,7 +150,7 @@ fn retime_advises_per_segment_kind() {
         "{said}"
     );
     assert!(
-        said.contains("give this segment linear, cubic or monotone"),
+        said.contains("give this segment linear, smooth, cubic or monotone"),
         "{said}"
     );
     assert!(!said.contains("smooth mode"), "{said}");
@@ -173,7 +173,7 @@ fn retime_advises_per_segment_kind() {
     assert_eq!(out.status.code(), Some(1), "{}", show(&out));
     let said = stderr(&out);
     assert!(
-        said.contains("the cubic overshoots its keys here: use monotone"),
+        said.contains("the curve overshoots its keys here: use monotone"),
         "{said}"
     );
 }

@@ -85,4 +85,22 @@ mod tests {
             assert!((j.at_start() + 45.0).abs() < 1e-9 && (j.at_end() + 45.0).abs() < 1e-9);
         }
     }
+
+    #[test]
+    fn a_smooth_move_starts_and_stops_without_a_jump_at_sixty_distance_over_duration_cubed() {
+        // The same 0 → 30 in 2 s, smooth: 30·(10f³ − 15f⁴ + 6f⁵). Its acceleration is zero at
+        // both ends, so nothing jumps; its jerk 30·(60 − 360f + 360f²)/8 is 225 at either end
+        // and −112.5 at the middle.
+        let keys = [0.0, 30.0].map(|v| TrackKey::new(2.0 * v / 30.0, v, Interp::Smooth));
+        let track = Track::new(&keys).unwrap();
+        let curve = JointCurve::new(&track, &Timing::default(), 0.0, 2.0, &[0.0, 2.0], 0.1);
+        assert_eq!(acceleration_jumps(&curve), vec![]);
+        let moving: Vec<_> = curve.played.iter().filter(|s| s.len() > 0.0).collect();
+        let (first, last) = (moving[0], moving[moving.len() - 1]);
+        assert!((jerk(first).at_start() - 225.0).abs() < 1e-9);
+        assert!((jerk(last).at_end() - 225.0).abs() < 1e-9);
+        let middle = curve.span_at(1.0);
+        let j = jerk(middle).poly.eval(1.0 - middle.start);
+        assert!((j + 112.5).abs() < 1e-9, "{j}");
+    }
 }

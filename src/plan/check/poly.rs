@@ -1,18 +1,20 @@
 //! Polynomials of low degree on a span of time, and where they peak: what makes the limit check
-//! exact. A segment's curve is a cubic in its path time; a segment with a timing profile
-//! (`plan::timing`) runs through its path time as a quadratic of real time between the
-//! profile's knots (a cubic for a jerk-limited S-curve profile), so its curve is the cubic of a
-//! quadratic or of a cubic there: degree nine at most. Between
+//! exact. A segment's curve is a cubic in its path time (a quintic for a smooth segment); a
+//! segment with a timing profile (`plan::timing`) runs through its path time as a quadratic of
+//! real time between the profile's knots (a cubic for a jerk-limited S-curve profile), so its
+//! curve is the quintic of a quadratic or of a cubic there: degree fifteen at most. Between
 //! its ends a polynomial's extremes are at the roots of its derivative, found by isolating them
 //! between the roots of the next derivative (down to a quadratic, in closed form) and bisecting
 //! each to the last bit; between two such points it is monotone, so it crosses a level at most
 //! once there.
 
-/// Highest degree a span's polynomial has: a cubic path composed with a cubic timing.
-pub const MAX_DEGREE: usize = 9;
+/// Highest degree a span's polynomial has: a quintic path composed with a cubic timing.
+pub const MAX_DEGREE: usize = 15;
+/// Highest degree of a segment's curve in path time (`curve::Interp::Smooth`'s quintic).
+const PATH_DEGREE: usize = 5;
 const LEN: usize = MAX_DEGREE + 1;
 
-/// `c0 + c1·x + … + c9·x⁹`, x in seconds from the start of the span it belongs to.
+/// `c0 + c1·x + … + c15·x¹⁵`, x in seconds from the start of the span it belongs to.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Poly(pub [f64; LEN]);
 
@@ -25,11 +27,17 @@ impl Poly {
         Poly(c)
     }
 
+    /// `c0 + c1·x + c2·x² + …` from its coefficients, lowest power first (at most
+    /// [`MAX_DEGREE`] + 1 of them).
+    pub fn new(c: &[f64]) -> Poly {
+        let mut out = [0.0; LEN];
+        out[..c.len()].copy_from_slice(c);
+        Poly(out)
+    }
+
     /// The cubic `c0 + c1·x + c2·x² + c3·x³`.
     pub fn cubic(c: [f64; 4]) -> Poly {
-        let mut out = [0.0; LEN];
-        out[..4].copy_from_slice(&c);
-        Poly(out)
+        Poly::new(&c)
     }
 
     /// The coefficients up to the highest power with one other than 0 (`[c0]` for a constant),
@@ -71,14 +79,15 @@ impl Poly {
         Poly(c)
     }
 
-    /// `p(q(x))` for a cubic `q = q0 + q1·x + q2·x² + q3·x³`; `self` must be a cubic, so the
-    /// result stays within [`MAX_DEGREE`].
+    /// `p(q(x))` for a cubic `q = q0 + q1·x + q2·x² + q3·x³`; `self` must be a quintic at
+    /// most (a segment's curve), so the result stays within [`MAX_DEGREE`].
     pub fn of_cubic(&self, q: [f64; 4]) -> Poly {
-        debug_assert!(self.degree() <= 3, "{self:?}");
+        let degree = self.degree();
+        debug_assert!(degree <= PATH_DEGREE, "{self:?}");
         let q = Poly::cubic(q);
-        // Horner: ((c3·q + c2)·q + c1)·q + c0.
-        let mut out = Poly::constant(self.0[3]);
-        for k in (0..3).rev() {
+        // Horner: ((c5·q + c4)·q + …)·q + c0.
+        let mut out = Poly::constant(self.0[degree]);
+        for k in (0..degree).rev() {
             out = out.times(&q);
             out.0[0] += self.0[k];
         }
@@ -118,6 +127,14 @@ impl Poly {
         points.extend(self.derivative().roots_inside(0.0, len));
         points.push(len);
         points
+    }
+
+    /// The largest magnitude over [0, `len`]: at an end or where the derivative vanishes.
+    pub fn peak_magnitude(&self, len: f64) -> f64 {
+        self.monotone_breaks(len)
+            .into_iter()
+            .map(|x| self.eval(x).abs())
+            .fold(0.0, f64::max)
     }
 
     /// The roots inside (a, b) where the polynomial changes sign, in order. A quadratic's come
@@ -201,7 +218,7 @@ mod tests {
 
     #[test]
     fn shifting_moves_the_origin() {
-        let p = Poly([1.0, -2.0, 0.5, 3.0, -1.0, 0.25, 0.5, 0.0, 0.0, 0.0]);
+        let p = Poly::new(&[1.0, -2.0, 0.5, 3.0, -1.0, 0.25, 0.5]);
         let q = p.shifted(0.75);
         for x in [-1.0, 0.0, 0.3, 2.0] {
             let (a, b) = (q.eval(x), p.eval(x + 0.75));

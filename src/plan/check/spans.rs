@@ -179,7 +179,7 @@ fn track_pieces(track: &Track<f64>) -> Vec<(f64, f64, Poly)> {
         if moving > times[i] {
             pieces.push((times[i], moving, Poly::constant(values[i])));
         }
-        let poly = Poly::cubic(track.segment_polynomial(i));
+        let poly = Poly::new(&track.segment_polynomial(i));
         pieces.push((moving, times[i + 1], poly));
     }
     pieces.push((times[n - 1], f64::INFINITY, Poly::constant(values[n - 1])));
@@ -215,7 +215,8 @@ fn timing_windows(timing: &Timing, start: f64, end: f64) -> Vec<TimingPiece> {
 }
 
 /// The track's pieces (over path time) that `window` runs through, each as (from, to,
-/// polynomial from `from`) in sequence time: the piece's cubic of the window's quadratic (or cubic).
+/// polynomial from `from`) in sequence time: the piece's cubic (or quintic) of the window's
+/// quadratic (or cubic).
 fn composed(pieces: &[(f64, f64, Poly)], window: &TimingPiece) -> Vec<(f64, f64, Poly)> {
     let (u_a, u_b) = (window.u0, window.path_time(window.t1));
     // A window's ends land on a key's path time only to rounding; a sliver of the piece

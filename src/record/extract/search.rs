@@ -230,7 +230,8 @@ impl Problem<'_> {
             let c = match mode {
                 Interp::Step => [v[a], 0.0, 0.0, 0.0],
                 Interp::Linear => [v[a], v[b] - v[a], 0.0, 0.0],
-                Interp::Cubic | Interp::Monotone => {
+                // Smooth is refused before a fit (`fit::unfittable`): here it is the cubic.
+                Interp::Cubic | Interp::Monotone | Interp::Smooth => {
                     let (da, db) = (slopes[j][a] * h, slopes[j][b] * h);
                     let delta = v[b] - v[a];
                     [
