@@ -90,11 +90,6 @@ pub struct TrackKey<V> {
     /// The motion is at rest at this key whatever its neighbours (the ends of a straight tool
     /// line, timed to start and stop there): its rate is zero, as at a hold.
     pub rest: bool,
-    /// The key's rate makes the curve's second derivative continuous through it: with its
-    /// neighbours of the same kind, a cubic spline between the keys on either side of the run,
-    /// whose rates are set the usual way (the samples of a straight tool line under jerk
-    /// limits). Only between two cubic segments without a hold; exact for scalar values.
-    pub spline: bool,
 }
 
 impl<V> TrackKey<V> {
@@ -106,20 +101,12 @@ impl<V> TrackKey<V> {
             hold: 0.0,
             interp,
             rest: false,
-            spline: false,
         }
     }
 
     /// The same key, with the motion at rest there (rate zero) whatever its neighbours.
     pub fn at_rest(mut self) -> Self {
         self.rest = true;
-        self
-    }
-
-    /// The same key, its rate the one that keeps the second derivative continuous through it
-    /// (see [`TrackKey::spline`]).
-    pub fn in_spline(mut self) -> Self {
-        self.spline = true;
         self
     }
 
@@ -518,8 +505,7 @@ impl<V: Interpolant> Track<V> {
         let spline: Vec<bool> = (0..n)
             .map(|i| {
                 let inner = i > 0 && i + 1 < n && holds[i] == 0.0 && !rest[i];
-                let both = |mode| modes[i - 1] == mode && modes[i] == mode;
-                inner && (both(Interp::Smooth) || (keys[i].spline && both(Interp::Cubic)))
+                inner && modes[i - 1] == Interp::Smooth && modes[i] == Interp::Smooth
             })
             .collect();
         spline_rates(&mut rates, &values, &moving, &spline);
@@ -920,7 +906,7 @@ fn key_second_rates<V: Interpolant>(
     let cubic = |mode: Interp| matches!(mode, Interp::Cubic | Interp::Monotone);
     (0..n)
         .map(|i| {
-            if spline[i] && modes[i] == Interp::Smooth {
+            if spline[i] {
                 return at_start(i);
             }
             let (before, after) = (
@@ -936,7 +922,7 @@ fn key_second_rates<V: Interpolant>(
         .collect()
 }
 
-/// The rates of every run of keys marked `spline` that make the cubic Hermite segments meet
+/// The rates of every run of inner smooth keys (`spline`) that make the cubic Hermite segments meet
 /// with equal second derivatives, the rates of the keys on either side of each run fixed: a
 /// clamped cubic spline. With segment durations h and secants d, continuity at key k is
 /// `m[k−1]/h[k−1] + 2·m[k]·(1/h[k−1] + 1/h[k]) + m[k+1]/h[k] = 3·(d[k−1]/h[k−1] + d[k]/h[k])`,
@@ -1082,57 +1068,6 @@ mod tests {
             Track::new(&[k(f64::NAN)]),
             Err(CurveError::NonFiniteTime { index: 0 })
         ));
-    }
-
-    #[test]
-    fn spline_keys_reproduce_a_smoothstep_with_a_continuous_second_derivative() {
-        // f(t) = 10·(3x² − 2x³), x = t/2: a cubic at rest at both ends. A clamped cubic spline
-        // reproduces any cubic whose end slopes it is given (here 0, the first and last keys'),
-        // so through unevenly spaced samples of f it is f itself: value, slope 60x(1 − x)/2
-        // and second derivative 15·(1 − 2x), by hand.
-        let f = |t: f64| {
-            let x = t / 2.0;
-            10.0 * x * x * (3.0 - 2.0 * x)
-        };
-        let times = [0.0, 0.13, 0.4, 0.55, 0.9, 1.3, 1.42, 1.8, 2.0];
-        let keys: Vec<_> = times
-            .iter()
-            .enumerate()
-            .map(|(k, &t)| {
-                let key = TrackKey::new(t, f(t), Interp::Cubic);
-                if k == 0 || k + 1 == times.len() {
-                    key
-                } else {
-                    key.in_spline()
-                }
-            })
-            .collect();
-        let track = Track::new(&keys).unwrap();
-        for k in 0..=200 {
-            let t = 2.0 * k as f64 / 200.0;
-            let x = t / 2.0;
-            assert!((track.sample(t) - f(t)).abs() < 1e-12, "{t}");
-            assert!(
-                (track.rate_at(t) - 30.0 * x * (1.0 - x)).abs() < 1e-10,
-                "{t}"
-            );
-            if t < 2.0 {
-                assert!(
-                    (track.second_rate_at(t) - 15.0 * (1.0 - 2.0 * x)).abs() < 1e-9,
-                    "{t}"
-                );
-            }
-        }
-        // Without the spline the key-time central differences give other slopes: the second
-        // derivative jumps at the samples.
-        let plain: Vec<_> = times
-            .iter()
-            .map(|&t| TrackKey::new(t, f(t), Interp::Cubic))
-            .collect();
-        let plain = Track::new(&plain).unwrap();
-        let jump = (plain.second_rate_at(0.9) - plain.second_rate_before(0.9)).abs();
-        assert!(jump > 0.1, "{jump}");
-        assert!((track.second_rate_at(0.9) - track.second_rate_before(0.9)).abs() < 1e-9);
     }
 
     /// Left and right limits of the second derivative at `t`.

@@ -152,7 +152,7 @@ impl Trajectory {
         refuse_unknown_joints(sequence, robot)?;
         // Under jerk limits a line's samples are joined with a continuous acceleration.
         let join = if robot.joints.iter().any(|j| j.limits.jerk.is_some()) {
-            LineJoin::Spline
+            LineJoin::Smooth
         } else {
             LineJoin::KeyTimeCubic
         };
@@ -392,9 +392,10 @@ enum LineJoin {
     /// A key-time cubic: continuous in velocity, its acceleration jumping a little at each
     /// sample.
     KeyTimeCubic,
-    /// A cubic spline (`TrackKey::in_spline`): continuous in acceleration too, for a robot
-    /// with jerk limits, where every jump of the acceleration is a violation.
-    Spline,
+    /// Smooth interpolation (`curve::Interp::Smooth`): continuous in acceleration too, and
+    /// zero acceleration at the line's ends, for a robot with jerk limits, where every jump of
+    /// the acceleration is a violation.
+    Smooth,
 }
 
 /// The solved samples of a straight tool line starting at key `index`, as keys of joint
@@ -406,10 +407,11 @@ enum LineJoin {
 /// key-time cubic: dense samples of a smooth path, whose central-difference slopes follow the
 /// path's own. A monotone cubic would stop at every sample where a joint turns back (its slope
 /// is zero at a local extreme), and how hard it stops depends on where the control-rate
-/// samples fall: a line that passed the check at one duration failed it 40 ms later. The
-/// spline's slopes follow the path's too (through a cubic's samples it is that cubic), and
-/// its second derivative does not jump at the samples; at the line's ends, at rest, the
-/// path's speed is zero under any profile, so its acceleration does not jump there either.
+/// samples fall: a line that passed the check at one duration failed it 40 ms later. Smooth
+/// interpolation's slopes follow the path's too (inside, it is the cubic spline through the
+/// samples, which through a cubic's samples is that cubic), its second derivative does not jump
+/// at the samples, and at the line's ends, at rest, its acceleration is zero, as the
+/// minimum-jerk timing's is.
 fn push_line_samples(
     keys: &mut Vec<TrackKey<f64>>,
     tools: &ToolSolve,
@@ -424,21 +426,21 @@ fn push_line_samples(
     else {
         return false;
     };
+    let mode = match join {
+        LineJoin::Smooth => crate::curve::Interp::Smooth,
+        LineJoin::KeyTimeCubic => crate::curve::Interp::Cubic,
+    };
     if let Some(start) = keys.last_mut() {
         start.rest = true;
-        if join == LineJoin::Spline {
-            // The line's first piece joins the spline too, whatever the key's own mode.
-            start.interp = crate::curve::Interp::Cubic;
+        if join == LineJoin::Smooth {
+            // The line's first piece is smooth too, whatever the key's own mode.
+            start.interp = mode;
         }
     }
     let before = keys.len();
     for (k, time) in line.times.iter().enumerate() {
         if let Some(value) = line.value(k, joint) {
-            let key = TrackKey::new(*time, value, crate::curve::Interp::Cubic);
-            keys.push(match join {
-                LineJoin::Spline => key.in_spline(),
-                LineJoin::KeyTimeCubic => key,
-            });
+            keys.push(TrackKey::new(*time, value, mode));
         }
     }
     keys.len() > before

@@ -90,7 +90,7 @@ impl SCurve {
         } else {
             let [tj, ta] = speed_change(v, a, j);
             if v * (2.0 * tj + ta) <= d {
-                [tj, ta, d / v - (2.0 * tj + ta)]
+                [tj, ta, (d / v - (2.0 * tj + ta)).max(0.0)]
             } else {
                 let tj = a / j;
                 let ta = 0.5 * ((tj * tj + 4.0 * d / a).sqrt() - 3.0 * tj);
@@ -199,7 +199,9 @@ pub fn speed_change(change: f64, acceleration: f64, jerk: f64) -> [f64; 2] {
     if tj == 0.0 {
         return [0.0, 0.0];
     }
-    [tj, change / (jerk * tj) - tj]
+    // Where the jerk phases meet (tj = √(change/j)) the difference is zero but for rounding,
+    // which may leave it a few 1e-17 below: no phase lasts a negative time.
+    [tj, (change / (jerk * tj) - tj).max(0.0)]
 }
 
 /// One joint along a stretch of path: the largest magnitudes of its first three derivatives

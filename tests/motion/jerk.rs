@@ -4,6 +4,7 @@
 //! keypose's Python environment, which these tests need: without it they fail).
 
 use crate::common::{run, show, stdout};
+use keypose::curve::Interp;
 use keypose::plan::{check, Cause, LimitKind, Trajectory};
 use keypose::robot::Robot;
 use keypose::sequence::Sequence;
@@ -453,6 +454,8 @@ fn fastest_with_jerk_limits_writes_s_curves_that_pass_the_check_with_jerk() {
     let wave = std::fs::read_to_string(crate::common::repo("sequences/so101_wave.json")).unwrap();
     let mut wave: Value = serde_json::from_str(&wave).unwrap();
     wave["robot"] = "./robot.json".into();
+    // The wave as the key-time cubic it was first written in: its acceleration jumps at keys.
+    wave["interpolation"] = "cubic".into();
     let path = dir.path().join("wave.json");
     std::fs::write(&path, wave.to_string()).unwrap();
     let out_path = dir.path().join("fast.json");
@@ -851,6 +854,70 @@ fn fastest_with_jerk_limits_passes_the_check_with_jerk_on_every_example() {
                 "{name} {}: {jerk}",
                 joint.name
             );
+        }
+    }
+}
+
+/// Every example of sequences/ but the control-ends sweep is smooth, and as written, with no
+/// retiming, passes the exact check under the same jerk limits (docs/robots.md §5a): nothing in
+/// it changes an acceleration at once. Sampled at 1 kHz, no finite difference of any order is
+/// above its limit. And one peak by hand: the Koch gripper closes 60° from rest to rest in
+/// 0.8 s, the minimum-jerk quintic, whose jerk peaks at its ends at 60·Δ/T³ = 7 031.25 °/s³.
+/// The sweep is a key-time cubic on purpose (its control keys' mirror gives zero slope at the
+/// played ends): like a pendulum's swing it starts at full acceleration, which no jerk limit
+/// passes, and its acceleration jumps at its keys; the check says so there and only there.
+#[test]
+fn every_smooth_example_passes_the_check_with_jerk_as_written() {
+    for example in &crate::common::examples() {
+        let name = example.file_name().unwrap().to_string_lossy().to_string();
+        let sequence = Sequence::load(example).unwrap();
+        let robot = ruckig::with_jerk(
+            &keypose::plan::builtin_robot_of(&sequence).unwrap(),
+            ruckig::RISE_SECONDS,
+        );
+        let trajectory = Trajectory::build(&sequence, &robot).unwrap();
+        let report = check(&trajectory, &robot, robot.control_hz);
+        if name == "so101_sweep_control.json" {
+            assert_eq!(sequence.interpolation, Interp::Cubic);
+            assert!(!report.violations.is_empty());
+            let keys = sequence.key_times();
+            for v in &report.violations {
+                let at_key = keys.iter().any(|&t| (v.peak_time - t).abs() < 1e-9);
+                assert!(
+                    v.kind == LimitKind::Jerk && v.acceleration_jump.is_some() && at_key,
+                    "{name}: {v:?}"
+                );
+            }
+            continue;
+        }
+        assert_eq!(sequence.interpolation, Interp::Smooth, "{name}");
+        assert!(report.passed(), "{name}: {:#?}", report.violations);
+        let h = 1e-3;
+        let samples: Vec<Vec<f64>> = trajectory
+            .grid(1.0 / h)
+            .map(|t| trajectory.sample(t))
+            .collect();
+        for (j, joint) in robot.joints.iter().enumerate() {
+            let p: Vec<f64> = samples.iter().map(|s| s[j]).collect();
+            let [v, acc, jerk] = difference_peaks(&p, h);
+            let l = &joint.limits;
+            let within = |peak: f64, limit: f64| peak <= limit * (1.0 + 1e-6) + 1e-6;
+            assert!(within(v, l.velocity), "{name} {}: {v} deg/s", joint.name);
+            assert!(within(acc, l.acceleration), "{name} {}: {acc}", joint.name);
+            assert!(
+                within(jerk, l.jerk.unwrap()),
+                "{name} {}: {jerk}",
+                joint.name
+            );
+        }
+        if name == "koch_wave.json" {
+            let gripper = robot
+                .joints
+                .iter()
+                .position(|j| j.name == "gripper")
+                .unwrap();
+            let peak = report.joints[gripper].peak_jerk;
+            assert!((peak - 60.0 * 60.0 / 0.512).abs() < 1e-6, "{peak}");
         }
     }
 }
