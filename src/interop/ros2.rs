@@ -14,7 +14,7 @@
 //!
 //! A segment with a timing profile is a cubic of path time run at a changing path speed: on each
 //! piece of the profile a polynomial of a higher degree in time, whose acceleration jumps where
-//! pieces meet. Points stay positions and velocities (cubic joins may change their acceleration
+//! pieces meet; a smooth segment is a quintic, which no one cubic follows either. Points stay positions and velocities (cubic joins may change their acceleration
 //! at a point, as the curve does; a quintic join would force one acceleration there): one at
 //! every end of every piece, and between two of them more, by halving, until the controller's
 //! cubic follows the curve and keeps the limits, judged exactly (`hermite_fit`); a stretch that
@@ -167,8 +167,20 @@ fn point_times(
     times.extend([trajectory.start, trajectory.end]);
     times.extend(corners.iter().map(|t| t - period));
     times.retain(|t| (trajectory.start..=trajectory.end).contains(t));
+    for t in &mut times {
+        *t = on_nanoseconds(*t, trajectory.start);
+    }
     super::sorted_once(&mut times);
     times
+}
+
+/// `t` on the whole nanosecond (from `start`) its point's `time_from_start` will say: each
+/// point's position and velocity are the curve's at the time written, which the controller
+/// reads. Off by up to half a nanosecond, a point 0.1 ms from the next moves its cubic's
+/// acceleration by degrees per second squared (the distance a joint at 80 °/s covers in that
+/// time, over h²).
+fn on_nanoseconds(t: f64, start: f64) -> f64 {
+    start + ((t - start) * 1e9).round() / 1e9
 }
 
 /// The curves the points stand for, and what judges the cubics between them.
@@ -209,7 +221,7 @@ impl Fit<'_> {
                     what: describe(shortfall, joint),
                 });
             }
-            let middle = 0.5 * (a + b);
+            let middle = on_nanoseconds(0.5 * (a + b), self.trajectory.start);
             self.refine(a, middle, halvings + 1, out)?;
             return self.refine(middle, b, halvings + 1, out);
         }
@@ -217,12 +229,18 @@ impl Fit<'_> {
         Ok(())
     }
 
-    /// The first joint whose cubic on [a, b] misses, on a profiled stretch (elsewhere the
-    /// cubic through the points is keypose's own cubic); a stretch ending at a corner is the
-    /// corner's last period, which the limit check judged as the player turns it.
+    /// The first joint whose cubic on [a, b] misses, on a profiled stretch or a smooth
+    /// segment's quintic (elsewhere the cubic through the points is keypose's own cubic); a
+    /// stretch ending at a corner is the corner's last period, which the limit check judged as
+    /// the player turns it.
     fn shortfall(&self, a: f64, b: f64) -> Option<(&Joint, hermite_fit::Shortfall)> {
         let piece = self.trajectory.timing().piece_at(0.5 * (a + b));
-        let profiled = piece.v0 != 1.0 || piece.a != 0.0;
+        let beyond_cubic = self
+            .played
+            .iter()
+            .flatten()
+            .any(|s| s.end > a && s.start < b && s.poly.coefficients().len() > 4);
+        let profiled = piece.v0 != 1.0 || piece.a != 0.0 || beyond_cubic;
         let at_corner = |t: f64| {
             let i = self.corners.partition_point(|&c| c < t - SAME_TIME);
             self.corners.get(i).is_some_and(|&c| c - t < SAME_TIME)

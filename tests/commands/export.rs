@@ -119,12 +119,27 @@ fn assert_follows(sequence: &str, prismatic: &[usize], rate: &str) -> usize {
     points.len()
 }
 
+/// A copy of the example `name` in `dir` with its interpolation `mode`.
+pub(crate) fn example_in_mode(dir: &Path, name: &str, mode: &str) -> String {
+    let text = std::fs::read_to_string(repo(&format!("sequences/{name}"))).unwrap();
+    let mut sequence: serde_json::Value = serde_json::from_str(&text).unwrap();
+    sequence["interpolation"] = mode.into();
+    let path = dir.join(name);
+    std::fs::write(&path, sequence.to_string()).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
 #[test]
 fn the_controllers_hermite_through_the_points_follows_keyposes_curve() {
     // Monotone with holds and keys that name only some joints (tracks of their own key times).
-    let points = assert_follows(&repo("sequences/so101_pick_place.json"), &[], "100");
+    let dir = tempfile::tempdir().unwrap();
+    let monotone = example_in_mode(dir.path(), "so101_pick_place.json", "monotone");
+    let points = assert_follows(&monotone, &[], "100");
     // A point per key and a second one at the end of each of the three holds, nothing more.
     assert_eq!(points, 10 + 3);
+    // Smooth, as shipped: quintics no one cubic follows, so more points, until they do.
+    let smooth = assert_follows(&repo("sequences/so101_pick_place.json"), &[], "100");
+    assert!(smooth > points, "{smooth}");
     // Rigid transforms, a prismatic gripper in metres.
     assert_follows(&repo("sequences/omx_reach.json"), &[4], "100");
 }
@@ -397,7 +412,7 @@ fn timing_profiles_are_followed_by_the_controllers_cubics_within_the_limits() {
     let curved = crate::export_c::curved_sequence(dir.path());
     let curved = curved.to_str().unwrap();
     assert!(assert_follows(curved, &[], "1000") > 6);
-    // A time-optimal profile along monotone cubics: degree six in time.
+    // A time-optimal profile along smooth quintics: degree ten in time.
     let fastest = crate::export_c::fastest_sequence(dir.path());
     let fastest = fastest.to_str().unwrap();
     assert_follows(fastest, &[], "1000");

@@ -243,8 +243,8 @@ fn timing_profiles_play_as_keypose_samples_them() {
     for (sequence, degree) in [
         // A straight path of a quadratic of time (degree 2), and a monotone cubic: degree 3.
         (eased_sequence(dir.path()), 3),
-        // A cubic of a quadratic of time: degree 6.
-        (fastest_sequence(dir.path()), 6),
+        // A quintic (smooth keys) of a quadratic of time: degree 10; a cubic of one: 6.
+        (fastest_sequence(dir.path()), 10),
         (curved_sequence(dir.path()), 6),
     ] {
         let sequence = sequence.to_str().unwrap();
@@ -262,10 +262,23 @@ fn timing_profiles_play_as_keypose_samples_them() {
         let out = Command::new(&program).arg("100").output().unwrap();
         assert_eq!(stderr(&out).trim(), "limited 0", "{sequence}");
     }
-    // A sequence without profiles keeps its cubics: four coefficients per joint and piece.
-    let build = tempfile::tempdir().unwrap();
-    build_player(&repo("sequences/so101_pick_place.json"), build.path(), &[]);
-    assert_eq!(header_degree(&build.path().join("seq.h")), 3);
+    // A sequence without profiles keeps its polynomials: a smooth one its quintics (six
+    // coefficients per joint and piece), a monotone one its cubics (four).
+    for (sequence, degree) in [
+        (repo("sequences/so101_pick_place.json"), 5),
+        (
+            crate::export::example_in_mode(dir.path(), "so101_pick_place.json", "monotone"),
+            3,
+        ),
+    ] {
+        let build = tempfile::tempdir().unwrap();
+        build_player(&sequence, build.path(), &[]);
+        assert_eq!(
+            header_degree(&build.path().join("seq.h")),
+            degree,
+            "{sequence}"
+        );
+    }
 }
 
 /// Prints the Sync Write packets keypose_bus.c builds for ids 1, 2 and the ticks given.
