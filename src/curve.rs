@@ -33,12 +33,14 @@ pub enum Interp {
 }
 
 impl Interp {
-    /// Every mode, in the order the help text lists them.
+    /// Every mode, in the order the help text lists them and the teach pendant's and the
+    /// studio's mode key cycles through them (smooth after cubic, so from monotone three
+    /// presses still reach cubic, as before smooth was there).
     pub const ALL: [Interp; 5] = [
         Interp::Step,
         Interp::Linear,
-        Interp::Smooth,
         Interp::Cubic,
+        Interp::Smooth,
         Interp::Monotone,
     ];
 

@@ -2,7 +2,7 @@
 // `node selection.mjs URL`), on sequences/so101_wave.json (8 keys): a click, a Shift-click and
 // a Ctrl-click in the key list; Ctrl+C, a click on the last key, Ctrl+V; a drag of one pasted
 // key's mark on the timeline (both move); `d` deletes both; Ctrl+Z brings them back; Ctrl+A
-// selects every key; the easing curve of key 0's segment (cubic: no handles; made linear:
+// selects every key; the easing curve of key 0's segment (smooth: no handles; made linear:
 // both handles dragged), then `w`. Prints one JSON line of what the page saw; the test judges it.
 import { keyMark, run } from './browser.mjs';
 
@@ -67,12 +67,12 @@ await run('selection', 300, async ({ open, results, fail, at }) => {
   await waitFor(() => window.studio.snapshot.keys.length === 10);
 
   at('easing');
-  // Key 0 → 1 of the wave is cubic: the curve is drawn without handles, and says why.
+  // Key 0 → 1 of the wave is smooth: the curve is drawn without handles, and says why.
   await row(0);
   await waitFor(() => window.studio.snapshot.current === 0 && window.studio.snapshot.easing.from === 0);
   results.easingCubic = await page.evaluate(() => window.studio.snapshot.easing);
   results.easingLabel = await page.evaluate(() => document.getElementById('easinginfo').textContent);
-  // p: cubic → monotone → step → linear; then the handles.
+  // p: smooth → monotone → step → linear; then the handles.
   for (let i = 0; i < 3; i++) await page.keyboard.press('p');
   await waitFor(() => window.studio.snapshot.easing.allowed);
   const handle = which => page.evaluate(w => {

@@ -207,7 +207,7 @@ fn the_page_selects_copies_pastes_drags_and_deletes_several_keys() {
     assert!(deleted.starts_with("deleted keys 8 and 9"), "{deleted}");
     assert_eq!(results["all"], json!((0..10).collect::<Vec<_>>()));
 
-    // Easing: refused on the wave's cubic segment, said on the page; on the segment made
+    // Easing: refused on the wave's smooth segment, said on the page; on the segment made
     // linear both handles moved, and the file written has the segment eased from rest to rest.
     assert_eq!(results["easingCubic"]["allowed"], json!(false));
     let label = results["easingLabel"].as_str().unwrap();
