@@ -685,19 +685,9 @@ impl Track<f64> {
 
     /// d/dt of segment `i` at fraction `f`: d/df of its polynomial in f, over its duration.
     fn segment_rate(&self, i: usize, f: f64) -> f64 {
-        self.segment_derivative(i, 1, f)
-    }
-
-    /// The `order`-th derivative in time of segment `i` at fraction `f`.
-    fn segment_derivative(&self, i: usize, order: usize, f: f64) -> f64 {
         let c = &self.segments[i];
-        // d^order/df^order of Σ c[k]·f^k, by Horner on the falling factorials.
-        let mut sum = 0.0;
-        for k in (order..c.len()).rev() {
-            let factor: f64 = (k + 1 - order..=k).map(|m| m as f64).product();
-            sum = sum * f + factor * c[k];
-        }
-        sum * self.inv_duration[i].powi(order as i32)
+        let d = c[1] + f * (2.0 * c[2] + f * (3.0 * c[3] + f * (4.0 * c[4] + f * 5.0 * c[5])));
+        d * self.inv_duration[i]
     }
 
     /// The second derivative (per second²) at `t`, from the right at a key, 0 at rest: with
@@ -717,7 +707,9 @@ impl Track<f64> {
 
     /// d²/dt² of segment `i` at fraction `f`.
     fn segment_second_rate(&self, i: usize, f: f64) -> f64 {
-        self.segment_derivative(i, 2, f)
+        let c = &self.segments[i];
+        let k = self.inv_duration[i];
+        (2.0 * c[2] + f * (6.0 * c[3] + f * (12.0 * c[4] + f * 20.0 * c[5]))) * k * k
     }
 
     /// When segment `i` starts moving (its key's time plus hold).
