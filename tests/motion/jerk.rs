@@ -840,21 +840,30 @@ fn fastest_with_jerk_limits_passes_the_check_with_jerk_on_every_example() {
             assert!(line.problem.is_none(), "{name}: {line:?}");
         }
 
-        let h = 1e-3;
-        let samples: Vec<Vec<f64>> = after.grid(1.0 / h).map(|t| after.sample(t)).collect();
-        for (j, joint) in robot.joints.iter().enumerate() {
-            let p: Vec<f64> = samples.iter().map(|s| s[j]).collect();
-            let [v, acc, jerk] = difference_peaks(&p, h);
-            let l = &joint.limits;
-            let within = |peak: f64, limit: f64| peak <= limit * (1.0 + 1e-6) + 1e-6;
-            assert!(within(v, l.velocity), "{name} {}: {v} deg/s", joint.name);
-            assert!(within(acc, l.acceleration), "{name} {}: {acc}", joint.name);
-            assert!(
-                within(jerk, l.jerk.unwrap()),
-                "{name} {}: {jerk}",
-                joint.name
-            );
-        }
+        assert_differences_within_limits(&name, &after, &robot);
+    }
+}
+
+/// Sampled at 1 kHz, no finite difference of `trajectory` of any order (velocity,
+/// acceleration, jerk: [`difference_peaks`]) is above `robot`'s limit.
+fn assert_differences_within_limits(name: &str, trajectory: &Trajectory, robot: &Robot) {
+    let h = 1e-3;
+    let samples: Vec<Vec<f64>> = trajectory
+        .grid(1.0 / h)
+        .map(|t| trajectory.sample(t))
+        .collect();
+    for (j, joint) in robot.joints.iter().enumerate() {
+        let p: Vec<f64> = samples.iter().map(|s| s[j]).collect();
+        let [v, acc, jerk] = difference_peaks(&p, h);
+        let l = &joint.limits;
+        let within = |peak: f64, limit: f64| peak <= limit * (1.0 + 1e-6) + 1e-6;
+        assert!(within(v, l.velocity), "{name} {}: {v} deg/s", joint.name);
+        assert!(within(acc, l.acceleration), "{name} {}: {acc}", joint.name);
+        assert!(
+            within(jerk, l.jerk.unwrap()),
+            "{name} {}: {jerk}",
+            joint.name
+        );
     }
 }
 
@@ -892,24 +901,7 @@ fn every_smooth_example_passes_the_check_with_jerk_as_written() {
         }
         assert_eq!(sequence.interpolation, Interp::Smooth, "{name}");
         assert!(report.passed(), "{name}: {:#?}", report.violations);
-        let h = 1e-3;
-        let samples: Vec<Vec<f64>> = trajectory
-            .grid(1.0 / h)
-            .map(|t| trajectory.sample(t))
-            .collect();
-        for (j, joint) in robot.joints.iter().enumerate() {
-            let p: Vec<f64> = samples.iter().map(|s| s[j]).collect();
-            let [v, acc, jerk] = difference_peaks(&p, h);
-            let l = &joint.limits;
-            let within = |peak: f64, limit: f64| peak <= limit * (1.0 + 1e-6) + 1e-6;
-            assert!(within(v, l.velocity), "{name} {}: {v} deg/s", joint.name);
-            assert!(within(acc, l.acceleration), "{name} {}: {acc}", joint.name);
-            assert!(
-                within(jerk, l.jerk.unwrap()),
-                "{name} {}: {jerk}",
-                joint.name
-            );
-        }
+        assert_differences_within_limits(&name, &trajectory, &robot);
         if name == "koch_wave.json" {
             let gripper = robot
                 .joints
