@@ -172,7 +172,7 @@ pub const BINDINGS: &[Binding] = &[
     bind(
         "p",
         "interp",
-        "interpolation from the current key: step → linear → cubic → monotone",
+        "interpolation from the current key: step → linear → cubic → smooth → monotone",
     ),
     bind(
         "v",

@@ -155,9 +155,10 @@ impl TeachState {
         self.edited()
     }
 
-    /// `p`: the next mode, in the order step → linear → cubic → monotone, for the segment from
-    /// the current key. The sequence's own mode is stored as no override, so the file names it
-    /// once and a later change of the default reaches the segment.
+    /// `p`: the next mode, in the order step → linear → cubic → smooth → monotone
+    /// (`Interp::ALL`), for the segment from the current key. The sequence's own mode is stored
+    /// as no override, so the file names it once and a later change of the default reaches the
+    /// segment.
     pub(super) fn cycle_interp(&mut self) -> Vec<Command> {
         if self.list.is_empty() {
             return self.fail("no key yet: n adds one from the present pose");

@@ -787,7 +787,7 @@ fn new_sequences_are_monotone_and_p_cycles_a_segment_through_the_modes() {
 
     press(&mut state, Key::Char('<'));
     let mut seen = Vec::new();
-    for _ in 0..5 {
+    for _ in 0..6 {
         press(&mut state, Key::Char('p'));
         seen.push(state.list().sequence().keyframes[0].interp);
     }
@@ -798,6 +798,7 @@ fn new_sequences_are_monotone_and_p_cycles_a_segment_through_the_modes() {
             Some(Interp::Step),
             Some(Interp::Linear),
             Some(Interp::Cubic),
+            Some(Interp::Smooth),
             None,
             Some(Interp::Step)
         ]
