@@ -15,7 +15,17 @@ await run('selection', 300, async ({ open, results, fail, at }) => {
   const selected = () => page.evaluate(() => window.studio.snapshot.keys.flatMap((k, i) => (k.selected ? [i] : [])));
   const ariaSelected = () => page.evaluate(() =>
     [...document.querySelectorAll('#keys tbody tr[aria-selected="true"]')].map(r => Number(r.dataset.index)));
-  const row = i => page.click(`#keys tbody tr[data-index="${i}"] td:nth-child(2)`, { force: true });
+  // The key list is drawn anew on every snapshot: on a busy machine a row found may be
+  // replaced before the click lands ("not visible", "detached"); the new row is clicked then.
+  const row = async i => {
+    for (let attempt = 1; ; attempt++) {
+      try {
+        return await page.click(`#keys tbody tr[data-index="${i}"] td:nth-child(2)`, { force: true, timeout: 20000 });
+      } catch (e) {
+        if (attempt >= 5 || !/not visible|detached|not attached/.test(e.message)) throw e;
+      }
+    }
+  };
   const sameSelection = want => waitFor(w => {
     const got = window.studio.snapshot.keys.flatMap((k, i) => (k.selected ? [i] : []));
     return JSON.stringify(got) === JSON.stringify(w);
