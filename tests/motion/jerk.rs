@@ -867,14 +867,17 @@ fn assert_differences_within_limits(name: &str, trajectory: &Trajectory, robot: 
     }
 }
 
-/// Every example of sequences/ but the control-ends sweep is smooth, and as written, with no
-/// retiming, passes the exact check under the same jerk limits (docs/robots.md §5a): nothing in
-/// it changes an acceleration at once. Sampled at 1 kHz, no finite difference of any order is
-/// above its limit. And one peak by hand: the Koch gripper closes 60° from rest to rest in
-/// 0.8 s, the minimum-jerk quintic, whose jerk peaks at its ends at 60·Δ/T³ = 7 031.25 °/s³.
-/// The sweep is a key-time cubic on purpose (its control keys' mirror gives zero slope at the
-/// played ends): like a pendulum's swing it starts at full acceleration, which no jerk limit
-/// passes, and its acceleration jumps at its keys; the check says so there and only there.
+/// Every example of sequences/ but two is smooth, and as written, with no retiming, passes the
+/// exact check under the same jerk limits (docs/robots.md §5a): nothing in it changes an
+/// acceleration at once. Sampled at 1 kHz, no finite difference of any order is above its
+/// limit. And one peak by hand: the Koch gripper closes 60° from rest to rest in 0.8 s, the
+/// minimum-jerk quintic, whose jerk peaks at its ends at 60·Δ/T³ = 7 031.25 °/s³.
+/// The two: the sweep is a key-time cubic on purpose (its control keys' mirror gives zero slope
+/// at the played ends; like a pendulum's swing it starts at full acceleration, which no jerk
+/// limit passes); the tool line stays monotone until `retime --fastest` times a smooth line's
+/// start as well as TOPP-RA does (smooth, 1.990 s against TOPP-RA's 1.743 s on the same path,
+/// where monotone is 1.779 against 1.757). Their accelerations jump at their keys, and the
+/// check says so there and only there.
 #[test]
 fn every_smooth_example_passes_the_check_with_jerk_as_written() {
     for example in &crate::common::examples() {
@@ -886,8 +889,12 @@ fn every_smooth_example_passes_the_check_with_jerk_as_written() {
         );
         let trajectory = Trajectory::build(&sequence, &robot).unwrap();
         let report = check(&trajectory, &robot, robot.control_hz);
-        if name == "so101_sweep_control.json" {
-            assert_eq!(sequence.interpolation, Interp::Cubic);
+        let not_smooth = [
+            ("so101_sweep_control.json", Interp::Cubic),
+            ("so101-tool-line.json", Interp::Monotone),
+        ];
+        if let Some(&(_, mode)) = not_smooth.iter().find(|(n, _)| *n == name) {
+            assert_eq!(sequence.interpolation, mode, "{name}");
             assert!(!report.violations.is_empty());
             let keys = sequence.key_times();
             for v in &report.violations {
