@@ -189,15 +189,15 @@ fn two_buses_play_in_step_each_within_its_arms_limits_and_the_log_has_both_arms(
             goals.last()
         );
     }
-    // Both wrists are keyed alike up to "wave-out" (35° at 2.6 s; the segment after it
-    // bends towards each arm's own "reach"): one timeline drives both, so up to the cycle the
-    // left wrist first reaches 35° (to a tick: smooth, the curve peaks near the key, and a goal
-    // is a whole tick), each cycle's goal is the same tick on both buses.
-    let waved_out = left_goals[3]
+    // Both shoulder_lifts start at 0° and are keyed alike up to "raise" (0° at home, −30° at
+    // raise, where both arms rest for its hold; the right arm's reach keys its own later): one
+    // timeline drives both, so up to the cycle the left shoulder first reaches −30° (to a tick:
+    // a goal is a whole tick), each cycle's goal is the same tick on both buses.
+    let lifted = left_goals[1]
         .iter()
-        .position(|&g| g >= 35.0 - TICK)
-        .expect("the left wrist never waved out to 35°");
-    assert_eq!(left_goals[3][..=waved_out], right_goals[3][..=waved_out]);
+        .position(|&g| g <= -30.0 + TICK)
+        .expect("the left shoulder never lifted to -30°");
+    assert_eq!(left_goals[1][..=lifted], right_goals[1][..=lifted]);
     let (median, p99, max, cycles) = reported_offsets(&err);
     println!(
         "goal-write offset between the two buses over {cycles} cycles at {RATE_HZ} Hz: median {median} µs, p99 {p99} µs, max {max} µs"
