@@ -234,12 +234,16 @@ impl Fit<'_> {
     /// stretch ending at a corner is the corner's last period, which the limit check judged as
     /// the player turns it.
     fn shortfall(&self, a: f64, b: f64) -> Option<(&Joint, hermite_fit::Shortfall)> {
-        let piece = self.trajectory.timing().piece_at(0.5 * (a + b));
-        let beyond_cubic = self
-            .played
-            .iter()
-            .flatten()
-            .any(|s| s.end > a && s.start < b && s.poly.coefficients().len() > 4);
+        let middle = 0.5 * (a + b);
+        let piece = self.trajectory.timing().piece_at(middle);
+        // [a, b] lies inside one span of each joint (the points include every span's ends,
+        // to the nanosecond): the one at its middle.
+        let beyond_cubic = self.played.iter().any(|spans| {
+            let i = spans.partition_point(|s| s.end <= middle);
+            spans
+                .get(i)
+                .is_some_and(|s| s.poly.coefficients().len() > 4)
+        });
         let profiled = piece.v0 != 1.0 || piece.a != 0.0 || beyond_cubic;
         let at_corner = |t: f64| {
             let i = self.corners.partition_point(|&c| c < t - SAME_TIME);
